@@ -1,0 +1,263 @@
+"""The thesis plants (Stage X Eq. 3.15, Stage Y Eq. 3.16) with composable effects.
+
+A ``Plant`` is a frozen dataclass: base mechanics plus a tuple of effects. Compose with
+``*`` (``stage_x() * Delay(0.001)``). Every parameter may be a float or an array that
+broadcasts against the frequency axis, so ``plant.with_payload(np.linspace(5, 40, 200))``
+evaluates 200 plants in one call: ``frd`` returns shape ``(..., n_freq)``.
+
+Input is the motor current in A, output the stage velocity in m/s. For Stage Y the input
+is the total current i = i1 + i2 of the two coupled motors, split equally, for which
+thesis Eq. 3.16 (a column of Figure A.1) is exact: v_y = K_t L / (2 M l s + 2 b L) * i.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass, field
+from typing import Literal
+
+import control
+import numpy as np
+
+from plant.effects import (
+    PADE_ORDER, CoulombFriction, Effect, MechanicalEffect, SeriesEffect, TiltCoupling, make_effect,
+)
+from plant.errors import EffectError, ParameterError
+from plant.gantry_models import xie_wang_frd
+from plant.grid import check_grid
+from plant.parameters import THESIS, Parameter, check_positive
+
+BASE_PARAMETERS = ("mass_kg", "damping_n_s_per_m", "force_constant_n_per_a")
+#: physically plausible bounds of the base parameters used by fits (lower, upper, unit)
+BASE_BOUNDS = {
+    "mass_kg": (0.5, 500.0, "kg"),
+    "damping_n_s_per_m": (1.0, 1.0e4, "N*s/m"),
+    "force_constant_n_per_a": (0.1, 1000.0, "N/A"),
+}
+
+
+@dataclass(frozen=True)
+class Plant:
+    """Stage X or Y of the gantry with effects; velocity (m/s) per current (A)."""
+
+    stage: Literal["x", "y"]
+    mass_kg: float | np.ndarray = THESIS["mass_kg"].value
+    damping_n_s_per_m: float | np.ndarray = THESIS["damping_n_s_per_m"].value
+    force_constant_n_per_a: float | np.ndarray = THESIS["force_constant_n_per_a"].value
+    motor_length_m: float = THESIS["motor_length_m"].value
+    load_position_m: float = THESIS["load_position_m"].value
+    effects: tuple[Effect, ...] = field(default=())
+    #: current amplitude (A) of a sinusoidal excitation: needed only by the describing
+    #: function of ``coulomb_friction``
+    excitation_current_a: float | None = None
+
+    def __post_init__(self) -> None:
+        if self.stage not in ("x", "y"):
+            raise ParameterError(f"stage must be 'x' or 'y', got {self.stage!r}")
+        for name in BASE_PARAMETERS:
+            check_positive(name, getattr(self, name))
+        check_positive("motor_length_m", self.motor_length_m)
+        check_positive("load_position_m", self.load_position_m)
+        if self.load_position_m >= self.motor_length_m:
+            raise ParameterError(
+                f"load_position_m ({self.load_position_m:g}) must lie inside the beam (motor_length_m "
+                f"{self.motor_length_m:g})")
+        names = [e.name for e in self.effects]
+        for e in self.effects:
+            if not isinstance(e, Effect):
+                raise EffectError(f"effects must be Effect objects, got {e!r}")
+        dup = {n for n in names if names.count(n) > 1}
+        if dup:
+            raise EffectError(f"effect {sorted(dup)[0]} added twice: its parameter names would clash")
+        if "tilt_coupling" in names and self.stage != "y":
+            raise EffectError("tilt_coupling applies to Stage Y only (the two parallel rails Y1, Y2)")
+        if "coulomb_friction" in names:
+            if self.excitation_current_a is None:
+                raise EffectError("coulomb_friction needs excitation_current_a (its describing function "
+                                  "depends on the excitation amplitude)")
+            check_positive("excitation_current_a", self.excitation_current_a)
+
+    # --- composition -------------------------------------------------------------
+    def __mul__(self, effect: Effect) -> Plant:
+        if not isinstance(effect, Effect):
+            return NotImplemented
+        return dataclasses.replace(self, effects=self.effects + (effect,))
+
+    def with_effects(self, *effects: Effect) -> Plant:
+        return dataclasses.replace(self, effects=tuple(effects))
+
+    def effect(self, name: str) -> Effect | None:
+        return next((e for e in self.effects if e.name == name), None)
+
+    @property
+    def effect_names(self) -> tuple[str, ...]:
+        return tuple(e.name for e in self.effects)
+
+    def with_payload(self, payload_kg) -> Plant:
+        """Same plant with ``mass_kg`` replaced; an array of payloads gives a batch on axis -2."""
+        m = np.asarray(payload_kg, dtype=float)
+        return dataclasses.replace(self, mass_kg=m.reshape(-1, 1) if m.ndim else float(m))
+
+    # --- parameters --------------------------------------------------------------
+    def parameters(self) -> dict[str, Parameter]:
+        """All parameters keyed by name (``mass_kg``, ``delay.seconds``, ...)."""
+        out = {}
+        for name in BASE_PARAMETERS:
+            lo, hi, unit = BASE_BOUNDS[name]
+            out[name] = Parameter(name, float(np.mean(getattr(self, name))), lo, hi, unit=unit)
+        for e in self.effects:
+            out.update(e.parameters())
+        return out
+
+    def with_values(self, values: dict[str, float]) -> Plant:
+        """New plant with the named parameters replaced (``{"mass_kg": 40, "delay.seconds": 1e-3}``)."""
+        base = {}
+        per_effect: dict[str, dict[str, float]] = {}
+        for key, value in values.items():
+            if key in BASE_PARAMETERS:
+                base[key] = value
+            elif "." in key:
+                effect_name, param = key.split(".", 1)
+                per_effect.setdefault(effect_name, {})[param] = value
+            else:
+                raise ParameterError(f"unknown parameter {key!r}; base parameters are {', '.join(BASE_PARAMETERS)} "
+                                     "and effect parameters are written effect.parameter")
+        missing = set(per_effect) - set(self.effect_names)
+        if missing:
+            raise EffectError(f"parameter {sorted(missing)[0]}.* given but the plant has no such effect "
+                              f"(effects: {', '.join(self.effect_names) or 'none'})")
+        effects = tuple(e.with_values(**per_effect[e.name]) if e.name in per_effect else e for e in self.effects)
+        return dataclasses.replace(self, effects=effects, **base)
+
+    # --- frequency response --------------------------------------------------------
+    @property
+    def output_names(self) -> tuple[str, ...]:
+        return ("velocity",) if self.stage == "x" else ("velocity_y1", "velocity_y2")
+
+    def _effective_mass_damping(self):
+        """Mechanical impedance Z = m_e s + b_e with K_t / Z = Eq. 3.15 (X) or Eq. 3.16 (Y)."""
+        m = np.asarray(self.mass_kg, float)
+        b = np.asarray(self.damping_n_s_per_m, float)
+        if self.stage == "x":
+            return m, b
+        return 2 * m * self.load_position_m / self.motor_length_m, 2 * b
+
+    def series_frd(self, w_rad_s) -> np.ndarray:
+        """Product of the series effects' factors (1 when there are none)."""
+        w = np.asarray(w_rad_s)
+        out = np.ones_like(w, dtype=complex)
+        for e in self.effects:
+            if isinstance(e, SeriesEffect):
+                out = out * e.frd(w)
+        return out
+
+    def _friction_damping(self, w, series):
+        """Describing-function damping of Coulomb friction at the excitation amplitude (N*s/m)."""
+        friction = self.effect("coulomb_friction")
+        if friction is None:
+            return 0.0
+        m_e, b_e = self._effective_mass_damping()
+        kt = np.asarray(self.force_constant_n_per_a, float)
+        # force amplitude after the electrical effects (resonance acts after the force)
+        electrical = np.ones_like(series)
+        for e in self.effects:
+            if isinstance(e, SeriesEffect) and e.name != "resonance":
+                electrical = electrical * e.frd(w)
+        force_amp = kt * self.excitation_current_a * np.abs(electrical)
+        c = 4 * np.asarray(friction.force_n, float) / np.pi
+        # |(b_e + j w m_e) V + c| = F  ->  (b_e^2 + (w m_e)^2) V^2 + 2 b_e c V + c^2 - F^2 = 0
+        a2 = b_e**2 + (w * m_e) ** 2
+        disc = (b_e * c) ** 2 - a2 * (c**2 - force_amp**2)
+        v_amp = (-b_e * c + np.sqrt(np.maximum(disc, 0.0))) / a2
+        return friction.describing_damping(v_amp)
+
+    def frd_outputs(self, w_rad_s) -> np.ndarray:
+        """Velocity per current at each output, shape (..., n_outputs, n_freq) (m/s per A)."""
+        w = check_grid(w_rad_s)
+        s = 1j * w
+        series = self.series_frd(w)
+        n_fric = self._friction_damping(w, series)
+        kt = np.asarray(self.force_constant_n_per_a, float)
+        tilt = self.effect("tilt_coupling")
+        if tilt is None:
+            m_e, b_e = self._effective_mass_damping()
+            with np.errstate(invalid="ignore"):
+                mech = np.where(np.isinf(n_fric), 0.0, kt / (m_e * s + b_e + np.where(np.isinf(n_fric), 0, n_fric)))
+            resp = (mech * series)[..., None, :]
+            return np.repeat(resp, len(self.output_names), axis=-2)
+        assert isinstance(tilt, TiltCoupling)
+        b = np.asarray(self.damping_n_s_per_m, float) + np.where(np.isinf(n_fric), 0, n_fric) / 2
+        l1 = self.load_position_m
+        h = xie_wang_frd(w, mass_kg=self.mass_kg, inertia_kg_m2=tilt.inertia_kg_m2, damping1_n_s_per_m=b,
+                         damping2_n_s_per_m=b, l1_m=l1, l2_m=self.motor_length_m - l1,
+                         joint_stiffness_n_m_per_rad=tilt.stiffness_n_m_per_rad)
+        # both motors carry half the total current: f1 = f2 = K_t i / 2
+        v = (h[..., :, 0, :] + h[..., :, 1, :]) * (kt[..., None] if kt.ndim else kt) / 2
+        return v * series[..., None, :] if series.ndim else v * series
+
+    def frd(self, w_rad_s) -> np.ndarray:
+        """Velocity per current (m/s per A), shape (..., n_freq); Stage Y: mean of the rails Y1, Y2."""
+        return self.frd_outputs(w_rad_s).mean(axis=-2)
+
+    # --- python-control interoperability ---------------------------------------
+    def to_control(self, *, pade_order: int = PADE_ORDER) -> control.TransferFunction:
+        """Rational model (Pade for delays). Coulomb friction has none and raises ``EffectError``."""
+        for name in BASE_PARAMETERS:
+            if np.size(getattr(self, name)) != 1:
+                raise ParameterError(f"{name} is a batch; to_control needs one plant (index the batch first)")
+        if "coulomb_friction" in self.effect_names:
+            raise EffectError("coulomb_friction is nonlinear and has no transfer function; "
+                              "use frd() (describing function) or the time-domain simulator")
+        m_e, b_e = (float(np.asarray(v).reshape(())) for v in self._effective_mass_damping())
+        kt = float(np.asarray(self.force_constant_n_per_a).reshape(()))
+        tilt = self.effect("tilt_coupling")
+        if tilt is None:
+            sys = control.tf([kt], [m_e, b_e])
+        else:
+            from plant.gantry_models import xie_wang_ss
+
+            l1 = self.load_position_m
+            ss = xie_wang_ss(mass_kg=float(np.asarray(self.mass_kg).reshape(())),
+                             inertia_kg_m2=float(np.asarray(tilt.inertia_kg_m2).reshape(())),
+                             damping1_n_s_per_m=float(np.asarray(self.damping_n_s_per_m).reshape(())),
+                             damping2_n_s_per_m=float(np.asarray(self.damping_n_s_per_m).reshape(())),
+                             l1_m=l1, l2_m=self.motor_length_m - l1,
+                             joint_stiffness_n_m_per_rad=float(np.asarray(tilt.stiffness_n_m_per_rad).reshape(())))
+            # mean rail velocity for f1 = f2 = K_t i / 2
+            mean = control.ss([], [], [], [[0.5, 0.5]]) * ss * control.ss([], [], [], [[kt / 2], [kt / 2]])
+            sys = control.minreal(control.ss2tf(mean), verbose=False)
+        for e in self.effects:
+            if isinstance(e, SeriesEffect):
+                sys = sys * e.to_tf(pade_order=pade_order)
+        return sys
+
+    def to_frd_data(self, w_rad_s) -> control.FrequencyResponseData:
+        """python-control ``FrequencyResponseData`` of ``frd`` on the grid."""
+        w = check_grid(w_rad_s)
+        resp = self.frd(w)
+        if resp.ndim != 1:
+            raise ParameterError("to_frd_data needs one plant, not a batch")
+        return control.frd(resp, w)
+
+
+def stage_x(**params) -> Plant:
+    """Thesis Stage X (Eq. 3.15) with the thesis values unless overridden."""
+    return Plant("x", **params)
+
+
+def stage_y(**params) -> Plant:
+    """Thesis Stage Y (Eq. 3.16) with the thesis values unless overridden."""
+    return Plant("y", **params)
+
+
+def build_plant(stage: str, *, effects: dict[str, dict[str, float]] | None = None, **params) -> Plant:
+    """Plant from a stage name, base parameters and ``{effect_name: {param: value}}``."""
+    fx = tuple(make_effect(name, **(p or {})) for name, p in (effects or {}).items())
+    return Plant(stage, effects=fx, **params)
+
+
+def corner_frequency_hz(plant: Plant) -> np.ndarray:
+    """Corner frequency b_e / (2 pi m_e) of the base plant (X: b/M; Y: b L / (M l)), Hz."""
+    m_e, b_e = plant._effective_mass_damping()
+    return b_e / (2 * math.pi * m_e)

@@ -8,11 +8,10 @@ from __future__ import annotations
 import json
 import sys
 from pathlib import Path
-from typing import Annotated, Optional
+from typing import Annotated
 
 import typer
 from rich.console import Console
-from rich.table import Table
 
 from plant import __version__
 from plant.errors import GantryError, SpecError
@@ -48,62 +47,20 @@ def print_json(obj) -> None:
     print(json.dumps(obj, indent=2, allow_nan=False))
 
 
-@app.command()
-def reproduce(
-    spec: Annotated[Optional[list[Path]], typer.Option("--spec", help="Spec file (repeatable); default: the "
-                                                       "thesis Stage X and Y specs in specs/.")] = None,
-    as_json: Annotated[bool, typer.Option("--json", help="Print JSON instead of tables.")] = False,
-    points: Annotated[int, typer.Option(help="Payload points in the sweep.", min=1, max=10000)] = 8,
-) -> None:
-    """Reproduce thesis Table 3.1 and the payload sweep (Figure 4.31) from spec files."""
-    from dataclasses import asdict
+def _register_commands() -> None:
+    """Import every ``design/cmd_*.py``: each registers its command on ``app``."""
+    import importlib
+    import pkgutil
 
-    from design.reproduce import sweeps, table_3_1
-    from design.spec import load_spec
+    import design
 
-    paths = spec or [bundled_spec("thesis_stage_x.toml"), bundled_spec("thesis_stage_y.toml")]
-    specs = {}
-    for path in paths:
-        s = load_spec(path)
-        if s.plant.stage in specs:
-            raise SpecError(f"{path}: a spec for stage {s.plant.stage} was already given")
-        if s.controller.kp.value is None or s.controller.ki.value is None:
-            raise SpecError(f"{path}: controller.kp.value and controller.ki.value are needed to reproduce")
-        specs[s.plant.stage] = s
-    rows = table_3_1(specs)
-    sw = sweeps(specs, points=points)
-    if as_json:
-        print_json({"table_3_1": [{k: v for k, v in asdict(r).items()} for r in rows],
-                    "payload_sweep": [row for s in sw for row in s.rows()]})
-        return
-    t = Table(title="Thesis Table 3.1 (and section 3.1 phase margins) against this model")
-    for col in ("quantity", "stage", "unit", "thesis", "computed", "rel. diff."):
-        t.add_column(col, justify="right" if col not in ("quantity", "stage") else "left")
-    for r in rows:
-        flag = "" if not r.explanation else " *"
-        t.add_row(r.quantity, r.stage.upper(), r.unit, f"{r.thesis:g}", f"{r.computed:.2f}",
-                  f"{100 * r.relative_difference:+.1f} %{flag}")
-    console.print(t)
-    console.print("Definitions:")
-    for q in dict.fromkeys(r.quantity for r in rows):
-        console.print(f"  [bold]{q}[/]: {next(r.definition for r in rows if r.quantity == q)}")
-    for r in rows:
-        if r.explanation:
-            console.print(f"  * {r.stage.upper()} {r.quantity}: {r.explanation}")
-    for s in sw:
-        t = Table(title=f"Stage {s.stage.upper()} payload sweep (thesis Figure 4.31)")
-        for col in ("payload kg", "plant corner Hz", "closed-loop BW Hz", "PM deg", "GM dB"):
-            t.add_column(col, justify="right")
-        for row in s.rows():
-            gm = row["gain_margin_db"]
-            t.add_row(f"{row['payload_kg']:.1f}", f"{row['open_loop_corner_hz']:.2f}",
-                      f"{row['closed_loop_bandwidth_hz']:.2f}", f"{row['phase_margin_deg']:.1f}",
-                      "inf" if gm is None else f"{gm:.1f}")
-        console.print(t)
+    for mod in sorted(m.name for m in pkgutil.iter_modules(design.__path__) if m.name.startswith("cmd_")):
+        importlib.import_module(f"design.{mod}")
 
 
 def main() -> None:
     """Console entry point: ``GantryError`` -> one line on stderr, exit status 2."""
+    _register_commands()
     try:
         app()
     except GantryError as exc:

@@ -21,7 +21,7 @@ import control
 import numpy as np
 
 from plant.effects import (
-    PADE_ORDER, CoulombFriction, Effect, MechanicalEffect, SeriesEffect, TiltCoupling, make_effect,
+    PADE_ORDER, Effect, SeriesEffect, TiltCoupling, make_effect,
 )
 from plant.errors import EffectError, ParameterError
 from plant.gantry_models import xie_wang_frd

@@ -1,0 +1,44 @@
+"""Measured frequency responses (velocity per current) with their uncertainty.
+
+``MeasuredResponse`` is the hand-over between estimation (this module) and fitting,
+diagnosis and data-driven synthesis.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import control
+import numpy as np
+
+
+@dataclass(frozen=True)
+class MeasuredResponse:
+    """Estimated G = V/I per output and frequency.
+
+    ``variance`` is E|G_hat - G|^2 of the complex estimate; its real and imaginary
+    parts each carry half of it (circular noise), which is how fits weight them.
+    """
+
+    f_hz: np.ndarray                     # (n_freq,)
+    response: np.ndarray                 # complex (n_outputs, n_freq), m/s per A
+    variance: np.ndarray                 # (n_outputs, n_freq), (m/s per A)^2
+    output_names: tuple[str, ...]
+    #: current amplitude (A) of the excitation at each frequency
+    current_amplitude_a: np.ndarray      # (n_freq,)
+    #: signal-to-noise ratio of the output fundamental, dB
+    snr_db: np.ndarray                   # (n_outputs, n_freq)
+    #: 2nd and 3rd harmonic amplitude of the output relative to its fundamental
+    harmonic_distortion: np.ndarray      # (n_outputs, n_freq, 2)
+    source: str = "<memory>"
+    method: str = "lock-in"
+    metadata: dict = field(default_factory=dict)
+
+    @property
+    def w_rad_s(self) -> np.ndarray:
+        return 2 * np.pi * np.asarray(self.f_hz)
+
+    def to_frd(self, output: int | str = 0) -> control.FrequencyResponseData:
+        """python-control ``FrequencyResponseData`` of one output (index or name)."""
+        k = self.output_names.index(output) if isinstance(output, str) else output
+        return control.frd(self.response[k], self.w_rad_s)

@@ -1,0 +1,68 @@
+"""Matplotlib figures (compute, plot and command line are separate layers).
+
+Every function takes computed results, draws on ``ax``/``axes`` when given (else makes a
+new figure) and returns the figure; nothing is shown or saved here.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+from design.margins import unwrapped_phase_deg  # noqa: E402
+
+
+def bode(w_rad_s, responses: Sequence[np.ndarray], labels: Sequence[str], *, axes=None, title: str = "",
+         bands: Sequence[np.ndarray | None] | None = None, styles: Sequence[str] | None = None):
+    """Magnitude (dB) and phase (deg) against frequency (Hz); ``bands`` are optional 2-sigma
+    magnitude half-widths (same units as the response) drawn as shaded regions."""
+    if axes is None:
+        fig, axes = plt.subplots(2, 1, sharex=True, figsize=(7, 5.5))
+    fig = axes[0].figure
+    f = np.asarray(w_rad_s) / (2 * np.pi)
+    for k, (resp, label) in enumerate(zip(responses, labels)):
+        style = styles[k] if styles else "-"
+        mag = np.abs(resp)
+        line, = axes[0].semilogx(f, 20 * np.log10(mag), style, label=label)
+        if bands and bands[k] is not None:
+            lo = np.maximum(mag - bands[k], mag * 1e-3)
+            axes[0].fill_between(f, 20 * np.log10(lo), 20 * np.log10(mag + bands[k]), color=line.get_color(),
+                                 alpha=0.2, lw=0)
+        axes[1].semilogx(f, unwrapped_phase_deg(resp), style, color=line.get_color())
+    axes[0].set_ylabel("magnitude (dB)")
+    axes[1].set_ylabel("phase (deg)")
+    axes[1].set_xlabel("frequency (Hz)")
+    for ax in axes:
+        ax.grid(True, which="both", alpha=0.3)
+    axes[0].legend(fontsize=8)
+    if title:
+        axes[0].set_title(title)
+    fig.tight_layout()
+    return fig
+
+
+def payload_sweep_figure(sweeps, *, axes=None, labels: Sequence[str] | None = None):
+    """Thesis Figure 4.31 extended: plant corner and closed-loop bandwidth (Hz) and phase margin
+    against payload, one line per ``PayloadSweep``."""
+    if axes is None:
+        fig, axes = plt.subplots(1, 3, figsize=(12, 3.8))
+    fig = axes[0].figure
+    for k, s in enumerate(sweeps):
+        label = labels[k] if labels else f"Stage {s.stage.upper()}"
+        axes[0].plot(s.payload_kg, s.open_loop_corner_hz, "o-", label=label)
+        axes[1].plot(s.payload_kg, s.closed_loop_bandwidth_hz, "o-", label=label)
+        axes[2].plot(s.payload_kg, s.phase_margin_deg, "o-", label=label)
+    titles = ("open-loop (plant corner) bandwidth", "closed-loop bandwidth", "phase margin")
+    for ax, title, unit in zip(axes, titles, ("Hz", "Hz", "deg")):
+        ax.set_title(title, fontsize=10)
+        ax.set_xlabel("payload (kg)")
+        ax.set_ylabel(unit)
+        ax.grid(True, alpha=0.3)
+    axes[0].legend(fontsize=8)
+    fig.tight_layout()
+    return fig

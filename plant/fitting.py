@@ -186,7 +186,7 @@ def _check_data(data: MeasuredResponse) -> tuple[np.ndarray, np.ndarray, np.ndar
             raise DataError(f"{where}: output {name} has a non-finite response at {f[bad.argmax()]:g} Hz")
         bad = ~(np.isfinite(var[k]) & (var[k] > 0))
         if bad.any():
-            raise DataError(f"{where}: output {name} has variance {var[k][bad.argmax()]!r} at "
+            raise DataError(f"{where}: output {name} has variance {float(var[k][bad.argmax()])!r} at "
                             f"{f[bad.argmax()]:g} Hz; fitting needs positive finite variances")
     return f, g.astype(complex), var
 

@@ -1,0 +1,269 @@
+"""Plant fitting (plant/fitting.py) and the tfest-like rational fit (plant/rational_fit.py).
+
+Truth comes from models evaluated in closed form (``Plant.frd_outputs``, python-control
+transfer functions) plus seeded circular complex Gaussian noise of known variance, the
+noise model ``MeasuredResponse.variance`` describes.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import control
+import numpy as np
+import pytest
+
+from plant import CoulombFriction, CurrentLoop, Delay, Resonance, stage_x, stage_y
+from plant.errors import DataError, EffectError, ParameterError
+from plant.fitting import FitResult, default_free, fit_plant, output_map
+from plant.frequency_response import MeasuredResponse
+from plant.rational_fit import fit_rational, thesis_weights
+
+# thesis section 4.1: stepped sine 1..75 Hz
+F_HZ = np.linspace(1.0, 75.0, 50)
+W = 2 * np.pi * F_HZ
+
+
+def measured(plant, *, seed: int | None, noise: float = 0.01, f_hz=F_HZ, output_names=None,
+             mean_only: bool = False, current_a=1.0) -> MeasuredResponse:
+    """Response of ``plant`` plus circular complex noise. Its standard deviation is ``noise`` times
+    |G| at the lowest frequency, constant over frequency (velocity-sensor noise); seed None: no noise."""
+    w = 2 * np.pi * f_hz
+    g = plant.frd(w)[None] if mean_only else plant.frd_outputs(w)
+    var = np.full(g.shape, (noise * np.abs(g[:, :1])) ** 2)
+    if seed is not None:
+        rng = np.random.default_rng(seed)
+        g = g + np.sqrt(var / 2) * (rng.standard_normal(g.shape) + 1j * rng.standard_normal(g.shape))
+    names = output_names or (("velocity",) if mean_only else plant.output_names)
+    return MeasuredResponse(f_hz=np.asarray(f_hz, float), response=g, variance=var, output_names=tuple(names),
+                            current_amplitude_a=np.broadcast_to(np.asarray(current_a, float), f_hz.shape).copy(),
+                            snr_db=np.zeros(g.shape), harmonic_distortion=np.zeros(g.shape + (2,)))
+
+
+# --- fit_rational ---------------------------------------------------------------------------
+def test_rational_recovers_two_poles_one_zero():
+    # closed form: G = (10 s + 50) / (s^2 + 2 s + 100): the thesis's tfest order (2 poles, 1 zero)
+    truth = control.tf([10.0, 50.0], [1.0, 2.0, 100.0])
+    fit = fit_rational(W, truth(1j * W), n_poles=2, n_zeros=1)
+    np.testing.assert_allclose(fit.num, [10.0, 50.0], rtol=1e-7)
+    np.testing.assert_allclose(fit.den, [1.0, 2.0, 100.0], rtol=1e-7)
+    assert fit.delay_s == 0.0 and fit.stable and fit.fit_percent > 99.999
+
+
+def test_rational_recovers_lightly_damped_resonance_and_delay():
+    # closed form: 4 poles / 2 zeros with a 45 Hz resonance, delay 1.5 ms
+    wr, wa = 2 * np.pi * 45, 2 * np.pi * 30
+    truth = control.tf([20.0], [40.0, 440.0]) * control.tf([1 / wa**2, 0.1 / wa, 1], [1 / wr**2, 0.1 / wr, 1]) \
+        * control.tf([1.0], [1 / (2 * np.pi * 200), 1])
+    g = truth(1j * W) * np.exp(-1j * W * 1.5e-3)
+    fit = fit_rational(W, g, n_poles=4, n_zeros=2, delay=True)
+    assert fit.delay_s == pytest.approx(1.5e-3, rel=1e-5)
+    np.testing.assert_allclose(np.sort_complex(fit.poles), np.sort_complex(truth.poles()), rtol=1e-5)
+    np.testing.assert_allclose(fit.tf(1j * W), truth(1j * W), rtol=1e-6)
+
+
+def test_rational_first_order_with_delay_gives_mass_and_damping():
+    # closed form: K_t/(M s + b) e^(-s tau), thesis Eq. 3.15 with M = 40 kg, b = 440, tau = 1 ms
+    g = 20.0 / (40.0 * 1j * W + 440.0) * np.exp(-1j * W * 1e-3)
+    fit = fit_rational(W, g, n_poles=1, n_zeros=0, delay=True)
+    assert 20.0 / fit.num[-1] == pytest.approx(40.0, rel=1e-7)            # M = K_t / b_0
+    assert 20.0 * fit.den[-1] / fit.num[-1] == pytest.approx(440.0, rel=1e-7)  # b = K_t a_0 / b_0
+    assert fit.delay_s == pytest.approx(1e-3, rel=1e-7)
+
+
+def test_thesis_weights_are_appendix_b():
+    # thesis Appendix B (Stage Y code): Weight = 20 for freq_Hz < 20, else ones/2
+    np.testing.assert_array_equal(thesis_weights([1.0, 19.9, 20.0, 75.0]), [20.0, 20.0, 0.5, 0.5])
+    fit = fit_rational(W, stage_x().frd(W), n_poles=1, n_zeros=0, weights="thesis")
+    np.testing.assert_array_equal(fit.weights, thesis_weights(F_HZ))
+
+
+def test_rational_zero_weight_ignores_corrupted_band():
+    # closed form truth 20/(35 s + 440) (thesis Eq. 3.15, thesis values); points above 50 Hz
+    # corrupted by a factor 3 and given weight 0, so the fit must recover the truth exactly
+    g = stage_x().frd(W)
+    bad = F_HZ > 50
+    corrupted = np.where(bad, 3 * g, g)
+    fit = fit_rational(W, corrupted, n_poles=1, n_zeros=0, weights=np.where(bad, 0.0, 1.0))
+    np.testing.assert_allclose(fit.den, [1.0, 440.0 / 35.0], rtol=1e-7)
+    unweighted = fit_rational(W, corrupted, n_poles=1, n_zeros=0)
+    assert abs(unweighted.den[-1] - 440.0 / 35.0) > 0.1      # the weights mattered
+
+
+@pytest.mark.parametrize("kwargs, error, words", [
+    ({"n_poles": 1, "n_zeros": 2}, ParameterError, "n_zeros"),
+    ({"n_poles": 2, "n_zeros": 1, "weights": np.ones(3)}, ParameterError, "one value per frequency"),
+    ({"n_poles": 2, "n_zeros": 1, "weights": "matlab"}, ParameterError, "'matlab'"),
+])
+def test_rational_bad_arguments(kwargs, error, words):
+    with pytest.raises(error, match=words):
+        fit_rational(W, stage_x().frd(W), **kwargs)
+
+
+def test_rational_bad_response():
+    g = stage_x().frd(W)
+    g[7] = np.nan
+    with pytest.raises(DataError, match="index 7"):
+        fit_rational(W, g, n_poles=1, n_zeros=0)
+
+
+# --- fit_plant: recovery ----------------------------------------------------------------------
+def test_noise_free_recovery_stage_x_with_delay():
+    truth = stage_x(mass_kg=40.0, damping_n_s_per_m=500.0) * Delay(1e-3)
+    r = fit_plant(stage_x() * Delay(), measured(truth, seed=None))
+    assert r.values["mass_kg"] == pytest.approx(40.0, rel=1e-6)
+    assert r.values["damping_n_s_per_m"] == pytest.approx(500.0, rel=1e-6)
+    assert r.values["delay.seconds"] == pytest.approx(1e-3, rel=1e-6)
+    assert r.values["force_constant_n_per_a"] == 20.0          # fixed by default (thesis section 3.1)
+    assert r.free == ("mass_kg", "damping_n_s_per_m", "delay.seconds")
+    assert r.chi2 < 1e-6 and r.success
+
+
+def test_start_far_from_truth_does_not_matter():
+    # the plant handed in is a poor start (5 kg, 5000 N s/m); data-derived starts find the truth
+    truth = stage_x(mass_kg=40.0) * CurrentLoop(120.0)
+    r = fit_plant(stage_x(mass_kg=5.0, damping_n_s_per_m=5000.0) * CurrentLoop(5000.0), measured(truth, seed=None))
+    assert r.values["mass_kg"] == pytest.approx(40.0, rel=1e-6)
+    assert r.values["current_loop.bandwidth_hz"] == pytest.approx(120.0, rel=1e-6)
+
+
+def test_stage_y_both_rails_jointly_and_single_output_against_mean():
+    truth = stage_y(mass_kg=30.0) * Resonance(45.0, 30.0, 0.05)
+    both = fit_plant(stage_y() * Resonance(), measured(truth, seed=None,
+                                                      output_names=("velocity_y1_m_per_s", "velocity_y2_m_per_s")))
+    assert both.n_data == 2 * 2 * F_HZ.size and both.residuals.shape == (2, F_HZ.size)
+    one = fit_plant(stage_y() * Resonance(), measured(truth, seed=None, mean_only=True))
+    assert one.n_data == 2 * F_HZ.size
+    for r in (both, one):
+        assert r.values["mass_kg"] == pytest.approx(30.0, rel=1e-6)
+        assert r.values["resonance.frequency_hz"] == pytest.approx(45.0, rel=1e-6)
+        assert r.values["resonance.antiresonance_hz"] == pytest.approx(30.0, rel=1e-6)
+
+
+def test_output_map():
+    assert output_map(stage_y(), ("velocity_y2_m_per_s", "velocity_y1_m_per_s")) == (1, 0)
+    assert output_map(stage_y(), ("velocity_m_per_s",)) == (-1,)          # mean of the rails
+    assert output_map(stage_x(), ("velocity_a", "velocity_b")) == (0, 0)
+    with pytest.raises(DataError, match="cannot match"):
+        output_map(stage_y(), ("a", "b", "c"))
+
+
+def test_coulomb_friction_uses_the_data_current_amplitude():
+    amp = np.linspace(1.0, 3.0, F_HZ.size)
+    truth = stage_x(excitation_current_a=amp) * CoulombFriction(15.0)
+    data = measured(truth, seed=None, current_a=amp)
+    r = fit_plant(stage_x(excitation_current_a=1.0) * CoulombFriction(5.0), data)
+    np.testing.assert_array_equal(r.plant.excitation_current_a, amp)
+    assert r.values["coulomb_friction.force_n"] == pytest.approx(15.0, rel=1e-5)
+    assert r.values["mass_kg"] == pytest.approx(35.0, rel=1e-5)
+
+
+def test_refit_with_an_extra_effect_is_one_call_and_wins_on_bic():
+    truth = stage_x(mass_kg=40.0) * Delay(2e-3)
+    data = measured(truth, seed=3)
+    base = fit_plant(stage_x(), data)
+    with_delay = fit_plant(base.plant * Delay(), data)
+    assert base.reduced_chi2 > 3                               # 2 ms is 54 deg at 75 Hz: visible
+    assert with_delay.reduced_chi2 < 1.5
+    assert with_delay.bic < base.bic - 100
+    assert any("does not explain the data" in f for f in base.flags)
+    assert not with_delay.flags
+
+
+# --- fit_plant: uncertainty and flags ------------------------------------------------------------
+def test_delay_and_fast_current_loop_are_flagged_as_inseparable():
+    # a 0.5 ms delay and a 1 kHz lag are both ~ a pure phase slope below 75 Hz
+    truth = stage_x() * Delay(5e-4) * CurrentLoop(1000.0)
+    r = fit_plant(stage_x() * Delay() * CurrentLoop(), measured(truth, seed=1))
+    assert abs(r.correlation_of("delay.seconds", "current_loop.bandwidth_hz")) > 0.95
+    assert any("delay.seconds and current_loop.bandwidth_hz cannot be told apart" in f for f in r.flags)
+
+
+def test_parameter_at_bound_is_flagged():
+    r = fit_plant(stage_x() * Delay(), measured(stage_x(), seed=None))   # no delay in the data
+    assert r.values["delay.seconds"] == pytest.approx(0.0, abs=1e-9)
+    assert any("delay.seconds is at its lower bound" in f for f in r.flags)
+
+
+def test_force_constant_mass_and_damping_together_are_not_determined():
+    # G = K_t/(M s + b) depends on M/K_t and b/K_t only (thesis Eq. 3.15)
+    r = fit_plant(stage_x(), measured(stage_x(), seed=2),
+                  free=["mass_kg", "damping_n_s_per_m", "force_constant_n_per_a"])
+    assert any("not determined" in f or "cannot be told apart" in f for f in r.flags)
+
+
+def test_stderr_matches_the_linearised_closed_form_for_a_first_order_plant():
+    # For G = K_t/(M s + b) with known noise the Fisher information is sum over points of
+    # 2 Re(dG/dp dG/dq*) / var (closed form). Compare the reported stderr with it.
+    plant = stage_x(mass_kg=40.0)
+    data = measured(plant, seed=None)
+    r = fit_plant(stage_x(), data)
+    s = 1j * W
+    g = 20.0 / (40.0 * s + 440.0)
+    dm, db = -g * s / (40.0 * s + 440.0), -g / (40.0 * s + 440.0)
+    var = data.variance[0]
+    fisher = np.array([[np.sum(2 * (a * np.conj(b)).real / var) for b in (dm, db)] for a in (dm, db)])
+    expected = np.sqrt(np.diag(np.linalg.inv(fisher)))
+    assert r.stderr["mass_kg"] == pytest.approx(expected[0], rel=1e-4)
+    assert r.stderr["damping_n_s_per_m"] == pytest.approx(expected[1], rel=1e-4)
+
+
+def test_result_is_immutable_and_reports():
+    r = fit_plant(stage_x() * Delay(), measured(stage_x() * Delay(1e-3), seed=4))
+    assert isinstance(r, FitResult)
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        r.chi2 = 0.0  # type: ignore[misc]
+    text = r.report()
+    for word in ("reduced chi-square", "mass_kg:", "delay.seconds:", "+/-", "force_constant_n_per_a: 20 N/A (fixed)"):
+        assert word in text
+    assert r.dof == r.n_data - r.n_params == 100 - 3
+    assert r.aic == pytest.approx(r.chi2 + 2 * 3)                       # -2 ln L + 2k
+    assert r.bic == pytest.approx(r.chi2 + 3 * np.log(100))             # -2 ln L + k ln n
+    assert r.stderr_scaled["mass_kg"] == pytest.approx(r.stderr["mass_kg"] * np.sqrt(r.reduced_chi2))
+    assert r.chi2_per_frequency.sum() == pytest.approx(r.chi2)
+
+
+def test_default_free_set():
+    assert default_free(stage_x() * Delay() * Resonance()) == (
+        "mass_kg", "damping_n_s_per_m", "delay.seconds", "resonance.frequency_hz",
+        "resonance.antiresonance_hz", "resonance.damping_ratio")
+
+
+# --- fit_plant: bad input --------------------------------------------------------------------------
+def test_unknown_parameter_and_effect_names():
+    data = measured(stage_x(), seed=None)
+    with pytest.raises(ParameterError, match="'mass'"):
+        fit_plant(stage_x(), data, free=["mass"])
+    with pytest.raises(EffectError, match="'delay.seconds'"):
+        fit_plant(stage_x(), data, free=["mass_kg", "delay.seconds"])
+    with pytest.raises(ParameterError, match="'delay.seconds'.*not free"):
+        fit_plant(stage_x() * Delay(), data, free=["mass_kg"], start={"delay.seconds": 1e-3})
+
+
+def test_bad_variance_names_output_and_frequency():
+    data = measured(stage_x(), seed=None)
+    var = data.variance.copy()
+    var[0, 4] = 0.0
+    with pytest.raises(DataError, match=r"output velocity has variance 0\.0 at 7\.04082 Hz"):
+        fit_plant(stage_x(), dataclasses.replace(data, variance=var))
+
+
+# --- calibration: +-2 sigma coverage over seeded noise ----------------------------------------------
+@pytest.mark.parametrize("truth, model", [
+    (stage_x(mass_kg=40.0) * Delay(1e-3), stage_x() * Delay()),
+    (stage_y(mass_kg=30.0, damping_n_s_per_m=400.0) * CurrentLoop(80.0), stage_y() * CurrentLoop()),
+])
+def test_calibration_two_sigma_coverage_fast(truth, model):
+    """Over 200 seeds each true parameter lies within +-2 reported sigma in >= 90 % of fits
+    (Gaussian theory: 95.4 %), and the mean reduced chi-square is ~1."""
+    true = truth.parameters()
+    inside, reduced = {}, []
+    for seed in range(200):
+        r = fit_plant(model, measured(truth, seed=seed, noise=0.02))
+        reduced.append(r.reduced_chi2)
+        for name in r.free:
+            inside.setdefault(name, []).append(abs(r.values[name] - true[name].value) <= 2 * r.stderr[name])
+    coverage = {n: float(np.mean(v)) for n, v in inside.items()}
+    assert min(coverage.values()) >= 0.90, coverage
+    # mean of 200 reduced chi-squares with ~100 dof: 1 +- 3 * sqrt(2/dof/200)
+    assert np.mean(reduced) == pytest.approx(1.0, abs=3 * np.sqrt(2 / 97 / 200))

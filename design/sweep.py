@@ -17,7 +17,7 @@ import numpy as np
 
 from design.analysis import PayloadSweep, payload_sweep
 from design.fast_analysis import fast_analyse_loop
-from design.spec import Spec, finite_or_none
+from design.spec import Spec, Uncertainty, finite_or_none
 from plant.errors import ParameterError, SpecError
 from plant.models import Plant
 
@@ -165,7 +165,7 @@ def _ranges(uncertainty: Mapping, plant: Plant) -> dict[str, tuple[float, float]
     out = {}
     for name, rng in uncertainty.items():
         key = f"plant.uncertainty.{name}"
-        lo, hi = (rng.min, rng.max) if hasattr(rng, "min") else rng
+        lo, hi = (rng.min, rng.max) if isinstance(rng, Uncertainty) else rng
         lo, hi = float(lo), float(hi)
         if name == "mass_kg":
             raise SpecError(f"{key}: the payload is swept (payload range / --payload), it cannot also be uncertain")

@@ -117,10 +117,14 @@ def describe(bands: tuple[Band, ...], failing: tuple[Band, ...]) -> str:
     ph_sig = [_significant(b.phase_error_deg, b.phase_noise_deg) for b in failing]
     mag_sig = [_significant(b.magnitude_error_db, b.magnitude_noise_db) for b in failing]
     if any(ph_sig):
-        direction = "lags" if np.mean(ph) < 0 else "leads"
         growing = len(ph) > 1 and abs(ph[-1]) > abs(ph[0]) * 1.2
-        words.append(f"phase {direction} the model{' increasingly' if growing else ''} above {start:.3g} Hz "
-                     f"(up to {max(ph, key=abs):+.1f} deg)")
+        if min(ph) < 0 < max(ph):
+            words.append(f"phase departs from the model above {start:.3g} Hz, both ways "
+                         f"({min(ph):+.1f} to {max(ph):+.1f} deg)")
+        else:
+            direction = "lags" if ph[0] < 0 else "leads"
+            words.append(f"phase {direction} the model{' increasingly' if growing else ''} above {start:.3g} Hz "
+                         f"(up to {max(ph, key=abs):+.1f} deg)")
     if any(mag_sig):
         shape = ""
         signs = np.sign([m for m, s in zip(mag, mag_sig) if s])

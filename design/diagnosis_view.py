@@ -1,0 +1,135 @@
+"""Diagnosis for people: JSON (the contract of ``gantry diagnose --json``), figures and an HTML section."""
+
+from __future__ import annotations
+
+import math
+
+import matplotlib.pyplot as plt
+import numpy as np
+
+from design.html import Report, table
+from design.plots import bode
+from design.spec import finite_or_none
+from plant.diagnosis import Diagnosis, failing_bands
+from plant.frequency_response import MeasuredResponse
+
+
+def diagnosis_to_dict(diag: Diagnosis) -> dict:
+    """Strict-JSON-ready dict with the keys of issue 4 (and a few more)."""
+    first = diag.steps[0]
+    final = diag.final
+    return {
+        "steps": [{"effects": list(s.effects), "reduced_chi2": finite_or_none(s.fit.reduced_chi2),
+                   "rms_magnitude_error_db": s.rms_magnitude_error_db, "rms_phase_error_deg": s.rms_phase_error_deg,
+                   "bic": s.fit.bic, "decision": s.decision} for s in diag.steps],
+        "ranking": [{"effect": c.effect, "delta_bic": finite_or_none(c.delta_bic),
+                     "reduced_chi2": finite_or_none(c.reduced_chi2), "skipped": c.skipped or None}
+                    for c in first.ranking],
+        "final_effects": list(diag.final_effects),
+        "added_effects": list(diag.added),
+        "parameters": {name: {"value": final.values[name],
+                              "stderr": finite_or_none(final.stderr[name]) if name in final.stderr else None,
+                              "fixed": name not in final.stderr}
+                       for name in final.values},
+        "failing_bands": failing_bands(first),
+        "failing_bands_final": failing_bands(diag.steps[-1]),
+        "where_it_fails": first.residuals.description,
+        "nonlinearity": {"detected": diag.nonlinearity.detected,
+                         "max_third_harmonic": diag.nonlinearity.max_third_harmonic,
+                         "max_third_harmonic_f_hz": diag.nonlinearity.max_third_harmonic_f_hz,
+                         "threshold": diag.nonlinearity.threshold,
+                         "amplitude_dependent": diag.nonlinearity.amplitude_dependent,
+                         "description": diag.nonlinearity.description},
+        "notes": list(diag.notes),
+        "flags": list(final.flags),
+    }
+
+
+def comparison_figure(diag: Diagnosis, data: MeasuredResponse):
+    """Measured (with its 2-sigma band) against the base and the final model, per output."""
+    n_out = len(data.output_names)
+    fig, axes = plt.subplots(2, n_out, sharex=True, figsize=(6.5 * n_out, 5.5), squeeze=False)
+    w = data.w_rad_s
+    base, final = diag.steps[0].fit, diag.final
+    for k, name in enumerate(data.output_names):
+        band = 2 * np.sqrt(np.asarray(data.variance[k]))
+        bode(w, [data.response[k], base.model_response[k], final.model_response[k]],
+             ["measured (±2σ)", f"base model (χ²ᵣ {base.reduced_chi2:.3g})",
+              f"+ {', '.join(diag.added) or 'no effect'} (χ²ᵣ {final.reduced_chi2:.3g})"],
+             axes=axes[:, k], bands=[band, None, None], styles=["o", "--", "-"], title=name)
+    return fig
+
+
+def residual_figure(diag: Diagnosis):
+    """Normalised residual magnitude per frequency for every step (2 = the 2-sigma line)."""
+    fig, ax = plt.subplots(figsize=(7, 3.4))
+    for s in diag.steps:
+        r = np.sqrt(np.mean(np.abs(s.fit.residuals) ** 2, axis=0) / 2)
+        ax.loglog(s.fit.f_hz, np.maximum(r, 1e-3), "o-", ms=3, label=" + ".join(("base",) + s.effects) if s.effects
+                  else "base")
+    ax.axhline(2, color="k", ls=":", label="2σ")
+    ax.set_xlabel("frequency (Hz)")
+    ax.set_ylabel("|residual| / σ")
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    return fig
+
+
+def error_steps_figure(diag: Diagnosis):
+    """The error falling step by step: reduced chi-square, RMS magnitude and phase error."""
+    labels = ["base"] + [f"+ {s.effects[-1]}" for s in diag.steps[1:]]
+    fig, axes = plt.subplots(1, 3, figsize=(11, 3.2))
+    x = np.arange(len(diag.steps))
+    values = ([s.fit.reduced_chi2 for s in diag.steps], [s.rms_magnitude_error_db for s in diag.steps],
+              [s.rms_phase_error_deg for s in diag.steps])
+    for ax, v, title in zip(axes, values, ("reduced χ²", "RMS magnitude error (dB)", "RMS phase error (deg)")):
+        ax.bar(x, v, color="#4477aa")
+        ax.set_yscale("log")
+        ax.set_xticks(x, labels, fontsize=8)
+        ax.set_title(title, fontsize=10)
+        ax.grid(True, axis="y", alpha=0.3)
+    axes[0].axhline(1, color="k", ls=":")
+    fig.tight_layout()
+    return fig
+
+
+def add_diagnosis_section(report: Report, diag: Diagnosis, data: MeasuredResponse) -> None:
+    """Measured against model, normalised residuals, candidate ranking and the falling error."""
+    first, final = diag.steps[0], diag.final
+    verdict = (f"Missing effect(s) found: {', '.join(diag.added)}." if diag.added else
+               "No effect is missing: the refitted base model explains the data.")
+    report.text(f"{verdict} Reduced χ² {first.fit.reduced_chi2:.3g} → {final.reduced_chi2:.3g}. "
+                f"Where the base model fails: {first.residuals.description}", cls="summary")
+    report.figure(comparison_figure(diag, data), "Measured response (points, shaded ±2σ) against the base model "
+                                                 "and the final model.")
+    report.figure(error_steps_figure(diag), "The error falling step by step (log scales; χ²ᵣ = 1 is noise).")
+    report.figure(residual_figure(diag), "Residuals normalised by their uncertainty, per frequency and step.")
+    report.heading("Steps", 3)
+    report.raw(table(["model", "reduced χ²", "RMS mag (dB)", "RMS phase (deg)", "BIC", "decision"],
+                     [[" + ".join(("base",) + s.effects[len(first.effects):]), f"{s.fit.reduced_chi2:.3g}",
+                       f"{s.rms_magnitude_error_db:.3f}", f"{s.rms_phase_error_deg:.2f}", f"{s.fit.bic:.1f}",
+                       s.decision] for s in diag.steps]))
+    report.heading("Candidates tried on the base model", 3)
+    report.raw(table(["effect", "ΔBIC", "reduced χ²", "note"],
+                     [[c.effect, "" if math.isnan(c.delta_bic) else f"{c.delta_bic:+.1f}",
+                       "" if math.isnan(c.reduced_chi2) else f"{c.reduced_chi2:.3g}", c.skipped]
+                      for c in first.ranking]))
+    report.heading("Fitted parameters", 3)
+    params = final.plant.parameters()
+    report.raw(table(["parameter", "value", "±1σ", "unit"],
+                     [[n, f"{v:.6g}", f"{final.stderr[n]:.3g}" if n in final.stderr else "fixed", params[n].unit]
+                      for n, v in final.values.items()]))
+    report.text(f"Nonlinearity: {diag.nonlinearity.description}")
+    for note in diag.notes:
+        report.text(f"Note: {note}")
+
+
+def diagnosis_report(diag: Diagnosis, data: MeasuredResponse, *, title: str, provenance: str) -> Report:
+    report = Report(title)
+    add_diagnosis_section(report, diag, data)
+    report.heading("The story", 3)
+    report.pre(diag.story())
+    report.heading("Reproducibility", 3)
+    report.pre(provenance)
+    return report

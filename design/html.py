@@ -1,0 +1,80 @@
+"""Self-contained HTML reports: figures embedded as inline SVG, no network, opens offline."""
+
+from __future__ import annotations
+
+import html
+import io
+from dataclasses import dataclass, field
+
+import matplotlib.pyplot as plt
+
+from plant.recording import atomic_write_text
+
+STYLE = """
+body { font-family: system-ui, -apple-system, Segoe UI, Roboto, sans-serif; max-width: 1100px; margin: 2em auto;
+       padding: 0 1em; color: #222; line-height: 1.45; }
+h1 { border-bottom: 2px solid #444; padding-bottom: .2em; }
+h2 { margin-top: 1.8em; border-bottom: 1px solid #bbb; }
+table { border-collapse: collapse; margin: .6em 0; font-size: 0.92em; }
+th, td { border: 1px solid #ccc; padding: .25em .6em; text-align: right; }
+th { background: #f0f0f0; } td.l, th.l { text-align: left; }
+.ok { color: #17702a; font-weight: bold; } .bad { color: #b00020; font-weight: bold; }
+.summary { background: #f6f8fa; border-left: 4px solid #444; padding: .6em 1em; }
+figure { margin: 1em 0; } figcaption { font-size: .9em; color: #555; }
+pre { background: #f6f8fa; padding: .6em; overflow-x: auto; font-size: .85em; }
+"""
+
+
+def svg(fig) -> str:
+    """The figure as an inline ``<svg>`` element (and close it)."""
+    buf = io.StringIO()
+    fig.savefig(buf, format="svg", bbox_inches="tight")
+    plt.close(fig)
+    text = buf.getvalue()
+    return text[text.index("<svg"):]
+
+
+def table(header: list[str], rows: list[list], *, left: int = 1) -> str:
+    """HTML table; the first ``left`` columns are left-aligned."""
+    def cell(tag, k, v):
+        cls = ' class="l"' if k < left else ""
+        return f"<{tag}{cls}>{v if isinstance(v, Markup) else html.escape(str(v))}</{tag}>"
+    head = "".join(cell("th", k, h) for k, h in enumerate(header))
+    body = "".join("<tr>" + "".join(cell("td", k, v) for k, v in enumerate(r)) + "</tr>" for r in rows)
+    return f"<table><tr>{head}</tr>{body}</table>"
+
+
+class Markup(str):
+    """A string that is already HTML (not escaped by ``table``/``Report.text``)."""
+
+
+@dataclass
+class Report:
+    """An HTML document built section by section."""
+
+    title: str
+    parts: list[str] = field(default_factory=list)
+
+    def heading(self, text: str, level: int = 2) -> None:
+        self.parts.append(f"<h{level}>{html.escape(text)}</h{level}>")
+
+    def text(self, text: str, *, cls: str | None = None) -> None:
+        body = text if isinstance(text, Markup) else html.escape(text)
+        self.parts.append(f'<p class="{cls}">{body}</p>' if cls else f"<p>{body}</p>")
+
+    def pre(self, text: str) -> None:
+        self.parts.append(f"<pre>{html.escape(text)}</pre>")
+
+    def figure(self, fig, caption: str) -> None:
+        self.parts.append(f"<figure>{svg(fig)}<figcaption>{html.escape(caption)}</figcaption></figure>")
+
+    def raw(self, markup: str) -> None:
+        self.parts.append(markup)
+
+    def render(self) -> str:
+        return (f'<!DOCTYPE html>\n<html lang="en"><head><meta charset="utf-8"><title>{html.escape(self.title)}'
+                f"</title><style>{STYLE}</style></head><body><h1>{html.escape(self.title)}</h1>\n"
+                + "\n".join(self.parts) + "\n</body></html>\n")
+
+    def write(self, path) -> None:
+        atomic_write_text(path, self.render())

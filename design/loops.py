@@ -6,13 +6,17 @@ Frequency-response functions take a grid ``w_rad_s`` and broadcast gains and pla
 
 from __future__ import annotations
 
-import control
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from plant.errors import ParameterError
 from plant.grid import check_grid
 from plant.models import Plant
 from plant.parameters import check_positive
+
+if TYPE_CHECKING:
+    import control
 
 
 def pi_frd(w_rad_s, kp, ki) -> np.ndarray:
@@ -22,6 +26,8 @@ def pi_frd(w_rad_s, kp, ki) -> np.ndarray:
 
 def pi_tf(kp: float, ki: float) -> control.TransferFunction:
     """PI controller (Kp s + Ki)/s as a python-control transfer function."""
+    import control
+
     return control.tf([kp, ki], [1.0, 0.0])
 
 
@@ -54,6 +60,8 @@ def open_loop_tf(plant: Plant, kp: float, ki: float) -> control.TransferFunction
 
 def closed_loop_tf(plant: Plant, kp: float, ki: float) -> control.TransferFunction:
     """Rational closed velocity loop; for the thesis plants it equals Eq. 3.19 / 3.20."""
+    import control
+
     return control.feedback(open_loop_tf(plant, kp, ki), 1)
 
 

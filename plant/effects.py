@@ -20,13 +20,15 @@ import abc
 import dataclasses
 import math
 from dataclasses import dataclass
-from typing import ClassVar
+from typing import TYPE_CHECKING, ClassVar
 
-import control
 import numpy as np
 
 from plant.errors import EffectError, ParameterError
 from plant.parameters import Parameter, check_positive
+
+if TYPE_CHECKING:
+    import control
 
 #: default Pade order used when a delay is turned into a rational model
 PADE_ORDER = 6
@@ -83,6 +85,8 @@ def _scalar(effect: Effect, field: str) -> float:
 
 
 def _pade_tf(seconds: float, order: int) -> control.TransferFunction:
+    import control
+
     if seconds == 0:
         return control.tf([1.0], [1.0])
     num, den = control.pade(seconds, order)
@@ -135,6 +139,8 @@ class CurrentLoop(SeriesEffect):
         return wc / (1j * np.asarray(w_rad_s) + wc)
 
     def to_tf(self, *, pade_order: int = PADE_ORDER) -> control.TransferFunction:
+        import control
+
         wc = 2 * np.pi * _scalar(self, "bandwidth_hz")
         return control.tf([wc], [1.0, wc])
 
@@ -206,6 +212,8 @@ class Resonance(SeriesEffect):
         return (s**2 / wa**2 + 2 * z * s / wa + 1) / (s**2 / wr**2 + 2 * z * s / wr + 1)
 
     def to_tf(self, *, pade_order: int = PADE_ORDER) -> control.TransferFunction:
+        import control
+
         wa = 2 * np.pi * _scalar(self, "antiresonance_hz")
         wr = 2 * np.pi * _scalar(self, "frequency_hz")
         z = _scalar(self, "damping_ratio")

@@ -7,9 +7,12 @@ diagnosis and data-driven synthesis.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
-import control
 import numpy as np
+
+if TYPE_CHECKING:
+    import control
 
 
 @dataclass(frozen=True)
@@ -40,5 +43,7 @@ class MeasuredResponse:
 
     def to_frd(self, output: int | str = 0) -> control.FrequencyResponseData:
         """python-control ``FrequencyResponseData`` of one output (index or name)."""
+        import control
+
         k = self.output_names.index(output) if isinstance(output, str) else output
         return control.frd(self.response[k], self.w_rad_s)

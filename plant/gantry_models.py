@@ -9,16 +9,22 @@
 
 from __future__ import annotations
 
-import control
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from plant.parameters import check_positive
+
+if TYPE_CHECKING:
+    import control
 
 
 def thesis_state_space(*, mass_kg: float, damping_n_s_per_m: float, force_constant_n_per_a: float,
                        motor_length_m: float, load_position_m: float) -> control.StateSpace:
     """Thesis Appendix A: states (x, v_x, y1, v_y1, y2, v_y2), inputs (i1, i2, i3) as printed,
     outputs (v_x, v_y1, v_y2). Its transfer matrix is thesis Figure A.1."""
+    import control
+
     m, b, k, L, l = mass_kg, damping_n_s_per_m, force_constant_n_per_a, motor_length_m, load_position_m
     for name, v in [("mass_kg", m), ("damping_n_s_per_m", b), ("force_constant_n_per_a", k),
                     ("motor_length_m", L), ("load_position_m", l)]:
@@ -85,6 +91,8 @@ def xie_wang_ss(*, mass_kg: float, inertia_kg_m2: float, damping1_n_s_per_m: flo
                 l1_m: float, l2_m: float, joint_stiffness_n_m_per_rad: float) -> control.StateSpace:
     """State-space form of ``xie_wang_frd``: states (y_c, alpha, v_c, omega), inputs (f1, f2),
     outputs (v_y1, v_y2)."""
+    import control
+
     for name, v in [("mass_kg", mass_kg), ("inertia_kg_m2", inertia_kg_m2), ("l1_m", l1_m), ("l2_m", l2_m)]:
         check_positive(name, v)
     check_positive("joint_stiffness_n_m_per_rad", joint_stiffness_n_m_per_rad)
@@ -106,6 +114,8 @@ def qin_linearised_ss(*, mass_kg: float, inertia_kg_m2: float, beam_length_m: fl
     States (x, y, delta, x', y', delta'); inputs (f_y1, f_y2, f_x); outputs the three velocities.
     (The delta-dependent terms are second order about delta = 0 with the forces at zero.)
     """
+    import control
+
     check_positive("mass_kg", mass_kg)
     check_positive("inertia_kg_m2", inertia_kg_m2)
     check_positive("beam_length_m", beam_length_m)

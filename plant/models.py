@@ -15,18 +15,24 @@ from __future__ import annotations
 import dataclasses
 import math
 from dataclasses import dataclass, field
-from typing import Literal
+from typing import TYPE_CHECKING, Literal
 
-import control
 import numpy as np
 
 from plant.effects import (
-    PADE_ORDER, Effect, SeriesEffect, TiltCoupling, make_effect,
+    PADE_ORDER,
+    Effect,
+    SeriesEffect,
+    TiltCoupling,
+    make_effect,
 )
 from plant.errors import EffectError, ParameterError
 from plant.gantry_models import xie_wang_frd
 from plant.grid import check_grid
 from plant.parameters import THESIS, Parameter, check_positive
+
+if TYPE_CHECKING:
+    import control
 
 BASE_PARAMETERS = ("mass_kg", "damping_n_s_per_m", "force_constant_n_per_a")
 #: physically plausible bounds of the base parameters used by fits (lower, upper, unit)
@@ -203,6 +209,8 @@ class Plant:
     # --- python-control interoperability ---------------------------------------
     def to_control(self, *, pade_order: int = PADE_ORDER) -> control.TransferFunction:
         """Rational model (Pade for delays). Coulomb friction has none and raises ``EffectError``."""
+        import control
+
         for name in BASE_PARAMETERS:
             if np.size(getattr(self, name)) != 1:
                 raise ParameterError(f"{name} is a batch; to_control needs one plant (index the batch first)")
@@ -234,6 +242,8 @@ class Plant:
 
     def to_frd_data(self, w_rad_s) -> control.FrequencyResponseData:
         """python-control ``FrequencyResponseData`` of ``frd`` on the grid."""
+        import control
+
         w = check_grid(w_rad_s)
         resp = self.frd(w)
         if resp.ndim != 1:

@@ -8,11 +8,15 @@ K_e = (P pi/tau) lambda_f = 2/3 K_t.
 
 from __future__ import annotations
 
-import control
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from plant.errors import ParameterError
 from plant.parameters import check_positive
+
+if TYPE_CHECKING:
+    import control
 
 
 def thrust_constant_n_per_a(*, pole_pitch_m: float, pole_number: float, magnet_flux_wb: float) -> float:
@@ -31,6 +35,8 @@ def back_emf_constant_v_s_per_m(*, pole_pitch_m: float, pole_number: float, magn
 
 def winding_tf(*, resistance_ohm: float, inductance_h: float) -> control.TransferFunction:
     """q-axis winding admittance I/V = 1/(L_s s + R_s) (thesis Eq. 2.23-2.24, back-EMF excluded)."""
+    import control
+
     check_positive("resistance_ohm", resistance_ohm)
     check_positive("inductance_h", inductance_h)
     return control.tf([1.0], [inductance_h, resistance_ohm])
@@ -39,6 +45,8 @@ def winding_tf(*, resistance_ohm: float, inductance_h: float) -> control.Transfe
 def current_loop_tf(*, resistance_ohm: float, inductance_h: float, kp_v_per_a: float,
                     ki_v_per_a_s: float) -> control.TransferFunction:
     """Closed current loop (kp s + ki) / (L s^2 + (R + kp) s + ki) of a PI driving the winding."""
+    import control
+
     check_positive("kp_v_per_a", kp_v_per_a)
     check_positive("ki_v_per_a_s", ki_v_per_a_s, allow_zero=True)
     pi = control.tf([kp_v_per_a, ki_v_per_a_s], [1.0, 0.0])
@@ -48,6 +56,8 @@ def current_loop_tf(*, resistance_ohm: float, inductance_h: float, kp_v_per_a: f
 def current_loop_bandwidth_hz(*, resistance_ohm: float, inductance_h: float, kp_v_per_a: float,
                               ki_v_per_a_s: float) -> float:
     """-3 dB (1/sqrt 2) bandwidth in Hz of ``current_loop_tf``."""
+    import control
+
     loop = current_loop_tf(resistance_ohm=resistance_ohm, inductance_h=inductance_h,
                            kp_v_per_a=kp_v_per_a, ki_v_per_a_s=ki_v_per_a_s)
     bw = control.bandwidth(loop, dbdrop=-20 * np.log10(np.sqrt(2)))

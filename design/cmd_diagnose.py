@@ -19,8 +19,8 @@ BASE_FREE = ("mass_kg", "damping_n_s_per_m")
 
 
 def _measure(path: Path, columns: str | None, sample_rate_hz: float | None):
-    from plant.frequency_response import estimate_response
-    from plant.recording import parse_column_map, read_recording
+    from plant.lockin import estimate_response
+    from plant.recording_io import parse_column_map, read_recording
 
     rec = read_recording(path, columns=parse_column_map(columns) if columns else None, sample_rate_hz=sample_rate_hz)
     return estimate_response(rec)
@@ -52,7 +52,7 @@ def diagnose(
     from design.diagnosis_view import diagnosis_report, diagnosis_to_dict
     from plant.diagnosis import diagnose as run_diagnosis
     from plant.effects import EFFECTS
-    from plant.frequency_response import amplitude_dependence
+    from plant.lockin import amplitude_dependence
     from plant.models import Plant
 
     if stage not in ("x", "y"):

@@ -15,7 +15,7 @@ import numpy as np
 
 from plant import CoulombFriction, CurrentLoop, Delay, Resonance, stage_x
 from plant.diagnosis import MAIN_PARAMETER, diagnose
-from plant.frequency_response import estimate_response
+from plant.lockin import estimate_response
 from plant.simulate import simulate_stepped_sine
 
 args = [a for a in sys.argv[1:] if not a.startswith("--")]

@@ -53,6 +53,9 @@ def atomic_write_text(path: str | Path, text: str) -> None:
     path = Path(path)
     fd, tmp = tempfile.mkstemp(dir=path.parent if str(path.parent) else ".", prefix=f".{path.name}.", suffix=".tmp")
     try:
+        umask = os.umask(0)
+        os.umask(umask)
+        os.chmod(tmp, 0o666 & ~umask)  # mkstemp makes 0600; give the file the usual permissions
         with os.fdopen(fd, "w", newline="") as fh:
             fh.write(text)
         os.replace(tmp, path)
@@ -63,10 +66,12 @@ def atomic_write_text(path: str | Path, text: str) -> None:
 
 def write_recording_csv(recording: Recording, path: str | Path) -> None:
     """Write the long CSV format of ``shared/ARCHITECTURE.md`` atomically."""
-    header = ",".join(["frequency_hz", "time_s", "current_a", *recording.output_names])
-    chunks = [header]
+    import io
+
+    n_out = len(recording.output_names)
+    buf = io.StringIO()
+    buf.write(",".join(["frequency_hz", "time_s", "current_a", *recording.output_names]) + "\n")
     for b in recording.blocks:
         cols = np.column_stack([np.full(b.time_s.shape, b.f_hz), b.time_s, b.current_a, *b.velocity_m_per_s])
-        lines = [f"{r[0]:.10g},{r[1]:.9f},{r[2]:.9g}," + ",".join(f"{v:.9g}" for v in r[3:]) for r in cols]
-        chunks.append("\n".join(lines))
-    atomic_write_text(path, "\n".join(chunks) + "\n")
+        np.savetxt(buf, cols, fmt=["%.10g", "%.9f", "%.9g"] + ["%.9g"] * n_out, delimiter=",")
+    atomic_write_text(path, buf.getvalue())

@@ -1,0 +1,57 @@
+"""Headless Chromium (Debian's ``chromium`` package) for PDF output and the report browser check."""
+
+from __future__ import annotations
+
+import shutil
+import subprocess
+import tempfile
+from pathlib import Path
+
+from plant.errors import GantryError
+
+FLAGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
+         "--disable-background-networking", "--disable-component-update", "--disable-sync"]
+
+
+def chromium() -> str | None:
+    """Path of a Chromium executable, or None."""
+    return next((p for p in (shutil.which(n) for n in ("chromium", "chromium-browser", "google-chrome")) if p), None)
+
+
+def _run(args: list[str], what: str) -> None:
+    exe = chromium()
+    if exe is None:
+        raise GantryError(f"{what} needs Chromium (Debian: apt-get install chromium); none found on PATH")
+    with tempfile.TemporaryDirectory() as profile:
+        proc = subprocess.run([exe, *FLAGS, f"--user-data-dir={profile}", *args], capture_output=True, text=True,
+                              timeout=120)
+    if proc.returncode != 0:
+        raise GantryError(f"{what} failed: chromium exited {proc.returncode}: {proc.stderr.strip()[-300:]}")
+
+
+def html_to_pdf(html_path: Path, pdf_path: Path) -> None:
+    """Print an HTML file to PDF, written atomically."""
+    tmp = pdf_path.with_name(f".{pdf_path.name}.tmp.pdf")
+    try:
+        _run([f"--print-to-pdf={tmp}", "--no-pdf-header-footer", html_path.resolve().as_uri()], "PDF output")
+        tmp.replace(pdf_path)
+    finally:
+        tmp.unlink(missing_ok=True)
+
+
+def screenshot(html_path: Path, png_path: Path, *, width: int = 1200, height: int = 3000) -> None:
+    """Render an HTML file to a PNG screenshot."""
+    _run([f"--screenshot={png_path}", f"--window-size={width},{height}", html_path.resolve().as_uri()], "screenshot")
+
+
+def dom(html_path: Path) -> str:
+    """The document after rendering (``--dump-dom``)."""
+    exe = chromium()
+    if exe is None:
+        raise GantryError("dumping the DOM needs Chromium; none found on PATH")
+    with tempfile.TemporaryDirectory() as profile:
+        proc = subprocess.run([exe, *FLAGS, f"--user-data-dir={profile}", "--dump-dom", html_path.resolve().as_uri()],
+                              capture_output=True, text=True, timeout=120)
+    if proc.returncode != 0:
+        raise GantryError(f"chromium --dump-dom exited {proc.returncode}")
+    return proc.stdout

@@ -1,0 +1,53 @@
+"""``gantry report``: a self-contained HTML design report (and optionally a PDF)."""
+
+from __future__ import annotations
+
+import shlex
+import sys
+from pathlib import Path
+from typing import Annotated, Optional
+
+import typer
+
+from design.cli import app, console
+
+
+@app.command()
+def report(
+    spec_file: Annotated[Path, typer.Argument(metavar="SPEC", help="Spec file (TOML).")],
+    out: Annotated[Path, typer.Option(help="Output HTML file.")],
+    data: Annotated[Optional[list[Path]], typer.Option(
+        "--data", help="Recording(s) to compare with the model and diagnose (repeatable).")] = None,
+    samples: Annotated[int, typer.Option(help="Monte Carlo samples over the spec's uncertainty (0: none).",
+                                         min=0, max=100000)] = 200,
+    seed: Annotated[int, typer.Option(help="Seed of the Monte Carlo samples.")] = 0,
+    pdf: Annotated[bool, typer.Option("--pdf", help="Also write a PDF next to the HTML (needs Chromium).")] = False,
+) -> None:
+    """Write a design report: summary, plant, Bode/Nyquist/step, margins vs payload, data, reproducibility."""
+    from design.report import design_report
+    from design.spec import load_spec
+    from plant.diagnosis import diagnose
+    from plant.lockin import estimate_response
+    from plant.recording_io import read_recording
+
+    spec = load_spec(spec_file)
+    synthesis = None
+    kp, ki, source = spec.controller.kp.value, spec.controller.ki.value, "from the spec's controller values"
+    if kp is None or ki is None:
+        from plant.errors import SpecError
+
+        raise SpecError(f"{spec_file}: controller.kp.value and controller.ki.value are needed for the report")
+    recordings = []
+    for path in data or []:
+        measured = estimate_response(read_recording(path))
+        recordings.append((path, measured, diagnose(spec.plant.plant(), measured)))
+    rep = design_report(spec, spec_path=spec_file, kp=kp, ki=ki, gains_source=source, synthesis=synthesis,
+                        recordings=recordings, command="gantry " + shlex.join(sys.argv[1:]), samples=samples,
+                        seed=seed)
+    rep.write(out)
+    console.print(f"report written to {out}")
+    if pdf:
+        from design.browser import html_to_pdf
+
+        html_to_pdf(out, out.with_suffix(".pdf"))
+        console.print(f"PDF written to {out.with_suffix('.pdf')}")

@@ -1,0 +1,67 @@
+"""Design report (issue 6): self-contained HTML with its figures, rendered by headless Chromium."""
+
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from design.browser import chromium, dom, screenshot
+from plant import Delay, stage_x
+from plant.recording import write_recording_csv
+from plant.simulate import simulate_stepped_sine
+
+ROOT = Path(__file__).resolve().parents[1]
+SPEC = ROOT / "specs" / "thesis_stage_x.toml"
+
+
+@pytest.fixture(scope="module")
+def report_html(tmp_path_factory):
+    tmp = tmp_path_factory.mktemp("report")
+    rec = simulate_stepped_sine(stage_x(mass_kg=38.0) * Delay(0.001), f_hz=np.geomspace(2, 75, 12),
+                                current_amplitude_a=0.5, duration_s=2.0, noise_fraction=0.02, seed=1)
+    write_recording_csv(rec, tmp / "rec.csv")
+    out = tmp / "design.html"
+    proc = subprocess.run([sys.executable, "-m", "design", "report", str(SPEC), "--data", str(tmp / "rec.csv"),
+                           "--samples", "50", "--out", str(out)], capture_output=True, text=True)
+    assert proc.returncode == 0, proc.stderr
+    return out
+
+
+def test_report_is_self_contained_with_its_figures(report_html):
+    html = report_html.read_text()
+    # no network: nothing loaded from elsewhere (SVG namespaces are identifiers, not loads)
+    assert not re.search(r"""(src|href)\s*=\s*["']https?://""", html)
+    assert "<script" not in html
+    # Bode, Nyquist, step, payload sweep, and the diagnosis (comparison, error by step, residuals)
+    assert html.count("<svg") >= 7
+    for heading in ("Plant", "Loop over the payload range", "Margins and bandwidth against payload",
+                    "Measurements against the model", "Reproducibility"):
+        assert f">{heading}</h2>" in html
+    # summary first, with the recomputed worst case of the thesis gains (thesis Figure 4.31 payload range)
+    assert html.index("class='summary'") < html.index(">Plant</h2>")
+    assert "Worst case over 5-40 kg" in html
+    assert "delay" in html and "sha256" in html
+
+
+@pytest.mark.skipif(chromium() is None, reason="Chromium not installed (Debian package 'chromium'); "
+                                                ".ci/run installs it")
+def test_report_renders_in_headless_chromium(report_html, tmp_path):
+    rendered = dom(report_html)
+    assert rendered.count("<svg") >= 7
+    png = tmp_path / "shot.png"
+    screenshot(report_html, png, height=2000)
+    data = png.read_bytes()
+    assert data[:8] == b"\x89PNG\r\n\x1a\n" and len(data) > 50_000  # a page with plots, not a blank one
+
+
+def test_report_bad_spec_exits_2(tmp_path):
+    bad = tmp_path / "bad.toml"
+    bad.write_text('[plant]\nstage = "z"\n')
+    proc = subprocess.run([sys.executable, "-m", "design", "report", str(bad), "--out", str(tmp_path / "r.html")],
+                          capture_output=True, text=True)
+    assert proc.returncode == 2
+    assert "plant.stage" in proc.stderr and proc.stderr.count("\n") == 1
+    assert not (tmp_path / "r.html").exists()

@@ -154,6 +154,8 @@ class RequirementsSpec(_Strict):
     gain_margin_db: float = Field(6.0, ge=0, le=60)
     disk_margin: float | None = Field(None, gt=0, lt=2)
     peak_sensitivity: float | None = Field(None, gt=1)
+    #: optional: synthesis is infeasible when the worst-case bandwidth cannot reach this
+    min_bandwidth_hz: float | None = Field(None, gt=0, le=1e5)
 
 
 class ObjectiveSpec(_Strict):

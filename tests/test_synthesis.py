@@ -1,0 +1,118 @@
+"""PI synthesis (issue 5): verified robust gains, unbounded/infeasible explanations, bad specs."""
+
+import json
+import math
+import subprocess
+import sys
+from pathlib import Path
+
+import control
+import numpy as np
+import pytest
+
+from design.spec import load_spec
+from design.synthesis import _casadi_frd, margin_circle, synthesise_pi, verify
+from plant import Resonance
+
+ROOT = Path(__file__).resolve().parents[1]
+SPEC_X = ROOT / "specs" / "stage_x_synth.toml"
+
+
+def gantry(*args):
+    return subprocess.run([sys.executable, "-m", "design", *map(str, args)], capture_output=True, text=True)
+
+
+@pytest.fixture(scope="module")
+def synth_x():
+    out = gantry("synth", SPEC_X, "--json")
+    assert out.returncode == 0, out.stderr
+    return json.loads(out.stdout)
+
+
+def test_stage_x_gains_are_verified_on_an_independent_dense_check(synth_x):
+    assert synth_x["status"] == "optimal" and synth_x["verified"] is True
+    kp, ki = synth_x["gains"]["kp"], synth_x["gains"]["ki"]
+    spec = load_spec(SPEC_X)
+    plant = spec.plant.plant()
+    # independent check here, with python-control 0.10.2 on the Pade model, at 60 payloads 5-40 kg
+    for m in np.linspace(5.0, 40.0, 60):
+        L = plant.with_payload(m).to_control(pade_order=8) * control.tf([kp, ki], [1, 0])
+        gm, pm, _, _ = control.margin(L)
+        assert pm >= 45.0 - 0.05 and 20 * math.log10(gm) >= 6.0 - 0.05, (m, pm, gm)
+        assert np.all(np.real(control.poles(control.feedback(L, 1))) < 0)
+    # the design beats the thesis gains, which meet the requirements on this plant
+    thesis = next(b for b in synth_x["baselines"] if b["name"] == "thesis gains")
+    assert thesis["meets_requirements"]
+    assert synth_x["worst_case"]["bandwidth_hz"] > 2 * thesis["worst_bandwidth_hz"]
+    assert len(synth_x["per_payload"]) >= 50
+
+
+def test_exact_refinement_improves_on_the_conservative_circles():
+    spec = load_spec(SPEC_X)
+    ccp = synthesise_pi(spec, method="ccp")
+    exact = synthesise_pi(spec)
+    assert ccp.status == exact.status == "optimal"
+    # the margin circle is conservative: its design keeps spare phase margin, the exact one does not
+    assert ccp.evaluation.binding["slack"] > 1.0
+    assert abs(exact.evaluation.binding["slack"]) < 0.1
+    assert exact.evaluation.worst_bandwidth_hz > ccp.evaluation.worst_bandwidth_hz
+
+
+def test_margin_circle_passes_through_the_margin_points():
+    # closed form: the circle passes through -1/g and e^{j(pi - phi)}
+    c, r = margin_circle(45.0, 6.0)
+    g = 10 ** (6 / 20)
+    assert abs(abs(-1 / g - c) - r) < 1e-12
+    assert abs(abs(np.exp(1j * np.radians(180 - 45)) - c) - r) < 1e-12
+    assert abs(-1 - c) < r          # -1 lies inside: outside the circle keeps away from it
+
+
+def test_m_circle_is_the_bandwidth_condition():
+    # |T| >= 1/sqrt 2  <=>  |L - 1| >= sqrt 2, T = L / (1 + L): checked on random points
+    L = np.random.default_rng(0).normal(size=5000) * 3 + 1j * np.random.default_rng(1).normal(size=5000) * 3
+    lhs = np.abs(L / (1 + L)) >= 1 / math.sqrt(2)
+    rhs = np.abs(L - 1) >= math.sqrt(2)
+    assert np.array_equal(lhs, rhs)
+
+
+def test_casadi_plant_equals_the_plant_model():
+    spec = load_spec(SPEC_X)
+    plant = spec.plant.plant() * Resonance(60.0, 40.0, 0.05)
+    w = np.geomspace(1, 2e4, 50)
+    re, im = _casadi_frd(plant, w)
+    z = np.asarray(re, float).ravel() + 1j * np.asarray(im, float).ravel()
+    assert np.allclose(z, plant.frd(w), rtol=1e-12, atol=0)
+
+
+def test_verification_catches_a_bad_design():
+    v = verify(load_spec(SPEC_X), 3000.0, 1.0e6)
+    assert not v.verified
+    assert any("phase margin" in f or "unstable" in f for f in v.failures)
+
+
+def test_unbounded_spec_says_what_is_missing():
+    out = gantry("synth", ROOT / "specs" / "unbounded_example.toml", "--json")
+    assert out.returncode == 1
+    res = json.loads(out.stdout)
+    assert res["status"] == "unbounded" and res["verified"] is False
+    assert "delay" in res["message"] and "current_loop" in res["message"]
+    assert res["gains"] == {"kp": None, "ki": None}
+
+
+def test_infeasible_spec_names_the_binding_constraint_and_payload():
+    out = gantry("synth", ROOT / "specs" / "infeasible_example.toml", "--json")
+    assert out.returncode == 1
+    res = json.loads(out.stdout)
+    assert res["status"] == "infeasible" and res["verified"] is False
+    assert "min_bandwidth_hz" in res["message"] and "phase margin" in res["message"] and " kg" in res["message"]
+
+
+def test_bad_spec_names_the_key(tmp_path):
+    bad = tmp_path / "bad.toml"
+    bad.write_text(SPEC_X.read_text().replace("phase_margin_deg = 45.0", "phase_margin_deg = 120.0"))
+    out = gantry("synth", bad)
+    assert out.returncode == 2
+    assert "requirements.phase_margin_deg" in out.stderr and out.stderr.count("\n") == 1
+    bad.write_text(SPEC_X.read_text().replace("[objective]", "[objectiv]"))
+    out = gantry("synth", bad)
+    assert out.returncode == 2 and "objectiv" in out.stderr

@@ -22,6 +22,9 @@ def report(
                                          min=0, max=100000)] = 200,
     seed: Annotated[int, typer.Option(help="Seed of the Monte Carlo samples.")] = 0,
     pdf: Annotated[bool, typer.Option("--pdf", help="Also write a PDF next to the HTML (needs Chromium).")] = False,
+    synthesise: Annotated[bool, typer.Option(
+        "--synth/--no-synth", help="Synthesise the gains (default when the plant has a delay, lag, sampling or "
+                                   "resonance); otherwise report the spec's controller values.")] = True,
 ) -> None:
     """Write a design report: summary, plant, Bode/Nyquist/step, margins vs payload, data, reproducibility."""
     from design.report import design_report
@@ -30,13 +33,22 @@ def report(
     from plant.lockin import estimate_response
     from plant.recording_io import read_recording
 
+    from design.synthesis import PHASE_LIMITING, synthesise_pi
+    from plant.errors import SpecError
+
     spec = load_spec(spec_file)
     synthesis = None
     kp, ki, source = spec.controller.kp.value, spec.controller.ki.value, "from the spec's controller values"
+    if synthesise and any(e in PHASE_LIMITING for e in spec.plant.effects):
+        synthesis = synthesise_pi(spec).to_dict()
+        if synthesis["status"] == "optimal":
+            kp, ki = synthesis["gains"]["kp"], synthesis["gains"]["ki"]
+            source = "synthesised" + (", independently verified" if synthesis["verified"] else ", NOT verified")
+        else:
+            source += f" (synthesis {synthesis['status']}: {synthesis['message']})"
     if kp is None or ki is None:
-        from plant.errors import SpecError
-
-        raise SpecError(f"{spec_file}: controller.kp.value and controller.ki.value are needed for the report")
+        raise SpecError(f"{spec_file}: no gains to report: synthesis did not succeed and controller.kp.value / "
+                        "controller.ki.value are not set")
     recordings = []
     for path in data or []:
         measured = estimate_response(read_recording(path))

@@ -20,6 +20,7 @@ th, td { border: 1px solid #ccc; padding: .25em .6em; text-align: right; }
 th { background: #f0f0f0; } td.l, th.l { text-align: left; }
 .ok { color: #17702a; font-weight: bold; } .bad { color: #b00020; font-weight: bold; }
 .summary { background: #f6f8fa; border-left: 4px solid #444; padding: .6em 1em; }
+svg { max-width: 100%; height: auto; }
 figure { margin: 1em 0; } figcaption { font-size: .9em; color: #555; }
 pre { background: #f6f8fa; padding: .6em; overflow-x: auto; font-size: .85em; }
 """

@@ -1,0 +1,73 @@
+"""``gantry fit``: physical parameters of a plant with effects from a stepped-sine recording."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated, Optional
+
+import typer
+
+from design.cli import app, console, print_json
+from plant.errors import ParameterError
+
+
+@app.command()
+def fit(
+    data: Annotated[Path, typer.Argument(help="Stepped-sine recording (.csv, .xlsx, .tdms).")],
+    stage: Annotated[str, typer.Option(help="Stage of the recording: x or y.")],
+    effects: Annotated[Optional[str], typer.Option(help="Effects to include, e.g. delay,current_loop.")] = None,
+    free: Annotated[Optional[str], typer.Option(
+        help="Parameters to fit (comma list); default mass, damping and every effect parameter.")] = None,
+    load_position_m: Annotated[Optional[float], typer.Option(help="Stage Y: load position from rail Y1 (m).")]
+    = None,
+    columns: Annotated[Optional[str], typer.Option(
+        help="Column map for spreadsheets/TDMS, e.g. frequency=2,current=3,velocity=6,velocity=7.")] = None,
+    sample_rate_hz: Annotated[Optional[float], typer.Option(help="Sample rate when the file has no time column.")]
+    = None,
+    rational: Annotated[Optional[str], typer.Option(
+        help="Also fit a rational transfer function like MATLAB tfest: POLES,ZEROS (e.g. 1,0); thesis weighting.")]
+    = None,
+    as_json: Annotated[bool, typer.Option("--json", help="Print JSON.")] = False,
+) -> None:
+    """Fit bounded physical parameters (maximum likelihood, inverse-variance weights) to a recording."""
+    from design.spec import finite_or_none
+    from plant.effects import make_effect
+    from plant.fitting import fit_plant
+    from plant.lockin import estimate_response
+    from plant.models import Plant
+    from plant.recording_io import parse_column_map, read_recording
+
+    if stage not in ("x", "y"):
+        raise ParameterError(f"--stage must be x or y, got {stage!r}")
+    names = [e.strip() for e in (effects or "").split(",") if e.strip()]
+    fx = tuple(make_effect(n) for n in names)
+    geometry = {"load_position_m": load_position_m} if load_position_m is not None else {}
+    measured = estimate_response(read_recording(data, columns=parse_column_map(columns) if columns else None,
+                                                sample_rate_hz=sample_rate_hz))
+    plant = Plant(stage, effects=fx, excitation_current_a=float(measured.current_amplitude_a.mean()), **geometry)
+    free_names = tuple(p.strip() for p in free.split(",") if p.strip()) if free else None
+    result = fit_plant(plant, measured, free=free_names)
+    rat = None
+    if rational:
+        from plant.rational_fit import fit_rational, thesis_weights
+
+        try:
+            n_poles, n_zeros = (int(v) for v in rational.split(","))
+        except ValueError:
+            raise ParameterError(f"--rational {rational!r}: expected POLES,ZEROS, e.g. 1,0") from None
+        rat = fit_rational(measured.w_rad_s, measured.response.mean(axis=0), n_poles=n_poles, n_zeros=n_zeros,
+                           weights=thesis_weights(measured.f_hz))
+    if as_json:
+        out = {"parameters": {n: {"value": result.values[n], "stderr": finite_or_none(result.stderr[n])}
+                              for n in result.free},
+               "fixed": {n: v for n, v in result.values.items() if n not in result.free},
+               "reduced_chi2": finite_or_none(result.reduced_chi2), "aic": result.aic, "bic": result.bic,
+               "flags": list(result.flags), "effects": list(result.plant.effect_names)}
+        if rat is not None:
+            out["rational"] = {"num": rat.num.tolist(), "den": rat.den.tolist(), "fit_percent": rat.fit_percent}
+        print_json(out)
+        return
+    console.print(result.report(), markup=False, highlight=False)
+    if rat is not None:
+        console.print(f"\nRational fit ({rat.n_poles} poles, {rat.n_zeros} zeros, thesis weighting): "
+                      f"fit {rat.fit_percent:.1f} %\n{rat.tf}", markup=False)

@@ -43,9 +43,14 @@ def _phasors(t_s, f_hz, signals, harmonics=1):
 
 
 def settling_time_s(block: Block) -> float:
-    """Start-up transient estimated from the data: the first whole period from which on the
-    per-period velocity phasors stay within 4 sigma (of the last half's scatter) of their
-    steady-state mean; at least one period and ``MIN_SETTLE_S``."""
+    """Start-up transient estimated from the data.
+
+    Per-period phasor ratios r_j are compared with the mean of the last half (scatter s).
+    Where the leading deviations |r_j - ref| / s exceed 3, their exponential decay rate is
+    fitted and the block is cut where the transient left in the remaining periods biases
+    their mean by less than 0.1 of its own noise (s / sqrt(n)); without a clear decay, after
+    the last period beyond 4 s. At least one period and ``MIN_SETTLE_S``.
+    """
     period = 1.0 / block.f_hz
     n_per = int(np.floor(block.time_s[-1] / period))
     if n_per < 4:
@@ -61,10 +66,25 @@ def settling_time_s(block: Block) -> float:
     r = np.array(ratios)                         # (n_periods, n_outputs)
     tail = r[n_per // 2:]
     ref = tail.mean(axis=0)
-    spread = np.sqrt(np.mean(np.abs(tail - ref) ** 2, axis=0)) + 1e-6 * np.abs(ref)
-    outside = np.any(np.abs(r - ref) > 4 * spread, axis=1)
-    last_bad = int(np.flatnonzero(outside)[-1]) if outside.any() else -1
-    return max((last_bad + 1) * period, period, MIN_SETTLE_S)
+    spread = np.sqrt(np.mean(np.abs(tail - ref) ** 2, axis=0)) + 1e-9 * np.abs(ref)
+    d = np.max(np.abs(r - ref) / spread, axis=1)  # deviation in units of the per-period scatter
+    outside = d > 4
+    cut = int(np.flatnonzero(outside)[-1]) + 1 if outside.any() else 0
+    lead = np.flatnonzero(d > 3)
+    lead = lead[lead == np.arange(lead.size)]      # the leading run of large deviations
+    if lead.size >= 2:
+        slope, intercept = np.polyfit(lead, np.log(d[lead]), 1)
+        if slope < 0:
+            k = -slope
+            for j in range(cut, n_per - 1):
+                left = n_per - j
+                bias = np.exp(intercept - k * j) / (1 - np.exp(-k)) / left
+                if bias < 0.1 / np.sqrt(left):
+                    cut = j
+                    break
+            else:
+                cut = max(cut, n_per // 2)
+    return max(cut * period, period, MIN_SETTLE_S)
 
 
 def _block_estimate(block: Block, settle_s: float | None, source: str):

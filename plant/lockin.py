@@ -24,20 +24,22 @@ SUBBLOCKS = 10
 MIN_SETTLE_S = 0.05
 
 
-def _design(t_s: np.ndarray, f_hz: float, harmonics: int) -> np.ndarray:
-    cols = [np.ones_like(t_s)]
+def _design(t_s: np.ndarray, f_hz: float, harmonics: int, offset: bool = True) -> np.ndarray:
+    cols = [np.ones_like(t_s)] if offset else []
     for h in range(1, harmonics + 1):
         wt = 2 * np.pi * h * f_hz * t_s
         cols += [np.cos(wt), np.sin(wt)]
     return np.column_stack(cols)
 
 
-def _phasors(t_s, f_hz, signals, harmonics=1):
+def _phasors(t_s, f_hz, signals, harmonics=1, offset=True):
     """Least-squares complex amplitudes a_h (x ~ Re(a_h e^{j h w t})) of each row of ``signals``,
-    shape (n_signals, harmonics), and the residual RMS of each."""
-    X = _design(t_s, f_hz, harmonics)
+    shape (n_signals, harmonics), and the residual RMS of each (with a constant offset term
+    unless ``offset`` is False)."""
+    X = _design(t_s, f_hz, harmonics, offset)
     coef, *_ = np.linalg.lstsq(X, np.atleast_2d(signals).T, rcond=None)
-    amps = coef[1::2].T - 1j * coef[2::2].T
+    k = 1 if offset else 0
+    amps = coef[k::2].T - 1j * coef[k + 1::2].T
     resid = np.atleast_2d(signals) - (X @ coef).T
     return amps, np.sqrt(np.mean(resid**2, axis=1))
 
@@ -103,10 +105,16 @@ def _block_estimate(block: Block, settle_s: float | None, source: str):
     if abs(amps[0, 0]) == 0:
         raise DataError(f"{source}: block {block.f_hz:g} Hz: the current has no component at {block.f_hz:g} Hz")
     g = amps[1:, 0] / amps[0, 0]
-    # sub-blocks: consecutive equal slices of the kept samples (each >= half a period)
+    # sub-blocks: consecutive equal slices of the kept samples (each >= half a period), fitted
+    # without an offset after removing the block's offset (cos and sin stay orthogonal over
+    # half periods, so short sub-blocks do not inflate the variance)
+    X = _design(t, block.f_hz, 3)
+    coef, *_ = np.linalg.lstsq(X, sig.T, rcond=None)
+    centred = sig - coef[0][:, None]
     k = int(min(SUBBLOCKS, max(2, 2 * n_per)))
     parts = np.array_split(np.arange(t.size), k)
-    sub = np.array([(lambda a: a[1:, 0] / a[0, 0])(_phasors(t[p], block.f_hz, sig[:, p])[0]) for p in parts])
+    sub = np.array([(lambda a: a[1:, 0] / a[0, 0])(_phasors(t[p], block.f_hz, centred[:, p], offset=False)[0])
+                    for p in parts])
     var = np.sum(np.abs(sub - sub.mean(axis=0)) ** 2, axis=0) / (k - 1) / k
     fund = np.abs(amps[1:, 0])
     hd = np.abs(amps[1:, 1:3]) / fund[:, None]

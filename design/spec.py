@@ -31,6 +31,7 @@ from typing import Literal
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
+from design.spec_admittance import AdmittanceSpec
 from plant.effects import EFFECTS, make_effect
 from plant.errors import GantryError, SpecError
 from plant.models import Plant
@@ -168,6 +169,7 @@ class Spec(_Strict):
     controller: ControllerSpec = ControllerSpec()
     requirements: RequirementsSpec = RequirementsSpec()
     objective: ObjectiveSpec = ObjectiveSpec()
+    admittance: AdmittanceSpec | None = None
 
 
 def _key_path(loc) -> str:

@@ -41,6 +41,10 @@ def report(
     kp, ki, source = spec.controller.kp.value, spec.controller.ki.value, "from the spec's controller values"
     if synthesise and any(e in PHASE_LIMITING for e in spec.plant.effects):
         synthesis = synthesise_pi(spec).to_dict()
+        if spec.admittance is not None:
+            from design.cmd_synth import with_admittance
+
+            synthesis = with_admittance(spec, synthesis)
         if synthesis["status"] == "optimal":
             kp, ki = synthesis["gains"]["kp"], synthesis["gains"]["ki"]
             source = "synthesised" + (", independently verified" if synthesis["verified"] else ", NOT verified")

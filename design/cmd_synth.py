@@ -32,7 +32,9 @@ def synth(
     spec = load_spec(spec_file)
     result = synthesise_pi(spec, method=method)
     out = result.to_dict()
-    if report is not None and result.status == "optimal":
+    if spec.admittance is not None:
+        out = with_admittance(spec, out)
+    if report is not None and out["status"] == "optimal":
         from design.report import design_report
 
         design_report(spec, spec_path=spec_file, kp=out["gains"]["kp"], ki=out["gains"]["ki"],
@@ -42,12 +44,31 @@ def synth(
         print_json(out)
     else:
         _print(out)
-        if report is not None and result.status == "optimal":
+        if report is not None and out["status"] == "optimal":
             console.print(f"report written to {report}")
-    if result.status != "optimal":
+    if out["status"] != "optimal":
         if not as_json:
-            console.print(f"[bold red]{result.status}[/]: {result.message}")
+            console.print(f"[bold red]{out['status']}[/]: {out['message']}")
         raise typer.Exit(1)
+
+
+def with_admittance(spec, out: dict) -> dict:
+    """Add the admittance stage (PI gains from the PI stage when optimal, else the spec's values)."""
+    from design.admittance import synthesise_admittance
+
+    kp = out["gains"]["kp"] if out["status"] == "optimal" else spec.controller.kp.value
+    ki = out["gains"]["ki"] if out["status"] == "optimal" else spec.controller.ki.value
+    if kp is None or ki is None:
+        out["admittance"] = {"status": "skipped", "message": "no PI gains (PI synthesis failed and no controller "
+                                                             "values in the spec)", "verified": False}
+        return out
+    adm = synthesise_admittance(spec, kp=kp, ki=ki).to_dict()
+    out = {**out, "admittance": adm, "gains": {**out["gains"], "m_v": adm["m_v"], "b_v": adm["b_v"]}}
+    if adm["status"] != "optimal":
+        out["status"] = "infeasible"
+        out["message"] = f"admittance: {adm['message']}"
+    out["verified"] = bool(out["verified"] and adm["verified"])
+    return out
 
 
 def _print(out: dict) -> None:
@@ -67,6 +88,12 @@ def _print(out: dict) -> None:
             t.add_row(f"{row['payload_kg']:.1f}", f"{row['bandwidth_hz']:.2f}", f"{row['phase_margin_deg']:.2f}",
                       "inf" if gm is None else f"{gm:.2f}")
         console.print(t)
+    adm = out.get("admittance")
+    if adm and adm.get("m_v") is not None:
+        console.print(f"[bold]admittance[/]: m_v = {adm['m_v']:.4g} kg, b_v = {adm['b_v']:.4g} N*s/m; peak "
+                      f"resistance {adm['peak_resistance_n']:.3g} N; rendered bandwidth "
+                      f"{adm['rendered_bandwidth_hz'] or float('nan'):.1f} Hz; interaction PM "
+                      f"{adm['worst_phase_margin_deg']:.1f} deg; binding: {adm['binding']}; verified: {adm['verified']}")
     t = Table(title="Baselines on the same spec")
     for col in ("baseline", "Kp", "Ki", "worst BW Hz", "worst PM deg", "meets"):
         t.add_column(col, justify="left" if col == "baseline" else "right")

@@ -131,20 +131,28 @@ def dense_payloads(spec: Spec) -> np.ndarray:
 
 def evaluate(spec: Spec, kp: float, ki: float, payload_kg=None) -> Evaluation:
     """Exact grid margins and bandwidth of (kp, ki) at every payload (default: the dense grid)."""
+    from design.analysis import analyse_loop
+
     m = dense_payloads(spec) if payload_kg is None else np.asarray(payload_kg, float)
     s = payload_sweep(spec.plant.plant(), kp, ki, m)
     req = spec.requirements
-    pm_slack = s.phase_margin_deg - req.phase_margin_deg
-    gm_slack = np.where(np.isfinite(s.gain_margin_db), s.gain_margin_db - req.gain_margin_db, np.inf)
+    slack = {"phase_margin": s.phase_margin_deg - req.phase_margin_deg,
+             "gain_margin": np.where(np.isfinite(s.gain_margin_db), s.gain_margin_db - req.gain_margin_db, np.inf)}
+    scale = {"phase_margin": max(req.phase_margin_deg, 1.0), "gain_margin": max(req.gain_margin_db, 1.0)}
+    if req.peak_sensitivity is not None or req.disk_margin is not None:
+        margins = analyse_loop(spec.plant.plant().with_payload(m), kp, ki).margins
+        if req.peak_sensitivity is not None:
+            slack["peak_sensitivity"] = req.peak_sensitivity - margins.peak_sensitivity
+            scale["peak_sensitivity"] = req.peak_sensitivity
+        if req.disk_margin is not None:
+            slack["disk_margin"] = margins.disk_margin - req.disk_margin
+            scale["disk_margin"] = req.disk_margin
     bw = np.where(np.isfinite(s.closed_loop_bandwidth_hz), s.closed_loop_bandwidth_hz, 0.0)
-    meets = bool(np.all(pm_slack >= -1e-6) and np.all(gm_slack >= -1e-6) and np.all(bw > 0))
-    i, j = int(np.argmin(pm_slack)), int(np.argmin(gm_slack))
-    # relative slack to compare the two requirements on one scale
-    rel_pm = pm_slack[i] / max(req.phase_margin_deg, 1.0)
-    rel_gm = gm_slack[j] / max(req.gain_margin_db, 1.0)
-    binding = ({"constraint": "phase_margin", "payload_kg": float(m[i]), "slack": float(pm_slack[i])}
-               if rel_pm <= rel_gm else
-               {"constraint": "gain_margin", "payload_kg": float(m[j]), "slack": float(gm_slack[j])})
+    meets = bool(all(np.all(v >= -1e-6) for v in slack.values()) and np.all(bw > 0))
+    # the requirement with the least relative slack binds
+    name = min(slack, key=lambda k: float(np.min(slack[k])) / scale[k])
+    i = int(np.argmin(slack[name]))
+    binding = {"constraint": name, "payload_kg": float(m[i]), "slack": float(slack[name][i])}
     return Evaluation(float(kp), float(ki), m, s.closed_loop_bandwidth_hz, s.phase_margin_deg, s.gain_margin_db, meets,
                       float(np.min(bw)), binding)
 
@@ -189,6 +197,13 @@ def margin_circle(phase_margin_deg: float, gain_margin_db: float) -> tuple[float
     return x0, abs(x0 + 1 / g)
 
 
+def disk_margin_circle(alpha: float) -> tuple[float, float]:
+    """Balanced (skew 0) disk margin >= alpha  <=>  |1/(1+L) - 1/2| <= 1/alpha  <=>  z = 1 + L outside the
+    Apollonius circle |z - 2| = k |z|, k = 2/alpha > 1: centre 2/(1 - k^2) - 1 and radius 2k/(k^2 - 1) in L."""
+    k = 2.0 / alpha
+    return 2.0 / (1 - k**2) - 1.0, 2.0 * k / (k**2 - 1)
+
+
 class _CCP:
     """Tangent-half-plane LP of the circle constraints, built once with cvxpy parameters."""
 
@@ -201,12 +216,18 @@ class _CCP:
         self.a = P.ravel()
         self.b = (P / (1j * w)).ravel()
         self.wrow = np.broadcast_to(w, P.shape).ravel()
-        self.centre, self.radius = margin_circle(spec.requirements.phase_margin_deg, spec.requirements.gain_margin_db)
+        req = spec.requirements
+        self.circles = [margin_circle(req.phase_margin_deg, req.gain_margin_db)]
+        if req.peak_sensitivity is not None:      # |1 + L| >= 1/Ms
+            self.circles.append((-1.0, 1.0 / req.peak_sensitivity))
+        if req.disk_margin is not None:
+            self.circles.append(disk_margin_circle(req.disk_margin))
         n = self.a.size
+        nm = n * len(self.circles)
         self.x = cp.Variable(2)
         self.t = cp.Variable()
-        self.Am = cp.Parameter((n, 2))
-        self.bm = cp.Parameter(n)
+        self.Am = cp.Parameter((nm, 2))
+        self.bm = cp.Parameter(nm)
         self.Ab = cp.Parameter((n, 2))
         self.bb = cp.Parameter(n)
         lo = np.array([c.kp.min, c.ki.min]) / self.scale
@@ -228,7 +249,9 @@ class _CCP:
         active = self.wrow <= w_b
         for _ in range(iterations):
             L0 = self.a * x[0] * self.scale[0] + self.b * x[1] * self.scale[1]
-            Am, bm = self._rows(L0, self.centre, self.radius)
+            # radii 0.3 % larger: a hair inside the requirements, so the design meets them on the dense grid
+            rows = [self._rows(L0, c, 1.003 * r) for c, r in self.circles]
+            Am, bm = np.vstack([r[0] for r in rows]), np.concatenate([r[1] for r in rows])
             Ab, bb = self._rows(L0, 1.0, math.sqrt(2.0))
             Ab[~active] = 0.0
             bb[~active] = -1e3

@@ -116,3 +116,20 @@ def test_bad_spec_names_the_key(tmp_path):
     bad.write_text(SPEC_X.read_text().replace("[objective]", "[objectiv]"))
     out = gantry("synth", bad)
     assert out.returncode == 2 and "objectiv" in out.stderr
+
+
+def test_peak_sensitivity_and_disk_margin_requirements_hold():
+    import tomllib
+
+    from design.analysis import analyse_loop
+    from design.spec import parse_spec
+
+    data = tomllib.loads(SPEC_X.read_text())
+    data["requirements"].update(peak_sensitivity=1.6, disk_margin=0.6)
+    spec = parse_spec(data)
+    res = synthesise_pi(spec)
+    assert res.status == "optimal"
+    m = analyse_loop(spec.plant.plant().with_payload(np.linspace(5, 40, 71)), res.evaluation.kp,
+                     res.evaluation.ki).margins
+    assert np.max(m.peak_sensitivity) <= 1.6 + 1e-3 and np.min(m.disk_margin) >= 0.6 - 1e-3
+    assert res.evaluation.binding["constraint"] in ("peak_sensitivity", "disk_margin")

@@ -30,6 +30,17 @@ def synth(
     from design.synthesis import synthesise_pi
 
     spec = load_spec(spec_file)
+    if spec.plant.measured:
+        from design.data_synthesis import synthesise_from_data
+
+        out = synthesise_from_data(spec, base_dir=spec_file.parent)
+        if as_json:
+            print_json(out)
+        else:
+            _print(out)
+        if out["status"] != "optimal":
+            raise typer.Exit(1)
+        return
     result = synthesise_pi(spec, method=method)
     out = result.to_dict()
     if spec.admittance is not None:

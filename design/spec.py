@@ -77,6 +77,15 @@ class Uncertainty(_Strict):
         return self
 
 
+class MeasuredPlant(_Strict):
+    """A measured stepped-sine recording of the plant at one payload (data-driven design)."""
+
+    payload_kg: float = Field(gt=0, le=1000)
+    file: str
+    #: column map for spreadsheets/TDMS, e.g. "frequency=2,current=3,velocity=6"
+    columns: str | None = None
+
+
 class PlantSpec(_Strict):
     stage: Literal["x", "y"]
     force_constant_n_per_a: float = Field(THESIS["force_constant_n_per_a"].value, gt=0, le=1000)
@@ -87,6 +96,8 @@ class PlantSpec(_Strict):
     effects: dict[str, dict[str, float]] = Field(default_factory=dict)
     #: parameter ranges for Monte Carlo, keyed by parameter name (``damping_n_s_per_m``, ``delay.seconds``)
     uncertainty: dict[str, Uncertainty] = Field(default_factory=dict)
+    #: measured responses, one recording per payload: synthesis then uses the data, not the model
+    measured: list[MeasuredPlant] = Field(default_factory=list)
 
     @field_validator("payload_kg", mode="before")
     @classmethod

@@ -60,20 +60,23 @@ def read_recording(path: str | Path, *, columns: dict[str, list[str]] | None = N
         raise DataError(f"{path}: no such file")
     suffix = path.suffix.lower()
     if suffix == ".csv":
-        table, names, rows = _read_csv(path, columns)
+        table, names, rows, labels = _read_csv(path, columns)
     elif suffix in (".xlsx", ".xlsm"):
-        table, names, rows = _read_xlsx(path, _need_map(path, columns))
+        table, names, rows, labels = _read_xlsx(path, _need_map(path, columns))
     elif suffix == ".tdms":
-        table, names, rows = _read_tdms(path, _need_map(path, columns))
+        table, names, rows, labels = _read_tdms(path, _need_map(path, columns))
     else:
         raise DataError(f"{path}: unknown file type {suffix!r}; expected .csv, .xlsx or .tdms")
+    keys = {"frequency": ["frequency_hz"], "time": ["time_s"], "current": ["current_a"], "velocity": list(names)}
     for role, factor in (scale or {}).items():
-        if role not in ROLES or not math.isfinite(factor) or factor == 0:
+        if role not in ROLES or isinstance(factor, bool) or not isinstance(factor, (int, float)) \
+                or not math.isfinite(factor) or factor == 0:
             raise DataError(f"scale {role}={factor!r}: role must be one of {', '.join(ROLES)} and the factor "
-                            "finite and non-zero")
-        for key in [k for k in table if k == role or (role == "velocity" and k.startswith("velocity"))]:
-            table[key] = table[key] * factor
-    return _blocks(path, table, names, rows, sample_rate_hz)
+                            "a finite non-zero number")
+        for key in keys[role]:
+            if key in table:
+                table[key] = table[key] * factor
+    return _blocks(path, table, names, rows, sample_rate_hz, labels)
 
 
 def _need_map(path: Path, columns):
@@ -84,8 +87,9 @@ def _need_map(path: Path, columns):
 
 
 def _read_csv(path: Path, columns):
-    """Columns by header name: frequency_hz, time_s, current_a, velocity* (or a column map of names)."""
-    with path.open(newline="") as fh:
+    """Columns by header name: frequency_hz, time_s, current_a, velocity* (or a column map of names).
+    A UTF-8 byte-order mark (spreadsheet exports) is ignored."""
+    with path.open(newline="", encoding="utf-8-sig") as fh:
         reader = csv.reader(fh)
         try:
             header = [h.strip() for h in next(reader)]
@@ -107,15 +111,17 @@ def _read_csv(path: Path, columns):
             raise DataError(f"{path}: missing column {col!r} (header: {', '.join(header)})")
     keys = [*wanted.items(), *((o, o) for o in outs)]
     cols = [header.index(col) for _, col in keys]
+    labels = {key: f"column {col!r}" for key, col in keys}
     try:  # fast path; on failure the slow path below names the bad cell
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", UserWarning)  # "no data": reported below with the file name
             data = np.loadtxt(path, delimiter=",", skiprows=1, usecols=cols, ndmin=2)
         if data.shape[0]:
-            return {key: data[:, k] for k, (key, _) in enumerate(keys)}, tuple(outs), np.arange(2, data.shape[0] + 2)
+            return ({key: data[:, k] for k, (key, _) in enumerate(keys)}, tuple(outs), np.arange(2, data.shape[0] + 2),
+                    labels)
     except ValueError:
         pass
-    with path.open(newline="") as fh:
+    with path.open(newline="", encoding="utf-8-sig") as fh:
         raw = list(csv.reader(fh))[1:]
     if not raw:
         raise DataError(f"{path}: no data rows below the header")
@@ -129,7 +135,7 @@ def _read_csv(path: Path, columns):
                 cell = row[j] if j < len(row) else "<missing>"
                 raise DataError(f"{path}: row {i + 2}, column {col!r}: {cell!r} is not a number") from None
         table[key] = values
-    return table, tuple(outs), np.arange(2, len(raw) + 2)
+    return table, tuple(outs), np.arange(2, len(raw) + 2), labels
 
 
 def _read_xlsx(path: Path, columns):
@@ -152,8 +158,7 @@ def _read_xlsx(path: Path, columns):
 
 
 def _table_from_rows(path, rows, index, *, first_row):
-    table = {}
-    outs = []
+    table, outs, labels = {}, [], {}
     for role, cols in index.items():
         for k, j in enumerate(cols):
             key = {"frequency": "frequency_hz", "time": "time_s", "current": "current_a"}.get(role)
@@ -169,9 +174,10 @@ def _table_from_rows(path, rows, index, *, first_row):
                     raise DataError(f"{path}: row {i + first_row}, column {j + 1} ({role}): {cell!r} is not a "
                                     "number") from None
             table[key] = values
+            labels[key] = f"column {j + 1} ({role})"
     if not rows:
         raise DataError(f"{path}: the sheet is empty")
-    return table, tuple(outs), np.arange(first_row, len(rows) + first_row)
+    return table, tuple(outs), np.arange(first_row, len(rows) + first_row), labels
 
 
 def _read_tdms(path: Path, columns):
@@ -182,7 +188,7 @@ def _read_tdms(path: Path, columns):
     except Exception as exc:  # npTDMS raises many types for a bad file
         raise DataError(f"{path}: cannot read the TDMS file ({exc})") from None
     channels = {ch.name: ch for group in tdms.groups() for ch in group.channels()}
-    table, outs = {}, []
+    table, outs, labels = {}, [], {}
     n = None
     for role, names in columns.items():
         for k, name in enumerate(names):
@@ -197,23 +203,28 @@ def _read_tdms(path: Path, columns):
                 key = f"velocity_{name}" if len(names) > 1 else "velocity_m_per_s"
                 outs.append(key)
             table[key] = values
-    return table, tuple(outs), np.arange(1, (n or 0) + 1)
+            labels[key] = f"channel {name!r} ({role})"
+    return table, tuple(outs), np.arange(1, (n or 0) + 1), labels
 
 
-def _blocks(path: Path, table, outs, rows, sample_rate_hz) -> Recording:
-    """Split rows into frequency blocks and validate them."""
+def _blocks(path: Path, table, outs, rows, sample_rate_hz, labels) -> Recording:
+    """Split rows into frequency blocks and validate them; ``labels`` names each table key's column
+    as the file does (header name, spreadsheet column number or TDMS channel)."""
     where = str(path)
-    for key, values in table.items():
-        bad = ~np.isfinite(values)
-        if bad.any():
-            raise DataError(f"{where}: row {rows[bad.argmax()]}, column {key!r}: NaN or infinite sample")
-    f = table["frequency_hz"]
-    if np.any(f <= 0):
-        i = int(np.argmax(f <= 0))
-        raise DataError(f"{where}: row {rows[i]}, column 'frequency_hz': frequency must be positive, got {f[i]:g}")
+    if rows.size == 0:
+        raise DataError(f"{where}: no data rows (the columns are empty)")
     if "time_s" not in table:
         if sample_rate_hz is None or not sample_rate_hz > 0:
             raise DataError(f"{where}: no time column; give the sample rate (--sample-rate-hz)")
+    for key, values in table.items():
+        bad = ~np.isfinite(values)
+        if bad.any():
+            raise DataError(f"{where}: row {rows[bad.argmax()]}, {labels[key]}: NaN or infinite sample")
+    f = table["frequency_hz"]
+    if np.any(f <= 0):
+        i = int(np.argmax(f <= 0))
+        raise DataError(f"{where}: row {rows[i]}, {labels['frequency_hz']}: frequency must be positive, "
+                        f"got {f[i]:g}")
     starts = np.flatnonzero(np.r_[True, f[1:] != f[:-1]])
     ends = np.r_[starts[1:], f.size]
     seen: dict[float, int] = {}
@@ -229,20 +240,21 @@ def _blocks(path: Path, table, outs, rows, sample_rate_hz) -> Recording:
         d = np.diff(t)
         if np.any(d <= 0):
             i = int(np.argmax(d <= 0)) + 1
-            raise DataError(f"{label}: row {rows[a + i]}, column 'time_s': time must increase within a block "
+            raise DataError(f"{label}: row {rows[a + i]}, {labels['time_s']}: time must increase within a block "
                             f"({t[i - 1]:g} s then {t[i]:g} s)")
         if t.size < 2:
             raise DataError(f"{label}: a block needs at least two samples")
         fs = 1.0 / float(np.median(d))
-        if fs / fb < MIN_SAMPLES_PER_PERIOD:
+        if fs / fb < MIN_SAMPLES_PER_PERIOD * (1 - 1e-6):     # tolerance: times read from text are rounded
             raise DataError(f"{label}: {fs / fb:.2f} samples per period; at least {MIN_SAMPLES_PER_PERIOD} are "
                             f"needed (sample rate {fs:g} Hz is too low for {fb:g} Hz)")
-        if (t[-1] - t[0]) * fb < MIN_PERIODS + 1:
+        if (t[-1] - t[0]) * fb < (MIN_PERIODS + 1) * (1 - 1e-6):
             raise DataError(f"{label}: {(t[-1] - t[0]) * fb:.2f} periods recorded; at least {MIN_PERIODS} whole "
                             "periods are needed after settling (record longer)")
         i = table["current_a"][a:b]
         if np.ptp(i) <= 1e-12 * max(1.0, float(np.max(np.abs(i)))):
-            raise DataError(f"{label}, column 'current_a': the current is {'zero' if not np.any(i) else 'constant'}; "
+            raise DataError(f"{label}, {labels['current_a']}: the current is "
+                            f"{'zero' if not np.any(i) else 'constant'}; "
                             "a stepped-sine block needs a sinusoidal current")
         vel = np.vstack([table[o][a:b] for o in outs])
         blocks.append(Block(fb, t - t[0], i, vel))

@@ -6,9 +6,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from design.loops import closed_loop_frd, open_loop_frd, plant_frd
-from design.margins import Margins, closed_loop_bandwidth_hz, loop_margins
-from plant.grid import log_grid_rad_s
+from design.loops import open_loop_frd, plant_frd
+from design.margins import Margins, first_drop_hz, loop_margins
+from plant.grid import check_grid, log_grid_rad_s
 from plant.models import Plant
 
 #: default analysis grid: 1 mHz to 10 kHz, 3000 log-spaced points (~430 per decade)
@@ -28,12 +28,15 @@ class LoopAnalysis:
 
 def analyse_loop(plant, kp, ki, *, w_rad_s=ANALYSIS_GRID_RAD_S) -> LoopAnalysis:
     """Analyse the loop for a ``Plant`` (possibly a payload batch) or a measured response array."""
-    P = plant_frd(plant, w_rad_s)
-    L = open_loop_frd(P, w_rad_s, kp, ki)
-    margins = loop_margins(w_rad_s, L)
-    dc = 1.0 if np.all(np.asarray(ki) > 0) else None
-    bw = closed_loop_bandwidth_hz(w_rad_s, closed_loop_frd(L), dc_gain=dc)
-    corner = closed_loop_bandwidth_hz(w_rad_s, P)
+    w = check_grid(w_rad_s)
+    P = plant_frd(plant, w)
+    L = open_loop_frd(P, w, kp, ki)
+    margins = loop_margins(w, L)
+    dc2 = 1.0 if np.all(np.asarray(ki) > 0) else None
+    # |T|^2 = |L|^2 / |1 + L|^2 of T = L / (1 + L) (Eq. 3.19/3.20), in real arithmetic
+    T2 = (L.real**2 + L.imag**2) / ((1.0 + L.real) ** 2 + L.imag**2)
+    bw = first_drop_hz(w, T2, dc2)
+    corner = first_drop_hz(w, P.real**2 + P.imag**2)
     return LoopAnalysis(margins, bw, corner)
 
 

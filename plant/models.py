@@ -178,32 +178,46 @@ class Plant:
         v_amp = (-b_e * c + np.sqrt(np.maximum(disc, 0.0))) / a2
         return friction.describing_damping(v_amp)
 
+    def _rigid_frd(self, w, series, n_fric) -> np.ndarray:
+        """Eq. 3.15 / 3.16 (with the friction damping ``n_fric``) times the series effects."""
+        m_e, b_e = self._effective_mass_damping()
+        kt = np.asarray(self.force_constant_n_per_a, float)
+        if np.ndim(n_fric) == 0 and n_fric == 0:
+            return kt / (m_e * (1j * w) + b_e) * series
+        stuck = np.isinf(n_fric)
+        with np.errstate(invalid="ignore"):
+            mech = kt / (m_e * (1j * w) + b_e + np.where(stuck, 0.0, n_fric))
+        return np.where(stuck, 0.0, mech) * series
+
     def frd_outputs(self, w_rad_s) -> np.ndarray:
         """Velocity per current at each output, shape (..., n_outputs, n_freq) (m/s per A)."""
         w = check_grid(w_rad_s)
-        s = 1j * w
         series = self.series_frd(w)
         n_fric = self._friction_damping(w, series)
-        kt = np.asarray(self.force_constant_n_per_a, float)
         tilt = self.effect("tilt_coupling")
         if tilt is None:
-            m_e, b_e = self._effective_mass_damping()
-            with np.errstate(invalid="ignore"):
-                mech = np.where(np.isinf(n_fric), 0.0, kt / (m_e * s + b_e + np.where(np.isinf(n_fric), 0, n_fric)))
-            resp = (mech * series)[..., None, :]
+            resp = self._rigid_frd(w, series, n_fric)[..., None, :]
             return np.repeat(resp, len(self.output_names), axis=-2)
         assert isinstance(tilt, TiltCoupling)
-        b = np.asarray(self.damping_n_s_per_m, float) + np.where(np.isinf(n_fric), 0, n_fric) / 2
+        kt = np.asarray(self.force_constant_n_per_a, float)
+        stuck = np.isinf(n_fric)
+        b = np.asarray(self.damping_n_s_per_m, float) + np.where(stuck, 0, n_fric) / 2
         l1 = self.load_position_m
         h = xie_wang_frd(w, mass_kg=self.mass_kg, inertia_kg_m2=tilt.inertia_kg_m2, damping1_n_s_per_m=b,
                          damping2_n_s_per_m=b, l1_m=l1, l2_m=self.motor_length_m - l1,
                          joint_stiffness_n_m_per_rad=tilt.stiffness_n_m_per_rad)
         # both motors carry half the total current: f1 = f2 = K_t i / 2
         v = (h[..., :, 0, :] + h[..., :, 1, :]) * (kt[..., None] if kt.ndim else kt) / 2
-        return v * series[..., None, :] if series.ndim else v * series
+        v = v * series[..., None, :] if series.ndim else v * series
+        # friction that sticks at this excitation holds both rails
+        return np.where(stuck[..., None, :], 0.0, v) if np.ndim(stuck) else (0.0 * v if stuck else v)
 
     def frd(self, w_rad_s) -> np.ndarray:
         """Velocity per current (m/s per A), shape (..., n_freq); Stage Y: mean of the rails Y1, Y2."""
+        if self.effect("tilt_coupling") is None:  # the outputs coincide: skip the per-output copies
+            w = check_grid(w_rad_s)
+            series = self.series_frd(w)
+            return self._rigid_frd(w, series, self._friction_damping(w, series))
         return self.frd_outputs(w_rad_s).mean(axis=-2)
 
     # --- python-control interoperability ---------------------------------------

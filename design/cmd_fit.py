@@ -58,10 +58,15 @@ def fit(
         rat = fit_rational(measured.w_rad_s, measured.response.mean(axis=0), n_poles=n_poles, n_zeros=n_zeros,
                            weights=thesis_weights(measured.f_hz))
     if as_json:
-        out = {"parameters": {n: {"value": result.values[n], "stderr": finite_or_none(result.stderr[n])}
+        units = {n: p.unit for n, p in result.plant.parameters().items()}
+        out = {"parameters": {n: {"value": result.values[n], "stderr": finite_or_none(result.stderr[n]),
+                                  "stderr_scaled": finite_or_none(result.stderr_scaled[n]), "unit": units[n]}
                               for n in result.free},
                "fixed": {n: v for n, v in result.values.items() if n not in result.free},
                "reduced_chi2": finite_or_none(result.reduced_chi2), "aic": result.aic, "bic": result.bic,
+               "chi2": result.chi2, "dof": result.dof, "n_data": result.n_data,
+               "correlation": {"names": list(result.free),
+                               "matrix": [[finite_or_none(c) for c in row] for row in result.correlation]},
                "flags": list(result.flags), "effects": list(result.plant.effect_names)}
         if rat is not None:
             out["rational"] = {"num": rat.num.tolist(), "den": rat.den.tolist(), "fit_percent": rat.fit_percent}

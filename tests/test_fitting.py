@@ -310,3 +310,44 @@ def test_calibration_two_sigma_coverage_pipeline_thesis_protocol(truth, model, a
                                            sample_rate_hz=2000.0, current_amplitude_a=amp)
     assert min(coverage.values()) >= 0.90, coverage
     assert 0.9 < reduced < 1.3, reduced
+
+
+# --- gantry fit (CLI) ------------------------------------------------------------------------------
+def _gantry(*args):
+    import subprocess
+    import sys
+
+    return subprocess.run([sys.executable, "-m", "design", *map(str, args)], capture_output=True, text=True)
+
+
+@pytest.fixture(scope="module")
+def small_recording(tmp_path_factory):
+    from plant.recording import write_recording_csv
+    from plant.simulate import simulate_stepped_sine
+
+    path = tmp_path_factory.mktemp("fit") / "rec.csv"
+    rec = simulate_stepped_sine(stage_x(mass_kg=40.0) * Delay(1e-3), f_hz=np.linspace(2.0, 75.0, 8),
+                                current_amplitude_a=0.5, duration_s=2.0, sample_rate_hz=500.0,
+                                velocity_noise_m_per_s=1e-3, current_noise_a=5e-3, seed=1)
+    write_recording_csv(rec, path)
+    return path
+
+
+def test_cli_unknown_effect_is_named(small_recording):
+    out = _gantry("fit", small_recording, "--stage", "x", "--effects", "delay,backlash")
+    assert out.returncode == 2
+    assert "'backlash'" in out.stderr and out.stderr.count("\n") == 1
+
+
+def test_cli_json_contract(small_recording):
+    import json
+
+    out = _gantry("fit", small_recording, "--stage", "x", "--effects", "delay", "--json")
+    assert out.returncode == 0, out.stderr
+    res = json.loads(out.stdout)
+    assert set(res["parameters"]) == {"mass_kg", "damping_n_s_per_m", "delay.seconds"}
+    for p in res["parameters"].values():
+        assert set(p) >= {"value", "stderr"} and p["stderr"] > 0
+    assert res["dof"] == 2 * 8 - 3 and isinstance(res["flags"], list)
+    assert res["aic"] == pytest.approx(res["chi2"] + 2 * 3)      # -2 ln L + 2k
+    assert res["correlation"]["names"] == list(res["parameters"])

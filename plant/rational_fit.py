@@ -91,10 +91,12 @@ def _check_weights(weights, w: np.ndarray) -> np.ndarray:
     arr = np.asarray(weights, dtype=float)
     if arr.shape != w.shape:
         raise ParameterError(f"weights must have one value per frequency ({w.size}), got shape {arr.shape}")
-    if not np.all(np.isfinite(arr)) or np.any(arr < 0) or not np.any(arr > 0):
-        i = int(np.argmax(~np.isfinite(arr) | (arr < 0))) if not np.all(np.isfinite(arr) & (arr >= 0)) else 0
-        raise ParameterError(f"weights must be finite and non-negative with at least one positive; "
-                             f"element {i} is {arr[i]!r}")
+    bad = ~np.isfinite(arr) | (arr < 0)
+    if bad.any():
+        i = int(np.argmax(bad))
+        raise ParameterError(f"weights must be finite and non-negative; element {i} is {float(arr[i])!r}")
+    if not np.any(arr > 0):
+        raise ParameterError("weights are all zero")
     return arr
 
 

@@ -94,6 +94,8 @@ def test_rational_zero_weight_ignores_corrupted_band():
     ({"n_poles": 1, "n_zeros": 2}, ParameterError, "n_zeros"),
     ({"n_poles": 2, "n_zeros": 1, "weights": np.ones(3)}, ParameterError, "one value per frequency"),
     ({"n_poles": 2, "n_zeros": 1, "weights": "matlab"}, ParameterError, "'matlab'"),
+    ({"n_poles": 2, "n_zeros": 1, "weights": np.r_[np.ones(49), -1.0]}, ParameterError, "element 49 is -1.0"),
+    ({"n_poles": 2, "n_zeros": 1, "weights": np.zeros(50)}, ParameterError, "all zero"),
 ])
 def test_rational_bad_arguments(kwargs, error, words):
     with pytest.raises(error, match=words):

@@ -145,7 +145,7 @@ def test_data_driven_synthesis_matches_the_model_based_circle_design(tmp_path):
     rows = []
     for m in (5.0, 20.0, 40.0):
         truth = stage_x(mass_kg=m) * Delay(0.0005) * CurrentLoop(1000.0)
-        rec = simulate_stepped_sine(truth, f_hz=np.geomspace(5, 450, 40), current_amplitude_a=0.5, duration_s=1.0,
+        rec = simulate_stepped_sine(truth, f_hz=np.geomspace(8, 450, 40), current_amplitude_a=0.5, duration_s=1.5,
                                     sample_rate_hz=4000.0, noise_fraction=0.01, seed=int(m))
         write_recording_csv(rec, tmp_path / f"x{m:g}.csv")
         rows.append(f'  {{ payload_kg = {m}, file = "x{m:g}.csv" }},')

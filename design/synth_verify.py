@@ -1,0 +1,108 @@
+"""Independent verification of PI gains with python-control at every dense payload.
+
+Nothing here reuses the synthesis' own margin code: the plant is turned into a rational model
+(``Plant.to_control``, Pade for delays), the loop closed with ``control.feedback``, and
+
+* the closed-loop poles must lie in the open left half-plane,
+* ``control.stability_margins`` must give PM and GM at or above the requirements,
+* ``control.bandwidth(T, dbdrop=-3.01 dB)`` must agree with the bandwidth the synthesis
+  claims at that payload (within ``BANDWIDTH_RTOL``), so the reported objective is checked too,
+* when the spec asks for them, the peak sensitivity max|S| and the balanced disk margin
+  1 / max|S - 1/2| (Seiler, Packard & Gahinet 2020) from ``control.frequency_response`` of S.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from design.spec import Spec, finite_or_none
+
+#: margins may fall short of the requirement by this much (deg, dB) and still pass (rounding)
+MARGIN_TOLERANCE = 0.05
+#: claimed and python-control bandwidths must agree to this relative tolerance
+BANDWIDTH_RTOL = 0.01
+#: frequency grid for Ms / disk margin (rad/s): 1 mHz - 10 kHz, 4000 points
+_W_SENSITIVITY = 2 * np.pi * np.logspace(-3, 4, 4000)
+
+
+@dataclass(frozen=True)
+class Verification:
+    """Independent check with python-control at every dense payload."""
+
+    verified: bool
+    n_payloads: int
+    max_pole_real_part: float
+    min_phase_margin_deg: float
+    min_gain_margin_db: float
+    min_bandwidth_hz: float
+    #: largest |claimed - python-control| / python-control bandwidth over the payloads
+    max_bandwidth_rel_error: float
+    failures: tuple[str, ...]
+    pade_order: int
+
+    def to_dict(self) -> dict:
+        return {"payloads": self.n_payloads, "max_closed_loop_pole_real_part": finite_or_none(self.max_pole_real_part),
+                "min_phase_margin_deg": finite_or_none(self.min_phase_margin_deg),
+                "min_gain_margin_db": finite_or_none(self.min_gain_margin_db),
+                "min_bandwidth_hz": finite_or_none(self.min_bandwidth_hz),
+                "max_bandwidth_rel_error": finite_or_none(self.max_bandwidth_rel_error),
+                "failures": list(self.failures),
+                "tool": f"python-control (Pade order {self.pade_order}): poles of feedback(L, 1), "
+                        "stability_margins, bandwidth"}
+
+
+def verify(spec: Spec, kp: float, ki: float, *, payload_kg=None, claimed_bandwidth_hz=None,
+           pade_order: int = 6) -> Verification:
+    """python-control check of (kp, ki) at ``payload_kg`` (default: the dense payloads of
+    ``design.synthesis.dense_payloads``); ``claimed_bandwidth_hz`` (same shape) is compared
+    with ``control.bandwidth``."""
+    import control
+
+    from design.synthesis import dense_payloads
+
+    req = spec.requirements
+    payloads = dense_payloads(spec) if payload_kg is None else np.atleast_1d(np.asarray(payload_kg, float))
+    claimed = None if claimed_bandwidth_hz is None else np.atleast_1d(np.asarray(claimed_bandwidth_hz, float))
+    plant = spec.plant.plant()
+    C = control.tf([kp, ki], [1.0, 0.0])
+    failures: list[str] = []
+    max_re, pms, gms, bws, errs = -math.inf, [], [], [], [0.0]
+    for k, m in enumerate(payloads):
+        L = plant.with_payload(float(m)).to_control(pade_order=pade_order) * C
+        T = control.feedback(L, 1)
+        re = float(np.max(np.real(control.poles(T))))
+        max_re = max(max_re, re)
+        gm, pm, _, _, _, _ = control.stability_margins(L)
+        gm_db = 20 * math.log10(gm) if np.isfinite(gm) and gm > 0 else math.inf
+        pm = float(pm) if np.isfinite(pm) else math.inf
+        pms.append(pm)
+        gms.append(gm_db)
+        if re >= 0:
+            failures.append(f"unstable closed loop at {m:.1f} kg (pole real part {re:.3g})")
+            bws.append(math.nan)
+            continue
+        bw = float(control.bandwidth(T, dbdrop=-20 * math.log10(math.sqrt(2)))) / (2 * math.pi)
+        bws.append(bw)
+        if pm < req.phase_margin_deg - MARGIN_TOLERANCE:
+            failures.append(f"phase margin {pm:.2f} deg < {req.phase_margin_deg:g} at {m:.1f} kg")
+        if gm_db < req.gain_margin_db - MARGIN_TOLERANCE:
+            failures.append(f"gain margin {gm_db:.2f} dB < {req.gain_margin_db:g} at {m:.1f} kg")
+        if claimed is not None:
+            err = abs(claimed[k] - bw) / bw if np.isfinite(claimed[k]) and np.isfinite(bw) else math.inf
+            errs.append(err)
+            if err > BANDWIDTH_RTOL:
+                failures.append(f"claimed bandwidth {claimed[k]:.3f} Hz differs from python-control's {bw:.3f} Hz "
+                                f"at {m:.1f} kg")
+        if req.peak_sensitivity is not None or req.disk_margin is not None:
+            S = control.frequency_response(control.feedback(1, L), _W_SENSITIVITY).complex.ravel()
+            ms, alpha = float(np.max(np.abs(S))), float(1.0 / np.max(np.abs(S - 0.5)))
+            if req.peak_sensitivity is not None and ms > req.peak_sensitivity * 1.001:
+                failures.append(f"peak sensitivity {ms:.3f} > {req.peak_sensitivity:g} at {m:.1f} kg")
+            if req.disk_margin is not None and alpha < req.disk_margin * 0.999:
+                failures.append(f"disk margin {alpha:.3f} < {req.disk_margin:g} at {m:.1f} kg")
+    return Verification(not failures, len(payloads), max_re, float(np.min(pms)), float(np.min(gms)),
+                        float(np.nanmin(bws)) if np.any(np.isfinite(bws)) else math.nan, float(max(errs)),
+                        tuple(failures), pade_order)

@@ -11,6 +11,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from plant.errors import DataError
+
 if TYPE_CHECKING:
     import control
 
@@ -45,5 +47,14 @@ class MeasuredResponse:
         """python-control ``FrequencyResponseData`` of one output (index or name)."""
         import control
 
-        k = self.output_names.index(output) if isinstance(output, str) else output
+        names = self.output_names
+        if isinstance(output, str):
+            if output not in names:
+                raise DataError(f"{self.source}: no output {output!r}; outputs: {', '.join(names)}")
+            k = names.index(output)
+        else:
+            k = int(output)
+            if not 0 <= k < len(names):
+                raise DataError(f"{self.source}: output index {output} out of range 0..{len(names) - 1} "
+                                f"({', '.join(names)})")
         return control.frd(self.response[k], self.w_rad_s)

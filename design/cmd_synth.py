@@ -1,7 +1,9 @@
 """``gantry synth``: robust PI gains by optimisation from a spec file, independently verified.
 
-Exit status: 0 for a verified optimal design, 1 when the problem is unbounded or infeasible
-(the output explains why), 2 for bad input.
+Exit status: 0 for a verified optimal design; 1 when there is no such design: the problem is
+unbounded (nothing in the plant limits the bandwidth), infeasible (no gains meet the
+requirements; the binding requirement and payload are named), or the design failed the
+independent check (the output explains which); 2 for bad input (spec errors name the key).
 """
 
 from __future__ import annotations
@@ -24,6 +26,8 @@ def synth(
     report: Annotated[Optional[Path], typer.Option(help="Also write the HTML design report here.")] = None,
     method: Annotated[str, typer.Option(help="ccp (cvxpy + Clarabel) or ccp+exact (then casadi + IPOPT).")]
     = "ccp+exact",
+    schedule: Annotated[bool, typer.Option("--schedule", help="Also per-payload gains (a gain schedule) and the "
+                                                              "bandwidth they gain.")] = False,
 ) -> None:
     """Synthesise PI gains maximising worst-case bandwidth under margin constraints over the payload range."""
     from design.spec import load_spec
@@ -43,6 +47,10 @@ def synth(
         return
     result = synthesise_pi(spec, method=method)
     out = result.to_dict()
+    if schedule and out["status"] == "optimal":
+        from design.synth_schedule import gain_schedule, schedule_summary
+
+        out["schedule"] = schedule_summary(gain_schedule(spec, out["gains"]["kp"], out["gains"]["ki"]))
     if spec.admittance is not None:
         out = with_admittance(spec, out)
     if report is not None and out["status"] == "optimal":
@@ -85,19 +93,36 @@ def with_admittance(spec, out: dict) -> dict:
 def _print(out: dict) -> None:
     console.print(f"[bold]status[/]: {out['status']} ({out['message']}); verified: {out['verified']}")
     g = out["gains"]
-    if g["kp"] is not None:
-        wc = out["worst_case"]
+    wc = out["worst_case"]
+    if g["kp"] is not None and wc is not None:
+        b = out["binding"]
+        where = "" if b["payload_kg"] is None else f" at {b['payload_kg']:.1f} kg"
         console.print(f"[bold]gains[/]: Kp = {g['kp']:.4g} A/(m/s), Ki = {g['ki']:.4g} A/m; worst case: "
                       f"bandwidth {wc['bandwidth_hz']:.2f} Hz, PM {wc['phase_margin_deg']:.2f} deg, GM "
-                      f"{wc['gain_margin_db']:.2f} dB; binding: {out['binding']['constraint']} at "
-                      f"{out['binding']['payload_kg']:.1f} kg")
-        t = Table(title="Per payload (dense check)")
+                      f"{_num(wc['gain_margin_db'])} dB; binding: {b['constraint']}{where}")
+        rows = out["per_payload"]
+        t = Table(title=f"Per payload (dense check, {len(rows)} payloads; every {max(len(rows) // 8, 1)}th shown)")
         for col in ("payload kg", "bandwidth Hz", "PM deg", "GM dB"):
             t.add_column(col, justify="right")
-        for row in out["per_payload"][::7] + out["per_payload"][-1:]:
-            gm = row["gain_margin_db"]
+        for row in rows[::max(len(rows) // 8, 1)] + ([rows[-1]] if (len(rows) - 1) % max(len(rows) // 8, 1) else []):
             t.add_row(f"{row['payload_kg']:.1f}", f"{row['bandwidth_hz']:.2f}", f"{row['phase_margin_deg']:.2f}",
-                      "inf" if gm is None else f"{gm:.2f}")
+                      _num(row["gain_margin_db"]))
+        console.print(t)
+    v = out.get("verification")
+    if v:
+        console.print(f"[bold]independent check[/] ({v['tool']}) at {v['payloads']} payloads: max pole real part "
+                      f"{_num(v['max_closed_loop_pole_real_part'], '.3g')} 1/s, min PM {_num(v['min_phase_margin_deg'])}"
+                      f" deg, min GM {_num(v['min_gain_margin_db'])} dB, bandwidth agreement "
+                      f"{_num(v['max_bandwidth_rel_error'], '.1e')}; failures: {len(v['failures'])}")
+    sch = out.get("schedule")
+    if sch:
+        t = Table(title=f"Gain schedule (verified at its points: {sch['verified']})")
+        for col in ("payload kg", "Kp", "Ki", "bandwidth Hz", "robust gains Hz", "gain", "PM deg", "GM dB"):
+            t.add_column(col, justify="right")
+        for p in sch["points"]:
+            t.add_row(f"{p['payload_kg']:.1f}", f"{p['kp']:.4g}", f"{p['ki']:.4g}", _num(p["bandwidth_hz"]),
+                      _num(p["robust_bandwidth_hz"]), f"x{_num(p['bandwidth_gain'])}", _num(p["phase_margin_deg"]),
+                      _num(p["gain_margin_db"]))
         console.print(t)
     adm = out.get("admittance")
     if adm and adm.get("m_v") is not None:
@@ -106,10 +131,18 @@ def _print(out: dict) -> None:
                       f"{adm['rendered_bandwidth_hz'] or float('nan'):.1f} Hz; interaction PM "
                       f"{adm['worst_phase_margin_deg']:.1f} deg; binding: {adm['binding']}; verified: {adm['verified']}")
     t = Table(title="Baselines on the same spec")
-    for col in ("baseline", "Kp", "Ki", "worst BW Hz", "worst PM deg", "meets"):
+    for col in ("baseline", "Kp", "Ki", "worst BW Hz", "worst PM deg", "worst GM dB", "meets"):
         t.add_column(col, justify="left" if col == "baseline" else "right")
     for b in out["baselines"]:
-        t.add_row(b["name"], f"{b['kp']:.4g}", f"{b['ki']:.4g}", f"{b['worst_bandwidth_hz'] or 0:.2f}",
-                  f"{b['worst_phase_margin_deg'] or 0:.1f}", "yes" if b["meets_requirements"] else "NO")
+        t.add_row(b["name"].split(" (")[0], f"{b['kp']:.4g}", f"{b['ki']:.4g}",
+                  _num(b["worst_bandwidth_hz"]) if b.get("stable", True) else "unstable",
+                  _num(b["worst_phase_margin_deg"], ".1f"), _num(b["worst_gain_margin_db"], ".1f"),
+                  "yes" if b["meets_requirements"] else "NO")
     console.print(t)
-    console.print(f"solver: {out['solver']['method']}, {out['solver']['seconds']:.2f} s")
+    s = out["solver"]
+    console.print(f"solver: {s['method']}, {s['seconds']:.2f} s" + (f" ({s['cpu_seconds']:.2f} s CPU)"
+                                                                    if "cpu_seconds" in s else ""))
+
+
+def _num(x, fmt: str = ".2f") -> str:
+    return "inf" if x is None else format(x, fmt)

@@ -67,7 +67,7 @@ def verify(spec: Spec, kp: float, ki: float, *, payload_kg=None, claimed_bandwid
     payloads = dense_payloads(spec) if payload_kg is None else np.atleast_1d(np.asarray(payload_kg, float))
     claimed = None if claimed_bandwidth_hz is None else np.atleast_1d(np.asarray(claimed_bandwidth_hz, float))
     plant = spec.plant.plant()
-    C = control.tf([kp, ki], [1.0, 0.0])
+    C = control.tf([kp, ki], [1.0, 0.0]) if ki > 0 else control.tf([kp], [1.0])   # no s/s without integral
     failures: list[str] = []
     max_re, pms, gms, bws, errs = -math.inf, [], [], [], [0.0]
     for k, m in enumerate(payloads):

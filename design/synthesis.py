@@ -40,7 +40,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from design.fast_analysis import fast_analyse_loop
+from design.fast_analysis import F_LOW_HZ, fast_analyse_loop
 from design.margins import closed_loop_bandwidth_hz, loop_margins
 from design.spec import Spec, finite_or_none
 from design.synth_verify import Verification, verify
@@ -52,8 +52,8 @@ from plant.models import Plant
 PHASE_LIMITING = ("delay", "current_loop", "sampling", "resonance")
 UNSUPPORTED = ("coulomb_friction", "tilt_coupling")
 DENSE_PAYLOADS = 50
-#: constraint grid of the scan and the optimisation: 10 mHz - 10 kHz, 40 points per decade
-W_OPT = log_grid_rad_s(0.01, 1.0e4, 241)
+#: constraint grid of the scan and the optimisation: 1 mHz - 10 kHz, 40 points per decade
+W_OPT = log_grid_rad_s(1e-3, 1.0e4, 281)
 THESIS_GAINS = (236.0, 47.0)
 #: the solvers aim this far inside the requirements (deg, dB) so the design meets them on the checks
 MARGIN_HAIR = 0.01
@@ -112,7 +112,8 @@ def evaluate(spec: Spec, kp: float, ki: float, payload_kg=None) -> Evaluation:
     plant = spec.plant.plant().with_payload(m)
     n = fast_analyse_loop(plant, kp, ki)
     req = spec.requirements
-    bw = np.where(np.isfinite(n.closed_loop_bandwidth_hz), n.closed_loop_bandwidth_hz, 0.0)
+    # a bandwidth at the grid's lowest frequency is below the grid: unknown, counted as 0
+    bw = np.where(n.closed_loop_bandwidth_hz > 1.01 * F_LOW_HZ, n.closed_loop_bandwidth_hz, 0.0)
     slack = {"phase_margin": n.phase_margin_deg - req.phase_margin_deg,
              "gain_margin": np.where(np.isfinite(n.gain_margin_db), n.gain_margin_db - req.gain_margin_db, np.inf)}
     scale = {"phase_margin": max(req.phase_margin_deg, 1.0), "gain_margin": max(req.gain_margin_db, 1.0)}
@@ -136,7 +137,7 @@ def evaluate(spec: Spec, kp: float, ki: float, payload_kg=None) -> Evaluation:
     for gain, value, bound in (("kp", kp, c.kp.max), ("ki", ki, c.ki.max)):
         if meets and value >= bound * (1 - ON_BOUND) and rel[name] > ON_BOUND:
             binding = {"constraint": f"controller.{gain}.max", "payload_kg": None, "slack": 0.0}
-    return Evaluation(float(kp), float(ki), m, n.closed_loop_bandwidth_hz, n.phase_margin_deg, n.gain_margin_db,
+    return Evaluation(float(kp), float(ki), m, np.where(bw > 0, bw, np.nan), n.phase_margin_deg, n.gain_margin_db,
                       meets, stable, float(np.min(bw)), binding, rel[name])
 
 
@@ -188,6 +189,25 @@ class Scan:
     circle_bandwidth_hz: np.ndarray
     #: least requirement slack relative to the requirement (for infeasible specs)
     relative_slack: np.ndarray
+    #: relative slack per requirement, each shaped (gains, payloads)
+    slack: dict
+
+    def diagnose(self, payloads: np.ndarray) -> dict:
+        """Why nothing on the scan meets the requirements: the payload where the best gains for that
+        payload alone fall furthest short, or, when each payload alone is feasible, the conflict."""
+        per = np.min(np.array(list(self.slack.values())), axis=0)          # (gains, payloads)
+        alone = per.max(axis=0)
+        j = int(np.argmin(alone))
+        if alone[j] < 0:
+            i = int(np.argmax(per[:, j]))
+            name = min(self.slack, key=lambda k: self.slack[k][i, j])
+            return {"constraint": name, "payload_kg": float(payloads[j]), "relative_slack": float(alone[j]),
+                    "kp": float(self.kp[i]), "ki": float(self.ki[i]), "alone": True}
+        i = int(np.argmax(per.min(axis=1)))
+        j = int(np.argmin(per[i]))
+        name = min(self.slack, key=lambda k: self.slack[k][i, j])
+        return {"constraint": name, "payload_kg": float(payloads[j]), "relative_slack": float(per[i, j]),
+                "kp": float(self.kp[i]), "ki": float(self.ki[i]), "alone": False}
 
     def best(self, mask: np.ndarray, score: np.ndarray, k: int = 1) -> list[int]:
         """Indices of the ``k`` best entries of ``score`` under ``mask`` (distinct gains)."""
@@ -203,14 +223,20 @@ def scan_gains(spec: Spec, P: np.ndarray, *, n: int = SCAN_POINTS) -> Scan:
     L = P[None] * (kp[:, None, None] + ki[:, None, None] / (1j * W_OPT))
     mg = loop_margins(W_OPT, L)
     bw = closed_loop_bandwidth_hz(W_OPT, L / (1 + L), dc_gain=np.ones(L.shape[:-1]))
-    slack = [(mg.phase_margin_deg - req.phase_margin_deg) / max(req.phase_margin_deg, 1.0),
-             np.minimum(mg.gain_margin_db - req.gain_margin_db, 1e3) / max(req.gain_margin_db, 1.0),
-             np.where(np.isfinite(bw), 0.0, -1.0)]
+    # Nyquist: with no open-loop poles in the right half-plane, the phase of 1 + L rises by 0 to 90 deg
+    # from the lowest to the highest grid frequency when the closed loop is stable, and falls by 180 deg
+    # more per unstable closed-loop pole; an unstable loop's margins are wrapped angles: count PM as 0
+    turn = np.unwrap(np.angle(1 + L), axis=-1)
+    stable = turn[..., -1] - turn[..., 0] > -math.pi / 4
+    pm = np.where(stable, mg.phase_margin_deg, 0.0)
+    slack = {"phase_margin": (pm - req.phase_margin_deg) / max(req.phase_margin_deg, 1.0),
+             "gain_margin": np.minimum(mg.gain_margin_db - req.gain_margin_db, 1e3) / max(req.gain_margin_db, 1.0),
+             "bandwidth_on_grid": np.where(np.isfinite(bw), 0.0, -1.0)}
     if req.peak_sensitivity is not None:
-        slack.append((req.peak_sensitivity - mg.peak_sensitivity) / req.peak_sensitivity)
+        slack["peak_sensitivity"] = (req.peak_sensitivity - mg.peak_sensitivity) / req.peak_sensitivity
     if req.disk_margin is not None:
-        slack.append((mg.disk_margin - req.disk_margin) / req.disk_margin)
-    rel = np.min(np.min(np.array(slack), axis=0), axis=-1)
+        slack["disk_margin"] = (mg.disk_margin - req.disk_margin) / req.disk_margin
+    rel = np.min(np.min(np.array(list(slack.values())), axis=0), axis=-1)
     circle_ok = rel >= 0     # outside the circles, and on the stable side of them
     for centre, radius in requirement_circles(spec):
         circle_ok &= np.all(np.abs(L - centre) >= radius * 1.003, axis=(-2, -1))
@@ -218,8 +244,9 @@ def scan_gains(spec: Spec, P: np.ndarray, *, n: int = SCAN_POINTS) -> Scan:
     inside[..., 0] = False
     first = np.where(inside.any(axis=-1), np.argmax(inside, axis=-1), W_OPT.size - 1)
     circle_bw = W_OPT[np.maximum(np.min(first, axis=-1) - 1, 0)] / (2 * np.pi)
-    return Scan(kp, ki, rel >= 0, np.nan_to_num(np.nanmin(bw, axis=-1)) if np.any(np.isfinite(bw))
-                else np.zeros(kp.size), circle_ok, circle_bw, rel)
+    with np.errstate(invalid="ignore"):
+        worst_bw = np.nan_to_num(np.min(bw, axis=-1))
+    return Scan(kp, ki, rel >= 0, worst_bw, circle_ok, circle_bw, rel, slack)
 
 
 # --- convex-concave procedure (cvxpy + Clarabel) -----------------------------------------------
@@ -462,7 +489,9 @@ def exact_design(spec: Spec, payloads: np.ndarray, kp0: float, ki0: float) -> Ex
     sol = solver(x0=x0, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg)
     stats = solver.stats()
     x = np.asarray(sol["x"]).ravel()
-    return ExactDesign(float(x[0] * kps), float(x[1] * kis), bool(stats["success"]), stats["return_status"])
+    # IPOPT may leave a bound by its relaxation (1e-8 relative): clip onto the box
+    return ExactDesign(float(np.clip(x[0] * kps, c.kp.min, c.kp.max)), float(np.clip(x[1] * kis, c.ki.min, c.ki.max)),
+                       bool(stats["success"]), stats["return_status"])
 
 
 # --- baselines -------------------------------------------------------------------------------
@@ -501,6 +530,8 @@ class SynthesisResult:
     baseline_names: tuple[str, ...] = ()
     payload_points_used: tuple[float, ...] = ()
     details: dict = field(default_factory=dict)
+    #: overrides the evaluation's binding (infeasible specs: from the scan's diagnosis)
+    binding: dict | None = None
 
     def to_dict(self) -> dict:
         e = self.evaluation
@@ -515,7 +546,7 @@ class SynthesisResult:
                               "phase_margin_deg": finite_or_none(p), "gain_margin_db": finite_or_none(g)}
                              for m, b, p, g in zip(e.payload_kg, e.bandwidth_hz, e.phase_margin_deg,
                                                    e.gain_margin_db)] if e else []),
-            "binding": e.binding if e else None,
+            "binding": self.binding or (e.binding if e else None),
             "verified": bool(self.verification and self.verification.verified and ok),
             "verification": None if self.verification is None else self.verification.to_dict(),
             "solver": {"method": self.method, "seconds": self.seconds,
@@ -539,9 +570,9 @@ def unbounded_message(spec: Spec) -> str:
             "current_loop = { bandwidth_hz = 1000.0 }.")
 
 
-def _solve(spec: Spec, payloads: np.ndarray, method: str, notes: dict) -> list[tuple[str, float, float]]:
+def _solve(spec: Spec, payloads: np.ndarray, method: str, notes: dict) -> tuple[list[tuple[str, float, float]], Scan]:
     """Candidate designs (label, kp, ki) for the payload points: the best scan seeds, the ccp design and
-    the exact refinements from the ccp design and the best seeds."""
+    the exact refinements from the ccp design and the best seeds; and the scan."""
     P = spec.plant.plant().with_payload(payloads).frd(W_OPT)
     scan = scan_gains(spec, P)
     notes["scan_designs"] = notes.get("scan_designs", 0) + scan.kp.size
@@ -562,7 +593,7 @@ def _solve(spec: Spec, payloads: np.ndarray, method: str, notes: dict) -> list[t
                                                          "ki": ex.ki, "ipopt": ex.note})
             if ex.success:
                 cands.append((f"exact (casadi+IPOPT) from {label}", ex.kp, ex.ki))
-    return cands
+    return cands, scan
 
 
 def synthesise_pi(spec: Spec, *, method: str = "ccp+exact", max_rounds: int = 6) -> SynthesisResult:
@@ -584,10 +615,12 @@ def synthesise_pi(spec: Spec, *, method: str = "ccp+exact", max_rounds: int = 6)
     points = list(spec_payloads(spec))
     dense = np.union1d(dense_payloads(spec), points)
     notes: dict = {}
-    rounds, best_bad = 0, None
+    rounds, best_bad, first_scan = 0, None, None
     good: list[tuple[str, Evaluation]] = []
     for rounds in range(1, max_rounds + 1):
-        evs = [(label, evaluate(spec, kp, ki, dense)) for label, kp, ki in _solve(spec, np.array(points), method, notes)]
+        cands, scan = _solve(spec, np.array(points), method, notes)
+        first_scan = first_scan or (scan, np.array(points))
+        evs = [(label, evaluate(spec, kp, ki, dense)) for label, kp, ki in cands]
         good += [(label, ev) for label, ev in evs if ev.meets]
         bad = [(label, ev) for label, ev in evs if not ev.meets]
         if bad:
@@ -612,13 +645,21 @@ def synthesise_pi(spec: Spec, *, method: str = "ccp+exact", max_rounds: int = 6)
     base, names = baselines(spec)
     pts = tuple(float(p) for p in points)
     if not good:
-        label, ev = best_bad
-        b = ev.binding
-        return SynthesisResult(
-            "infeasible", f"no gains within the controller bounds meet the requirements: "
-            f"{b['constraint'].replace('_', ' ')} binds at {b['payload_kg']:.1f} kg (slack {b['slack']:+.3g} at the "
-            f"least violating design, kp = {ev.kp:.4g}, ki = {ev.ki:.4g})", ev, None, method, seconds, base, names,
-            pts, details)
+        d = first_scan[0].diagnose(first_scan[1])
+        what, where = d["constraint"].replace("_", " "), f"{d['payload_kg']:.1f} kg"
+        short = (f"kp = {d['kp']:.4g}, ki = {d['ki']:.4g} miss it by {-100 * d['relative_slack']:.1f} %"
+                 if d["relative_slack"] > -1 else f"the closed loop is unstable, e.g. kp = {d['kp']:.4g}, "
+                                                 f"ki = {d['ki']:.4g}")
+        message = (f"no gains within the controller bounds meet the requirements at {where}: the {what} falls short "
+                   f"there even for the gains best for that payload alone ({short})" if d["alone"] else
+                   f"each payload alone can meet the requirements, but no single pair of gains within the controller "
+                   f"bounds meets them at every payload: the {what} at {where} binds (the least violating gains "
+                   f"{short})")
+        ev = evaluate(spec, d["kp"], d["ki"], dense)
+        return SynthesisResult("infeasible", message, ev, None, method, seconds, base, names, pts,
+                               {**details, "diagnosis": d},
+                               binding={"constraint": d["constraint"], "payload_kg": d["payload_kg"],
+                                        "relative_slack": d["relative_slack"]})
     good.sort(key=lambda g: -g[1].worst_bandwidth_hz)
     t1 = time.perf_counter()
     tried = []

@@ -10,8 +10,8 @@ from __future__ import annotations
 
 import csv
 import math
-import warnings
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 
@@ -23,6 +23,19 @@ ROLES = ("frequency", "time", "current", "velocity")
 MIN_SAMPLES_PER_PERIOD = 4
 #: whole periods needed after settling
 MIN_PERIODS = 2
+
+
+class _Columns(NamedTuple):
+    """What a reader found: values per table key (frequency_hz, time_s, current_a, outputs), the
+    output keys, each sample's row number in the file, each key's column as messages name it
+    and as a scale key names it, and a sample rate stated by the file (TDMS waveforms)."""
+
+    table: dict[str, np.ndarray]
+    outputs: tuple[str, ...]
+    rows: np.ndarray
+    labels: dict[str, str]
+    ids: dict[str, str]
+    sample_rate_hz: float | None = None
 
 
 def parse_column_map(text: str) -> dict[str, list[str]]:
@@ -44,6 +57,10 @@ def parse_column_map(text: str) -> dict[str, list[str]]:
     for role in ("frequency", "time", "current"):
         if len(out.get(role, [])) > 1:
             raise DataError(f"column map {text!r} names {len(out[role])} {role} columns; give one")
+    named = [c for cols in out.values() for c in cols]
+    twice = sorted({c for c in named if named.count(c) > 1})
+    if twice:
+        raise DataError(f"column map {text!r} names column {twice[0]!r} twice")
     return out
 
 
@@ -51,32 +68,59 @@ def read_recording(path: str | Path, *, columns: dict[str, list[str]] | None = N
                    scale: dict[str, float] | None = None, sample_rate_hz: float | None = None) -> Recording:
     """Read a recording by its suffix (.csv, .xlsx, .tdms) and validate every block.
 
-    ``columns`` is needed for .xlsx/.tdms (see ``parse_column_map``); ``scale`` multiplies a
-    role's values into SI (e.g. ``{"velocity": 1e-3}`` for mm/s); ``sample_rate_hz`` is used
-    when the file has no time column.
+    ``columns`` is needed for .xlsx/.tdms (see ``parse_column_map``); for .csv it may map roles to
+    header names. ``scale`` multiplies values into SI, per role (``{"velocity": 1e-3}`` for mm/s)
+    or per column (``{"velocity:7": 0.01}``; see ``parse_scale``). ``sample_rate_hz`` is used
+    when the file has no time column (a TDMS waveform's own increment otherwise). Rows that are
+    empty in every mapped column (blank CSV lines, formatting below a sheet's data) are skipped;
+    messages give the file's own row numbers.
     """
     path = Path(path)
     if not path.is_file():
         raise DataError(f"{path}: no such file")
     suffix = path.suffix.lower()
     if suffix == ".csv":
-        table, names, rows, labels = _read_csv(path, columns)
+        found = _read_csv(path, columns)
     elif suffix in (".xlsx", ".xlsm"):
-        table, names, rows, labels = _read_xlsx(path, _need_map(path, columns))
+        found = _read_xlsx(path, _need_map(path, columns))
     elif suffix == ".tdms":
-        table, names, rows, labels = _read_tdms(path, _need_map(path, columns))
+        found = _read_tdms(path, _need_map(path, columns))
     else:
         raise DataError(f"{path}: unknown file type {suffix!r}; expected .csv, .xlsx or .tdms")
-    keys = {"frequency": ["frequency_hz"], "time": ["time_s"], "current": ["current_a"], "velocity": list(names)}
-    for role, factor in (scale or {}).items():
+    table = dict(found.table)
+    keys = {"frequency": ["frequency_hz"], "time": ["time_s"], "current": ["current_a"],
+            "velocity": list(found.outputs)}
+    for name, factor in (scale or {}).items():
+        role, _, column = name.partition(":")
         if role not in ROLES or isinstance(factor, bool) or not isinstance(factor, (int, float)) \
                 or not math.isfinite(factor) or factor == 0:
-            raise DataError(f"scale {role}={factor!r}: role must be one of {', '.join(ROLES)} and the factor "
-                            "a finite non-zero number")
-        for key in keys[role]:
-            if key in table:
-                table[key] = table[key] * factor
-    return _blocks(path, table, names, rows, sample_rate_hz, labels)
+            raise DataError(f"scale {name}={factor!r}: role must be one of {', '.join(ROLES)} (or ROLE:COLUMN for "
+                            "one column) and the factor a finite non-zero number")
+        targets = [k for k in keys[role] if k in found.ids and (not column or found.ids[k] == column)]
+        if column and not targets:
+            raise DataError(f"{path}: scale {name}: no {role} column {column!r} (the {role} columns are "
+                            f"{', '.join(repr(found.ids[k]) for k in keys[role] if k in found.ids) or 'none'})")
+        for key in targets:
+            table[key] = table[key] * factor
+    rate = sample_rate_hz if sample_rate_hz is not None else found.sample_rate_hz
+    return _blocks(path, table, found.outputs, found.rows, rate, found.labels)
+
+
+def parse_scale(text: str) -> dict[str, float]:
+    """``"velocity=1e-3,velocity:7=0.01"`` -> ``{"velocity": 0.001, "velocity:7": 0.01}``: unit factors
+    into SI per role, or per column (``ROLE:COLUMN``, the column as the column map names it);
+    both apply where they overlap."""
+    out: dict[str, float] = {}
+    for item in (p.strip() for p in text.split(",") if p.strip()):
+        name, eq, value = item.rpartition("=")
+        try:
+            out[name.strip()] = float(value)
+        except ValueError:
+            raise DataError(f"scale item {item!r}: expected ROLE=FACTOR or ROLE:COLUMN=FACTOR, e.g. velocity=1e-3") \
+                from None
+        if not eq or not name.strip():
+            raise DataError(f"scale item {item!r}: expected ROLE=FACTOR or ROLE:COLUMN=FACTOR, e.g. velocity=1e-3")
+    return out
 
 
 def _need_map(path: Path, columns):
@@ -112,19 +156,19 @@ def _read_csv(path: Path, columns):
     keys = [*wanted.items(), *((o, o) for o in outs)]
     cols = [header.index(col) for _, col in keys]
     labels = {key: f"column {col!r}" for key, col in keys}
+    ids = {key: col for key, col in keys}
+    lines = path.read_text(encoding="utf-8-sig").splitlines()[1:]
+    kept = [k for k, line in enumerate(lines) if line.strip()]      # blank lines are skipped
+    rows = np.asarray(kept, dtype=int) + 2                            # file row numbers (header = row 1)
+    if not kept:
+        raise DataError(f"{path}: no data rows below the header")
+    lines = [lines[k] for k in kept]
     try:  # fast path; on failure the slow path below names the bad cell
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", UserWarning)  # "no data": reported below with the file name
-            data = np.loadtxt(path, delimiter=",", skiprows=1, usecols=cols, ndmin=2)
-        if data.shape[0]:
-            return ({key: data[:, k] for k, (key, _) in enumerate(keys)}, tuple(outs), np.arange(2, data.shape[0] + 2),
-                    labels)
+        data = np.loadtxt(lines, delimiter=",", usecols=cols, ndmin=2, comments=None)
+        return _Columns({key: data[:, k] for k, (key, _) in enumerate(keys)}, tuple(outs), rows, labels, ids)
     except ValueError:
         pass
-    with path.open(newline="", encoding="utf-8-sig") as fh:
-        raw = list(csv.reader(fh))[1:]
-    if not raw:
-        raise DataError(f"{path}: no data rows below the header")
+    raw = list(csv.reader(lines))
     table = {}
     for (key, col), j in zip(keys, cols):
         values = np.empty(len(raw))
@@ -133,9 +177,9 @@ def _read_csv(path: Path, columns):
                 values[i] = float(row[j])
             except (IndexError, ValueError):
                 cell = row[j] if j < len(row) else "<missing>"
-                raise DataError(f"{path}: row {i + 2}, column {col!r}: {cell!r} is not a number") from None
+                raise DataError(f"{path}: row {rows[i]}, column {col!r}: {cell!r} is not a number") from None
         table[key] = values
-    return table, tuple(outs), np.arange(2, len(raw) + 2), labels
+    return _Columns(table, tuple(outs), rows, labels, ids)
 
 
 def _read_xlsx(path: Path, columns):
@@ -152,13 +196,19 @@ def _read_xlsx(path: Path, columns):
             if not c.isdigit() or int(c) < 1:
                 raise DataError(f"{path}: spreadsheet column {role}={c!r} must be a 1-based column number")
             index.setdefault(role, []).append(int(c) - 1)
-    rows = [r for r in ws.iter_rows(values_only=True)]
+    mapped = [j for cols in index.values() for j in cols]
+    rows, numbers = [], []
+    for number, row in enumerate(ws.iter_rows(values_only=True), start=1):
+        if any(row[j] is not None for j in mapped if j < len(row)):   # rows empty in every mapped column
+            rows.append(row)                                         # (formatting below the data) are skipped
+            numbers.append(number)
     wb.close()
-    return _table_from_rows(path, rows, index, first_row=1)
+    return _table_from_rows(path, rows, index, np.asarray(numbers, dtype=int))
 
 
-def _table_from_rows(path, rows, index, *, first_row):
-    table, outs, labels = {}, [], {}
+def _table_from_rows(path, rows, index, numbers):
+    """Columns of spreadsheet ``rows`` (1-based row ``numbers`` in the file) by 0-based ``index``."""
+    table, outs, labels, ids = {}, [], {}, {}
     for role, cols in index.items():
         for k, j in enumerate(cols):
             key = {"frequency": "frequency_hz", "time": "time_s", "current": "current_a"}.get(role)
@@ -171,30 +221,44 @@ def _table_from_rows(path, rows, index, *, first_row):
                 try:
                     values[i] = float(cell)
                 except (TypeError, ValueError):
-                    raise DataError(f"{path}: row {i + first_row}, column {j + 1} ({role}): {cell!r} is not a "
+                    raise DataError(f"{path}: row {numbers[i]}, column {j + 1} ({role}): {cell!r} is not a "
                                     "number") from None
             table[key] = values
             labels[key] = f"column {j + 1} ({role})"
+            ids[key] = str(j + 1)
     if not rows:
         raise DataError(f"{path}: the sheet is empty")
-    return table, tuple(outs), np.arange(first_row, len(rows) + first_row), labels
+    return _Columns(table, tuple(outs), numbers, labels, ids)
 
 
 def _read_tdms(path: Path, columns):
+    """Channels by name, or ``group/channel`` where a name is in several groups. Without a time
+    channel, a LabVIEW waveform's ``wf_increment`` (s) on the current channel gives the sample rate
+    (an explicit ``sample_rate_hz`` wins)."""
     from nptdms import TdmsFile
 
     try:
         tdms = TdmsFile.read(path)
     except Exception as exc:  # npTDMS raises many types for a bad file
         raise DataError(f"{path}: cannot read the TDMS file ({exc})") from None
-    channels = {ch.name: ch for group in tdms.groups() for ch in group.channels()}
-    table, outs, labels = {}, [], {}
-    n = None
+    channels: dict[str, list] = {}
+    for group in tdms.groups():
+        for ch in group.channels():
+            channels.setdefault(ch.name, []).append(ch)
+            channels[f"{group.name}/{ch.name}"] = [ch]
+    table, outs, labels, ids = {}, [], {}, {}
+    n, rate = None, None
     for role, names in columns.items():
         for k, name in enumerate(names):
-            if name not in channels:
-                raise DataError(f"{path}: no channel {name!r} ({role}); channels: {', '.join(channels)}")
-            values = np.asarray(channels[name][:], dtype=float)
+            found = channels.get(name, [])
+            if not found:
+                listed = ", ".join(c.name if len(channels[c.name]) == 1 else f"{c.group_name}/{c.name}"
+                                   for group in tdms.groups() for c in group.channels())
+                raise DataError(f"{path}: no channel {name!r} ({role}); channels: {listed}")
+            if len(found) > 1:
+                raise DataError(f"{path}: channel {name!r} ({role}) is in several groups; name it as "
+                                f"{' or '.join(repr(f'{c.group_name}/{c.name}') for c in found)}")
+            values = np.asarray(found[0][:], dtype=float)
             if n is not None and values.size != n:
                 raise DataError(f"{path}: channel {name!r} has {values.size} samples, others {n}")
             n = values.size
@@ -204,7 +268,14 @@ def _read_tdms(path: Path, columns):
                 outs.append(key)
             table[key] = values
             labels[key] = f"channel {name!r} ({role})"
-    return table, tuple(outs), np.arange(1, (n or 0) + 1), labels
+            ids[key] = name
+            if role == "current" and "wf_increment" in found[0].properties:
+                increment = float(found[0].properties["wf_increment"])
+                if not (math.isfinite(increment) and increment > 0):
+                    raise DataError(f"{path}: channel {name!r} ({role}): waveform increment {increment!r} s is not "
+                                    "a positive sample interval")
+                rate = 1.0 / increment
+    return _Columns(table, tuple(outs), np.arange(1, (n or 0) + 1), labels, ids, rate)
 
 
 def _blocks(path: Path, table, outs, rows, sample_rate_hz, labels) -> Recording:
@@ -248,9 +319,10 @@ def _blocks(path: Path, table, outs, rows, sample_rate_hz, labels) -> Recording:
         if fs / fb < MIN_SAMPLES_PER_PERIOD * (1 - 1e-6):     # tolerance: times read from text are rounded
             raise DataError(f"{label}: {fs / fb:.2f} samples per period; at least {MIN_SAMPLES_PER_PERIOD} are "
                             f"needed (sample rate {fs:g} Hz is too low for {fb:g} Hz)")
-        if (t[-1] - t[0]) * fb < (MIN_PERIODS + 1) * (1 - 1e-6):
-            raise DataError(f"{label}: {(t[-1] - t[0]) * fb:.2f} periods recorded; at least {MIN_PERIODS} whole "
-                            "periods are needed after settling (record longer)")
+        periods = (t[-1] - t[0] + 1.0 / fs) * fb                 # n samples span n / fs seconds
+        if periods < (MIN_PERIODS + 1) * (1 - 1e-6):
+            raise DataError(f"{label}: {periods:.2f} periods recorded; at least {MIN_PERIODS} whole periods are "
+                            "needed after settling (record longer)")
         i = table["current_a"][a:b]
         if np.ptp(i) <= 1e-12 * max(1.0, float(np.max(np.abs(i)))):
             raise DataError(f"{label}, {labels['current_a']}: the current is "

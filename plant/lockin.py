@@ -80,7 +80,9 @@ def settling_time_s(block: Block) -> float:
 
     The block's offset and harmonics (fitted over its second half) are removed; segments of
     whole half periods with at least ``MIN_SEGMENT_SAMPLES`` samples each give fundamental
-    phasor ratios r_j, compared with their mean over the second half, ref. The scatter s_j of
+    phasors v_j, i_j; their deviation from the second half's steady relation,
+    (v_j - ref i_j) / |I| with ref = sum v_j / sum i_j, is linear in the noise (the ratios
+    v_j / i_j are heavy-tailed when the current is noisy). The scatter s_j of
     a segment is the larger of the second half's empirical scatter and the white-noise
     prediction from the fit residual (sigma_v^2 + |ref|^2 sigma_i^2) 4 / (n_j |I|^2), so a few
     segments cannot fake a transient. Where the leading deviations |r_j - ref| / s_j exceed 3,
@@ -111,14 +113,16 @@ def settling_time_s(block: Block) -> float:
     coef[1:3] = 0.0                           # keep the fundamental, remove offset and harmonics
     a = _segment_fundamentals(t[:n], f, sig - (_basis(t[:n], f, harmonics, True) @ coef).T, edges[:-1],
                               offset=False)
-    r = a[:, 1:] / a[:, :1]                  # (n_seg, n_outputs)
-    tail = r[n_seg // 2:]
-    ref = tail.mean(axis=0)
-    current = np.abs(a[n_seg // 2:, 0].mean())
-    empirical = np.sqrt(np.mean(np.abs(tail - ref) ** 2, axis=0))
+    h = n_seg // 2
+    ref = a[h:, 1:].sum(axis=0) / a[h:, 0].sum()            # steady-state G of the second half
+    current = np.abs(a[h:, 0].mean())
+    # deviation of each segment from the steady relation v = ref i, in units of G: linear in the
+    # noise (a ratio of per-segment phasors is heavy-tailed when the current is noisy)
+    dev = (a[:, 1:] - ref * a[:, :1]) / current             # (n_seg, n_outputs)
+    empirical = np.sqrt(np.mean(np.abs(dev[h:]) ** 2, axis=0))
     predicted = np.sqrt(4 * (sigma2[1:] + np.abs(ref) ** 2 * sigma2[0]) / (n_j[:, None] * current**2))
     spread = np.maximum(empirical, predicted) + 1e-9 * np.abs(ref)
-    d = np.max(np.abs(r - ref) / spread, axis=1)  # deviation in units of the per-segment scatter
+    d = np.max(np.abs(dev) / spread, axis=1)  # deviation in units of the per-segment scatter
     outside = np.flatnonzero(d > 4)
     cut = int(outside[-1]) + 1 if outside.size else 0
     lead = np.flatnonzero(d > 3)

@@ -255,7 +255,13 @@ def test_bad_estimation_input():
         estimate_response(r, settle_s=-1.0)
     with pytest.raises(DataError, match="settle_s must be"):
         estimate_response(r, settle_s=float("nan"))
-    b = make_block(10.0)
+    b = make_block(10.0, gains=(G1, G2))
+    for value in (0.0, 0.25):            # a dead channel: no warning (0 / 0), no G = 0 with zero variance
+        for method in ("lock-in", "rms"):
+            with pytest.raises(DataError, match=rf"block 10 Hz, output 'velocity_y2_m_per_s': every sample is "
+                                                rf"{value:g}; a dead channel"):
+                estimate_response(rec(Block(10.0, b.time_s, b.current_a, np.vstack(
+                    [b.velocity_m_per_s[0], np.full(b.time_s.size, value)])), outputs=2), method=method)
     with pytest.raises(DataError, match=r"block 10 Hz.*current has no component at 10 Hz"):
         estimate_response(rec(Block(10.0, b.time_s, 0.1 * np.cos(2 * np.pi * 30.0 * b.time_s),
                                     b.velocity_m_per_s)))

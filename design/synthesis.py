@@ -598,20 +598,19 @@ def _solve(spec: Spec, payloads: np.ndarray, method: str, notes: dict) -> tuple[
 
 def synthesise_pi(spec: Spec, *, method: str = "ccp+exact", max_rounds: int = 6) -> SynthesisResult:
     """Robust PI synthesis on ``spec`` (see the module doc). Never reports an unverified design as optimal."""
+    check_supported(spec)
+    if method not in ("ccp", "ccp+exact"):
+        raise SpecError(f"method must be 'ccp' or 'ccp+exact', got {method!r}")
+    if not any(e in PHASE_LIMITING for e in spec.plant.effects):
+        b, names = baselines(spec)
+        return SynthesisResult("unbounded", unbounded_message(spec), None, None, method, 0.0, b, names,
+                               details={"missing_effects": list(PHASE_LIMITING)})
     i0 = time.perf_counter()
     import casadi  # noqa: F401  (the one-off imports are timed apart from the solve)
     import cvxpy  # noqa: F401
 
     import_seconds = time.perf_counter() - i0
     t0, c0 = time.perf_counter(), time.process_time()
-    check_supported(spec)
-    if method not in ("ccp", "ccp+exact"):
-        raise SpecError(f"method must be 'ccp' or 'ccp+exact', got {method!r}")
-    if not any(e in PHASE_LIMITING for e in spec.plant.effects):
-        b, names = baselines(spec)
-        return SynthesisResult("unbounded", unbounded_message(spec), None, None, method,
-                               time.perf_counter() - t0, b, names,
-                               details={"missing_effects": list(PHASE_LIMITING)})
     points = list(spec_payloads(spec))
     dense = np.union1d(dense_payloads(spec), points)
     notes: dict = {}

@@ -40,34 +40,29 @@ HARMONIC_LIMIT = 0.45
 MIN_SEGMENT_SAMPLES = 8
 
 
-def _basis(t_s: np.ndarray, f_hz: float, harmonics: tuple[int, ...], offset: bool) -> np.ndarray:
-    """Columns [1,] cos(h w t), sin(h w t) for h in ``harmonics``: shape (n_samples, n_columns)."""
-    cols = [np.ones_like(t_s)] if offset else []
-    for h in harmonics:
-        wt = 2 * np.pi * h * f_hz * t_s
-        cols += [np.cos(wt), np.sin(wt)]
-    return np.column_stack(cols)
+def _basis(t_s: np.ndarray, f_hz: float, harmonics: tuple[int, ...]) -> np.ndarray:
+    """Columns 1, cos(h w t), sin(h w t) for h = 1 .. ``harmonics[-1]`` (consecutive from 1):
+    shape (n_samples, 1 + 2 len(harmonics)); the harmonics as powers of e^{j w t}."""
+    z = np.exp(2j * np.pi * f_hz * t_s)
+    B = np.empty((t_s.size, 1 + 2 * len(harmonics)))
+    B[:, 0] = 1.0
+    zh = z
+    for k in range(len(harmonics)):
+        B[:, 1 + 2 * k], B[:, 2 + 2 * k] = zh.real, zh.imag
+        zh = zh * z
+    return B
 
 
-def _segment_fundamentals(t_s, f_hz, signals, starts, *, offset):
+def _segment_fundamentals(cos_sin, signals, starts):
     """Least-squares fundamental phasor a (x ~ Re(a e^{j w t})) of every row of ``signals``
-    (n_signals, n_samples) on every segment beginning at the sample indices ``starts`` (each
-    segment runs to the next start, the last to the end): shape (n_segments, n_signals).
-    The normal equations of all segments are summed with one ``np.add.reduceat``."""
-    B = _basis(t_s, f_hz, (1,), offset)
-    A = np.add.reduceat(B[:, :, None] * B[:, None, :], starts, axis=0)
-    rhs = np.add.reduceat(B[:, :, None] * signals.T[:, None, :], starts, axis=0)
+    (n_signals, n_samples), no offset, on every segment beginning at the sample indices
+    ``starts`` (each runs to the next start, the last to the end), from the basis columns
+    ``cos_sin`` (n_samples, 2): shape (n_segments, n_signals). The normal equations of all
+    segments are summed with one ``np.add.reduceat``."""
+    A = np.add.reduceat(cos_sin[:, :, None] * cos_sin[:, None, :], starts, axis=0)
+    rhs = np.add.reduceat(cos_sin[:, :, None] * signals.T[:, None, :], starts, axis=0)
     coef = np.linalg.solve(A, rhs)
-    k = 1 if offset else 0
-    return coef[:, k, :] - 1j * coef[:, k + 1, :]
-
-
-def _steady_fit(t_s, f_hz, signals, harmonics):
-    """Least-squares offset, fundamental and ``harmonics`` of every row of ``signals``:
-    (basis (n_samples, n_columns), coefficients (n_columns, n_signals)). The normal equations
-    are well conditioned over whole half periods (cos and sin of the fundamental orthogonal)."""
-    B = _basis(t_s, f_hz, harmonics, True)
-    return B, np.linalg.solve(B.T @ B, B.T @ signals.T)
+    return coef[:, 0, :] - 1j * coef[:, 1, :]
 
 
 def _harmonics(f_hz: float, fs: float) -> tuple[int, ...]:
@@ -76,7 +71,13 @@ def _harmonics(f_hz: float, fs: float) -> tuple[int, ...]:
 
 
 def settling_time_s(block: Block) -> float:
-    """Start-up transient (s) estimated from the data.
+    """Start-up transient (s) estimated from the data; see ``_settling_time``."""
+    fs = block.sample_rate_hz
+    return _settling_time(block, fs, _basis(block.time_s, block.f_hz, _harmonics(block.f_hz, fs)))
+
+
+def _settling_time(block: Block, fs: float, basis: np.ndarray) -> float:
+    """Start-up transient (s) estimated from the data (``basis``: ``_basis`` of the whole block).
 
     The block's offset and harmonics (fitted over its second half) are removed; segments of
     whole half periods with at least ``MIN_SEGMENT_SAMPLES`` samples each give fundamental
@@ -93,7 +94,7 @@ def settling_time_s(block: Block) -> float:
     beyond 4 s, and at least one segment and ``MIN_SETTLE_S``; at most what leaves the two
     whole periods the estimate needs.
     """
-    f, fs, t = block.f_hz, block.sample_rate_hz, block.time_s
+    f, t = block.f_hz, block.time_s
     seg = math.ceil(MIN_SEGMENT_SAMPLES * 2 * f / fs) * 0.5 / f
     n_seg = int(np.floor((t[-1] + 1.0 / fs) / seg + 1e-9))
     cap_s = max(t[-1] + 1.0 / fs - 2.0 / f, 0.0)
@@ -106,13 +107,12 @@ def settling_time_s(block: Block) -> float:
         return floor_s
     n, half = edges[-1], edges[n_seg // 2]
     sig = np.vstack([block.current_a, block.velocity_m_per_s])[:, :n]
-    harmonics = _harmonics(f, fs)
-    B, coef = _steady_fit(t[half:n], f, sig[:, half:], harmonics)
+    B = basis[half:n]                         # fit over the second half: whole half periods
+    coef = np.linalg.solve(B.T @ B, B.T @ sig[:, half:].T)
     dof = max(n - half - B.shape[1], 1)
     sigma2 = np.sum((sig[:, half:].T - B @ coef) ** 2, axis=0) / dof
     coef[1:3] = 0.0                           # keep the fundamental, remove offset and harmonics
-    a = _segment_fundamentals(t[:n], f, sig - (_basis(t[:n], f, harmonics, True) @ coef).T, edges[:-1],
-                              offset=False)
+    a = _segment_fundamentals(basis[:n, 1:3], sig - (basis[:n] @ coef).T, edges[:-1])
     h = n_seg // 2
     ref = a[h:, 1:].sum(axis=0) / a[h:, 0].sum()            # steady-state G of the second half
     current = np.abs(a[h:, 0].mean())
@@ -151,10 +151,9 @@ class _BlockEstimate:
     subblocks: int
 
 
-def _whole_half_periods(block: Block, settle_s: float) -> tuple[np.ndarray, int]:
+def _whole_half_periods(block: Block, settle_s: float, fs: float) -> tuple[np.ndarray, int]:
     """Samples of the whole half periods that end with the block and start at or after
     ``settle_s`` (a sample stands for [t - 0.5/fs, t + 0.5/fs)), and their number."""
-    fs = block.sample_rate_hz
     t_end = block.time_s[-1] + 0.5 / fs
     n_half = int(np.floor((t_end - (max(settle_s, 0.0) - 0.5 / fs)) * 2 * block.f_hz + 1e-9))
     return block.time_s >= t_end - n_half * 0.5 / block.f_hz, n_half
@@ -216,8 +215,10 @@ def _white_noise_factor(A: np.ndarray, A_j: np.ndarray, sizes: np.ndarray) -> fl
 
 def _block_estimate(block: Block, settle_s: float | None, subblocks: int, where: str) -> _BlockEstimate:
     f, fs = block.f_hz, block.sample_rate_hz
-    settle = settling_time_s(block) if settle_s is None else settle_s
-    keep, n_half = _whole_half_periods(block, settle)
+    harmonics = _harmonics(f, fs)
+    basis = _basis(block.time_s, f, harmonics)
+    settle = _settling_time(block, fs, basis) if settle_s is None else settle_s
+    keep, n_half = _whole_half_periods(block, settle, fs)
     label = f"{where}: block {f:g} Hz"
     if n_half < 4:
         left = (block.time_s[-1] + 1.0 / fs - settle) * f
@@ -225,8 +226,7 @@ def _block_estimate(block: Block, settle_s: float | None, subblocks: int, where:
                         "periods are needed (record longer or settle shorter)")
     t = block.time_s[keep]
     sig = np.vstack([block.current_a[keep], block.velocity_m_per_s[:, keep]]).T   # (n_samples, n_signals)
-    harmonics = _harmonics(f, fs)
-    B = _basis(t, f, harmonics, True)
+    B = basis[keep]
     starts = _subblock_starts(t, f, fs, n_half, subblocks)
     ends = np.r_[starts[1:], t.size]
     A_j = np.array([B[a:b].T @ B[a:b] for a, b in zip(starts, ends)])
@@ -254,7 +254,7 @@ def _rms_estimate(block: Block, settle_s: float | None, subblocks: int, where: s
     f, fs = block.f_hz, block.sample_rate_hz
     settle = settle_s or 0.0
     after = block.time_s >= settle - 0.5 / fs
-    n_half = _whole_half_periods(block, settle)[1]
+    n_half = _whole_half_periods(block, settle, fs)[1]
     if n_half < 4:
         left = (block.time_s[-1] + 1.0 / fs - settle) * f
         raise DataError(f"{where}: block {f:g} Hz: {left:.2f} periods left after settling ({settle:.3g} s); at "
@@ -301,7 +301,7 @@ def estimate_response(recording: Recording, *, settle_s: float | None = None, me
         if method == "rms":
             G[:, j], var[:, j], amp[j], used[j] = _rms_estimate(block, settle_s, subblocks, recording.source)
             settle[j] = settle_s or 0.0
-            periods[j] = _whole_half_periods(block, settle[j])[1] / 2
+            periods[j] = _whole_half_periods(block, settle[j], block.sample_rate_hz)[1] / 2
         else:
             e = _block_estimate(block, settle_s, subblocks, recording.source)
             G[:, j], var[:, j], amp[j], snr[:, j], hd[:, j] = e.g, e.variance, e.current_amplitude_a, e.snr_db, \

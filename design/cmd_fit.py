@@ -64,6 +64,7 @@ def fit(
                               for n in result.free},
                "fixed": {n: v for n, v in result.values.items() if n not in result.free},
                "reduced_chi2": finite_or_none(result.reduced_chi2), "aic": result.aic, "bic": result.bic,
+               "expected_reduced_chi2": result.expected_reduced_chi2,
                "chi2": result.chi2, "dof": result.dof, "n_data": result.n_data,
                "correlation": {"names": list(result.free),
                                "matrix": [[finite_or_none(c) for c in row] for row in result.correlation]},

@@ -11,9 +11,14 @@ the real and imaginary parts split explicitly. ``fit_plant`` minimises it over t
 bounded parameters of ``Plant.parameters()`` with ``scipy.optimize.least_squares``,
 optimising log(p) for parameters with a positive lower bound and p / scale otherwise, so a
 1 ms delay and a 40 kg mass are equally well conditioned. Standard errors come from the
-Jacobian at the optimum, cov = (J^T J)^-1 (the Cramer-Rao bound of correctly weighted data,
-for which the reduced chi-square is ~1); ``stderr_scaled`` multiplies them by
-sqrt(reduced chi-square) (lmfit's ``scale_covar``).
+Jacobian J of the normalised residuals at the optimum: cov = (J^T J)^-1, the Cramer-Rao bound
+when the variances are known. Measured variances are themselves estimates (the lock-in's k
+sub-blocks give each about nu = 2 (k - 1) real degrees of freedom); weighting by them makes
+the estimate noisier than (J^T J)^-1 says, by E[sigma^2/s^4] / E[1/s^2] = nu / (nu - 4) per
+point for s^2 ~ sigma^2 chi^2_nu / nu, so the covariance is the sandwich
+(J^T J)^-1 J^T diag(nu/(nu-4)) J (J^T J)^-1, and a correct model's chi^2 has expectation
+nu / (nu - 2) per residual instead of 1 (``expected_reduced_chi2``). ``stderr_scaled`` is
+lmfit's ``scale_covar``: sqrt(diag((J^T J)^-1) * reduced chi-square).
 
 Refitting with one more effect is one call: ``fit_plant(result.plant * Delay(), data)``;
 the previous values are one of the starting points.
@@ -61,9 +66,10 @@ class FitResult:
     values: dict[str, float]
     #: names of the free parameters, in the order of ``correlation``
     free: tuple[str, ...]
-    #: standard errors of the free parameters from (J^T J)^-1 (inf: not determined by the data)
+    #: standard errors of the free parameters, (J^T J)^-1 corrected for the variances' degrees of
+    #: freedom (module doc); inf: not determined by the data
     stderr: dict[str, float]
-    #: ``stderr`` times sqrt(reduced_chi2) (lmfit's scale_covar)
+    #: sqrt(diag((J^T J)^-1) * reduced_chi2) (lmfit's scale_covar)
     stderr_scaled: dict[str, float]
     #: covariance and correlation of the free parameters (rows/columns in ``free`` order)
     covariance: np.ndarray
@@ -79,6 +85,11 @@ class FitResult:
     chi2: float
     dof: int
     reduced_chi2: float
+    #: expectation of reduced_chi2 for a correct model: mean nu / (nu - 2) over the residuals
+    #: (1 when the variances are known exactly)
+    expected_reduced_chi2: float
+    #: real degrees of freedom of each frequency's variance estimate (inf: known exactly)
+    variance_dof: np.ndarray
     #: -2 ln L + 2 k and -2 ln L + k ln n with -2 ln L = chi2 (variances known, constant dropped)
     aic: float
     bic: float
@@ -111,7 +122,8 @@ class FitResult:
             f"    # data points      = {self.n_data} ({n_f} frequencies x {n_out} output(s) x re/im)",
             f"    # variables        = {self.n_params}",
             f"    chi-square         = {self.chi2:.6g}",
-            f"    reduced chi-square = {self.reduced_chi2:.6g}",
+            f"    reduced chi-square = {self.reduced_chi2:.6g} (expected {self.expected_reduced_chi2:.4g} for a "
+            "correct model)",
             f"    Akaike info crit   = {self.aic:.6g}",
             f"    Bayesian info crit = {self.bic:.6g}",
             f"    starts, evaluations = {self.n_starts}, {self.n_evaluations}",
@@ -370,16 +382,21 @@ def default_free(plant: Plant) -> tuple[str, ...]:
 
 
 def fit_plant(plant: Plant, data: MeasuredResponse, *, free: Sequence[str] | None = None,
-              start: Mapping[str, float] | None = None, multistart: bool = True) -> FitResult:
+              start: Mapping[str, float] | None = None, multistart: bool = True,
+              variance_dof=None) -> FitResult:
     """Maximum-likelihood fit of ``plant``'s ``free`` parameters to ``data`` (see module doc).
 
     ``free`` defaults to ``default_free(plant)``; ``start`` overrides the starting values (one
     start then); otherwise the plant's own values and data-derived starts are all tried
     (``multistart=False``: only the plant's own values) and the lowest chi^2 is kept.
     A plant with ``coulomb_friction`` gets ``excitation_current_a`` from the data per frequency.
+    ``variance_dof``: real degrees of freedom of each frequency's variance (scalar or per
+    frequency; inf = known exactly); default 2 (k - 1) from the estimator's sub-block counts
+    ``data.metadata["subblocks"]`` when present, else inf.
     """
     t0 = time.perf_counter()
     f, g, var = _check_data(data)
+    nu = _variance_dof(data, f.size, variance_dof)
     w = 2 * np.pi * f
     if "coulomb_friction" in plant.effect_names:
         plant = dataclasses.replace(plant, excitation_current_a=np.asarray(data.current_amplitude_a, dtype=float))
@@ -419,8 +436,22 @@ def fit_plant(plant: Plant, data: MeasuredResponse, *, free: Sequence[str] | Non
         if best is None or sol.cost < best[0].cost:
             best = (sol, problem, s)
     sol, problem, s0 = best
-    return _result(problem, params, sol, s0, data, n_starts=len(starts), n_eval=n_eval,
+    return _result(problem, params, sol, s0, data, nu, n_starts=len(starts), n_eval=n_eval,
                    elapsed=time.perf_counter() - t0)
+
+
+def _variance_dof(data: MeasuredResponse, n_freq: int, variance_dof) -> np.ndarray:
+    if variance_dof is None:
+        k = data.metadata.get("subblocks") if isinstance(data.metadata, Mapping) else None
+        if k is None or np.shape(k) != (n_freq,):
+            return np.full(n_freq, np.inf)
+        variance_dof = 2.0 * (np.asarray(k, dtype=float) - 1)
+    nu = np.broadcast_to(np.asarray(variance_dof, dtype=float), (n_freq,)) if np.ndim(variance_dof) == 0 \
+        else np.asarray(variance_dof, dtype=float)
+    if nu.shape != (n_freq,) or np.any(np.isnan(nu)) or np.any(nu <= 0):
+        raise DataError(f"variance_dof must be positive, one value or one per frequency ({n_freq}), "
+                        f"got {variance_dof!r}")
+    return nu.copy()
 
 
 class _Problem:
@@ -464,7 +495,12 @@ class _Problem:
         return ((r[1:] - r[0]) / h[:, None]).T
 
 
-def _result(problem: _Problem, params, sol, s0, data, *, n_starts, n_eval, elapsed) -> FitResult:
+def _split_abs2(r: np.ndarray) -> np.ndarray:
+    """Squares of the real parts (all outputs) then the imaginary parts, in residual-row order."""
+    return np.concatenate([r.real.ravel() ** 2, r.imag.ravel() ** 2])
+
+
+def _result(problem: _Problem, params, sol, s0, data, nu, *, n_starts, n_eval, elapsed) -> FitResult:
     coords, free = problem.coords, problem.coords.names
     fitted = coords.to_values(sol.x)
     flags = []
@@ -484,9 +520,16 @@ def _result(problem: _Problem, params, sol, s0, data, *, n_starts, n_eval, elaps
     J = problem.jacobian(sol.x, central=True)
     _, sv, vt = np.linalg.svd(J, full_matrices=False)
     good = sv > sv.max() * 1e-10
-    cov_x = (vt[good].T / sv[good] ** 2) @ vt[good]
+    cov_x = (vt[good].T / sv[good] ** 2) @ vt[good]            # (J^T J)^+
+    # per residual row (real parts of every output, then imaginary): nu/(nu-4) and nu/(nu-2)
+    n_rows = 2 * problem.g.shape[0]
+    few = nu < 6
+    with np.errstate(divide="ignore", invalid="ignore"):
+        inflate = np.tile(np.where(np.isinf(nu), 1.0, nu / (np.maximum(nu, 6.0) - 4)), n_rows)
+        mean_chi2 = np.tile(np.where(np.isinf(nu), 1.0, nu / (np.maximum(nu, 6.0) - 2)), n_rows)
     D = coords.jacobian(sol.x)
-    cov = D @ cov_x @ D.T
+    cov = D @ cov_x @ (J.T * inflate) @ J @ cov_x @ D.T
+    raw_err = np.sqrt(np.clip(np.diag(D @ cov_x @ D.T), 0, None))
     undetermined = {name for i, name in enumerate(free) if np.any(np.abs(vt[~good][:, i]) > 0.1)}
     err = np.sqrt(np.clip(np.diag(cov), 0, None))
     for i, name in enumerate(free):
@@ -500,7 +543,11 @@ def _result(problem: _Problem, params, sol, s0, data, *, n_starts, n_eval, elaps
         corr[i, i] = 1.0
     reduced = chi2 / dof if dof > 0 else float("nan")
     scale = math.sqrt(reduced) if math.isfinite(reduced) else float("nan")
+    expected = float(np.mean(mean_chi2))
 
+    if few.any():
+        flags.append(f"{int(few.sum())} frequencies have variances from fewer than 4 sub-blocks (nu < 6): "
+                     "their weights are unreliable and the standard errors optimistic")
     for name in sorted(undetermined):
         flags.append(f"parameter {name} is not determined by the data (singular Jacobian): "
                      "fix it or fix a parameter it trades off against")
@@ -517,9 +564,11 @@ def _result(problem: _Problem, params, sol, s0, data, *, n_starts, n_eval, elaps
             if np.isfinite(c) and abs(c) > CORRELATION_FLAG:
                 flags.append(f"parameters {free[i]} and {free[j]} cannot be told apart (correlation {c:+.3f})")
     if dof > 0:
-        p = float(stats.chi2.sf(chi2, dof))
+        # chi^2 with each residual divided by its expectation nu/(nu-2) against chi^2(dof)
+        p = float(stats.chi2.sf(float(np.sum(_split_abs2(residuals) / mean_chi2)), dof))
         if p < CHI2_P_FLAG:
-            flags.append(f"reduced chi-square {reduced:.3g} (P = {p:.1e} for {dof} degrees of freedom): the model "
+            flags.append(f"reduced chi-square {reduced:.3g}, expected {expected:.3g} (P = {p:.1e} for {dof} "
+                         "degrees of freedom): the model "
                          "does not explain the data within its uncertainty (missing effect, or variance "
                          "underestimated)")
     if not sol.success:
@@ -529,10 +578,11 @@ def _result(problem: _Problem, params, sol, s0, data, *, n_starts, n_eval, elaps
     return FitResult(
         plant=fitted_plant, values=values, free=tuple(free),
         stderr={n: float(e) for n, e in zip(free, err)},
-        stderr_scaled={n: float(e * scale) for n, e in zip(free, err)},
+        stderr_scaled={n: float(np.inf if n in undetermined else e * scale) for n, e in zip(free, raw_err)},
         covariance=cov, correlation=corr, initial={n: float(s0[n]) for n in free},
         f_hz=problem.w / (2 * np.pi), output_names=tuple(data.output_names), model_response=model_resp,
-        residuals=residuals, chi2=chi2, dof=dof, reduced_chi2=reduced, aic=chi2 + 2 * k,
+        residuals=residuals, chi2=chi2, dof=dof, reduced_chi2=reduced, expected_reduced_chi2=expected,
+        variance_dof=nu, aic=chi2 + 2 * k,
         bic=chi2 + k * math.log(n_data), n_data=n_data, n_params=k, flags=tuple(flags),
         success=bool(sol.success), message=str(sol.message), n_starts=n_starts, n_evaluations=int(n_eval),
         elapsed_s=float(elapsed),

@@ -93,6 +93,14 @@ def test_to_frd_has_the_same_values():
         m.to_frd(2)
 
 
+def test_settle_zero_uses_every_whole_period():
+    # 5000 samples at 1 kHz stand for 5 s (each sample for [t - 0.5 ms, t + 0.5 ms)): 10 whole periods at 2 Hz
+    for method in ("lock-in", "rms"):
+        m = estimate_response(rec(make_block(2.0, seconds=5.0)), settle_s=0.0, method=method)
+        assert m.metadata["periods_used"] == [10.0]
+        assert abs(m.response[0, 0]) == pytest.approx(abs(G1), rel=1e-9)
+
+
 # --- settling -------------------------------------------------------------------------------
 
 def test_start_up_transient_is_cut_where_it_no_longer_biases():

@@ -1,6 +1,6 @@
 """Measured frequency responses (velocity per current) with their uncertainty.
 
-``MeasuredResponse`` is the hand-over between estimation (this module) and fitting,
+``MeasuredResponse`` is the hand-over between estimation (``plant.lockin``) and fitting,
 diagnosis and data-driven synthesis.
 """
 
@@ -23,6 +23,9 @@ class MeasuredResponse:
 
     ``variance`` is E|G_hat - G|^2 of the complex estimate; its real and imaginary
     parts each carry half of it (circular noise), which is how fits weight them.
+    ``method="rms"`` (thesis Appendix B): ``response`` is the real, positive magnitude
+    estimate, ``variance`` its scatter, and ``snr_db`` / ``harmonic_distortion`` are NaN (not
+    estimated). A harmonic at or above 0.45 x the sample rate cannot be measured and is NaN too.
     """
 
     f_hz: np.ndarray                     # (n_freq,)

@@ -25,7 +25,8 @@ import scipy.optimize
 
 from design.analysis import ANALYSIS_GRID_RAD_S as W
 from design.analysis import analyse_loop, payload_sweep
-from design.loops import pi_frd, pi_tf
+from design.loops import (closed_loop_frd, closed_loop_tf, open_loop_frd, open_loop_tf, pi_frd, pi_tf,
+                          virtual_admittance_frd)
 from design.margins import closed_loop_bandwidth_hz, loop_margins
 from plant import CurrentLoop, Delay, Resonance, stage_x, stage_y
 from plant.errors import GridError
@@ -253,3 +254,50 @@ def test_response_and_grid_must_match():
         loop_margins(W, np.ones(10, complex))
     with pytest.raises(GridError, match="strictly increasing"):
         closed_loop_bandwidth_hz([1.0, 1.0, 2.0], np.ones(3))
+
+
+def test_a_three_point_grid_falls_back_to_linear_interpolation():
+    # too few points for a cubic: L = 2 / (j w) on w = 1, 2, 4 has |L| = 2, 1, 0.5 -> crossover at 2 rad/s
+    w = np.array([1.0, 2.0, 4.0])
+    m = loop_margins(w, 2 / (1j * w))
+    assert m.gain_crossover_hz == pytest.approx(2 / (2 * math.pi), rel=1e-12)
+    assert m.phase_margin_deg == pytest.approx(90.0, rel=1e-12)
+    # T = 1/(1 + j w / 2) on w = 1, 4, 8: |T|^2 = 0.8, 0.2, 1/17; log|T|^2 linear in log w between the
+    # first two points reaches 1/2 at w = 1.6 rad/s (the true -3 dB point, 2 rad/s, needs a finer grid)
+    w = np.array([1.0, 4.0, 8.0])
+    assert closed_loop_bandwidth_hz(w, 1 / (1 + 1j * w / 2), dc_gain=1.0) == pytest.approx(1.6 / (2 * math.pi),
+                                                                                           rel=1e-12)
+
+
+# --- the loops themselves (design.loops, thesis Eq. 3.17-3.24) --------------------------------------
+
+@pytest.mark.parametrize("stage", ["x", "y"])
+def test_open_and_closed_loop_are_eq_3_17_to_3_20(stage):
+    s = 1j * W
+    plant = stage_x() if stage == "x" else stage_y()
+    if stage == "x":
+        open_ref = KT / (B + M * s) * (KP + KI / s)                                          # Eq. 3.17
+        closed_ref = (KP * s + KI) * KT / (M * s**2 + s * (B + KP * KT) + KI * KT)            # Eq. 3.19
+        den = [M, B + KP * KT, KI * KT]
+    else:
+        open_ref = KT * L_M / (2 * M * L_POS * s + 2 * B * L_M) * (KP + KI / s)              # Eq. 3.18
+        closed_ref = KT * L_M * (KP * s + KI) / (2 * M * L_POS * s**2 + s * (2 * B * L_M + KT * KP * L_M)
+                                                 + KT * L_M * KI)                              # Eq. 3.20
+        den = [2 * M * L_POS, 2 * B * L_M + KT * KP * L_M, KT * L_M * KI]
+    L = open_loop_frd(plant, W, KP, KI)
+    assert np.allclose(L, open_ref, rtol=1e-12)
+    assert np.allclose(closed_loop_frd(L), closed_ref, rtol=1e-12)
+    assert np.allclose(open_loop_tf(plant, KP, KI)(s), open_ref, rtol=1e-10)
+    T = closed_loop_tf(plant, KP, KI)
+    assert np.allclose(T(s), closed_ref, rtol=1e-10)
+    # its poles are the roots of the Eq. 3.19 / 3.20 denominator
+    assert np.allclose(np.sort_complex(T.poles()), np.sort_complex(np.roots(den)), rtol=1e-8)
+
+
+def test_virtual_admittance_is_eq_3_23_with_the_eq_3_24_typo_corrected():
+    s = 1j * W
+    m_v, b_v, k_v = 2.0, 30.0, 500.0
+    # Eq. 3.21-3.23: F = m_v x'' + b_v x' + k_v x -> velocity per force s / (m_v s^2 + b_v s + k_v)
+    assert np.allclose(virtual_admittance_frd(W, m_v, b_v, k_v), s / (m_v * s**2 + b_v * s + k_v), rtol=1e-13)
+    # k_v = 0: 1 / (m_v s + b_v) (the thesis prints 1 / (m_v s^2 + b_v) in Eq. 3.24)
+    assert np.allclose(virtual_admittance_frd(W, m_v, b_v), 1 / (m_v * s + b_v), rtol=1e-13)

@@ -65,6 +65,8 @@ BISECTION_RATIO = 1.05
 EXTRA_STARTS = 1
 #: a gain within this relative distance of its upper bound is "on the bound"
 ON_BOUND = 1e-3
+#: requirements within this relative slack of their limit are listed as active
+ACTIVE = 5e-3
 
 
 # --- evaluation ---------------------------------------------------------------------------------
@@ -132,11 +134,13 @@ def evaluate(spec: Spec, kp: float, ki: float, payload_kg=None) -> Evaluation:
     rel = {k: float(np.min(v)) / scale[k] for k, v in slack.items()}
     name = min(rel, key=rel.get)
     i = int(np.argmin(slack[name]))
-    binding = {"constraint": name, "payload_kg": float(m[i]), "slack": float(slack[name][i])}
+    active = sorted({k for k, v in slack.items() if np.min(v) / scale[k] < ACTIVE})
+    binding = {"constraint": name, "payload_kg": float(m[i]), "slack": float(slack[name][i]), "active": active}
     c = spec.controller
     for gain, value, bound in (("kp", kp, c.kp.max), ("ki", ki, c.ki.max)):
         if meets and value >= bound * (1 - ON_BOUND) and rel[name] > ON_BOUND:
-            binding = {"constraint": f"controller.{gain}.max", "payload_kg": None, "slack": 0.0}
+            binding = {"constraint": f"controller.{gain}.max", "payload_kg": None, "slack": 0.0,
+                       "active": active + [f"controller.{gain}.max"]}
     return Evaluation(float(kp), float(ki), m, np.where(bw > 0, bw, np.nan), n.phase_margin_deg, n.gain_margin_db,
                       meets, stable, float(np.min(bw)), binding, rel[name])
 

@@ -187,3 +187,18 @@ def test_gain_schedule_gains_bandwidth_at_each_point():
         assert p.bandwidth_hz >= p.robust_bandwidth_hz
     # one kp for an 8x mass range costs the heavy payload most: scheduling gains it most (PM binds at both ends)
     assert points[1].bandwidth_hz / points[1].robust_bandwidth_hz > 3.0
+
+
+def test_peak_sensitivity_and_disk_margin_requirements_hold():
+    from design.analysis import analyse_loop
+
+    spec = spec_with(requirements={"peak_sensitivity": 1.6, "disk_margin": 0.6})
+    res = synthesise_pi(spec)
+    assert res.status == "optimal" and res.verification.verified
+    # recomputed on the 3000-point analysis grid at 71 payloads
+    m = analyse_loop(spec.plant.plant().with_payload(np.linspace(5, 40, 71)), res.evaluation.kp,
+                     res.evaluation.ki).margins
+    assert np.max(m.peak_sensitivity) <= 1.6 + 1e-3 and np.min(m.disk_margin) >= 0.6 - 1e-3
+    # Ms = 1.6 shapes the design: it is active, and the bandwidth falls below the PM/GM-only optimum (45.2 Hz)
+    assert "peak_sensitivity" in res.evaluation.binding["active"]
+    assert res.evaluation.worst_bandwidth_hz < 0.9 * 45.17

@@ -65,9 +65,11 @@ def synth(
         _print(out)
         if report is not None and out["status"] == "optimal":
             console.print(f"report written to {report}")
+    if report is not None and out["status"] != "optimal":
+        typer.echo(f"no report written to {report}: no verified design", err=True)
     if out["status"] != "optimal":
         if not as_json:
-            console.print(f"[bold red]{out['status']}[/]: {out['message']}")
+            console.print(f"[bold red]{out['status']}[/] (exit status 1)")
         raise typer.Exit(1)
 
 

@@ -22,8 +22,9 @@ may be models or measured responses. The pipeline (``synthesise_pi``):
    exact margins through crossing variables per payload, |L(jw_c)| = 1 with
    Re L(jw_c) >= -cos(phi) (PM >= phi), Im L(jw_p) = 0 with Re L(jw_p) >= -1/g (GM >= g),
    |T(jw_b)| = 1/sqrt 2 with t <= log w_b; maximise t. P(jw) is written symbolically from the
-   plant's parameters (``_casadi_frd``). Crossings are tracked locally, so every result is
-   re-checked on the dense grid.
+   plant's parameters (``_casadi_frd``). The first crossings are tracked; a resonance may cross
+   again higher up, so from the first start a second solve also keeps the margin circle above
+   twice the first crossover (100 points per decade); every result is re-checked on the dense grid.
 4. **robustness** like systune: every candidate is checked at ``DENSE_PAYLOADS`` payloads with
    the cubic-refined margins of ``design.fast_analysis``; if none meets the requirements the
    worst violator joins the payload points and the solve repeats.
@@ -427,8 +428,10 @@ class ExactDesign:
     note: str
 
 
-def exact_design(spec: Spec, payloads: np.ndarray, kp0: float, ki0: float) -> ExactDesign:
-    """IPOPT on the exact crossings from the start (kp0, ki0); see the module doc."""
+def exact_design(spec: Spec, payloads: np.ndarray, kp0: float, ki0: float, *,
+                 high_circle: bool = False) -> ExactDesign:
+    """IPOPT on the exact crossings from the start (kp0, ki0); ``high_circle`` also keeps the Nyquist curve
+    outside the margin circle above twice the first crossover (see the module doc)."""
     import casadi as ca
 
     req, c = spec.requirements, spec.controller
@@ -474,14 +477,21 @@ def exact_design(spec: Spec, payloads: np.ndarray, kp0: float, ki0: float) -> Ex
                 lbg += [0.0, 0.0]
                 ubg += [0.0, math.inf]
                 t_start.append(math.log(w0))
-        # Ms and disk-margin circles, sampled on W_OPT: |L - centre|^2 >= radius^2
-        for centre, radius in requirement_circles(spec)[1:]:
-            a, b = P[k], P[k] / (1j * W_OPT)
+        # sampled circles |L - centre|^2 >= radius^2: Ms and disk margin on W_OPT; the margin circle
+        # from twice the first crossover on (resonances can cross again up there: the exact crossings
+        # above track only the first ones)
+        circles = [(c_, r_, W_OPT) for c_, r_ in requirement_circles(spec)[1:]]
+        if high_circle and starts["c"] is not None and 2 * starts["c"] < W_OPT[-1]:
+            high = np.geomspace(2 * starts["c"], W_OPT[-1], max(int(100 * np.log10(W_OPT[-1] / starts["c"] / 2)), 2))
+            circles.append((*requirement_circles(spec)[0], high))
+        for centre, radius, wg in circles:
+            a = base.with_payload(float(m)).frd(wg) if wg is not W_OPT else P[k]
+            b = a / (1j * wg)
             re = ca.DM(a.real) * kp + ca.DM(b.real) * ki - centre
             im = ca.DM(a.imag) * kp + ca.DM(b.imag) * ki
             gs.append(re**2 + im**2 - radius**2 * 1.003**2)
-            lbg += [0.0] * W_OPT.size
-            ubg += [math.inf] * W_OPT.size
+            lbg += [0.0] * wg.size
+            ubg += [math.inf] * wg.size
     if not t_start:
         return ExactDesign(kp0, ki0, False, "no bandwidth crossing at the start")
     x0.insert(2, min(t_start))
@@ -591,12 +601,14 @@ def _solve(spec: Spec, payloads: np.ndarray, method: str, notes: dict) -> tuple[
         cands.append(("ccp (cvxpy+CLARABEL)", ccp.kp, ccp.ki))
         starts.insert(0, cands[-1])
     if method == "ccp+exact":
-        for label, kp0, ki0 in starts:
-            ex = exact_design(spec, payloads, kp0, ki0)
-            notes.setdefault("exact_starts", []).append({"start": label, "kp0": kp0, "ki0": ki0, "kp": ex.kp,
-                                                         "ki": ex.ki, "ipopt": ex.note})
-            if ex.success:
-                cands.append((f"exact (casadi+IPOPT) from {label}", ex.kp, ex.ki))
+        for k, (label, kp0, ki0) in enumerate(starts):
+            for high in (False, True) if k == 0 else (False,):
+                ex = exact_design(spec, payloads, kp0, ki0, high_circle=high)
+                name = f"exact (casadi+IPOPT{', high-frequency circle' if high else ''}) from {label}"
+                notes.setdefault("exact_starts", []).append({"design": name, "kp0": kp0, "ki0": ki0, "kp": ex.kp,
+                                                             "ki": ex.ki, "ipopt": ex.note})
+                if ex.success:
+                    cands.append((name, ex.kp, ex.ki))
     return cands, scan
 
 
@@ -684,6 +696,6 @@ def synthesise_pi(spec: Spec, *, method: str = "ccp+exact", max_rounds: int = 6)
         where = "" if b["payload_kg"] is None else f" at {b['payload_kg']:.1f} kg"
         return SynthesisResult(
             "infeasible", f"the best worst-case bandwidth is {ev.worst_bandwidth_hz:.2f} Hz at {ev.payload_kg[i]:.1f} "
-            f"kg, below requirements.min_bandwidth_hz = {req_bw:g}; the {b['constraint'].replace('_', ' ')}{where} "
+            f"kg (kp = {ev.kp:.4g}, ki = {ev.ki:.4g}), below requirements.min_bandwidth_hz = {req_bw:g}; the {b['constraint'].replace('_', ' ')}{where} "
             "limits it", ev, v, method, seconds, base, names, pts, details)
     return SynthesisResult("optimal", f"verified ({label})", ev, v, method, seconds, base, names, pts, details)

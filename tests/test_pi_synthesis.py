@@ -138,8 +138,8 @@ def test_verification_catches_bad_designs():
     v = verify(spec, 3000.0, 1.0e6)
     assert not v.verified and any("unstable" in f for f in v.failures)
     # a wrong bandwidth claim is caught too
-    v = verify(spec, 236.0, 47.0, payload_kg=[40.0], claimed_bandwidth_hz=[30.0])
-    assert not v.verified and "claimed bandwidth" in v.failures[0]
+    v = verify(spec, 236.0, 47.0, payload_kg=[5.0, 40.0], claimed_bandwidth_hz=[80.0, 30.0])
+    assert not v.verified and "claimed worst-case bandwidth" in v.failures[0]
 
 
 def test_unbounded_spec_names_the_missing_effects():

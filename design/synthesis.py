@@ -136,7 +136,7 @@ def evaluate(spec: Spec, kp: float, ki: float, payload_kg=None) -> Evaluation:
     name = min(rel, key=rel.get)
     i = int(np.argmin(slack[name]))
     active = sorted({k for k, v in slack.items() if np.min(v) / scale[k] < ACTIVE})
-    binding = {"constraint": name, "payload_kg": float(m[i]), "slack": float(slack[name][i]), "active": active}
+    binding = {"constraint": name, "payload_kg": float(m[i]), "slack": finite_or_none(slack[name][i]), "active": active}
     c = spec.controller
     for gain, value, bound in (("kp", kp, c.kp.max), ("ki", ki, c.ki.max)):
         if meets and value >= bound * (1 - ON_BOUND) and rel[name] > ON_BOUND:

@@ -202,3 +202,21 @@ def test_peak_sensitivity_and_disk_margin_requirements_hold():
     # Ms = 1.6 shapes the design: it is active, and the bandwidth falls below the PM/GM-only optimum (45.2 Hz)
     assert "peak_sensitivity" in res.evaluation.binding["active"]
     assert res.evaluation.worst_bandwidth_hz < 0.9 * 45.17
+
+
+def test_resonant_plant_exact_step_keeps_the_margins_at_every_crossing():
+    # a resonance at 120 Hz (notch 90 Hz) makes the loop cross 0 dB again near it: tracking only the
+    # first crossing gives PM 37 deg at 5 kg; the circle-guarded solve must not
+    spec = spec_with(plant={"effects": {"delay": {"seconds": 5e-4}, "current_loop": {"bandwidth_hz": 1000.0},
+                                        "resonance": {"frequency_hz": 120.0, "antiresonance_hz": 90.0,
+                                                      "damping_ratio": 0.05}}})
+    res = synthesise_pi(spec)
+    assert res.status == "optimal" and res.verification.verified
+    kp, ki = res.evaluation.kp, res.evaluation.ki
+    plant = spec.plant.plant()
+    for m in np.linspace(5.0, 40.0, 30):     # python-control 0.10.2, Pade order 10
+        L = plant.with_payload(m).to_control(pade_order=10) * control.tf([kp, ki], [1, 0])
+        gm, pm, *_ = control.stability_margins(L)
+        assert pm >= 45.0 - 0.05 and 20 * math.log10(gm) >= 6.0 - 0.05, (m, pm, gm)
+    ccp = [c for c in res.details["candidates"] if c["design"].startswith("ccp")]
+    assert ccp and res.evaluation.worst_bandwidth_hz > 1.05 * ccp[0]["worst_bandwidth_hz"]

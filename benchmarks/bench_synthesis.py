@@ -68,7 +68,7 @@ def main():
               f"python-control verification {res.details['verification_seconds']:.2f} s")
         print(f"  LP solves {d['solver']['lp_solves']}, IPOPT starts {len(d['solver']['exact_starts'])}, "
               f"rounds {d['solver']['rounds']}")
-        print(f"  without the exact step (method ccp: scan + cvxpy/Clarabel): worst-case bandwidth {ccp.evaluation.worst_bandwidth_hz:.3f} Hz "
+        print(f"  ccp alone (the circle design, cvxpy + Clarabel): worst-case bandwidth {ccp.evaluation.worst_bandwidth_hz:.3f} Hz "
               f"({ccp.details['chosen']})")
         print(f"  brute force ({brute_s:.0f} s): kp {kp:.2f}, ki {ki:.1f}, worst-case bandwidth {brute_bw:.3f} Hz")
         print(f"  ratio synthesis / brute force: {ours / brute_bw:.4f}")

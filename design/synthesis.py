@@ -592,7 +592,8 @@ def unbounded_message(spec: Spec) -> str:
 def _solve(spec: Spec, payloads: np.ndarray, dense: np.ndarray, method: str,
            notes: dict) -> tuple[list[tuple[str, float, float]], Scan]:
     """Candidate designs (label, kp, ki) for the payload points: the best scan seeds, the ccp design and
-    the exact refinements from the ccp design and the best seeds; and the scan."""
+    the exact refinements from the ccp design and the best seeds (method "ccp": the ccp design); and
+    the scan."""
     P = spec.plant.plant().with_payload(payloads).frd(W_OPT)
     scan = scan_gains(spec, P)
     notes["scan_designs"] = notes.get("scan_designs", 0) + scan.kp.size
@@ -606,6 +607,8 @@ def _solve(spec: Spec, payloads: np.ndarray, dense: np.ndarray, method: str,
     if math.isfinite(ccp.kp):
         cands.append(("ccp (cvxpy+CLARABEL)", ccp.kp, ccp.ki))
         starts.insert(0, cands[-1])
+        if method == "ccp":     # the circle design alone (the seeds only when it failed)
+            cands = cands[-1:]
     if method == "ccp+exact":
         def exact(label, kp0, ki0, high):
             ex = exact_design(spec, payloads, kp0, ki0, high_circle=high)

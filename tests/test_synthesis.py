@@ -159,4 +159,5 @@ def test_data_driven_synthesis_matches_the_model_based_circle_design(tmp_path):
     res = json.loads(out.stdout)
     assert res["data_driven"] and res["verified"]
     model = synthesise_pi(load_spec(SPEC_X), method="ccp")   # the same plant as a model, 8 payloads
-    assert res["worst_case"]["bandwidth_hz"] == pytest.approx(model.evaluation.worst_bandwidth_hz, rel=0.03)
+    # 3 measured payloads on 8-450 Hz vs 8 model payloads on the CCP grid: same design within 5 %
+    assert res["worst_case"]["bandwidth_hz"] == pytest.approx(model.evaluation.worst_bandwidth_hz, rel=0.05)

@@ -1,279 +1,453 @@
-"""Admittance gains (m_v, b_v) for the mouse-following loop (thesis section 3.2, Figure 3.22).
+"""Admittance synthesis: the virtual dynamics 1/(m_v s + b_v) a mouse can push with the least
+resistance while the coupled gantry-mouse system keeps its margins (physics and the interaction
+loop L = K / (m_v s + b_v): ``design.admittance_model``).
 
-Loop: the force sensor at the head clamp measures F_s; the virtual dynamics
-Y_v = 1/(m_v s + b_v) (thesis Eq. 3.23 with k_v = 0; Eq. 3.24's m_v s^2 is a typo) turn it
-into a velocity reference for the PI velocity loop C = kp + ki/s, which drives the current
-loop and the gantry P; F_s also pushes the gantry directly (mechanical admittance
-P_F = P / (K_t E), E the electrical lags). The gantry velocity is then v = H F_s with the
-rendered admittance H = (P C Y_v + P_F) / (1 + P C).
+Problem: minimise the peak resistance on a trapezoidal profile, m_v a_pk + b_v v_pk (linear),
+over the spec's bounds, subject to, at every payload, every corner of the mouse ranges and
+every frequency of the constraint grid:
 
-The mouse is coupled at the clamp: head mass m_h beyond the sensor moves with the gantry,
-the body m_b hangs on the neck (stiffness k_n, damping c_n) and is driven by the mouse's own
-force F_m. With Z_n = k_n/s + c_n the clamp sees the impedance
-Z_mouse = m_h s + m_b s Z_n / (m_b s + Z_n) and F_s = G F_m - Z_mouse v, so breaking the loop
-at the force sensor gives the interaction loop gain L_int = Z_mouse H, whose phase and gain
-margins (``design.margins``) must hold at every payload and every corner of the mouse ranges.
+* margins: L outside the circle through -1/g and e^{j(pi - phi)} (Hast, Astrom, Bernhardsson
+  & Boyd 2013; ``design.synthesis.margin_circle``): |K - x0 z| >= r |z|, z = b_v + j w m_v;
+* force-sensor step to current: |z| >= res |C S| / i_max;
+* motor force: F_max |z| >= F_pk |T| |1/G - z|.
 
-Objective: the peak resistance the mouse feels while running, m_v a_peak + b_v v_peak (the
-virtual dynamics' force at the profile's peak acceleration and peak speed, an upper bound on
-any profile reaching both). Constraints besides the margins: the motor force for the peak
-mouse force, max_w |K_t E C (Y_v - H)| F_peak, within the motor's peak force; the current
-caused by one force-sensor step, max_w |C (Y_v - H)| * resolution, below the spec limit.
+Every row is "sqrt(alpha) |A(x)| >= sqrt(beta) |B(x)|" with A, B affine in x = (m_v, b_v):
+reverse-convex, so the problem is not convex.
 
-Solution: for fixed b_v the margins and both hardware ratios improve monotonically with m_v
-(a larger virtual mass lowers |Y_v| and with it the loop gain), so the least feasible m_v is
-found by bisection, and the objective (increasing in both) is minimised over b_v by a scan
-and a golden-section refinement on log b_v. The result is re-checked on 50 payloads x every
-mouse corner on the 3000-point grid, and the coupled closed loop's poles are computed with
-python-control (Pade for delays) at light, nominal and heavy payload.
+Pipeline (``synthesise_admittance``):
+
+1. **ccp** (cvxpy + Clarabel) from the stiffest allowed dynamics (m_v, b_v at their upper
+   bounds, which must pass): |A| is replaced by its tangent Re(conj(A_k) A(x)) / |A_k| <= |A|, an
+   inner approximation, so each subproblem is a second-order cone program whose solution is
+   feasible; rows are added while any is violated (active set), iterations stop when the cost
+   stalls.
+2. **ipopt** (casadi) on the same rows in log-ratio form, log m_v and log b_v as variables,
+   multi-started from the ccp design and the middle of the box (geometric mean); the best
+   feasible design of the two formulations is kept.
+3. **exact polish**: the circle is conservative, so m_v and then b_v are lowered by bisection
+   while the exact grid margins (``loop_margins``) and hardware peaks hold at the design payloads
+   (two rounds).
+4. **robustness** like systune: the design is checked on 50 payloads x every mouse corner on the
+   3000-point grid (plus the neck modes); violating payloads join the design payloads and the
+   pipeline repeats.
+5. **verification** (``design.admittance_verify``): coupled closed-loop poles and python-control
+   margins on the rational model.
 """
 
 from __future__ import annotations
 
-import itertools
 import math
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
-from design.margins import loop_margins
+from design.admittance_model import (AdmittanceCheck, AdmittanceEvaluator, MouseModel, W_DENSE, admittance_spec,
+                                     dense_payloads, gantry_loop, interaction_gain, mouse_corners,
+                                     peak_resistance_n, with_neck_modes)
+from design.admittance_verify import AdmittanceVerification, verify_admittance
 from design.spec import Spec, finite_or_none
+from design.synthesis import margin_circle
 from plant.errors import SpecError
 from plant.grid import log_grid_rad_s
 
-W_SEARCH = log_grid_rad_s(0.05, 5000.0, 400)
-#: the search works a little inside the limits (margins + 0.5 deg / 0.2 dB, hardware ratios x 0.98)
-#: so the design still meets them on the denser check grid
-SEARCH_MARGIN = (0.5, 0.2, 0.98)
-W_CHECK = log_grid_rad_s(1e-3, 1e4, 3000)
-DENSE_PAYLOADS = 50
+FAMILIES = ("interaction_margin", "sensor_current", "motor_force")
+#: constraint grid of the optimiser: 10 mHz - 3 kHz, 700 points, plus points around the neck modes
+W_DESIGN = log_grid_rad_s(0.01, 3000.0, 700)
+#: the optimiser works a hair inside the limits so the design holds on the denser check grid:
+#: circle radius x 1.003, hardware limits x 0.997; the exact polish keeps PM + 0.1 deg, GM + 0.05 dB
+ROW_HAIR = 0.003
+POLISH_HAIR = (0.1, 0.05, 0.002)
+#: rows whose slack (log of the ratio of the two sides) is below this join the active set
+ACTIVE_SLACK = 0.1
+MAX_ROUNDS = 4
 
 
+# --- constraint rows ---------------------------------------------------------------------------------
 @dataclass(frozen=True)
-class AdmittanceCheck:
-    ok: bool
-    worst_phase_margin_deg: float
-    worst_gain_margin_db: float
-    peak_motor_force_n: float
-    current_per_sensor_step_a: float
-    #: the tightest constraint and where
-    binding: str
+class Rows:
+    """Constraints alpha |A|^2 >= beta |B|^2, A = (c1 - c2 b) + j (c3 - c4 m), B = (e1 - e2 b) + j (e3 - e4 m),
+    with m = m_v, b = b_v; ``coef`` columns alpha, c1..c4, beta, e1..e4."""
+
+    coef: np.ndarray
+    family: np.ndarray    # index into FAMILIES
+    payload: np.ndarray   # kg
+    corner: np.ndarray    # index into the mouse corners, -1 for hardware rows
+    f_hz: np.ndarray
+
+    def sides(self, m: float, b: float) -> tuple[np.ndarray, np.ndarray]:
+        c = self.coef
+        return (c[:, 1] - c[:, 2] * b) + 1j * (c[:, 3] - c[:, 4] * m), (c[:, 6] - c[:, 7] * b) + 1j * (c[:, 8] - c[:, 9] * m)
+
+    def slack(self, m: float, b: float) -> np.ndarray:
+        """log(alpha |A|^2) - log(beta |B|^2): >= 0 where the row holds."""
+        a, bb = self.sides(m, b)
+        c = self.coef
+        with np.errstate(divide="ignore"):
+            return np.log(c[:, 0] * np.abs(a) ** 2) - np.log(c[:, 5] * np.abs(bb) ** 2)
+
+    def take(self, idx) -> Rows:
+        return Rows(self.coef[idx], self.family[idx], self.payload[idx], self.corner[idx], self.f_hz[idx])
 
 
+def build_rows(spec: Spec, payload_kg: np.ndarray, corners, *, kp: float, ki: float) -> Rows:
+    """The sampled constraints at ``payload_kg`` x ``corners`` x ``W_DESIGN`` (module docstring)."""
+    adm = admittance_spec(spec)
+    hw = adm.hardware
+    loop = gantry_loop(spec, with_neck_modes(W_DESIGN, corners), payload_kg, kp=kp, ki=ki)
+    w = loop.w_rad_s
+    W = np.broadcast_to(w, loop.plant.shape)
+    Mk = np.broadcast_to(loop.payload_kg[:, None], W.shape)
+    zeros, ones = np.zeros(W.shape), np.ones(W.shape)
+    x0, r = margin_circle(adm.phase_margin_deg, adm.gain_margin_db)
+    r2 = (r * (1 + ROW_HAIR)) ** 2
+    blocks = []
+    for k, mouse in enumerate(corners):
+        K = interaction_gain(loop, mouse)
+        coef = np.stack([ones, K.real, x0 * ones, K.imag, x0 * W, r2 * ones, zeros, -ones, zeros, -W], -1)
+        blocks.append((coef.reshape(-1, 10), 0, k))
+    rho = hw.force_sensor_resolution_n * np.abs(loop.controller * loop.sensitivity) / (
+        hw.max_current_per_sensor_step_a * (1 - ROW_HAIR))
+    coef = np.stack([ones, zeros, -ones, zeros, -W, rho**2, ones, zeros, zeros, zeros], -1)
+    blocks.append((coef.reshape(-1, 10), 1, -1))
+    zg = 1.0 / loop.mobility
+    coef = np.stack([(hw.motor_peak_force_n * (1 - ROW_HAIR)) ** 2 * ones, zeros, -ones, zeros, -W,
+                     (adm.mouse.peak_force_n * np.abs(loop.complementary)) ** 2, zg.real, ones, zg.imag, W], -1)
+    blocks.append((coef.reshape(-1, 10), 2, -1))
+    n = W.size
+    return Rows(np.concatenate([b[0] for b in blocks]),
+                np.concatenate([np.full(n, b[1]) for b in blocks]),
+                np.tile(Mk.ravel(), len(blocks)),
+                np.concatenate([np.full(n, b[2]) for b in blocks]),
+                np.tile(W.ravel(), len(blocks)) / (2 * np.pi))
+
+
+# --- formulation 1: convex-concave procedure in cvxpy + Clarabel -----------------------------------
+def _socp(rows: Rows, x_k: np.ndarray, lo: np.ndarray, hi: np.ndarray, weights: np.ndarray) -> np.ndarray | None:
+    """One CCP subproblem: min weights . x s.t. sqrt(beta) |B(x)| <= sqrt(alpha) Re(conj(n) A(x)), n = A(x_k)/|A(x_k)|.
+    Variables are scaled by x_k (y = x / x_k); returns x or None when the solver fails."""
+    import cvxpy as cp
+
+    c = rows.coef
+    a_k, _ = rows.sides(*x_k)
+    n = a_k / np.maximum(np.abs(a_k), 1e-300)
+    sa, sb = np.sqrt(c[:, 0]), np.sqrt(c[:, 5])
+    # Re(conj(n) A) = nr (c1 - c2 b) + ni (c3 - c4 m)
+    t0 = sa * (n.real * c[:, 1] + n.imag * c[:, 3])
+    T = np.column_stack([-sa * n.imag * c[:, 4] * x_k[0], -sa * n.real * c[:, 2] * x_k[1]])
+    U = np.column_stack([np.zeros(len(c)), -sb * c[:, 7] * x_k[1]])
+    V = np.column_stack([-sb * c[:, 9] * x_k[0], np.zeros(len(c))])
+    y = cp.Variable(2)
+    cons = [cp.SOC(t0 + T @ y, cp.vstack([sb * c[:, 6] + U @ y, sb * c[:, 8] + V @ y]), axis=0),
+            y >= lo / x_k, y <= hi / x_k]
+    problem = cp.Problem(cp.Minimize((weights * x_k) @ y), cons)
+    try:
+        problem.solve(solver=cp.CLARABEL)
+    except cp.error.SolverError:
+        return None
+    if problem.status not in ("optimal", "optimal_inaccurate") or y.value is None:
+        return None
+    return np.asarray(y.value) * x_k
+
+
+def ccp_design(rows: Rows, start: np.ndarray, lo, hi, weights, *, iterations: int = 30) -> tuple[np.ndarray, dict]:
+    """CCP from the feasible ``start`` (m_v, b_v); every accepted iterate meets every row."""
+    x = np.asarray(start, float)
+    active = rows.slack(*x) < ACTIVE_SLACK
+    solves = 0
+    for _ in range(iterations):
+        for _ in range(10):       # active set: add the rows the subproblem's solution violates
+            x_new = _socp(rows.take(active), x, lo, hi, weights)
+            solves += 1
+            if x_new is None:
+                return x, {"socp_solves": solves, "active_rows": int(active.sum())}
+            g = rows.slack(*x_new)
+            violated = (g < -1e-9) & ~active
+            if not violated.any():
+                break
+            active |= violated
+        if g.min() < -1e-9:       # still violated: keep the last feasible iterate
+            break
+        gain = weights @ x - weights @ x_new
+        x = x_new
+        active |= g < ACTIVE_SLACK
+        if gain <= 1e-5 * (weights @ x):
+            break
+    return x, {"socp_solves": solves, "active_rows": int(active.sum())}
+
+
+# --- formulation 2: nonlinear program in casadi + IPOPT ----------------------------------------------
+def _ipopt(rows: Rows, start, lo, hi, weights) -> np.ndarray:
+    """min log(weights . x) over log m_v, log b_v within the bounds s.t. the rows (log-ratio form)."""
+    import casadi as ca
+
+    v = ca.MX.sym("v", 2)
+    m, b = ca.exp(v[0]), ca.exp(v[1])
+    c = [ca.DM(rows.coef[:, i]) for i in range(10)]
+    lhs = c[0] * ((c[1] - c[2] * b) ** 2 + (c[3] - c[4] * m) ** 2)
+    rhs = c[5] * ((c[6] - c[7] * b) ** 2 + (c[8] - c[9] * m) ** 2)
+    solver = ca.nlpsol("admittance", "ipopt",
+                       {"x": v, "f": ca.log(weights[0] * m + weights[1] * b), "g": ca.log(lhs) - ca.log(rhs)},
+                       {"ipopt.print_level": 0, "ipopt.sb": "yes", "print_time": False, "ipopt.max_iter": 300,
+                        "ipopt.tol": 1e-10, "ipopt.constr_viol_tol": 1e-10})
+    res = solver(x0=np.clip(np.log(start), np.log(lo), np.log(hi)), lbx=np.log(lo), ubx=np.log(hi), lbg=0.0,
+                 ubg=np.inf)
+    return np.exp(np.asarray(res["x"]).ravel())
+
+
+def ipopt_design(rows: Rows, start, lo, hi, weights, *, rounds: int = 20) -> np.ndarray:
+    """IPOPT on the rows near or past their bound, adding violated rows until all hold."""
+    x = np.asarray(start, float)
+    active = np.zeros(len(rows.family), bool)
+    for _ in range(rounds):
+        g = rows.slack(*x)
+        add = (g < 0.3) & ~active
+        if not add.any():
+            break
+        idx = np.flatnonzero(add)
+        active[idx[np.argsort(g[idx])[:3000]]] = True
+        x = _ipopt(rows.take(active), x, lo, hi, weights)
+    return x
+
+
+# --- exact polish -------------------------------------------------------------------------------------
+def _meets_exactly(ev: AdmittanceEvaluator, m: float, b: float) -> bool:
+    """Exact grid margins and hardware peaks, a hair inside the requirements (``POLISH_HAIR``)."""
+    c = ev.evaluate(m, b, bandwidth=False)
+    a, hw = ev.adm, ev.adm.hardware
+    d_pm, d_gm, f = POLISH_HAIR
+    return bool(np.all(c.phase_margin_deg >= a.phase_margin_deg + d_pm)
+                and np.all(c.gain_margin_db >= a.gain_margin_db + d_gm)
+                and np.all(c.sensor_current_a <= hw.max_current_per_sensor_step_a * (1 - f))
+                and np.all(c.motor_force_n <= hw.motor_peak_force_n * (1 - f)))
+
+
+def polish(ev: AdmittanceEvaluator, x: np.ndarray, lo, *, rounds: int = 2, rtol: float = 1e-3) -> tuple[np.ndarray, int]:
+    """Lower m_v, then b_v, by bisection in log while ``_meets_exactly`` holds (x must meet it)."""
+    x = np.asarray(x, float).copy()
+    evaluations = 0
+    for _ in range(rounds):
+        for i in (0, 1):
+            trial = x.copy()
+            trial[i] = lo[i]
+            evaluations += 1
+            if _meets_exactly(ev, *trial):
+                x = trial
+                continue
+            a, b = math.log(lo[i]), math.log(x[i])      # a fails, b meets
+            while b - a > rtol:
+                trial[i] = math.exp(0.5 * (a + b))
+                evaluations += 1
+                if _meets_exactly(ev, *trial):
+                    b = math.log(trial[i])
+                else:
+                    a = math.log(trial[i])
+            x[i] = math.exp(b)
+    return x, evaluations
+
+
+# --- result -------------------------------------------------------------------------------------------
 @dataclass(frozen=True)
 class AdmittanceResult:
-    status: str
+    """Chosen virtual dynamics with their dense check and independent verification."""
+
+    status: str                 # "optimal" | "infeasible"
     message: str
-    m_v: float | None
-    b_v: float | None
+    m_v: float
+    b_v: float
     kp: float
     ki: float
-    peak_resistance_n: float | None
-    rendered_bandwidth_hz: float | None
-    check: AdmittanceCheck | None
-    verified: bool
-    max_pole_real_part: float | None
+    peak_resistance_n: float
+    check: AdmittanceCheck
+    verification: AdmittanceVerification | None
+    #: the tightest requirement at the design: {"constraint", "payload_kg", "mouse", "value", "limit", "detail"}
+    binding: dict
+    active: tuple[str, ...]
+    corners: tuple[MouseModel, ...]
     seconds: float
+    solver: dict = field(default_factory=dict)
 
-    def to_dict(self) -> dict:
-        c = self.check
-        return {"status": self.status, "message": self.message, "m_v": self.m_v, "b_v": self.b_v,
-                "kp": self.kp, "ki": self.ki, "peak_resistance_n": self.peak_resistance_n,
-                "rendered_bandwidth_hz": finite_or_none(self.rendered_bandwidth_hz)
-                if self.rendered_bandwidth_hz is not None else None,
-                "worst_phase_margin_deg": finite_or_none(c.worst_phase_margin_deg) if c else None,
-                "worst_gain_margin_db": finite_or_none(c.worst_gain_margin_db) if c else None,
-                "peak_motor_force_n": c.peak_motor_force_n if c else None,
-                "current_per_sensor_step_a": c.current_per_sensor_step_a if c else None,
-                "binding": c.binding if c else None, "verified": self.verified,
-                "max_closed_loop_pole_real_part": self.max_pole_real_part, "seconds": self.seconds,
-                "method": "bisection on m_v (monotone margins) + golden-section search on log b_v; dense check"}
+    @property
+    def verified(self) -> bool:
+        return bool(self.status == "optimal" and self.verification is not None and self.verification.verified)
 
-
-def mouse_corners(spec: Spec) -> np.ndarray:
-    """Every corner of the mouse ranges: rows (m_h, m_b, k_n, c_n)."""
-    m = spec.admittance.mouse
-    ranges = [m.head_mass_kg, m.body_mass_kg, m.neck_stiffness_n_per_m, m.neck_damping_n_s_per_m]
-    return np.array(list(itertools.product(*[(r.min, r.max) for r in ranges])))
-
-
-def mouse_impedance(w_rad_s, corners: np.ndarray) -> np.ndarray:
-    """Z_mouse(jw) = m_h s + m_b s Z_n / (m_b s + Z_n), Z_n = k_n/s + c_n; shape (n_corners, n_freq), N per m/s."""
-    s = 1j * np.asarray(w_rad_s)
-    mh, mb, kn, cn = (corners[:, k:k + 1] for k in range(4))
-    zn = kn / s + cn
-    return mh * s + mb * s * zn / (mb * s + zn)
-
-
-def _grid(spec: Spec, base: np.ndarray, points: int) -> np.ndarray:
-    """``base`` plus ``points`` points within +-15 % of every body-neck resonance sqrt(k_n / m_b)
-    of the mouse corners (lightly damped: a coarse grid would step over them)."""
-    c = mouse_corners(spec)
-    wn = np.unique(np.sqrt(c[:, 2] / c[:, 1]))
-    local = [wr * np.linspace(0.85, 1.15, points) for wr in wn]
-    return np.unique(np.concatenate([base, *local]))
-
-
-class _Loops:
-    """Frequency responses that do not depend on (m_v, b_v), for a set of payloads."""
-
-    def __init__(self, spec: Spec, kp: float, ki: float, payload_kg, w):
-        plant = spec.plant.plant().with_payload(payload_kg)
-        self.w = w
-        s = 1j * w
-        self.P = plant.frd(w)
-        electrical = np.ones_like(w, dtype=complex)
-        for e in plant.effects:
-            if e.name in ("delay", "current_loop", "sampling"):
-                electrical = electrical * e.frd(w)
-        self.kt = float(spec.plant.force_constant_n_per_a)
-        self.E = electrical
-        self.PF = self.P / (self.kt * electrical)
-        self.C = kp + ki / s
-        self.Z = mouse_impedance(w, mouse_corners(spec))
-        self.payload_kg = np.asarray(payload_kg, float)
-
-    def responses(self, m_v: float, b_v: float):
-        yv = 1.0 / (m_v * 1j * self.w + b_v)
-        PC = self.P * self.C
-        H = (PC * yv + self.PF) / (1 + PC)
-        return yv, H
-
-    def check(self, spec: Spec, m_v: float, b_v: float, *, inside: tuple = (0.0, 0.0, 1.0)) -> AdmittanceCheck:
-        """Constraints at (m_v, b_v); ``inside`` tightens them (deg, dB, factor on the hardware limits)."""
-        a = spec.admittance
-        d_pm, d_gm, f_hw = inside
-        yv, H = self.responses(m_v, b_v)
-        L = self.Z[None, :, :] * H[:, None, :]
-        mg = loop_margins(self.w, L)
-        pm, gm = mg.phase_margin_deg, mg.gain_margin_db
-        current = np.max(np.abs(self.C * (yv - H)), axis=-1) * a.force_sensor_resolution_n
-        force = np.max(np.abs(self.kt * self.E * self.C * (yv - H)), axis=-1) * a.locomotion.peak_force_n
-        slacks = {
-            "interaction phase margin": (pm - a.phase_margin_deg - d_pm) / max(a.phase_margin_deg, 1.0),
-            "interaction gain margin": (np.where(np.isfinite(gm), gm, np.inf) - a.gain_margin_db - d_gm)
-            / max(a.gain_margin_db, 1.0),
-            "motor peak force": (f_hw * a.motor_peak_force_n - force) / a.motor_peak_force_n,
-            "current per force-sensor step": (f_hw * a.current_per_sensor_step_max_a - current)
-            / a.current_per_sensor_step_max_a,
+    def to_dict(self, spec: Spec) -> dict:
+        adm = admittance_spec(spec)
+        c, optimal = self.check, self.status == "optimal"
+        worst_pm, worst_gm = np.min(c.phase_margin_deg, axis=0), np.min(c.gain_margin_db, axis=0)
+        loc, hw = adm.locomotion, adm.hardware
+        return {
+            "status": self.status, "message": self.message,
+            "m_v": self.m_v if optimal else None, "b_v": self.b_v if optimal else None,
+            "kp": self.kp, "ki": self.ki,
+            "peak_resistance_n": self.peak_resistance_n if optimal else None,
+            "rendered_bandwidth_hz": finite_or_none(np.nanmin(c.rendered_bandwidth_hz))
+            if np.any(np.isfinite(c.rendered_bandwidth_hz)) else None,
+            "worst_phase_margin_deg": finite_or_none(np.min(worst_pm)),
+            "worst_gain_margin_db": finite_or_none(np.min(worst_gm)),
+            "worst_sensor_current_a": float(np.max(c.sensor_current_a)),
+            "worst_motor_force_n": float(np.max(c.motor_force_n)),
+            "binding": self.binding, "active": list(self.active),
+            "verified": self.verified,
+            "mouse_can_follow_profile": bool(self.peak_resistance_n <= adm.mouse.peak_force_n),
+            "locomotion": {"profile": "trapezoidal (peak acceleration held until peak speed)",
+                           "peak_speed_m_per_s": loc.peak_speed_m_per_s,
+                           "peak_acceleration_m_per_s2": loc.peak_acceleration_m_per_s2},
+            "limits": {"phase_margin_deg": adm.phase_margin_deg, "gain_margin_db": adm.gain_margin_db,
+                       "motor_peak_force_n": hw.motor_peak_force_n,
+                       "max_current_per_sensor_step_a": hw.max_current_per_sensor_step_a,
+                       "force_sensor_resolution_n": hw.force_sensor_resolution_n,
+                       "mouse_peak_force_n": adm.mouse.peak_force_n},
+            "evaluated_at": {"m_v": self.m_v, "b_v": self.b_v},
+            "mouse_corners": [m.as_dict() for m in self.corners],
+            "per_payload": [{"payload_kg": float(m), "phase_margin_deg": finite_or_none(p),
+                             "gain_margin_db": finite_or_none(g), "rendered_bandwidth_hz": finite_or_none(bw),
+                             "sensor_current_a": float(i), "motor_force_n": float(f)}
+                            for m, p, g, bw, i, f in zip(c.payload_kg, worst_pm, worst_gm, c.rendered_bandwidth_hz,
+                                                         c.sensor_current_a, c.motor_force_n)],
+            "violations": [v["detail"] for v in c.violations],
+            "verification": None if self.verification is None else self.verification.to_dict(c.payload_kg.size),
+            "solver": {"method": "ccp (cvxpy + Clarabel) and ipopt (casadi) on margin circles, exact polish by "
+                                 "bisection", "seconds": self.seconds, **self.solver},
         }
-        worst = {k: float(np.min(v)) for k, v in slacks.items()}
-        name = min(worst, key=worst.get)
-        idx = np.unravel_index(int(np.argmin(slacks[name])), np.shape(slacks[name]))
-        where = f"{self.payload_kg[idx[0]]:.1f} kg"
-        if np.ndim(slacks[name]) == 2:
-            mh, mb, kn, cn = mouse_corners(spec)[idx[1]]
-            where += f", mouse head {1e3 * mh:g} g, body {1e3 * mb:g} g, neck {kn:g} N/m, {cn:g} N*s/m"
-        return AdmittanceCheck(all(v >= -1e-9 for v in worst.values()), float(np.min(pm)), float(np.min(gm)),
-                               float(np.max(force)), float(np.max(current)), f"{name} at {where}")
 
 
-def rendered_bandwidth_hz(loops: _Loops, m_v: float, b_v: float) -> float:
-    """Lowest (over payloads) first frequency where H departs from Y_v by 3 dB or 30 deg."""
-    yv, H = loops.responses(m_v, b_v)
-    r = H / yv
-    bad = (np.abs(20 * np.log10(np.abs(r))) > 3) | (np.abs(np.degrees(np.angle(r))) > 30)
-    first = np.where(bad.any(axis=-1), loops.w[np.argmax(bad, axis=-1)], np.inf)
-    return float(np.min(first)) / (2 * math.pi)
+_HINTS = {"sensor_current": "allow a larger m_v / b_v, a larger admittance.hardware.max_current_per_sensor_step_a, "
+                            "or a finer force sensor",
+          "motor_force": "raise admittance.hardware.motor_peak_force_n, lower admittance.mouse.peak_force_n, or "
+                         "allow a larger m_v",
+          "phase_margin": "allow a larger m_v / b_v, a lower margin requirement, or a better damped velocity loop",
+          "gain_margin": "allow a larger m_v / b_v, a lower margin requirement, or a better damped velocity loop"}
 
 
-def _least_mass(loops: _Loops, spec: Spec, b_v: float) -> float | None:
-    a = spec.admittance
-    lo, hi = math.log(a.m_v.min), math.log(a.m_v.max)
-    if not loops.check(spec, a.m_v.max, b_v, inside=SEARCH_MARGIN).ok:
-        return None
-    if loops.check(spec, a.m_v.min, b_v, inside=SEARCH_MARGIN).ok:
-        return a.m_v.min
-    for _ in range(30):
-        mid = 0.5 * (lo + hi)
-        if loops.check(spec, math.exp(mid), b_v, inside=SEARCH_MARGIN).ok:
-            hi = mid
-        else:
-            lo = mid
-        if hi - lo < 2e-3:
-            break
-    return math.exp(hi)
+def binding_constraint(ev: AdmittanceEvaluator, check: AdmittanceCheck, lo) -> tuple[dict, tuple[str, ...]]:
+    """The requirement with the least relative slack at ``check`` (and every one within 1 %, and
+    bounds the design sits on)."""
+    a, hw = ev.adm, ev.adm.hardware
+    slack = {"phase_margin": (check.phase_margin_deg - a.phase_margin_deg) / max(a.phase_margin_deg, 1.0),
+             "gain_margin": (check.gain_margin_db - a.gain_margin_db) / max(a.gain_margin_db, 1.0),
+             "sensor_current": 1 - check.sensor_current_a / hw.max_current_per_sensor_step_a,
+             "motor_force": 1 - check.motor_force_n / hw.motor_peak_force_n}
+    least = {k: float(np.min(v)) for k, v in slack.items()}
+    active = tuple(k for k in sorted(least, key=least.get) if least[k] < 0.01)
+    active += tuple(name for name, x, bound in (("m_v_min", check.m_v, lo[0]), ("b_v_min", check.b_v, lo[1]))
+                    if x <= bound * (1 + 1e-9))
+    name = min(least, key=least.get)
+    idx = np.unravel_index(int(np.argmin(slack[name])), np.shape(slack[name]))
+    j = idx[-1]
+    mouse = ev.corners[idx[0]] if len(idx) == 2 else None
+    mk = float(check.payload_kg[j])
+    if name in ("phase_margin", "gain_margin"):
+        value = float(getattr(check, f"{name}_{'deg' if name == 'phase_margin' else 'db'}")[idx])
+        limit = a.phase_margin_deg if name == "phase_margin" else a.gain_margin_db
+        detail = f"interaction-loop {name.replace('_', ' ')} {value:.2f} (required {limit:g}) at {mk:.1f} kg with " \
+                 f"mouse ({mouse.label()})"
+    elif name == "sensor_current":
+        value, limit = float(check.sensor_current_a[j]), hw.max_current_per_sensor_step_a
+        detail = f"one force-sensor step drives {value:.4g} A (limit {limit:g} A) at {mk:.1f} kg, " \
+                 f"{check.sensor_peak_hz[j]:.3g} Hz"
+    else:
+        value, limit = float(check.motor_force_n[j]), hw.motor_peak_force_n
+        detail = f"motor force {value:.4g} N (limit {limit:g} N) at {mk:.1f} kg, {check.motor_peak_hz[j]:.3g} Hz"
+    return ({"constraint": name, "payload_kg": mk, "mouse": None if mouse is None else mouse.as_dict(),
+             "value": value, "limit": limit, "detail": detail}, active)
 
 
-def _coupled_poles(spec: Spec, kp: float, ki: float, m_v: float, b_v: float) -> float:
-    """Largest real part of the coupled gantry-mouse closed-loop poles (python-control, Pade)."""
-    import control
-
-    s = control.tf("s")
-    worst = -math.inf
-    rng = spec.plant.payload_kg
-    for m in sorted({rng.min, rng.nominal_kg, rng.max}):
-        plant = spec.plant.plant().with_payload(m)
-        P = plant.to_control()
-        electrical = control.tf([1], [1])
-        for e in plant.effects:
-            if e.name in ("delay", "current_loop", "sampling"):
-                electrical = electrical * e.to_tf()
-        kt = float(spec.plant.force_constant_n_per_a)
-        PF = control.minreal(P / (kt * electrical), verbose=False)
-        C = (kp * s + ki) / s
-        H = (P * C / (m_v * s + b_v) + PF) / (1 + P * C)
-        for mh, mb, kn, cn in mouse_corners(spec):
-            Zn = (cn * s + kn) / s
-            Z = mh * s + mb * s * Zn / (mb * s + Zn)
-            T = control.feedback(control.minreal(Z * H, verbose=False), 1)
-            worst = max(worst, float(np.max(np.real(control.poles(T)))))
-    return worst
+def _gains(spec: Spec, kp, ki) -> tuple[float, float]:
+    kp = spec.controller.kp.value if kp is None else kp
+    ki = spec.controller.ki.value if ki is None else ki
+    for name, v in (("kp", kp), ("ki", ki)):
+        if v is None:
+            raise SpecError(f"controller.{name}.value is needed for admittance synthesis (or pass {name}=...)")
+        if not (math.isfinite(v) and v >= 0):
+            raise SpecError(f"controller.{name}: must be finite and >= 0, got {v}")
+    return float(kp), float(ki)
 
 
-def synthesise_admittance(spec: Spec, *, kp: float, ki: float) -> AdmittanceResult:
-    """Least-resistance (m_v, b_v) meeting the interaction margins and hardware limits (module doc)."""
-    if spec.admittance is None:
-        raise SpecError("the spec has no [admittance] section")
+def _design(spec: Spec, payloads: np.ndarray, corners, lo, hi, weights, *, kp: float, ki: float,
+            notes: dict) -> np.ndarray:
+    """Steps 1-3 of the pipeline at ``payloads``: the best of ccp and ipopt, then the exact polish."""
+    rows = build_rows(spec, payloads, corners, kp=kp, ki=ki)
+    x_ccp, info = ccp_design(rows, hi, lo, hi, weights)
+    candidates = {"ccp": x_ccp}
+    for label, start in (("ipopt from ccp", x_ccp), ("ipopt from mid", np.sqrt(lo * hi))):
+        candidates[label] = ipopt_design(rows, start, lo, hi, weights)
+    feasible = {k: x for k, x in candidates.items() if rows.slack(*x).min() >= -1e-7}
+    best = min(feasible, key=lambda k: weights @ feasible[k])
+    ev = AdmittanceEvaluator(spec, payloads, W_DESIGN, kp=kp, ki=ki)
+    x = feasible[best]
+    polished, evaluations = polish(ev, x, lo) if _meets_exactly(ev, *x) else (x, 0)
+    notes.update({"rows": int(len(rows.family)), **info, "best_formulation": best,
+                  "circle_cost_n": {k: float(weights @ x) for k, x in feasible.items()},
+                  "exact_polish_evaluations": notes.get("exact_polish_evaluations", 0) + evaluations})
+    return polished
+
+
+def synthesise_admittance(spec: Spec, *, kp: float | None = None, ki: float | None = None) -> AdmittanceResult:
+    """Choose (m_v, b_v) minimising the peak resistance m_v a_pk + b_v v_pk subject to the
+    interaction-loop margins at every payload and mouse corner, the motor's peak force and the
+    force-sensor-step current; PI gains default to the spec's ``controller`` values."""
     t0 = time.perf_counter()
-    a = spec.admittance
+    adm = admittance_spec(spec)
+    kp, ki = _gains(spec, kp, ki)
+    corners = mouse_corners(spec)
+    loc = adm.locomotion
+    weights = np.array([loc.peak_acceleration_m_per_s2, loc.peak_speed_m_per_s])
+    lo, hi = np.array([adm.m_v.min, adm.b_v.min]), np.array([adm.m_v.max, adm.b_v.max])
+    dense = AdmittanceEvaluator(spec, dense_payloads(spec), W_DENSE, kp=kp, ki=ki)
+
+    def result(status, message, x, check, verification, binding, active, **solver):
+        return AdmittanceResult(status, message, float(x[0]), float(x[1]), kp, ki,
+                                peak_resistance_n(*x, peak_speed_m_per_s=loc.peak_speed_m_per_s,
+                                                  peak_acceleration_m_per_s2=loc.peak_acceleration_m_per_s2),
+                                check, verification, binding, active, corners, time.perf_counter() - t0, solver)
+
+    # the stiffest virtual dynamics allowed are the safest: when they fail, nothing in the box passes
+    safest = dense.evaluate(*hi)
+    if not safest.meets:
+        worst = min(safest.violations, key=lambda v: _relative_slack(v))
+        msg = (f"infeasible: even the stiffest virtual dynamics the spec allows (admittance.m_v.max = {hi[0]:g} kg, "
+               f"admittance.b_v.max = {hi[1]:g} N*s/m) fail: {worst['detail']}; {_HINTS[worst['constraint']]}")
+        binding = {k: worst[k] for k in ("constraint", "payload_kg", "mouse", "value", "limit", "detail")}
+        return result("infeasible", msg, hi, safest, None, binding, (worst["constraint"],), rounds=0)
+
     rng = spec.plant.payload_kg
-    search = _Loops(spec, kp, ki, rng.grid() if rng.max > rng.min else [rng.min], _grid(spec, W_SEARCH, 60))
-    cost = lambda m_v, b_v: m_v * a.locomotion.peak_acceleration_m_per_s2 + b_v * a.locomotion.peak_speed_m_per_s  # noqa: E731
-    scan = np.geomspace(a.b_v.min, a.b_v.max, 12)
-    results = [(b, _least_mass(search, spec, b)) for b in scan]
-    feasible = [(cost(m, b), m, b) for b, m in results if m is not None]
-    if not feasible:
-        chk = search.check(spec, a.m_v.max, a.b_v.max)
-        return AdmittanceResult("infeasible", f"no (m_v, b_v) within admittance.m_v / admittance.b_v meets the "
-                                f"constraints; even m_v = {a.m_v.max:g} kg, b_v = {a.b_v.max:g} N*s/m fails: "
-                                f"{chk.binding}", None, None, kp, ki, None, None, chk, False, None,
-                                time.perf_counter() - t0)
-    _, m_best, b_best = min(feasible)
-    # golden-section refinement on log b_v around the best scan point
-    k = int(np.argmin([abs(math.log(b / b_best)) for b in scan]))
-    lo, hi = math.log(scan[max(k - 1, 0)]), math.log(scan[min(k + 1, len(scan) - 1)])
+    payloads = np.unique(rng.grid()) if rng.max > rng.min else np.array([rng.min])
+    notes: dict = {}
+    for rounds in range(1, MAX_ROUNDS + 1):
+        x = _design(spec, payloads, corners, lo, hi, weights, kp=kp, ki=ki, notes=notes)
+        check = dense.evaluate(*x)
+        if check.meets:
+            break
+        worst = min(check.violations, key=_relative_slack)["payload_kg"]
+        if worst in payloads:
+            break
+        payloads = np.unique(np.append(payloads, worst))
+    backed_off = 1.0
+    if not check.meets:   # scale the virtual dynamics up along the ray to the nearest passing point
+        t_lo, t_hi = 0.0, float(np.min(np.log(hi / x)))
+        for _ in range(30):
+            t = 0.5 * (t_lo + t_hi)
+            if dense.evaluate(*(x * math.exp(t)), bandwidth=False).meets:
+                t_hi = t
+            else:
+                t_lo = t
+        backed_off = math.exp(t_hi)
+        x = x * backed_off
+        check = dense.evaluate(*x)
+    verification = verify_admittance(spec, check, kp=kp, ki=ki)
+    binding, active = binding_constraint(dense, check, lo)
+    r = peak_resistance_n(*x, peak_speed_m_per_s=loc.peak_speed_m_per_s,
+                          peak_acceleration_m_per_s2=loc.peak_acceleration_m_per_s2)
+    msg = "verified" if verification.verified else "NOT verified: " + "; ".join(verification.failures[:3])
+    if r > adm.mouse.peak_force_n:
+        msg += (f"; note: the resistance on the locomotion profile ({r:.3g} N) exceeds the mouse's peak force "
+                f"({adm.mouse.peak_force_n:g} N), so the mouse cannot perform that profile")
+    return result("optimal" if verification.verified else "infeasible", msg, x, check, verification, binding, active,
+                  rounds=rounds, payload_points=[float(p) for p in payloads], backed_off_factor=backed_off, **notes)
 
-    def f(lb):
-        m = _least_mass(search, spec, math.exp(lb))
-        return math.inf if m is None else cost(m, math.exp(lb))
 
-    g = (math.sqrt(5) - 1) / 2
-    x1, x2 = hi - g * (hi - lo), lo + g * (hi - lo)
-    f1, f2 = f(x1), f(x2)
-    for _ in range(8):
-        if f1 <= f2:
-            hi, x2, f2 = x2, x1, f1
-            x1 = hi - g * (hi - lo)
-            f1 = f(x1)
-        else:
-            lo, x1, f1 = x1, x2, f2
-            x2 = lo + g * (hi - lo)
-            f2 = f(x2)
-    for lb in (x1, x2):
-        m = _least_mass(search, spec, math.exp(lb))
-        if m is not None and cost(m, math.exp(lb)) < cost(m_best, b_best):
-            m_best, b_best = m, math.exp(lb)
-    seconds = time.perf_counter() - t0
-    dense = _Loops(spec, kp, ki, np.linspace(rng.min, rng.max, DENSE_PAYLOADS) if rng.max > rng.min else [rng.min],
-                   _grid(spec, W_CHECK, 300))
-    chk = dense.check(spec, m_best, b_best)
-    max_re = _coupled_poles(spec, kp, ki, m_best, b_best)
-    verified = chk.ok and max_re < 0
-    status = "optimal" if verified else "infeasible"
-    message = "verified on the dense check and by the coupled closed-loop poles" if verified else (
-        f"the design failed the dense check: {chk.binding} (worst PM {chk.worst_phase_margin_deg:.2f} deg), "
-        f"largest pole real part {max_re:.3g}")
-    return AdmittanceResult(status, message, m_best, b_best, kp, ki, cost(m_best, b_best),
-                            rendered_bandwidth_hz(dense, m_best, b_best), chk, verified, max_re, seconds)
+def _relative_slack(violation: dict) -> float:
+    return (violation["limit"] - violation["value"]) / max(abs(violation["limit"]), 1e-12) * (
+        1 if violation["constraint"] in ("sensor_current", "motor_force") else -1)
+

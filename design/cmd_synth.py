@@ -83,7 +83,7 @@ def with_admittance(spec, out: dict) -> dict:
         out["admittance"] = {"status": "skipped", "message": "no PI gains (PI synthesis failed and no controller "
                                                              "values in the spec)", "verified": False}
         return out
-    adm = synthesise_admittance(spec, kp=kp, ki=ki).to_dict()
+    adm = synthesise_admittance(spec, kp=kp, ki=ki).to_dict(spec)
     out = {**out, "admittance": adm, "gains": {**out["gains"], "m_v": adm["m_v"], "b_v": adm["b_v"]}}
     if adm["status"] != "optimal":
         out["status"] = "infeasible"
@@ -128,10 +128,12 @@ def _print(out: dict) -> None:
         console.print(t)
     adm = out.get("admittance")
     if adm and adm.get("m_v") is not None:
-        console.print(f"[bold]admittance[/]: m_v = {adm['m_v']:.4g} kg, b_v = {adm['b_v']:.4g} N*s/m; peak "
-                      f"resistance {adm['peak_resistance_n']:.3g} N; rendered bandwidth "
-                      f"{adm['rendered_bandwidth_hz'] or float('nan'):.1f} Hz; interaction PM "
-                      f"{adm['worst_phase_margin_deg']:.1f} deg; binding: {adm['binding']}; verified: {adm['verified']}")
+        bw = adm["rendered_bandwidth_hz"]
+        console.print(f"[bold]admittance[/]: m_v = {adm['m_v']:.4g} kg, b_v = {adm['b_v']:.4g} N*s/m; peak resistance "
+                      f"{adm['peak_resistance_n']:.3g} N; rendered bandwidth {_num(bw, '.1f')} Hz; interaction PM "
+                      f"{_num(adm['worst_phase_margin_deg'], '.1f')} deg, GM {_num(adm['worst_gain_margin_db'], '.1f')} "
+                      f"dB; binding: {adm['binding']['detail']}")
+        console.print(f"  {adm['message']}; solver: {adm['solver']['method']}, {adm['solver']['seconds']:.1f} s")
     t = Table(title="Baselines on the same spec")
     for col in ("baseline", "Kp", "Ki", "worst BW Hz", "worst PM deg", "worst GM dB", "meets"):
         t.add_column(col, justify="left" if col == "baseline" else "right")

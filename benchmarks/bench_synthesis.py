@@ -1,7 +1,7 @@
 """Synthesis benchmark: solve time per spec, worst-case bandwidth against a dense brute-force
 search over (Kp, Ki) on the same spec, and the bandwidth gained over the baselines.
 
-Run:  python benchmarks/bench_synthesis.py [--quick]
+Run:  python benchmarks/bench_synthesis.py [--quick] [--admittance (the admittance part alone)]
 
 * Solve time: ``synthesise_pi`` (scan, ccp, exact multi-start, dense robustness check),
   wall and CPU, warm (imports and first-call set-up done by a previous run) and cold
@@ -12,6 +12,11 @@ Run:  python benchmarks/bench_synthesis.py [--quick]
   keeping the best pair meeting PM and GM at every payload; then two 25 x 25 refinements around
   it (x/1.25 in Kp, x/1.6 in Ki). The best is re-evaluated exactly like the synthesis' designs.
   ``--quick`` uses 30 x 30 and one refinement.
+* Admittance (``specs/stage_x_admittance.toml``, PI gains from its PI stage): solve time of
+  ``synthesise_admittance`` and its peak resistance against a brute-force search over
+  (m_v, b_v): a 60 x 60 log grid over the spec's bounds, then two 40 x 40 zooms around the best
+  (+-2 cells), each point checked exactly (grid margins, hardware peaks) at the spec's 8
+  payloads; the brute-force best is then re-checked on the 50-payload dense grid.
 """
 
 import sys
@@ -20,6 +25,8 @@ from pathlib import Path
 
 import numpy as np
 
+from design.admittance import W_DESIGN, synthesise_admittance
+from design.admittance_model import AdmittanceEvaluator, W_DENSE, dense_payloads as admittance_payloads
 from design.fast_analysis import fast_analyse_loop
 from design.spec import load_spec
 from design.synthesis import dense_payloads, evaluate, synthesise_pi
@@ -81,5 +88,51 @@ def main():
                       f"{b['worst_phase_margin_deg']:.1f} deg, worst GM {b['worst_gain_margin_db']:.1f} dB)")
 
 
+def admittance_brute_force(spec, kp, ki, cost, n0, zooms):
+    a = spec.admittance
+    ev = AdmittanceEvaluator(spec, spec.plant.payload_kg.grid(), W_DESIGN, kp=kp, ki=ki)
+    m_grid, b_grid = np.geomspace(a.m_v.min, a.m_v.max, n0), np.geomspace(a.b_v.min, a.b_v.max, n0)
+    best, evaluations = (np.inf, None, None), 0
+    for zoom in range(zooms + 1):
+        for m in m_grid:
+            for b in b_grid:
+                evaluations += 1
+                if cost(m, b) < best[0] and ev.evaluate(m, b, bandwidth=False).meets:
+                    best = (cost(m, b), m, b)
+        dm, db = (m_grid[1] / m_grid[0]) ** 2, (b_grid[1] / b_grid[0]) ** 2
+        m_grid = np.geomspace(max(best[1] / dm, a.m_v.min), min(best[1] * dm, a.m_v.max), 40)
+        b_grid = np.geomspace(max(best[2] / db, a.b_v.min), min(best[2] * db, a.b_v.max), 40)
+    return best, evaluations
+
+
+def admittance_benchmark():
+    spec = load_spec(ROOT / "specs" / "stage_x_admittance.toml")
+    pi = synthesise_pi(spec).to_dict()
+    kp, ki = pi["gains"]["kp"], pi["gains"]["ki"]
+    runs = [synthesise_admittance(spec, kp=kp, ki=ki) for _ in range(2)]
+    res = runs[-1]
+    loc = spec.admittance.locomotion
+    cost = lambda m, b: m * loc.peak_acceleration_m_per_s2 + b * loc.peak_speed_m_per_s  # noqa: E731
+    t0 = time.perf_counter()
+    (brute, m, b), evaluations = admittance_brute_force(spec, kp, ki, cost, 30 if QUICK else 60, 1 if QUICK else 2)
+    brute_s = time.perf_counter() - t0
+    dense = AdmittanceEvaluator(spec, admittance_payloads(spec), W_DENSE, kp=kp, ki=ki).evaluate(m, b).meets
+    s = res.solver
+    print("== stage_x_admittance.toml")
+    print(f"  PI stage: kp {kp:.2f}, ki {ki:.1f}")
+    print(f"  synthesis: {res.status}, verified {res.verified}, m_v {res.m_v:.4f} kg, b_v {res.b_v:.4f} N*s/m, "
+          f"peak resistance {res.peak_resistance_n:.4f} N, binding {res.binding['constraint']}")
+    print(f"  solve time {np.median([r.seconds for r in runs]):.1f} s wall (median of 2, verification included); "
+          f"rounds {s['rounds']}, SOCP solves {s['socp_solves']}, exact polish evaluations "
+          f"{s['exact_polish_evaluations']}")
+    print(f"  circle designs (N): " + ", ".join(f"{k} {v:.4f}" for k, v in s["circle_cost_n"].items())
+          + f"; best {s['best_formulation']}, exact polish gains x{min(s['circle_cost_n'].values()) / res.peak_resistance_n:.3f}")
+    print(f"  brute force ({evaluations} points, {brute_s:.0f} s): m_v {m:.4f}, b_v {b:.4f}, peak resistance "
+          f"{brute:.4f} N (on the 50-payload dense check: {'meets' if dense else 'FAILS'})")
+    print(f"  ratio synthesis / brute force: {res.peak_resistance_n / brute:.4f} (lower is better)")
+
+
 if __name__ == "__main__":
-    main()
+    if "--admittance" not in sys.argv:
+        main()
+    admittance_benchmark()

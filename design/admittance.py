@@ -196,17 +196,18 @@ def _ipopt(rows: Rows, start, lo, hi, weights) -> np.ndarray:
 
 
 def ipopt_design(rows: Rows, start, lo, hi, weights, *, rounds: int = 20) -> np.ndarray:
-    """IPOPT on the rows near or past their bound, adding violated rows until all hold."""
+    """IPOPT on the rows near or past their bound (slack < 0.3), adding the rows its solution
+    violates or nears until none is added (the optimum of no rows is the lower corner)."""
     x = np.asarray(start, float)
-    active = np.zeros(len(rows.family), bool)
+    active = rows.slack(*x) < 0.3
     for _ in range(rounds):
+        x = _ipopt(rows.take(active), x, lo, hi, weights) if active.any() else np.asarray(lo, float)
         g = rows.slack(*x)
         add = (g < 0.3) & ~active
         if not add.any():
             break
         idx = np.flatnonzero(add)
         active[idx[np.argsort(g[idx])[:3000]]] = True
-        x = _ipopt(rows.take(active), x, lo, hi, weights)
     return x
 
 

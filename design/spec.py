@@ -182,6 +182,14 @@ class Spec(_Strict):
     objective: ObjectiveSpec = ObjectiveSpec()
     admittance: AdmittanceSpec | None = None
 
+    @model_validator(mode="after")
+    def _admittance_needs_a_model(self):
+        if self.admittance is not None and self.plant.measured:
+            raise ValueError("admittance: needs the plant model (the mechanical mobility and responses at every "
+                             "frequency), not plant.measured; design the PI gains from the data in a spec of their "
+                             "own, then give them as controller.kp.value / controller.ki.value here")
+        return self
+
 
 def _key_path(loc) -> str:
     return ".".join(str(p) for p in loc if not (isinstance(p, str) and p in ("float", "PayloadRange")))
@@ -196,7 +204,8 @@ def parse_spec(data: dict, *, source: str = "spec") -> Spec:
         msg = err["msg"].removeprefix("Value error, ")
         if err["type"] == "extra_forbidden":
             msg = "unknown key (check the spelling; see specs/ for the allowed keys)"
-        raise SpecError(f"{source}: {_key_path(err['loc'])}: {msg}") from None
+        path = _key_path(err["loc"])
+        raise SpecError(f"{source}: {path}: {msg}" if path else f"{source}: {msg}") from None
 
 
 def load_spec(path: str | Path) -> Spec:

@@ -206,3 +206,12 @@ def test_bad_admittance_key_is_named(tmp_path, old, new, key):
     out = subprocess.run([sys.executable, "-m", "design", "synth", str(bad)], capture_output=True, text=True)
     assert out.returncode == 2 and key in out.stderr
     assert "Traceback" not in out.stderr and len(out.stderr.strip().splitlines()) == 1
+
+
+def test_admittance_with_measured_plant_is_refused_with_a_reason():
+    from plant.errors import SpecError
+
+    data = tomllib.loads(SPEC.read_text())
+    data["plant"]["measured"] = [{"payload_kg": 5.0, "file": "x5.csv"}]
+    with pytest.raises(SpecError, match="admittance: needs the plant model"):
+        parse_spec(data, source="dd.toml")

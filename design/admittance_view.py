@@ -63,6 +63,7 @@ def _per_payload_figure(adm: dict):
     for ax, (key, label, limit) in zip(axes, series):
         ax.plot(m, [np.nan if r[key] is None else r[key] for r in rows], "o-", ms=3)
         ax.axhline(limit, color="k", ls="--", lw=1)
+        ax.set_ylim(bottom=0.0, top=1.1 * max(limit, np.nanmax([np.nan if r[key] is None else r[key] for r in rows])))
         ax.set_xlabel("payload (kg)")
         ax.set_title(label, fontsize=10)
         ax.grid(True, alpha=0.3)

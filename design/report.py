@@ -173,6 +173,11 @@ def design_report(spec: Spec, *, spec_path: Path, kp: float, ki: float, gains_so
     if synthesis is not None:
         lines.append(f"<b>Synthesis:</b> status {synthesis.get('status')}, independently verified: "
                      f"{'<span class=ok>yes</span>' if verified else '<span class=bad>no</span>'}.")
+        adm = synthesis.get("admittance")
+        if adm and adm.get("m_v") is not None:
+            lines.append(f"<b>Admittance:</b> m_v = {adm['m_v']:.4g} kg, b_v = {adm['b_v']:.4g} N·s/m; peak resistance "
+                         f"{adm['peak_resistance_n']:.3g} N; interaction PM {adm['worst_phase_margin_deg']:.1f} deg "
+                         f"(see below).")
     report.raw("<div class='summary'>" + "<br>".join(lines) + "</div>")
 
     report.heading("Plant")
@@ -238,8 +243,9 @@ def design_report(spec: Spec, *, spec_path: Path, kp: float, ki: float, gains_so
     if synthesis is not None:
         import json
 
-        report.heading("Synthesis output", 3)
+        report.raw("<details><summary>Synthesis output (JSON, as printed by <code>--json</code>)</summary>")
         report.pre(json.dumps(synthesis, indent=2, allow_nan=False))
+        report.raw("</details>")
     return report
 
 

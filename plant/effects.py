@@ -145,10 +145,19 @@ class CurrentLoop(SeriesEffect):
         return control.tf([wc], [1.0, wc])
 
 
+SAMPLING_PADE_ORDER = 3
+
+
 @dataclass(frozen=True)
 class Sampling(SeriesEffect):
     """Digital loop at ``rate_hz``: zero-order hold (1 - e^(-sT))/(sT) times one sample
-    of computation delay e^(-sT), T = 1/rate_hz. Rational form: Pade of the 1.5 T equivalent delay."""
+    of computation delay e^(-sT), T = 1/rate_hz. Rational form: the same expression with e^(-sT)
+    replaced by its Pade approximant N/D, i.e. (D - N)/(s T D) * N/D (D - N vanishes at s = 0,
+    so the division by s is exact); it keeps the hold's magnitude droop sinc(wT/2), which a
+    Pade of the 1.5 T equivalent delay would drop (0.1-0.2 deg of phase margin at crossover).
+    The Pade order is at most ``SAMPLING_PADE_ORDER``: exact to 1e-5 up to wT = 1, and the
+    loop's polynomials stay within what python-control's polynomial margins can take (order 6
+    here and for a delay overflows ``stability_margins``)."""
 
     rate_hz: float = 10000.0
     name: ClassVar[str] = "sampling"
@@ -162,7 +171,12 @@ class Sampling(SeriesEffect):
         return -np.expm1(-sT) / sT * np.exp(-sT)
 
     def to_tf(self, *, pade_order: int = PADE_ORDER) -> control.TransferFunction:
-        return _pade_tf(1.5 / _scalar(self, "rate_hz"), pade_order)
+        import control
+
+        T = 1.0 / _scalar(self, "rate_hz")
+        num, den = (np.asarray(p, float) for p in control.pade(T, min(pade_order, SAMPLING_PADE_ORDER)))
+        hold = control.tf(np.polysub(den, num)[:-1], T * den)   # (D - N) / (s T D)
+        return hold * control.tf(num, den)
 
 
 @dataclass(frozen=True)

@@ -95,15 +95,17 @@ def test_delay_pade_is_accurate_at_low_frequency(order):
     assert np.allclose(np.abs(pade(S)), 1.0, rtol=1e-9)                         # all-pass everywhere
 
 
-def test_sampling_rational_model_differs_by_the_hold_droop():
-    # to_tf is a Pade of the equivalent 1.5 T delay; the exact frd also has the ZOH magnitude
-    # sinc(w T / 2), so frd / to_tf = sinc(w T / 2) (closed form) at low frequency
+def test_sampling_rational_model_is_the_hold_and_one_sample():
+    # to_tf is (1 - e^{-sT})/(sT) e^{-sT} with e^{-sT} replaced by its Pade approximant: equal to the
+    # exact frd (closed form) where the Pade is exact, including the hold's droop sinc(wT/2)
     rate = 4000.0
     T = 1 / rate
     low = W * T < 0.3
-    x = W[low] * T / 2
     e = Sampling(rate)
-    assert np.allclose(e.frd(W[low]) / e.to_tf()(S[low]), np.sin(x) / x, rtol=1e-10)
+    exact = (1 - np.exp(-S[low] * T)) / (S[low] * T) * np.exp(-S[low] * T)
+    assert np.allclose(e.to_tf()(S[low]), exact, rtol=1e-8)     # Pade(3) error ~1e-5 (wT)^7
+    assert np.allclose(e.frd(W[low]), exact, rtol=1e-12)
+    assert abs(e.to_tf()(0.0) - 1.0) < 1e-12                                    # unity DC gain
 
 
 def test_batched_effect_parameters_broadcast():

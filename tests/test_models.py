@@ -120,11 +120,10 @@ def test_to_control_pade_matches_frd_below_the_pade_range():
     tau, rate = 0.0005, 5000.0
     plant = stage_x() * Delay(tau) * Sampling(rate) * CurrentLoop(300.0)
     low = W * (tau + 1.5 / rate) < 1.0
-    x = W[low] / rate / 2
-    # Pade(6) of exp(-s (tau + 1.5 T)) has a phase error below 1e-9 for w (tau + 1.5 T) < 1; the ZOH's
-    # magnitude droop sinc(w T / 2) is not in the rational model (closed form of the difference)
+    # Pade(6) of exp(-s tau) and of exp(-s T) (in the hold and the sample delay) are exact to ~1e-9
+    # for w (tau + 1.5 T) < 1, so the rational model equals the exact response there, ZOH droop included
     tf = plant.to_control(pade_order=6)
-    assert np.allclose(tf(S[low]) * np.sin(x) / x, plant.frd(W[low]), rtol=1e-8)
+    assert np.allclose(tf(S[low]), plant.frd(W[low]), rtol=1e-8)
     assert isinstance(plant.to_frd_data(W), control.FrequencyResponseData)
     with pytest.raises(ParameterError, match="mass_kg is a batch"):
         plant.with_payload([10.0, 20.0]).to_control()

@@ -18,8 +18,9 @@ def report(
     out: Annotated[Path, typer.Option(help="Output HTML file.")],
     data: Annotated[Optional[list[Path]], typer.Option(
         "--data", help="Recording(s) to compare with the model and diagnose (repeatable).")] = None,
-    samples: Annotated[int, typer.Option(help="Monte Carlo samples over the spec's uncertainty (0: none).",
-                                         min=0, max=100000)] = 200,
+    samples: Annotated[Optional[int], typer.Option(
+        help="Monte Carlo samples over the spec's plant.uncertainty (0: none; default 200 when the spec has "
+             "uncertainty ranges, else 0).", min=0, max=100000)] = None,
     seed: Annotated[int, typer.Option(help="Seed of the Monte Carlo samples.")] = 0,
     pdf: Annotated[bool, typer.Option("--pdf", help="Also write a PDF next to the HTML (needs Chromium).")] = False,
     synthesise: Annotated[bool, typer.Option(
@@ -37,6 +38,10 @@ def report(
     from plant.errors import SpecError
 
     spec = load_spec(spec_file)
+    if samples is None:
+        samples = 200 if spec.plant.uncertainty else 0
+    elif samples and not spec.plant.uncertainty:     # before any long computation
+        raise SpecError(f"{spec_file}: plant.uncertainty: no parameter ranges to sample; add some or drop --samples")
     synthesis = None
     kp, ki, source = spec.controller.kp.value, spec.controller.ki.value, "from the spec's controller values"
     if synthesise and any(e in PHASE_LIMITING for e in spec.plant.effects):

@@ -65,3 +65,24 @@ def test_report_bad_spec_exits_2(tmp_path):
     assert proc.returncode == 2
     assert "plant.stage" in proc.stderr and proc.stderr.count("\n") == 1
     assert not (tmp_path / "r.html").exists()
+
+
+def test_admittance_report_without_uncertainty_has_its_section(tmp_path):
+    # the admittance spec has no plant.uncertainty: the default skips the Monte Carlo band
+    spec = ROOT / "specs" / "stage_x_admittance.toml"
+    out = tmp_path / "adm.html"
+    proc = subprocess.run([sys.executable, "-m", "design", "report", str(spec), "--out", str(out)],
+                          capture_output=True, text=True)
+    assert proc.returncode == 0, proc.stderr
+    html = out.read_text()
+    assert ">Admittance (mouse following)</h2>" in html and "<b>Admittance:</b> m_v = " in html
+    section = html[html.index(">Admittance (mouse following)</h2>"):html.index(">Reproducibility</h2>")]
+    assert section.count("<svg") == 3 and "Verified: True" in section
+
+
+def test_report_samples_without_uncertainty_exits_2_at_once(tmp_path):
+    spec = ROOT / "specs" / "stage_x_admittance.toml"
+    proc = subprocess.run([sys.executable, "-m", "design", "report", str(spec), "--samples", "10", "--out",
+                           str(tmp_path / "r.html")], capture_output=True, text=True)
+    assert proc.returncode == 2 and "plant.uncertainty" in proc.stderr and proc.stderr.count("\n") == 1
+    assert not (tmp_path / "r.html").exists()

@@ -51,18 +51,26 @@ def _polys(tf) -> tuple[np.ndarray, np.ndarray]:
     return np.atleast_1d(np.asarray(tf.num[0][0], float)), np.atleast_1d(np.asarray(tf.den[0][0], float))
 
 
-def coupled_polynomials(plant: Plant, mouse: MouseModel, *, kp: float, ki: float, m_v: float, b_v: float):
-    """Rational interaction loop L = num / den and the polynomial of D, from python-control models.
+def loop_polynomials(plant: Plant, *, kp: float, ki: float) -> tuple[np.ndarray, ...]:
+    """(nP, dP, nG, dG, nC, dC): plant P, mechanical mobility G and PI controller C as polynomials."""
+    nP, dP = _polys(plant.to_control(pade_order=PADE_ORDER))
+    nG, dG = _polys(mechanical_plant(plant).to_control(pade_order=PADE_ORDER))
+    nG = nG / float(np.asarray(plant.force_constant_n_per_a))
+    nC, dC = (np.array([kp, ki]), np.array([1.0, 0.0])) if ki > 0 else (np.array([kp]), np.array([1.0]))
+    return nP, dP, nG, dG, nC, dC
+
+
+def coupled_polynomials(plant: Plant, mouse: MouseModel, *, kp: float, ki: float, m_v: float, b_v: float,
+                        loop: tuple[np.ndarray, ...] | None = None):
+    """Rational interaction loop L = num / den and the polynomial of D, from python-control models
+    (``loop``: ``loop_polynomials(plant, ...)`` when already computed).
 
     With P = nP/dP, G = nG/dG, C = nC/dC, Z_m = nZ/dZ, Y_v = 1/y:
     D dP dC dG dZ = dP dC dG dZ + nP nC dG dZ + nG nZ dP dC (=: char_D), L = nZ nP nC dG / (y char_D),
     and the closed loop's characteristic polynomial is y char_D + nZ nP nC dG.
     """
     pm = np.polymul
-    nP, dP = _polys(plant.to_control(pade_order=PADE_ORDER))
-    nG, dG = _polys(mechanical_plant(plant).to_control(pade_order=PADE_ORDER))
-    nG = nG / float(np.asarray(plant.force_constant_n_per_a))
-    nC, dC = (np.array([kp, ki]), np.array([1.0, 0.0])) if ki > 0 else (np.array([kp]), np.array([1.0]))
+    nP, dP, nG, dG, nC, dC = loop_polynomials(plant, kp=kp, ki=ki) if loop is None else loop
     nZ, dZ = mouse.impedance_polys()
     y = np.array([m_v, b_v])
     char_d = np.polyadd(np.polyadd(pm(pm(dP, dC), pm(dG, dZ)), pm(pm(nP, nC), pm(dG, dZ))), pm(pm(nG, nZ), pm(dP, dC)))
@@ -81,10 +89,10 @@ def verify_admittance(spec: Spec, check: AdmittanceCheck, *, kp: float, ki: floa
     base = spec.plant.plant()
     failures = [v["detail"] for v in check.violations]
     max_cl = max_ol = -math.inf
-    for mk in check.payload_kg:
-        plant = base.with_payload(float(mk))
+    loops = [loop_polynomials(base.with_payload(float(mk)), kp=kp, ki=ki) for mk in check.payload_kg]
+    for mk, loop in zip(check.payload_kg, loops):
         for mouse in corners:
-            num, den, char_d = coupled_polynomials(plant, mouse, kp=kp, ki=ki, m_v=check.m_v, b_v=check.b_v)
+            num, den, char_d = coupled_polynomials(base, mouse, kp=kp, ki=ki, m_v=check.m_v, b_v=check.b_v, loop=loop)
             cl = float(np.max(np.roots(np.polyadd(den, num)).real))
             ol = float(np.max(np.roots(char_d).real))
             if cl >= 0:
@@ -96,8 +104,7 @@ def verify_admittance(spec: Spec, check: AdmittanceCheck, *, kp: float, ki: floa
     pms, gms = [], []
     for k, mouse in enumerate(corners):
         j = int(np.argmin(check.phase_margin_deg[k]))
-        num, den, _ = coupled_polynomials(base.with_payload(float(check.payload_kg[j])), mouse, kp=kp, ki=ki,
-                                          m_v=check.m_v, b_v=check.b_v)
+        num, den, _ = coupled_polynomials(base, mouse, kp=kp, ki=ki, m_v=check.m_v, b_v=check.b_v, loop=loops[j])
         with np.errstate(over="ignore", invalid="ignore"):
             gm, pm, *_ = control.stability_margins(control.tf(num, den))
         gm_db = 20 * math.log10(gm) if np.isfinite(gm) and gm > 0 else math.inf

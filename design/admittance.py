@@ -17,7 +17,8 @@ reverse-convex, so the problem is not convex.
 Pipeline (``synthesise_admittance``):
 
 1. **ccp** (cvxpy + Clarabel) from the stiffest allowed dynamics (m_v, b_v at their upper
-   bounds, which must pass): |A| is replaced by its tangent Re(conj(A_k) A(x)) / |A_k| <= |A|, an
+   bounds, which must pass the exact check, else the spec is infeasible; when they miss the
+   conservative circle rows, both formulations stay there and step 3 starts from them): |A| is replaced by its tangent Re(conj(A_k) A(x)) / |A_k| <= |A|, an
    inner approximation, so each subproblem is a second-order cone program whose solution is
    feasible; rows are added while any is violated (active set), iterations stop when the cost
    stalls.
@@ -132,14 +133,13 @@ def _socp(rows: Rows, x_k: np.ndarray, lo: np.ndarray, hi: np.ndarray, weights: 
     import cvxpy as cp
 
     c = rows.coef
-    a_k, _ = rows.sides(*x_k)
+    a_k, b_k = rows.sides(*x_k)
     n = a_k / np.maximum(np.abs(a_k), 1e-300)
     sa, sb = np.sqrt(c[:, 0]), np.sqrt(c[:, 5])
-    # Re(conj(n) A) = nr (c1 - c2 b) + ni (c3 - c4 m)
-    _, b_k = rows.sides(*x_k)
     # each row divided by its right side at x_k (a positive scale; conditioning for the solver)
     scale = 1.0 / np.maximum(sb * np.abs(b_k), 1e-300)
     sa, sb = sa * scale, sb * scale
+    # Re(conj(n) A) = nr (c1 - c2 b) + ni (c3 - c4 m)
     t0 = sa * (n.real * c[:, 1] + n.imag * c[:, 3])
     T = np.column_stack([-sa * n.imag * c[:, 4] * x_k[0], -sa * n.real * c[:, 2] * x_k[1]])
     U = np.column_stack([np.zeros(len(c)), -sb * c[:, 7] * x_k[1]])
@@ -382,9 +382,11 @@ def _design(spec: Spec, payloads: np.ndarray, corners, lo, hi, weights, *, kp: f
     candidates = {"ccp": x_ccp}
     candidates["ipopt from ccp"] = ipopt_design(rows, x_ccp, lo, hi, weights)
     feasible = {k: x for k, x in candidates.items() if rows.slack(*x).min() >= -1e-7}
-    best = min(feasible, key=lambda k: weights @ feasible[k])
+    # the stiffest dynamics may pass the exact check but not the (conservative) circle rows: then
+    # neither formulation moves, and the exact polish starts from them
+    best = min(feasible, key=lambda k: weights @ feasible[k]) if feasible else "upper bounds (no circle-feasible point)"
+    x = feasible[best] if feasible else np.asarray(hi, float)
     ev = AdmittanceEvaluator(spec, payloads, W_DESIGN, kp=kp, ki=ki)
-    x = feasible[best]
     polished, evaluations = polish(ev, x, lo) if _meets_exactly(ev, *x) else (x, 0)
     notes.update({"rows": int(len(rows.family)), **info, "best_formulation": best,
                   "circle_cost_n": {k: float(weights @ x) for k, x in feasible.items()},
@@ -444,6 +446,9 @@ def synthesise_admittance(spec: Spec, *, kp: float | None = None, ki: float | No
         backed_off = math.exp(t_hi)
         x = x * backed_off
         check = dense.evaluate(*x)
+        if not check.meets:   # the ray ends on one bound, short of the stiffest point, which passes
+            x, backed_off = np.asarray(hi, float), float("nan")
+            check = safest
     verification = verify_admittance(spec, check, kp=kp, ki=ki)
     binding, active = binding_constraint(dense, check, lo)
     r = peak_resistance_n(*x, peak_speed_m_per_s=loc.peak_speed_m_per_s,

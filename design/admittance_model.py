@@ -49,7 +49,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from design.analysis import ANALYSIS_GRID_RAD_S
-from design.loops import pi_frd
+from design.loops import ELECTRICAL_EFFECTS, pi_frd
 from design.margins import loop_margins, unwrapped_phase_deg
 from design.spec import Spec
 from design.spec_admittance import AdmittanceSpec
@@ -57,7 +57,6 @@ from plant.errors import SpecError
 from plant.grid import check_grid
 from plant.models import Plant
 
-ELECTRICAL = ("delay", "current_loop", "sampling")
 DENSE_PAYLOADS = 50
 #: the dense check's frequency grid: 1 mHz - 10 kHz, 3000 points (plus points around the neck modes)
 W_DENSE = ANALYSIS_GRID_RAD_S
@@ -146,7 +145,7 @@ class GantryLoop:
 
 def mechanical_plant(plant: Plant) -> Plant:
     """The plant without its electrical effects: K_t G (velocity per current before the drive)."""
-    return plant.with_effects(*[e for e in plant.effects if e.name not in ELECTRICAL])
+    return plant.with_effects(*[e for e in plant.effects if e.name not in ELECTRICAL_EFFECTS])
 
 
 def gantry_loop(spec: Spec, w_rad_s, payload_kg, *, kp: float, ki: float) -> GantryLoop:

@@ -4,7 +4,7 @@ The frequency-grid check of ``design.admittance_model`` and the optimiser share 
 responses; this check does not: it builds the coupled gantry-mouse system from python-control
 transfer functions (Pade for delays), takes the roots of its characteristic polynomial at every
 dense payload and mouse corner, and recomputes the interaction loop's margins with
-``control.stability_margins`` at the worst payload of every corner.
+``control.stability_margins`` at the worst payloads (phase and gain margin) of every corner.
 """
 
 from __future__ import annotations
@@ -28,9 +28,10 @@ class AdmittanceVerification:
     verified: bool
     #: largest real part of the coupled closed-loop poles over dense payloads x mouse corners (1/s)
     max_closed_loop_pole_real_part: float
-    #: largest real part of the zeros of D (velocity loop with the mouse attached; Nyquist needs < 0)
+    #: largest real part of the roots of char_D: the poles of D = 1 + P C + G Z_m (velocity loop with
+    #: the mouse attached; Nyquist needs them < 0), which include the mechanical pole -b/M once more
     max_open_loop_pole_real_part: float
-    #: python-control stability_margins at the worst payload of each corner
+    #: python-control stability_margins at the worst payloads (PM, GM) of each corner
     min_phase_margin_deg: float
     min_gain_margin_db: float
     cases: int
@@ -80,7 +81,7 @@ def coupled_polynomials(plant: Plant, mouse: MouseModel, *, kp: float, ki: float
 
 def verify_admittance(spec: Spec, check: AdmittanceCheck, *, kp: float, ki: float) -> AdmittanceVerification:
     """Poles of the coupled closed loop and of D at every payload and corner of ``check``;
-    python-control margins at the worst payload of every corner; ``check``'s violations count
+    python-control margins at the worst payloads of every corner; ``check``'s violations count
     as failures too."""
     import control
 
@@ -102,8 +103,9 @@ def verify_admittance(spec: Spec, check: AdmittanceCheck, *, kp: float, ki: floa
                 failures.append(f"velocity loop with the mouse attached unstable at {mk:.1f} kg ({mouse.label()})")
             max_cl, max_ol = max(max_cl, cl), max(max_ol, ol)
     pms, gms = [], []
-    for k, mouse in enumerate(corners):
-        j = int(np.argmin(check.phase_margin_deg[k]))
+    for k, j in sorted({(k, int(np.argmin(check.phase_margin_deg[k]))) for k in range(len(corners))}
+                       | {(k, int(np.argmin(check.gain_margin_db[k]))) for k in range(len(corners))}):
+        mouse = corners[k]
         num, den, _ = coupled_polynomials(base, mouse, kp=kp, ki=ki, m_v=check.m_v, b_v=check.b_v, loop=loops[j])
         with np.errstate(over="ignore", invalid="ignore"):
             gm, pm, *_ = control.stability_margins(control.tf(num, den))

@@ -28,7 +28,7 @@ def add_admittance_section(report: Report, spec: Spec, synthesis: dict) -> None:
                 f"{loc.peak_speed_m_per_s:g} m/s): {adm['peak_resistance_n']:.3g} N (the mouse's peak force: "
                 f"{a.mouse.peak_force_n:g} N). The rendered admittance follows 1/(m_v s + b_v) within 3 dB / 30° up "
                 f"to {'—' if bw is None else f'{bw:.1f}'} Hz. Interaction loop (broken at the force-sensor signal): "
-                f"worst PM {adm['worst_phase_margin_deg']:.1f}°, worst GM {adm['worst_gain_margin_db']:.1f} dB over "
+                f"worst PM {_num(adm['worst_phase_margin_deg'])}°, worst GM {_num(adm['worst_gain_margin_db'])} dB over "
                 f"{len(adm['per_payload'])} payloads × {len(adm['mouse_corners'])} mouse corners. Binding: "
                 f"{adm['binding']['detail']}. Verified: {adm['verified']}.", cls="summary")
     rng = spec.plant.payload_kg
@@ -45,11 +45,16 @@ def add_admittance_section(report: Report, spec: Spec, synthesis: dict) -> None:
         ["motor force for the peak mouse force", f"{adm['worst_motor_force_n']:.3g} N", f"{hw.motor_peak_force_n:g} N"],
         ["current per force-sensor step", f"{1e3 * adm['worst_sensor_current_a']:.3g} mA",
          f"{1e3 * hw.max_current_per_sensor_step_a:g} mA"],
-        ["interaction phase margin", f"{adm['worst_phase_margin_deg']:.2f} deg", f"{a.phase_margin_deg:g} deg"],
-        ["interaction gain margin", f"{adm['worst_gain_margin_db']:.2f} dB", f"{a.gain_margin_db:g} dB"],
+        ["interaction phase margin", f"{_num(adm['worst_phase_margin_deg'], '.2f')} deg", f"{a.phase_margin_deg:g} deg"],
+        ["interaction gain margin", f"{_num(adm['worst_gain_margin_db'], '.2f')} dB", f"{a.gain_margin_db:g} dB"],
     ]))
     report.figure(_profile_figure(m_v, b_v, loc.peak_speed_m_per_s, loc.peak_acceleration_m_per_s2),
                   "Resistance m_v·a + b_v·v over the trapezoidal locomotion profile of the spec.")
+
+
+def _num(x, fmt: str = ".1f") -> str:
+    """A margin for text: infinite margins are None in the JSON."""
+    return "∞" if x is None else format(x, fmt)
 
 
 def _per_payload_figure(adm: dict):
@@ -63,7 +68,10 @@ def _per_payload_figure(adm: dict):
     for ax, (key, label, limit) in zip(axes, series):
         ax.plot(m, [np.nan if r[key] is None else r[key] for r in rows], "o-", ms=3)
         ax.axhline(limit, color="k", ls="--", lw=1)
-        ax.set_ylim(bottom=0.0, top=1.1 * max(limit, np.nanmax([np.nan if r[key] is None else r[key] for r in rows])))
+        if key == "phase_margin_deg" and any(r[key] is None for r in rows):
+            ax.set_title(label + "; gaps: ∞", fontsize=10)
+        values = [np.nan if r[key] is None else r[key] for r in rows]
+        ax.set_ylim(bottom=0.0, top=1.1 * max(limit, np.nanmax(values) if np.any(np.isfinite(values)) else limit))
         ax.set_xlabel("payload (kg)")
         ax.set_title(label, fontsize=10)
         ax.grid(True, alpha=0.3)

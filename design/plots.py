@@ -33,7 +33,7 @@ def bode(w_rad_s, responses: Sequence[np.ndarray], labels: Sequence[str], *, axe
             lo = np.maximum(mag - bands[k], mag * 1e-3)
             axes[0].fill_between(f, 20 * np.log10(lo), 20 * np.log10(mag + bands[k]), color=line.get_color(),
                                  alpha=0.2, lw=0)
-        axes[1].semilogx(f, unwrapped_phase_deg(resp), style, color=line.get_color())
+        axes[1].semilogx(f, unwrapped_phase_deg(resp), linestyle=line.get_linestyle(), color=line.get_color())
     axes[0].set_ylabel("magnitude (dB)")
     axes[1].set_ylabel("phase (deg)")
     axes[1].set_xlabel("frequency (Hz)")

@@ -175,8 +175,9 @@ def design_report(spec: Spec, *, spec_path: Path, kp: float, ki: float, gains_so
                      f"{'<span class=ok>yes</span>' if verified else '<span class=bad>no</span>'}.")
         adm = synthesis.get("admittance")
         if adm and adm.get("m_v") is not None:
+            pm = adm["worst_phase_margin_deg"]
             lines.append(f"<b>Admittance:</b> m_v = {adm['m_v']:.4g} kg, b_v = {adm['b_v']:.4g} N·s/m; peak resistance "
-                         f"{adm['peak_resistance_n']:.3g} N; interaction PM {adm['worst_phase_margin_deg']:.1f} deg "
+                         f"{adm['peak_resistance_n']:.3g} N; interaction PM {'∞' if pm is None else f'{pm:.1f}'} deg "
                          f"(see below).")
     report.raw("<div class='summary'>" + "<br>".join(lines) + "</div>")
 

@@ -155,7 +155,7 @@ class Sampling(SeriesEffect):
     replaced by its Pade approximant N/D, i.e. (D - N)/(s T D) * N/D (D - N vanishes at s = 0,
     so the division by s is exact); it keeps the hold's magnitude droop sinc(wT/2), which a
     Pade of the 1.5 T equivalent delay would drop (0.1-0.2 deg of phase margin at crossover).
-    The Pade order is at most ``SAMPLING_PADE_ORDER``: exact to 1e-5 up to wT = 1, and the
+    The Pade order is 1 to ``SAMPLING_PADE_ORDER`` (3): exact to 2e-5 up to wT = 1, and the
     loop's polynomials stay within what python-control's polynomial margins can take (order 6
     here and for a delay overflows ``stability_margins``)."""
 
@@ -174,7 +174,7 @@ class Sampling(SeriesEffect):
         import control
 
         T = 1.0 / _scalar(self, "rate_hz")
-        num, den = (np.asarray(p, float) for p in control.pade(T, min(pade_order, SAMPLING_PADE_ORDER)))
+        num, den = (np.asarray(p, float) for p in control.pade(T, min(max(pade_order, 1), SAMPLING_PADE_ORDER)))
         hold = control.tf(np.polysub(den, num)[:-1], T * den)   # (D - N) / (s T D)
         return hold * control.tf(num, den)
 

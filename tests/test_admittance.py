@@ -58,7 +58,6 @@ def test_rendered_admittance_matches_design_loops():
 
 def test_hardware_responses_have_their_closed_forms():
     # thesis plant without electrical lags: P = K_t/(M s + b), G = 1/(M s + b)
-    spec = load_spec(SPEC)
     data = tomllib.loads(SPEC.read_text())
     data["plant"]["effects"] = {}
     bare = parse_spec(data)
@@ -69,11 +68,14 @@ def test_hardware_responses_have_their_closed_forms():
     S, T, z = 1 / (1 + P * C), P * C / (1 + P * C), 1.2 * s + 3.0
     assert np.allclose(sensor_current_per_newton(loop, 1.2, 3.0)[0], C * S / z, rtol=1e-10)
     assert np.allclose(motor_force_per_newton(loop, 1.2, 3.0)[0], T * (1 / (G * z) - 1), rtol=1e-10)
-    # the docstring's limits: DC current per newton b / (K_t b_v); in band the motor supplies M / m_v - 1
+    # the docstring's limits: DC current per newton b / (K_t b_v); in band (T ~ 1, M w >> b, m_v w >> b_v)
+    # the motor supplies M / m_v - 1 of the sensed force and the current per newton is M / (K_t m_v)
     w0 = np.array([1e-6, 2e-6])
     dc = sensor_current_per_newton(gantry_loop(bare, w0, [M], kp=kp, ki=ki), 1.2, 3.0)[0, 0]
     assert abs(dc) == pytest.approx(b / (kt * 3.0), rel=1e-4)
-    assert spec.admittance.hardware.force_sensor_resolution_n == 0.00625      # thesis section 1.2 (Nano17)
+    stiff = gantry_loop(bare, np.array([1000.0, 1001.0]), [M], kp=1e6, ki=0.0)
+    assert abs(motor_force_per_newton(stiff, 1.2, 3.0)[0, 0]) == pytest.approx(M / 1.2 - 1, rel=0.02)
+    assert abs(sensor_current_per_newton(stiff, 1.2, 3.0)[0, 0]) == pytest.approx(M / (kt * 1.2), rel=0.02)
 
 
 def test_rational_interaction_loop_equals_the_grid_loop():
@@ -97,7 +99,7 @@ def test_ccp_and_ipopt_agree_and_keep_every_row():
     weights = np.array([a.locomotion.peak_acceleration_m_per_s2, a.locomotion.peak_speed_m_per_s])
     rows = build_rows(spec, np.array([5.0, 40.0]), mouse_corners(spec), kp=275.0, ki=4.46e4)
     x_ccp, info = ccp_design(rows, hi, lo, hi, weights)
-    x_ip = ipopt_design(rows, np.sqrt(lo * hi), lo, hi, weights)
+    x_ip = ipopt_design(rows, x_ccp, lo, hi, weights)
     assert rows.slack(*x_ccp).min() >= -1e-9 and rows.slack(*x_ip).min() >= -1e-7
     assert weights @ x_ccp < 0.05 * weights @ hi        # it moved far from the start
     assert weights @ x_ccp == pytest.approx(weights @ x_ip, rel=1e-3)
@@ -215,3 +217,31 @@ def test_admittance_with_measured_plant_is_refused_with_a_reason():
     data["plant"]["measured"] = [{"payload_kg": 5.0, "file": "x5.csv"}]
     with pytest.raises(SpecError, match="admittance: needs the plant model"):
         parse_spec(data, source="dd.toml")
+
+
+def test_stiffest_dynamics_off_the_circle_still_get_an_exact_design():
+    # bounds so tight that (m_v.max, b_v.max) passes the exact check but not the conservative margin
+    # circle: neither formulation moves, the exact polish starts from the upper bounds
+    res = synthesise_admittance(_spec_with(m_v={"min": 0.005, "max": 0.43}, b_v={"min": 0.01, "max": 1.45}),
+                                kp=275.0, ki=4.46e4)
+    assert res.status == "optimal" and res.verified
+    assert res.solver["best_formulation"].startswith("upper bounds")
+    assert res.m_v <= 0.43 and res.b_v <= 1.45
+
+
+def test_admittance_report_section_with_infinite_margins():
+    # a tight sensor-current limit needs a virtual mass so large that the interaction loop never
+    # crosses 0 dB: the margins are infinite (None in JSON) and the report says so
+    from design.admittance_view import add_admittance_section
+    from design.html import Report
+
+    data = tomllib.loads(SPEC.read_text())
+    data["admittance"]["hardware"]["max_current_per_sensor_step_a"] = 0.01
+    spec = parse_spec(data)
+    adm = synthesise_admittance(spec, kp=275.0, ki=4.46e4).to_dict(spec)
+    assert adm["verified"] and adm["worst_phase_margin_deg"] is None
+    assert adm["binding"]["constraint"] == "sensor_current"
+    report = Report("t")
+    add_admittance_section(report, spec, {"admittance": adm})
+    html = report.render()
+    assert "worst PM ∞°" in html and html.count("<svg") == 3

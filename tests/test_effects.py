@@ -104,7 +104,6 @@ def test_sampling_rational_model_is_the_hold_and_one_sample():
     e = Sampling(rate)
     exact = (1 - np.exp(-S[low] * T)) / (S[low] * T) * np.exp(-S[low] * T)
     assert np.allclose(e.to_tf()(S[low]), exact, rtol=1e-8)     # Pade(3) error ~1e-5 (wT)^7
-    assert np.allclose(e.frd(W[low]), exact, rtol=1e-12)
     assert abs(e.to_tf()(0.0) - 1.0) < 1e-12                                    # unity DC gain
 
 

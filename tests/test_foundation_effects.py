@@ -109,7 +109,7 @@ def test_sampling_rational_model_keeps_the_hold_droop():
 
 def test_plant_to_control_matches_frd_with_all_series_effects():
     p = stage_y() * Delay(0.0005) * CurrentLoop(300.0) * Sampling(5000.0) * Resonance(80.0, 50.0, 0.05)
-    low = W < 200.0          # Pade (order 8) of 0.5 ms and of the 0.2 ms sample is exact to 1e-9 here
+    low = W < 200.0          # Pade 8 of 0.5 ms, Pade 3 (the sampling cap) of the 0.2 ms sample: exact to 1e-9 here
     assert np.allclose(p.to_control(pade_order=8)(S[low]), p.frd(W[low]), rtol=1e-8)
 
 

@@ -120,7 +120,7 @@ def test_to_control_pade_matches_frd_below_the_pade_range():
     tau, rate = 0.0005, 5000.0
     plant = stage_x() * Delay(tau) * Sampling(rate) * CurrentLoop(300.0)
     low = W * (tau + 1.5 / rate) < 1.0
-    # Pade(6) of exp(-s tau) and of exp(-s T) (in the hold and the sample delay) are exact to ~1e-9
+    # Pade(6) of exp(-s tau) and Pade(3) of exp(-s T) (in the hold and the sample delay) are exact to ~1e-9
     # for w (tau + 1.5 T) < 1, so the rational model equals the exact response there, ZOH droop included
     tf = plant.to_control(pade_order=6)
     assert np.allclose(tf(S[low]), plant.frd(W[low]), rtol=1e-8)

@@ -125,7 +125,7 @@ def admittance_benchmark():
     print(f"  solve time {np.median([r.seconds for r in runs]):.1f} s wall (median of 2, verification included); "
           f"rounds {s['rounds']}, SOCP solves {s['socp_solves']}, exact polish evaluations "
           f"{s['exact_polish_evaluations']}")
-    print(f"  circle designs (N): " + ", ".join(f"{k} {v:.4f}" for k, v in s["circle_cost_n"].items())
+    print("  circle designs (N): " + ", ".join(f"{k} {v:.4f}" for k, v in s["circle_cost_n"].items())
           + f"; best {s['best_formulation']}, exact polish gains x{min(s['circle_cost_n'].values()) / res.peak_resistance_n:.3f}")
     print(f"  brute force ({evaluations} points, {brute_s:.0f} s): m_v {m:.4f}, b_v {b:.4f}, peak resistance "
           f"{brute:.4f} N (on the 50-payload dense check: {'meets' if dense else 'FAILS'})")

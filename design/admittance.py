@@ -55,7 +55,6 @@ from design.synthesis import margin_circle
 from plant.errors import SpecError
 from plant.grid import log_grid_rad_s
 
-FAMILIES = ("interaction_margin", "sensor_current", "motor_force")
 #: constraint grid of the optimiser: 10 mHz - 3 kHz, 700 points, plus points around the neck modes
 W_DESIGN = log_grid_rad_s(0.01, 3000.0, 700)
 #: the optimiser works a hair inside the limits so the design holds on the denser check grid:
@@ -74,7 +73,7 @@ class Rows:
     with m = m_v, b = b_v; ``coef`` columns alpha, c1..c4, beta, e1..e4."""
 
     coef: np.ndarray
-    family: np.ndarray    # index into FAMILIES
+    family: np.ndarray    # 0 margin circle, 1 sensor-step current, 2 motor force
     payload: np.ndarray   # kg
     corner: np.ndarray    # index into the mouse corners, -1 for hardware rows
     f_hz: np.ndarray
@@ -416,7 +415,7 @@ def synthesise_admittance(spec: Spec, *, kp: float | None = None, ki: float | No
     # the stiffest virtual dynamics allowed are the safest: when they fail, nothing in the box passes
     safest = dense.evaluate(*hi)
     if not safest.meets:
-        worst = min(safest.violations, key=lambda v: _relative_slack(v))
+        worst = min(safest.violations, key=_relative_slack)
         msg = (f"infeasible: even the stiffest virtual dynamics the spec allows (admittance.m_v.max = {hi[0]:g} kg, "
                f"admittance.b_v.max = {hi[1]:g} N*s/m) fail: {worst['detail']}; {_HINTS[worst['constraint']]}")
         binding = {k: worst[k] for k in ("constraint", "payload_kg", "mouse", "value", "limit", "detail")}

@@ -52,12 +52,12 @@ from design.analysis import ANALYSIS_GRID_RAD_S
 from design.loops import ELECTRICAL_EFFECTS, pi_frd
 from design.margins import loop_margins, unwrapped_phase_deg
 from design.spec import Spec
+from design.synthesis import dense_payloads
 from design.spec_admittance import AdmittanceSpec
 from plant.errors import SpecError
 from plant.grid import check_grid
 from plant.models import Plant
 
-DENSE_PAYLOADS = 50
 #: the dense check's frequency grid: 1 mHz - 10 kHz, 3000 points (plus points around the neck modes)
 W_DENSE = ANALYSIS_GRID_RAD_S
 #: the rendered admittance departs from 1/(m_v s + b_v) by this much at its bandwidth
@@ -123,11 +123,6 @@ def with_neck_modes(w_rad_s: np.ndarray, corners, *, points: int = 60) -> np.nda
     grid of a few points per decade would step over its peak)."""
     local = [mouse.neck_mode_rad_s() * np.linspace(0.8, 1.2, points) for mouse in corners]
     return np.unique(np.concatenate([np.asarray(w_rad_s, float), *local]))
-
-
-def dense_payloads(spec: Spec) -> np.ndarray:
-    rng = spec.plant.payload_kg
-    return np.linspace(rng.min, rng.max, DENSE_PAYLOADS) if rng.max > rng.min else np.array([rng.min])
 
 
 @dataclass(frozen=True)
@@ -297,7 +292,7 @@ class AdmittanceEvaluator:
 
 def evaluate_admittance(spec: Spec, m_v: float, b_v: float, *, kp: float, ki: float, payload_kg=None,
                         w_rad_s=W_DENSE) -> AdmittanceCheck:
-    """Exact grid margins, hardware peaks and rendered bandwidth at every payload (default: 50
-    between the spec's bounds) and every mouse corner."""
+    """Exact grid margins, hardware peaks and rendered bandwidth at every payload (default: the
+    PI synthesis' 50 dense payloads, ``design.synthesis.dense_payloads``) and every mouse corner."""
     m = dense_payloads(spec) if payload_kg is None else payload_kg
     return AdmittanceEvaluator(spec, m, w_rad_s, kp=kp, ki=ki).evaluate(m_v, b_v)

@@ -49,11 +49,12 @@ from dataclasses import dataclass
 import numpy as np
 
 from design.analysis import ANALYSIS_GRID_RAD_S
-from design.loops import ELECTRICAL_EFFECTS, pi_frd
+from design.loops import pi_frd
 from design.margins import loop_margins, unwrapped_phase_deg
 from design.spec import Spec
 from design.synthesis import dense_payloads
 from design.spec_admittance import AdmittanceSpec
+from plant.effects import EFFECTS
 from plant.errors import SpecError
 from plant.grid import check_grid
 from plant.models import Plant
@@ -104,8 +105,9 @@ def admittance_spec(spec: Spec) -> AdmittanceSpec:
     """The spec's ``[admittance]`` section; SpecError when missing or the plant is nonlinear."""
     if spec.admittance is None:
         raise SpecError("spec has no [admittance] section")
-    if "coulomb_friction" in spec.plant.effects:
-        raise SpecError("plant.effects.coulomb_friction: nonlinear, not supported by admittance synthesis "
+    nonlinear = [n for n in spec.plant.effects if n in EFFECTS and not EFFECTS[n].linear]
+    if nonlinear:
+        raise SpecError(f"plant.effects.{nonlinear[0]}: nonlinear, not supported by admittance synthesis "
                         "(design on the linear plant; check friction with gantry simulate)")
     return spec.admittance
 
@@ -139,8 +141,8 @@ class GantryLoop:
 
 
 def mechanical_plant(plant: Plant) -> Plant:
-    """The plant without its electrical effects: K_t G (velocity per current before the drive)."""
-    return plant.with_effects(*[e for e in plant.effects if e.name not in ELECTRICAL_EFFECTS])
+    """The plant without its drive effects: K_t G (velocity per current before the drive)."""
+    return plant.with_effects(*[e for e in plant.effects if e.place != "drive"])
 
 
 def gantry_loop(spec: Spec, w_rad_s, payload_kg, *, kp: float, ki: float) -> GantryLoop:

@@ -82,6 +82,7 @@ def diagnose(
     if as_json:
         print_json(diagnosis_to_dict(diag))
         return
+    console.print(f"[bold]Verdict:[/] {diag.explanation}")
     console.print(f"[bold]Where the base model fails:[/] {diag.steps[0].residuals.description}")
     console.print(f"[bold]Nonlinearity:[/] {diag.nonlinearity.description}")
     t = Table(title="Candidates tried on the base model")
@@ -100,8 +101,19 @@ def diagnose(
     console.print(t)
     for s in diag.steps:
         console.print(f"  -> {s.decision}")
+    if diag.alternatives:
+        t = Table(title="Models within dBIC 10 of the selected one")
+        for col in ("model", "dBIC", "reduced chi2", "relation"):
+            t.add_column(col, justify="right" if col in ("dBIC", "reduced chi2") else "left")
+        for a in diag.alternatives:
+            t.add_row(" + ".join(a.effects) or "base", f"{a.delta_bic:+.1f}", f"{a.reduced_chi2:.3g}", a.note)
+        console.print(t)
     final = diag.final
-    console.print(f"[bold]Final effects:[/] {', '.join(diag.final_effects) or 'none'}")
+    console.print(f"[bold]{'Final' if diag.verdict == 'explained' else 'Best (not explained)'} effects:[/] "
+                  f"{', '.join(diag.final_effects) or 'none'}")
+    modes = final.plant.modes_hz()
+    if modes.size:
+        console.print(f"  mechanical modes: {', '.join(f'{m:.4g} Hz' for m in modes)}")
     for name, value in final.values.items():
         err = final.stderr.get(name)
         console.print(f"  {name:32s} {value:.6g}" + (f" +/- {err:.2g}" if err is not None else " (fixed)"))

@@ -10,12 +10,12 @@ import numpy as np
 from design.html import Report, table
 from design.plots import bode
 from design.spec import finite_or_none
-from plant.diagnosis import Diagnosis, failing_bands
+from plant.diagnosis import ACCEPT_DELTA_BIC, Diagnosis, failing_bands
 from plant.frequency_response import MeasuredResponse
 
 
 def diagnosis_to_dict(diag: Diagnosis) -> dict:
-    """Strict-JSON-ready dict with the keys of issue 4 (and a few more)."""
+    """Strict-JSON-ready dict: the ``gantry diagnose --json`` contract."""
     first = diag.steps[0]
     final = diag.final
     return {
@@ -42,6 +42,20 @@ def diagnosis_to_dict(diag: Diagnosis) -> dict:
                          "description": diag.nonlinearity.description},
         "notes": list(diag.notes),
         "flags": list(final.flags),
+        "verdict": diag.verdict,
+        "explanation": diag.explanation,
+        "final_reduced_chi2": finite_or_none(final.reduced_chi2),
+        "expected_reduced_chi2": finite_or_none(final.expected_reduced_chi2),
+        "models_evaluated": len(diag.models),
+        "alternatives": [{"effects": list(a.effects), "delta_bic": finite_or_none(a.delta_bic),
+                          "reduced_chi2": finite_or_none(a.reduced_chi2),
+                          "consistent_with_noise": a.consistent_with_noise, "note": a.note}
+                         for a in diag.alternatives],
+        "main_parameters": {e.name: {"name": f"{e.name}.{e.main_parameter}",
+                                     "value": final.values[f"{e.name}.{e.main_parameter}"]}
+                            for e in final.plant.effects},
+        "modes_hz": [float(f) for f in final.plant.modes_hz()],
+        "antiresonances_hz": [float(f) for f in final.plant.antiresonances_hz()],
     }
 
 
@@ -97,8 +111,12 @@ def error_steps_figure(diag: Diagnosis):
 def add_diagnosis_section(report: Report, diag: Diagnosis, data: MeasuredResponse) -> None:
     """Measured against model, normalised residuals, candidate ranking and the falling error."""
     first, final = diag.steps[0], diag.final
-    verdict = (f"Missing effect(s) found: {', '.join(diag.added)}." if diag.added else
-               "No effect is missing: the refitted base model explains the data.")
+    if diag.verdict != "explained":
+        verdict = f"Not explained. {diag.explanation}"
+    elif diag.added:
+        verdict = f"Missing effect(s) found: {', '.join(diag.added)}."
+    else:
+        verdict = "No effect is missing: the refitted base model explains the data."
     report.text(f"{verdict} Reduced χ² {first.fit.reduced_chi2:.3g} → {final.reduced_chi2:.3g}. "
                 f"Where the base model fails: {first.residuals.description}", cls="summary")
     report.figure(comparison_figure(diag, data), "Measured response (points, shaded ±2σ) against the base model "
@@ -110,6 +128,11 @@ def add_diagnosis_section(report: Report, diag: Diagnosis, data: MeasuredRespons
                      [[" + ".join(("base",) + s.effects[len(first.effects):]), f"{s.fit.reduced_chi2:.3g}",
                        f"{s.rms_magnitude_error_db:.3f}", f"{s.rms_phase_error_deg:.2f}", f"{s.fit.bic:.1f}",
                        s.decision] for s in diag.steps]))
+    if diag.alternatives:
+        report.heading(f"Models within ΔBIC {ACCEPT_DELTA_BIC:g} of the selected one", 3)
+        report.raw(table(["model", "ΔBIC", "reduced χ²", "consistent with noise", "relation"],
+                         [[" + ".join(a.effects) or "base", f"{a.delta_bic:+.1f}", f"{a.reduced_chi2:.3g}",
+                           "yes" if a.consistent_with_noise else "no", a.note] for a in diag.alternatives]))
     report.heading("Candidates tried on the base model", 3)
     report.raw(table(["effect", "ΔBIC", "reduced χ²", "note"],
                      [[c.effect, "" if math.isnan(c.delta_bic) else f"{c.delta_bic:+.1f}",

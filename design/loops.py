@@ -19,10 +19,6 @@ if TYPE_CHECKING:
     import control
 
 
-#: effects between the current command and the motor force (the drive), not the mechanics
-ELECTRICAL_EFFECTS = ("delay", "current_loop", "sampling")
-
-
 def pi_frd(w_rad_s, kp, ki) -> np.ndarray:
     """PI controller Kp + Ki/(jw)."""
     return np.asarray(kp)[..., None] + np.asarray(ki)[..., None] / (1j * np.asarray(w_rad_s))
@@ -98,10 +94,7 @@ def rendered_admittance_frd(plant: Plant, w_rad_s, *, kp, ki, m_v, b_v, force_pu
     Yv = virtual_admittance_frd(w, m_v, b_v)
     num = P * C * Yv
     if force_pushes_plant:
-        electrical = np.ones_like(P)
-        for e in plant.effects:
-            if e.name in ELECTRICAL_EFFECTS:
-                electrical = electrical * e.frd(w)
+        electrical = plant.chain_response(1j * w, "drive")
         kt = np.asarray(plant.force_constant_n_per_a, float)
         num = num + P / (kt * electrical)
     return num / (1 + P * C)

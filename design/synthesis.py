@@ -45,13 +45,15 @@ from design.fast_analysis import F_LOW_HZ, fast_analyse_loop
 from design.margins import closed_loop_bandwidth_hz, loop_margins
 from design.spec import Spec, finite_or_none
 from design.synth_verify import Verification, verify
+from plant.algebra import CASADI, Pair
+from plant.effects import EFFECTS
 from plant.errors import SpecError
 from plant.grid import log_grid_rad_s
 from plant.models import Plant
 
 #: effects that limit the achievable bandwidth (phase lag growing with frequency)
-PHASE_LIMITING = ("delay", "current_loop", "sampling", "resonance")
-UNSUPPORTED = ("coulomb_friction", "tilt_coupling")
+PHASE_LIMITING = tuple(n for n, cls in EFFECTS.items() if cls.limits_bandwidth and cls.in_synthesis and cls.searched)
+UNSUPPORTED = tuple(n for n, cls in EFFECTS.items() if not cls.in_synthesis)
 DENSE_PAYLOADS = 50
 #: constraint grid of the scan and the optimisation: 1 mHz - 10 kHz, 40 points per decade
 W_OPT = log_grid_rad_s(1e-3, 1.0e4, 281)
@@ -379,39 +381,10 @@ def ccp_design(spec: Spec, P: np.ndarray, scan: Scan) -> CCPDesign:
 
 # --- exact margins (casadi + IPOPT) ---------------------------------------------------------------
 def _casadi_frd(plant: Plant, w):
-    """(Re, Im) of P(jw) as casadi expressions of w (the plant's formulas, thesis Eq. 3.15/3.16 and
-    plant/effects.py)."""
-    import casadi as ca
-
-    m_e, b_e = (float(np.asarray(v).reshape(())) for v in plant._effective_mass_damping())
-    kt = float(np.asarray(plant.force_constant_n_per_a).reshape(()))
-
-    def mul(p, q):
-        return p[0] * q[0] - p[1] * q[1], p[0] * q[1] + p[1] * q[0]
-
-    def div(p, q):
-        d = q[0] ** 2 + q[1] ** 2
-        return (p[0] * q[0] + p[1] * q[1]) / d, (p[1] * q[0] - p[0] * q[1]) / d
-
-    out = div((kt, 0), (b_e, m_e * w))
-    for e in plant.effects:
-        if e.name == "delay":
-            tau = float(e.seconds)
-            out = mul(out, (ca.cos(w * tau), -ca.sin(w * tau)))
-        elif e.name == "current_loop":
-            wc = 2 * math.pi * float(e.bandwidth_hz)
-            out = mul(out, div((wc, 0), (wc, w)))
-        elif e.name == "sampling":
-            T = 1.0 / float(e.rate_hz)
-            x = w * T
-            zoh = (ca.sin(x) / x, -(1 - ca.cos(x)) / x)
-            out = mul(mul(out, zoh), (ca.cos(x), -ca.sin(x)))
-        elif e.name == "resonance":
-            wa, wr, z = 2 * math.pi * float(e.antiresonance_hz), 2 * math.pi * float(e.frequency_hz), float(e.damping_ratio)
-            out = mul(out, div((1 - w**2 / wa**2, 2 * z * w / wa), (1 - w**2 / wr**2, 2 * z * w / wr)))
-        else:
-            raise SpecError(f"plant.effects.{e.name}: the exact synthesis has no formula for this effect")
-    return out
+    """(Re, Im) of P(jw) as casadi expressions of w: the plant's own response formula
+    (``Plant.response``) built with casadi arithmetic."""
+    out = plant.response(Pair(0.0, w), CASADI)
+    return out.re, out.im
 
 
 def _first_crossing(w, f):

@@ -14,7 +14,8 @@ import sys
 import numpy as np
 
 from plant import CoulombFriction, CurrentLoop, Delay, Resonance, stage_x
-from plant.diagnosis import MAIN_PARAMETER, diagnose
+from plant.diagnosis import diagnose
+from plant.effects import EFFECTS
 from plant.lockin import estimate_response
 from plant.simulate import simulate_stepped_sine
 
@@ -49,7 +50,7 @@ print(f"(hidden from the diagnosis: seed {seed}, {kind}{'' if hidden is None els
 print(diag.story())
 print(f"\nnamed: {', '.join(diag.added) or 'none'}; truth: {kind}")
 if hidden is not None and kind in diag.added:
-    key = MAIN_PARAMETER[kind]
+    key = f"{kind}.{EFFECTS[kind].main_parameter}"
     true = getattr(hidden, key.split(".")[1])
     print(f"{key}: {diag.final.values[key]:.4g} +/- {diag.final.stderr[key]:.2g} (true {true:.4g}, "
           f"{100 * (diag.final.values[key] / true - 1):+.1f} %)")

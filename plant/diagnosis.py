@@ -1,48 +1,47 @@
-"""Compare model and measurement, find the missing physical effect, add it, watch the error fall.
+"""Compare model and measurement, find the missing physical effects, add them, watch the error fall.
 
-``diagnose`` fits the base model (thesis Eq. 3.15 / 3.16 with free mass and damping), shows
-where it fails, tries every applicable effect of the library as an addition (refitting each),
-ranks them by the drop of BIC, adds the best one only when the data justify it
-(Delta BIC > ``ACCEPT_DELTA_BIC``), and repeats until the residuals are consistent with noise
-(chi^2 within ``NOISE_Z`` standard deviations of its expectation N_data - n_params, the
-expected minimum cost of a correct model) or no candidate is justified.
+``diagnose`` fits the base model (thesis Eq. 3.15 / 3.16 with free mass and damping) and then
+every combination of up to ``MAX_EFFECTS`` effects of the library (a model search, not a
+greedy path): each model starts from the optimum of every model it contains with the new
+effect at its neutral values, and from the effect's guesses on that model's residual, so a
+nested model never fits worse than its parent and a wrong first step is never locked in.
+
+Selection: the model of lowest BIC, replaced by a model it contains while that one is within
+``ACCEPT_DELTA_BIC`` (an effect is kept only on very strong evidence, Kass & Raftery 1995),
+and among models within ``TIE_DELTA_BIC`` by the one with fewer parameters. Every model within
+``ACCEPT_DELTA_BIC`` of the selected one is reported beside it, with what makes it
+equivalent. The verdict is ``explained`` only when the selected model's chi^2 is consistent
+with the noise (``chi2_is_noise``); otherwise it is ``not_explained`` and says so first,
+describing the residual no effect of the library reproduces.
 """
 
 from __future__ import annotations
 
+import itertools
 import math
 from dataclasses import dataclass, replace
 
 import numpy as np
 
-from plant.effects import make_effect
+from plant.chain import EncoderVelocity
+from plant.effects import EFFECTS, make_effect
 from plant.errors import DataError
 from plant.fitting import FitResult, fit_plant
 from plant.frequency_response import MeasuredResponse
 from plant.models import Plant
 from plant.residuals import ResidualSummary, merge_failing, residual_summary
 
-#: an effect is added only when it lowers BIC by more than this ("very strong" evidence,
-#: Kass & Raftery 1995)
+#: an effect is kept only when it lowers BIC by more than this ("very strong" evidence,
+#: Kass & Raftery 1995); models within it of the selected one are reported as alternatives
 ACCEPT_DELTA_BIC = 10.0
-#: two candidates whose BIC differ by less than this are reported as not told apart
+#: models whose BIC differ by less than this are not told apart: the simpler is reported
 TIE_DELTA_BIC = 2.0
-#: residuals are consistent with noise when chi2 <= dof + NOISE_Z * sqrt(2 dof)
+#: chi^2 is consistent with noise when within NOISE_Z standard deviations of its expectation
 NOISE_Z = 3.0
-LINEAR_CANDIDATES = ("delay", "current_loop", "sampling", "resonance")
-SIGNATURES = {
-    "delay": "phase error growing linearly with frequency, magnitude unchanged",
-    "current_loop": "phase lag with a small magnitude roll-off towards high frequency",
-    "sampling": "phase lag linear in frequency (1.5 sample periods) with a slight sinc magnitude droop",
-    "resonance": "a local peak/notch pair in magnitude with a phase swing around it",
-    "coulomb_friction": "amplitude dependence and odd harmonics, strongest at low velocity",
-    "tilt_coupling": "Y1 and Y2 disagreeing around a mode",
-}
-MAIN_PARAMETER = {
-    "delay": "delay.seconds", "current_loop": "current_loop.bandwidth_hz", "sampling": "sampling.rate_hz",
-    "resonance": "resonance.frequency_hz", "coulomb_friction": "coulomb_friction.force_n",
-    "tilt_coupling": "tilt_coupling.frequency_hz",
-}
+#: most effects in one model of the search
+MAX_EFFECTS = 3
+#: force amplitudes (fractions of the excitation force K_t I) a friction fit starts from
+FRICTION_SHARES = (0.05, 0.15, 0.3)
 
 
 @dataclass(frozen=True)
@@ -50,7 +49,7 @@ class Nonlinearity:
     """Evidence of a nonlinearity: odd harmonics and amplitude dependence."""
 
     detected: bool
-    #: largest 3rd-harmonic ratio of the output, and the frequency where it occurs
+    #: largest 3rd-harmonic ratio of the output, and the frequency where it occurs (NaN: none measurable)
     max_third_harmonic: float
     max_third_harmonic_f_hz: float
     #: 3rd-harmonic level above which it counts (noise floor or 0.5 %)
@@ -61,7 +60,7 @@ class Nonlinearity:
 
 @dataclass(frozen=True)
 class Candidate:
-    """One effect tried as an addition at one step."""
+    """One effect tried as an addition to a model."""
 
     effect: str
     delta_bic: float
@@ -73,17 +72,29 @@ class Candidate:
 
 @dataclass(frozen=True)
 class Step:
-    """The model after a step: its effects, fit and error figures."""
+    """A model on the path from the base model to the selected one: its fit and error figures."""
 
     effects: tuple[str, ...]
     fit: FitResult
     residuals: ResidualSummary
     rms_magnitude_error_db: float
     rms_phase_error_deg: float
-    #: the candidates tried from this model (ranked best first)
+    #: the effects tried as additions to this model (ranked best first)
     ranking: tuple[Candidate, ...]
-    #: why the next effect was added, or why the search stopped
+    #: why the next effect was added, or the verdict on the last step
     decision: str
+
+
+@dataclass(frozen=True)
+class Alternative:
+    """A model within ``ACCEPT_DELTA_BIC`` of the selected one."""
+
+    effects: tuple[str, ...]
+    #: BIC of this model minus BIC of the selected one
+    delta_bic: float
+    reduced_chi2: float
+    consistent_with_noise: bool
+    note: str
 
 
 @dataclass(frozen=True)
@@ -91,8 +102,14 @@ class Diagnosis:
     steps: tuple[Step, ...]
     final: FitResult
     nonlinearity: Nonlinearity
-    #: notes on effects that cannot be told apart and data that cannot identify a candidate
     notes: tuple[str, ...]
+    #: "explained": the selected model is consistent with the noise; "not_explained": no model is
+    verdict: str
+    #: one sentence: what explains the data, or what no effect of the library reproduces
+    explanation: str
+    alternatives: tuple[Alternative, ...]
+    #: every model of the search, by effect set
+    models: dict[tuple[str, ...], FitResult]
 
     @property
     def final_effects(self) -> tuple[str, ...]:
@@ -105,16 +122,22 @@ class Diagnosis:
     def story(self) -> str:
         """The diagnosis in words, step by step, with its numbers."""
         first = self.steps[0]
-        lines = [f"1. Compare: base model ({', '.join(first.effects) or 'no effects'}), reduced chi-square "
+        lines = [f"Verdict: {self.explanation}",
+                 f"1. Compare: base model ({', '.join(first.effects) or 'no effects'}), reduced chi-square "
                  f"{first.fit.reduced_chi2:.3g}, RMS error {first.rms_magnitude_error_db:.3f} dB / "
                  f"{first.rms_phase_error_deg:.2f} deg.",
                  f"2. Where it fails: {first.residuals.description}",
-                 f"   Nonlinearity: {self.nonlinearity.description}"]
+                 f"   Nonlinearity: {self.nonlinearity.description}",
+                 f"3. Model search: {len(self.models)} models of up to {MAX_EFFECTS} effects fitted."]
         for k, step in enumerate(self.steps):
             tried = ", ".join(f"{c.effect} (dBIC {c.delta_bic:+.1f})" for c in step.ranking if not c.skipped)
             if tried:
-                lines.append(f"{k + 3}. Candidates from [{', '.join(step.effects) or 'base'}]: {tried}")
+                lines.append(f"{k + 4}. Additions to [{', '.join(step.effects) or 'base'}]: {tried}")
             lines.append(f"   -> {step.decision}")
+        if self.alternatives:
+            lines.append(f"Models within dBIC {ACCEPT_DELTA_BIC:g} of the selected one:")
+            lines += [f"   {' + '.join(a.effects) or 'base':40s} dBIC {a.delta_bic:+6.1f}  reduced chi2 "
+                      f"{a.reduced_chi2:8.3g}  {a.note}" for a in self.alternatives]
         lines.append("Error by step:")
         for step in self.steps:
             lines.append(f"   {' + '.join(('base',) + step.effects[len(self.steps[0].effects):]):40s} "
@@ -124,8 +147,20 @@ class Diagnosis:
         return "\n".join(lines)
 
 
-def _noise_consistent(fit: FitResult) -> bool:
-    return fit.dof > 0 and fit.chi2 <= fit.dof + NOISE_Z * math.sqrt(2 * fit.dof)
+def chi2_is_noise(fit: FitResult) -> bool:
+    """chi^2 within ``NOISE_Z`` standard deviations of its expectation for a correct model.
+
+    Per frequency and output, re^2 + im^2 of the normalised residual is 2 F(2, nu) when the variance
+    comes from an estimate with nu degrees of freedom (chi^2_2 for nu = inf): mean 2 nu / (nu - 2),
+    variance 4 nu^3 / ((nu - 2)^2 (nu - 4)); the fitted parameters take away their share of the mean.
+    """
+    nu = np.asarray(fit.variance_dof, float)
+    n_out = fit.residuals.shape[0]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        mean = np.where(np.isinf(nu), 2.0, 2 * nu / (np.maximum(nu, 6.0) - 2))
+        var = np.where(np.isinf(nu), 4.0, 4 * nu**3 / ((np.maximum(nu, 6.0) - 2) ** 2 * (np.maximum(nu, 6.0) - 4)))
+    expected = n_out * float(np.sum(mean)) * (1 - fit.n_params / fit.n_data)
+    return fit.dof > 0 and fit.chi2 <= expected + NOISE_Z * math.sqrt(n_out * float(np.sum(var)))
 
 
 def _step(fit: FitResult, data: MeasuredResponse, ranking, decision) -> Step:
@@ -136,22 +171,27 @@ def _step(fit: FitResult, data: MeasuredResponse, ranking, decision) -> Step:
 
 
 def detect_nonlinearity(data: MeasuredResponse, *, amplitude_dependent: bool | None = None) -> Nonlinearity:
-    """Odd-harmonic distortion above its noise floor, or amplitude dependence, means nonlinear."""
-    hd3 = np.asarray(data.harmonic_distortion)[..., 1]
+    """Odd-harmonic distortion above its noise floor, or amplitude dependence, means nonlinear.
+
+    Harmonics that could not be measured (NaN: at or above 0.45 x the sample rate) are left out;
+    they never hide the others."""
+    hd3 = np.asarray(data.harmonic_distortion, float)[..., 1]
     # white noise puts about as much noise in the 3rd-harmonic bin as in the fundamental's, whose
     # relative standard deviation is sqrt(var)/|G|: count 4 sigma of it, and at least 0.5 %
     floor = np.maximum(4.0 * np.sqrt(np.asarray(data.variance)) / np.abs(data.response), 0.005)
-    ratio = hd3 / floor
+    ratio = np.where(np.isfinite(hd3), hd3 / floor, -np.inf)
+    extra = ("; response depends on the excitation amplitude" if amplitude_dependent else
+             "; no amplitude dependence between the recordings") if amplitude_dependent is not None else ""
+    if not np.any(np.isfinite(ratio)):
+        return Nonlinearity(bool(amplitude_dependent), float("nan"), float("nan"), float("nan"), amplitude_dependent,
+                            ("detected: " if amplitude_dependent else "none: ") + "no harmonic was measurable" + extra)
     k = np.unravel_index(int(np.argmax(ratio)), ratio.shape)
     detected = bool(ratio[k] > 1.0) or bool(amplitude_dependent)
     f_at = float(np.asarray(data.f_hz)[k[-1]])
     words = (f"3rd harmonic up to {100 * hd3[k]:.2f} % of the fundamental at {f_at:.3g} Hz "
-             f"(threshold {100 * floor[k]:.2f} %)")
-    if amplitude_dependent is not None:
-        words += "; response depends on the excitation amplitude" if amplitude_dependent else \
-            "; no amplitude dependence between the recordings"
-    words = ("detected: " if detected else "none: ") + words
-    return Nonlinearity(detected, float(hd3[k]), f_at, float(floor[k]), amplitude_dependent, words)
+             f"(threshold {100 * floor[k]:.2f} %)") + extra
+    return Nonlinearity(detected, float(hd3[k]), f_at, float(floor[k]), amplitude_dependent,
+                        ("detected: " if detected else "none: ") + words)
 
 
 def with_distortion_variance(data: MeasuredResponse) -> MeasuredResponse:
@@ -159,54 +199,101 @@ def with_distortion_variance(data: MeasuredResponse) -> MeasuredResponse:
 
     A describing function keeps only the fundamental; its error in the fundamental is of the
     order of the harmonics it neglects (harmonic balance), so each point's variance is augmented
-    by (|G| * (HD2 + HD3))^2 with the measured harmonic ratios. Used once a nonlinearity is
-    detected, for every candidate alike, so their BICs stay comparable.
+    by (|G| * (HD2 + HD3))^2 with the measured harmonic ratios (unmeasurable ones count as 0).
+    Used once a nonlinearity is detected, for every model alike, so their BICs stay comparable.
     """
-    hd = np.sum(np.asarray(data.harmonic_distortion), axis=-1)
+    hd = np.nansum(np.asarray(data.harmonic_distortion, float), axis=-1)
     extra = (np.abs(data.response) * hd) ** 2
     return replace(data, variance=np.asarray(data.variance) + extra,
                    metadata={**data.metadata, "variance": "measurement + describing-function (harmonic) error"})
 
 
-def _applicable(name: str, plant: Plant, data: MeasuredResponse, nonlinear: Nonlinearity) -> str:
-    """Empty when ``name`` can be tried on ``plant`` with ``data``; else the reason it is skipped."""
-    if name in plant.effect_names:
-        return "already in the model"
-    if name == "tilt_coupling":
-        if plant.stage != "y" or len(data.output_names) < 2:
-            return "needs Stage Y with both rails Y1 and Y2 recorded"
-        if math.isclose(plant.load_position_m, plant.motor_length_m / 2):
-            return "the load is centred (load_position_m = motor_length_m / 2): the tilt mode is not excited"
-    if name == "coulomb_friction" and not nonlinear.detected:
-        return "no harmonic distortion or amplitude dependence in the data"
-    return ""
+def _pool(plant: Plant, data: MeasuredResponse, nonlinear: Nonlinearity,
+          candidates: tuple[str, ...] | None) -> tuple[list[str], dict[str, str]]:
+    """Effects the search may add, and why the others are left out."""
+    skipped = {}
+    pool = []
+    for name in candidates if candidates is not None else tuple(EFFECTS):
+        cls = EFFECTS[name]
+        if name in plant.effect_names:
+            skipped[name] = "already in the model"
+        elif not cls.searched:
+            skipped[name] = "a property of the sensor, set from the recording, not searched for"
+        elif plant.stage not in cls.stages:
+            skipped[name] = f"applies to Stage {'/'.join(s.upper() for s in cls.stages)} only"
+        elif len(data.output_names) < cls.min_outputs:
+            skipped[name] = "needs Stage Y with both rails Y1 and Y2 recorded"
+        elif not cls.linear and not nonlinear.detected:
+            skipped[name] = "no harmonic distortion or amplitude dependence in the data"
+        else:
+            pool.append(name)
+    return pool, skipped
 
 
-def _try(plant: Plant, name: str, data: MeasuredResponse, free_base: tuple[str, ...]) -> FitResult:
-    if name == "coulomb_friction":
-        plant = replace(plant, excitation_current_a=np.asarray(data.current_amplitude_a, dtype=float))
-    candidate = plant * make_effect(name)
-    free = free_base + tuple(p for p in candidate.parameters() if "." in p)
-    if name != "coulomb_friction":
-        return fit_plant(candidate, data, free=free)
-    # friction: starts spread over 5-40 % of the excitation force (the default may stall the stage)
-    force = float(np.mean(np.asarray(plant.force_constant_n_per_a) * np.asarray(data.current_amplitude_a)))
-    own = {n: v for n, v in candidate.parameters().items() if n in free}
-    fits = [fit_plant(candidate, data, free=free, start={**{n: p.value for n, p in own.items()},
-                                                         "coulomb_friction.force_n": share * force})
-            for share in (0.05, 0.15, 0.3)]
-    return min(fits, key=lambda r: r.chi2)
+def _valid(combo: tuple[str, ...], base: tuple[str, ...]) -> bool:
+    names = set(combo) | set(base)
+    for n in names:
+        cls = EFFECTS[n]
+        if any(x in names for x in cls.excludes):
+            return False
+        if cls.requires_any and not any(x in names for x in cls.requires_any):
+            return False
+    return True
+
+
+def _fit_child(parents: list[FitResult], name: str, plant: Plant, data: MeasuredResponse,
+               free_base: tuple[str, ...], fixed: tuple[str, ...]) -> FitResult:
+    """Fit ``plant`` (a parent plus ``name``) from its parents' optima, the new effect neutral and at
+    its guesses on the best parent's residual."""
+    effect = plant.effect(name)
+    free = free_base + tuple(p for p in plant.parameters() if "." in p and p not in fixed and
+                             p.split(".", 1)[1] not in EFFECTS[p.split(".", 1)[0]].search_fixed)
+    parents = sorted(parents, key=lambda r: r.chi2)
+    neutral = {f"{name}.{k}": v for k, v in effect.neutral.items()}
+    starts = [{**parents[0].values, **neutral}]
+    ratio = data.response / parents[0].model_response
+    guesses = effect.guesses(data.w_rad_s, ratio)
+    if not effect.linear:
+        force = float(np.mean(np.asarray(plant.force_constant_n_per_a) * np.asarray(data.current_amplitude_a)))
+        guesses = guesses + [{effect.main_parameter: share * force} for share in FRICTION_SHARES]
+    starts += [{**parents[0].values, **{f"{name}.{k}": v for k, v in g.items()}} for g in guesses]
+    for other in parents[1:2]:
+        missing = [e for e in plant.effects if e.name not in other.plant.effect_names]
+        starts.append({**other.values, **{f"{e.name}.{k}": v for e in missing for k, v in e.neutral.items()}})
+    return fit_plant(plant, data, free=free, starts=starts)
+
+
+def _relation(a: tuple[str, ...], b: tuple[str, ...], fits) -> str:
+    """What makes two models of nearly equal BIC equivalent, in words."""
+    only_a, only_b = set(a) - set(b), set(b) - set(a)
+    if not only_a or not only_b:
+        extra = only_a or only_b
+        verb = "adds" if only_a else "lacks"
+        return f"{verb} {', '.join(sorted(extra))}, which the data neither need nor rule out"
+    delays = []
+    for names, effs in ((only_a, a), (only_b, b)):
+        plant = fits[effs].plant
+        for n in sorted(names):
+            tau = plant.effect(n).equivalent_delay_s()
+            if tau is not None:
+                delays.append(f"{n} = {1e3 * tau:.3g} ms")
+    if len(delays) == len(only_a) + len(only_b):
+        return ("drive/sensor lags the data cannot tell apart below their corners; equivalent delays: "
+                + ", ".join(delays))
+    return "fits as well with different effects"
 
 
 def diagnose(plant: Plant, data: MeasuredResponse, *, candidates: tuple[str, ...] | None = None,
              free_base: tuple[str, ...] = ("mass_kg", "damping_n_s_per_m"),
-             amplitude_dependent: bool | None = None, max_steps: int = 4) -> Diagnosis:
+             amplitude_dependent: bool | None = None, max_effects: int = MAX_EFFECTS) -> Diagnosis:
     """Diagnose which effects ``plant`` misses to explain ``data`` (see module doc).
 
     ``plant`` sets the stage, geometry and starting values (its effects, if any, are kept and
-    refitted); ``free_base`` are the base parameters fitted at every step (add
+    refitted); ``free_base`` are the base parameters fitted in every model (add
     ``force_constant_n_per_a`` when asked). ``amplitude_dependent`` comes from comparing
-    recordings at several amplitudes (``plant.frequency_response.amplitude_dependence``).
+    recordings at several amplitudes (``plant.lockin.amplitude_dependence``). A recording whose
+    velocity is an encoder position differenced at its sample rate (``data.metadata``) gets that
+    sensor in every model.
     """
     n_freq = len(data.f_hz)
     n_values = 2 * n_freq * len(data.output_names)
@@ -215,58 +302,128 @@ def diagnose(plant: Plant, data: MeasuredResponse, *, candidates: tuple[str, ...
             f"{data.source}: {n_freq} frequenc{'y' if n_freq == 1 else 'ies'} give {n_values} real values, which "
             f"exactly determine (or fewer than) the {len(free_base)} base parameters ({', '.join(free_base)}): "
             "nothing is left to test the model or a missing effect. Record more frequencies (the thesis used 1-75 Hz).")
+    notes = list(getattr(data, "notes", ()))
+    fixed: tuple[str, ...] = ()
+    quantum = data.metadata.get("encoder_velocity_quantum_m_per_s")
+    rate = data.metadata.get("sample_rate_hz")
+    if quantum and rate and "encoder_velocity" not in plant.effect_names:
+        plant = plant * EncoderVelocity(float(rate))
+        fixed = ("encoder_velocity.rate_hz",)
+        notes.append(f"velocity is an encoder position differenced at {float(rate):g} Hz (steps of "
+                     f"{float(quantum):.3g} m/s): every model includes its half-sample delay and sinc droop")
     nonlinear = detect_nonlinearity(data, amplitude_dependent=amplitude_dependent)
     if nonlinear.detected:
         data = with_distortion_variance(data)
-    pool = candidates if candidates is not None else LINEAR_CANDIDATES + ("coulomb_friction", "tilt_coupling")
-    free_now = free_base + tuple(p for p in plant.parameters() if "." in p)
-    fit = fit_plant(plant, data, free=free_now)
-    steps: list[Step] = []
-    notes: list[str] = []
-    for _ in range(max_steps + 1):
-        if _noise_consistent(fit):
-            steps.append(_step(fit, data, (), f"residuals are consistent with noise (chi2 {fit.chi2:.1f} for "
-                                              f"{fit.dof} degrees of freedom): nothing is missing"))
-            break
-        ranking = []
-        for name in pool:
-            reason = _applicable(name, fit.plant, data, nonlinear)
-            n_new = len(make_effect(name).bounds)
-            if not reason and n_values - fit.n_params - n_new < 1:
-                reason = (f"not identifiable: {n_freq} frequencies give {n_values} real values for "
-                          f"{fit.n_params + n_new} parameters")
-            if reason:
-                ranking.append(Candidate(name, float("nan"), float("nan"), None, reason))
+    pool, skipped = _pool(plant, data, nonlinear, candidates)
+    own = tuple(p for p in plant.parameters() if "." in p and p not in fixed)
+    base_fit = fit_plant(plant, data, free=free_base + own)
+    base = plant.effect_names
+    fits: dict[tuple[str, ...], FitResult] = {base: base_fit}
+    unidentifiable = {}
+    for size in range(1, max_effects + 1):
+        for combo in itertools.combinations(pool, size):
+            if not _valid(combo, base):
                 continue
-            cand = _try(fit.plant, name, data, free_base)
-            ranking.append(Candidate(name, fit.bic - cand.bic, cand.reduced_chi2, cand))
-        ranking.sort(key=lambda c: -c.delta_bic if not c.skipped else math.inf)
-        tried = [c for c in ranking if not c.skipped]
-        if not tried or tried[0].delta_bic <= ACCEPT_DELTA_BIC:
-            best = f" (best: {tried[0].effect}, dBIC {tried[0].delta_bic:+.1f})" if tried else ""
-            steps.append(_step(fit, data, ranking, f"no candidate lowers BIC by more than {ACCEPT_DELTA_BIC:g}"
-                                                   f"{best}: stop with reduced chi-square {fit.reduced_chi2:.3g}"))
-            break
-        best = tried[0]
-        ties = [c.effect for c in tried[1:] if best.delta_bic - c.delta_bic < TIE_DELTA_BIC]
-        decision = (f"add {best.effect} (dBIC {best.delta_bic:+.1f}; signature: {SIGNATURES[best.effect]})")
-        if ties:
-            note = (f"{best.effect} and {', '.join(ties)} explain these data equally well (BIC within "
-                    f"{TIE_DELTA_BIC:g}); {best.effect} is reported, the data cannot tell them apart")
-            notes.append(note)
-            decision += f"; {note}"
-        steps.append(_step(fit, data, ranking, decision))
-        fit = best.fit
+            effects = base + combo
+            parents = [fits[p] for p in (base + tuple(c for c in combo if c != n) for n in combo) if p in fits]
+            if not parents:
+                continue
+            n_new = sum(len(EFFECTS[n].bounds) - len(EFFECTS[n].search_fixed) for n in combo)
+            if n_values - len(free_base) - len(own) - n_new < 1:
+                unidentifiable[combo] = (f"not identifiable: {n_freq} frequencies give {n_values} real values for "
+                                         f"{len(free_base) + len(own) + n_new} parameters")
+                continue
+            best = min(parents, key=lambda r: r.chi2)
+            (name,) = [n for n in combo if n not in best.plant.effect_names]
+            effect = make_effect(name)
+            host = best.plant if effect.linear else replace(
+                best.plant, excitation_current_a=np.asarray(data.current_amplitude_a, dtype=float))
+            child = host * effect
+            fits[effects] = _fit_child(parents, name, child, data, free_base, fixed)
+    selected = _select(fits, base)
+    final = fits[selected]
+    explained = chi2_is_noise(final)
+    alternatives = tuple(
+        Alternative(k, fits[k].bic - final.bic, fits[k].reduced_chi2, chi2_is_noise(fits[k]),
+                    _relation(k, selected, fits))
+        for k in sorted(fits, key=lambda k: fits[k].bic)
+        if k != selected and fits[k].bic - final.bic < ACCEPT_DELTA_BIC)
+    steps = _path(fits, base, selected, data, skipped, unidentifiable, pool)
+    final_res = steps[-1].residuals
+    if explained:
+        named = ", ".join(selected[len(base):]) or "no effect beyond the refitted base model"
+        explanation = (f"explained by {named} (reduced chi-square {final.reduced_chi2:.3g}, expected "
+                       f"{final.expected_reduced_chi2:.3g}: the residuals are consistent with the noise)")
     else:
-        steps.append(_step(fit, data, (), f"stopped after {max_steps} added effects"))
-    for flag in fit.flags:
+        where = final_res.description
+        peaks = _residual_peak(final_res)
+        explanation = (f"not explained: no model of the library is consistent with the noise (best: "
+                       f"{' + '.join(('base',) + selected[len(base):])}, reduced chi-square {final.reduced_chi2:.3g}); "
+                       f"the residual {peaks}no effect of the library reproduces: {where}")
+    last = steps[-1]
+    steps[-1] = replace(last, decision=explanation if not last.decision else f"{last.decision}; {explanation}")
+    for flag in final.flags:
         if "cannot be told apart" in flag:
             notes.append(flag)
-    return Diagnosis(tuple(steps), fit, nonlinear, tuple(dict.fromkeys(notes)))
+    return Diagnosis(tuple(steps), final, nonlinear, tuple(dict.fromkeys(notes)),
+                     "explained" if explained else "not_explained", explanation, alternatives, fits)
+
+
+def _residual_peak(res: ResidualSummary) -> str:
+    """Where the normalised residual is largest, in words ("peaks near 59 Hz, where ")."""
+    r = np.sum(np.abs(res.normalised) ** 2, axis=0)
+    k = int(np.argmax(r))
+    return f"is largest near {res.f_hz[k]:.3g} Hz ({res.magnitude_error_db[:, k].mean():+.2f} dB, " \
+           f"{res.phase_error_deg[:, k].mean():+.1f} deg), which "
+
+
+def _select(fits: dict[tuple[str, ...], FitResult], base: tuple[str, ...]) -> tuple[str, ...]:
+    """Lowest BIC, then its simplest nested model within ``ACCEPT_DELTA_BIC``, then the model with
+    fewest parameters among those within ``TIE_DELTA_BIC`` of it."""
+    chosen = min(fits, key=lambda k: fits[k].bic)
+    while True:
+        nested = [k for k in fits if set(k) < set(chosen) and fits[k].bic < fits[chosen].bic + ACCEPT_DELTA_BIC]
+        if not nested:
+            break
+        chosen = min(nested, key=lambda k: (len(k), fits[k].bic))
+    ties = [k for k in fits if abs(fits[k].bic - fits[chosen].bic) < TIE_DELTA_BIC]
+    return min(ties, key=lambda k: (len(k), fits[k].n_params, fits[k].bic))
+
+
+def _path(fits, base, selected, data, skipped, unidentifiable, pool) -> list[Step]:
+    """Steps from the base model to ``selected``, each adding the effect that lowers BIC most."""
+    steps = []
+    current = base
+    while True:
+        children = {k: v for k, v in fits.items() if len(k) == len(current) + 1 and set(current) < set(k)}
+        ranking = []
+        for k, fit in children.items():
+            (name,) = set(k) - set(current)
+            ranking.append(Candidate(name, fits[current].bic - fit.bic, fit.reduced_chi2, fit))
+        ranking.sort(key=lambda c: -c.delta_bic)
+        tried = {c.effect for c in ranking}
+        for name in pool:
+            combo = tuple(n for n in current[len(base):]) + (name,)
+            if name not in tried and name not in current:
+                reason = unidentifiable.get(tuple(sorted(combo, key=pool.index)), "") or \
+                    ("" if _valid(combo, base) else "cannot be combined with the model's effects")
+                if reason:
+                    ranking.append(Candidate(name, float("nan"), float("nan"), None, reason))
+        ranking += [Candidate(n, float("nan"), float("nan"), None, why) for n, why in skipped.items()
+                    if current == base]
+        if current == selected:
+            steps.append(_step(fits[current], data, ranking, ""))
+            return steps
+        options = [k for k in children if set(k) <= set(selected)]
+        nxt = min(options, key=lambda k: fits[k].bic)
+        (name,) = set(nxt) - set(current)
+        effect = EFFECTS[name]
+        steps.append(_step(fits[current], data, ranking,
+                           f"add {name} (dBIC {fits[current].bic - fits[nxt].bic:+.1f}; signature: "
+                           f"{effect.signature})"))
+        current = nxt
 
 
 def failing_bands(step: Step) -> list[dict]:
     """JSON rows of the merged failing bands of a step."""
     return [{"f_low_hz": lo, "f_high_hz": hi, "reduced_chi2": chi} for lo, hi, chi in merge_failing(step.residuals.bands)]
-
-

@@ -38,23 +38,19 @@ from scipy.optimize import least_squares
 
 from plant.errors import DataError, EffectError, ParameterError
 from plant.frequency_response import MeasuredResponse
-from plant.models import Plant
+from plant.models import BASE_BOUNDS, Plant
 from plant.parameters import Parameter
 
 #: |correlation| above which two parameters are flagged as not separable by the data
 CORRELATION_FLAG = 0.95
 #: a fit is flagged as not explaining the data when P(chi^2 >= observed) is below this
 CHI2_P_FLAG = 1e-3
-#: effects whose low-frequency phase is approximately a pure delay, and its equivalent:
-#: delay tau; first-order lag tau = 1/(2 pi f_c); sampling tau = 1.5 / rate (ZOH + one sample)
-_DELAY_LIKE = {
-    "delay.seconds": lambda tau: tau,
-    "current_loop.bandwidth_hz": lambda tau: 1.0 / (2 * np.pi * tau),
-    "sampling.rate_hz": lambda tau: 1.5 / tau,
-}
-_RES_F, _RES_A = "resonance.frequency_hz", "resonance.antiresonance_hz"
 #: ratio bounds antiresonance / resonance frequency when both are free
 _RATIO_BOUNDS = (1e-3, 0.999)
+#: starts polished by least squares after the projected scan (the best few of the candidates)
+N_POLISH = 3
+#: most candidate starts scanned per fit (a product of the effects' guesses is thinned to this)
+MAX_CANDIDATES = 4096
 
 
 @dataclass(frozen=True)
@@ -204,11 +200,18 @@ def _check_data(data: MeasuredResponse) -> tuple[np.ndarray, np.ndarray, np.ndar
 
 
 # --- coordinates: physical values <-> well-conditioned optimiser variables --------------------
+def _ratio_reference(name: str, names) -> str | None:
+    """The resonance of the same effect when ``name`` is an antiresonance whose resonance is in ``names``."""
+    effect, _, field = name.rpartition(".")
+    ref = f"{effect}.frequency_hz"
+    return ref if field == "antiresonance_hz" and ref in names else None
+
+
 @dataclass(frozen=True)
 class _Coordinates:
     """Maps optimiser variables x to physical values: log(p) when the lower bound is positive,
-    p / scale otherwise; ``resonance.antiresonance_hz`` as log(ratio to the resonance) when both
-    resonance frequencies are free (keeps the notch below the peak)."""
+    p / scale otherwise; an antiresonance as log(ratio to its resonance) when both are free
+    (keeps the notch below the peak)."""
 
     names: tuple[str, ...]
     kinds: tuple[str, ...]          # "log" | "lin" | "ratio"
@@ -225,7 +228,7 @@ class _Coordinates:
                 out[name] = float(math.exp(xi))
         for name, kind, xi in zip(self.names, self.kinds, x):
             if kind == "ratio":
-                out[name] = out[_RES_F] * math.exp(xi)
+                out[name] = out[_ratio_reference(name, self.names)] * math.exp(xi)
         return out
 
     def to_x(self, values: Mapping[str, float]) -> np.ndarray:
@@ -237,7 +240,7 @@ class _Coordinates:
             elif kind == "log":
                 x.append(math.log(v))
             else:
-                x.append(math.log(v / values[_RES_F]))
+                x.append(math.log(v / values[_ratio_reference(name, self.names)]))
         return np.clip(np.array(x), self.lower, self.upper)
 
     def jacobian(self, x: np.ndarray) -> np.ndarray:
@@ -252,25 +255,33 @@ class _Coordinates:
                 D[i, i] = vals[name]
             else:
                 D[i, i] = vals[name]
-                D[i, self.names.index(_RES_F)] = vals[name]
+                D[i, self.names.index(_ratio_reference(name, self.names))] = vals[name]
         return D
+
+
+def _bounds_of(name: str, params: Mapping[str, Parameter], free: Sequence[str]) -> tuple[float, float]:
+    """Bounds of ``name``, an antiresonance kept below its fixed resonance (and the reverse)."""
+    p = params[name]
+    lower, upper = p.lower, p.upper
+    effect, _, field = name.rpartition(".")
+    if field == "antiresonance_hz" and f"{effect}.frequency_hz" in params:
+        upper = min(upper, params[f"{effect}.frequency_hz"].value * _RATIO_BOUNDS[1])
+    if field == "frequency_hz" and f"{effect}.antiresonance_hz" in params and \
+            f"{effect}.antiresonance_hz" not in free:
+        lower = max(lower, params[f"{effect}.antiresonance_hz"].value / _RATIO_BOUNDS[1])
+    return lower, upper
 
 
 def _coordinates(free: Sequence[str], params: Mapping[str, Parameter], start: Mapping[str, float]) -> _Coordinates:
     kinds, scales, lo, hi = [], [], [], []
     for name in free:
-        p = params[name]
-        lower, upper = p.lower, p.upper
-        if name == _RES_A and _RES_F in free:
+        if _ratio_reference(name, free):
             kinds.append("ratio")
             scales.append(1.0)
             lo.append(math.log(_RATIO_BOUNDS[0]))
             hi.append(math.log(_RATIO_BOUNDS[1]))
             continue
-        if name == _RES_A:               # notch free, peak fixed: stay below the peak
-            upper = min(upper, params[_RES_F].value * _RATIO_BOUNDS[1])
-        if name == _RES_F and _RES_A in params and _RES_A not in free:
-            lower = max(lower, params[_RES_A].value / _RATIO_BOUNDS[1])
+        lower, upper = _bounds_of(name, params, free)
         if lower > 0:
             kinds.append("log")
             scales.append(1.0)
@@ -303,74 +314,47 @@ def _phase_delay(w: np.ndarray, g: np.ndarray, var: np.ndarray, m: float, b: flo
     return max(-float(np.sum(pw * w * phase) / np.sum(pw * w * w)), 0.0)
 
 
-def _clip(params: Mapping[str, Parameter], name: str, value: float) -> float:
-    p = params[name]
-    lo, hi = p.lower, p.upper
-    if name == _RES_A and _RES_F in params:
-        hi = min(hi, params[_RES_F].value * _RATIO_BOUNDS[1])
+def _clip(params: Mapping[str, Parameter], name: str, value: float, free: Sequence[str] = ()) -> float:
+    lo, hi = _bounds_of(name, params, free)
     return float(min(max(value, lo), hi))
 
 
-def _starts(plant: Plant, free: Sequence[str], w: np.ndarray, g_mean: np.ndarray, var_mean: np.ndarray,
-            g_all: np.ndarray) -> list[dict[str, float]]:
-    """Starting points: the plant's own values, and data-derived values (first-order + delay fit for
-    mass and damping, the equivalent delay shared among delay-like effects, resonance at the peak
-    of the data / first-order ratio)."""
+def rigid_start(plant: Plant, w: np.ndarray, g_mean: np.ndarray, var_mean: np.ndarray) -> dict[str, float]:
+    """Mass and damping of the rigid body from the data: a first-order fit of the lowest third of
+    the frequencies alternating with the delay seen in the phase of all of them (three rounds)."""
     params = plant.parameters()
-    own = {n: params[n].value for n in free}
-    # effective mechanical impedance per unit mass and damping (X: 1, 1; Y: 2 l / L, 2)
     unit = dataclasses.replace(plant, mass_kg=1.0, damping_n_s_per_m=1.0, force_constant_n_per_a=1.0, effects=())
     z1 = 1.0 / unit.frd(w[:1])[0]
     c_b, c_m = float(z1.real), float(z1.imag / w[0])
     kt = params["force_constant_n_per_a"].value
-    # first-order rational fit of the lowest third of the data, alternating with the delay
-    # seen in the phase of all of it (three rounds)
     low = slice(0, max(3, len(w) // 3))
     gn, vn, tau = g_mean / kt, var_mean / kt**2, 0.0
     for _ in range(3):
         m_e, b_e = _first_order(w[low], gn[low], vn[low], tau)
         tau = _phase_delay(w, gn, vn, m_e, b_e)
-    data = dict(own)
-    if "mass_kg" in free:
-        data["mass_kg"] = _clip(params, "mass_kg", m_e / c_m)
-    if "damping_n_s_per_m" in free:
-        data["damping_n_s_per_m"] = _clip(params, "damping_n_s_per_m", b_e / c_b)
-    if _RES_F in free or _RES_A in free:
-        q = np.abs(g_mean * (1j * w * m_e + b_e) * np.exp(1j * w * tau) / kt)
-        k_peak = int(np.argmax(q))
-        if _RES_F in free:
-            data[_RES_F] = _clip(params, _RES_F, w[k_peak] / (2 * np.pi))
-        if _RES_A in free:
-            f_peak = data.get(_RES_F, params[_RES_F].value)
-            f_notch = w[int(np.argmin(q[: max(k_peak, 1)]))] / (2 * np.pi)
-            if f_notch >= _RATIO_BOUNDS[1] * f_peak:
-                f_notch = 0.7 * f_peak
-            data[_RES_A] = max(f_notch, params[_RES_A].lower)
-    if "tilt_coupling.frequency_hz" in free and g_all.shape[0] >= 2:
-        k = int(np.argmax(np.abs(g_all[0] - g_all[1]) / np.abs(g_mean)))
-        data["tilt_coupling.frequency_hz"] = _clip(params, "tilt_coupling.frequency_hz", w[k] / (2 * np.pi))
-    lags = [n for n in _DELAY_LIKE if n in free]
-    starts = [own]
-    tau = max(tau, 1e-6)
-    if not lags:
-        starts.append(data)
-    else:
-        splits = [np.full(len(lags), tau / len(lags))]
-        if len(lags) > 1:
-            for i in range(len(lags)):
-                share = np.full(len(lags), 0.05 * tau)
-                share[i] = tau
-                splits.append(share)
-        for share in splits:
-            s = dict(data)
-            for name, t in zip(lags, share):
-                s[name] = _clip(params, name, _DELAY_LIKE[name](t))
-            starts.append(s)
-    unique = []
-    for s in starts:
-        if not any(all(math.isclose(s[n], u[n], rel_tol=1e-9) for n in free) for u in unique):
-            unique.append(s)
-    return unique
+    return {"mass_kg": _clip(params, "mass_kg", m_e / c_m), "damping_n_s_per_m": _clip(params, "damping_n_s_per_m",
+                                                                                       b_e / c_b)}
+
+
+def effect_candidates(plant: Plant, free: Sequence[str], w: np.ndarray, g: np.ndarray,
+                      model: np.ndarray) -> list[dict[str, float]]:
+    """Candidate values of the free effect parameters: the product of each effect's ``guesses`` from
+    the data divided by ``model`` (and its neutral values), thinned to ``MAX_CANDIDATES``."""
+    ratio = g / model
+    per_effect = []
+    for e in plant.effects:
+        names = [n for n in e.bounds if f"{e.name}.{n}" in free]
+        if not names:
+            continue
+        options = [dict(e.neutral)] + e.guesses(w, ratio)
+        opts = [{f"{e.name}.{k}": v for k, v in o.items() if k in names} for o in options]
+        per_effect.append([o for o in opts if o])
+    out: list[dict[str, float]] = [{}]
+    for opts in per_effect:
+        out = [{**a, **b} for a in out for b in opts]
+    if len(out) > MAX_CANDIDATES:
+        out = out[:: math.ceil(len(out) / MAX_CANDIDATES)]
+    return out
 
 
 # --- the fit ------------------------------------------------------------------------------
@@ -382,23 +366,33 @@ def default_free(plant: Plant) -> tuple[str, ...]:
 
 
 def fit_plant(plant: Plant, data: MeasuredResponse, *, free: Sequence[str] | None = None,
-              start: Mapping[str, float] | None = None, multistart: bool = True,
-              variance_dof=None) -> FitResult:
+              start: Mapping[str, float] | None = None, starts: Sequence[Mapping[str, float]] | None = None,
+              multistart: bool = True, variance_dof=None) -> FitResult:
     """Maximum-likelihood fit of ``plant``'s ``free`` parameters to ``data`` (see module doc).
 
-    ``free`` defaults to ``default_free(plant)``; ``start`` overrides the starting values (one
-    start then); otherwise the plant's own values and data-derived starts are all tried
-    (``multistart=False``: only the plant's own values) and the lowest chi^2 is kept.
-    A plant with ``coulomb_friction`` gets ``excitation_current_a`` from the data per frequency.
-    ``variance_dof``: real degrees of freedom of each frequency's variance (scalar or per
-    frequency; inf = known exactly); default 2 (k - 1) from the estimator's sub-block counts
-    ``data.metadata["subblocks"]`` when present, else inf.
+    ``free`` defaults to ``default_free(plant)``. Starting values, global first:
+
+    * ``start``: exactly one start, polished as given;
+    * ``starts``: candidate starts (missing names take the plant's values), e.g. a parent model's
+      optimum with the new effect at its neutral values and at its guesses. The first is always
+      polished, so a model that contains another and starts from its optimum never ends worse;
+    * neither: the plant's own values, and the rigid body from the data (``rigid_start``) with
+      every combination of the effects' guesses (``effect_candidates``).
+
+    Candidates are scanned with the mass and damping projected out (1/P is affine in them for a
+    chain of bodies: variable projection by reweighted linear least squares), and the best
+    ``N_POLISH`` are polished by ``least_squares`` over all free parameters; the lowest chi^2 wins.
+    ``multistart=False``: only the plant's own values. A nonlinear plant (``coulomb_friction``)
+    gets ``excitation_current_a`` from the data per frequency. ``variance_dof``: real degrees of
+    freedom of each frequency's variance (scalar or per frequency; inf = known exactly); default
+    2 (k - 1) from the estimator's sub-block counts ``data.metadata["subblocks"]`` when present,
+    else inf.
     """
     t0 = time.perf_counter()
     f, g, var = _check_data(data)
     nu = _variance_dof(data, f.size, variance_dof)
     w = 2 * np.pi * f
-    if "coulomb_friction" in plant.effect_names:
+    if not plant.linear:
         plant = dataclasses.replace(plant, excitation_current_a=np.asarray(data.current_amplitude_a, dtype=float))
     params = plant.parameters()
     free = tuple(default_free(plant) if free is None else free)
@@ -412,32 +406,115 @@ def fit_plant(plant: Plant, data: MeasuredResponse, *, free: Sequence[str] | Non
     if n_data <= len(free):
         raise DataError(f"{n_data} data values cannot determine {len(free)} parameters")
     rows = output_map(plant, data.output_names)
+    sigma = np.sqrt(var / 2)
+    own = {n: params[n].value for n in free}
 
     if start is not None:
         unknown = set(start) - set(free)
         if unknown:
             raise ParameterError(f"start value for {sorted(unknown)[0]!r}, which is not free ({', '.join(free)})")
-        starts = [{**{n: params[n].value for n in free}, **{k: float(v) for k, v in start.items()}}]
+        chosen = [{**own, **{k: float(v) for k, v in start.items()}}]
+        n_candidates = 1
     else:
-        starts = _starts(plant, free, w, g.mean(axis=0), var.mean(axis=0) / g.shape[0], g)
-        if not multistart:
-            starts = starts[:1]
+        if starts is not None:
+            candidates = [{**own, **{k: float(v) for k, v in c.items() if k in own}} for c in starts]
+        else:
+            rigid = {k: v for k, v in rigid_start(plant, w, g.mean(axis=0), var.mean(axis=0) / g.shape[0]).items()
+                     if k in own}
+            rigid_model = dataclasses.replace(plant.with_values(rigid), effects=()).frd(w)
+            candidates = [own] + [{**own, **rigid, **c} for c in effect_candidates(plant, free, w, g, rigid_model)]
+            if not multistart:
+                candidates = candidates[:1]
+        candidates = [{n: _clip(params, n, v, free) for n, v in c.items()} for c in candidates]
+        n_candidates = len(candidates)
+        chosen = _scan(plant, w, g, sigma, rows, free, candidates, keep_first=starts is not None)
 
+    # a short least-squares run from every chosen start, then the best one to convergence
     best = None
     n_eval = 0
-    for s in starts:
-        s = {n: _clip(params, n, v) for n, v in s.items()}
-        problem = _Problem(plant, w, g, np.sqrt(var / 2), rows, _coordinates(free, params, s))
-        x0 = problem.coords.to_x(s)
-        sol = least_squares(problem.residuals, x0, jac=problem.jacobian,
-                            bounds=(problem.coords.lower, problem.coords.upper), method="trf", x_scale="jac",
-                            xtol=1e-10, ftol=1e-10, gtol=1e-10, max_nfev=100 * (len(free) + 1))
+    for s in chosen:
+        s = {n: _clip(params, n, v, free) for n, v in s.items()}
+        problem = _Problem(plant, w, g, sigma, rows, _coordinates(free, params, s))
+        sol = _least_squares(problem, problem.coords.to_x(s), short=len(chosen) > 1)
         n_eval += problem.n_evaluations
         if best is None or sol.cost < best[0].cost:
             best = (sol, problem, s)
     sol, problem, s0 = best
-    return _result(problem, params, sol, s0, data, nu, n_starts=len(starts), n_eval=n_eval,
+    if len(chosen) > 1:
+        problem.n_evaluations = 0
+        sol = _least_squares(problem, sol.x, short=False)
+        n_eval += problem.n_evaluations
+    return _result(problem, params, sol, s0, data, nu, n_starts=n_candidates, n_eval=n_eval,
                    elapsed=time.perf_counter() - t0)
+
+
+def _least_squares(problem: _Problem, x0: np.ndarray, *, short: bool):
+    """scipy's trust-region reflective least squares in the problem's coordinates; ``short``: a
+    few iterations to rank starts."""
+    n = x0.size
+    tol = 1e-6 if short else 1e-9
+    return least_squares(problem.residuals, x0, jac=problem.jacobian,
+                         bounds=(problem.coords.lower, problem.coords.upper), method="trf", x_scale="jac",
+                         xtol=tol, ftol=tol, gtol=tol, max_nfev=(15 if short else 100) * (n + 1))
+
+
+#: candidates evaluated per batched model call of the scan
+_SCAN_CHUNK = 256
+_PROJECTED = ("mass_kg", "damping_n_s_per_m")
+
+
+def _scan(plant: Plant, w, g, sigma, rows, free, candidates: list[dict[str, float]], *,
+          keep_first: bool) -> list[dict[str, float]]:
+    """The ``N_POLISH`` candidates of lowest chi^2 (the first one too when ``keep_first``), each
+    with the mass and damping that fit it best when they are free and 1/P is affine in them."""
+    if len(candidates) <= N_POLISH:
+        return candidates
+    project = all(n in free for n in _PROJECTED) and plant.affine_in_mass_damping
+    problem = _Problem(plant, w, g, sigma, rows, None)
+    chi2, scanned = [], []
+    for i in range(0, len(candidates), _SCAN_CHUNK):
+        chunk = candidates[i:i + _SCAN_CHUNK]
+        batch = {n: np.array([c[n] for c in chunk]).reshape(-1, 1) for n in free}
+        if project:
+            batch.update(_project_mass_damping(problem, batch, g, sigma))
+        model = problem.model(batch)
+        chi2.append(np.sum(np.abs((model - g) / sigma) ** 2, axis=(-2, -1)))
+        scanned += [{n: float(np.asarray(batch[n]).reshape(-1)[k]) for n in free} for k in range(len(chunk))]
+    order = np.argsort(np.concatenate(chi2), kind="stable")
+    chosen = [scanned[0]] if keep_first else []
+    for k in order:
+        if len(chosen) >= N_POLISH + keep_first:
+            break
+        if not any(all(math.isclose(scanned[k][n], c[n], rel_tol=1e-6) for n in free) for c in chosen):
+            chosen.append(scanned[k])
+    return chosen
+
+
+def _project_mass_damping(problem: _Problem, batch: dict, g: np.ndarray, sigma: np.ndarray) -> dict:
+    """Mass and damping minimising chi^2 for every candidate of ``batch`` with the others fixed.
+
+    1/P = m a(s) + b beta(s) for a chain of bodies (the ladder impedance scales with the mass, the
+    rail damping adds), so a and beta follow from three model evaluations. The weighted misfit
+    (G (m a + b beta) - 1) / ((m a + b beta) sigma) is linear in (m, b) for fixed weights: three
+    reweighted linear least-squares rounds (Steiglitz-McBride) from weights |G| / sigma."""
+    k = len(next(iter(batch.values())))
+    one, two = np.ones((k, 1)), np.full((k, 1), 2.0)
+    u11 = 1.0 / problem.model({**batch, "mass_kg": one, "damping_n_s_per_m": one})
+    a = 1.0 / problem.model({**batch, "mass_kg": two, "damping_n_s_per_m": one}) - u11
+    beta = 1.0 / problem.model({**batch, "mass_kg": one, "damping_n_s_per_m": two}) - u11
+    z = 1.0 / g
+    lo = np.array([BASE_BOUNDS["mass_kg"][0], BASE_BOUNDS["damping_n_s_per_m"][0]])
+    hi = np.array([BASE_BOUNDS["mass_kg"][1], BASE_BOUNDS["damping_n_s_per_m"][1]])
+    for _ in range(3):
+        wt = np.broadcast_to(1.0 / (np.abs(z) * sigma), a.shape)
+        A = np.stack([g * a * wt, g * beta * wt], axis=-1).reshape(k, -1, 2)
+        A = np.concatenate([A.real, A.imag], axis=1)
+        rhs = np.concatenate([wt.reshape(k, -1), np.zeros((k, wt[0].size))], axis=1)
+        ata = np.einsum("kni,knj->kij", A, A)
+        atb = np.einsum("kni,kn->ki", A, rhs)
+        mb = np.clip(np.linalg.solve(ata, atb[..., None])[..., 0], lo, hi)
+        z = mb[:, 0, None, None] * a + mb[:, 1, None, None] * beta
+    return {"mass_kg": mb[:, :1], "damping_n_s_per_m": mb[:, 1:]}
 
 
 def _variance_dof(data: MeasuredResponse, n_freq: int, variance_dof) -> np.ndarray:
@@ -465,7 +542,7 @@ class _Problem:
     def model(self, values: Mapping[str, float | np.ndarray]) -> np.ndarray:
         """Model at the data outputs, shape (..., n_data_outputs, n_freq)."""
         self.n_evaluations += 1
-        out = self.plant.with_values(dict(values)).frd_outputs(self.w)
+        out = self.plant.with_values(dict(values), checked=False).frd_outputs(self.w)
         return np.stack([out.mean(axis=-2) if r < 0 else out[..., r, :] for r in self.rows], axis=-2)
 
     def _split(self, model: np.ndarray) -> np.ndarray:

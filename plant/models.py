@@ -5,9 +5,15 @@ A ``Plant`` is a frozen dataclass: base mechanics plus a tuple of effects. Compo
 broadcasts against the frequency axis, so ``plant.with_payload(np.linspace(5, 40, 200))``
 evaluates 200 plants in one call: ``frd`` returns shape ``(..., n_freq)``.
 
-Input is the motor current in A, output the stage velocity in m/s. For Stage Y the input
-is the total current i = i1 + i2 of the two coupled motors, split equally, for which
-thesis Eq. 3.16 (a column of Figure A.1) is exact: v_y = K_t L / (2 M l s + 2 b L) * i.
+Input is the motor current in A, output the recorded velocity in m/s:
+
+    P(s) = K_t * D(s) * H(s) * S(s)
+
+with D the product of the drive effects, S of the sensor effects and H the mechanics, the
+velocity per force of the lumped network (``plant.mechanics``): a chain of bodies, or the
+Xie-Wang tilting beam with ``tilt_coupling``. For Stage Y the input is the total current
+i = i1 + i2 of the two coupled motors, split equally, for which thesis Eq. 3.16 (a column of
+Figure A.1) is exact: v_y = K_t L / (2 M l s + 2 b L) * i.
 """
 
 from __future__ import annotations
@@ -19,16 +25,13 @@ from typing import TYPE_CHECKING, Literal
 
 import numpy as np
 
-from plant.effects import (
-    PADE_ORDER,
-    Effect,
-    SeriesEffect,
-    TiltCoupling,
-    make_effect,
-)
+from plant.algebra import NUMPY
+from plant.effect_base import PADE_ORDER, ChainEffect, Effect, replace_unchecked
+from plant.effects import make_effect
 from plant.errors import EffectError, ParameterError
 from plant.gantry_models import xie_wang_frd
 from plant.grid import check_grid
+from plant.mechanics import BodyChain, CoulombFriction, ModeEffect, TiltCoupling, body_chain
 from plant.parameters import THESIS, Parameter, check_positive
 
 if TYPE_CHECKING:
@@ -41,6 +44,8 @@ BASE_BOUNDS = {
     "damping_n_s_per_m": (1.0, 1.0e4, "N*s/m"),
     "force_constant_n_per_a": (0.1, 1000.0, "N/A"),
 }
+#: the load stays this fraction of the beam length away from either rail
+_RAIL_CLEARANCE = 0.02
 
 
 @dataclass(frozen=True)
@@ -55,7 +60,7 @@ class Plant:
     load_position_m: float = THESIS["load_position_m"].value
     effects: tuple[Effect, ...] = field(default=())
     #: current amplitude (A) of a sinusoidal excitation: needed only by the describing
-    #: function of ``coulomb_friction``
+    #: function of a nonlinear effect (``coulomb_friction``)
     excitation_current_a: float | None = None
 
     def __post_init__(self) -> None:
@@ -69,20 +74,27 @@ class Plant:
             raise ParameterError(
                 f"load_position_m ({self.load_position_m:g}) must lie inside the beam (motor_length_m "
                 f"{self.motor_length_m:g})")
-        names = [e.name for e in self.effects]
         for e in self.effects:
             if not isinstance(e, Effect):
                 raise EffectError(f"effects must be Effect objects, got {e!r}")
+        names = [e.name for e in self.effects]
         dup = {n for n in names if names.count(n) > 1}
         if dup:
             raise EffectError(f"effect {sorted(dup)[0]} added twice: its parameter names would clash")
-        if "tilt_coupling" in names and self.stage != "y":
-            raise EffectError("tilt_coupling applies to Stage Y only (the two parallel rails Y1, Y2)")
-        if "coulomb_friction" in names:
-            if self.excitation_current_a is None:
-                raise EffectError("coulomb_friction needs excitation_current_a (its describing function "
-                                  "depends on the excitation amplitude)")
-            check_positive("excitation_current_a", self.excitation_current_a)
+        for e in self.effects:
+            if self.stage not in e.stages:
+                raise EffectError(f"{e.name} applies to Stage {'/'.join(s.upper() for s in e.stages)} only")
+            clash = [n for n in e.excludes if n in names]
+            if clash:
+                raise EffectError(f"{e.name} and {clash[0]} cannot be combined: they describe the same "
+                                  "mechanics differently")
+            if e.requires_any and not any(n in names for n in e.requires_any):
+                raise EffectError(f"{e.name} needs one of {', '.join(e.requires_any)} in the plant")
+            if not e.linear:
+                if self.excitation_current_a is None:
+                    raise EffectError(f"{e.name} needs excitation_current_a (its describing function "
+                                      "depends on the excitation amplitude)")
+                check_positive("excitation_current_a", self.excitation_current_a)
 
     # --- composition -------------------------------------------------------------
     def __mul__(self, effect: Effect) -> Plant:
@@ -100,6 +112,15 @@ class Plant:
     def effect_names(self) -> tuple[str, ...]:
         return tuple(e.name for e in self.effects)
 
+    @property
+    def linear(self) -> bool:
+        return all(e.linear for e in self.effects)
+
+    @property
+    def affine_in_mass_damping(self) -> bool:
+        """1/P is affine in (mass_kg, damping_n_s_per_m): a linear chain of bodies (no tilt)."""
+        return self.linear and self._tilt() is None
+
     def with_payload(self, payload_kg) -> Plant:
         """Same plant with ``mass_kg`` replaced; an array of payloads gives a batch on axis -2."""
         m = np.asarray(payload_kg, dtype=float)
@@ -116,8 +137,9 @@ class Plant:
             out.update(e.parameters())
         return out
 
-    def with_values(self, values: dict[str, float]) -> Plant:
-        """New plant with the named parameters replaced (``{"mass_kg": 40, "delay.seconds": 1e-3}``)."""
+    def with_values(self, values: dict[str, float], *, checked: bool = True) -> Plant:
+        """New plant with the named parameters replaced (``{"mass_kg": 40, "delay.seconds": 1e-3}``);
+        ``checked=False`` skips validation (values already inside the fit's bounds)."""
         base = {}
         per_effect: dict[str, dict[str, float]] = {}
         for key, value in values.items():
@@ -133,44 +155,84 @@ class Plant:
         if missing:
             raise EffectError(f"parameter {sorted(missing)[0]}.* given but the plant has no such effect "
                               f"(effects: {', '.join(self.effect_names) or 'none'})")
-        effects = tuple(e.with_values(**per_effect[e.name]) if e.name in per_effect else e for e in self.effects)
-        return dataclasses.replace(self, effects=effects, **base)
+        effects = tuple(e.with_values(checked=checked, **per_effect[e.name]) if e.name in per_effect else e
+                        for e in self.effects)
+        if checked:
+            return dataclasses.replace(self, effects=effects, **base)
+        return replace_unchecked(self, {"effects": effects, **base})
 
-    # --- frequency response --------------------------------------------------------
+    # --- the network -------------------------------------------------------------
     @property
     def output_names(self) -> tuple[str, ...]:
         return ("velocity",) if self.stage == "x" else ("velocity_y1", "velocity_y2")
 
     def _effective_mass_damping(self):
-        """Mechanical impedance Z = m_e s + b_e with K_t / Z = Eq. 3.15 (X) or Eq. 3.16 (Y)."""
+        """Rigid-body mass and rail damping with K_t / (m_e s + b_e) = Eq. 3.15 (X) or Eq. 3.16 (Y)."""
         m = np.asarray(self.mass_kg, float)
         b = np.asarray(self.damping_n_s_per_m, float)
         if self.stage == "x":
             return m, b
         return 2 * m * self.load_position_m / self.motor_length_m, 2 * b
 
-    def series_frd(self, w_rad_s) -> np.ndarray:
-        """Product of the series effects' factors (1 when there are none)."""
-        w = np.asarray(w_rad_s)
-        out = np.ones_like(w, dtype=complex)
+    def _tilt(self) -> TiltCoupling | None:
+        return next((e for e in self.effects if isinstance(e, TiltCoupling)), None)
+
+    def mechanics(self, *, extra_damping_n_s_per_m=0.0) -> BodyChain:
+        """The chain of bodies (no tilt): the rigid body of Eq. 3.15 / 3.16 split by the mode effects."""
+        m_e, b_e = self._effective_mass_damping()
+        modes = tuple(e for e in self.effects if isinstance(e, ModeEffect))
+        return body_chain(m_e, b_e + extra_damping_n_s_per_m, modes)
+
+    def modes_hz(self) -> np.ndarray:
+        """Undamped natural frequencies of the mechanics (Hz): the chain's modes or the tilt mode."""
+        tilt = self._tilt()
+        if tilt is not None:
+            return np.atleast_1d(np.asarray(tilt.frequency_hz, float))
+        return self.mechanics().modes_hz()
+
+    def antiresonances_hz(self) -> np.ndarray:
+        """Undamped antiresonances of the recorded velocity (Hz); none with the tilt model."""
+        return np.zeros(0) if self._tilt() is not None else self.mechanics().antiresonances_hz()
+
+    def _loads_l1_l2(self, tilt: TiltCoupling):
+        L = self.motor_length_m
+        l1 = np.clip(self.load_position_m + np.asarray(tilt.offset_m, float), _RAIL_CLEARANCE * L,
+                     (1 - _RAIL_CLEARANCE) * L)
+        return l1, L - l1
+
+    # --- frequency response --------------------------------------------------------
+    def chain_response(self, s, place: str, ops=NUMPY):
+        """Product of the chain effects at ``place`` ("drive" or "sensor"); 1 when there are none."""
+        out = 1.0
         for e in self.effects:
-            if isinstance(e, SeriesEffect):
-                out = out * e.frd(w)
+            if isinstance(e, ChainEffect) and e.place == place:
+                out = e.response(s, ops) * out
         return out
 
-    def _friction_damping(self, w, series):
-        """Describing-function damping of Coulomb friction at the excitation amplitude (N*s/m)."""
-        friction = self.effect("coulomb_friction")
+    def response(self, s, ops=NUMPY):
+        """Velocity per current at the Laplace variable ``s`` for a chain of bodies (no tilt, linear):
+        one formula for NumPy (complex ``s``) and casadi (``Pair`` ``s``, ``ops=CASADI``)."""
+        if self._tilt() is not None or not self.linear:
+            raise EffectError("response(s) covers linear chains of bodies; use frd() for tilt_coupling and "
+                              "coulomb_friction")
+        kt = np.asarray(self.force_constant_n_per_a, float) if ops is NUMPY else \
+            float(np.asarray(self.force_constant_n_per_a).reshape(()))
+        mech = self.mechanics()
+        if ops is not NUMPY:
+            mech = dataclasses.replace(mech, **{k: _floats(getattr(mech, k)) for k in
+                                                ("masses_kg", "stiffness_n_per_m", "damping_n_s_per_m")},
+                                       rail_damping_n_s_per_m=float(np.asarray(mech.rail_damping_n_s_per_m).reshape(())))
+        return kt * self.chain_response(s, "drive", ops) * mech.velocity_per_force(s) * \
+            self.chain_response(s, "sensor", ops)
+
+    def _friction_damping(self, w):
+        """Describing-function damping of the nonlinear effect at the excitation amplitude (N*s/m)."""
+        friction = next((e for e in self.effects if isinstance(e, CoulombFriction)), None)
         if friction is None:
             return 0.0
         m_e, b_e = self._effective_mass_damping()
         kt = np.asarray(self.force_constant_n_per_a, float)
-        # force amplitude after the electrical effects (resonance acts after the force)
-        electrical = np.ones_like(series)
-        for e in self.effects:
-            if isinstance(e, SeriesEffect) and e.name != "resonance":
-                electrical = electrical * e.frd(w)
-        force_amp = kt * self.excitation_current_a * np.abs(electrical)
+        force_amp = kt * self.excitation_current_a * np.abs(self.chain_response(1j * w, "drive"))
         c = 4 * np.asarray(friction.force_n, float) / np.pi
         # |(b_e + j w m_e) V + c| = F  ->  (b_e^2 + (w m_e)^2) V^2 + 2 b_e c V + c^2 - F^2 = 0
         a2 = b_e**2 + (w * m_e) ** 2
@@ -178,79 +240,80 @@ class Plant:
         v_amp = (-b_e * c + np.sqrt(np.maximum(disc, 0.0))) / a2
         return friction.describing_damping(v_amp)
 
-    def _rigid_frd(self, w, series, n_fric) -> np.ndarray:
-        """Eq. 3.15 / 3.16 (with the friction damping ``n_fric``) times the series effects."""
-        m_e, b_e = self._effective_mass_damping()
+    def _chain_frd(self, w, n_fric) -> np.ndarray:
+        """Chain of bodies (with the friction damping ``n_fric``) times the chain effects."""
+        s = 1j * w
         kt = np.asarray(self.force_constant_n_per_a, float)
+        series = kt * self.chain_response(s, "drive") * self.chain_response(s, "sensor")
         if np.ndim(n_fric) == 0 and n_fric == 0:
-            return kt / (m_e * (1j * w) + b_e) * series
+            return series * self.mechanics().velocity_per_force(s)
         stuck = np.isinf(n_fric)
         with np.errstate(invalid="ignore"):
-            mech = kt / (m_e * (1j * w) + b_e + np.where(stuck, 0.0, n_fric))
+            mech = self.mechanics(extra_damping_n_s_per_m=np.where(stuck, 0.0, n_fric)).velocity_per_force(s)
         return np.where(stuck, 0.0, mech) * series
 
     def frd_outputs(self, w_rad_s) -> np.ndarray:
         """Velocity per current at each output, shape (..., n_outputs, n_freq) (m/s per A)."""
         w = check_grid(w_rad_s)
-        series = self.series_frd(w)
-        n_fric = self._friction_damping(w, series)
-        tilt = self.effect("tilt_coupling")
+        n_fric = self._friction_damping(w)
+        tilt = self._tilt()
         if tilt is None:
-            resp = self._rigid_frd(w, series, n_fric)[..., None, :]
+            resp = self._chain_frd(w, n_fric)[..., None, :]
             return np.repeat(resp, len(self.output_names), axis=-2)
-        assert isinstance(tilt, TiltCoupling)
         kt = np.asarray(self.force_constant_n_per_a, float)
         stuck = np.isinf(n_fric)
         b = np.asarray(self.damping_n_s_per_m, float) + np.where(stuck, 0, n_fric) / 2
-        l1 = self.load_position_m
+        l1, l2 = self._loads_l1_l2(tilt)
         h = xie_wang_frd(w, mass_kg=self.mass_kg, inertia_kg_m2=tilt.inertia_kg_m2, damping1_n_s_per_m=b,
-                         damping2_n_s_per_m=b, l1_m=l1, l2_m=self.motor_length_m - l1,
+                         damping2_n_s_per_m=b, l1_m=l1, l2_m=l2,
                          joint_stiffness_n_m_per_rad=tilt.stiffness_n_m_per_rad)
         # both motors carry half the total current: f1 = f2 = K_t i / 2
         v = (h[..., :, 0, :] + h[..., :, 1, :]) * (kt[..., None] if kt.ndim else kt) / 2
-        v = v * series[..., None, :] if series.ndim else v * series
+        s = 1j * w
+        series = self.chain_response(s, "drive") * self.chain_response(s, "sensor")
+        v = v * (series[..., None, :] if np.ndim(series) else series)
         # friction that sticks at this excitation holds both rails
         return np.where(stuck[..., None, :], 0.0, v) if np.ndim(stuck) else (0.0 * v if stuck else v)
 
     def frd(self, w_rad_s) -> np.ndarray:
         """Velocity per current (m/s per A), shape (..., n_freq); Stage Y: mean of the rails Y1, Y2."""
-        if self.effect("tilt_coupling") is None:  # the outputs coincide: skip the per-output copies
+        if self._tilt() is None:  # the outputs coincide: skip the per-output copies
             w = check_grid(w_rad_s)
-            series = self.series_frd(w)
-            return self._rigid_frd(w, series, self._friction_damping(w, series))
+            return self._chain_frd(w, self._friction_damping(w))
         return self.frd_outputs(w_rad_s).mean(axis=-2)
 
     # --- python-control interoperability ---------------------------------------
     def to_control(self, *, pade_order: int = PADE_ORDER) -> control.TransferFunction:
-        """Rational model (Pade for delays). Coulomb friction has none and raises ``EffectError``."""
+        """Rational model (Pade for delays). A nonlinear effect has none and raises ``EffectError``."""
         import control
 
         for name in BASE_PARAMETERS:
             if np.size(getattr(self, name)) != 1:
                 raise ParameterError(f"{name} is a batch; to_control needs one plant (index the batch first)")
-        if "coulomb_friction" in self.effect_names:
-            raise EffectError("coulomb_friction is nonlinear and has no transfer function; "
-                              "use frd() (describing function) or the time-domain simulator")
-        m_e, b_e = (float(np.asarray(v).reshape(())) for v in self._effective_mass_damping())
+        for e in self.effects:
+            if not e.linear:
+                raise EffectError(f"{e.name} is nonlinear and has no transfer function; "
+                                  "use frd() (describing function) or the time-domain simulator")
         kt = float(np.asarray(self.force_constant_n_per_a).reshape(()))
-        tilt = self.effect("tilt_coupling")
+        tilt = self._tilt()
         if tilt is None:
-            sys = control.tf([kt], [m_e, b_e])
+            A, B, C = chain_state_space(self.mechanics())
+            sys = control.minreal(control.ss2tf(control.ss(A, B[:, :1] * kt, C, 0.0)), verbose=False)
         else:
             from plant.gantry_models import xie_wang_ss
 
-            l1 = self.load_position_m
+            l1, l2 = (float(v) for v in self._loads_l1_l2(tilt))
             ss = xie_wang_ss(mass_kg=float(np.asarray(self.mass_kg).reshape(())),
                              inertia_kg_m2=float(np.asarray(tilt.inertia_kg_m2).reshape(())),
                              damping1_n_s_per_m=float(np.asarray(self.damping_n_s_per_m).reshape(())),
                              damping2_n_s_per_m=float(np.asarray(self.damping_n_s_per_m).reshape(())),
-                             l1_m=l1, l2_m=self.motor_length_m - l1,
+                             l1_m=l1, l2_m=l2,
                              joint_stiffness_n_m_per_rad=float(np.asarray(tilt.stiffness_n_m_per_rad).reshape(())))
             # mean rail velocity for f1 = f2 = K_t i / 2
             mean = control.ss([], [], [], [[0.5, 0.5]]) * ss * control.ss([], [], [], [[kt / 2], [kt / 2]])
             sys = control.minreal(control.ss2tf(mean), verbose=False)
         for e in self.effects:
-            if isinstance(e, SeriesEffect):
+            if isinstance(e, ChainEffect):
                 sys = sys * e.to_tf(pade_order=pade_order)
         return sys
 
@@ -263,6 +326,28 @@ class Plant:
         if resp.ndim != 1:
             raise ParameterError("to_frd_data needs one plant, not a batch")
         return control.frd(resp, w)
+
+
+def _floats(values: tuple) -> tuple[float, ...]:
+    return tuple(float(np.asarray(v).reshape(())) for v in values)
+
+
+def chain_state_space(chain: BodyChain) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(A, B, C) of a chain of bodies: states (v_0 .. v_(n-1), spring extensions q_i - q_(i+1)),
+    inputs (motor force on body 0, N), output the recorded velocity (m/s)."""
+    M, D, K = chain.matrices()
+    n = M.shape[0]
+    T = np.zeros((n, n - 1))
+    for i in range(n - 1):
+        T[i, i], T[i + 1, i] = 1.0, -1.0
+    k = np.array([K[i, i + 1] for i in range(n - 1)]) * -1.0
+    Minv = np.linalg.inv(M)
+    A = np.block([[-Minv @ D, -Minv @ T * k], [T.T, np.zeros((n - 1, n - 1))]])
+    B = np.zeros((2 * n - 1, 1))
+    B[:n, 0] = Minv[:, 0]
+    C = np.zeros((1, 2 * n - 1))
+    C[0, chain.sensed] = 1.0
+    return A, B, C
 
 
 def stage_x(**params) -> Plant:

@@ -7,10 +7,11 @@ Signal chain of one block, starting from rest at t = 0::
       -> delay        exact shift: i(t - tau), evaluated analytically
       -> sampling     zero-order hold at rate_hz + one sample of computation delay
       -> current_loop first-order lag w_c / (s + w_c)
-      -> mechanics    Stage X Eq. 3.15, Stage Y Eq. 3.16 (effective mass/damping), or the
-                      Xie-Wang model (thesis Eq. 2.14-2.15) with tilt_coupling; Coulomb friction
-                      with its exact set-valued force
-      -> resonance    the series factor of ``effects.Resonance`` as a filter on each velocity
+      -> mechanics    the chain of bodies (Stage X Eq. 3.15, Stage Y Eq. 3.16 effective mass and
+                      damping, split by the mode effects), or the Xie-Wang model (thesis
+                      Eq. 2.14-2.15) with tilt_coupling; Coulomb friction on the rails with its
+                      exact set-valued force
+      -> sensor       sensor_filter as a filter on each recorded velocity
       -> velocity outputs sampled at sample_rate_hz   (recorded, with noise/quantisation)
 
 Methods (all exact for the linear parts):
@@ -50,10 +51,11 @@ import control
 import numpy as np
 import scipy.linalg
 
-from plant.effects import CurrentLoop, Resonance, TiltCoupling
-from plant.errors import ParameterError
+from plant.effect_base import ChainEffect
+from plant.effects import CurrentLoop, TiltCoupling
+from plant.errors import EffectError, ParameterError
 from plant.gantry_models import xie_wang_ss
-from plant.models import Plant
+from plant.models import Plant, chain_state_space
 from plant.parameters import check_finite, check_positive
 from plant.recording import Block, Recording
 
@@ -85,47 +87,53 @@ def _scalar(name: str, value) -> float:
 
 
 def _mechanics(plant: Plant):
-    """Mechanics with an actuator-current input: (A, b_i, B_f, C_rails, friction per contact)."""
+    """Mechanics with an actuator-current input: (A, b_i, B_f, C_rails, friction per contact, C_contacts)."""
     kt = _scalar("force_constant_n_per_a", plant.force_constant_n_per_a)
     n_out = len(plant.output_names)
     friction = plant.effect("coulomb_friction")
     force_n = 0.0 if friction is None else _scalar("coulomb_friction.force_n", friction.force_n)
     tilt = plant.effect("tilt_coupling")
     if tilt is None:
-        # Eq. 3.15 (X) / Eq. 3.16 (Y): m_e v' = K_t i - b_e v - F_c sign(v); both Y rails move together
-        m_e, b_e = (_scalar(n, v) for n, v in zip(("mass_kg", "damping_n_s_per_m"), plant._effective_mass_damping()))
-        return (np.array([[-b_e / m_e]]), np.array([kt / m_e]), np.array([[1.0 / m_e]]), np.ones((n_out, 1)),
-                np.array([force_n]))
+        # the chain of bodies: m_i v_i' = forces; the rails (body 0) carry K_t i and F_c sign(v_0)
+        A, B, C = chain_state_space(plant.mechanics())
+        contact = np.zeros((1, A.shape[0]))
+        contact[0, 0] = 1.0
+        return A, B[:, 0] * kt, B, np.repeat(C, n_out, axis=0), np.array([force_n]), contact
     assert isinstance(tilt, TiltCoupling)
-    l1 = plant.load_position_m
+    l1, l2 = (float(v) for v in plant._loads_l1_l2(tilt))
     b = _scalar("damping_n_s_per_m", plant.damping_n_s_per_m)
     ss = xie_wang_ss(mass_kg=_scalar("mass_kg", plant.mass_kg),
                      inertia_kg_m2=_scalar("tilt_coupling.inertia_kg_m2", tilt.inertia_kg_m2),
-                     damping1_n_s_per_m=b, damping2_n_s_per_m=b, l1_m=l1, l2_m=plant.motor_length_m - l1,
+                     damping1_n_s_per_m=b, damping2_n_s_per_m=b, l1_m=l1, l2_m=l2,
                      joint_stiffness_n_m_per_rad=_scalar("tilt_coupling.stiffness_n_m_per_rad",
                                                          tilt.stiffness_n_m_per_rad))
     # drop the position y_c (states y_c, alpha, v_c, omega): nothing depends on it
     assert not np.any(ss.A[:, 0])
     A, B_rails, C = ss.A[1:, 1:], ss.B[1:, :], ss.C[:, 1:]
     # both motors carry half the total current (as Plant.frd_outputs); friction F_c / 2 per rail
-    return A, B_rails @ np.array([kt / 2, kt / 2]), B_rails, C, np.array([force_n / 2, force_n / 2])
+    return A, B_rails @ np.array([kt / 2, kt / 2]), B_rails, C, np.array([force_n / 2, force_n / 2]), C
 
 
 def _chain(plant: Plant) -> _Chain:
-    """Series interconnection current_loop -> mechanics -> resonance (one filter per output)."""
-    A_m, b_m, B_mf, C_m, friction_n = _mechanics(plant)
+    """Series interconnection current_loop -> mechanics -> sensor filters (one per output)."""
+    A_m, b_m, B_mf, C_m, friction_n, C_mc = _mechanics(plant)
     n_m, n_out = A_m.shape[0], C_m.shape[0]
     loop = plant.effect("current_loop")
-    res = plant.effect("resonance")
+    sensors = [e for e in plant.effects if isinstance(e, ChainEffect) and e.place == "sensor"]
+    if any(e.name == "encoder_velocity" for e in sensors):
+        raise EffectError("encoder_velocity is not simulated as a filter: record quantised positions "
+                          "(velocity_quantum_m_per_s) instead")
     if loop is not None:
         assert isinstance(loop, CurrentLoop)
         wc = 2 * math.pi * _scalar("current_loop.bandwidth_hz", loop.bandwidth_hz)
         A_c, b_c, c_c = np.array([[-wc]]), np.array([wc]), np.array([1.0])
     else:
         A_c, b_c, c_c = np.zeros((0, 0)), np.zeros(0), np.zeros(0)
-    if res is not None:
-        assert isinstance(res, Resonance)
-        r = control.ss(res.to_tf())
+    if sensors:
+        tf = control.tf([1.0], [1.0])
+        for e in sensors:
+            tf = tf * e.to_tf()
+        r = control.ss(tf)
         A_r, b_r, c_r, d_r = r.A, r.B[:, 0], r.C[0], float(r.D[0, 0])
     else:
         A_r, b_r, c_r, d_r = np.zeros((0, 0)), np.zeros(0), np.zeros(0), 1.0
@@ -135,7 +143,7 @@ def _chain(plant: Plant) -> _Chain:
     b_u = np.zeros(n)
     B_f = np.zeros((n, B_mf.shape[1]))
     C_out = np.zeros((n_out, n))
-    C_contact = np.zeros((B_mf.shape[1], n))
+    C_contact = np.zeros((C_mc.shape[0], n))
     mech = slice(n_c, n_c + n_m)
     if n_c:
         A[:n_c, :n_c] = A_c
@@ -145,7 +153,7 @@ def _chain(plant: Plant) -> _Chain:
         b_u[mech] = b_m
     A[mech, mech] = A_m
     B_f[mech] = B_mf
-    C_contact[:, mech] = C_m if B_mf.shape[1] == n_out else C_m[:1]
+    C_contact[:, mech] = C_mc
     for k in range(n_out):
         C_out[k, mech] = d_r * C_m[k]
         if n_r:

@@ -9,6 +9,7 @@ import math
 import numpy as np
 import pytest
 
+from plant.effects import SensorFilter
 from plant import (CoulombFriction, CurrentLoop, Delay, Plant, Resonance, Sampling, TiltCoupling, make_effect,
                    stage_x, stage_y)
 from plant.errors import EffectError, GridError, ParameterError
@@ -52,33 +53,9 @@ def test_sampling_is_zero_order_hold_and_one_sample():
     assert abs(Sampling(rate).frd(np.array([2 * math.pi * rate]))[0]) < 1e-12   # ZOH zero at the rate
 
 
-def test_two_mass_resonance_notch_and_peak():
-    m_motor, m_load, k = 8.0, 27.0, 3.0e6
-    # light damping, so that the extremes of |frd| sit at the undamped frequencies (shift ~ zeta^2)
-    r = Resonance.from_two_mass(motor_mass_kg=m_motor, load_mass_kg=m_load, stiffness_n_per_m=k, damping_ratio=0.002)
-    wa = math.sqrt(k / m_load)                                       # notch: the load on the spring
-    wr = math.sqrt(k * (m_motor + m_load) / (m_motor * m_load))      # peak: the two masses against each other
-    assert 2 * math.pi * r.antiresonance_hz == pytest.approx(wa, rel=1e-14)
-    assert 2 * math.pi * r.frequency_hz == pytest.approx(wr, rel=1e-14)
-    for w0, pick in ((wa, np.argmin), (wr, np.argmax)):
-        w = w0 * np.linspace(0.95, 1.05, 40001)
-        assert w[pick(np.abs(r.frd(w)))] == pytest.approx(w0, rel=1e-4)
-    assert r.frd(np.array([1e-4]))[0] == pytest.approx(1.0, rel=1e-9)           # unity at DC
-    # at high frequency the motor moves alone: the factor tends to wr^2 / wa^2 = (m_motor + m_load) / m_motor
-    assert abs(r.frd(np.array([1e3 * wr]))[0]) == pytest.approx((m_motor + m_load) / m_motor, rel=1e-4)
-
-
-def test_undamped_resonance_times_rigid_body_is_the_two_mass_system():
-    # motor velocity per force of two masses on a spring: (m2 s^2 + k) / (s (m1 m2 s^2 + (m1 + m2) k))
-    m1, m2, k = 8.0, 27.0, 3.0e6
-    r = Resonance.from_two_mass(motor_mass_kg=m1, load_mass_kg=m2, stiffness_n_per_m=k, damping_ratio=1e-12)
-    exact = (m2 * S**2 + k) / (S * (m1 * m2 * S**2 + (m1 + m2) * k))
-    assert np.allclose(r.frd(W) / ((m1 + m2) * S), exact, rtol=1e-6)
-
-
 # --- rational models (to_tf) against frd --------------------------------------------------------------
 
-@pytest.mark.parametrize("effect", [CurrentLoop(300.0), Resonance(120.0, 70.0, 0.03)], ids=["lag", "resonance"])
+@pytest.mark.parametrize("effect", [CurrentLoop(300.0), SensorFilter(150.0)], ids=["lag", "sensor_filter"])
 def test_rational_effects_are_exact(effect):
     assert np.allclose(effect.to_tf()(S), effect.frd(W), rtol=1e-10)           # python-control 0.10.2
 

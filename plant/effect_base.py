@@ -1,0 +1,136 @@
+"""What every effect of the library declares about itself.
+
+An effect is a small frozen dataclass. Besides its parameters (floats, or arrays that
+broadcast against the frequency axis) it owns what the rest of the tool needs to know:
+
+* ``place``: ``"drive"`` (between the current command and the motor force: delay, current
+  loop, sampling), ``"sensor"`` (between the moving mass and the recorded velocity: sensor
+  filter, encoder differencing) or ``"mechanics"`` (a part of the lumped mass-spring-damper
+  network, evaluated by the plant, never a series factor);
+* ``limits_bandwidth``: whether it puts phase lag in a velocity loop (synthesis needs one);
+* ``signature``: the residual it leaves when it is missing, in words;
+* ``main_parameter``: the parameter a user quotes first;
+* ``neutral``: parameter values at which the effect (practically) vanishes, so a model that
+  contains another can start from that model's optimum;
+* ``guesses(w_rad_s, ratio)``: starting values from the data divided by a parent model
+  (lmfit's ``Model.guess``);
+* ``excludes`` / ``requires_any``: effects it cannot be combined with / needs;
+* ``search_fixed``: parameters held at their defaults by the model search;
+* ``in_synthesis``: has a response formula of ``s`` that casadi can build (PI synthesis).
+"""
+
+from __future__ import annotations
+
+import abc
+import dataclasses
+from typing import TYPE_CHECKING, ClassVar
+
+import numpy as np
+
+from plant.algebra import NUMPY
+from plant.errors import EffectError
+from plant.parameters import Parameter, check_positive
+
+if TYPE_CHECKING:
+    import control
+
+#: default Pade order used when a delay is turned into a rational model
+PADE_ORDER = 6
+
+
+class Effect(abc.ABC):
+    """Base of all effects: a name, bounded parameters, its place and what it knows of itself."""
+
+    name: ClassVar[str]
+    #: parameter name -> (lower, upper, unit): physically plausible bounds used by fits
+    bounds: ClassVar[dict[str, tuple[float, float, str]]]
+    place: ClassVar[str]
+    limits_bandwidth: ClassVar[bool] = False
+    linear: ClassVar[bool] = True
+    signature: ClassVar[str] = ""
+    main_parameter: ClassVar[str]
+    neutral: ClassVar[dict[str, float]] = {}
+    excludes: ClassVar[tuple[str, ...]] = ()
+    requires_any: ClassVar[tuple[str, ...]] = ()
+    stages: ClassVar[tuple[str, ...]] = ("x", "y")
+    #: fewest recorded outputs for the effect to be identifiable (2: both Y rails)
+    min_outputs: ClassVar[int] = 1
+    #: tried by the diagnosis's model search (False: set from what is known of the sensor)
+    searched: ClassVar[bool] = True
+    #: has a response formula of s for casadi (the exact PI synthesis needs one)
+    in_synthesis: ClassVar[bool] = True
+    search_fixed: ClassVar[tuple[str, ...]] = ()
+
+    def parameters(self) -> dict[str, Parameter]:
+        """The effect's parameters, keyed ``effect.parameter``."""
+        out = {}
+        for field, (lo, hi, unit) in self.bounds.items():
+            value = float(np.mean(getattr(self, field)))
+            key = f"{self.name}.{field}"
+            out[key] = Parameter(key, value, lo, hi, unit=unit)
+        return out
+
+    def with_values(self, *, checked: bool = True, **values: float) -> Effect:
+        """Copy with parameters replaced; ``checked=False`` skips validation (values already inside the
+        fit's bounds: the fitter's hot path)."""
+        unknown = set(values) - set(self.bounds)
+        if unknown:
+            raise EffectError(f"effect {self.name} has no parameter {sorted(unknown)[0]!r}; known: {sorted(self.bounds)}")
+        return dataclasses.replace(self, **values) if checked else replace_unchecked(self, values)
+
+    def _check_positive(self) -> None:
+        for field in self.bounds:
+            check_positive(f"{self.name}.{field}", getattr(self, field))
+
+    def guesses(self, w_rad_s: np.ndarray, ratio: np.ndarray) -> list[dict[str, float]]:
+        """Starting values (field -> value) from ``ratio`` = data / parent model, shape (n_out, n_freq)."""
+        return []
+
+    def equivalent_delay_s(self) -> float | None:
+        """Pure delay with the same low-frequency phase, or None when the effect is not delay-like."""
+        return None
+
+
+class ChainEffect(Effect):
+    """A dimensionless factor of the drive or sensor chain (unity gain at DC)."""
+
+    @abc.abstractmethod
+    def response(self, s, ops=NUMPY):
+        """Factor at the Laplace variable ``s`` (complex array with ``NUMPY``, ``Pair`` with ``CASADI``)."""
+
+    def frd(self, w_rad_s) -> np.ndarray:
+        """Complex frequency response of the factor at ``w_rad_s`` (rad/s)."""
+        return self.response(1j * np.asarray(w_rad_s))
+
+    @abc.abstractmethod
+    def to_tf(self, *, pade_order: int = PADE_ORDER) -> control.TransferFunction:
+        """A rational python-control realisation (Pade for pure delays)."""
+
+
+class MechanicalEffect(Effect):
+    """A part of the mechanics; the plant evaluates it within the network."""
+
+    place: ClassVar[str] = "mechanics"
+
+
+def replace_unchecked(obj, changes: dict):
+    """Copy of a frozen dataclass with fields replaced, without running its validation."""
+    new = object.__new__(type(obj))
+    new.__dict__.update(obj.__dict__)
+    new.__dict__.update(changes)
+    return new
+
+
+def scalar(effect: Effect, field: str) -> float:
+    """The single value of ``effect.field`` (a rational model or a simulation needs one plant)."""
+    value = np.asarray(getattr(effect, field), dtype=float)
+    if value.size != 1:
+        raise EffectError(f"{effect.name}.{field} is a batch of {value.size} values; a rational model needs one value")
+    return float(value.reshape(()))
+
+
+def phase_delay_s(w_rad_s: np.ndarray, ratio: np.ndarray) -> float:
+    """Delay (>= 0, s) from the least-squares slope through the origin of the unwrapped phase of
+    ``ratio`` (n_out, n_freq), averaged over outputs."""
+    phase = np.unwrap(np.angle(np.mean(np.atleast_2d(ratio), axis=0)))
+    return max(-float(np.sum(w_rad_s * phase) / np.sum(w_rad_s**2)), 0.0)

@@ -31,9 +31,9 @@ With 5 % relative noise the thesis weights let the low-frequency noise outweigh 
 above 20 Hz, so a lightly damped mode can be missed by the optimum itself; the chi-square
 flag reports it when a variance is given.
 
-A fit is flagged (``RationalFit.flags``) for pole-zero cancellation, a negligible pole, the
-delay at a bound, unstable poles reflected, an optimiser that did not converge, and a residual
-inconsistent with the given variance; ``success`` is True only for a converged, unflagged fit.
+A fit is flagged (``RationalFit.flags``) for pole-zero cancellation, a negligible pole or one far
+outside the band, the delay at a bound, unstable poles reflected, an optimiser that did not
+converge, and a residual inconsistent with the given variance; ``success`` is True only for a converged, unflagged fit.
 """
 
 from __future__ import annotations

@@ -25,8 +25,11 @@ def fit(
     sample_rate_hz: Annotated[Optional[float], typer.Option(help="Sample rate when the file has no time column.")]
     = None,
     rational: Annotated[Optional[str], typer.Option(
-        help="Also fit a rational transfer function like MATLAB tfest: POLES,ZEROS (e.g. 1,0); thesis weighting.")]
+        help="Also fit a rational transfer function like MATLAB tfest: POLES,ZEROS (e.g. 1,0).")]
     = None,
+    rational_weighting: Annotated[str, typer.Option(
+        help="Weighting of the rational fit: inverse_sigma (the measured variance), thesis (Appendix B) "
+             "or uniform.")] = "inverse_sigma",
     as_json: Annotated[bool, typer.Option("--json", help="Print JSON.")] = False,
 ) -> None:
     """Fit bounded physical parameters (maximum likelihood, inverse-variance weights) to a recording."""
@@ -49,14 +52,19 @@ def fit(
     result = fit_plant(plant, measured, free=free_names)
     rat = None
     if rational:
-        from plant.rational_fit import fit_rational, thesis_weights
+        from plant.rational_fit import WEIGHTINGS, fit_rational
 
         try:
             n_poles, n_zeros = (int(v) for v in rational.split(","))
         except ValueError:
             raise ParameterError(f"--rational {rational!r}: expected POLES,ZEROS, e.g. 1,0") from None
+        if rational_weighting not in WEIGHTINGS:
+            raise ParameterError(f"--rational-weighting must be one of {', '.join(WEIGHTINGS)}, "
+                                 f"got {rational_weighting!r}")
+        # mean over outputs; its variance is the mean variance / number of outputs (independent noise)
         rat = fit_rational(measured.w_rad_s, measured.response.mean(axis=0), n_poles=n_poles, n_zeros=n_zeros,
-                           weights=thesis_weights(measured.f_hz))
+                           weights=rational_weighting,
+                           variance=measured.variance.mean(axis=0) / measured.response.shape[0])
     if as_json:
         units = {n: p.unit for n, p in result.plant.parameters().items()}
         out = {"parameters": {n: {"value": result.values[n], "stderr": finite_or_none(result.stderr[n]),
@@ -70,10 +78,17 @@ def fit(
                                "matrix": [[finite_or_none(c) for c in row] for row in result.correlation]},
                "flags": list(result.flags), "effects": list(result.plant.effect_names)}
         if rat is not None:
-            out["rational"] = {"num": rat.num.tolist(), "den": rat.den.tolist(), "fit_percent": rat.fit_percent}
+            out["rational"] = {"num": rat.num.tolist(), "den": rat.den.tolist(),
+                               "fit_percent": finite_or_none(rat.fit_percent), "flags": list(rat.flags),
+                               "success": rat.success, "weighting": rat.weighting,
+                               "chi2": finite_or_none(rat.chi2), "dof": rat.dof, "chi2_p": finite_or_none(rat.chi2_p),
+                               "stable": rat.stable, "start": rat.start}
         print_json(out)
         return
     console.print(result.report(), markup=False, highlight=False)
     if rat is not None:
-        console.print(f"\nRational fit ({rat.n_poles} poles, {rat.n_zeros} zeros, thesis weighting): "
-                      f"fit {rat.fit_percent:.1f} %\n{rat.tf}", markup=False)
+        console.print(f"\nRational fit ({rat.n_poles} poles, {rat.n_zeros} zeros, {rat.weighting} weighting): "
+                      f"fit {rat.fit_percent:.1f} %, chi-square {rat.chi2:.4g} for {rat.dof} degrees of freedom"
+                      f"\n{rat.tf}", markup=False, highlight=False)
+        if rat.flags:
+            console.print("Flags:\n" + "\n".join(f"    {f}" for f in rat.flags), markup=False, highlight=False)

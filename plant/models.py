@@ -298,7 +298,10 @@ class Plant:
         tilt = self._tilt()
         if tilt is None:
             A, B, C = chain_state_space(self.mechanics())
-            sys = control.minreal(control.ss2tf(control.ss(A, B[:, :1] * kt, C, 0.0)), verbose=False)
+            tf = control.minreal(control.ss2tf(control.ss(A, B[:, :1] * kt, C, 0.0)), verbose=False)
+            # unit constant term in the denominator (as 1 + s/w...): products with Pade factors stay in range
+            num, den = (np.asarray(p[0][0], float) for p in (tf.num, tf.den))
+            sys = control.tf(num / den[-1], den / den[-1])
         else:
             from plant.gantry_models import xie_wang_ss
 

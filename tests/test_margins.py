@@ -41,7 +41,7 @@ KT, B, M, L_M, L_POS, KP, KI = 20.0, 440.0, 35.0, 0.8, 0.4, 236.0, 47.0
 
 def random_loops(n=N_LOOPS, seed=SEED):
     """Stage X / Y plants, payload 5-40 kg, damping 330-550, delay 0.1-2 ms, current loop 100-2000 Hz,
-    every fourth with a resonance (60-400 Hz, notch 0.5-0.9 of it, damping 0.03-0.2); PI gains
+    every fourth with a resonance (60-400 Hz, notch 0.5-0.9 of it, notch damping 0.03-0.2); PI gains
     Kp log-uniform 30-3000, Ki / Kp 0.2-300 1/s. Some of these loops are unstable (negative margins)."""
     rng = np.random.default_rng(seed)
     out = []
@@ -50,8 +50,9 @@ def random_loops(n=N_LOOPS, seed=SEED):
         p = make(mass_kg=rng.uniform(5, 40), damping_n_s_per_m=rng.uniform(330, 550)) \
             * Delay(rng.uniform(1e-4, 2e-3)) * CurrentLoop(rng.uniform(100, 2000))
         if k % 4 == 0:
-            fr = rng.uniform(60, 400)
-            p = p * Resonance(fr, fr * rng.uniform(0.5, 0.9), rng.uniform(0.03, 0.2))
+            fr, ratio = rng.uniform(60, 400), rng.uniform(0.5, 0.9)
+            # notch damping 0.03-0.2; with a viscous coupling the peak is damped fr / fa times more
+            p = p * Resonance(fr, fr * ratio, rng.uniform(0.03, 0.2) / ratio)
         kp = float(np.exp(rng.uniform(math.log(30), math.log(3000))))
         out.append((p, kp, kp * float(rng.uniform(0.2, 300))))
     return out

@@ -94,8 +94,9 @@ def _batches():
              "current_loop.bandwidth_hz": rng.uniform(300, 2000, (n, 1))}),
         # lightly damped notch and peak: several gain crossovers and a narrow |T| dip
         "x_resonance": (stage_x() * Resonance(50.0, 35.0, 0.05) * Delay(5e-4)).with_values(
-            {"mass_kg": m, "resonance.frequency_hz": rng.uniform(40, 80, (n, 1)),
-             "resonance.damping_ratio": rng.uniform(0.02, 0.2, (n, 1))}),
+            {"mass_kg": m, "resonance.frequency_hz": (fr := rng.uniform(40, 80, (n, 1))),
+             # notch damping 0.02-0.2; a viscous coupling damps the peak fr / fa times more
+             "resonance.damping_ratio": rng.uniform(0.02, 0.2, (n, 1)) * fr / 35.0}),
         "y_tilt": (stage_y() * TiltCoupling(40.0, 2e5) * CurrentLoop(1000.0)).with_values(
             {"mass_kg": m, "tilt_coupling.frequency_hz": rng.uniform(20, 80, (n, 1))}),
         "x_sampling": (stage_x() * Sampling(2000.0)).with_values(

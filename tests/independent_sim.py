@@ -255,14 +255,16 @@ def stage_y_beam(mass_kg: float, inertia_kg_m2: float, rail1_m: float, tilt_stif
 # --- state space -----------------------------------------------------------------------------
 
 @dataclass(frozen=True)
-class _StateSpace:
+class StateSpace:
+    """x' = A x + B i(t - tau); velocity (m/s) = C_velocity x, position (m) = C_position x."""
+
     A: np.ndarray
     B: np.ndarray
     C_velocity: np.ndarray   # sensed velocity (after the optional sensor filter)
     C_position: np.ndarray   # sensed position (for the encoder)
 
 
-def _state_space(net: Network, drive: Drive) -> _StateSpace:
+def state_space(net: Network, drive: Drive) -> StateSpace:
     """Augmented state [i_force?, q, q', filter states?] driven by the delayed current (A)."""
     n = net.n_dof
     p = net.velocity_output.shape[0]
@@ -294,7 +296,7 @@ def _state_space(net: Network, drive: Drive) -> _StateSpace:
         B = np.vstack([B, np.zeros((2 * p, 1))])
         Cq = np.hstack([Cq, np.zeros((p, 2 * p))])
         Cv = np.hstack([np.zeros((p, m)), Cf])
-    return _StateSpace(A, B, Cv, Cq)
+    return StateSpace(A, B, Cv, Cq)
 
 
 def frequency_response(net: Network, drive: Drive, f_hz) -> np.ndarray:
@@ -303,7 +305,7 @@ def frequency_response(net: Network, drive: Drive, f_hz) -> np.ndarray:
     ``C (j w I - A)^-1 B e^{-j w tau}``; for an encoder drive the analogue velocity (before
     differencing and quantisation) is returned.
     """
-    ss = _state_space(net, drive)
+    ss = state_space(net, drive)
     out = []
     for f in np.atleast_1d(np.asarray(f_hz, float)):
         w_rad_s = 2 * np.pi * f
@@ -322,7 +324,7 @@ def _propagate(A: np.ndarray, x0: np.ndarray, s0_s: float, dt_s: float, n: int) 
     return cols[:, :n]
 
 
-def block_response(ss: _StateSpace, f_hz: float, amplitude_a: float, delay_s: float, time_s: np.ndarray):
+def block_response(ss: StateSpace, f_hz: float, amplitude_a: float, delay_s: float, time_s: np.ndarray):
     """Exact state-derived (velocity, position) at ``time_s`` for i(t) = A sin(2 pi f t), t >= 0, from rest.
 
     Returns arrays (n_samples, n_outputs): velocity (m/s) and position (m). The system sees
@@ -344,7 +346,7 @@ def block_response(ss: _StateSpace, f_hz: float, amplitude_a: float, delay_s: fl
 
 # --- noise and recordings --------------------------------------------------------------------
 
-def _force_disturbance(ss: _StateSpace, net: Network, force_n: float, dt_s: float, n: int, rng) -> np.ndarray:
+def _force_disturbance(ss: StateSpace, net: Network, force_n: float, dt_s: float, n: int, rng) -> np.ndarray:
     """Position response (n, p) to a white disturbance force (N, std per sample, held over each sample).
 
     The disturbance acts where the motor force acts (the rails), on top of it.
@@ -380,7 +382,7 @@ def simulate(net: Network, drive: Drive = Drive(), protocol: Protocol = Protocol
     velocities stay on the lattice quantum * sample rate.
     """
     rng = np.random.default_rng(seed)
-    ss = _state_space(net, drive)
+    ss = state_space(net, drive)
     fs = protocol.sample_rate_hz
     dt_s = 1.0 / fs
     f_hz = np.asarray(protocol.f_hz, float)

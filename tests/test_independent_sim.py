@@ -22,7 +22,7 @@ def _sine_fit(t_s, y, f_hz, periods):
 
 
 def _block(net, drive, f_hz, seconds=3.0, fs=1000.0, amplitude_a=1.0):
-    ss = sim._state_space(net, drive)
+    ss = sim.state_space(net, drive)
     t = np.arange(int(seconds * fs)) / fs
     v, q = sim.block_response(ss, f_hz, amplitude_a, drive.delay_s, t)
     return t, v, q

@@ -23,7 +23,7 @@ if TYPE_CHECKING:
 #: coarse grid of equivalent delays (s) tried besides the data's phase slope
 DELAY_GRID_S = (1e-4, 3e-4, 1e-3, 3e-3)
 #: an effect's corner this high (Hz) is far above any recorded band: the effect has vanished
-VANISHED_HZ = 1.0e7
+VANISHED_HZ = 1.0e12
 
 
 def _delay_starts(w_rad_s, ratio) -> list[float]:

@@ -39,7 +39,7 @@ from plant.errors import ParameterError
 from plant.parameters import check_positive
 
 #: a mode this high (Hz) is far above any recorded band: the bodies move as one
-RIGID_HZ = 1.0e5
+RIGID_HZ = 1.0e7
 #: damping ratios tried for a mode before the fit (light to well damped)
 ZETA_GRID = (0.01, 0.03, 0.1, 0.3)
 #: antiresonance / resonance ratios tried when the data show no notch

@@ -66,6 +66,11 @@ TEST_P = 1e-4
 #: a current whose fundamental carries less than this share of its power is a sinusoid only if
 #: the rest is noise (``_CurrentCheck``): below it, the fundamental no longer dominates
 MIN_DOMINANT_FRACTION = 0.5
+#: an output's fundamental is detected when |V_hat|^2 exceeds this multiple of its white-noise
+#: variance (``_phasor_gain`` x the residual's power, known to thousands of degrees of freedom):
+#: without a sinusoid, |V_hat|^2 / var is exponential with mean 1, beyond ln(1 / TEST_P) with
+#: probability TEST_P
+OUTPUT_DETECTION_LIMIT = math.log(1 / TEST_P)
 
 
 def _basis(t_s: np.ndarray, f_hz: float, harmonics: tuple[int, ...]) -> np.ndarray:
@@ -287,7 +292,7 @@ class _BlockEstimate:
     snr_db: np.ndarray
     distortion: np.ndarray       # (n_outputs, 2), NaN where not measurable
     fraction: np.ndarray         # the fundamental's share of the output power about its offset
-    detected: np.ndarray         # bool: the output's fundamental is significant (``_detection_limit``)
+    detected: np.ndarray         # bool: the output's fundamental is significant (``OUTPUT_DETECTION_LIMIT``)
     current: _CurrentCheck
     settle_s: float
     periods: float
@@ -406,7 +411,7 @@ def _block_estimate(block: Block, settle_s: float | None, subblocks: int) -> _Bl
                             _detection_limit(k), float(residual[0] * gain / max(var_i, 1e-300)), _excess_limit(k))
     if not current.sinusoid:
         return _Excluded(_current_note(label, current, fraction[1:]), not_sinusoid=True)
-    detected = np.abs(g) ** 2 / np.maximum(var, 1e-300) >= _detection_limit(k)
+    detected = fundamental[1:] * 2 / (gain * residual[1:]) >= OUTPUT_DETECTION_LIMIT
     return _BlockEstimate(g, var, float(abs(amps[0, 0])), snr_db[1:], distortion, fraction[1:], detected, current,
                           float(settle), periods, k)
 

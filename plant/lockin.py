@@ -22,9 +22,9 @@ samples as it has coefficients; otherwise the block is left out with a note.
 
 Data checks per block (``_CurrentCheck``, notes in ``MeasuredResponse.notes``): the current,
 the excitation, must be a sinusoid at the block frequency -- its fundamental detected against
-its own scatter between sub-blocks, and either dominating the current's power or the rest
-being noise. A block whose current fails is left out; when most blocks fail, the recording is
-broadband data and is refused. An output whose fundamental is not detected (a lightly damped
+its own scatter between sub-blocks (broadband excitation puts only noise-like, inconsistent
+content there). A block whose current fails is left out; when most blocks fail, the recording
+is broadband data and is refused. An output whose fundamental is not detected (a lightly damped
 plant at its antiresonance) is kept and weighted down by its variance, with a note. The
 residual of the fit gives the signal-to-noise ratio, the harmonic amplitudes the distortion.
 An encoder position differenced at the logging rate is recognised by its velocity lattice
@@ -61,11 +61,8 @@ MIN_SAMPLES_PER_PERIOD = 4
 #: fewest periods (whole or partial) a block must keep after settling
 MIN_PERIODS = 1.0
 #: false-alarm probability of each per-block test on the data (``_detection_limit``,
-#: ``_excess_limit``): about one false finding in 250 recordings of 40 blocks
+#: ``OUTPUT_DETECTION_LIMIT``): about one false finding in 250 recordings of 40 blocks
 TEST_P = 1e-4
-#: a current whose fundamental carries less than this share of its power is a sinusoid only if
-#: the rest is noise (``_CurrentCheck``): below it, the fundamental no longer dominates
-MIN_DOMINANT_FRACTION = 0.5
 #: an output's fundamental is detected when |V_hat|^2 exceeds this multiple of its white-noise
 #: variance (``_phasor_gain`` x the residual's power, known to thousands of degrees of freedom):
 #: without a sinusoid, |V_hat|^2 / var is exponential with mean 1, beyond ln(1 / TEST_P) with
@@ -256,30 +253,20 @@ class _CurrentCheck:
 
     ``fraction``: the fundamental's share of the current's power about its fitted offset;
     ``snr_db``: fundamental power over the fit residual's; ``z2`` = |I_hat|^2 / var(I_hat) with
-    the sub-block variance, against ``z2_limit`` (``_detection_limit``); ``excess``: residual power
-    over the noise at the block frequency (the sub-block variance as a white per-sample
-    variance), against ``excess_limit`` (``_excess_limit``).
+    the sub-block variance, against ``z2_limit`` (``_detection_limit``). Only the detection
+    decides: a detected sinusoid is used whatever else the current holds (ripple, another
+    excitation), since the least-squares fit separates it and the sub-block variance covers
+    what leaks from the rest; ``fraction`` and ``snr_db`` describe the data in the notes.
     """
 
     fraction: float
     snr_db: float
     z2: float
     z2_limit: float
-    excess: float
-    excess_limit: float
 
     @property
     def sinusoid(self) -> bool:
-        """The fundamental is detected, and it dominates the current or the rest is noise."""
-        return self.z2 >= self.z2_limit and (self.fraction >= MIN_DOMINANT_FRACTION or self.excess <= self.excess_limit)
-
-    def finding(self) -> str:
-        """Why the current is not a sinusoid, for a note."""
-        if self.z2 < self.z2_limit:
-            return (f"that part is not significant against its scatter between sub-blocks (z^2 = {self.z2:.3g} < "
-                    f"{self.z2_limit:.3g})")
-        return (f"the rest is not noise ({self.excess:.3g} x the noise level at the block frequency, at most "
-                f"{self.excess_limit:.3g} for noise)")
+        return self.z2 >= self.z2_limit
 
 
 @dataclass(frozen=True)
@@ -326,22 +313,11 @@ def _detection_limit(k: int) -> float:
     circular complex Gaussian with E|a_hat|^2 = var and the sub-block variance var_hat has
     nu = 2 (k - 1) real degrees of freedom, so z^2 follows F(2, nu); the limit is its upper
     ``TEST_P`` quantile (16 for k = 10, 9999 for k = 2: two sub-blocks can only confirm a
-    strong sinusoid).
+    strong sinusoid). The scatter between sub-blocks, not the fit residual, is the yardstick:
+    broadband excitation concentrated near the block frequency is far above the residual's
+    average level there, but it is no more consistent from sub-block to sub-block than noise.
     """
     return float(scipy.stats.f.isf(TEST_P, 2, 2 * (k - 1)))
-
-
-@functools.lru_cache(maxsize=None)
-def _excess_limit(k: int) -> float:
-    """Largest residual power / noise level at the block frequency for white noise, ``k`` sub-blocks.
-
-    The noise level at the block frequency is the sub-block variance of the fundamental
-    divided by its white-noise value per unit sample variance (``_phasor_gain``): nu = 2 (k - 1)
-    real degrees of freedom, while the residual power has thousands. For white noise the ratio is
-    nu / chi2(nu); the limit is its upper ``TEST_P`` quantile (5.1 for k = 10).
-    """
-    nu = 2 * (k - 1)
-    return float(nu / scipy.stats.chi2.ppf(TEST_P, nu))
 
 
 def _settled(block: Block, settle_s: float, fs: float) -> tuple[np.ndarray, float]:
@@ -408,7 +384,7 @@ def _block_estimate(block: Block, settle_s: float | None, subblocks: int) -> _Bl
     snr_db = 10 * np.log10(fundamental / residual)
     k = starts.size
     current = _CurrentCheck(float(fraction[0]), float(snr_db[0]), float(fundamental[0] * 2 / max(var_i, 1e-300)),
-                            _detection_limit(k), float(residual[0] * gain / max(var_i, 1e-300)), _excess_limit(k))
+                            _detection_limit(k))
     if not current.sinusoid:
         return _Excluded(_current_note(label, current, fraction[1:]), not_sinusoid=True)
     detected = fundamental[1:] * 2 / (gain * residual[1:]) >= OUTPUT_DETECTION_LIMIT
@@ -538,15 +514,16 @@ def _notes(recording: Recording, j: int, result) -> list[str]:
     if isinstance(result, _BlockEstimate):
         for k in np.flatnonzero(~result.detected):
             notes.append(f"{label}, output {recording.output_names[k]!r}: the fundamental is not detected above the "
-                         f"noise (SNR {result.snr_db[k]:.0f} dB, {100 * result.fraction[k]:.0f} % of the output "
+                         f"noise (SNR {result.snr_db[k]:.0f} dB, {100 * result.fraction[k]:.2g} % of the output "
                          "power): kept, weighted by its variance")
     return notes
 
 
 def _current_note(label: str, check: _CurrentCheck, output_fraction: np.ndarray) -> str:
-    return (f"{label}: the current is not a sinusoid at the block frequency: only {100 * check.fraction:.0f} % of "
-            f"its power is there (SNR {check.snr_db:.0f} dB) and {check.finding()}; "
-            f"{100 * np.max(output_fraction):.0f} % of the output power: excluded")
+    return (f"{label}: the current is not a sinusoid at the block frequency: only {100 * check.fraction:.2g} % of "
+            f"its power is there (SNR {check.snr_db:.0f} dB) and that part is not significant against its scatter "
+            f"between sub-blocks (z^2 = {check.z2:.3g} < {check.z2_limit:.3g}); "
+            f"{100 * np.max(output_fraction):.2g} % of the output power: excluded")
 
 
 def _response(recording: Recording, results: list, f_hz: np.ndarray, method: str, metadata: dict,

@@ -162,6 +162,21 @@ def test_sinusoids_in_heavy_white_noise_are_all_kept():
     assert np.all(np.abs(m.current_snr_db) < 1.0)                                                      # 0 dB
 
 
+def test_a_sinusoid_riding_on_other_content_is_kept():
+    """A sine current under a 900 Hz square ripple of twice its amplitude (11 % of the current's power at
+    the block frequency): the sinusoid is detected, the fit separates it, the block is kept and exact to
+    its noise."""
+    rng = np.random.default_rng(10)
+    blocks = thesis_like(rng)
+    b = blocks[25]
+    ripple = 2 * AMP_I * np.sign(np.sin(2 * np.pi * 900.0 * b.time_s + 0.3))
+    blocks[25] = Block(b.f_hz, b.time_s, b.current_a + ripple, b.velocity_m_per_s)
+    m = estimate_response(rec(blocks))
+    assert m.f_hz.size == 40 and not any("current" in n for n in m.notes)
+    assert m.current_fundamental_fraction[25] == pytest.approx(0.125 / 1.125, rel=0.05)   # closed form
+    assert abs(m.response[0, 25] - g_true(b.f_hz)) < 5 * np.sqrt(m.variance[0, 25])
+
+
 def test_an_output_lost_in_noise_is_kept_and_weighted_down():
     """A lightly damped plant at its antiresonance: the velocity at one block is 1/1000 of the others'
     (below its noise); the current is a clean sinusoid, so the block stays, with a large variance."""
@@ -174,7 +189,7 @@ def test_an_output_lost_in_noise_is_kept_and_weighted_down():
     assert m.variance[0, 20] > 1e4 * np.median(m.variance[0] / np.abs(m.response[0]) ** 2) * abs(m.response[0, 20]) ** 2
     assert [n for n in m.notes if "not detected" in n] == [
         f"block {F_HZ[20]:g} Hz, output 'velocity_m_per_s': the fundamental is not detected above the noise "
-        f"(SNR {m.snr_db[0, 20]:.0f} dB, {100 * m.fundamental_fraction[0, 20]:.0f} % of the output power): kept, "
+        f"(SNR {m.snr_db[0, 20]:.0f} dB, {100 * m.fundamental_fraction[0, 20]:.2g} % of the output power): kept, "
         "weighted by its variance"]
 
 

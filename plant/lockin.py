@@ -429,7 +429,8 @@ def estimate_response(recording: Recording, *, settle_s: float | None = None, me
     variance (fewer when the block has fewer half periods). Blocks that cannot be used (too
     short, undersampled, a current that is not a sinusoid at the block frequency, a flat output)
     are left out, each with a note in ``notes``; ``DataError`` when none is left, or when most
-    blocks' currents are not sinusoids (broadband data). ``metadata`` records per kept block the
+    blocks' currents are not sinusoids (broadband data). The sinusoid checks need the lock-in
+    fit; ``method="rms"`` checks only length, sampling and a constant current. ``metadata`` records per kept block the
     settling time, the periods and sub-blocks used, the excluded frequencies, the sample rate,
     an encoder-differenced velocity's quantum (``encoder_velocity_quantum``) and the
     recording's metadata.
@@ -553,7 +554,8 @@ def _sample_rate_hz(recording: Recording) -> float:
 def encoder_velocity_quantum(recording: Recording) -> float | None:
     """The velocity step q fs (m/s) when every output is an encoder position (quantum q, m)
     differenced at the logging rate fs, else None: all outputs' samples lie on one lattice
-    n q fs (``lattice_step``)."""
+    n q fs (``lattice_step``). A velocity from a coarse converter lies on a lattice too; the
+    values cannot tell the two apart, the note says which is assumed."""
     steps = [lattice_step(np.concatenate([b.velocity_m_per_s[k] for b in recording.blocks]))
              for k in range(len(recording.output_names))]
     if any(s is None for s in steps) or np.ptp(steps) > 1e-6 * max(steps):

@@ -251,3 +251,19 @@ def test_a_continuous_or_coarse_velocity_is_not_taken_for_an_encoder():
     blocks[3] = Block(blocks[3].f_hz, blocks[3].time_s, blocks[3].current_a,
                       blocks[3].velocity_m_per_s + rng.normal(0.0, 1e-6, blocks[3].time_s.size))   # 5 % off-lattice
     assert "encoder_velocity_quantum_m_per_s" not in estimate_response(rec(blocks)).metadata
+
+
+def test_an_output_flat_in_one_block_leaves_that_block_out():
+    """A velocity that does not move in one block (below the resolution) costs that block, not the
+    recording; flat in every block it is a dead channel and refused."""
+    rng = np.random.default_rng(11)
+    blocks = [sine_block(f, 2.0, rng=rng) for f in (5.0, 10.0, 20.0)]
+    b = blocks[1]
+    blocks[1] = Block(b.f_hz, b.time_s, b.current_a, np.zeros_like(b.velocity_m_per_s))
+    m = estimate_response(rec(blocks))
+    assert m.f_hz.tolist() == [5.0, 20.0]
+    assert m.notes == ("block 10 Hz, output 'velocity_m_per_s': every sample is 0 (no motion above the velocity "
+                       "resolution): excluded",)
+    flat = [Block(b.f_hz, b.time_s, b.current_a, np.zeros_like(b.velocity_m_per_s)) for b in blocks]
+    with pytest.raises(DataError, match="every sample is 0; a dead channel"):
+        estimate_response(rec(flat))

@@ -378,9 +378,7 @@ def _block_estimate(block: Block, settle_s: float | None, subblocks: int) -> _Bl
     var = _jackknife_variance(g, a_minus[:, 1:] / a_minus[:, :1], sizes) * factor
     distortion = np.full((g.size, 2), np.nan)
     distortion[:, : len(harmonics) - 1] = np.abs(amps[1:, 1:]) / np.abs(amps[1:, :1])
-    fundamental = np.abs(amps[:, 0]) ** 2 / 2                                  # power, per signal
-    residual = np.maximum(np.mean((sig - B @ coef) ** 2, axis=0), 1e-300)
-    fraction = np.minimum(fundamental / np.maximum(np.mean((sig - coef[0]) ** 2, axis=0), 1e-300), 1.0)
+    fundamental, residual, fraction = _powers(sig, B, coef, amps)
     snr_db = 10 * np.log10(fundamental / residual)
     k = starts.size
     current = _CurrentCheck(float(fraction[0]), float(snr_db[0]), float(fundamental[0] * 2 / max(var_i, 1e-300)),
@@ -390,6 +388,17 @@ def _block_estimate(block: Block, settle_s: float | None, subblocks: int) -> _Bl
     detected = fundamental[1:] * 2 / (gain * residual[1:]) >= OUTPUT_DETECTION_LIMIT
     return _BlockEstimate(g, var, float(abs(amps[0, 0])), snr_db[1:], distortion, fraction[1:], detected, current,
                           float(settle), periods, k)
+
+
+def _powers(sig: np.ndarray, B: np.ndarray, coef: np.ndarray, amps: np.ndarray):
+    """Per signal (columns of ``sig``, fitted ``coef`` on basis ``B``, phasors ``amps``): the
+    fundamental's power |a|^2 / 2, the residual's mean square, and the fundamental's share of the
+    power about the fitted offset (at most 1; over a partial period |a|^2 / 2 is not exactly the
+    window's power of the fundamental)."""
+    fundamental = np.abs(amps[:, 0]) ** 2 / 2
+    residual = np.maximum(np.mean((sig - B @ coef) ** 2, axis=0), 1e-300)
+    fraction = np.minimum(fundamental / np.maximum(np.mean((sig - coef[0]) ** 2, axis=0), 1e-300), 1.0)
+    return fundamental, residual, fraction
 
 
 def _rms_estimate(block: Block, settle_s: float | None, subblocks: int) -> _RmsEstimate | _Excluded:
@@ -430,10 +439,10 @@ def estimate_response(recording: Recording, *, settle_s: float | None = None, me
     short, undersampled, a current that is not a sinusoid at the block frequency, a flat output)
     are left out, each with a note in ``notes``; ``DataError`` when none is left, or when most
     blocks' currents are not sinusoids (broadband data). The sinusoid checks need the lock-in
-    fit; ``method="rms"`` checks only length, sampling and a constant current. ``metadata`` records per kept block the
-    settling time, the periods and sub-blocks used, the excluded frequencies, the sample rate,
-    an encoder-differenced velocity's quantum (``encoder_velocity_quantum``) and the
-    recording's metadata.
+    fit; ``method="rms"`` checks only length, sampling and a constant current. ``metadata``
+    records per kept block the settling time, the periods and sub-blocks used, the excluded
+    frequencies, the sample rate, an encoder-differenced velocity's quantum
+    (``encoder_velocity_quantum``) and the recording's metadata.
     """
     _check_arguments(recording, settle_s, method, subblocks)
     dead = _dead_outputs(recording)

@@ -52,6 +52,8 @@ class Recording:
 MIN_LATTICE_LEVELS = 20
 #: share of the values that must lie on the lattice
 LATTICE_SHARE = 0.999
+#: values screened before a large input is checked whole
+LATTICE_SCREEN = 4096
 
 
 def lattice_step(values: np.ndarray) -> float | None:
@@ -66,8 +68,17 @@ def lattice_step(values: np.ndarray) -> float | None:
     large counts) and at least ``MIN_LATTICE_LEVELS`` distinct levels occur (a few levels are
     also what a coarse but continuous signal shows). Continuous data has a smallest difference
     near 1e-6 of its range, so its values lie at random between lattice points: rejected.
+    Large inputs are screened on every m-th value first (``LATTICE_SCREEN`` of them), so that
+    continuous data is rejected without sorting all of it.
     """
     v = np.asarray(values, dtype=float).ravel()
+    if v.size > 4 * LATTICE_SCREEN and _lattice_step(v[:: v.size // LATTICE_SCREEN]) is None:
+        return None
+    return _lattice_step(v)
+
+
+def _lattice_step(v: np.ndarray) -> float | None:
+    """``lattice_step`` of the 1-d array ``v``, without screening."""
     scale = float(np.max(np.abs(v), initial=0.0))
     if not scale > 0:
         return None

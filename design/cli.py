@@ -6,10 +6,12 @@ Bad input (any ``GantryError``) becomes one line on stderr and exit status 2.
 from __future__ import annotations
 
 import json
+import math
 import sys
 from pathlib import Path
 from typing import Annotated
 
+import numpy as np
 import typer
 from rich.console import Console
 
@@ -43,8 +45,24 @@ def bundled_spec(name: str) -> Path:
 
 
 def print_json(obj) -> None:
-    """Strict JSON (no NaN/Infinity) on stdout."""
-    print(json.dumps(obj, indent=2, allow_nan=False))
+    """Strict JSON on stdout: NaN and infinities anywhere in ``obj`` become null (see ``_strict``)."""
+    print(json.dumps(_strict(obj), indent=2, allow_nan=False))
+
+
+def _strict(obj):
+    """``obj`` with NumPy scalars and arrays as Python values, tuples as lists, and every
+    non-finite float as None, through nested dicts, lists and tuples."""
+    if isinstance(obj, dict):
+        return {key: _strict(value) for key, value in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_strict(value) for value in obj]
+    if isinstance(obj, np.ndarray):
+        return _strict(obj.tolist())
+    if isinstance(obj, np.generic):
+        return _strict(obj.item())
+    if isinstance(obj, float) and not math.isfinite(obj):
+        return None
+    return obj
 
 
 def _register_commands() -> None:

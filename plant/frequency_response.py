@@ -24,8 +24,15 @@ class MeasuredResponse:
     ``variance`` is E|G_hat - G|^2 of the complex estimate; its real and imaginary
     parts each carry half of it (circular noise), which is how fits weight them.
     ``method="rms"`` (thesis Appendix B): ``response`` is the real, positive magnitude
-    estimate, ``variance`` its scatter, and ``snr_db`` / ``harmonic_distortion`` are NaN (not
-    estimated). A harmonic at or above 0.45 x the sample rate cannot be measured and is NaN too.
+    estimate, ``variance`` its scatter, and ``snr_db`` / ``harmonic_distortion`` and the data
+    checks are NaN (not estimated).
+
+    ``harmonic_distortion`` may hold NaN also for the lock-in: a harmonic at or above 0.45 x the
+    sample rate is aliased and not measurable (``nanmax`` / ``np.isfinite`` before ranking it).
+    ``notes`` are the estimator's findings about the data: blocks left out and why, short
+    blocks, outputs whose fundamental was not detected, the velocity sensor. The per-block
+    data checks (``fundamental_fraction``, ``current_fundamental_fraction``,
+    ``current_snr_db``) are NaN where not computed; given as None they are filled with NaN.
     """
 
     f_hz: np.ndarray                     # (n_freq,)
@@ -41,6 +48,21 @@ class MeasuredResponse:
     source: str = "<memory>"
     method: str = "lock-in"
     metadata: dict = field(default_factory=dict)
+    notes: tuple[str, ...] = ()
+    #: share of each output's power (about its offset) at the fundamental, (n_outputs, n_freq)
+    fundamental_fraction: np.ndarray | None = None
+    #: share of the current's power (about its offset) at the fundamental, (n_freq,)
+    current_fundamental_fraction: np.ndarray | None = None
+    #: fundamental power of the current over its fit residual's, dB, (n_freq,)
+    current_snr_db: np.ndarray | None = None
+
+    def __post_init__(self) -> None:
+        shape = np.shape(self.response)
+        for name, default in (("fundamental_fraction", shape), ("current_fundamental_fraction", shape[-1:]),
+                              ("current_snr_db", shape[-1:])):
+            if getattr(self, name) is None:
+                object.__setattr__(self, name, np.full(default, np.nan))
+        object.__setattr__(self, "notes", tuple(self.notes))
 
     @property
     def w_rad_s(self) -> np.ndarray:

@@ -1,18 +1,34 @@
 """Frequency response from stepped-sine recordings by lock-in detection (thesis section 4.1).
 
 Per block: drop the start-up transient (``settling_time_s``), fit the known-frequency
-sinusoid with a constant offset and the 2nd and 3rd harmonics by least squares over whole
-half periods ending with the block -- the single-bin DFT of lock-in detection, exact also
-when a period is not a whole number of samples -- to the current and to every velocity
-output, and take G = V / I.
+sinusoid with a constant offset and the 2nd and 3rd harmonics by least squares over every
+sample after settling -- whole and partial periods alike: the basis at the known frequency
+needs no whole number of periods, and the fit is exact on a clean sinusoid whatever the
+window -- to the current and to every velocity output, and take G = V / I.
 
 Uncertainty: the fitted window is cut into ``subblocks`` sub-blocks of whole half periods
-(whole periods below ``MIN_SEGMENT_SAMPLES`` samples per period); the variance E|G_hat - G|^2
-is the delete-one-sub-block jackknife of G (for equal sub-blocks exactly the variance of
-sub-block estimates divided by their number; refitting offset and harmonics without each
-sub-block keeps it unbiased where separate half-period fits are not). It covers current
-noise, coloured noise near the excitation and drifts. The residual of the fit gives the
-signal-to-noise ratio, the harmonic amplitudes the distortion.
+(whole periods below ``MIN_SEGMENT_SAMPLES`` samples per period) counted back from the end of
+the block, a leading partial half period joining the first; the variance E|G_hat - G|^2 is the
+delete-one-sub-block jackknife of G (for equal sub-blocks exactly the variance of sub-block
+estimates divided by their number; refitting offset and harmonics without each sub-block
+keeps it unbiased where separate half-period fits are not), scaled by its exact white-noise
+bias for this design (``_white_noise_factor``: 1 over whole periods). It covers current noise,
+coloured noise near the excitation and drifts, with nu = 2 (k - 1) real degrees of freedom for
+k sub-blocks (``metadata["subblocks"]``). A short block gets fewer sub-blocks, never sub-blocks
+shorter than half a period: its variance stays unbiased and says, through k, how little it is
+known (1 to 1.5 periods: 2 sub-blocks, 2 degrees of freedom). A block needs at least
+``MIN_PERIODS`` period after settling, and every fit without one sub-block needs twice as many
+samples as it has coefficients; otherwise the block is left out with a note.
+
+Data checks per block (``_CurrentCheck``, notes in ``MeasuredResponse.notes``): the current,
+the excitation, must be a sinusoid at the block frequency -- its fundamental detected against
+its own scatter between sub-blocks (broadband excitation puts only noise-like, inconsistent
+content there). A block whose current fails is left out; when most blocks fail, the recording
+is broadband data and is refused. An output whose fundamental is not detected (a lightly damped
+plant at its antiresonance) is kept and weighted down by its variance, with a note. The
+residual of the fit gives the signal-to-noise ratio, the harmonic amplitudes the distortion.
+An encoder position differenced at the logging rate is recognised by its velocity lattice
+(``encoder_velocity_quantum``).
 
 ``method="rms"`` is the thesis's Appendix B estimate: sqrt(2) RMS(v) / (sqrt(2) RMS(i)) over
 the whole block, magnitude only; noise, harmonics, offsets and the start-up transient all
@@ -21,14 +37,16 @@ inflate it.
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
 import numpy as np
+import scipy.stats
 
 from plant.errors import DataError
 from plant.frequency_response import MeasuredResponse
-from plant.recording import Block, Recording
+from plant.recording import Block, Recording, lattice_step
 
 #: default number of sub-blocks for the variance of each point
 SUBBLOCKS = 10
@@ -38,6 +56,18 @@ MIN_SETTLE_S = 0.05
 HARMONIC_LIMIT = 0.45
 #: fewest samples in a segment of the settling search
 MIN_SEGMENT_SAMPLES = 8
+#: fewest samples per period of the excitation a block needs (the fundamental well below Nyquist)
+MIN_SAMPLES_PER_PERIOD = 4
+#: fewest periods (whole or partial) a block must keep after settling
+MIN_PERIODS = 1.0
+#: false-alarm probability of each per-block test on the data (``_detection_limit``,
+#: ``OUTPUT_DETECTION_LIMIT``): about one false finding in 250 recordings of 40 blocks
+TEST_P = 1e-4
+#: an output's fundamental is detected when |V_hat|^2 exceeds this multiple of its white-noise
+#: variance (``_phasor_gain`` x the residual's power, known to thousands of degrees of freedom):
+#: without a sinusoid, |V_hat|^2 / var is exponential with mean 1, beyond ln(1 / TEST_P) with
+#: probability TEST_P
+OUTPUT_DETECTION_LIMIT = math.log(1 / TEST_P)
 
 
 def _basis(t_s: np.ndarray, f_hz: float, harmonics: tuple[int, ...]) -> np.ndarray:
@@ -91,13 +121,13 @@ def _settling_time(block: Block, fs: float, basis: np.ndarray) -> float:
     the noise level), and the block is cut where the transient left in the
     remaining segments biases their mean by less than 0.1 of its own noise (s / sqrt(n)),
     or at half the block if that point is never reached. Always after the last segment
-    beyond 4 s, and at least one segment and ``MIN_SETTLE_S``; at most what leaves the two
-    whole periods the estimate needs.
+    beyond 4 s, and at least one segment and ``MIN_SETTLE_S``; at most what leaves the one
+    period the estimate needs.
     """
     f, t = block.f_hz, block.time_s
     seg = math.ceil(MIN_SEGMENT_SAMPLES * 2 * f / fs) * 0.5 / f
     n_seg = int(np.floor((t[-1] + 1.0 / fs) / seg + 1e-9))
-    cap_s = max(t[-1] + 1.0 / fs - 2.0 / f, 0.0)
+    cap_s = max(t[-1] + 1.0 / fs - MIN_PERIODS / f, 0.0)
     floor_s = min(max(seg, MIN_SETTLE_S), cap_s)
     if n_seg < 6:
         return floor_s
@@ -114,6 +144,8 @@ def _settling_time(block: Block, fs: float, basis: np.ndarray) -> float:
     coef[1:3] = 0.0                           # keep the fundamental, remove offset and harmonics
     a = _segment_fundamentals(basis[:n, 1:3], sig - (basis[:n] @ coef).T, edges[:-1])
     h = n_seg // 2
+    if not abs(a[h:, 0].sum()) > 1e-9 * np.sqrt(np.sum(sig[0, half:] ** 2)):
+        return floor_s                        # no current at the block frequency: nothing to settle against
     ref = a[h:, 1:].sum(axis=0) / a[h:, 0].sum()            # steady-state G of the second half
     current = np.abs(a[h:, 0].mean())
     # deviation of each segment from the steady relation v = ref i, in units of G: linear in the
@@ -137,18 +169,6 @@ def _settling_time(block: Block, fs: float, basis: np.ndarray) -> float:
             ok = np.flatnonzero(bias < 0.1 / np.sqrt(left))
             cut = int(j[ok[0]]) if ok.size else max(cut, n_seg // 2)
     return min(max(cut * seg, floor_s), cap_s)
-
-
-@dataclass(frozen=True)
-class _BlockEstimate:
-    g: np.ndarray            # (n_outputs,) complex
-    variance: np.ndarray     # (n_outputs,)
-    current_amplitude_a: float
-    snr_db: np.ndarray       # (n_outputs,)
-    distortion: np.ndarray   # (n_outputs, 2)
-    settle_s: float
-    periods: float
-    subblocks: int
 
 
 def _whole_half_periods(block: Block, settle_s: float, fs: float) -> tuple[np.ndarray, int]:
@@ -192,15 +212,23 @@ def _jackknife_scale(sizes: np.ndarray) -> np.ndarray:
     return 1.0 / ((sizes.sum() / sizes - 1) * sizes.size)
 
 
-def _white_noise_factor(A: np.ndarray, A_j: np.ndarray, sizes: np.ndarray) -> float:
-    """var(a_hat) / E[jackknife statistic] of the fundamental phasor a_hat = e . coef, both
-    under white noise for this design (normal matrix ``A`` = sum of the sub-blocks' ``A_j``).
-    With e = (0, 1, -j, 0, ...), cov(theta_-i, theta_-j) = sigma^2 e A_-i^-1 (A - A_i - A_j)
-    A_-j^-1 e^*, cov(theta_hat, theta_-j) = var(theta_hat) = sigma^2 e A^-1 e^*. The ratio is
-    1 for whole-period sub-blocks; it removes the jackknife's bias over half periods."""
+def _phasor_gain(A: np.ndarray) -> float:
+    """var(a_hat) / sigma^2 of the fundamental phasor a_hat = e . coef under white noise of
+    variance sigma^2 (normal matrix ``A``): e A^-1 e^* with e = (0, 1, -j, 0, ...); 4 / N over
+    whole periods."""
     e = np.zeros(A.shape[0], complex)
     e[1], e[2] = 1.0, -1.0j
-    q = float(np.real(e @ np.linalg.solve(A, e.conj())))
+    return float(np.real(e @ np.linalg.solve(A, e.conj())))
+
+
+def _jackknife_expectation(A: np.ndarray, A_j: np.ndarray, sizes: np.ndarray) -> float:
+    """E[jackknife statistic] / sigma^2 of the fundamental phasor under white noise for this
+    design (normal matrix ``A`` = sum of the sub-blocks' ``A_j``). With e as in ``_phasor_gain``,
+    cov(theta_-i, theta_-j) = sigma^2 e A_-i^-1 (A - A_i - A_j) A_-j^-1 e^*,
+    cov(theta_hat, theta_-j) = var(theta_hat) = sigma^2 e A^-1 e^*."""
+    e = np.zeros(A.shape[0], complex)
+    e[1], e[2] = 1.0, -1.0j
+    q = _phasor_gain(A)
     u = np.linalg.solve(A - A_j, np.broadcast_to(e.conj(), (sizes.size, e.size))[..., None])[..., 0]  # (k, p)
     k = sizes.size
     rest = A[None, None] - A_j[:, None] - A_j[None, :]                                             # (k, k, p, p)
@@ -209,75 +237,244 @@ def _white_noise_factor(A: np.ndarray, A_j: np.ndarray, sizes: np.ndarray) -> fl
     gamma[0, :] = gamma[:, 0] = q
     gamma[1:, 1:] = np.einsum("ia,ijab,jb->ij", u.conj(), rest, u)
     L = _jackknife_weights(sizes)
-    expected = float(np.real(np.einsum("ja,ab,jb->j", L, gamma, L)) @ _jackknife_scale(sizes))
-    return q / expected
+    return float(np.real(np.einsum("ja,ab,jb->j", L, gamma, L)) @ _jackknife_scale(sizes))
 
 
-def _block_estimate(block: Block, settle_s: float | None, subblocks: int, where: str) -> _BlockEstimate:
+def _white_noise_factor(A: np.ndarray, A_j: np.ndarray, sizes: np.ndarray) -> float:
+    """var(a_hat) / E[jackknife statistic] of the fundamental phasor, both under white noise
+    for this design: 1 for whole-period sub-blocks; it removes the jackknife's bias over half
+    and partial periods."""
+    return _phasor_gain(A) / _jackknife_expectation(A, A_j, sizes)
+
+
+@dataclass(frozen=True)
+class _CurrentCheck:
+    """Whether a block's current is a sinusoid at the block frequency.
+
+    ``fraction``: the fundamental's share of the current's power about its fitted offset;
+    ``snr_db``: fundamental power over the fit residual's; ``z2`` = |I_hat|^2 / var(I_hat) with
+    the sub-block variance, against ``z2_limit`` (``_detection_limit``). Only the detection
+    decides: a detected sinusoid is used whatever else the current holds (ripple, another
+    excitation), since the least-squares fit separates it and the sub-block variance covers
+    what leaks from the rest; ``fraction`` and ``snr_db`` describe the data in the notes.
+    """
+
+    fraction: float
+    snr_db: float
+    z2: float
+    z2_limit: float
+
+    @property
+    def sinusoid(self) -> bool:
+        return self.z2 >= self.z2_limit
+
+
+@dataclass(frozen=True)
+class _BlockEstimate:
+    """Lock-in estimate of one block and its data checks; arrays have one entry per output."""
+
+    g: np.ndarray                # complex, m/s per A
+    variance: np.ndarray         # (m/s per A)^2
+    current_amplitude_a: float
+    snr_db: np.ndarray
+    distortion: np.ndarray       # (n_outputs, 2), NaN where not measurable
+    fraction: np.ndarray         # the fundamental's share of the output power about its offset
+    detected: np.ndarray         # bool: the output's fundamental is significant (``OUTPUT_DETECTION_LIMIT``)
+    current: _CurrentCheck
+    settle_s: float
+    periods: float
+    subblocks: int
+
+
+@dataclass(frozen=True)
+class _RmsEstimate:
+    g: np.ndarray                # magnitude, m/s per A
+    variance: np.ndarray
+    current_amplitude_a: float
+    settle_s: float
+    periods: float
+    subblocks: int
+
+
+@dataclass(frozen=True)
+class _Excluded:
+    """A block left out of the response: the note saying why, and whether its current is not a
+    sinusoid at the block frequency (these count towards refusing the recording as broadband)."""
+
+    note: str
+    not_sinusoid: bool = False
+
+
+@functools.lru_cache(maxsize=None)
+def _detection_limit(k: int) -> float:
+    """Smallest z^2 = |a_hat|^2 / var_hat of a detected fundamental, ``k`` sub-blocks.
+
+    Without a sinusoid at the block frequency (noise or broadband excitation), a_hat is a
+    circular complex Gaussian with E|a_hat|^2 = var and the sub-block variance var_hat has
+    nu = 2 (k - 1) real degrees of freedom, so z^2 follows F(2, nu); the limit is its upper
+    ``TEST_P`` quantile (16 for k = 10, 9999 for k = 2: two sub-blocks can only confirm a
+    strong sinusoid). The scatter between sub-blocks, not the fit residual, is the yardstick:
+    broadband excitation concentrated near the block frequency is far above the residual's
+    average level there, but it is no more consistent from sub-block to sub-block than noise.
+    """
+    return float(scipy.stats.f.isf(TEST_P, 2, 2 * (k - 1)))
+
+
+def _settled(block: Block, settle_s: float, fs: float) -> tuple[np.ndarray, float]:
+    """Samples from ``settle_s`` on (a sample stands for [t - 0.5/fs, t + 0.5/fs)) and the
+    periods they span (rounded to 1e-9: ``fs`` is a median of rounded time steps)."""
+    keep = block.time_s >= settle_s - 0.5 / fs
+    return keep, round(np.count_nonzero(keep) / fs * block.f_hz, 9)
+
+
+def _too_short(label: str, periods: float, settle: float) -> _Excluded:
+    return _Excluded(f"{label}: {periods:.2f} periods left after settling ({settle:.3g} s); at least "
+                     f"{MIN_PERIODS:g} period is needed (record longer or settle shorter): excluded")
+
+
+def _undersampled(label: str, f_hz: float, fs: float) -> _Excluded | None:
+    if fs / f_hz >= MIN_SAMPLES_PER_PERIOD * (1 - 1e-6):     # tolerance: times read from text are rounded
+        return None
+    return _Excluded(f"{label}: {fs / f_hz:.2f} samples per period; at least {MIN_SAMPLES_PER_PERIOD} are needed "
+                     f"(sample rate {fs:g} Hz is too low for {f_hz:g} Hz): excluded")
+
+
+def _block_estimate(block: Block, settle_s: float | None, subblocks: int) -> _BlockEstimate | _Excluded:
+    """Lock-in estimate of one block over all its samples after settling (whole and partial
+    periods), or why the block is excluded."""
     f, fs = block.f_hz, block.sample_rate_hz
+    label = f"block {f:g} Hz"
+    undersampled = _undersampled(label, f, fs)
+    if undersampled:
+        return undersampled
     harmonics = _harmonics(f, fs)
     basis = _basis(block.time_s, f, harmonics)
     settle = _settling_time(block, fs, basis) if settle_s is None else settle_s
-    keep, n_half = _whole_half_periods(block, settle, fs)
-    label = f"{where}: block {f:g} Hz"
-    if n_half < 4:
-        left = (block.time_s[-1] + 1.0 / fs - settle) * f
-        raise DataError(f"{label}: {left:.2f} periods left after settling ({settle:.3g} s); at least 2 whole "
-                        "periods are needed (record longer or settle shorter)")
+    keep, periods = _settled(block, settle, fs)
+    if periods < MIN_PERIODS * (1 - 1e-9):
+        return _too_short(label, periods, settle)
     t = block.time_s[keep]
     sig = np.vstack([block.current_a[keep], block.velocity_m_per_s[:, keep]]).T   # (n_samples, n_signals)
     B = basis[keep]
-    starts = _subblock_starts(t, f, fs, n_half, subblocks)
+    starts = _subblock_starts(t, f, fs, int(np.floor(2 * periods + 1e-9)), subblocks)
     ends = np.r_[starts[1:], t.size]
+    if starts.size < 2 or np.min(t.size - (ends - starts)) < 2 * B.shape[1]:
+        return _Excluded(f"{label}: {periods:.2f} periods of {fs / f:.3g} samples left after settling "
+                         f"({settle:.3g} s): too few for a variance from sub-blocks: excluded")
     A_j = np.array([B[a:b].T @ B[a:b] for a, b in zip(starts, ends)])
     R_j = np.array([B[a:b].T @ sig[a:b] for a, b in zip(starts, ends)])
-    coef = np.linalg.solve(A_j.sum(axis=0), R_j.sum(axis=0))
+    A = A_j.sum(axis=0)
+    coef = np.linalg.solve(A, R_j.sum(axis=0))
     amps = (coef[1::2] - 1j * coef[2::2]).T                    # (n_signals, n_harmonics)
     if abs(amps[0, 0]) <= 1e-9 * np.sqrt(np.mean(sig[:, 0] ** 2)):
-        raise DataError(f"{label}, current: the current has no component at {f:g} Hz")
-    minus = np.linalg.solve(A_j.sum(axis=0) - A_j, R_j.sum(axis=0) - R_j)   # (k, n_columns, n_signals)
+        return _Excluded(f"{label}: the current has no component at {f:g} Hz: excluded", not_sinusoid=True)
+    minus = np.linalg.solve(A - A_j, R_j.sum(axis=0) - R_j)   # (k, n_columns, n_signals)
     a_minus = minus[:, 1] - 1j * minus[:, 2]
-    g = amps[1:, 0] / amps[0, 0]
     sizes = (ends - starts).astype(float)
-    var = _jackknife_variance(g, a_minus[:, 1:] / a_minus[:, :1], sizes) * _white_noise_factor(A_j.sum(axis=0), A_j,
-                                                                                                  sizes)
+    gain = _phasor_gain(A)
+    factor = _white_noise_factor(A, A_j, sizes)
+    var_i = float(_jackknife_variance(amps[:1, 0], a_minus[:, :1], sizes)[0]) * factor
+    g = amps[1:, 0] / amps[0, 0]
+    var = _jackknife_variance(g, a_minus[:, 1:] / a_minus[:, :1], sizes) * factor
     distortion = np.full((g.size, 2), np.nan)
     distortion[:, : len(harmonics) - 1] = np.abs(amps[1:, 1:]) / np.abs(amps[1:, :1])
-    rms_noise = np.sqrt(np.mean((sig[:, 1:] - B @ coef[:, 1:]) ** 2, axis=0))
-    snr_db = 20 * np.log10(np.abs(amps[1:, 0]) / np.sqrt(2) / np.maximum(rms_noise, 1e-300))
-    return _BlockEstimate(g, var, float(abs(amps[0, 0])), snr_db, distortion, float(settle), n_half / 2, starts.size)
+    fundamental, residual, fraction = _powers(sig, B, coef, amps)
+    snr_db = 10 * np.log10(fundamental / residual)
+    k = starts.size
+    current = _CurrentCheck(float(fraction[0]), float(snr_db[0]), float(fundamental[0] * 2 / max(var_i, 1e-300)),
+                            _detection_limit(k))
+    if not current.sinusoid:
+        return _Excluded(_current_note(label, current, fraction[1:]), not_sinusoid=True)
+    detected = fundamental[1:] * 2 / (gain * residual[1:]) >= OUTPUT_DETECTION_LIMIT
+    return _BlockEstimate(g, var, float(abs(amps[0, 0])), snr_db[1:], distortion, fraction[1:], detected, current,
+                          float(settle), periods, k)
 
 
-def _rms_estimate(block: Block, settle_s: float | None, subblocks: int, where: str):
+def _powers(sig: np.ndarray, B: np.ndarray, coef: np.ndarray, amps: np.ndarray):
+    """Per signal (columns of ``sig``, fitted ``coef`` on basis ``B``, phasors ``amps``): the
+    fundamental's power |a|^2 / 2, the residual's mean square, and the fundamental's share of the
+    power about the fitted offset (at most 1; over a partial period |a|^2 / 2 is not exactly the
+    window's power of the fundamental)."""
+    fundamental = np.abs(amps[:, 0]) ** 2 / 2
+    residual = np.maximum(np.mean((sig - B @ coef) ** 2, axis=0), 1e-300)
+    fraction = np.minimum(fundamental / np.maximum(np.mean((sig - coef[0]) ** 2, axis=0), 1e-300), 1.0)
+    return fundamental, residual, fraction
+
+
+def _rms_estimate(block: Block, settle_s: float | None, subblocks: int) -> _RmsEstimate | _Excluded:
     """Thesis Appendix B: sqrt(2) RMS(v) / (sqrt(2) RMS(i)) over the block (from ``settle_s``
     if given); the variance of this magnitude by the sub-block jackknife."""
     f, fs = block.f_hz, block.sample_rate_hz
+    label = f"block {f:g} Hz"
+    undersampled = _undersampled(label, f, fs)
+    if undersampled:
+        return undersampled
     settle = settle_s or 0.0
     after = block.time_s >= settle - 0.5 / fs
     n_half = _whole_half_periods(block, settle, fs)[1]
-    if n_half < 4:
-        left = (block.time_s[-1] + 1.0 / fs - settle) * f
-        raise DataError(f"{where}: block {f:g} Hz: {left:.2f} periods left after settling ({settle:.3g} s); at "
-                        "least 2 whole periods are needed")
+    if n_half < 2 * MIN_PERIODS:
+        return _too_short(label, _settled(block, settle, fs)[1], settle)
     t, i, v = block.time_s[after], block.current_a[after], block.velocity_m_per_s[:, after]
+    if np.ptp(i) <= 1e-12 * max(1.0, float(np.max(np.abs(i)))):
+        return _Excluded(f"{label}: the current is constant: excluded", not_sinusoid=True)
     starts = _subblock_starts(t, f, fs, n_half, subblocks)
+    if starts.size < 2:
+        return _Excluded(f"{label}: {n_half / 2:g} whole periods of {fs / f:.3g} samples: too few for a variance "
+                         "from sub-blocks: excluded")
     sum_v, sum_i = np.add.reduceat(v**2, starts, axis=1).T, np.add.reduceat(i**2, starts)
     g = np.sqrt(sum_v.sum(axis=0) / sum_i.sum())
     minus = np.sqrt((sum_v.sum(axis=0) - sum_v) / (sum_i.sum() - sum_i)[:, None])
     var = _jackknife_variance(g, minus, np.diff(np.r_[starts, t.size]).astype(float))
-    return g, var, float(np.sqrt(2 * np.mean(i**2))), starts.size
+    return _RmsEstimate(g, var, float(np.sqrt(2 * np.mean(i**2))), settle, n_half / 2, starts.size)
 
 
 def estimate_response(recording: Recording, *, settle_s: float | None = None, method: str = "lock-in",
                       subblocks: int = SUBBLOCKS) -> MeasuredResponse:
-    """Measured G = V/I (m/s per A) per output and block; see the module doc.
+    """Measured G = V/I (m/s per A) per output and usable block; see the module doc.
 
     ``settle_s``: seconds dropped at the start of every block; None estimates the transient
     from the data (``settling_time_s``) for the lock-in and keeps the whole block for
     ``method="rms"``, as the thesis did. ``subblocks`` (>= 2): number of sub-blocks for the
-    variance (fewer when the block has fewer half periods). ``metadata`` records per block
-    the settling time and the whole periods and sub-blocks used, and the recording's metadata.
+    variance (fewer when the block has fewer half periods). Blocks that cannot be used (too
+    short, undersampled, a current that is not a sinusoid at the block frequency, a flat output)
+    are left out, each with a note in ``notes``; ``DataError`` when none is left, or when most
+    blocks' currents are not sinusoids (broadband data). The sinusoid checks need the lock-in
+    fit; ``method="rms"`` checks only length, sampling and a constant current. ``metadata``
+    records per kept block the settling time, the periods and sub-blocks used, the excluded
+    frequencies, the sample rate, an encoder-differenced velocity's quantum
+    (``encoder_velocity_quantum``) and the recording's metadata.
     """
+    _check_arguments(recording, settle_s, method, subblocks)
+    dead = _dead_outputs(recording)
+    results = []
+    for block, flat in zip(recording.blocks, dead):
+        if flat.any():
+            k = int(np.argmax(flat))
+            results.append(_Excluded(f"block {block.f_hz:g} Hz, output {recording.output_names[k]!r}: every sample "
+                                     f"is {block.velocity_m_per_s[k, 0]:g} (no motion above the velocity "
+                                     "resolution): excluded"))
+        elif method == "rms":
+            results.append(_rms_estimate(block, settle_s, subblocks))
+        else:
+            results.append(_block_estimate(block, settle_s, subblocks))
+    _refuse_unusable(recording, results)
+    kept = [j for j, r in enumerate(results) if not isinstance(r, _Excluded)]
+    notes = [n for j, r in enumerate(results) for n in _notes(recording, j, r)]
+    metadata = {"settle_s": [results[j].settle_s for j in kept], "periods_used": [results[j].periods for j in kept],
+                "subblocks": [results[j].subblocks for j in kept],
+                "excluded_f_hz": [recording.blocks[j].f_hz for j, r in enumerate(results) if isinstance(r, _Excluded)],
+                "sample_rate_hz": _sample_rate_hz(recording), "recording": dict(recording.metadata)}
+    quantum = encoder_velocity_quantum(recording)
+    if quantum is not None:
+        metadata["encoder_velocity_quantum_m_per_s"] = quantum
+        notes.append(f"velocity is an encoder position quantum {_short(quantum / metadata['sample_rate_hz'])} m "
+                     f"differenced at {metadata['sample_rate_hz']:g} Hz: its half-sample delay and sinc droop are "
+                     "part of the sensor")
+    f_hz = np.array([recording.blocks[j].f_hz for j in kept])
+    return _response(recording, [results[j] for j in kept], f_hz, method, metadata, tuple(notes))
+
+
+def _check_arguments(recording: Recording, settle_s, method: str, subblocks) -> None:
     if method not in ("lock-in", "rms"):
         raise DataError(f"method must be 'lock-in' or 'rms', got {method!r}")
     if not recording.blocks:
@@ -286,31 +483,101 @@ def estimate_response(recording: Recording, *, settle_s: float | None = None, me
         raise DataError(f"settle_s must be finite and >= 0 seconds, got {settle_s!r}")
     if isinstance(subblocks, bool) or not isinstance(subblocks, (int, np.integer)) or subblocks < 2:
         raise DataError(f"subblocks must be an integer >= 2, got {subblocks!r}")
-    n_out, n_f = len(recording.output_names), len(recording.blocks)
-    G = np.empty((n_out, n_f), complex)
-    var = np.empty((n_out, n_f))
-    amp = np.empty(n_f)
-    snr = np.full((n_out, n_f), np.nan)
-    hd = np.full((n_out, n_f, 2), np.nan)
-    settle, periods, used = np.zeros(n_f), np.zeros(n_f), np.zeros(n_f, int)
-    for j, block in enumerate(recording.blocks):
-        for k in np.flatnonzero(np.ptp(block.velocity_m_per_s, axis=1) == 0):
-            raise DataError(f"{recording.source}: block {block.f_hz:g} Hz, output {recording.output_names[k]!r}: "
-                            f"every sample is {block.velocity_m_per_s[k, 0]:g}; a dead channel or motion below the "
-                            "velocity resolution (leave the column out of the column map)")
-        if method == "rms":
-            G[:, j], var[:, j], amp[j], used[j] = _rms_estimate(block, settle_s, subblocks, recording.source)
-            settle[j] = settle_s or 0.0
-            periods[j] = _whole_half_periods(block, settle[j], block.sample_rate_hz)[1] / 2
-        else:
-            e = _block_estimate(block, settle_s, subblocks, recording.source)
-            G[:, j], var[:, j], amp[j], snr[:, j], hd[:, j] = e.g, e.variance, e.current_amplitude_a, e.snr_db, \
-                e.distortion
-            settle[j], periods[j], used[j] = e.settle_s, e.periods, e.subblocks
-    metadata = {"settle_s": settle.tolist(), "periods_used": periods.tolist(), "subblocks": used.tolist(),
-                "recording": dict(recording.metadata)}
-    return MeasuredResponse(recording.f_hz, G, var, recording.output_names, amp, snr, hd, source=recording.source,
-                            method=method, metadata=metadata)
+
+
+def _dead_outputs(recording: Recording) -> np.ndarray:
+    """(n_blocks, n_outputs) bool: the output is constant over the block. An output constant in
+    every block is a dead channel (or a wrong column): ``DataError``."""
+    flat = np.array([np.ptp(b.velocity_m_per_s, axis=1) == 0 for b in recording.blocks])
+    for k in np.flatnonzero(flat.all(axis=0)):
+        b = recording.blocks[0]
+        raise DataError(f"{recording.source}: block {b.f_hz:g} Hz, output {recording.output_names[k]!r}: every "
+                        f"sample is {b.velocity_m_per_s[k, 0]:g}; a dead channel or motion below the velocity "
+                        "resolution (leave the column out of the column map)")
+    return flat
+
+
+def _refuse_unusable(recording: Recording, results: list) -> None:
+    """``DataError`` when most blocks' currents are not sinusoids at their frequency (broadband
+    data read as a stepped sine) or no block is usable."""
+    excluded = [r for r in results if isinstance(r, _Excluded)]
+    not_sine = [r.note for r in excluded if r.not_sinusoid]
+    if len(not_sine) > len(results) / 2:
+        raise DataError(f"{recording.source}: the recording does not look like a stepped sine: in {len(not_sine)} of "
+                        f"{len(results)} blocks the current is not a sinusoid at the block frequency (e.g. "
+                        f"{not_sine[0]}); for broadband excitation (random, PRBS, multisine, chirp) use a method "
+                        "for broadband data")
+    if len(excluded) == len(results):
+        raise DataError(f"{recording.source}: no usable block: {'; '.join(r.note for r in excluded)}")
+
+
+def _notes(recording: Recording, j: int, result) -> list[str]:
+    """Data-check findings of block ``j``: why it was excluded, that it is short, or that an
+    output's fundamental was not detected (kept: its variance weights it down)."""
+    label = f"block {recording.blocks[j].f_hz:g} Hz"
+    if isinstance(result, _Excluded):
+        return [result.note]
+    notes = []
+    if result.periods < 2:
+        notes.append(f"{label}: only {result.periods:.2f} periods after settling ({result.settle_s:.3g} s): used, "
+                     f"variance from {result.subblocks} sub-blocks ({2 * (result.subblocks - 1)} degrees of freedom)")
+    if isinstance(result, _BlockEstimate):
+        for k in np.flatnonzero(~result.detected):
+            notes.append(f"{label}, output {recording.output_names[k]!r}: the fundamental is not detected above the "
+                         f"noise (SNR {result.snr_db[k]:.0f} dB, {100 * result.fraction[k]:.2g} % of the output "
+                         "power): kept, weighted by its variance")
+    return notes
+
+
+def _current_note(label: str, check: _CurrentCheck, output_fraction: np.ndarray) -> str:
+    return (f"{label}: the current is not a sinusoid at the block frequency: only {100 * check.fraction:.2g} % of "
+            f"its power is there (SNR {check.snr_db:.0f} dB) and that part is not significant against its scatter "
+            f"between sub-blocks (z^2 = {check.z2:.3g} < {check.z2_limit:.3g}); "
+            f"{100 * np.max(output_fraction):.2g} % of the output power: excluded")
+
+
+def _response(recording: Recording, results: list, f_hz: np.ndarray, method: str, metadata: dict,
+              notes: tuple[str, ...]) -> MeasuredResponse:
+    """The ``MeasuredResponse`` of the kept blocks (``results``, at ``f_hz``)."""
+    n_out, n_f = len(recording.output_names), len(results)
+    G = np.array([r.g for r in results], complex).T.reshape(n_out, n_f)
+    var = np.array([r.variance for r in results], float).T.reshape(n_out, n_f)
+    amp = np.array([r.current_amplitude_a for r in results], float)
+    snr, hd = np.full((n_out, n_f), np.nan), np.full((n_out, n_f, 2), np.nan)
+    fraction = np.full((n_out, n_f), np.nan)
+    current_fraction, current_snr = np.full(n_f, np.nan), np.full(n_f, np.nan)
+    for j, r in enumerate(results):
+        if isinstance(r, _BlockEstimate):
+            snr[:, j], hd[:, j], fraction[:, j] = r.snr_db, r.distortion, r.fraction
+            current_fraction[j], current_snr[j] = r.current.fraction, r.current.snr_db
+    return MeasuredResponse(f_hz, G, var, recording.output_names, amp, snr, hd, source=recording.source,
+                            method=method, metadata=metadata, notes=notes, fundamental_fraction=fraction,
+                            current_fundamental_fraction=current_fraction, current_snr_db=current_snr)
+
+
+def _sample_rate_hz(recording: Recording) -> float:
+    """The logging rate (Hz): the median of the blocks' sample rates."""
+    return float(np.median([b.sample_rate_hz for b in recording.blocks]))
+
+
+def encoder_velocity_quantum(recording: Recording) -> float | None:
+    """The velocity step q fs (m/s) when every output is an encoder position (quantum q, m)
+    differenced at the logging rate fs, else None: all outputs' samples lie on one lattice
+    n q fs (``lattice_step``). A velocity from a coarse converter lies on a lattice too; the
+    values cannot tell the two apart, the note says which is assumed."""
+    steps = [lattice_step(np.concatenate([b.velocity_m_per_s[k] for b in recording.blocks]))
+             for k in range(len(recording.output_names))]
+    if any(s is None for s in steps) or np.ptp(steps) > 1e-6 * max(steps):
+        return None
+    return float(np.median(steps))
+
+
+def _short(x: float) -> str:
+    """``x`` with 3 significant digits, exponent without padding: 1e-7, 2.5e-6, 0.05."""
+    mantissa, exponent = f"{x:.2e}".split("e")
+    if -4 <= int(exponent) < 4:
+        return f"{x:.3g}"
+    return f"{float(mantissa):g}e{int(exponent)}"
 
 
 #: a change is significant beyond this many standard deviations (the sub-block variances have

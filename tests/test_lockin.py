@@ -255,10 +255,11 @@ def test_bad_estimation_input():
     r = rec(make_block(10.0))
     with pytest.raises(DataError, match="method must be 'lock-in' or 'rms', got 'fft'"):
         estimate_response(r, method="fft")
-    with pytest.raises(DataError, match=r"<memory>: block 10 Hz: 1\.\d+ periods left after settling \(2\.85 s\)"):
-        estimate_response(r, settle_s=2.85)
+    with pytest.raises(DataError, match=r"<memory>: no usable block: block 10 Hz: 0\.50 periods left after settling "
+                                        r"\(2\.95 s\); at least 1 period is needed"):
+        estimate_response(r, settle_s=2.95)
     with pytest.raises(DataError, match=r"block 10 Hz: .* periods left after settling"):
-        estimate_response(r, settle_s=2.85, method="rms")
+        estimate_response(r, settle_s=2.95, method="rms")
     with pytest.raises(DataError, match="settle_s must be"):
         estimate_response(r, settle_s=-1.0)
     with pytest.raises(DataError, match="settle_s must be"):

@@ -54,6 +54,7 @@ class Delay(ChainEffect):
     signature: ClassVar[str] = "phase error growing linearly with frequency, magnitude unchanged"
     main_parameter: ClassVar[str] = "seconds"
     neutral: ClassVar = {"seconds": 0.0}
+    complexity: ClassVar[int] = 0
 
     def __post_init__(self) -> None:
         check_positive("delay.seconds", self.seconds, allow_zero=True)
@@ -87,6 +88,7 @@ class CurrentLoop(ChainEffect):
     signature: ClassVar[str] = "phase lag with a small magnitude roll-off towards high frequency"
     main_parameter: ClassVar[str] = "bandwidth_hz"
     neutral: ClassVar = {"bandwidth_hz": VANISHED_HZ}
+    complexity: ClassVar[int] = 1
 
     def __post_init__(self) -> None:
         self._check_positive()
@@ -138,6 +140,7 @@ class Sampling(ChainEffect):
     signature: ClassVar[str] = "phase lag linear in frequency (1.5 sample periods) with a slight sinc magnitude droop"
     main_parameter: ClassVar[str] = "rate_hz"
     neutral: ClassVar = {"rate_hz": VANISHED_HZ}
+    complexity: ClassVar[int] = 1
 
     def __post_init__(self) -> None:
         self._check_positive()

@@ -16,6 +16,7 @@ broadcast against the frequency axis) it owns what the rest of the tool needs to
   (lmfit's ``Model.guess``);
 * ``excludes`` / ``requires_any``: effects it cannot be combined with / needs;
 * ``search_fixed``: parameters held at their defaults by the model search;
+* ``complexity``: how much physics it assumes, breaking ties between equivalent models;
 * ``in_synthesis``: has a response formula of ``s`` that casadi can build (PI synthesis).
 """
 
@@ -60,6 +61,9 @@ class Effect(abc.ABC):
     #: has a response formula of s for casadi (the exact PI synthesis needs one)
     in_synthesis: ClassVar[bool] = True
     search_fixed: ClassVar[tuple[str, ...]] = ()
+    #: how much physics the effect assumes, for ties between models the data cannot tell apart:
+    #: 0 a pure delay, 1 one lag or hold, 2 a filter or a mode
+    complexity: ClassVar[int] = 2
 
     def parameters(self) -> dict[str, Parameter]:
         """The effect's parameters, keyed ``effect.parameter``."""

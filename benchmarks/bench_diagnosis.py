@@ -61,6 +61,12 @@ class Case:
     seconds: float = 0.0
 
 
+def _named(res: dict) -> set[str]:
+    """Effects the diagnosis added to the base model (a sensor it set from the recording, such as an
+    encoder-differenced velocity, is part of the base model, not a finding)."""
+    return set(res.get("added_effects", res.get("final_effects")) or [])
+
+
 def _drive_draws(rng, cls: str):
     """Chain effects of the class: (Drive keyword arguments, effect names, main parameters)."""
     kwargs, effects, params = {}, [], {}
@@ -216,7 +222,7 @@ def score(case: Case) -> dict:
     if case.result is None:
         return row
     res = case.result
-    named = set(res.get("final_effects") or [])
+    named = _named(res)
     verdict, inferred = _verdict(res)
     chi2 = _final_chi2(res)
     row.update(named="+".join(sorted(named)) or "none", verdict=verdict + ("*" if inferred else ""), chi2=chi2)
@@ -292,7 +298,7 @@ def main() -> None:
     false_found = sum(r["false_found"] for r in rows)
     seconds = np.array([c.seconds for c in cases])
     wrong_set = [r for c, r in zip(cases, rows) if c.result is not None and not c.truth.outside_library
-                 and set(c.result.get("final_effects") or []) != set(c.truth.effects)]
+                 and _named(c.result) != set(c.truth.effects)]
     print(f"\nhit rate            {hits}/{n} = {hits / n:.0%}")
     print(f"false 'found'       {false_found}/{n} = {false_found / n:.0%}")
     print(f"seconds/recording   mean {seconds.mean():.2f}, max {seconds.max():.2f}")

@@ -168,3 +168,20 @@ def test_noise_levels_are_relative():
     di = noisy.current_a[0] - clean.current_a[0]
     assert np.std(dv) == pytest.approx(0.1 * 0.8 * gain, rel=0.05)
     assert np.std(di) == pytest.approx(0.1 * 0.8, rel=0.05)
+
+
+def test_damped_two_mass_matches_its_transfer_function():
+    """v1/F = (m2 s^2 + c s + k) / ((m1 s + b)(m2 s^2 + c s + k) + m2 s (c s + k)).
+
+    The payload follows the motor by v2 / v1 = (c s + k) / (m2 s^2 + c s + k).
+    """
+    m1, m2, k, c, b = 18.0, 12.0, 9e5, 150.0, 440.0
+    f_hz = np.geomspace(1, 75, 7)
+    s = 2j * np.pi * f_hz
+    couple = m2 * s**2 + c * s + k
+    v1 = KT * couple / ((m1 * s + b) * couple + m2 * s * (c * s + k))
+    np.testing.assert_allclose(
+        sim.frequency_response(sim.two_mass(m1, m2, k, c, b, sensed="motor"), sim.Drive(), f_hz)[:, 0], v1, rtol=1e-10)
+    np.testing.assert_allclose(
+        sim.frequency_response(sim.two_mass(m1, m2, k, c, b, sensed="payload"), sim.Drive(), f_hz)[:, 0],
+        v1 * (c * s + k) / couple, rtol=1e-10)

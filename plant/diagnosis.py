@@ -17,6 +17,7 @@ describing the residual no effect of the library reproduces.
 
 from __future__ import annotations
 
+import functools
 import itertools
 import math
 from dataclasses import dataclass, replace
@@ -37,10 +38,13 @@ from plant.residuals import ResidualSummary, merge_failing, residual_summary
 ACCEPT_DELTA_BIC = 10.0
 #: models whose BIC differ by less than this are not told apart: the simpler is reported
 TIE_DELTA_BIC = 2.0
-#: chi^2 is consistent with noise when within NOISE_Z standard deviations of its expectation
+#: chi^2 is consistent with noise unless a correct model exceeds it with probability below the
+#: one-sided normal tail at NOISE_Z (1.35e-3)
 NOISE_Z = 3.0
 #: bands of consecutive frequencies whose chi^2 is tested on its own for adequacy
 ADEQUACY_BANDS = 6
+#: draws of the reference distribution of chi^2 for the adequacy test
+REFERENCE_DRAWS = 20000
 #: most effects in one model of the search
 MAX_EFFECTS = 3
 #: force amplitudes (fractions of the excitation force K_t I) a friction fit starts from
@@ -151,31 +155,42 @@ class Diagnosis:
 
 
 def chi2_is_noise(fit: FitResult) -> bool:
-    """chi^2 within ``NOISE_Z`` standard deviations of its expectation for a correct model, over all
-    frequencies and in each of ``ADEQUACY_BANDS`` log-spaced bands (a misfit confined to one band,
-    such as an unmodelled mode, must not hide in the total).
+    """chi^2 no larger than a correct model's at the one-sided ``NOISE_Z`` sigma level, over all
+    frequencies and in each of ``ADEQUACY_BANDS`` bands of consecutive frequencies (a misfit
+    confined to one band, such as an unmodelled mode, must not hide in the total; Bonferroni over
+    the bands).
 
     Per frequency and output, re^2 + im^2 of the normalised residual is 2 F(2, nu) when the variance
-    comes from an estimate with nu degrees of freedom (chi^2_2 for nu = inf): mean 2 nu / (nu - 2),
-    variance 4 nu^3 / ((nu - 2)^2 (nu - 4)); the fitted parameters take away their share of the mean.
+    comes from an estimate with nu degrees of freedom (chi^2_2 for nu = inf), scaled by
+    1 - n_params / n_data for the fitted parameters. Sums of these are right-skewed (heavy F tails),
+    so the tail probabilities come from ``REFERENCE_DRAWS`` seeded draws of the reference
+    distribution rather than from a normal approximation.
     """
     if fit.dof <= 0:
         return False
-    nu = np.asarray(fit.variance_dof, float)
-    n_out = fit.residuals.shape[0]
-    with np.errstate(divide="ignore", invalid="ignore"):
-        nu6 = np.maximum(nu, 6.0)
-        mean = n_out * np.where(np.isinf(nu), 2.0, 2 * nu / (nu6 - 2)) * (1 - fit.n_params / fit.n_data)
-        var = n_out * np.where(np.isinf(nu), 4.0, 4 * nu**3 / ((nu6 - 2) ** 2 * (nu6 - 4)))
+    draws = _reference_draws(tuple(np.asarray(fit.variance_dof, float)), fit.residuals.shape[0])
+    draws = draws * (1 - fit.n_params / fit.n_data)
     per_freq = fit.chi2_per_frequency
-    if per_freq.sum() > mean.sum() + NOISE_Z * math.sqrt(var.sum()):
-        return False
-    # a band's own test: Bonferroni over the bands keeps the overall false alarm near the total's
-    z_band = float(stats.norm.isf(stats.norm.sf(NOISE_Z) / ADEQUACY_BANDS))
-    for idx in np.array_split(np.arange(per_freq.size), min(ADEQUACY_BANDS, per_freq.size)):
-        if per_freq[idx].sum() > mean[idx].sum() + z_band * math.sqrt(var[idx].sum()):
+    alpha = float(stats.norm.sf(NOISE_Z))
+    groups = [np.arange(per_freq.size)] + (
+        np.array_split(np.arange(per_freq.size), ADEQUACY_BANDS) if per_freq.size >= 2 * ADEQUACY_BANDS else [])
+    for g, idx in enumerate(groups):
+        level = alpha if g == 0 else alpha / ADEQUACY_BANDS
+        if np.mean(draws[:, idx].sum(axis=1) >= per_freq[idx].sum()) < level:
             return False
     return True
+
+
+@functools.lru_cache(maxsize=32)
+def _reference_draws(nu: tuple[float, ...], n_out: int) -> np.ndarray:
+    """``REFERENCE_DRAWS`` draws of each frequency's chi^2 term for a correct model, (draws, n_freq)."""
+    rng = np.random.default_rng(0)
+    nu_arr = np.asarray(nu)
+    terms = rng.chisquare(2, (REFERENCE_DRAWS, n_out, nu_arr.size))
+    finite = np.isfinite(nu_arr)
+    if finite.any():
+        terms[:, :, finite] /= rng.chisquare(nu_arr[finite], (REFERENCE_DRAWS, n_out, int(finite.sum()))) / nu_arr[finite]
+    return terms.sum(axis=1)
 
 
 def _step(fit: FitResult, data: MeasuredResponse, ranking, decision) -> Step:

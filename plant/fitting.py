@@ -385,8 +385,8 @@ def fit_plant(plant: Plant, data: MeasuredResponse, *, free: Sequence[str] | Non
     ``multistart=False``: only the plant's own values. A nonlinear plant (``coulomb_friction``)
     gets ``excitation_current_a`` from the data per frequency. ``variance_dof``: real degrees of
     freedom of each frequency's variance (scalar or per frequency; inf = known exactly); default
-    2 (k - 1) from the estimator's sub-block counts ``data.metadata["subblocks"]`` when present,
-    else inf.
+    ``data.metadata["variance_dof"]`` from the estimator (else 2 (k - 1) from its sub-block counts
+    ``data.metadata["subblocks"]``), else inf.
     """
     t0 = time.perf_counter()
     f, g, var = _check_data(data)
@@ -519,10 +519,13 @@ def _project_mass_damping(problem: _Problem, batch: dict, g: np.ndarray, sigma: 
 
 def _variance_dof(data: MeasuredResponse, n_freq: int, variance_dof) -> np.ndarray:
     if variance_dof is None:
-        k = data.metadata.get("subblocks") if isinstance(data.metadata, Mapping) else None
-        if k is None or np.shape(k) != (n_freq,):
+        meta = data.metadata if isinstance(data.metadata, Mapping) else {}
+        if np.shape(meta.get("variance_dof")) == (n_freq,):
+            variance_dof = np.asarray(meta["variance_dof"], dtype=float)
+        elif np.shape(meta.get("subblocks")) == (n_freq,):
+            variance_dof = 2.0 * (np.asarray(meta["subblocks"], dtype=float) - 1)
+        else:
             return np.full(n_freq, np.inf)
-        variance_dof = 2.0 * (np.asarray(k, dtype=float) - 1)
     nu = np.broadcast_to(np.asarray(variance_dof, dtype=float), (n_freq,)) if np.ndim(variance_dof) == 0 \
         else np.asarray(variance_dof, dtype=float)
     if nu.shape != (n_freq,) or np.any(np.isnan(nu)) or np.any(nu <= 0):

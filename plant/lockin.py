@@ -15,8 +15,11 @@ keeps it unbiased where separate half-period fits are not), scaled by its exact 
 bias for this design (``_white_noise_factor``: 1 over whole periods). It covers current noise,
 coloured noise near the excitation and drifts, with nu = 2 (k - 1) real degrees of freedom for
 k sub-blocks (``metadata["subblocks"]``). A short block gets fewer sub-blocks, never sub-blocks
-shorter than half a period: its variance stays unbiased and says, through k, how little it is
-known (1 to 1.5 periods: 2 sub-blocks, 2 degrees of freedom). A block needs at least
+shorter than half a period. Below ``MIN_SCATTER_SUBBLOCKS`` sub-blocks (nu < 10) the scatter's own
+variance is too large to weight a fit by (1/var of an estimate with nu = 2 or 4 degrees of freedom
+has an infinite or enormous mean), so such a block's variance is the white-noise prediction from
+its fit residual, gain * (s_v^2 + |G|^2 s_i^2) / |I|^2 with the residual mean squares s^2 over
+n - p degrees of freedom; the note says so. ``metadata["variance_dof"]`` gives each block's nu. A block needs at least
 ``MIN_PERIODS`` period after settling, and every fit without one sub-block needs twice as many
 samples as it has coefficients; otherwise the block is left out with a note.
 
@@ -63,6 +66,8 @@ MIN_PERIODS = 1.0
 #: false-alarm probability of each per-block test on the data (``_detection_limit``,
 #: ``OUTPUT_DETECTION_LIMIT``): about one false finding in 250 recordings of 40 blocks
 TEST_P = 1e-4
+#: fewest sub-blocks whose scatter gives the variance (nu = 2 (k - 1) >= 10); below, the fit residual does
+MIN_SCATTER_SUBBLOCKS = 6
 #: an output's fundamental is detected when |V_hat|^2 exceeds this multiple of its white-noise
 #: variance (``_phasor_gain`` x the residual's power, known to thousands of degrees of freedom):
 #: without a sinusoid, |V_hat|^2 / var is exponential with mean 1, beyond ln(1 / TEST_P) with
@@ -284,6 +289,8 @@ class _BlockEstimate:
     settle_s: float
     periods: float
     subblocks: int
+    #: real degrees of freedom of ``variance``: 2 (k - 1) from the sub-blocks, or the residual's n - p
+    variance_dof: float
 
 
 @dataclass(frozen=True)
@@ -386,8 +393,14 @@ def _block_estimate(block: Block, settle_s: float | None, subblocks: int) -> _Bl
     if not current.sinusoid:
         return _Excluded(_current_note(label, current, fraction[1:]), not_sinusoid=True)
     detected = fundamental[1:] * 2 / (gain * residual[1:]) >= OUTPUT_DETECTION_LIMIT
+    dof = 2.0 * (k - 1)
+    if k < MIN_SCATTER_SUBBLOCKS:
+        n, p = B.shape
+        s2 = residual * n / (n - p)                                # unbiased residual mean squares
+        var = gain * (s2[1:] + np.abs(g) ** 2 * s2[0]) / abs(amps[0, 0]) ** 2
+        dof = float(n - p)
     return _BlockEstimate(g, var, float(abs(amps[0, 0])), snr_db[1:], distortion, fraction[1:], detected, current,
-                          float(settle), periods, k)
+                          float(settle), periods, k, dof)
 
 
 def _powers(sig: np.ndarray, B: np.ndarray, coef: np.ndarray, amps: np.ndarray):
@@ -462,6 +475,7 @@ def estimate_response(recording: Recording, *, settle_s: float | None = None, me
     notes = [n for j, r in enumerate(results) for n in _notes(recording, j, r)]
     metadata = {"settle_s": [results[j].settle_s for j in kept], "periods_used": [results[j].periods for j in kept],
                 "subblocks": [results[j].subblocks for j in kept],
+                "variance_dof": [getattr(results[j], "variance_dof", 2.0 * (results[j].subblocks - 1)) for j in kept],
                 "excluded_f_hz": [recording.blocks[j].f_hz for j, r in enumerate(results) if isinstance(r, _Excluded)],
                 "sample_rate_hz": _sample_rate_hz(recording), "recording": dict(recording.metadata)}
     quantum = encoder_velocity_quantum(recording)
@@ -518,9 +532,14 @@ def _notes(recording: Recording, j: int, result) -> list[str]:
     if isinstance(result, _Excluded):
         return [result.note]
     notes = []
-    if result.periods < 2:
-        notes.append(f"{label}: only {result.periods:.2f} periods after settling ({result.settle_s:.3g} s): used, "
-                     f"variance from {result.subblocks} sub-blocks ({2 * (result.subblocks - 1)} degrees of freedom)")
+    if result.periods < 2 or result.subblocks < MIN_SCATTER_SUBBLOCKS:
+        residual = isinstance(result, _BlockEstimate) and result.subblocks < MIN_SCATTER_SUBBLOCKS
+        source = (f"{result.subblocks} sub-blocks are too few for a scatter: variance from the fit residual, white "
+                  f"noise assumed ({result.variance_dof:.0f} degrees of freedom)" if residual else
+                  f"variance from {result.subblocks} sub-blocks ({2 * (result.subblocks - 1)} degrees of freedom)")
+        only = "only " if result.periods < 2 else ""
+        notes.append(f"{label}: {only}{result.periods:.2f} periods after settling ({result.settle_s:.3g} s): used, "
+                     f"{source}")
     if isinstance(result, _BlockEstimate):
         for k in np.flatnonzero(~result.detected):
             notes.append(f"{label}, output {recording.output_names[k]!r}: the fundamental is not detected above the "

@@ -7,6 +7,7 @@ from the code under test.
 """
 
 import json
+from dataclasses import replace
 import subprocess
 import sys
 
@@ -14,7 +15,8 @@ import numpy as np
 import pytest
 
 from plant import CoulombFriction, CurrentLoop, Delay, Resonance, TiltCoupling, stage_x, stage_y
-from plant.diagnosis import diagnose
+from plant.diagnosis import detect_nonlinearity, diagnose
+from plant.frequency_response import MeasuredResponse
 from plant.effects import EFFECTS
 from plant.errors import DataError
 from plant.lockin import amplitude_dependence, estimate_response
@@ -150,3 +152,19 @@ def test_cli_bad_input_exits_2_with_one_line(tmp_path):
                          text=True)
     assert out.returncode == 2
     assert out.stderr.strip().count("\n") == 0 and "row 3" in out.stderr and "current_a" in out.stderr
+
+
+def test_nan_harmonics_never_switch_off_nonlinearity_detection():
+    # a harmonic at or above 0.45 x the sample rate is NaN (not measurable); a clear 3rd harmonic
+    # elsewhere must still be detected, and a recording with no measurable harmonic is not called nonlinear
+    f = np.geomspace(1, 75, 10)
+    g = (stage_x().frd(2 * np.pi * f))[None]
+    hd = np.zeros((1, f.size, 2))
+    hd[0, 2, 1] = 0.05                     # 5 % third harmonic at the third frequency
+    hd[0, -3:, :] = np.nan                 # the top harmonics not measurable
+    data = MeasuredResponse(f, g, (1e-3 * np.abs(g)) ** 2, ("velocity",), np.full(f.size, 0.5), np.zeros((1, f.size)),
+                            hd)
+    nl = detect_nonlinearity(data)
+    assert nl.detected and nl.max_third_harmonic_f_hz == pytest.approx(f[2])
+    none = detect_nonlinearity(replace(data, harmonic_distortion=np.full_like(hd, np.nan)))
+    assert not none.detected and "no harmonic was measurable" in none.description

@@ -6,9 +6,10 @@ greedy path): each model starts from the optimum of every model it contains with
 effect at its neutral values, and from the effect's guesses on that model's residual, so a
 nested model never fits worse than its parent and a wrong first step is never locked in.
 
-Selection: the model of lowest BIC, replaced by a model it contains while that one is within
-``ACCEPT_DELTA_BIC`` (an effect is kept only on very strong evidence, Kass & Raftery 1995),
-and among models within ``TIE_DELTA_BIC`` by the one with fewer parameters. Every model within
+Selection: the model of lowest BIC, replaced by a simpler one while that one is within
+``ACCEPT_DELTA_BIC``: a model it contains, or one with fewer parameters that is itself consistent
+with the noise (an effect is kept only on very strong evidence, Kass & Raftery 1995); among
+models within ``TIE_DELTA_BIC`` the one with fewer parameters and simpler physics. Every model within
 ``ACCEPT_DELTA_BIC`` of the selected one is reported beside it, with what makes it
 equivalent. The verdict is ``explained`` only when the selected model's chi^2 is consistent
 with the noise (``chi2_is_noise``); otherwise it is ``not_explained`` and says so first,
@@ -370,12 +371,14 @@ def diagnose(plant: Plant, data: MeasuredResponse, *, candidates: tuple[str, ...
                 best.plant, excitation_current_a=np.asarray(data.current_amplitude_a, dtype=float))
             child = host * effect
             fits[effects] = _fit_child(parents, name, child, data, free_base, fixed)
-    selected = _select(fits, base)
+    adequate = {k: chi2_is_noise(f) for k, f in fits.items()}
+    selected = _select(fits, adequate)
     final = fits[selected]
-    explained = chi2_is_noise(final)
+    explained = adequate[selected]
     alternatives = tuple(
-        Alternative(k, fits[k].bic - final.bic, fits[k].reduced_chi2, chi2_is_noise(fits[k]),
-                    _relation(k, selected, fits))
+        Alternative(k, fits[k].bic - final.bic, fits[k].reduced_chi2, adequate[k],
+                    ("lower BIC, but its extra parameters fall short of very strong evidence; "
+                     if fits[k].bic < final.bic else "") + _relation(k, selected, fits))
         for k in sorted(fits, key=lambda k: fits[k].bic)
         if k != selected and fits[k].bic - final.bic < ACCEPT_DELTA_BIC)
     steps = _path(fits, base, selected, data, skipped, unidentifiable, pool)
@@ -407,16 +410,19 @@ def _residual_peak(res: ResidualSummary) -> str:
            f"{res.phase_error_deg[:, k].mean():+.1f} deg), which "
 
 
-def _select(fits: dict[tuple[str, ...], FitResult], base: tuple[str, ...]) -> tuple[str, ...]:
-    """Lowest BIC, then its simplest nested model within ``ACCEPT_DELTA_BIC``, then among the models
-    within ``TIE_DELTA_BIC`` of it the one with fewest effects, parameters and the simplest physics
+def _select(fits: dict[tuple[str, ...], FitResult], adequate: dict[tuple[str, ...], bool]) -> tuple[str, ...]:
+    """Lowest BIC; then, while one exists within ``ACCEPT_DELTA_BIC`` of it, a simpler model: one it
+    contains, or one with fewer parameters that is itself consistent with the noise (an effect, or
+    a more elaborate one, is kept only on very strong evidence); then among the models within
+    ``TIE_DELTA_BIC`` the one with fewest effects, parameters and the simplest physics
     (``Effect.complexity``)."""
     chosen = min(fits, key=lambda k: fits[k].bic)
     while True:
-        nested = [k for k in fits if set(k) < set(chosen) and fits[k].bic < fits[chosen].bic + ACCEPT_DELTA_BIC]
-        if not nested:
+        simpler = [k for k in fits if fits[k].bic < fits[chosen].bic + ACCEPT_DELTA_BIC and (
+            set(k) < set(chosen) or (fits[k].n_params < fits[chosen].n_params and adequate[k]))]
+        if not simpler:
             break
-        chosen = min(nested, key=lambda k: (len(k), fits[k].bic))
+        chosen = min(simpler, key=lambda k: (fits[k].n_params, len(k), fits[k].bic))
     ties = [k for k in fits if abs(fits[k].bic - fits[chosen].bic) < TIE_DELTA_BIC]
     return min(ties, key=lambda k: (len(k), fits[k].n_params, sum(EFFECTS[n].complexity for n in k), fits[k].bic))
 

@@ -6,7 +6,8 @@ greedy path): each model starts from the optimum of every model it contains with
 effect at its neutral values, and from the effect's guesses on that model's residual, so a
 nested model never fits worse than its parent and a wrong first step is never locked in.
 
-Selection: the model of lowest BIC, replaced by a simpler one while that one is within
+Selection: the model of lowest BIC (among those consistent with the noise, when any is), replaced
+by a simpler one while that one is within
 ``ACCEPT_DELTA_BIC``: a model it contains, or one with fewer parameters that is itself consistent
 with the noise (an effect is kept only on very strong evidence, Kass & Raftery 1995); among
 models within ``TIE_DELTA_BIC`` the one with fewer parameters and simpler physics. Every model within
@@ -411,19 +412,22 @@ def _residual_peak(res: ResidualSummary) -> str:
 
 
 def _select(fits: dict[tuple[str, ...], FitResult], adequate: dict[tuple[str, ...], bool]) -> tuple[str, ...]:
-    """Lowest BIC; then, while one exists within ``ACCEPT_DELTA_BIC`` of it, a simpler model: one it
-    contains, or one with fewer parameters that is itself consistent with the noise (an effect, or
-    a more elaborate one, is kept only on very strong evidence); then among the models within
-    ``TIE_DELTA_BIC`` the one with fewest effects, parameters and the simplest physics
-    (``Effect.complexity``)."""
-    chosen = min(fits, key=lambda k: fits[k].bic)
+    """Lowest BIC among the models consistent with the noise (among all when none is); then, while
+    one exists within ``ACCEPT_DELTA_BIC`` of it, a simpler model: one it contains, or one with fewer
+    parameters that is itself consistent with the noise (an effect, or a more elaborate one, is kept
+    only on very strong evidence); then among the models within ``TIE_DELTA_BIC`` the one with fewest
+    effects, parameters and the simplest physics (``Effect.complexity``). A model consistent with
+    the noise is never traded for one that is not."""
+    chosen = min((k for k in fits if adequate[k]) if any(adequate.values()) else fits, key=lambda k: fits[k].bic)
     while True:
-        simpler = [k for k in fits if fits[k].bic < fits[chosen].bic + ACCEPT_DELTA_BIC and (
-            set(k) < set(chosen) or (fits[k].n_params < fits[chosen].n_params and adequate[k]))]
+        simpler = [k for k in fits if fits[k].bic < fits[chosen].bic + ACCEPT_DELTA_BIC
+                   and (adequate[k] or not adequate[chosen])
+                   and (set(k) < set(chosen) or (fits[k].n_params < fits[chosen].n_params and adequate[k]))]
         if not simpler:
             break
         chosen = min(simpler, key=lambda k: (fits[k].n_params, len(k), fits[k].bic))
-    ties = [k for k in fits if abs(fits[k].bic - fits[chosen].bic) < TIE_DELTA_BIC]
+    ties = [k for k in fits if abs(fits[k].bic - fits[chosen].bic) < TIE_DELTA_BIC
+            and (adequate[k] or not adequate[chosen])]
     return min(ties, key=lambda k: (len(k), fits[k].n_params, sum(EFFECTS[n].complexity for n in k), fits[k].bic))
 
 

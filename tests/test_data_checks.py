@@ -9,6 +9,8 @@ a broadband current goes through the plant's exact zero-order-hold discretisatio
 """
 
 import json
+import subprocess
+import sys
 
 import numpy as np
 import pytest
@@ -267,3 +269,14 @@ def test_an_output_flat_in_one_block_leaves_that_block_out():
     flat = [Block(b.f_hz, b.time_s, b.current_a, np.zeros_like(b.velocity_m_per_s)) for b in blocks]
     with pytest.raises(DataError, match="every sample is 0; a dead channel"):
         estimate_response(rec(flat))
+
+
+def test_diagnose_refuses_broadband_data_in_one_line(tmp_path):
+    """The command line: exit status 2, one line naming the file, no diagnosis of broadband data."""
+    rng = np.random.default_rng(3)
+    path = tmp_path / "broadband.csv"
+    write_recording_csv(rec([broadband_block(f, _random_current(int(2.0 * FS), rng), rng=rng) for f in F_HZ]), path)
+    out = subprocess.run([sys.executable, "-m", "design", "diagnose", str(path), "--stage", "x", "--json"],
+                         capture_output=True, text=True)
+    assert out.returncode == 2 and out.stdout == ""
+    assert out.stderr.count("\n") == 1 and "broadband.csv" in out.stderr and "not look like a stepped sine" in out.stderr

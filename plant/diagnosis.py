@@ -8,7 +8,8 @@ nested model never fits worse than its parent and a wrong first step is never lo
 
 Selection: the model of lowest BIC (among those consistent with the noise, when any is), replaced
 by a simpler one while that one is within
-``ACCEPT_DELTA_BIC``: a model it contains, or one with fewer parameters that is itself consistent
+``ACCEPT_DELTA_BIC``: a model it contains, or one with fewer parameters (or as many with simpler
+physics: a pure delay before a lag or hold before a filter or mode) that is itself consistent
 with the noise (an effect is kept only on very strong evidence, Kass & Raftery 1995); among
 models within ``TIE_DELTA_BIC`` the one with fewer parameters and simpler physics. Every model within
 ``ACCEPT_DELTA_BIC`` of the selected one is reported beside it, with what makes it
@@ -414,21 +415,31 @@ def _residual_peak(res: ResidualSummary) -> str:
 def _select(fits: dict[tuple[str, ...], FitResult], adequate: dict[tuple[str, ...], bool]) -> tuple[str, ...]:
     """Lowest BIC among the models consistent with the noise (among all when none is); then, while
     one exists within ``ACCEPT_DELTA_BIC`` of it, a simpler model: one it contains, or one with fewer
-    parameters that is itself consistent with the noise (an effect, or a more elaborate one, is kept
-    only on very strong evidence); then among the models within ``TIE_DELTA_BIC`` the one with fewest
+    parameters or as many with simpler physics (``Effect.complexity``) that is itself consistent with
+    the noise (an effect, or a more elaborate one, is kept only on very strong evidence); then among the models within ``TIE_DELTA_BIC`` the one with fewest
     effects, parameters and the simplest physics (``Effect.complexity``). A model consistent with
     the noise is never traded for one that is not."""
     chosen = min((k for k in fits if adequate[k]) if any(adequate.values()) else fits, key=lambda k: fits[k].bic)
     while True:
         simpler = [k for k in fits if fits[k].bic < fits[chosen].bic + ACCEPT_DELTA_BIC
                    and (adequate[k] or not adequate[chosen])
-                   and (set(k) < set(chosen) or (fits[k].n_params < fits[chosen].n_params and adequate[k]))]
+                   and (set(k) < set(chosen) or (_simpler(k, chosen, fits) and adequate[k]))]
         if not simpler:
             break
-        chosen = min(simpler, key=lambda k: (fits[k].n_params, len(k), fits[k].bic))
+        chosen = min(simpler, key=lambda k: (fits[k].n_params, _complexity(k), len(k), fits[k].bic))
     ties = [k for k in fits if abs(fits[k].bic - fits[chosen].bic) < TIE_DELTA_BIC
             and (adequate[k] or not adequate[chosen])]
-    return min(ties, key=lambda k: (len(k), fits[k].n_params, sum(EFFECTS[n].complexity for n in k), fits[k].bic))
+    return min(ties, key=lambda k: (len(k), fits[k].n_params, _complexity(k), fits[k].bic))
+
+
+def _complexity(effects: tuple[str, ...]) -> int:
+    return sum(EFFECTS[n].complexity for n in effects)
+
+
+def _simpler(a: tuple[str, ...], b: tuple[str, ...], fits) -> bool:
+    """Model ``a`` assumes less than ``b``: fewer parameters, or as many with simpler physics."""
+    pa, pb = fits[a].n_params, fits[b].n_params
+    return pa < pb or (pa == pb and _complexity(a) < _complexity(b))
 
 
 def _path(fits, base, selected, data, skipped, unidentifiable, pool) -> list[Step]:

@@ -1,6 +1,7 @@
-"""Diagnosis on data with a hidden effect (issue 4), using the project's own seeded simulator.
+"""Diagnosis on data with a hidden effect, using the project's own seeded simulator (the independent
+one is in test_diagnosis_independent.py and benchmarks/bench_diagnosis.py).
 
-Hidden-effect parameters are drawn from the ranges of issue 4: delay 0.3-3 ms, current-loop
+Hidden-effect parameters: delay 0.3-3 ms, current-loop
 bandwidth 30-150 Hz, resonance 30-70 Hz with damping ratio 0.02-0.1, Coulomb friction 10-40 %
 of the excitation force, mass 25-50 kg, noise 1-5 %. The truth comes from the draw, never
 from the code under test.
@@ -68,7 +69,7 @@ def test_hidden_effect_hit_rate(kind):
 
 
 def test_parsimony_only_mass_wrong():
-    # true mass 43 kg instead of the thesis's 35 (issue 4, "Parsimony"): refit explains it, no effect added
+    # true mass 43 kg instead of the thesis's 35 (parsimony): refit explains it, no effect added
     rec = simulate_stepped_sine(stage_x(mass_kg=43.0), f_hz=F_HZ, current_amplitude_a=AMPLITUDE_A,
                                 noise_fraction=0.02, seed=3)
     diag = diagnose(stage_x(), estimate_response(rec))

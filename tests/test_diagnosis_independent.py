@@ -39,6 +39,10 @@ def test_delay_and_mode_fit_globally_and_nest(tmp_path):
     diag = diagnose(stage_x(), data)
     assert diag.verdict == "explained" and set(diag.final_effects) == {"delay", "resonance"}
     assert diag.final.plant.modes_hz() == pytest.approx(net.mode_frequencies_hz(), rel=0.02)
+    # a search, not a greedy path: every valid combination of up to three of the four chain effects and
+    # the modes (resonance or payload_resonance, second_resonance only with one of them) is fitted:
+    # 1 base + (4 + 2) + (6 + 4 * 2 + 2) + (4 + 6 * 2 + 4 * 2) = 47 models
+    assert len(diag.models) == 47
     for effects, child in diag.models.items():
         for parent_effects, parent in diag.models.items():
             if set(parent_effects) < set(effects):

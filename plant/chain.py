@@ -223,6 +223,7 @@ class EncoderVelocity(ChainEffect):
     main_parameter: ClassVar[str] = "rate_hz"
     neutral: ClassVar = {"rate_hz": VANISHED_HZ}
     searched: ClassVar[bool] = False
+    not_searched: ClassVar[str] = "a property of the sensor, set from the recording, not searched for"
 
     def __post_init__(self) -> None:
         self._check_positive()

@@ -251,7 +251,7 @@ def _pool(plant: Plant, data: MeasuredResponse, nonlinear: Nonlinearity,
         if name in plant.effect_names:
             skipped[name] = "already in the model"
         elif not cls.searched:
-            skipped[name] = "a property of the sensor, set from the recording, not searched for"
+            skipped[name] = cls.not_searched
         elif plant.stage not in cls.stages:
             skipped[name] = f"applies to Stage {'/'.join(s.upper() for s in cls.stages)} only"
         elif len(data.output_names) < cls.min_outputs:

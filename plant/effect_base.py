@@ -17,7 +17,9 @@ broadcast against the frequency axis) it owns what the rest of the tool needs to
 * ``excludes`` / ``requires_any``: effects it cannot be combined with / needs;
 * ``search_fixed``: parameters held at their defaults by the model search;
 * ``complexity``: how much physics it assumes, breaking ties between equivalent models;
-* ``in_synthesis``: has a response formula of ``s`` that casadi can build (PI synthesis).
+* ``in_synthesis``: has a response formula of ``s`` that casadi can build (PI synthesis);
+* ``force_regressors(v)``: its force as a sum of parameters times known signals of the velocity,
+  for the time-domain inverse model (None where it has no such form).
 """
 
 from __future__ import annotations
@@ -56,8 +58,9 @@ class Effect(abc.ABC):
     stages: ClassVar[tuple[str, ...]] = ("x", "y")
     #: fewest recorded outputs for the effect to be identifiable (2: both Y rails)
     min_outputs: ClassVar[int] = 1
-    #: tried by the diagnosis's model search (False: set from what is known of the sensor)
+    #: tried by the frequency-domain model search; ``not_searched`` says why not
     searched: ClassVar[bool] = True
+    not_searched: ClassVar[str] = ""
     #: has a response formula of s for casadi (the exact PI synthesis needs one)
     in_synthesis: ClassVar[bool] = True
     search_fixed: ClassVar[tuple[str, ...]] = ()
@@ -92,6 +95,13 @@ class Effect(abc.ABC):
 
     def equivalent_delay_s(self) -> float | None:
         """Pure delay with the same low-frequency phase, or None when the effect is not delay-like."""
+        return None
+
+    @classmethod
+    def force_regressors(cls, velocity_m_per_s: np.ndarray) -> dict[str, np.ndarray] | None:
+        """The effect's force (N) needed on top of the rigid body as sum(p * signal): field -> signal
+        (the time-domain inverse model is linear in these parameters); None when the effect has no
+        such form (a delay, a mode or a filter act on the dynamics, not on the force balance)."""
         return None
 
 

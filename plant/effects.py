@@ -6,7 +6,8 @@ Where an effect sits decides how it composes (``plant.effect_base``):
   ``sampling``, ``sensor_filter``, ``encoder_velocity``;
 * mechanics, parts of the lumped network (``plant.mechanics``): ``resonance`` (two-mass,
   recorded at the motor), ``payload_resonance`` (recorded at the payload), ``second_resonance``
-  (three-mass chain), ``tilt_coupling`` (Y rails, off-centre load), ``coulomb_friction``.
+  (three-mass chain), ``tilt_coupling`` (Y rails, off-centre load), ``coulomb_friction``,
+  ``offset`` (a constant force, time-domain data only).
 
 Adding an effect means adding one class here. Parameter names and units follow
 ``shared/ARCHITECTURE.md``: an effect parameter is written ``effect.parameter``.
@@ -20,12 +21,12 @@ from plant.chain import CurrentLoop, Delay, EncoderVelocity, Sampling, SensorFil
 from plant.effect_base import PADE_ORDER, ChainEffect, Effect, MechanicalEffect
 from plant.errors import EffectError, ParameterError
 from plant.mechanics import (
-    CoulombFriction, ModeEffect, PayloadResonance, Resonance, SecondResonance, TiltCoupling,
+    CoulombFriction, ModeEffect, Offset, PayloadResonance, Resonance, SecondResonance, TiltCoupling,
 )
 
 EFFECTS: dict[str, type[Effect]] = {
     cls.name: cls for cls in (Delay, CurrentLoop, Sampling, SensorFilter, EncoderVelocity, Resonance,
-                              PayloadResonance, SecondResonance, CoulombFriction, TiltCoupling)
+                              PayloadResonance, SecondResonance, CoulombFriction, Offset, TiltCoupling)
 }
 
 
@@ -48,6 +49,6 @@ def make_effect(name: str, **params: float) -> Effect:
 
 __all__ = [
     "EFFECTS", "PADE_ORDER", "ChainEffect", "CoulombFriction", "CurrentLoop", "Delay", "Effect", "EncoderVelocity",
-    "MechanicalEffect", "ModeEffect", "PayloadResonance", "Resonance", "Sampling", "SecondResonance", "SensorFilter",
+    "MechanicalEffect", "ModeEffect", "Offset", "PayloadResonance", "Resonance", "Sampling", "SecondResonance", "SensorFilter",
     "TiltCoupling", "make_effect",
 ]

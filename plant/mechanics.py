@@ -36,7 +36,7 @@ import numpy as np
 
 from plant.effect_base import MechanicalEffect
 from plant.errors import ParameterError
-from plant.parameters import check_positive
+from plant.parameters import check_finite, check_positive
 
 #: a mode this high (Hz) is far above any recorded band: the bodies move as one
 RIGID_HZ = 1.0e7
@@ -262,6 +262,37 @@ class CoulombFriction(MechanicalEffect):
     def force(self, velocity_m_per_s) -> np.ndarray:
         """Exact friction force (N) opposing motion at velocity v (sliding branch)."""
         return np.asarray(self.force_n) * np.sign(velocity_m_per_s)
+
+    @classmethod
+    def force_regressors(cls, velocity_m_per_s: np.ndarray) -> dict[str, np.ndarray]:
+        return {"force_n": np.sign(velocity_m_per_s)}
+
+
+@dataclass(frozen=True)
+class Offset(MechanicalEffect):
+    """A constant force ``force_n`` (N) the motor must supply whatever the motion: gravity on a
+    tilted axis, a cable carrier's pull, an amplifier offset (force = force_constant x current
+    offset). It changes no frequency response (a constant force has no component at a
+    non-zero frequency), so it is fitted from time-domain data only (the EMPS benchmark's
+    "offset", Janot, Gautier & Brunot 2019)."""
+
+    force_n: float = 0.0
+    name: ClassVar[str] = "offset"
+    bounds: ClassVar = {"force_n": (-1000.0, 1000.0, "N")}
+    signature: ClassVar[str] = "a residual force of one sign whatever the direction of motion"
+    main_parameter: ClassVar[str] = "force_n"
+    neutral: ClassVar = {"force_n": 0.0}
+    searched: ClassVar[bool] = False
+    not_searched: ClassVar[str] = ("a constant force leaves no trace in a frequency response; fitted from "
+                                   "time-domain recordings")
+    complexity: ClassVar[int] = 0
+
+    def __post_init__(self) -> None:
+        check_finite("offset.force_n", self.force_n)
+
+    @classmethod
+    def force_regressors(cls, velocity_m_per_s: np.ndarray) -> dict[str, np.ndarray]:
+        return {"force_n": np.ones_like(np.asarray(velocity_m_per_s, dtype=float))}
 
 
 @dataclass(frozen=True)

@@ -20,7 +20,9 @@ import numpy as np
 from plant.errors import DataError
 from plant.recording import Block, Recording
 
-ROLES = ("frequency", "time", "current", "velocity")
+ROLES = ("frequency", "time", "current", "velocity", "position", "reference")
+#: roles a stepped-sine recording may map
+STEPPED_ROLES = ("frequency", "time", "current", "velocity")
 
 
 class _Columns(NamedTuple):
@@ -39,20 +41,25 @@ class _Columns(NamedTuple):
 def parse_column_map(text: str) -> dict[str, list[str]]:
     """``"frequency=2,current=3,velocity=6,velocity=7"`` -> ``{"frequency": ["2"], ..., "velocity": ["6", "7"]}``.
 
-    Values are 1-based column numbers (spreadsheets) or channel names (TDMS)."""
+    Values are 1-based column numbers (spreadsheets), header names (CSV), channel names (TDMS) or
+    variable names (MATLAB). A map needs a current and velocity or position outputs; a stepped sine
+    also names its frequency column, a time-domain recording its time (and may name a reference)."""
     out: dict[str, list[str]] = {}
     for item in (p.strip() for p in text.split(",") if p.strip()):
         role, eq, col = item.partition("=")
         role = role.strip()
         if not eq or not col.strip():
-            raise DataError(f"column map item {item!r}: expected ROLE=COLUMN, e.g. frequency=2")
+            raise DataError(f"column map item {item!r}: expected ROLE=COLUMN, e.g. current=3")
         if role not in ROLES:
             raise DataError(f"column map item {item!r}: unknown role {role!r}; roles are {', '.join(ROLES)}")
         out.setdefault(role, []).append(col.strip())
-    for role in ("frequency", "current", "velocity"):
-        if role not in out:
-            raise DataError(f"column map {text!r} names no {role} column")
-    for role in ("frequency", "time", "current"):
+    if "current" not in out:
+        raise DataError(f"column map {text!r} names no current column")
+    if "velocity" not in out and "position" not in out:
+        raise DataError(f"column map {text!r} names no output: give velocity=... or position=...")
+    if "velocity" in out and "position" in out:
+        raise DataError(f"column map {text!r} names both velocity and position outputs; give one kind")
+    for role in ("frequency", "time", "current", "reference"):
         if len(out.get(role, [])) > 1:
             raise DataError(f"column map {text!r} names {len(out[role])} {role} columns; give one")
     named = [c for cols in out.values() for c in cols]
@@ -76,6 +83,14 @@ def read_recording(path: str | Path, *, columns: dict[str, list[str]] | None = N
     path = Path(path)
     if not path.is_file():
         raise DataError(f"{path}: no such file")
+    if columns:
+        if "frequency" not in columns:
+            raise DataError(f"{path}: a stepped-sine column map names the frequency column, e.g. frequency=2 "
+                            "(without one the file is a time-domain recording)")
+        other = sorted(set(columns) - set(STEPPED_ROLES))
+        if other:
+            raise DataError(f"{path}: a stepped-sine recording has no {other[0]} column (roles: "
+                            f"{', '.join(STEPPED_ROLES)})")
     suffix = path.suffix.lower()
     if suffix == ".csv":
         found = _read_csv(path, columns)
@@ -90,9 +105,9 @@ def read_recording(path: str | Path, *, columns: dict[str, list[str]] | None = N
             "velocity": list(found.outputs)}
     for name, factor in (scale or {}).items():
         role, _, column = name.partition(":")
-        if role not in ROLES or isinstance(factor, bool) or not isinstance(factor, (int, float)) \
+        if role not in STEPPED_ROLES or isinstance(factor, bool) or not isinstance(factor, (int, float)) \
                 or not math.isfinite(factor) or factor == 0:
-            raise DataError(f"scale {name}={factor!r}: role must be one of {', '.join(ROLES)} (or ROLE:COLUMN for "
+            raise DataError(f"scale {name}={factor!r}: role must be one of {', '.join(STEPPED_ROLES)} (or ROLE:COLUMN for "
                             "one column) and the factor a finite non-zero number")
         targets = [k for k in keys[role] if k in found.ids and (not column or found.ids[k] == column)]
         if column and not targets:

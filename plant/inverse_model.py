@@ -1,0 +1,134 @@
+"""Signals of the time-domain inverse dynamic model: force, velocity and acceleration, filtered
+and decimated as IDIM-LS does it (Gautier; Janot, Gautier & Brunot, "Data Set and Reference
+Models of EMPS", 2019, and its script ``Script_IDIM_LS.m``).
+
+The motor force is F = K_f u (``force_constant_n_per_a`` times the drive input). Position (or
+velocity) is low-passed by a Butterworth filter applied forward and backward (zero phase; order
+4, corner ``filter_hz``, the script's 100 Hz = 5 x the axis's 20 Hz dynamics), then differentiated
+by central differences; ``EDGE_SAMPLES`` are dropped at both ends where the filter and the
+differences have no past or future. Every regressor column (sign(v) of the Coulomb friction
+included, computed at the full rate) and the force are then decimated by
+``scipy.signal.decimate`` (order-8 Chebyshev type I anti-alias filter at 0.8 x the new Nyquist
+frequency, forward and backward, as MATLAB's ``decimate``), with the factor of the script,
+round(0.8 (fs / 2) / decimate_band_hz). The decimation filter removes the force's content above
+the band, where the rigid-body model says nothing and the controller's noise lives, so the
+regression sees the same band in every column (a "parallel" filter).
+
+Noise. The white measurement noise of the force and of the position is estimated from second
+differences of the raw signals at the full rate (Gasser, Sroka & Jennen-Steinmetz 1986:
+sigma^2 = sum (x_(k+1) - 2 x_k + x_(k-1))^2 / (6 (n - 2)) for a smooth signal plus white noise),
+and its contribution to the regression residual, F_noise - M a_noise - b v_noise after the whole
+chain, is computed by passing seeded white noise of those levels through the same chain
+(``residual_noise_std_n``).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.signal
+
+from plant.errors import DataError
+from plant.time_recording import TimeRecording
+
+#: Butterworth corner (Hz) and order of the reference script
+FILTER_HZ = 100.0
+FILTER_ORDER = 4
+#: band (Hz) kept by the decimation of the reference script (2 x 20 Hz)
+DECIMATE_BAND_HZ = 40.0
+#: samples dropped at each end after filtering and differencing (the script drops 50)
+EDGE_SAMPLES = 50
+#: seed of the white noise passed through the chain to predict the residual's noise
+NOISE_SEED = 20190101
+
+
+@dataclass(frozen=True)
+class InverseModelData:
+    """Filtered, differentiated and decimated signals of one recording (SI units)."""
+
+    time_s: np.ndarray
+    force_n: np.ndarray
+    velocity_m_per_s: np.ndarray
+    acceleration_m_per_s2: np.ndarray
+    sample_rate_hz: float
+    decimation: int
+    filter_hz: float
+    #: white-noise standard deviation of the raw force (N) and output (m or m/s) at the full rate
+    force_noise_n: float
+    output_noise: float
+    #: the chain applied to seeded white noise of those levels: (force, velocity, acceleration)
+    noise_force_n: np.ndarray
+    noise_velocity_m_per_s: np.ndarray
+    noise_acceleration_m_per_s2: np.ndarray
+    source: str
+    #: filtered velocity at the full rate, edges cut: nonlinear regressors are formed from it
+    #: before the decimation (``decimate``)
+    full_rate_velocity_m_per_s: np.ndarray
+
+    def decimate(self, signal: np.ndarray) -> np.ndarray:
+        """A full-rate signal (``full_rate_velocity_m_per_s``'s samples) decimated as the columns are."""
+        return _decimate(signal, self.decimation)
+
+    def residual_noise_std_n(self, mass_kg: float, damping_n_s_per_m: float) -> float:
+        """Standard deviation (N) of the regression residual that the measurement noise alone gives."""
+        e = self.noise_force_n - mass_kg * self.noise_acceleration_m_per_s2 - damping_n_s_per_m * \
+            self.noise_velocity_m_per_s
+        return float(np.std(e))
+
+
+def difference_noise_std(x: np.ndarray) -> float:
+    """White-noise standard deviation of ``x`` from its second differences (module doc)."""
+    d2 = np.diff(np.asarray(x, dtype=float), 2)
+    return float(np.sqrt(np.sum(d2**2) / (6 * max(d2.size, 1))))
+
+
+def decimation_factor(sample_rate_hz: float, band_hz: float) -> int:
+    """The reference script's factor round(0.8 (fs / 2) / band), at least 1."""
+    return max(1, int(round(0.8 * sample_rate_hz / 2 / band_hz)))
+
+
+def _chain(rec_fs: float, output: np.ndarray, force: np.ndarray, kind: str, filter_hz: float, r: int):
+    """(force, velocity, acceleration) through filter, differences, edge cut and decimation."""
+    b, a = scipy.signal.butter(FILTER_ORDER, filter_hz / (rec_fs / 2))
+    h = 1.0 / rec_fs
+    y = scipy.signal.filtfilt(b, a, output)
+    if kind == "position":
+        v = np.gradient(y, h)
+    else:
+        v = y
+    acc = np.gradient(v, h)
+    cut = slice(EDGE_SAMPLES, output.size - EDGE_SAMPLES)
+    return [_decimate(c, r) for c in (force[cut], v[cut], acc[cut])] + [v[cut]]
+
+
+def _decimate(x: np.ndarray, r: int) -> np.ndarray:
+    return scipy.signal.decimate(x, r, ftype="iir", zero_phase=True) if r > 1 else np.asarray(x, dtype=float)
+
+
+def inverse_model_data(rec: TimeRecording, force_constant_n_per_a: float, *, filter_hz: float = FILTER_HZ,
+                       decimate_band_hz: float = DECIMATE_BAND_HZ) -> InverseModelData:
+    """The IDIM-LS signals of ``rec`` (module doc); outputs are averaged (both rails of Stage Y)."""
+    fs = rec.sample_rate_hz
+    if not 0 < filter_hz < 0.5 * fs:
+        raise DataError(f"{rec.source}: the filter corner {filter_hz:g} Hz must lie below the Nyquist frequency "
+                        f"{fs / 2:g} Hz")
+    if not 0 < decimate_band_hz <= filter_hz:
+        raise DataError(f"{rec.source}: the decimation band {decimate_band_hz:g} Hz must be positive and at most the "
+                        f"filter corner {filter_hz:g} Hz")
+    r = decimation_factor(fs, decimate_band_hz)
+    n_kept = (rec.n_samples - 2 * EDGE_SAMPLES) // r
+    if n_kept < 30:
+        raise DataError(f"{rec.source}: {rec.n_samples} samples leave {max(n_kept, 0)} after the edges and decimation "
+                        f"by {r}; record at least {(30 * r + 2 * EDGE_SAMPLES) / fs:.3g} s")
+    output = rec.output.mean(axis=0)
+    force = force_constant_n_per_a * rec.current_a
+    f, v, acc, v_full = _chain(fs, output, force, rec.output_kind, filter_hz, r)
+    sigma_f = difference_noise_std(force)
+    sigma_y = float(np.mean([difference_noise_std(o) for o in rec.output])) / np.sqrt(rec.output.shape[0])
+    rng = np.random.default_rng(NOISE_SEED)
+    nf, nv, na, _ = _chain(fs, sigma_y * rng.standard_normal(rec.n_samples),
+                        sigma_f * rng.standard_normal(rec.n_samples), rec.output_kind, filter_hz, r)
+    t = rec.time_s[EDGE_SAMPLES: rec.n_samples - EDGE_SAMPLES][::r][: f.size]
+    return InverseModelData(t, f, v, acc, fs / r, r, filter_hz, sigma_f, sigma_y, nf, nv, na, rec.source,
+                            v_full)

@@ -1,0 +1,226 @@
+"""Diagnosis on a time-domain recording: where the thesis's linear model (mass and rail damping)
+fails, which force effects are missing, added one at a time while the error falls.
+
+Candidates are the effects with a force model (``Effect.force_regressors``: ``coulomb_friction``,
+``offset``). Every combination is fitted by the inverse model (``plant.time_fit``; linear least
+squares, so each fit is global and a model containing another never fits worse). Models are
+compared by BIC with the residual's own variance and one effective sample size for all (that of
+the largest model; ``plant.time_fit`` module doc). The selected model is the simplest that
+explains the data (residual consistent with the measurement noise, ``TimeFitResult.explained``);
+when none does, the lowest BIC, except that a model with fewer effects within ``DELTA_BIC_STRONG``
+of it is kept (Kass & Raftery 1995: "very strong" evidence is needed for each added effect). The
+verdict is "explained" only when the selected model's residual is noise; otherwise it says what
+is left and where.
+
+The base model's residual is described by regime of motion and by direction: a force that
+changes sign with the direction of motion is the signature of Coulomb friction; one of the same
+sign both ways, of a constant force.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from plant.effects import EFFECTS, make_effect
+from plant.errors import EffectError
+from plant.inverse_model import DECIMATE_BAND_HZ, FILTER_HZ, InverseModelData, inverse_model_data
+from plant.models import Plant
+from plant.time_fit import TimeFitResult, bic, fit_inverse_model
+from plant.time_recording import TimeRecording
+
+#: BIC difference of "very strong" evidence for a larger model
+DELTA_BIC_STRONG = 10.0
+#: fraction of the 99th percentile of |v| above which a sample counts as moving in one direction
+DIRECTION_FRACTION = 0.05
+
+
+@dataclass(frozen=True)
+class TimeCandidate:
+    """One effect tried on the base model."""
+
+    effect: str
+    delta_bic: float
+    rms_residual_n: float
+
+
+@dataclass(frozen=True)
+class TimeStep:
+    """One model on the path from the base to the selected model."""
+
+    effects: tuple[str, ...]
+    fit: TimeFitResult
+    bic: float
+    decision: str
+
+
+@dataclass(frozen=True)
+class DirectionalResidual:
+    """Mean residual (N) while moving forward and backward, and what their signs suggest."""
+
+    forward_n: float
+    backward_n: float
+    description: str
+
+
+@dataclass(frozen=True)
+class TimeDiagnosis:
+    """Result of ``diagnose_time``."""
+
+    steps: tuple[TimeStep, ...]
+    ranking: tuple[TimeCandidate, ...]
+    models: dict[tuple[str, ...], TimeFitResult]
+    selected: tuple[str, ...]
+    verdict: str
+    explanation: str
+    where_it_fails: str
+    direction: DirectionalResidual
+    #: the effective sample size shared by the BIC of every model
+    n_effective: float
+    #: frequency (Hz) at which the selected model's residual has most power, and its share of it
+    residual_peak_hz: float
+    residual_peak_share: float
+    notes: tuple[str, ...]
+
+    @property
+    def final(self) -> TimeFitResult:
+        return self.models[self.selected]
+
+    @property
+    def final_effects(self) -> tuple[str, ...]:
+        return self.selected
+
+    @property
+    def added(self) -> tuple[str, ...]:
+        return self.selected
+
+
+def time_candidates() -> tuple[str, ...]:
+    """Effects of the library with a force model."""
+    return tuple(n for n, cls in EFFECTS.items() if cls.force_regressors(np.zeros(1)) is not None)
+
+
+def _plant(base: Plant, effects: tuple[str, ...]) -> Plant:
+    fx = tuple(make_effect(n, **{k: 0.0 for k in EFFECTS[n].neutral}) for n in effects)
+    return base.with_effects(*fx) if not fx or base.excitation_current_a is not None else \
+        Plant(base.stage, mass_kg=base.mass_kg, damping_n_s_per_m=base.damping_n_s_per_m,
+              force_constant_n_per_a=base.force_constant_n_per_a, motor_length_m=base.motor_length_m,
+              load_position_m=base.load_position_m, effects=fx, excitation_current_a=1.0)
+
+
+def _direction(fit: TimeFitResult) -> DirectionalResidual:
+    v = fit.velocity_m_per_s
+    scale = float(np.percentile(np.abs(v), 99)) or 1.0
+    fwd = v > DIRECTION_FRACTION * scale
+    bwd = v < -DIRECTION_FRACTION * scale
+    f = float(np.mean(fit.residual[fwd])) if fwd.any() else math.nan
+    b = float(np.mean(fit.residual[bwd])) if bwd.any() else math.nan
+    noise = fit.noise_rms
+    if not (math.isfinite(f) and math.isfinite(b)):
+        text = "the recording moves in one direction only: friction and a constant force cannot be told apart"
+    elif abs(f - b) / 2 > abs(f + b) / 2 and abs(f - b) / 2 > 3 * noise:
+        text = (f"the residual force changes sign with the direction of motion ({f:+.3g} N forward, {b:+.3g} N "
+                "backward): a friction that opposes the motion (coulomb_friction)")
+    elif abs(f + b) / 2 > 3 * noise:
+        text = (f"the residual force has the same sign in both directions ({f:+.3g} N forward, {b:+.3g} N "
+                "backward): a constant force (offset)")
+    else:
+        text = f"no systematic force with the direction of motion ({f:+.3g} N forward, {b:+.3g} N backward)"
+    return DirectionalResidual(f, b, text)
+
+
+def _where(fit: TimeFitResult) -> str:
+    worst = max(fit.regimes, key=lambda r: r.noise_ratio)
+    parts = ", ".join(f"{r.name} {r.rms_residual:.3g} N rms ({100 * r.share:.1f} % of samples)" for r in fit.regimes)
+    if not fit.explained:
+        return (f"the model leaves {fit.rms_residual:.3g} N rms ({fit.noise_ratio:.3g} x the measurement noise); "
+                f"largest at {worst.name}: {parts}")
+    return f"the residual ({fit.rms_residual:.3g} N rms) is consistent with the measurement noise: {parts}"
+
+
+def _residual_peak(fit: TimeFitResult) -> tuple[float, float]:
+    """Frequency of the largest periodogram line of the residual and the power share within +-10 % of it."""
+    e = fit.residual - fit.residual.mean()
+    fs = 1.0 / float(np.median(np.diff(fit.time_s)))
+    p = np.abs(np.fft.rfft(e * np.hanning(e.size))) ** 2
+    f = np.fft.rfftfreq(e.size, 1 / fs)
+    k = int(np.argmax(p[1:]) + 1)
+    near = np.abs(f - f[k]) <= 0.1 * f[k]
+    return float(f[k]), float(p[near].sum() / p[1:].sum())
+
+
+def diagnose_time(plant: Plant, rec: TimeRecording, *, candidates: tuple[str, ...] | None = None,
+                  filter_hz: float = FILTER_HZ, decimate_band_hz: float = DECIMATE_BAND_HZ) -> TimeDiagnosis:
+    """Fit the base model and every combination of the candidate force effects; select and explain."""
+    if plant.effects:
+        raise EffectError("the diagnosis starts from the base model; give a plant without effects")
+    usable = time_candidates()
+    names = usable if candidates is None else tuple(candidates)
+    notes = []
+    for n in names:
+        if n not in EFFECTS:
+            raise EffectError(f"unknown effect {n!r}; known: {', '.join(EFFECTS)}")
+    skipped = [n for n in names if n not in usable]
+    if skipped:
+        notes.append(f"not tried on time-domain data (no force model; estimate a frequency response for them): "
+                     f"{', '.join(skipped)}")
+    names = tuple(n for n in names if n in usable)
+    data: InverseModelData = inverse_model_data(rec, float(plant.force_constant_n_per_a), filter_hz=filter_hz,
+                                                decimate_band_hz=decimate_band_hz)
+    models: dict[tuple[str, ...], TimeFitResult] = {}
+    for k in range(len(names) + 1):
+        for combo in itertools.combinations(names, k):
+            models[combo] = fit_inverse_model(_plant(plant, combo), data)
+    n_eff = models[names].n_effective
+    bics = {c: bic(f, n_eff) for c, f in models.items()}
+    selected = _select(models, bics)
+    base = models[()]
+    ranking = tuple(sorted((TimeCandidate(n, bics[(n,)] - bics[()], models[(n,)].rms_residual) for n in names),
+                           key=lambda c: c.delta_bic))
+    steps = _path(models, bics, selected)
+    final = models[selected]
+    peak_hz, peak_share = _residual_peak(final)
+    if final.explained:
+        verdict = "explained"
+        explanation = (f"base + {', '.join(selected)} explains the recording: its residual is the measurement noise"
+                       if selected else "the thesis model explains the recording: nothing is missing")
+    else:
+        verdict = "not explained"
+        worst = max(final.regimes, key=lambda r: r.noise_ratio)
+        explanation = (f"not explained: the best model (base{''.join(' + ' + n for n in selected)}) leaves "
+                       f"{final.rms_residual:.3g} N rms, {final.noise_ratio:.3g} x what the measurement noise gives, "
+                       f"largest at {worst.name} ({worst.rms_residual:.3g} N rms); "
+                       f"{100 * peak_share:.0f} % of the residual power lies near {peak_hz:.3g} Hz. Something "
+                       "outside the library (e.g. a velocity-dependent friction law, a position-dependent force "
+                       "or dynamics above the rigid body) remains")
+    return TimeDiagnosis(steps, ranking, models, selected, verdict, explanation, _where(base), _direction(base),
+                         n_eff, peak_hz, peak_share, tuple(notes))
+
+
+def _select(models, bics) -> tuple[str, ...]:
+    adequate = [c for c, f in models.items() if f.explained]
+    if adequate:
+        return min(adequate, key=lambda c: (len(c), bics[c]))
+    best = min(bics, key=bics.get)
+    simpler = [c for c in models if set(c) < set(best) and bics[c] - bics[best] < DELTA_BIC_STRONG]
+    return min(simpler, key=lambda c: (len(c), bics[c])) if simpler else best
+
+
+def _path(models, bics, selected) -> tuple[TimeStep, ...]:
+    """From the base to ``selected``, adding at each step the effect that lowers BIC most."""
+    current: tuple[str, ...] = ()
+    steps = [TimeStep((), models[()], bics[()], "base model: mass and rail damping (thesis Eq. 3.15 / 3.16)")]
+    while set(current) != set(selected):
+        options = [tuple(n for n in selected if n in current or n == add) for add in selected if add not in current]
+        nxt = min(options, key=lambda c: bics[c])
+        added = next(n for n in nxt if n not in current)
+        fit = models[nxt]
+        before = models[current]
+        steps.append(TimeStep(nxt, fit, bics[nxt],
+                              f"add {added}: dBIC {bics[nxt] - bics[current]:+.1f}, rms residual "
+                              f"{before.rms_residual:.3g} -> {fit.rms_residual:.3g} N"))
+        current = nxt
+    return tuple(steps)

@@ -1,0 +1,440 @@
+"""Time-domain grey-box fit of the rigid stage with friction and a constant force:
+
+    K_f u = m_e a + b_e v + F_c sign(v) + F_0 (+ any effect with ``force_regressors``),
+
+with m_e, b_e the plant's effective mass and damping (Stage X: mass and rail damping, thesis
+Eq. 3.15; Stage Y: Eq. 3.16's 2 m l_1 / L and 2 b), F_c ``coulomb_friction.force_n`` and F_0
+``offset.force_n``. A describing function holds for one sine only; in the time domain the
+friction is exact.
+
+``fit_inverse_model`` is IDIM-LS (Janot, Gautier & Brunot 2019): linear least squares of the
+filtered and decimated force on the filtered and decimated regressors (``plant.inverse_model``),
+within the parameters' physical bounds (``scipy.optimize.lsq_linear``). ``fit_output_error``
+fits the same parameters by simulating the velocity from the measured force
+(``simulate_velocity``: exact exponential step of the linear part, stick and slip of the
+Coulomb friction) and minimising the velocity error, from the inverse model's estimate and
+perturbed starts: unbiased where the inverse model's regressors carry noise.
+
+Standard errors. The residual of a filtered and decimated regression is autocorrelated, so
+the ordinary (X^T X)^-1 s^2 (what the reference script prints, ``stderr_ols``) understates
+the uncertainty; ``stderr`` is the Newey-West (1987) heteroscedasticity and autocorrelation
+consistent estimate with Bartlett weights, its lag the first at which the residual's
+autocorrelation falls below 2 / sqrt(n). Model selection uses the Gaussian likelihood with
+the residual's own variance and the effective sample size n_eff = n (1 - rho_1) / (1 + rho_1)
+of an AR(1) residual (Bayley & Hammersley 1946): ``bic(fit, n_eff)`` = n_eff ln(RSS / n) + k ln n_eff,
+with one n_eff for all the models compared.
+
+A model explains the data when its residual is no larger than the measurement noise predicts
+(``InverseModelData.residual_noise_std_n``): the variance ratio within its sampling scatter
+(``TEST_P`` in the upper tail of chi^2 with n_eff degrees of freedom), overall and in each
+regime of motion (``regimes``).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.optimize
+import scipy.stats
+
+from plant.errors import EffectError, ParameterError
+from plant.inverse_model import DECIMATE_BAND_HZ, FILTER_HZ, InverseModelData, inverse_model_data
+from plant.models import Plant
+from plant.time_recording import TimeRecording
+
+#: false-alarm probability of the test "the residual is noise" (as ``plant.lockin.TEST_P``)
+TEST_P = 1e-4
+#: velocity below this fraction of the 99th percentile of |v| is "low velocity"
+LOW_VELOCITY_FRACTION = 0.05
+#: seconds either side of a change of direction that count as "reversal"
+REVERSAL_S = 0.05
+#: perturbations of the inverse model's mass and damping used as further output-error starts
+OE_START_FACTORS = ((1.0, 1.0), (0.7, 1.4), (1.4, 0.7))
+#: highest rate (Hz) of the output-error simulation (the force is filtered below it first)
+OE_RATE_HZ = 250.0
+
+
+@dataclass(frozen=True)
+class Regime:
+    """The residual in one regime of motion."""
+
+    name: str
+    #: share of the samples in the regime
+    share: float
+    rms_residual: float
+    #: rms residual / the noise's rms (1 when the model is right)
+    noise_ratio: float
+    significant: bool
+
+
+@dataclass(frozen=True)
+class TimeFitResult:
+    """Result of ``fit_inverse_model`` or ``fit_output_error``. Residuals are in the unit of
+    ``quantity``: force in N (inverse model) or velocity in m/s (output error)."""
+
+    plant: Plant
+    method: str
+    values: dict[str, float]
+    free: tuple[str, ...]
+    #: Newey-West standard errors (module doc), and the ordinary least-squares ones
+    stderr: dict[str, float]
+    stderr_ols: dict[str, float]
+    covariance: np.ndarray
+    correlation: np.ndarray
+    quantity: str
+    time_s: np.ndarray
+    #: the (filtered) velocity at each residual's sample, m/s
+    velocity_m_per_s: np.ndarray
+    measured: np.ndarray
+    model: np.ndarray
+    residual: np.ndarray
+    rss: float
+    n_data: int
+    n_params: int
+    #: effective sample size of the autocorrelated residual
+    n_effective: float
+    lag1_autocorrelation: float
+    relative_error_percent: float
+    #: rms residual expected from measurement noise alone, and the rms residual over it
+    noise_rms: float
+    noise_ratio: float
+    #: the residual is consistent with the measurement noise (overall and in every regime)
+    explained: bool
+    regimes: tuple[Regime, ...]
+    condition_number: float
+    flags: tuple[str, ...]
+    n_starts: int
+    elapsed_s: float
+
+    @property
+    def effect_names(self) -> tuple[str, ...]:
+        return self.plant.effect_names
+
+    @property
+    def rms_residual(self) -> float:
+        return float(np.sqrt(self.rss / self.n_data))
+
+    def report(self) -> str:
+        """Text report in the spirit of lmfit's ``fit_report``."""
+        params = self.plant.parameters()
+        unit = "N" if self.quantity == "force_n" else "m/s"
+        lines = [
+            "[[Model]]",
+            f"    stage {self.plant.stage.upper()}, effects: {', '.join(self.effect_names) or 'none'}, "
+            f"{self.method} fit of the {'force' if unit == 'N' else 'velocity'}",
+            "[[Fit Statistics]]",
+            f"    # data points      = {self.n_data} (effective {self.n_effective:.0f}: residual lag-1 "
+            f"autocorrelation {self.lag1_autocorrelation:.3f})",
+            f"    # variables        = {self.n_params}",
+            f"    rms residual       = {self.rms_residual:.4g} {unit} ({self.relative_error_percent:.2f} % of the "
+            "measured signal)",
+            f"    noise alone        = {self.noise_rms:.4g} {unit} rms (residual / noise {self.noise_ratio:.3g})",
+            f"    condition number   = {self.condition_number:.3g}",
+            "[[Variables]] (+/- Newey-West standard error; ordinary least squares in brackets)",
+        ]
+        width = max(len(n) for n in self.values)
+        for name, value in self.values.items():
+            u = params[name].unit
+            if name in self.stderr:
+                err = self.stderr[name]
+                rel = f" ({100 * err / abs(value):.2f}%)" if math.isfinite(err) and value != 0 else ""
+                lines.append(f"    {name + ':':<{width + 1}} {value:.6g} +/- {err:.3g}{rel} [{self.stderr_ols[name]:.3g}]"
+                             f" {u}")
+            else:
+                lines.append(f"    {name + ':':<{width + 1}} {value:.6g} {u} (fixed)")
+        pairs = [(abs(c), self.free[i], self.free[j], c) for i in range(len(self.free))
+                 for j in range(i + 1, len(self.free)) if abs(c := self.correlation[i, j]) > 0.1]
+        if pairs:
+            lines.append("[[Correlations]] (unreported correlations are < 0.100)")
+            lines += [f"    C({a}, {b}) = {c:+.4f}" for _, a, b, c in sorted(pairs, reverse=True)]
+        lines.append("[[Residual by regime of motion]]")
+        for r in self.regimes:
+            lines.append(f"    {r.name:14s} {100 * r.share:5.1f} % of samples: rms {r.rms_residual:.4g} {unit}, "
+                         f"{r.noise_ratio:.3g} x noise{' (significant)' if r.significant else ''}")
+        if self.flags:
+            lines.append("[[Flags]]")
+            lines += [f"    {f}" for f in self.flags]
+        return "\n".join(lines)
+
+
+def time_domain_effects(plant: Plant) -> None:
+    """Refuse effects the time-domain model cannot represent, naming them."""
+    for e in plant.effects:
+        if e.force_regressors(np.zeros(1)) is None:
+            raise EffectError(f"{e.name} has no time-domain force model (it acts on the dynamics, not on the force "
+                              "balance); estimate a frequency response from the recording to fit it")
+
+
+def default_free_time(plant: Plant) -> tuple[str, ...]:
+    """Mass, damping and every effect parameter of the time-domain model."""
+    return ("mass_kg", "damping_n_s_per_m") + tuple(p for p in plant.parameters() if "." in p)
+
+
+def _check_free(plant: Plant, free: Sequence[str]) -> tuple[str, ...]:
+    params = plant.parameters()
+    for name in free:
+        if name == "force_constant_n_per_a":
+            raise ParameterError("force_constant_n_per_a scales every force of a time-domain fit, so it trades off "
+                                 "exactly against mass, damping and friction; set it (--set "
+                                 "force_constant_n_per_a=...) instead of fitting it")
+        if name not in params:
+            raise ParameterError(f"unknown parameter {name!r} to fit; parameters: {', '.join(params)}")
+    return tuple(free)
+
+
+def _effective_factors(plant: Plant) -> tuple[float, float]:
+    """Effective mass per kg of ``mass_kg`` and damping per N*s/m of ``damping_n_s_per_m`` (1 on Stage X)."""
+    m_e, b_e = (float(np.mean(x)) for x in plant._effective_mass_damping())
+    return m_e / float(plant.mass_kg), b_e / float(plant.damping_n_s_per_m)
+
+
+def _regressors(plant: Plant, data: InverseModelData) -> dict[str, np.ndarray]:
+    """Force per unit of each parameter (module doc's model), at the decimated samples."""
+    m_per, b_per = _effective_factors(plant)
+    cols = {"mass_kg": m_per * data.acceleration_m_per_s2, "damping_n_s_per_m": b_per * data.velocity_m_per_s}
+    for e in plant.effects:
+        for field, signal in e.force_regressors(data.full_rate_velocity_m_per_s).items():
+            cols[f"{e.name}.{field}"] = data.decimate(signal)
+    return cols
+
+
+def _plant_with(plant: Plant, values: dict[str, float], excitation_a: float) -> Plant:
+    import dataclasses
+
+    out = plant.with_values(values)
+    return dataclasses.replace(out, excitation_current_a=excitation_a) if not out.linear else out
+
+
+def _newey_west(X: np.ndarray, e: np.ndarray) -> tuple[np.ndarray, int]:
+    """HAC covariance (X^T X)^-1 S (X^T X)^-1 with Bartlett weights; the lag as the module doc says."""
+    n = e.size
+    ec = e - e.mean()
+    acf = np.correlate(ec[: min(n, 4096)], ec[: min(n, 4096)], "full")[min(n, 4096) - 1:]
+    acf = acf / acf[0] if acf[0] > 0 else acf
+    below = np.flatnonzero(np.abs(acf) < 2 / np.sqrt(n))
+    lag = int(min(below[0] if below.size else n // 10, n // 10))
+    xe = X * e[:, None]
+    S = xe.T @ xe
+    for k in range(1, lag + 1):
+        G = xe[k:].T @ xe[:-k]
+        S += (1 - k / (lag + 1)) * (G + G.T)
+    inv = np.linalg.pinv(X.T @ X)
+    return inv @ S @ inv, lag
+
+
+def _lag1(e: np.ndarray) -> float:
+    ec = e - e.mean()
+    den = float(ec @ ec)
+    return float(ec[1:] @ ec[:-1] / den) if den > 0 else 0.0
+
+
+def _regimes(v: np.ndarray, t: np.ndarray, e: np.ndarray, noise_rms: float, n_eff_per_sample: float) -> tuple[Regime, ...]:
+    """Residual at reversals, at low velocity (elsewhere) and while moving."""
+    speed = np.abs(v)
+    scale = float(np.percentile(speed, 99)) or 1.0
+    moving = speed > LOW_VELOCITY_FRACTION * scale
+    # direction changes between samples that are moving, ignoring chatter at rest
+    direction = np.sign(v)
+    idx = np.flatnonzero(moving)
+    flips = idx[1:][direction[idx[1:]] != direction[idx[:-1]]]
+    reversal = np.zeros(v.size, bool)
+    for k in flips:
+        reversal |= np.abs(t - t[k]) <= REVERSAL_S
+    groups = (("reversals", reversal), ("low velocity", ~moving & ~reversal), ("moving", moving & ~reversal))
+    out = []
+    for name, mask in groups:
+        if not mask.any():
+            continue
+        rms = float(np.sqrt(np.mean(e[mask] ** 2)))
+        ratio = rms / noise_rms if noise_rms > 0 else math.inf
+        dof = max(mask.sum() * n_eff_per_sample, 1.0)
+        limit = scipy.stats.chi2.isf(TEST_P, dof) / dof
+        out.append(Regime(name, float(mask.mean()), rms, ratio, bool(ratio**2 > limit)))
+    return tuple(out)
+
+
+def _summarise(plant, method, values, free, X, e, measured, model, quantity, t, v, noise_rms, flags, n_starts,
+               elapsed, excitation_a) -> TimeFitResult:
+    n, k = X.shape
+    rss = float(e @ e)
+    s2 = rss / max(n - k, 1)
+    inv = np.linalg.pinv(X.T @ X)
+    cov_ols = inv * s2
+    cov, _ = _newey_west(X, e)
+    se = np.sqrt(np.maximum(np.diag(cov), 0.0))
+    d = np.where(se > 0, se, np.inf)
+    corr = cov / np.outer(d, d)
+    np.fill_diagonal(corr, 1.0)
+    rho = _lag1(e)
+    n_eff = float(np.clip(n * (1 - rho) / (1 + rho), k + 2, n)) if rho > 0 else float(n)
+    ratio = math.sqrt(rss / n) / noise_rms if noise_rms > 0 else math.inf
+    limit = scipy.stats.chi2.isf(TEST_P, n_eff) / n_eff
+    regimes = _regimes(v, t, e, noise_rms, n_eff / n)
+    explained = bool(ratio**2 <= limit) and not any(r.significant for r in regimes)
+    cond = float(np.linalg.cond(X / np.maximum(np.linalg.norm(X, axis=0), 1e-300)))
+    return TimeFitResult(
+        plant=_plant_with(plant, values, excitation_a), method=method, values=dict(values), free=tuple(free),
+        stderr={p: float(s) for p, s in zip(free, se)},
+        stderr_ols={p: float(s) for p, s in zip(free, np.sqrt(np.maximum(np.diag(cov_ols), 0.0)))},
+        covariance=cov, correlation=corr, quantity=quantity, time_s=t, velocity_m_per_s=v, measured=measured, model=model, residual=e,
+        rss=rss, n_data=n, n_params=k, n_effective=n_eff, lag1_autocorrelation=rho,
+        relative_error_percent=float(100 * math.sqrt(rss) / max(np.linalg.norm(measured), 1e-300)),
+        noise_rms=noise_rms, noise_ratio=ratio, explained=explained, regimes=regimes,
+        condition_number=cond, flags=tuple(flags),
+        n_starts=n_starts, elapsed_s=elapsed)
+
+
+def fit_inverse_model(plant: Plant, rec: TimeRecording | InverseModelData, *, free: Sequence[str] | None = None,
+                      filter_hz: float = FILTER_HZ, decimate_band_hz: float = DECIMATE_BAND_HZ) -> TimeFitResult:
+    """IDIM-LS of ``plant``'s time-domain model (module doc) on ``rec`` (or its prepared signals)."""
+    t0 = time.perf_counter()
+    time_domain_effects(plant)
+    free = _check_free(plant, free if free is not None else default_free_time(plant))
+    data = rec if isinstance(rec, InverseModelData) else \
+        inverse_model_data(rec, float(plant.force_constant_n_per_a), filter_hz=filter_hz,
+                           decimate_band_hz=decimate_band_hz)
+    cols = _regressors(plant, data)
+    params = plant.parameters()
+    y = data.force_n.copy()
+    for name, col in cols.items():
+        if name not in free:
+            y -= params[name].value * col
+    X = np.column_stack([cols[p] for p in free])
+    lo = np.array([params[p].lower for p in free])
+    hi = np.array([params[p].upper for p in free])
+    sol = scipy.optimize.lsq_linear(X, y, bounds=(lo, hi), method="bvls")
+    beta = sol.x
+    values = {name: p.value for name, p in params.items()}
+    values.update(dict(zip(free, map(float, beta))))
+    flags = [f"{p} = {b:.4g} {params[p].unit} is at its bound [{lo[i]:g}, {hi[i]:g}]: the data ask for a value "
+             "outside the physical range" for i, (p, b) in enumerate(zip(free, beta))
+             if np.isclose(b, lo[i]) or np.isclose(b, hi[i])]
+    model = X @ beta + (data.force_n - y)
+    e = data.force_n - model
+    m_per, b_per = _effective_factors(plant)
+    noise = data.residual_noise_std_n(m_per * values["mass_kg"], b_per * values["damping_n_s_per_m"])
+    return _summarise(plant, "inverse-model", values, free, X, e, data.force_n, model, "force_n", data.time_s,
+                      data.velocity_m_per_s, noise, flags, 1, time.perf_counter() - t0,
+                      _peak_input(plant, data))
+
+
+def _peak_input(plant: Plant, data: InverseModelData) -> float:
+    """Peak drive input (A): the amplitude a describing function of the fitted plant refers to."""
+    return float(np.max(np.abs(data.force_n)) / float(plant.force_constant_n_per_a)) or 1.0
+
+
+def bic(fit: TimeFitResult, n_effective: float) -> float:
+    """Bayesian information criterion with the residual's own variance and a shared effective size."""
+    return n_effective * math.log(max(fit.rss / fit.n_data, 1e-300)) + fit.n_params * math.log(n_effective)
+
+
+# --- output error -------------------------------------------------------------------------
+@dataclass(frozen=True)
+class _OeData:
+    """Force and velocity low-passed at the filter corner and taken at the simulation rate."""
+
+    time_s: np.ndarray
+    force_n: np.ndarray
+    velocity_m_per_s: np.ndarray
+    step_s: float
+
+
+def _oe_data(rec: TimeRecording, data: InverseModelData, force_constant: float) -> _OeData:
+    import scipy.signal
+
+    from plant.inverse_model import EDGE_SAMPLES, FILTER_ORDER
+
+    fs = rec.sample_rate_hz
+    q = max(1, int(fs // max(OE_RATE_HZ, 2.5 * data.filter_hz)))
+    b, a = scipy.signal.butter(FILTER_ORDER, data.filter_hz / (fs / 2))
+    force = scipy.signal.filtfilt(b, a, force_constant * rec.current_a)
+    cut = slice(EDGE_SAMPLES, rec.n_samples - EDGE_SAMPLES, q)
+    return _OeData(rec.time_s[cut], force[cut], data.full_rate_velocity_m_per_s[::q], q / fs)
+
+
+def simulate_velocity(force_n: np.ndarray, step_s: float, *, mass_kg: float, damping_n_s_per_m: float,
+                      coulomb_n: float = 0.0, offset_n: float = 0.0, v0_m_per_s: float = 0.0) -> np.ndarray:
+    """Velocity (m/s) of m dv/dt = F - F_0 - b v - F_c sign(v) from rest or ``v0``, the force held at the
+    mean of consecutive samples over each step: exact exponential step of the linear part; a step in
+    which the velocity would change sign ends at rest, and the body stays at rest while
+    |F - F_0| <= F_c (stick), then slides off in the direction of the net force (Karnopp 1985)."""
+    alpha = math.exp(-damping_n_s_per_m * step_s / mass_kg)
+    gain = (1.0 - alpha) / damping_n_s_per_m
+    f = np.asarray(force_n, dtype=float)
+    drive = ((f[:-1] + f[1:]) / 2 - offset_n).tolist()
+    out = [float(v0_m_per_s)]
+    v = float(v0_m_per_s)
+    for net in drive:
+        if v == 0.0:
+            if abs(net) <= coulomb_n:
+                out.append(0.0)
+                continue
+            sign = 1.0 if net > 0 else -1.0
+        else:
+            sign = 1.0 if v > 0 else -1.0
+        nxt = alpha * v + gain * (net - sign * coulomb_n)
+        v = 0.0 if nxt * sign < 0 else nxt
+        out.append(v)
+    return np.asarray(out)
+
+
+def fit_output_error(plant: Plant, rec: TimeRecording, *, start: TimeFitResult | None = None,
+                     filter_hz: float = FILTER_HZ, decimate_band_hz: float = DECIMATE_BAND_HZ) -> TimeFitResult:
+    """Output-error fit of the time-domain model (module doc): the simulated velocity against the measured
+    one, from the inverse model's estimate (``start``, fitted when None) and ``OE_START_FACTORS``
+    perturbations of its mass and damping; the best start wins, and a start that ends elsewhere with
+    a cost within 1e-6 is reported as a flag."""
+    t0 = time.perf_counter()
+    start = start or fit_inverse_model(plant, rec, filter_hz=filter_hz, decimate_band_hz=decimate_band_hz)
+    plant = start.plant
+    free = start.free
+    if any(n not in ("mass_kg", "damping_n_s_per_m", "coulomb_friction.force_n", "offset.force_n") for n in free):
+        raise EffectError("the output-error fit simulates mass, damping, coulomb_friction and offset; "
+                          f"free parameters were {', '.join(free)}")
+    data = inverse_model_data(rec, float(plant.force_constant_n_per_a), filter_hz=filter_hz,
+                              decimate_band_hz=decimate_band_hz)
+    oe = _oe_data(rec, data, float(plant.force_constant_n_per_a))
+    m_per, b_per = _effective_factors(plant)
+    params = plant.parameters()
+    scale = np.array([max(abs(start.values[p]), 1.0) for p in free])
+    lo = np.array([params[p].lower for p in free]) / scale
+    hi = np.array([params[p].upper for p in free]) / scale
+
+    def simulate(x):
+        v = dict(start.values)
+        v.update(zip(free, x * scale))
+        return simulate_velocity(oe.force_n, oe.step_s, mass_kg=m_per * v["mass_kg"],
+                                 damping_n_s_per_m=b_per * v["damping_n_s_per_m"],
+                                 coulomb_n=v.get("coulomb_friction.force_n", 0.0), offset_n=v.get("offset.force_n", 0.0),
+                                 v0_m_per_s=oe.velocity_m_per_s[0])
+
+    def residual(x):
+        return oe.velocity_m_per_s - simulate(x)
+
+    x_idim = np.array([start.values[p] for p in free]) / scale
+    runs = []
+    for fm, fb in OE_START_FACTORS:
+        x0 = x_idim.copy()
+        x0[free.index("mass_kg")] *= fm if "mass_kg" in free else 1.0
+        if "damping_n_s_per_m" in free:
+            x0[free.index("damping_n_s_per_m")] *= fb
+        runs.append(scipy.optimize.least_squares(residual, np.clip(x0, lo, hi), bounds=(lo, hi), x_scale="jac"))
+    best = min(runs, key=lambda r: r.cost)
+    flags = []
+    for r in runs:
+        if r.cost > best.cost * (1 + 1e-6) and np.max(np.abs(r.x - best.x)) > 1e-3:
+            flags.append(f"a start ended at a worse local minimum (cost {r.cost:.4g} vs {best.cost:.4g})")
+    values = dict(start.values)
+    values.update(zip(free, map(float, best.x * scale)))
+    J = -best.jac / scale
+    e = residual(best.x)
+    model = oe.velocity_m_per_s - e
+    noise = data.output_noise if rec.output_kind == "velocity" else data.output_noise / oe.step_s
+    noise_rms = float(np.std(data.noise_velocity_m_per_s)) if data.noise_velocity_m_per_s.size else noise
+    return _summarise(plant, "output-error", values, free, J, e, oe.velocity_m_per_s, model, "velocity_m_per_s",
+                      oe.time_s, oe.velocity_m_per_s, noise_rms, flags, len(runs), time.perf_counter() - t0,
+                      _peak_input(plant, data))

@@ -16,7 +16,7 @@ import typer
 from rich.console import Console
 
 from plant import __version__
-from plant.errors import GantryError, SpecError
+from plant.errors import GantryError, ParameterError, SpecError
 
 app = typer.Typer(add_completion=False, no_args_is_help=True, pretty_exceptions_enable=False,
                   help="Model, identify and tune the controllers of the exoskeleton H-gantry.")
@@ -63,6 +63,22 @@ def _strict(obj):
     if isinstance(obj, float) and not math.isfinite(obj):
         return None
     return obj
+
+
+def parse_set(text: str | None) -> dict[str, float]:
+    """``"force_constant_n_per_a=35.15,mass_kg=90"`` -> values of plant parameters (``--set``)."""
+    out: dict[str, float] = {}
+    for item in (p.strip() for p in (text or "").split(",") if p.strip()):
+        name, eq, value = item.partition("=")
+        try:
+            number = float(value)
+        except ValueError:
+            number = math.nan
+        if not eq or not name.strip() or not math.isfinite(number):
+            raise ParameterError(f"--set item {item!r}: expected NAME=NUMBER with a finite number, e.g. "
+                            "force_constant_n_per_a=35.15")
+        out[name.strip()] = number
+    return out
 
 
 def _register_commands() -> None:

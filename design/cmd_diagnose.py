@@ -11,24 +11,35 @@ from typing import Annotated, Optional
 import typer
 from rich.table import Table
 
-from design.cli import app, console, print_json
+from design.cli import app, console, parse_set, print_json
 from plant import __version__
 from plant.errors import ParameterError
 
 BASE_FREE = ("mass_kg", "damping_n_s_per_m")
 
 
+def _read(path: Path, columns: str | None, sample_rate_hz: float | None):
+    from plant.recording_io import parse_column_map
+    from plant.time_recording_io import read_measurement
+
+    return read_measurement(path, columns=parse_column_map(columns) if columns else None,
+                            sample_rate_hz=sample_rate_hz)
+
+
 def _measure(path: Path, columns: str | None, sample_rate_hz: float | None):
     from plant.lockin import estimate_response
-    from plant.recording_io import parse_column_map, read_recording
+    from plant.time_recording import TimeRecording
 
-    rec = read_recording(path, columns=parse_column_map(columns) if columns else None, sample_rate_hz=sample_rate_hz)
+    rec = _read(path, columns, sample_rate_hz)
+    if isinstance(rec, TimeRecording):
+        raise ParameterError(f"{path}: a time-domain recording; --amplitude-files takes stepped sines")
     return estimate_response(rec)
 
 
 @app.command()
 def diagnose(
-    data: Annotated[Path, typer.Argument(help="Stepped-sine recording (.csv, .xlsx, .tdms).")],
+    data: Annotated[Path, typer.Argument(
+        help="Stepped-sine (.csv, .xlsx, .tdms) or time-domain recording (.csv without frequency_hz, .mat).")],
     stage: Annotated[str, typer.Option(help="Stage of the recording: x or y.")],
     amplitude_files: Annotated[Optional[list[Path]], typer.Option(
         "--amplitude-files", help="Recordings of the same frequencies at other amplitudes (repeatable).")] = None,
@@ -45,6 +56,13 @@ def diagnose(
         help="Column map for spreadsheets/TDMS, e.g. frequency=2,current=3,velocity=6,velocity=7.")] = None,
     sample_rate_hz: Annotated[Optional[float], typer.Option(help="Sample rate when the file has no time column.")]
     = None,
+    set_values: Annotated[Optional[str], typer.Option(
+        "--set", help="Parameter values, e.g. force_constant_n_per_a=35.15 for a drive command in V with its gain "
+                      "in N/V.")] = None,
+    filter_hz: Annotated[float, typer.Option(
+        help="Time-domain recordings: zero-phase Butterworth corner before differentiating.")] = 100.0,
+    decimate_band_hz: Annotated[float, typer.Option(
+        help="Time-domain recordings: band kept by the decimation.")] = 40.0,
     as_json: Annotated[bool, typer.Option("--json", help="Print JSON.")] = False,
     report: Annotated[Optional[Path], typer.Option(help="Write an HTML diagnosis report here.")] = None,
 ) -> None:
@@ -52,8 +70,9 @@ def diagnose(
     from design.diagnosis_view import diagnosis_report, diagnosis_to_dict
     from plant.diagnosis import diagnose as run_diagnosis
     from plant.effects import EFFECTS
-    from plant.lockin import amplitude_dependence
+    from plant.lockin import amplitude_dependence, estimate_response
     from plant.models import Plant
+    from plant.time_recording import TimeRecording
 
     if stage not in ("x", "y"):
         raise ParameterError(f"--stage must be x or y, got {stage!r}")
@@ -65,20 +84,25 @@ def diagnose(
             raise ParameterError(f"--effects: unknown effect {unknown[0]!r}; known: {', '.join(EFFECTS)}")
     geometry = {k: v for k, v in (("load_position_m", load_position_m), ("motor_length_m", motor_length_m))
                 if v is not None}
-    measured = _measure(data, columns, sample_rate_hz)
+    base = Plant(stage, **geometry).with_values(parse_set(set_values))
+    recording = _read(data, columns, sample_rate_hz)
+    if isinstance(recording, TimeRecording):
+        if amplitude_files or fit_force_constant:
+            raise ParameterError("--amplitude-files and --fit-force-constant apply to stepped sines; a time-domain "
+                                 "fit needs the force constant set (--set force_constant_n_per_a=...)")
+        _diagnose_time(base, recording, candidates, filter_hz, decimate_band_hz, data, stage, report, as_json)
+        return
+    measured = estimate_response(recording)
     dependent = None
     if amplitude_files:
         others = [_measure(p, columns, sample_rate_hz) for p in amplitude_files]
         dependent = bool(amplitude_dependence([measured, *others]).significant)
     free = BASE_FREE + (("force_constant_n_per_a",) if fit_force_constant else ())
-    diag = run_diagnosis(Plant(stage, **geometry), measured, candidates=candidates, free_base=free,
+    diag = run_diagnosis(base, measured, candidates=candidates, free_base=free,
                          amplitude_dependent=dependent)
     if report is not None:
-        digest = hashlib.sha256(data.read_bytes()).hexdigest()[:16]
-        provenance = (f"gantry {__version__}\ncommand: gantry {shlex.join(sys.argv[1:])}\n"
-                      f"data: {data} (sha256 {digest}...)")
         diagnosis_report(diag, measured, title=f"Diagnosis of {data.name} (Stage {stage.upper()})",
-                         provenance=provenance).write(report)
+                         provenance=_provenance(data)).write(report)
     if as_json:
         print_json(diagnosis_to_dict(diag))
         return
@@ -123,3 +147,53 @@ def diagnose(
         console.print(f"report written to {report}")
 
 
+
+
+def _provenance(data: Path) -> str:
+    digest = hashlib.sha256(data.read_bytes()).hexdigest()[:16]
+    return f"gantry {__version__}\ncommand: gantry {shlex.join(sys.argv[1:])}\ndata: {data} (sha256 {digest}...)"
+
+
+def _diagnose_time(base, recording, candidates, filter_hz, decimate_band_hz, data: Path, stage: str,
+                   report: Path | None, as_json: bool) -> None:
+    """The time-domain diagnosis (``plant.time_diagnosis``): text, JSON and HTML report."""
+    from design.time_diagnosis_view import time_diagnosis_report, time_diagnosis_to_dict
+    from plant.time_diagnosis import diagnose_time
+
+    diag = diagnose_time(base, recording, candidates=candidates, filter_hz=filter_hz,
+                         decimate_band_hz=decimate_band_hz)
+    if report is not None:
+        time_diagnosis_report(diag, title=f"Diagnosis of {data.name} (Stage {stage.upper()}, time domain)",
+                              provenance=_provenance(data)).write(report)
+    if as_json:
+        print_json(time_diagnosis_to_dict(diag))
+        return
+    console.print(f"[bold]Verdict:[/] {diag.explanation}", soft_wrap=True)
+    console.print(f"[bold]Where the base model fails:[/] {diag.where_it_fails}", soft_wrap=True)
+    console.print(f"[bold]By direction of motion:[/] {diag.direction.description}", soft_wrap=True)
+    t = Table(title="Candidates tried on the base model")
+    for col in ("effect", "dBIC", "rms residual (N)"):
+        t.add_column(col, justify="left" if col == "effect" else "right")
+    for c in diag.ranking:
+        t.add_row(c.effect, f"{c.delta_bic:+.1f}", f"{c.rms_residual_n:.4g}")
+    console.print(t)
+    t = Table(title="The error, step by step")
+    for col in ("model", "rms residual (N)", "x noise", *(r.name for r in diag.steps[0].fit.regimes), "BIC"):
+        t.add_column(col, justify="left" if col == "model" else "right")
+    for s in diag.steps:
+        by = {r.name: f"{r.rms_residual:.3g}" for r in s.fit.regimes}
+        t.add_row(" + ".join(("base",) + s.effects), f"{s.fit.rms_residual:.4g}", f"{s.fit.noise_ratio:.3g}",
+                  *(by.get(r.name, "") for r in diag.steps[0].fit.regimes), f"{s.bic:.1f}")
+    console.print(t)
+    for s in diag.steps:
+        console.print(f"  -> {s.decision}", soft_wrap=True)
+    final = diag.final
+    console.print(f"[bold]{'Final' if diag.verdict == 'explained' else 'Best (not explained)'} effects:[/] "
+                  f"{', '.join(diag.final_effects) or 'none'}")
+    for name, value in final.values.items():
+        err = final.stderr.get(name)
+        console.print(f"  {name:32s} {value:.6g}" + (f" +/- {err:.2g}" if err is not None else " (fixed)"))
+    for note in diag.notes:
+        console.print(f"[yellow]Note:[/] {note}", soft_wrap=True)
+    if report is not None:
+        console.print(f"report written to {report}")

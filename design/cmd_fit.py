@@ -1,4 +1,5 @@
-"""``gantry fit``: physical parameters of a plant with effects from a stepped-sine recording."""
+"""``gantry fit``: physical parameters of a plant with effects from a recording: a stepped sine in the
+frequency domain, a time-domain recording (any excitation) by the inverse model or output error."""
 
 from __future__ import annotations
 
@@ -7,13 +8,14 @@ from typing import Annotated, Optional
 
 import typer
 
-from design.cli import app, console, print_json
+from design.cli import app, console, parse_set, print_json
 from plant.errors import ParameterError
 
 
 @app.command()
 def fit(
-    data: Annotated[Path, typer.Argument(help="Stepped-sine recording (.csv, .xlsx, .tdms).")],
+    data: Annotated[Path, typer.Argument(
+        help="Stepped-sine (.csv, .xlsx, .tdms) or time-domain recording (.csv without frequency_hz, .mat).")],
     stage: Annotated[str, typer.Option(help="Stage of the recording: x or y.")],
     effects: Annotated[Optional[str], typer.Option(help="Effects to include, e.g. delay,current_loop.")] = None,
     free: Annotated[Optional[str], typer.Option(
@@ -30,25 +32,46 @@ def fit(
     rational_weighting: Annotated[str, typer.Option(
         help="Weighting of the rational fit: inverse_sigma (the measured variance), thesis (Appendix B) "
              "or uniform.")] = "inverse_sigma",
+    set_values: Annotated[Optional[str], typer.Option(
+        "--set", help="Parameter values (held fixed unless in --free), e.g. force_constant_n_per_a=35.15 for a "
+                      "drive command in V with its gain in N/V.")] = None,
+    method: Annotated[str, typer.Option(
+        help="Time-domain recordings: inverse-model (IDIM-LS) or output-error (simulated velocity).")]
+    = "inverse-model",
+    filter_hz: Annotated[float, typer.Option(
+        help="Time-domain recordings: zero-phase Butterworth corner before differentiating (5 x the band of "
+             "the dynamics).")] = 100.0,
+    decimate_band_hz: Annotated[float, typer.Option(
+        help="Time-domain recordings: band kept by the decimation (2 x the band of the dynamics).")] = 40.0,
     as_json: Annotated[bool, typer.Option("--json", help="Print JSON.")] = False,
 ) -> None:
-    """Fit bounded physical parameters (maximum likelihood, inverse-variance weights) to a recording."""
+    """Fit bounded physical parameters to a recording: maximum likelihood with inverse-variance weights on a
+    stepped sine's frequency response, IDIM-LS or output error on a time-domain recording."""
     from design.spec import finite_or_none
     from plant.effects import make_effect
     from plant.fitting import fit_plant
     from plant.lockin import estimate_response
     from plant.models import Plant
-    from plant.recording_io import parse_column_map, read_recording
+    from plant.recording_io import parse_column_map
+    from plant.time_recording import TimeRecording
+    from plant.time_recording_io import read_measurement
 
     if stage not in ("x", "y"):
         raise ParameterError(f"--stage must be x or y, got {stage!r}")
     names = [e.strip() for e in (effects or "").split(",") if e.strip()]
     fx = tuple(make_effect(n) for n in names)
     geometry = {"load_position_m": load_position_m} if load_position_m is not None else {}
-    measured = estimate_response(read_recording(data, columns=parse_column_map(columns) if columns else None,
-                                                sample_rate_hz=sample_rate_hz))
-    plant = Plant(stage, effects=fx, excitation_current_a=float(measured.current_amplitude_a.mean()), **geometry)
+    settings = parse_set(set_values)
     free_names = tuple(p.strip() for p in free.split(",") if p.strip()) if free else None
+    recording = read_measurement(data, columns=parse_column_map(columns) if columns else None,
+                                 sample_rate_hz=sample_rate_hz)
+    if isinstance(recording, TimeRecording):
+        plant = Plant(stage, effects=fx, excitation_current_a=1.0, **geometry).with_values(settings)
+        _fit_time(plant, recording, free_names, method, filter_hz, decimate_band_hz, as_json)
+        return
+    measured = estimate_response(recording)
+    plant = Plant(stage, effects=fx, excitation_current_a=float(measured.current_amplitude_a.mean()),
+                  **geometry).with_values(settings)
     result = fit_plant(plant, measured, free=free_names)
     rat = None
     if rational:
@@ -85,10 +108,43 @@ def fit(
                                "stable": rat.stable, "start": rat.start}
         print_json(out)
         return
-    console.print(result.report(), markup=False, highlight=False)
+    console.print(result.report(), markup=False, highlight=False, soft_wrap=True)
     if rat is not None:
         console.print(f"\nRational fit ({rat.n_poles} poles, {rat.n_zeros} zeros, {rat.weighting} weighting): "
                       f"fit {rat.fit_percent:.1f} %, chi-square {rat.chi2:.4g} for {rat.dof} degrees of freedom"
                       f"\n{rat.tf}", markup=False, highlight=False)
         if rat.flags:
             console.print("Flags:\n" + "\n".join(f"    {f}" for f in rat.flags), markup=False, highlight=False)
+
+
+def time_fit_to_dict(result) -> dict:
+    """Strict-JSON-ready dict of a ``TimeFitResult`` (``gantry fit --json`` on a time-domain recording)."""
+    units = {n: p.unit for n, p in result.plant.parameters().items()}
+    return {"domain": "time", "method": result.method,
+            "parameters": {n: {"value": result.values[n], "stderr": result.stderr[n],
+                               "stderr_ols": result.stderr_ols[n], "unit": units[n]} for n in result.free},
+            "fixed": {n: v for n, v in result.values.items() if n not in result.free},
+            "fitted_quantity": result.quantity, "rms_residual": result.rms_residual,
+            "relative_error_percent": result.relative_error_percent, "noise_rms": result.noise_rms,
+            "noise_ratio": result.noise_ratio, "explained": result.explained,
+            "n_data": result.n_data, "n_effective": result.n_effective,
+            "lag1_autocorrelation": result.lag1_autocorrelation, "condition_number": result.condition_number,
+            "correlation": {"names": list(result.free), "matrix": result.correlation},
+            "regimes": [{"name": r.name, "share": r.share, "rms_residual": r.rms_residual,
+                         "noise_ratio": r.noise_ratio, "significant": r.significant} for r in result.regimes],
+            "flags": list(result.flags), "effects": list(result.effect_names), "starts": result.n_starts}
+
+
+def _fit_time(plant, recording, free, method, filter_hz, decimate_band_hz, as_json) -> None:
+    from plant.time_fit import fit_inverse_model, fit_output_error
+
+    if method not in ("inverse-model", "output-error"):
+        raise ParameterError(f"--method must be inverse-model or output-error, got {method!r}")
+    result = fit_inverse_model(plant, recording, free=free, filter_hz=filter_hz, decimate_band_hz=decimate_band_hz)
+    if method == "output-error":
+        result = fit_output_error(plant, recording, start=result, filter_hz=filter_hz,
+                                  decimate_band_hz=decimate_band_hz)
+    if as_json:
+        print_json(time_fit_to_dict(result))
+        return
+    console.print(result.report(), markup=False, highlight=False, soft_wrap=True)

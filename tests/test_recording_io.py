@@ -305,9 +305,10 @@ def test_tdms_errors(tmp_path):
     ("frequency=2,current=3,speed=6", r"column map item 'speed=6': unknown role 'speed'; roles are frequency, time"),
     ("frequency=2,current3,velocity=6", r"column map item 'current3': expected ROLE=COLUMN"),
     ("frequency=2,current=,velocity=6", r"column map item 'current=': expected ROLE=COLUMN"),
-    ("frequency=2,current=3", r"column map 'frequency=2,current=3' names no velocity column"),
+    ("frequency=2,current=3", r"column map 'frequency=2,current=3' names no output: give velocity=\.\.\. or position"),
+    ("time=t,current=3,velocity=v,position=q", r"names both velocity and position outputs"),
     ("frequency=2,frequency=4,current=3,velocity=6", r"names 2 frequency columns; give one"),
-    ("", r"column map '' names no frequency column"),
+    ("", r"column map '' names no current column"),
 ])
 def test_bad_column_map_text(text, message):
     with pytest.raises(DataError, match=message):

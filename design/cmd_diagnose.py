@@ -63,6 +63,9 @@ def diagnose(
         help="Time-domain recordings: zero-phase Butterworth corner before differentiating.")] = 100.0,
     decimate_band_hz: Annotated[float, typer.Option(
         help="Time-domain recordings: band kept by the decimation.")] = 40.0,
+    input_hold: Annotated[bool, typer.Option(
+        "--input-hold", help="Time-domain recordings: the drive held each logged command until the next sample "
+                             "(align the force by half a sample).")] = False,
     as_json: Annotated[bool, typer.Option("--json", help="Print JSON.")] = False,
     report: Annotated[Optional[Path], typer.Option(help="Write an HTML diagnosis report here.")] = None,
 ) -> None:
@@ -90,7 +93,10 @@ def diagnose(
         if amplitude_files or fit_force_constant:
             raise ParameterError("--amplitude-files and --fit-force-constant apply to stepped sines; a time-domain "
                                  "fit needs the force constant set (--set force_constant_n_per_a=...)")
-        _diagnose_time(base, recording, candidates, filter_hz, decimate_band_hz, data, stage, report, as_json)
+        from plant.inverse_model import Preprocessing
+
+        _diagnose_time(base, recording, candidates, Preprocessing(filter_hz, decimate_band_hz, input_hold), data,
+                       stage, report, as_json)
         return
     measured = estimate_response(recording)
     dependent = None
@@ -154,14 +160,13 @@ def _provenance(data: Path) -> str:
     return f"gantry {__version__}\ncommand: gantry {shlex.join(sys.argv[1:])}\ndata: {data} (sha256 {digest}...)"
 
 
-def _diagnose_time(base, recording, candidates, filter_hz, decimate_band_hz, data: Path, stage: str,
-                   report: Path | None, as_json: bool) -> None:
+def _diagnose_time(base, recording, candidates, prep, data: Path, stage: str, report: Path | None,
+                   as_json: bool) -> None:
     """The time-domain diagnosis (``plant.time_diagnosis``): text, JSON and HTML report."""
     from design.time_diagnosis_view import time_diagnosis_report, time_diagnosis_to_dict
     from plant.time_diagnosis import diagnose_time
 
-    diag = diagnose_time(base, recording, candidates=candidates, filter_hz=filter_hz,
-                         decimate_band_hz=decimate_band_hz)
+    diag = diagnose_time(base, recording, candidates=candidates, prep=prep)
     if report is not None:
         time_diagnosis_report(diag, title=f"Diagnosis of {data.name} (Stage {stage.upper()}, time domain)",
                               provenance=_provenance(data)).write(report)

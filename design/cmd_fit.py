@@ -43,6 +43,9 @@ def fit(
              "the dynamics).")] = 100.0,
     decimate_band_hz: Annotated[float, typer.Option(
         help="Time-domain recordings: band kept by the decimation (2 x the band of the dynamics).")] = 40.0,
+    input_hold: Annotated[bool, typer.Option(
+        "--input-hold", help="Time-domain recordings: the drive held each logged command until the next sample "
+                             "(align the force by half a sample).")] = False,
     as_json: Annotated[bool, typer.Option("--json", help="Print JSON.")] = False,
 ) -> None:
     """Fit bounded physical parameters to a recording: maximum likelihood with inverse-variance weights on a
@@ -67,7 +70,9 @@ def fit(
                                  sample_rate_hz=sample_rate_hz)
     if isinstance(recording, TimeRecording):
         plant = Plant(stage, effects=fx, excitation_current_a=1.0, **geometry).with_values(settings)
-        _fit_time(plant, recording, free_names, method, filter_hz, decimate_band_hz, as_json)
+        from plant.inverse_model import Preprocessing
+
+        _fit_time(plant, recording, free_names, method, Preprocessing(filter_hz, decimate_band_hz, input_hold), as_json)
         return
     measured = estimate_response(recording)
     plant = Plant(stage, effects=fx, excitation_current_a=float(measured.current_amplitude_a.mean()),
@@ -135,15 +140,14 @@ def time_fit_to_dict(result) -> dict:
             "flags": list(result.flags), "effects": list(result.effect_names), "starts": result.n_starts}
 
 
-def _fit_time(plant, recording, free, method, filter_hz, decimate_band_hz, as_json) -> None:
+def _fit_time(plant, recording, free, method, prep, as_json) -> None:
     from plant.time_fit import fit_inverse_model, fit_output_error
 
     if method not in ("inverse-model", "output-error"):
         raise ParameterError(f"--method must be inverse-model or output-error, got {method!r}")
-    result = fit_inverse_model(plant, recording, free=free, filter_hz=filter_hz, decimate_band_hz=decimate_band_hz)
+    result = fit_inverse_model(plant, recording, free=free, prep=prep)
     if method == "output-error":
-        result = fit_output_error(plant, recording, start=result, filter_hz=filter_hz,
-                                  decimate_band_hz=decimate_band_hz)
+        result = fit_output_error(plant, recording, start=result, prep=prep)
     if as_json:
         print_json(time_fit_to_dict(result))
         return

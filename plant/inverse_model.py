@@ -2,7 +2,13 @@
 and decimated as IDIM-LS does it (Gautier; Janot, Gautier & Brunot, "Data Set and Reference
 Models of EMPS", 2019, and its script ``Script_IDIM_LS.m``).
 
-The motor force is F = K_f u (``force_constant_n_per_a`` times the drive input). Position (or
+The motor force is F = K_f u (``force_constant_n_per_a`` times the drive input). When the drive
+holds each logged command until the next sample (``input_hold=True``), the force acting between
+t_(k-1) and t_(k+1), which the central difference of the velocity sees at t_k, is the mean
+(F_(k-1) + F_k) / 2; ignoring that half sample biases mass by b h / 2 and damping by about 1 %
+on a simulated zero-order-hold axis. The reference script does not align (the default, which
+reproduces the published EMPS values); on EMPS the alignment moves the damping by +2 %, the
+size of the uncertainty about when the drive applied each command. Position (or
 velocity) is low-passed by a Butterworth filter applied forward and backward (zero phase; order
 4, corner ``filter_hz``, the script's 100 Hz = 5 x the axis's 20 Hz dynamics), then differentiated
 by central differences; ``EDGE_SAMPLES`` are dropped at both ends where the filter and the
@@ -41,6 +47,20 @@ DECIMATE_BAND_HZ = 40.0
 EDGE_SAMPLES = 50
 #: seed of the white noise passed through the chain to predict the residual's noise
 NOISE_SEED = 20190101
+#: a velocity within this many noise standard deviations of zero is indistinguishable from rest
+REST_SIGMAS = 3.0
+#: guard around rest, in periods of the decimation band's upper edge (``InverseModelData.at_rest``)
+REST_GUARD_PERIODS = 2.0
+
+
+@dataclass(frozen=True)
+class Preprocessing:
+    """How the signals are prepared (module doc): filter corner (Hz), decimation band (Hz) and whether
+    the drive held each logged command until the next sample."""
+
+    filter_hz: float = FILTER_HZ
+    decimate_band_hz: float = DECIMATE_BAND_HZ
+    input_hold: bool = False
 
 
 @dataclass(frozen=True)
@@ -54,6 +74,7 @@ class InverseModelData:
     sample_rate_hz: float
     decimation: int
     filter_hz: float
+    decimate_band_hz: float
     #: white-noise standard deviation of the raw force (N) and output (m or m/s) at the full rate
     force_noise_n: float
     output_noise: float
@@ -65,6 +86,19 @@ class InverseModelData:
     #: filtered velocity at the full rate, edges cut: nonlinear regressors are formed from it
     #: before the decimation (``decimate``)
     full_rate_velocity_m_per_s: np.ndarray
+    #: filtered position (m) at the decimated samples, None when the recording has velocity only
+    position_m: np.ndarray | None
+
+    @property
+    def at_rest(self) -> np.ndarray:
+        """Samples whose velocity is within ``REST_SIGMAS`` noise standard deviations of zero, and those
+        within ``REST_GUARD_PERIODS`` periods of the decimation band of one: the filters spread a rest
+        period's static friction force, which is no function of the velocity, over its neighbours."""
+        rest = np.abs(self.velocity_m_per_s) <= REST_SIGMAS * float(np.std(self.noise_velocity_m_per_s))
+        if not rest.any():
+            return rest
+        guard = int(np.ceil(REST_GUARD_PERIODS * self.sample_rate_hz / self.decimate_band_hz))
+        return np.convolve(rest.astype(float), np.ones(2 * guard + 1), mode="same") > 0
 
     def decimate(self, signal: np.ndarray) -> np.ndarray:
         """A full-rate signal (``full_rate_velocity_m_per_s``'s samples) decimated as the columns are."""
@@ -99,16 +133,18 @@ def _chain(rec_fs: float, output: np.ndarray, force: np.ndarray, kind: str, filt
         v = y
     acc = np.gradient(v, h)
     cut = slice(EDGE_SAMPLES, output.size - EDGE_SAMPLES)
-    return [_decimate(c, r) for c in (force[cut], v[cut], acc[cut])] + [v[cut]]
+    position = _decimate(y[cut], r) if kind == "position" else None
+    return [_decimate(c, r) for c in (force[cut], v[cut], acc[cut])] + [v[cut], position]
 
 
 def _decimate(x: np.ndarray, r: int) -> np.ndarray:
     return scipy.signal.decimate(x, r, ftype="iir", zero_phase=True) if r > 1 else np.asarray(x, dtype=float)
 
 
-def inverse_model_data(rec: TimeRecording, force_constant_n_per_a: float, *, filter_hz: float = FILTER_HZ,
-                       decimate_band_hz: float = DECIMATE_BAND_HZ) -> InverseModelData:
+def inverse_model_data(rec: TimeRecording, force_constant_n_per_a: float,
+                       prep: Preprocessing = Preprocessing()) -> InverseModelData:
     """The IDIM-LS signals of ``rec`` (module doc); outputs are averaged (both rails of Stage Y)."""
+    filter_hz, decimate_band_hz = prep.filter_hz, prep.decimate_band_hz
     fs = rec.sample_rate_hz
     if not 0 < filter_hz < 0.5 * fs:
         raise DataError(f"{rec.source}: the filter corner {filter_hz:g} Hz must lie below the Nyquist frequency "
@@ -123,12 +159,14 @@ def inverse_model_data(rec: TimeRecording, force_constant_n_per_a: float, *, fil
                         f"by {r}; record at least {(30 * r + 2 * EDGE_SAMPLES) / fs:.3g} s")
     output = rec.output.mean(axis=0)
     force = force_constant_n_per_a * rec.current_a
-    f, v, acc, v_full = _chain(fs, output, force, rec.output_kind, filter_hz, r)
+    if prep.input_hold:
+        force = np.r_[force[0], (force[1:] + force[:-1]) / 2]
+    f, v, acc, v_full, position = _chain(fs, output, force, rec.output_kind, filter_hz, r)
     sigma_f = difference_noise_std(force)
     sigma_y = float(np.mean([difference_noise_std(o) for o in rec.output])) / np.sqrt(rec.output.shape[0])
     rng = np.random.default_rng(NOISE_SEED)
-    nf, nv, na, _ = _chain(fs, sigma_y * rng.standard_normal(rec.n_samples),
+    nf, nv, na, _, _ = _chain(fs, sigma_y * rng.standard_normal(rec.n_samples),
                         sigma_f * rng.standard_normal(rec.n_samples), rec.output_kind, filter_hz, r)
     t = rec.time_s[EDGE_SAMPLES: rec.n_samples - EDGE_SAMPLES][::r][: f.size]
-    return InverseModelData(t, f, v, acc, fs / r, r, filter_hz, sigma_f, sigma_y, nf, nv, na, rec.source,
-                            v_full)
+    return InverseModelData(t, f, v, acc, fs / r, r, filter_hz, decimate_band_hz, sigma_f, sigma_y, nf, nv, na, rec.source,
+                            v_full, position)

@@ -5,12 +5,11 @@ Candidates are the effects with a force model (``Effect.force_regressors``: ``co
 ``offset``). Every combination is fitted by the inverse model (``plant.time_fit``; linear least
 squares, so each fit is global and a model containing another never fits worse). Models are
 compared by BIC with the residual's own variance and one effective sample size for all (that of
-the largest model; ``plant.time_fit`` module doc). The selected model is the simplest that
-explains the data (residual consistent with the measurement noise, ``TimeFitResult.explained``);
-when none does, the lowest BIC, except that a model with fewer effects within ``DELTA_BIC_STRONG``
-of it is kept (Kass & Raftery 1995: "very strong" evidence is needed for each added effect). The
-verdict is "explained" only when the selected model's residual is noise; otherwise it says what
-is left and where.
+the largest model; ``plant.time_fit`` module doc). The selected model has the lowest BIC, except
+that a model with fewer effects within ``DELTA_BIC_STRONG`` of it is kept (Kass & Raftery 1995:
+"very strong" evidence is needed for each added effect). The verdict is "explained" only when
+the selected model's residual has no structure (``TimeFitResult.explained``); otherwise it says
+what is left and where.
 
 The base model's residual is described by regime of motion and by direction: a force that
 changes sign with the direction of motion is the signature of Coulomb friction; one of the same
@@ -27,7 +26,7 @@ import numpy as np
 
 from plant.effects import EFFECTS, make_effect
 from plant.errors import EffectError
-from plant.inverse_model import DECIMATE_BAND_HZ, FILTER_HZ, InverseModelData, inverse_model_data
+from plant.inverse_model import InverseModelData, Preprocessing, inverse_model_data
 from plant.models import Plant
 from plant.time_fit import TimeFitResult, bic, fit_inverse_model
 from plant.time_recording import TimeRecording
@@ -153,7 +152,7 @@ def _residual_peak(fit: TimeFitResult) -> tuple[float, float]:
 
 
 def diagnose_time(plant: Plant, rec: TimeRecording, *, candidates: tuple[str, ...] | None = None,
-                  filter_hz: float = FILTER_HZ, decimate_band_hz: float = DECIMATE_BAND_HZ) -> TimeDiagnosis:
+                  prep: Preprocessing = Preprocessing()) -> TimeDiagnosis:
     """Fit the base model and every combination of the candidate force effects; select and explain."""
     if plant.effects:
         raise EffectError("the diagnosis starts from the base model; give a plant without effects")
@@ -168,8 +167,7 @@ def diagnose_time(plant: Plant, rec: TimeRecording, *, candidates: tuple[str, ..
         notes.append(f"not tried on time-domain data (no force model; estimate a frequency response for them): "
                      f"{', '.join(skipped)}")
     names = tuple(n for n in names if n in usable)
-    data: InverseModelData = inverse_model_data(rec, float(plant.force_constant_n_per_a), filter_hz=filter_hz,
-                                                decimate_band_hz=decimate_band_hz)
+    data: InverseModelData = inverse_model_data(rec, float(plant.force_constant_n_per_a), prep)
     models: dict[tuple[str, ...], TimeFitResult] = {}
     for k in range(len(names) + 1):
         for combo in itertools.combinations(names, k):
@@ -183,27 +181,35 @@ def diagnose_time(plant: Plant, rec: TimeRecording, *, candidates: tuple[str, ..
     steps = _path(models, bics, selected)
     final = models[selected]
     peak_hz, peak_share = _residual_peak(final)
-    if final.explained:
-        verdict = "explained"
-        explanation = (f"base + {', '.join(selected)} explains the recording: its residual is the measurement noise"
-                       if selected else "the thesis model explains the recording: nothing is missing")
-    else:
-        verdict = "not explained"
-        worst = max(final.regimes, key=lambda r: r.noise_ratio)
-        explanation = (f"not explained: the best model (base{''.join(' + ' + n for n in selected)}) leaves "
-                       f"{final.rms_residual:.3g} N rms, {final.noise_ratio:.3g} x what the measurement noise gives, "
-                       f"largest at {worst.name} ({worst.rms_residual:.3g} N rms); "
-                       f"{100 * peak_share:.0f} % of the residual power lies near {peak_hz:.3g} Hz. Something "
-                       "outside the library (e.g. a velocity-dependent friction law, a position-dependent force "
-                       "or dynamics above the rigid body) remains")
+    verdict = "explained" if final.explained else "not explained"
+    explanation = _explanation(final, selected, peak_hz, peak_share)
     return TimeDiagnosis(steps, ranking, models, selected, verdict, explanation, _where(base), _direction(base),
                          n_eff, peak_hz, peak_share, tuple(notes))
 
 
+def _explanation(final: TimeFitResult, selected: tuple[str, ...], peak_hz: float, peak_share: float) -> str:
+    model = "base" + "".join(f" + {n}" for n in selected)
+    size = (f"{final.rms_residual:.3g} N rms ({final.relative_error_percent:.2g} % of the force), "
+            f"{final.noise_ratio:.3g} x the white noise of the raw signals")
+    if final.explained:
+        return (f"{model} explains the recording: its residual ({size}) depends on neither velocity, acceleration "
+                "nor position" + ("" if selected else "; nothing is missing"))
+    structured = [st for st in final.structure if st.significant]
+    worst = max(final.regimes, key=lambda r: r.noise_ratio)
+    if structured:
+        what = "; ".join(f"it depends on {st.variable} (largest bin {st.worst_bin}, p = {st.p_value:.1g})"
+                         for st in structured)
+        return (f"not explained: the best model ({model}) leaves {size}; {what}. Something outside the library "
+                "remains (a velocity-dependent friction law, a position-dependent force such as cogging or a "
+                "cable, dynamics above the rigid body)")
+    return (f"not explained: the best model ({model}) leaves no significant dependence on velocity, acceleration "
+            f"or position, but its residual is {size}, largest at {worst.name} ({worst.rms_residual:.3g} N rms); "
+            f"{100 * peak_share:.0f} % of the residual power lies near {peak_hz:.3g} Hz. Variation that the force "
+            "effects of the library do not describe remains (disturbances, the loop's own noise, dynamics above "
+            "the decimation band)")
+
+
 def _select(models, bics) -> tuple[str, ...]:
-    adequate = [c for c, f in models.items() if f.explained]
-    if adequate:
-        return min(adequate, key=lambda c: (len(c), bics[c]))
     best = min(bics, key=bics.get)
     simpler = [c for c in models if set(c) < set(best) and bics[c] - bics[best] < DELTA_BIC_STRONG]
     return min(simpler, key=lambda c: (len(c), bics[c])) if simpler else best

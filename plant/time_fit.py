@@ -24,10 +24,20 @@ the residual's own variance and the effective sample size n_eff = n (1 - rho_1) 
 of an AR(1) residual (Bayley & Hammersley 1946): ``bic(fit, n_eff)`` = n_eff ln(RSS / n) + k ln n_eff,
 with one n_eff for all the models compared.
 
-A model explains the data when its residual is no larger than the measurement noise predicts
-(``InverseModelData.residual_noise_std_n``): the variance ratio within its sampling scatter
-(``TEST_P`` in the upper tail of chi^2 with n_eff degrees of freedom), overall and in each
-regime of motion (``regimes``).
+Samples at rest (``InverseModelData.at_rest``) are left out of every fit: there the friction
+force is static, anywhere between -F_c and F_c, and no function of the velocity.
+
+A model explains the data when its residual has no structure: the residual's mean in
+``STRUCTURE_BINS`` quantile bins of velocity, of acceleration and (encoder data) of position is
+zero within its Newey-West uncertainty (a chi^2 test of the bin means at ``TEST_P``, per
+variable; ``Structure``). A missing Coulomb friction leaves a step at v = 0, an offset a shift in
+every bin, a Stribeck curve a bump at low velocity, a position-dependent force (cogging, a cable)
+a pattern along the travel, a wrong mass a slope in acceleration. The test needs no noise model.
+Its size must also be that of the measurement noise: the residual's rms at most
+``NOISE_RATIO_LIMIT`` times the noise's prediction (``InverseModelData.residual_noise_std_n``),
+which assumes white noise at the full rate; in a closed loop the controller colours it, and on
+simulated closed-loop axes with a correct model the ratio lies between 0.5 and 1.6. The residual
+by regime of motion (``regimes``) says where it is largest.
 """
 
 from __future__ import annotations
@@ -42,7 +52,7 @@ import scipy.optimize
 import scipy.stats
 
 from plant.errors import EffectError, ParameterError
-from plant.inverse_model import DECIMATE_BAND_HZ, FILTER_HZ, InverseModelData, inverse_model_data
+from plant.inverse_model import InverseModelData, Preprocessing, inverse_model_data
 from plant.models import Plant
 from plant.time_recording import TimeRecording
 
@@ -52,6 +62,10 @@ TEST_P = 1e-4
 LOW_VELOCITY_FRACTION = 0.05
 #: seconds either side of a change of direction that count as "reversal"
 REVERSAL_S = 0.05
+#: largest residual rms / predicted noise rms of a model that explains the data (module doc)
+NOISE_RATIO_LIMIT = 3.0
+#: quantile bins of each variable in the structure test
+STRUCTURE_BINS = 16
 #: perturbations of the inverse model's mass and damping used as further output-error starts
 OE_START_FACTORS = ((1.0, 1.0), (0.7, 1.4), (1.4, 0.7))
 #: highest rate (Hz) of the output-error simulation (the force is filtered below it first)
@@ -69,6 +83,19 @@ class Regime:
     #: rms residual / the noise's rms (1 when the model is right)
     noise_ratio: float
     significant: bool
+
+
+@dataclass(frozen=True)
+class Structure:
+    """Whether the residual's mean depends on one variable (module doc)."""
+
+    variable: str
+    chi2: float
+    dof: int
+    p_value: float
+    significant: bool
+    #: the bin with the largest mean residual in standard errors: its range and mean
+    worst_bin: str
 
 
 @dataclass(frozen=True)
@@ -102,9 +129,13 @@ class TimeFitResult:
     #: rms residual expected from measurement noise alone, and the rms residual over it
     noise_rms: float
     noise_ratio: float
-    #: the residual is consistent with the measurement noise (overall and in every regime)
+    #: no structure test finds a dependence of the residual on velocity, acceleration or position, and
+    #: the residual is no larger than ``NOISE_RATIO_LIMIT`` times the predicted noise
     explained: bool
     regimes: tuple[Regime, ...]
+    structure: tuple[Structure, ...]
+    #: samples left out because the axis was at rest
+    n_at_rest: int
     condition_number: float
     flags: tuple[str, ...]
     n_starts: int
@@ -128,7 +159,7 @@ class TimeFitResult:
             f"{self.method} fit of the {'force' if unit == 'N' else 'velocity'}",
             "[[Fit Statistics]]",
             f"    # data points      = {self.n_data} (effective {self.n_effective:.0f}: residual lag-1 "
-            f"autocorrelation {self.lag1_autocorrelation:.3f})",
+            f"autocorrelation {self.lag1_autocorrelation:.3f}; {self.n_at_rest} at rest left out)",
             f"    # variables        = {self.n_params}",
             f"    rms residual       = {self.rms_residual:.4g} {unit} ({self.relative_error_percent:.2f} % of the "
             "measured signal)",
@@ -151,6 +182,10 @@ class TimeFitResult:
         if pairs:
             lines.append("[[Correlations]] (unreported correlations are < 0.100)")
             lines += [f"    C({a}, {b}) = {c:+.4f}" for _, a, b, c in sorted(pairs, reverse=True)]
+        lines.append("[[Structure of the residual]] (mean in quantile bins, chi-square against Newey-West errors)")
+        for st in self.structure:
+            lines.append(f"    {st.variable:14s} chi2 {st.chi2:.4g} for {st.dof} bins, p = {st.p_value:.2g}"
+                         f"{' (significant)' if st.significant else ''}; largest: {st.worst_bin}")
         lines.append("[[Residual by regime of motion]]")
         for r in self.regimes:
             lines.append(f"    {r.name:14s} {100 * r.share:5.1f} % of samples: rms {r.rms_residual:.4g} {unit}, "
@@ -257,8 +292,34 @@ def _regimes(v: np.ndarray, t: np.ndarray, e: np.ndarray, noise_rms: float, n_ef
     return tuple(out)
 
 
+def _structure(e: np.ndarray, variables: dict[str, np.ndarray], unit: str) -> tuple[Structure, ...]:
+    """Chi-square test of the residual's bin means per variable (module doc)."""
+    out = []
+    for name, z in variables.items():
+        edges = np.unique(np.quantile(z, np.linspace(0, 1, STRUCTURE_BINS + 1)))
+        idx = np.clip(np.searchsorted(edges, z, side="right") - 1, 0, edges.size - 2)
+        k = edges.size - 1
+        if k < 2:
+            continue
+        B = np.zeros((z.size, k))
+        B[np.arange(z.size), idx] = 1.0
+        counts = B.sum(axis=0)
+        B, edges_used = B[:, counts > 0], [(edges[j], edges[j + 1]) for j in range(k) if counts[j] > 0]
+        means = (B.T @ e) / B.sum(axis=0)
+        cov, _ = _newey_west(B, e)
+        se = np.sqrt(np.maximum(np.diag(cov), 1e-300))
+        chi2 = float(means @ np.linalg.pinv(cov) @ means)
+        dof = int(means.size)
+        p = float(scipy.stats.chi2.sf(chi2, dof))
+        j = int(np.argmax(np.abs(means) / se))
+        lo, hi = edges_used[j]
+        worst = f"{name} {lo:.3g} to {hi:.3g}: mean {means[j]:+.3g} {unit} ({means[j] / se[j]:+.1f} se)"
+        out.append(Structure(name, chi2, dof, p, p < TEST_P, worst))
+    return tuple(out)
+
+
 def _summarise(plant, method, values, free, X, e, measured, model, quantity, t, v, noise_rms, flags, n_starts,
-               elapsed, excitation_a) -> TimeFitResult:
+               elapsed, excitation_a, variables=None, n_at_rest=0) -> TimeFitResult:
     n, k = X.shape
     rss = float(e @ e)
     s2 = rss / max(n - k, 1)
@@ -272,9 +333,9 @@ def _summarise(plant, method, values, free, X, e, measured, model, quantity, t, 
     rho = _lag1(e)
     n_eff = float(np.clip(n * (1 - rho) / (1 + rho), k + 2, n)) if rho > 0 else float(n)
     ratio = math.sqrt(rss / n) / noise_rms if noise_rms > 0 else math.inf
-    limit = scipy.stats.chi2.isf(TEST_P, n_eff) / n_eff
     regimes = _regimes(v, t, e, noise_rms, n_eff / n)
-    explained = bool(ratio**2 <= limit) and not any(r.significant for r in regimes)
+    structure = _structure(e, variables or {"velocity": v}, "N" if quantity == "force_n" else "m/s")
+    explained = not any(st.significant for st in structure) and ratio <= NOISE_RATIO_LIMIT
     cond = float(np.linalg.cond(X / np.maximum(np.linalg.norm(X, axis=0), 1e-300)))
     return TimeFitResult(
         plant=_plant_with(plant, values, excitation_a), method=method, values=dict(values), free=tuple(free),
@@ -284,22 +345,24 @@ def _summarise(plant, method, values, free, X, e, measured, model, quantity, t, 
         rss=rss, n_data=n, n_params=k, n_effective=n_eff, lag1_autocorrelation=rho,
         relative_error_percent=float(100 * math.sqrt(rss) / max(np.linalg.norm(measured), 1e-300)),
         noise_rms=noise_rms, noise_ratio=ratio, explained=explained, regimes=regimes,
+        structure=structure, n_at_rest=int(n_at_rest),
         condition_number=cond, flags=tuple(flags),
         n_starts=n_starts, elapsed_s=elapsed)
 
 
 def fit_inverse_model(plant: Plant, rec: TimeRecording | InverseModelData, *, free: Sequence[str] | None = None,
-                      filter_hz: float = FILTER_HZ, decimate_band_hz: float = DECIMATE_BAND_HZ) -> TimeFitResult:
+                      prep: Preprocessing = Preprocessing()) -> TimeFitResult:
     """IDIM-LS of ``plant``'s time-domain model (module doc) on ``rec`` (or its prepared signals)."""
     t0 = time.perf_counter()
     time_domain_effects(plant)
     free = _check_free(plant, free if free is not None else default_free_time(plant))
     data = rec if isinstance(rec, InverseModelData) else \
-        inverse_model_data(rec, float(plant.force_constant_n_per_a), filter_hz=filter_hz,
-                           decimate_band_hz=decimate_band_hz)
-    cols = _regressors(plant, data)
+        inverse_model_data(rec, float(plant.force_constant_n_per_a), prep)
+    moving = ~data.at_rest
+    cols = {name: col[moving] for name, col in _regressors(plant, data).items()}
     params = plant.parameters()
-    y = data.force_n.copy()
+    force = data.force_n[moving]
+    y = force.copy()
     for name, col in cols.items():
         if name not in free:
             y -= params[name].value * col
@@ -313,13 +376,16 @@ def fit_inverse_model(plant: Plant, rec: TimeRecording | InverseModelData, *, fr
     flags = [f"{p} = {b:.4g} {params[p].unit} is at its bound [{lo[i]:g}, {hi[i]:g}]: the data ask for a value "
              "outside the physical range" for i, (p, b) in enumerate(zip(free, beta))
              if np.isclose(b, lo[i]) or np.isclose(b, hi[i])]
-    model = X @ beta + (data.force_n - y)
-    e = data.force_n - model
+    model = X @ beta + (force - y)
+    e = force - model
     m_per, b_per = _effective_factors(plant)
     noise = data.residual_noise_std_n(m_per * values["mass_kg"], b_per * values["damping_n_s_per_m"])
-    return _summarise(plant, "inverse-model", values, free, X, e, data.force_n, model, "force_n", data.time_s,
-                      data.velocity_m_per_s, noise, flags, 1, time.perf_counter() - t0,
-                      _peak_input(plant, data))
+    variables = {"velocity": data.velocity_m_per_s[moving], "acceleration": data.acceleration_m_per_s2[moving]}
+    if data.position_m is not None:
+        variables["position"] = data.position_m[moving]
+    return _summarise(plant, "inverse-model", values, free, X, e, force, model, "force_n", data.time_s[moving],
+                      data.velocity_m_per_s[moving], noise, flags, 1, time.perf_counter() - t0,
+                      _peak_input(plant, data), variables, int(data.at_rest.sum()))
 
 
 def _peak_input(plant: Plant, data: InverseModelData) -> float:
@@ -383,20 +449,19 @@ def simulate_velocity(force_n: np.ndarray, step_s: float, *, mass_kg: float, dam
 
 
 def fit_output_error(plant: Plant, rec: TimeRecording, *, start: TimeFitResult | None = None,
-                     filter_hz: float = FILTER_HZ, decimate_band_hz: float = DECIMATE_BAND_HZ) -> TimeFitResult:
+                     prep: Preprocessing = Preprocessing()) -> TimeFitResult:
     """Output-error fit of the time-domain model (module doc): the simulated velocity against the measured
     one, from the inverse model's estimate (``start``, fitted when None) and ``OE_START_FACTORS``
     perturbations of its mass and damping; the best start wins, and a start that ends elsewhere with
     a cost within 1e-6 is reported as a flag."""
     t0 = time.perf_counter()
-    start = start or fit_inverse_model(plant, rec, filter_hz=filter_hz, decimate_band_hz=decimate_band_hz)
+    start = start or fit_inverse_model(plant, rec, prep=prep)
     plant = start.plant
     free = start.free
     if any(n not in ("mass_kg", "damping_n_s_per_m", "coulomb_friction.force_n", "offset.force_n") for n in free):
         raise EffectError("the output-error fit simulates mass, damping, coulomb_friction and offset; "
                           f"free parameters were {', '.join(free)}")
-    data = inverse_model_data(rec, float(plant.force_constant_n_per_a), filter_hz=filter_hz,
-                              decimate_band_hz=decimate_band_hz)
+    data = inverse_model_data(rec, float(plant.force_constant_n_per_a), prep)
     oe = _oe_data(rec, data, float(plant.force_constant_n_per_a))
     m_per, b_per = _effective_factors(plant)
     params = plant.parameters()

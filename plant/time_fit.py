@@ -30,7 +30,9 @@ force is static, anywhere between -F_c and F_c, and no function of the velocity.
 A model explains the data when its residual has no structure: the residual's mean in
 ``STRUCTURE_BINS`` quantile bins of velocity, of acceleration and (encoder data) of position is
 zero within its Newey-West uncertainty (a chi^2 test of the bin means at ``TEST_P``, per
-variable; ``Structure``). A missing Coulomb friction leaves a step at v = 0, an offset a shift in
+variable; ``Structure``) and large enough to matter (``STRUCTURE_SHARE``: numerical and
+preprocessing approximations leave a structure of about 0.1 % of the force that a long record
+resolves). A missing Coulomb friction leaves a step at v = 0, an offset a shift in
 every bin, a Stribeck curve a bump at low velocity, a position-dependent force (cogging, a cable)
 a pattern along the travel, a wrong mass a slope in acceleration. The test needs no noise model.
 Its size must also be that of the measurement noise: the residual's rms at most
@@ -66,6 +68,10 @@ REVERSAL_S = 0.05
 NOISE_RATIO_LIMIT = 3.0
 #: quantile bins of each variable in the structure test
 STRUCTURE_BINS = 16
+#: smallest share of the residual (rms of the bin means / rms) that counts as structure: a systematic
+#: part of a quarter of the residual's rms (6 % of its variance); pure noise gives about
+#: sqrt(STRUCTURE_BINS / n_eff), 0.13 for 1000 effective samples
+STRUCTURE_SHARE = 0.25
 #: perturbations of the inverse model's mass and damping used as further output-error starts
 OE_START_FACTORS = ((1.0, 1.0), (0.7, 1.4), (1.4, 0.7))
 #: highest rate (Hz) of the output-error simulation (the force is filtered below it first)
@@ -96,6 +102,8 @@ class Structure:
     significant: bool
     #: the bin with the largest mean residual in standard errors: its range and mean
     worst_bin: str
+    #: rms over the samples of their bin's mean residual, over the residual's rms (0: no structure)
+    share: float
 
 
 @dataclass(frozen=True)
@@ -314,7 +322,8 @@ def _structure(e: np.ndarray, variables: dict[str, np.ndarray], unit: str) -> tu
         j = int(np.argmax(np.abs(means) / se))
         lo, hi = edges_used[j]
         worst = f"{name} {lo:.3g} to {hi:.3g}: mean {means[j]:+.3g} {unit} ({means[j] / se[j]:+.1f} se)"
-        out.append(Structure(name, chi2, dof, p, p < TEST_P, worst))
+        share = float(np.sqrt(np.sum(B.sum(axis=0) * means**2) / max(float(e @ e), 1e-300)))
+        out.append(Structure(name, chi2, dof, p, p < TEST_P and share >= STRUCTURE_SHARE, worst, share))
     return tuple(out)
 
 

@@ -236,3 +236,12 @@ def test_stepped_sine_reader_refuses_a_map_without_frequency(tmp_path):
     path.write_text("f,t,i,v\n1,0,0,0\n")
     with pytest.raises(DataError, match="a stepped-sine column map names the frequency column"):
         read_recording(path, columns=parse_column_map("time=t,current=i,velocity=v"))
+
+
+def test_emps_example_runs_from_the_checkout(tmp_path):
+    example = Path(__file__).resolve().parents[1] / "examples" / "emps.py"
+    out = subprocess.run([sys.executable, str(example), "--report", str(tmp_path / "emps.html")], capture_output=True,
+                         text=True, timeout=120)
+    assert out.returncode == 0, out.stderr
+    assert "mass_kg" in out.stdout and "Verdict:" in out.stdout
+    assert (tmp_path / "emps.html").read_text().count("<svg") == 3

@@ -71,6 +71,8 @@ DISTORTION_BANDS = 8
 LPM_POWER_FLOOR = 1e-4
 #: default number of LPM points
 LPM_POINTS = 100
+#: relative standard error of G_ur above which the closed-loop ratio's first-order variance is flagged
+RATIO_RELATIVE_ERROR = 0.1
 
 
 # --- checks -----------------------------------------------------------------------------
@@ -222,7 +224,7 @@ def _distortion(core: _Periodic, names, n_period: int, fs: float) -> tuple[dict,
                 ratio = float(np.sum(np.abs(core.z_bar_all[i, sel]) ** 2) / np.sum(core.z_var_all[i, sel]))
                 bands.append({"f_lo_hz": a * fs / n_period, "f_hi_hz": (b - 1) * fs / n_period, "lines": m,
                               "level_db": 10 * math.log10(ratio) if ratio > 0 else -math.inf,
-                              "p_value": float(scipy.stats.f.sf(ratio, 2 * m, 2 * m * dof))})
+                              "p_value": float(scipy.stats.f.sf(ratio, 2 * m, m * dof))})
             levels[name][kind] = bands
             hit = [band for band in bands if band["p_value"] < DISTORTION_P / len(bands)]
             significant[name][kind] = bool(hit)
@@ -400,7 +402,9 @@ def closed_loop_response(rec: TimeRecording, *, period_s: float | None = None, t
         var(G) = (C_yy + |G|^2 C_uu - 2 Re(conj(G) C_yu)) / |G_ur|^2,
 
     C_yu = E[dG_yr conj(dG_ur)], with the real degrees of freedom of the scatter (2 (P - 1)) or
-    of the LPM residual (2 q). Keywords as ``periodic_response`` and ``lpm_response``.
+    of the LPM residual (2 q). First order needs G_ur known to a few percent; points where its
+    relative standard error exceeds ``RATIO_RELATIVE_ERROR`` are counted in a note (there the
+    reported variance overstates the error: with G_ur known to 25 %, by about a third). Keywords as ``periodic_response`` and ``lpm_response``.
     ``metadata["estimator"]`` is "periodic" or "lpm"; ``metadata["reference_to_current"]`` is
     G_ur (A per reference unit).
     """
@@ -443,7 +447,13 @@ def closed_loop_response(rec: TimeRecording, *, period_s: float | None = None, t
     cov[np.arange(g.shape[0]), np.arange(g.shape[0])] = var
     g, cov = _velocity(g, cov, core.f_hz, rec.output_kind)
     metadata.update(variance_dof=np.full(core.f_hz.size, dof), reference_to_current=g_u)
-    return _result(rec, core.f_hz, g, np.einsum("iik->ik", cov), amplitude, "closed-loop", metadata, ())
+    relative = np.sqrt(c_uu) / np.abs(g_u)
+    notes = []
+    if np.any(relative > RATIO_RELATIVE_ERROR):
+        notes.append(f"{int(np.sum(relative > RATIO_RELATIVE_ERROR))} of {relative.size} points have the reference-to-"
+                     f"current response known only to {relative.max():.0%} (above {RATIO_RELATIVE_ERROR:.0%}); "
+                     f"the first-order variance of the ratio is unreliable there")
+    return _result(rec, core.f_hz, g, np.einsum("iik->ik", cov), amplitude, "closed-loop", metadata, notes)
 
 
 # --- dispatch --------------------------------------------------------------------------------------

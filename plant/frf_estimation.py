@@ -71,6 +71,9 @@ DISTORTION_BANDS = 8
 LPM_POWER_FLOOR = 1e-4
 #: default number of LPM points
 LPM_POINTS = 100
+#: an LPM window whose normalised regressor has a larger condition number is not evaluated
+#: (too few lines with input energy to separate G from the transient, e.g. a multisine's gaps)
+LPM_MAX_CONDITION = 1e8
 #: relative standard error of G_ur above which the closed-loop ratio's first-order variance is flagged
 RATIO_RELATIVE_ERROR = 0.1
 
@@ -165,6 +168,7 @@ class _Periodic:
     z_bar_all: np.ndarray    # every line's output period mean, (m, N // 2 + 1)
     z_var_all: np.ndarray    # its noise variance from the scatter, (m, N // 2 + 1)
     excited_all: np.ndarray  # bool, every line, (N // 2 + 1,)
+    notes: tuple[str, ...] = ()
 
 
 def _periodic_core(x, z, n_period: int, transient: int, fs: float, f_range_hz, source: str) -> _Periodic:
@@ -292,6 +296,7 @@ class _Lpm:
     coherence: np.ndarray   # (m, K)
     x_amplitude: np.ndarray  # amplitude of a sinusoid with the window's input power, (K,)
     dof: int                # residual's complex degrees of freedom q
+    notes: tuple[str, ...]
 
 
 def _default_bandwidth(order: int) -> int:
@@ -339,8 +344,18 @@ def _lpm_core(x, z, fs: float, order: int, half: int, f_range_hz, n_freq: int, s
     scale = np.sqrt(np.mean(np.abs(xw) ** 2, axis=1))                    # (K,)
     design = np.concatenate([(xw / scale[:, None])[:, :, None] * poly, np.broadcast_to(poly, xw.shape + poly.shape[1:])],
                             axis=2)                                      # (K, L, n_par)
+    gram = np.einsum("kla,klb->kab", design.conj(), design)
+    conditioned = np.linalg.cond(gram) < LPM_MAX_CONDITION
+    notes = ()
+    if not conditioned.all():
+        if not conditioned.any():
+            raise DataError(f"{source}: no LPM window of {width} lines has enough lines with input energy to "
+                            f"separate G from the transient (a multisine with gaps needs the periodic method)")
+        notes = (f"{int(np.sum(~conditioned))} of {lines.size} LPM points left out: too few lines with input "
+                 f"energy in their window",)
+        lines, xw, scale, design, gram = (a[conditioned] for a in (lines, xw, scale, design, gram))
     zw = zf[:, lines[:, None] + r]                                       # (m, K, L)
-    gram_inv = np.linalg.inv(np.einsum("kla,klb->kab", design.conj(), design))
+    gram_inv = np.linalg.inv(gram)
     theta = np.einsum("kab,klb,mkl->mka", gram_inv, design.conj(), zw)  # (m, K, n_par)
     resid = zw - np.einsum("kla,mka->mkl", design, theta)
     sigma = np.einsum("ikl,jkl->ijk", resid, resid.conj()) / q           # (m, m, K)
@@ -350,7 +365,7 @@ def _lpm_core(x, z, fs: float, order: int, half: int, f_range_hz, n_freq: int, s
     s_pow = np.mean(np.abs(signal) ** 2, axis=2)
     noise = np.einsum("iik->ik", sigma).real
     coherence = s_pow / (s_pow + noise)
-    return _Lpm(lines, f_all[lines], g, cov, coherence, 2 * scale / n, q)
+    return _Lpm(lines, f_all[lines], g, cov, coherence, 2 * scale / n, q, notes)
 
 
 def lpm_response(rec: TimeRecording, *, order: int = 2, bandwidth_lines: int | None = None,
@@ -377,7 +392,7 @@ def lpm_response(rec: TimeRecording, *, order: int = 2, bandwidth_lines: int | N
     g, cov = _velocity(core.g, core.cov, core.f_hz, rec.output_kind)
     metadata = {"variance_dof": np.full(core.f_hz.size, 2.0 * core.dof), "coherence": core.coherence,
                 "order": int(order), "bandwidth_lines": half, "sample_rate_hz": fs}
-    return _result(rec, core.f_hz, g, np.einsum("iik->ik", cov), core.x_amplitude, "lpm", metadata, ())
+    return _result(rec, core.f_hz, g, np.einsum("iik->ik", cov), core.x_amplitude, "lpm", metadata, core.notes)
 
 
 # --- closed loop -------------------------------------------------------------------------------
@@ -448,7 +463,7 @@ def closed_loop_response(rec: TimeRecording, *, period_s: float | None = None, t
     g, cov = _velocity(g, cov, core.f_hz, rec.output_kind)
     metadata.update(variance_dof=np.full(core.f_hz.size, dof), reference_to_current=g_u)
     relative = np.sqrt(c_uu) / np.abs(g_u)
-    notes = []
+    notes = list(core.notes)
     if np.any(relative > RATIO_RELATIVE_ERROR):
         notes.append(f"{int(np.sum(relative > RATIO_RELATIVE_ERROR))} of {relative.size} points have the reference-to-"
                      f"current response known only to {relative.max():.0%} (above {RATIO_RELATIVE_ERROR:.0%}); "

@@ -235,7 +235,8 @@ def _distortion(core: _Periodic, names, n_period: int, fs: float) -> tuple[dict,
             if hit:
                 worst = max(hit, key=lambda band: band["level_db"])
                 notes.append(f"output {name}: nonlinear distortion at the {kind} lines not excited, up to "
-                             f"{worst['level_db']:.1f} dB above the noise ({worst['f_lo_hz']:g}..{worst['f_hi_hz']:g} Hz)")
+                             f"{worst['level_db']:.1f} dB above the noise "
+                             f"({worst['f_lo_hz']:g}..{worst['f_hi_hz']:g} Hz)")
     return levels, significant, notes
 
 
@@ -342,8 +343,8 @@ def _lpm_core(x, z, fs: float, order: int, half: int, f_range_hz, n_freq: int, s
     poly = (r / max(half, 1))[:, None] ** np.arange(order + 1)           # (L, R+1)
     xw = xf[lines[:, None] + r]                                          # (K, L)
     scale = np.sqrt(np.mean(np.abs(xw) ** 2, axis=1))                    # (K,)
-    design = np.concatenate([(xw / scale[:, None])[:, :, None] * poly, np.broadcast_to(poly, xw.shape + poly.shape[1:])],
-                            axis=2)                                      # (K, L, n_par)
+    transient = np.broadcast_to(poly, xw.shape + poly.shape[1:])
+    design = np.concatenate([(xw / scale[:, None])[:, :, None] * poly, transient], axis=2)  # (K, L, n_par)
     gram = np.einsum("kla,klb->kab", design.conj(), design)
     conditioned = np.linalg.cond(gram) < LPM_MAX_CONDITION
     notes = ()
@@ -419,8 +420,8 @@ def closed_loop_response(rec: TimeRecording, *, period_s: float | None = None, t
     C_yu = E[dG_yr conj(dG_ur)], with the real degrees of freedom of the scatter (2 (P - 1)) or
     of the LPM residual (2 q). First order needs G_ur known to a few percent; points where its
     relative standard error exceeds ``RATIO_RELATIVE_ERROR`` are counted in a note (there the
-    reported variance overstates the error: with G_ur known to 25 %, by about a third). Keywords as ``periodic_response`` and ``lpm_response``.
-    ``metadata["estimator"]`` is "periodic" or "lpm"; ``metadata["reference_to_current"]`` is
+    reported variance overstates the error: with G_ur known to 25 %, by about a third).
+    Keywords as ``periodic_response`` and ``lpm_response``. ``metadata["estimator"]`` is "periodic" or "lpm"; ``metadata["reference_to_current"]`` is
     G_ur (A per reference unit).
     """
     if rec.reference is None:

@@ -12,8 +12,9 @@ Plant
 Two ways of driving it
     * ``multisine_record``: a multisine current is a sum of sinusoids in continuous time; the
       response from rest is the steady state sum_k Re(a_k C (j w_k I - A)^-1 B e^{j w_k t}) plus
-      the homogeneous solution -C e^{A t} x_p(0) (by the eigenvectors of A), both exact at the sample instants. The truth
-      is the continuous-time response C (j w I - A)^-1 B (``Axis.response``).
+      the homogeneous solution -C e^{A t} x_p(0) (by the eigenvectors of A), both exact at the
+      sample instants. The truth is the continuous-time response C (j w I - A)^-1 B
+      (``Axis.response``).
     * ``zoh_record`` and ``closed_loop_record``: the current is held constant over each sample
       interval (zero-order hold), x[k+1] = Ad x[k] + Bd i[k] with Ad = e^{A T},
       Bd = int_0^T e^{A s} ds B; the output is sampled at the same instants, y[k] = C x[k]. The

@@ -88,6 +88,15 @@ def test_simulator_noise_free_estimates_match_its_truth():
     m = periodic_response(_rec(sim.zoh_record(AXIS, rng, u, fs_hz=FS, noise_std=0.0)), transient_periods=3)
     assert np.max(np.abs(m.response[0] / AXIS.zoh_response(m.f_hz, FS) - 1)) < 1e-8
     assert m.f_hz.size == LINES.size and np.allclose(m.f_hz, LINES)
+    flexible = sim.Axis(mode_mass_kg=10.0, mode_stiffness_n_per_m=10.0 * (2 * np.pi * 60) ** 2,
+                        mode_damping_n_s_per_m=2 * 0.03 * 10.0 * 2 * np.pi * 60)
+    r = sim.multisine_record(flexible, rng, fs_hz=FS, period_samples=PERIOD, periods=6, lines=LINES, rms_a=1.0,
+                             noise_std=0.0)
+    m = periodic_response(_rec(r), transient_periods=3)
+    assert np.max(np.abs(m.response[0] / flexible.response(m.f_hz) - 1)) < 1e-8
+    r = sim.zoh_record(flexible, rng, u, fs_hz=FS, noise_std=0.0)
+    m = periodic_response(_rec(r), transient_periods=3)
+    assert np.max(np.abs(m.response[0] / flexible.zoh_response(m.f_hz, FS) - 1)) < 1e-8
 
 
 # --- periodic ---------------------------------------------------------------------------------
@@ -188,6 +197,17 @@ def test_lpm_single_chirp_unbiased_and_calibrated():
         return m, AXIS.zoh_response(m.f_hz, FS)
 
     g, v, truth = _draws(estimate)
+    _check_unbiased_and_calibrated(g, v, truth)
+
+
+def test_lpm_position_output_gives_velocity_response():
+    def estimate(rng):
+        u = rng.standard_normal(10_000)
+        r = sim.zoh_record(AXIS, rng, u, fs_hz=FS, noise_std=1e-6, output="position")
+        m = lpm_response(_rec(r, "position"), f_range_hz=(0.5, 200))
+        return m, 2j * np.pi * m.f_hz * AXIS.zoh_response(m.f_hz, FS, "position")
+
+    g, v, truth = _draws(estimate, draws=40)
     _check_unbiased_and_calibrated(g, v, truth)
 
 

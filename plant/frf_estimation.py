@@ -8,15 +8,15 @@ per current, m/s per A, with E|G_hat - G|^2 per point and its real degrees of fr
     Periodic excitation (multisine, repeated chirp). The record is cut into whole periods, the
     first ``transient_periods`` dropped, each remaining period transformed by the DFT, and at
     the excited lines G_k = Y_bar(k) / U_bar(k), the ratio of the period means (Pintelon &
-    Schoukens, "System Identification: A Frequency Domain Approach", 2nd ed. 2012, sections 2.4
-    and 2.5). The ratio of means averages the noise before dividing, so noise on the measured
+    Schoukens, "System Identification: A Frequency Domain Approach", 2nd ed. 2012, chapter 2).
+    The ratio of means averages the noise before dividing, so noise on the measured
     current biases it only by O(1 / (P SNR_u)); the mean of per-period ratios keeps the full
     errors-in-variables bias of one period and, 1 / U being heavy-tailed, can have no finite
     variance. The variance comes from the scatter between the P periods: with
     e_p = (Y_p - G_hat U_p) / U_bar, var(G_hat) = sum_p |e_p|^2 / (P (P - 1)) -- the first-order
     variance of the ratio, sigma_Y^2/|U|^2 + |G|^2 sigma_U^2/|U|^2 - 2 Re(conj(G) sigma_YU)/|U|^2
     over P -- with nu = 2 (P - 1) real degrees of freedom. The output at the lines not excited
-    measures the nonlinear distortion (odd and even lines of an odd multisine, section 3.4 of
+    measures the nonlinear distortion (odd and even lines of an odd multisine, chapter 3 of
     the book) against the same noise level.
 
 ``lpm_response``
@@ -263,7 +263,7 @@ def periodic_response(rec: TimeRecording, *, period_s: float | None = None, tran
     """Frequency response from a periodic excitation (see the module doc).
 
     ``period_s``: the excitation's period (s), a whole number of samples; detected from the
-    current's autocorrelation when None. The first ``transient_periods`` periods are dropped and
+    current's autocorrelation when None (``detect_period``: whole samples, up to half the record). The first ``transient_periods`` periods are dropped and
     at least 2 must remain. ``f_range_hz``: keep excited lines in (low, high) Hz.
 
     Returns the excited lines with G (m/s per A), var = E|G_hat - G|^2 from the scatter between
@@ -408,8 +408,8 @@ def closed_loop_response(rec: TimeRecording, *, period_s: float | None = None, t
     (G S_rr - S_nn / C) / (S_rr + S_nn) (spectra of r and n): towards -1/C where the noise
     dominates. The reference r is set by the experimenter and uncorrelated
     with n and v, so the responses r -> y and r -> u estimated against r are unbiased, and their
-    ratio G = G_yr / G_ur = (G S C) / (S C) is consistent (Pintelon & Schoukens 2012, section
-    2.6 and chapter 8; the "joint input-output" approach). Both are estimated by the periodic
+    ratio G = G_yr / G_ur = (G S C) / (S C) is consistent (Pintelon & Schoukens 2012, chapter 2,
+    FRF measurement in feedback; the "joint input-output" approach). Both are estimated by the periodic
     method when the reference repeats (``MIN_AUTO_PERIODS`` or more periods, or ``period_s``
     given; the ratio is then exactly Y_bar / U_bar of the period means), by the LPM otherwise,
     with the same regressor for y and u, so their errors' covariance is known. First order,

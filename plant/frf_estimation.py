@@ -263,8 +263,8 @@ def periodic_response(rec: TimeRecording, *, period_s: float | None = None, tran
     """Frequency response from a periodic excitation (see the module doc).
 
     ``period_s``: the excitation's period (s), a whole number of samples; detected from the
-    current's autocorrelation when None (``detect_period``: whole samples, up to half the record). The first ``transient_periods`` periods are dropped and
-    at least 2 must remain. ``f_range_hz``: keep excited lines in (low, high) Hz.
+    current's autocorrelation when None (``detect_period``: whole samples, up to half the
+    record). The first ``transient_periods`` periods are dropped and at least 2 must remain. ``f_range_hz``: keep excited lines in (low, high) Hz.
 
     Returns the excited lines with G (m/s per A), var = E|G_hat - G|^2 from the scatter between
     periods, ``snr_db`` = |G|^2 / var, ``current_amplitude_a`` the current's amplitude at each
@@ -421,8 +421,8 @@ def closed_loop_response(rec: TimeRecording, *, period_s: float | None = None, t
     of the LPM residual (2 q). First order needs G_ur known to a few percent; points where its
     relative standard error exceeds ``RATIO_RELATIVE_ERROR`` are counted in a note (there the
     reported variance overstates the error: with G_ur known to 25 %, by about a third).
-    Keywords as ``periodic_response`` and ``lpm_response``. ``metadata["estimator"]`` is "periodic" or "lpm"; ``metadata["reference_to_current"]`` is
-    G_ur (A per reference unit).
+    Keywords as ``periodic_response`` and ``lpm_response``. ``metadata["estimator"]`` is
+    "periodic" or "lpm"; ``metadata["reference_to_current"]`` is G_ur (A per reference unit).
     """
     if rec.reference is None:
         raise DataError(f"{rec.source}: closed-loop estimation needs the loop's reference; the record has none")

@@ -264,7 +264,8 @@ def periodic_response(rec: TimeRecording, *, period_s: float | None = None, tran
 
     ``period_s``: the excitation's period (s), a whole number of samples; detected from the
     current's autocorrelation when None (``detect_period``: whole samples, up to half the
-    record). The first ``transient_periods`` periods are dropped and at least 2 must remain. ``f_range_hz``: keep excited lines in (low, high) Hz.
+    record). The first ``transient_periods`` periods are dropped and at least 2 must remain.
+    ``f_range_hz``: keep excited lines in (low, high) Hz.
 
     Returns the excited lines with G (m/s per A), var = E|G_hat - G|^2 from the scatter between
     periods, ``snr_db`` = |G|^2 / var, ``current_amplitude_a`` the current's amplitude at each

@@ -122,23 +122,23 @@ def samples_per_period(period_s: float, sample_rate_hz: float) -> int:
 def odd_log_lines(f_min_hz: float, f_max_hz: float, period_s: float, lines_per_decade: float | None) -> np.ndarray:
     """Odd harmonic numbers h (f = h / period_s) in [f_min_hz, f_max_hz], log-spaced.
 
-    From the lowest odd harmonic in the band upwards, a harmonic is kept when it is at least
-    10 ** (1 / lines_per_decade) times the last kept one; ``lines_per_decade`` None keeps every
-    odd harmonic of the band. Where the odd harmonics are denser than the requested spacing,
-    the odd lines skipped carry no excitation and show odd-order distortion.
+    The lowest and highest odd harmonics of the band and round(decades x ``lines_per_decade``)
+    - 1 log-spaced targets between them, each snapped to the nearest odd harmonic, duplicates
+    merged: where the odd harmonics are sparser than the targets (the low end) every odd
+    harmonic is excited, elsewhere the odd lines skipped carry no excitation and show odd-order
+    distortion. ``lines_per_decade`` None keeps every odd harmonic of the band.
     """
     h_lo = math.ceil(f_min_hz * period_s - 1e-9)
     h_hi = math.floor(f_max_hz * period_s + 1e-9)
     h_lo += 1 - h_lo % 2
-    odd = np.arange(h_lo, h_hi + 1, 2)
-    if lines_per_decade is None or odd.size == 0:
-        return odd
-    step = 10.0 ** (1.0 / lines_per_decade)
-    kept = [int(odd[0])]
-    for h in odd[1:]:
-        if h >= kept[-1] * step * (1 - 1e-12):
-            kept.append(int(h))
-    return np.array(kept)
+    h_hi -= 1 - h_hi % 2
+    if h_hi < h_lo:
+        return np.array([], dtype=int)
+    if lines_per_decade is None or h_hi == h_lo:
+        return np.arange(h_lo, h_hi + 1, 2)
+    count = max(round(math.log10(h_hi / h_lo) * lines_per_decade), 1) + 1
+    targets = np.geomspace(h_lo, h_hi, count)
+    return np.unique(np.clip(2 * np.round((targets - 1) / 2) + 1, h_lo, h_hi).astype(int))
 
 
 def schroeder_phases(harmonics: np.ndarray, amplitudes: np.ndarray) -> np.ndarray:
@@ -190,8 +190,8 @@ def design_multisine(*, f_min_hz: float, f_max_hz: float, peak_a: float, period_
 
     ``period_s`` (s): one period, a whole number of samples at ``sample_rate_hz`` (Hz); the
     frequency resolution is 1 / period_s and the lines are its odd multiples (``odd_log_lines``)
-    in [``f_min_hz``, ``f_max_hz``] (Hz, below the Nyquist frequency), ``lines_per_decade`` apart
-    at least (None: every odd harmonic). ``periods``: how many periods ``current_a`` holds.
+    in [``f_min_hz``, ``f_max_hz``] (Hz, below the Nyquist frequency), about ``lines_per_decade``
+    per decade where the odd harmonics are dense enough (None: every odd harmonic). ``periods``: how many periods ``current_a`` holds.
     ``phases``: "schroeder", "optimised" or "random" (the module doc); ``seed`` draws the random
     phases and the random starts of the optimisation. ``ParameterError`` names the argument that is not finite, out of range, leaves no
     line in the band or makes more than ``MAX_SAMPLES`` samples.

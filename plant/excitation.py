@@ -147,7 +147,9 @@ def schroeder_phases(harmonics: np.ndarray, amplitudes: np.ndarray) -> np.ndarra
     h = np.asarray(harmonics, float)
     p = np.asarray(amplitudes, float) ** 2
     p = p / p.sum()
-    phi = -np.pi * np.array([np.sum((h[k] - h[:k]) * p[:k]) for k in range(h.size)])
+    below = np.cumsum(p) - p                       # sum_{l<k} p_l
+    below_h = np.cumsum(h * p) - h * p             # sum_{l<k} h_l p_l
+    phi = -np.pi * (h * below - below_h)
     return np.mod(phi, 2 * np.pi)
 
 
@@ -278,8 +280,9 @@ def multisine_variance(multisine: Multisine, noise_m_per_s: float, transient_per
 
     With the unnormalised DFT of one period of N samples, X_k = sum_{n<N} x[n] e^{-j 2 pi k n / N},
     a line a cos(2 pi k n / N + phi) has |U_k| = N a / 2 and white noise of variance s^2 has
-    E|V_k|^2 = N s^2. G_hat_k = mean over P periods of V_k^[p] / U_k (the current is the
-    command, known without noise), so var(G_hat_k) = N s^2 / (P |U_k|^2) = 4 s^2 / (P N a_k^2).
+    E|V_k|^2 = N s^2. G_hat_k = V_bar_k / U_bar_k, the ratio of the means over the P periods
+    kept (``plant.frf_estimation.periodic_response``); the current is the command, known without
+    noise, so U_bar_k = U_k and var(G_hat_k) = N s^2 / (P |U_k|^2) = 4 s^2 / (P N a_k^2).
     """
     p = multisine.periods - _whole_count("transient_periods", transient_periods, 0)
     if p < 1:

@@ -170,3 +170,30 @@ def test_cli_bad_arguments_exit_2_with_one_line(tmp_path, args, name):
     assert res.returncode == 2
     assert name in res.stderr and res.stderr.count("\n") == 1 and res.stderr.startswith("gantry: error:")
     assert list(tmp_path.iterdir()) == []                              # nothing written
+
+
+def test_periodic_response_on_the_played_multisine_meets_the_prediction():
+    from scipy.signal import lfilter
+
+    from plant.frf_estimation import periodic_response
+    from plant.time_recording import TimeRecording
+
+    ms = design_multisine(f_min_hz=1.0, f_max_hz=75.0, peak_a=0.5, period_s=1.0, sample_rate_hz=2000.0,
+                          periods=12, phases="optimised")
+    a = np.exp(-400.0 / 20.0 / 2000.0)                # Stage X mass-damper, zero-order hold, k_t = 20 N/A
+    b = 20.0 * (1 - a) / 400.0
+    clean = lfilter([0.0, b], [1.0, -a], ms.current_a)
+    z = np.exp(-2j * np.pi * ms.f_hz / 2000.0)
+    truth = b * z / (1 - a * z)
+    sigma, rng = 1e-3, np.random.default_rng(5)
+    errors, reported = [], []
+    for _ in range(10):
+        rec = TimeRecording(ms.time_s, ms.current_a, (clean + sigma * rng.standard_normal(clean.size))[None, :],
+                            "velocity", ("velocity_m_per_s",))
+        m = periodic_response(rec, period_s=ms.period_s, transient_periods=1)
+        assert np.allclose(m.f_hz, ms.f_hz)
+        errors.append(np.abs(m.response[0] - truth) ** 2)
+        reported.append(m.variance[0])
+    predicted = multisine_variance(ms, sigma, transient_periods=1)
+    assert abs(np.mean(errors) / predicted.mean() - 1) < 0.2           # 380 exponential errors: ~5 % scatter
+    assert abs(np.mean(reported) / predicted.mean() - 1) < 0.1

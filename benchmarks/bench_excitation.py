@@ -134,8 +134,8 @@ def main():
           "2 K T_block / ((T_block - settle) F CF^2) for K blocks, F lines)")
     lines_for_target = 2 * ss_err.shape[1] / (TARGET_RATIO * 2.0)     # 2 K / (ratio CF^2) at CF^2 = 2
     print(f"target ratio >= {TARGET_RATIO:g}: {'met' if max(ratios) >= TARGET_RATIO else 'not met'} (best "
-          f"{max(ratios):.3g}); at the same peak current it needs F <= 2 K / ({TARGET_RATIO:g} CF^2) = {lines_for_target:g} lines "
-          f"even at crest factor sqrt 2")
+          f"{max(ratios):.3g}); at the same peak current it needs F <= 2 K / ({TARGET_RATIO:g} CF^2) = "
+          f"{lines_for_target:g} lines even at crest factor sqrt 2")
     print(f"stepped sine predicted with {STEPPED_SETTLE_S:g} s of settling per block; the lock-in kept "
           f"{ss_used:.3f} s of {THESIS_BLOCK_S:g} s on average (settling estimated from the data), which "
           f"accounts for act/pred = {(THESIS_BLOCK_S - STEPPED_SETTLE_S) / ss_used:.3f}")

@@ -193,10 +193,11 @@ def design_multisine(*, f_min_hz: float, f_max_hz: float, peak_a: float, period_
     ``period_s`` (s): one period, a whole number of samples at ``sample_rate_hz`` (Hz); the
     frequency resolution is 1 / period_s and the lines are its odd multiples (``odd_log_lines``)
     in [``f_min_hz``, ``f_max_hz``] (Hz, below the Nyquist frequency), about ``lines_per_decade``
-    per decade where the odd harmonics are dense enough (None: every odd harmonic). ``periods``: how many periods ``current_a`` holds.
-    ``phases``: "schroeder", "optimised" or "random" (the module doc); ``seed`` draws the random
-    phases and the random starts of the optimisation. ``ParameterError`` names the argument that is not finite, out of range, leaves no
-    line in the band or makes more than ``MAX_SAMPLES`` samples.
+    per decade where the odd harmonics are dense enough (None: every odd harmonic).
+    ``periods``: how many periods ``current_a`` holds. ``phases``: "schroeder", "optimised" or
+    "random" (the module doc); ``seed`` draws the random phases and the random starts of the
+    optimisation. ``ParameterError`` names the argument that is not finite, out of range,
+    leaves no line in the band or makes more than ``MAX_SAMPLES`` samples.
     """
     f_min = _finite_positive("f_min_hz", f_min_hz)
     f_max = _finite_positive("f_max_hz", f_max_hz)

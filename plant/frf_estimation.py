@@ -71,6 +71,11 @@ DISTORTION_BANDS = 8
 LPM_POWER_FLOOR = 1e-4
 #: default number of LPM points
 LPM_POINTS = 100
+#: an LPM window whose normalised regressor has a larger condition number is not evaluated
+#: (too few lines with input energy to separate G from the transient, e.g. a multisine's gaps)
+LPM_MAX_CONDITION = 1e8
+#: relative standard error of G_ur above which the closed-loop ratio's first-order variance is flagged
+RATIO_RELATIVE_ERROR = 0.1
 
 
 # --- checks -----------------------------------------------------------------------------
@@ -163,6 +168,7 @@ class _Periodic:
     z_bar_all: np.ndarray    # every line's output period mean, (m, N // 2 + 1)
     z_var_all: np.ndarray    # its noise variance from the scatter, (m, N // 2 + 1)
     excited_all: np.ndarray  # bool, every line, (N // 2 + 1,)
+    notes: tuple[str, ...] = ()
 
 
 def _periodic_core(x, z, n_period: int, transient: int, fs: float, f_range_hz, source: str) -> _Periodic:
@@ -222,7 +228,7 @@ def _distortion(core: _Periodic, names, n_period: int, fs: float) -> tuple[dict,
                 ratio = float(np.sum(np.abs(core.z_bar_all[i, sel]) ** 2) / np.sum(core.z_var_all[i, sel]))
                 bands.append({"f_lo_hz": a * fs / n_period, "f_hi_hz": (b - 1) * fs / n_period, "lines": m,
                               "level_db": 10 * math.log10(ratio) if ratio > 0 else -math.inf,
-                              "p_value": float(scipy.stats.f.sf(ratio, 2 * m, 2 * m * dof))})
+                              "p_value": float(scipy.stats.f.sf(ratio, 2 * m, m * dof))})
             levels[name][kind] = bands
             hit = [band for band in bands if band["p_value"] < DISTORTION_P / len(bands)]
             significant[name][kind] = bool(hit)
@@ -290,6 +296,7 @@ class _Lpm:
     coherence: np.ndarray   # (m, K)
     x_amplitude: np.ndarray  # amplitude of a sinusoid with the window's input power, (K,)
     dof: int                # residual's complex degrees of freedom q
+    notes: tuple[str, ...]
 
 
 def _default_bandwidth(order: int) -> int:
@@ -337,8 +344,18 @@ def _lpm_core(x, z, fs: float, order: int, half: int, f_range_hz, n_freq: int, s
     scale = np.sqrt(np.mean(np.abs(xw) ** 2, axis=1))                    # (K,)
     design = np.concatenate([(xw / scale[:, None])[:, :, None] * poly, np.broadcast_to(poly, xw.shape + poly.shape[1:])],
                             axis=2)                                      # (K, L, n_par)
+    gram = np.einsum("kla,klb->kab", design.conj(), design)
+    conditioned = np.linalg.cond(gram) < LPM_MAX_CONDITION
+    notes = ()
+    if not conditioned.all():
+        if not conditioned.any():
+            raise DataError(f"{source}: no LPM window of {width} lines has enough lines with input energy to "
+                            f"separate G from the transient (a multisine with gaps needs the periodic method)")
+        notes = (f"{int(np.sum(~conditioned))} of {lines.size} LPM points left out: too few lines with input "
+                 f"energy in their window",)
+        lines, xw, scale, design, gram = (a[conditioned] for a in (lines, xw, scale, design, gram))
     zw = zf[:, lines[:, None] + r]                                       # (m, K, L)
-    gram_inv = np.linalg.inv(np.einsum("kla,klb->kab", design.conj(), design))
+    gram_inv = np.linalg.inv(gram)
     theta = np.einsum("kab,klb,mkl->mka", gram_inv, design.conj(), zw)  # (m, K, n_par)
     resid = zw - np.einsum("kla,mka->mkl", design, theta)
     sigma = np.einsum("ikl,jkl->ijk", resid, resid.conj()) / q           # (m, m, K)
@@ -348,7 +365,7 @@ def _lpm_core(x, z, fs: float, order: int, half: int, f_range_hz, n_freq: int, s
     s_pow = np.mean(np.abs(signal) ** 2, axis=2)
     noise = np.einsum("iik->ik", sigma).real
     coherence = s_pow / (s_pow + noise)
-    return _Lpm(lines, f_all[lines], g, cov, coherence, 2 * scale / n, q)
+    return _Lpm(lines, f_all[lines], g, cov, coherence, 2 * scale / n, q, notes)
 
 
 def lpm_response(rec: TimeRecording, *, order: int = 2, bandwidth_lines: int | None = None,
@@ -375,7 +392,7 @@ def lpm_response(rec: TimeRecording, *, order: int = 2, bandwidth_lines: int | N
     g, cov = _velocity(core.g, core.cov, core.f_hz, rec.output_kind)
     metadata = {"variance_dof": np.full(core.f_hz.size, 2.0 * core.dof), "coherence": core.coherence,
                 "order": int(order), "bandwidth_lines": half, "sample_rate_hz": fs}
-    return _result(rec, core.f_hz, g, np.einsum("iik->ik", cov), core.x_amplitude, "lpm", metadata, ())
+    return _result(rec, core.f_hz, g, np.einsum("iik->ik", cov), core.x_amplitude, "lpm", metadata, core.notes)
 
 
 # --- closed loop -------------------------------------------------------------------------------
@@ -400,7 +417,9 @@ def closed_loop_response(rec: TimeRecording, *, period_s: float | None = None, t
         var(G) = (C_yy + |G|^2 C_uu - 2 Re(conj(G) C_yu)) / |G_ur|^2,
 
     C_yu = E[dG_yr conj(dG_ur)], with the real degrees of freedom of the scatter (2 (P - 1)) or
-    of the LPM residual (2 q). Keywords as ``periodic_response`` and ``lpm_response``.
+    of the LPM residual (2 q). First order needs G_ur known to a few percent; points where its
+    relative standard error exceeds ``RATIO_RELATIVE_ERROR`` are counted in a note (there the
+    reported variance overstates the error: with G_ur known to 25 %, by about a third). Keywords as ``periodic_response`` and ``lpm_response``.
     ``metadata["estimator"]`` is "periodic" or "lpm"; ``metadata["reference_to_current"]`` is
     G_ur (A per reference unit).
     """
@@ -443,7 +462,13 @@ def closed_loop_response(rec: TimeRecording, *, period_s: float | None = None, t
     cov[np.arange(g.shape[0]), np.arange(g.shape[0])] = var
     g, cov = _velocity(g, cov, core.f_hz, rec.output_kind)
     metadata.update(variance_dof=np.full(core.f_hz.size, dof), reference_to_current=g_u)
-    return _result(rec, core.f_hz, g, np.einsum("iik->ik", cov), amplitude, "closed-loop", metadata, ())
+    relative = np.sqrt(c_uu) / np.abs(g_u)
+    notes = list(core.notes)
+    if np.any(relative > RATIO_RELATIVE_ERROR):
+        notes.append(f"{int(np.sum(relative > RATIO_RELATIVE_ERROR))} of {relative.size} points have the reference-to-"
+                     f"current response known only to {relative.max():.0%} (above {RATIO_RELATIVE_ERROR:.0%}); "
+                     f"the first-order variance of the ratio is unreliable there")
+    return _result(rec, core.f_hz, g, np.einsum("iik->ik", cov), amplitude, "closed-loop", metadata, notes)
 
 
 # --- dispatch --------------------------------------------------------------------------------------

@@ -12,7 +12,7 @@ Plant
 Two ways of driving it
     * ``multisine_record``: a multisine current is a sum of sinusoids in continuous time; the
       response from rest is the steady state sum_k Re(a_k C (j w_k I - A)^-1 B e^{j w_k t}) plus
-      the homogeneous solution -C e^{A t} x_p(0), both exact at the sample instants. The truth
+      the homogeneous solution -C e^{A t} x_p(0) (by the eigenvectors of A), both exact at the sample instants. The truth
       is the continuous-time response C (j w I - A)^-1 B (``Axis.response``).
     * ``zoh_record`` and ``closed_loop_record``: the current is held constant over each sample
       interval (zero-order hold), x[k+1] = Ad x[k] + Bd i[k] with Ad = e^{A T},
@@ -143,10 +143,11 @@ def coloured(rng: np.random.Generator, n: int, std: float, pole: float = 0.0) ->
 # --- simulations --------------------------------------------------------------------------------
 def multisine_record(axis: Axis, rng: np.random.Generator, *, fs_hz: float, period_samples: int,
                      periods: int, lines: np.ndarray, rms_a: float, noise_std: float, noise_pole: float = 0.0,
-                     current_noise_std: float = 0.0, output: str = "velocity", cubic: float = 0.0) -> Record:
+                     current_noise_std: float = 0.0, output: str = "velocity", quadratic: float = 0.0,
+                     cubic: float = 0.0) -> Record:
     """Exact response from rest to a continuous multisine current (module doc), plus noise.
 
-    ``cubic``: output nonlinearity y + cubic * y^3 (y in the output's unit) before the noise.
+    Static output nonlinearity y + quadratic y^2 + cubic y^3 (y in the output's unit) before the noise.
     """
     n = period_samples * periods
     t = np.arange(n) / fs_hz
@@ -159,14 +160,10 @@ def multisine_record(axis: Axis, rng: np.random.Generator, *, fs_hz: float, peri
     phasor = amp * np.exp(1j * ph)
     x0 = np.real(phasor @ xk)
     steady = np.real(np.exp(2j * np.pi * f0 * np.outer(t, lines)) @ (phasor * (xk @ c)))
-    ad = expm(a / fs_hz)
-    hom = np.empty(n)
-    state = -x0
-    for i in range(n):
-        hom[i] = c @ state
-        state = ad @ state
+    lam, vec = np.linalg.eig(a)
+    hom = np.real(np.exp(np.outer(t, lam)) @ ((c @ vec) * np.linalg.solve(vec, -x0)))
     y = steady + hom
-    y = y + cubic * y ** 3
+    y = y + quadratic * y ** 2 + cubic * y ** 3
     current = multisine(t, f0, lines, rms_a)
     return Record(t, current + coloured(rng, n, current_noise_std), y + coloured(rng, n, noise_std, noise_pole))
 

@@ -63,6 +63,9 @@ def diagnose(
         help="Time-domain recordings: zero-phase Butterworth corner before differentiating.")] = 100.0,
     decimate_band_hz: Annotated[float, typer.Option(
         help="Time-domain recordings: band kept by the decimation.")] = 40.0,
+    frf: Annotated[Optional[str], typer.Option(
+        help="Time-domain recordings: estimate the frequency response first (auto, periodic, lpm or closed-loop) "
+             "and fit in the frequency domain, where delays, filters and modes live.")] = None,
     input_hold: Annotated[bool, typer.Option(
         "--input-hold", help="Time-domain recordings: the drive held each logged command until the next sample "
                              "(align the force by half a sample).")] = False,
@@ -73,6 +76,8 @@ def diagnose(
     from design.diagnosis_view import diagnosis_report, diagnosis_to_dict
     from plant.diagnosis import diagnose as run_diagnosis
     from plant.effects import EFFECTS
+    from plant.frf_estimation import estimate_frf
+    from plant.inverse_model import Preprocessing
     from plant.lockin import amplitude_dependence, estimate_response
     from plant.models import Plant
     from plant.time_recording import TimeRecording
@@ -89,16 +94,17 @@ def diagnose(
                 if v is not None}
     base = Plant(stage, **geometry).with_values(parse_set(set_values))
     recording = _read(data, columns, sample_rate_hz)
-    if isinstance(recording, TimeRecording):
+    if isinstance(recording, TimeRecording) and frf is None:
         if amplitude_files or fit_force_constant:
             raise ParameterError("--amplitude-files and --fit-force-constant apply to stepped sines; a time-domain "
                                  "fit needs the force constant set (--set force_constant_n_per_a=...)")
-        from plant.inverse_model import Preprocessing
-
         _diagnose_time(base, recording, candidates, Preprocessing(filter_hz, decimate_band_hz, input_hold), data,
                        stage, report, as_json)
         return
-    measured = estimate_response(recording)
+    if isinstance(recording, TimeRecording):
+        measured = estimate_frf(recording, method=frf)
+    else:
+        measured = estimate_response(recording)
     dependent = None
     if amplitude_files:
         others = [_measure(p, columns, sample_rate_hz) for p in amplitude_files]

@@ -43,6 +43,9 @@ def fit(
              "the dynamics).")] = 100.0,
     decimate_band_hz: Annotated[float, typer.Option(
         help="Time-domain recordings: band kept by the decimation (2 x the band of the dynamics).")] = 40.0,
+    frf: Annotated[Optional[str], typer.Option(
+        help="Time-domain recordings: estimate the frequency response first (auto, periodic, lpm or closed-loop) "
+             "and fit in the frequency domain, where delays, filters and modes live.")] = None,
     input_hold: Annotated[bool, typer.Option(
         "--input-hold", help="Time-domain recordings: the drive held each logged command until the next sample "
                              "(align the force by half a sample).")] = False,
@@ -54,6 +57,8 @@ def fit(
     from plant.effects import make_effect
     from plant.fitting import fit_plant
     from plant.lockin import estimate_response
+    from plant.frf_estimation import estimate_frf
+    from plant.inverse_model import Preprocessing
     from plant.models import Plant
     from plant.recording_io import parse_column_map
     from plant.time_recording import TimeRecording
@@ -68,13 +73,14 @@ def fit(
     free_names = tuple(p.strip() for p in free.split(",") if p.strip()) if free else None
     recording = read_measurement(data, columns=parse_column_map(columns) if columns else None,
                                  sample_rate_hz=sample_rate_hz)
-    if isinstance(recording, TimeRecording):
+    if isinstance(recording, TimeRecording) and frf is not None:
+        measured = estimate_frf(recording, method=frf)
+    elif isinstance(recording, TimeRecording):
         plant = Plant(stage, effects=fx, excitation_current_a=1.0, **geometry).with_values(settings)
-        from plant.inverse_model import Preprocessing
-
         _fit_time(plant, recording, free_names, method, Preprocessing(filter_hz, decimate_band_hz, input_hold), as_json)
         return
-    measured = estimate_response(recording)
+    else:
+        measured = estimate_response(recording)
     plant = Plant(stage, effects=fx, excitation_current_a=float(measured.current_amplitude_a.mean()),
                   **geometry).with_values(settings)
     result = fit_plant(plant, measured, free=free_names)

@@ -381,3 +381,28 @@ def test_closed_loop_without_reference_refused(record):
 def test_unknown_method_refused(record):
     with pytest.raises(DataError, match=r"bad\.csv: unknown method 'h1'"):
         estimate_frf(_bad(record), method="h1")
+
+
+def test_cli_fits_and_diagnoses_a_multisine_csv_through_its_frequency_response(tmp_path):
+    """A time-domain CSV (time_s, current_a, velocity_m_per_s) of a multisine: ``--frf periodic``
+    estimates the frequency response and the frequency-domain fit finds the simulator's mass and damping."""
+    import json
+    import subprocess
+    import sys
+
+    r = _multisine(np.random.default_rng(5), periods=8)
+    path = tmp_path / "multisine.csv"
+    np.savetxt(path, np.column_stack([r.time_s, r.current_a, r.output]), delimiter=",", fmt="%.10g",
+               header="time_s,current_a,velocity_m_per_s", comments="")
+    common = [str(path), "--stage", "x", "--frf", "periodic", "--set", f"force_constant_n_per_a={sim.KT_N_PER_A}",
+              "--json"]
+    out = subprocess.run([sys.executable, "-m", "design", "fit", *common], capture_output=True, text=True,
+                         timeout=120)
+    assert out.returncode == 0, out.stderr
+    params = json.loads(out.stdout)["parameters"]
+    for name, truth in (("mass_kg", sim.MASS_KG), ("damping_n_s_per_m", sim.DAMPING_N_S_PER_M)):
+        assert abs(params[name]["value"] - truth) < 4 * params[name]["stderr"], (name, params[name], truth)
+    out = subprocess.run([sys.executable, "-m", "design", "diagnose", *common], capture_output=True, text=True,
+                         timeout=300)
+    assert out.returncode == 0, out.stderr
+    assert json.loads(out.stdout)["final_effects"] == []

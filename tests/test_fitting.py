@@ -8,6 +8,7 @@ noise model ``MeasuredResponse.variance`` describes.
 from __future__ import annotations
 
 import dataclasses
+import math
 
 import control
 import numpy as np
@@ -379,5 +380,20 @@ def test_cli_json_contract(small_recording):
     for p in res["parameters"].values():
         assert set(p) >= {"value", "stderr"} and p["stderr"] > 0
     assert res["dof"] == 2 * 8 - 3 and isinstance(res["flags"], list)
-    assert res["aic"] == pytest.approx(res["chi2"] + 2 * 3)      # -2 ln L + 2k
+    assert res["bic"] - res["aic"] == pytest.approx(3 * (math.log(res["n_data"]) - 2))  # -2 ln L + k ln n / + 2k
     assert res["correlation"]["names"] == list(res["parameters"])
+
+
+def test_likelihood_of_residuals_with_estimated_variances_is_the_f_density():
+    """Reference: scipy.stats.f. With variances estimated on nu degrees of freedom, |r|^2 / 2 of a correct
+    model's normalised residual is F(2, nu); -2 ln L is -2 sum ln f(|r|^2 / 2), and chi^2 for nu = inf."""
+    from scipy import stats
+
+    from plant.fitting import minus_two_log_likelihood
+
+    rng = np.random.default_rng(3)
+    r = rng.normal(size=(2, 9)) + 1j * rng.normal(size=(2, 9))
+    nu = np.array([4.0, 6.0, 10.0, 18.0, 18.0, 40.0, 100.0, 1e4, 12.0])
+    expected = -2 * np.sum(stats.f.logpdf(np.abs(r) ** 2 / 2, 2, nu))
+    assert minus_two_log_likelihood(r, nu) == pytest.approx(expected, rel=1e-12)
+    assert minus_two_log_likelihood(r, np.full(9, np.inf)) == pytest.approx(np.sum(np.abs(r) ** 2), rel=1e-12)

@@ -81,6 +81,20 @@ def parse_set(text: str | None) -> dict[str, float]:
     return out
 
 
+def parse_band(text: str | None) -> dict[str, tuple[float, float]]:
+    """``"1:200"`` -> ``{"f_range_hz": (1.0, 200.0)}`` (``--band-hz``); nothing when not given."""
+    if text is None:
+        return {}
+    low, sep, high = text.partition(":")
+    try:
+        band = (float(low), float(high))
+    except ValueError:
+        band = (math.nan, math.nan)
+    if not sep or not all(math.isfinite(b) for b in band) or not 0 <= band[0] < band[1]:
+        raise ParameterError(f"--band-hz {text!r}: expected LOW:HIGH in Hz with 0 <= LOW < HIGH, e.g. 1:200")
+    return {"f_range_hz": band}
+
+
 def _register_commands() -> None:
     """Import every ``design/cmd_*.py``: each registers its command on ``app``."""
     import importlib

@@ -11,7 +11,7 @@ from typing import Annotated, Optional
 import typer
 from rich.table import Table
 
-from design.cli import app, console, parse_set, print_json
+from design.cli import app, console, parse_band, parse_set, print_json
 from plant import __version__
 from plant.errors import ParameterError
 
@@ -66,6 +66,8 @@ def diagnose(
     frf: Annotated[Optional[str], typer.Option(
         help="Time-domain recordings: estimate the frequency response first (auto, periodic, lpm or closed-loop) "
              "and fit in the frequency domain, where delays, filters and modes live.")] = None,
+    band_hz: Annotated[Optional[str], typer.Option(
+        help="With --frf: the band LOW:HIGH (Hz) of the frequency response, e.g. 1:200.")] = None,
     input_hold: Annotated[bool, typer.Option(
         "--input-hold", help="Time-domain recordings: the drive held each logged command until the next sample "
                              "(align the force by half a sample).")] = False,
@@ -102,7 +104,7 @@ def diagnose(
                        stage, report, as_json)
         return
     if isinstance(recording, TimeRecording):
-        measured = estimate_frf(recording, method=frf)
+        measured = estimate_frf(recording, method=frf, **parse_band(band_hz))
     else:
         measured = estimate_response(recording)
     dependent = None

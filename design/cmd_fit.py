@@ -8,7 +8,7 @@ from typing import Annotated, Optional
 
 import typer
 
-from design.cli import app, console, parse_set, print_json
+from design.cli import app, console, parse_band, parse_set, print_json
 from plant.errors import ParameterError
 
 
@@ -46,6 +46,8 @@ def fit(
     frf: Annotated[Optional[str], typer.Option(
         help="Time-domain recordings: estimate the frequency response first (auto, periodic, lpm or closed-loop) "
              "and fit in the frequency domain, where delays, filters and modes live.")] = None,
+    band_hz: Annotated[Optional[str], typer.Option(
+        help="With --frf: the band LOW:HIGH (Hz) of the frequency response, e.g. 1:200.")] = None,
     input_hold: Annotated[bool, typer.Option(
         "--input-hold", help="Time-domain recordings: the drive held each logged command until the next sample "
                              "(align the force by half a sample).")] = False,
@@ -74,7 +76,7 @@ def fit(
     recording = read_measurement(data, columns=parse_column_map(columns) if columns else None,
                                  sample_rate_hz=sample_rate_hz)
     if isinstance(recording, TimeRecording) and frf is not None:
-        measured = estimate_frf(recording, method=frf)
+        measured = estimate_frf(recording, method=frf, **parse_band(band_hz))
     elif isinstance(recording, TimeRecording):
         plant = Plant(stage, effects=fx, excitation_current_a=1.0, **geometry).with_values(settings)
         _fit_time(plant, recording, free_names, method, Preprocessing(filter_hz, decimate_band_hz, input_hold), as_json)

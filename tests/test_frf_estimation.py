@@ -406,3 +406,6 @@ def test_cli_fits_and_diagnoses_a_multisine_csv_through_its_frequency_response(t
                          timeout=300)
     assert out.returncode == 0, out.stderr
     assert json.loads(out.stdout)["final_effects"] == []
+    out = subprocess.run([sys.executable, "-m", "design", "fit", *common, "--band-hz", "300:400"], capture_output=True,
+                         text=True, timeout=120)
+    assert out.returncode == 2 and out.stderr.count("\n") == 1 and "no excited line in 300..400 Hz" in out.stderr

@@ -9,7 +9,7 @@ import json
 import math
 import sys
 from pathlib import Path
-from typing import Annotated
+from typing import Annotated, Optional
 
 import numpy as np
 import typer
@@ -63,6 +63,25 @@ def _strict(obj):
     if isinstance(obj, float) and not math.isfinite(obj):
         return None
     return obj
+
+
+#: options shared by the commands that read recordings (``fit``, ``diagnose``)
+SetOption = Annotated[Optional[str], typer.Option(
+    "--set", help="Parameter values (held fixed unless fitted), e.g. force_constant_n_per_a=35.15 for a drive "
+                  "command in V with its gain in N/V.")]
+FilterHzOption = Annotated[float, typer.Option(
+    help="Time-domain recordings: zero-phase Butterworth corner before differentiating (5 x the band of the "
+         "dynamics).")]
+DecimateBandHzOption = Annotated[float, typer.Option(
+    help="Time-domain recordings: band kept by the decimation (2 x the band of the dynamics).")]
+FrfOption = Annotated[Optional[str], typer.Option(
+    help="Time-domain recordings: estimate the frequency response first (auto, periodic, lpm or closed-loop) and "
+         "fit in the frequency domain, where delays, filters and modes live.")]
+BandHzOption = Annotated[Optional[str], typer.Option(
+    help="With --frf: the band LOW:HIGH (Hz) of the frequency response, e.g. 1:200.")]
+InputHoldOption = Annotated[bool, typer.Option(
+    "--input-hold", help="Time-domain recordings: the drive held each logged command until the next sample "
+                         "(align the force by half a sample).")]
 
 
 def parse_set(text: str | None) -> dict[str, float]:

@@ -11,7 +11,10 @@ from typing import Annotated, Optional
 import typer
 from rich.table import Table
 
-from design.cli import app, console, parse_band, parse_set, print_json
+from design.cli import (
+    BandHzOption, DecimateBandHzOption, FilterHzOption, FrfOption, InputHoldOption, SetOption, app, console,
+    parse_band, parse_set, print_json,
+)
 from plant import __version__
 from plant.errors import ParameterError
 
@@ -53,24 +56,16 @@ def diagnose(
     effects: Annotated[Optional[str], typer.Option(
         help="Candidate effects to try (comma list); default: every effect of the library.")] = None,
     columns: Annotated[Optional[str], typer.Option(
-        help="Column map for spreadsheets/TDMS, e.g. frequency=2,current=3,velocity=6,velocity=7.")] = None,
+        help="Column map: spreadsheets/TDMS frequency=2,current=3,velocity=6,velocity=7; time-domain CSV/.mat "
+             "time=t,current=vir,position=qm,reference=qg.")] = None,
     sample_rate_hz: Annotated[Optional[float], typer.Option(help="Sample rate when the file has no time column.")]
     = None,
-    set_values: Annotated[Optional[str], typer.Option(
-        "--set", help="Parameter values, e.g. force_constant_n_per_a=35.15 for a drive command in V with its gain "
-                      "in N/V.")] = None,
-    filter_hz: Annotated[float, typer.Option(
-        help="Time-domain recordings: zero-phase Butterworth corner before differentiating.")] = 100.0,
-    decimate_band_hz: Annotated[float, typer.Option(
-        help="Time-domain recordings: band kept by the decimation.")] = 40.0,
-    frf: Annotated[Optional[str], typer.Option(
-        help="Time-domain recordings: estimate the frequency response first (auto, periodic, lpm or closed-loop) "
-             "and fit in the frequency domain, where delays, filters and modes live.")] = None,
-    band_hz: Annotated[Optional[str], typer.Option(
-        help="With --frf: the band LOW:HIGH (Hz) of the frequency response, e.g. 1:200.")] = None,
-    input_hold: Annotated[bool, typer.Option(
-        "--input-hold", help="Time-domain recordings: the drive held each logged command until the next sample "
-                             "(align the force by half a sample).")] = False,
+    set_values: SetOption = None,
+    filter_hz: FilterHzOption = 100.0,
+    decimate_band_hz: DecimateBandHzOption = 40.0,
+    frf: FrfOption = None,
+    band_hz: BandHzOption = None,
+    input_hold: InputHoldOption = False,
     as_json: Annotated[bool, typer.Option("--json", help="Print JSON.")] = False,
     report: Annotated[Optional[Path], typer.Option(help="Write an HTML diagnosis report here.")] = None,
 ) -> None:

@@ -37,6 +37,7 @@ from scipy import stats
 from scipy.optimize import least_squares
 
 from plant.errors import DataError, EffectError, ParameterError
+from plant.fit_report import correlation_lines, variable_lines
 from plant.frequency_response import MeasuredResponse
 from plant.models import BASE_BOUNDS, Plant
 from plant.parameters import Parameter
@@ -126,23 +127,10 @@ class FitResult:
             f"    success            = {self.success} ({self.message})",
             "[[Variables]]",
         ]
-        width = max(len(n) for n in self.values)
-        for name, value in self.values.items():
-            unit = params[name].unit
-            if name in self.stderr:
-                err = self.stderr[name]
-                rel = f" ({100 * err / abs(value):.2f}%)" if math.isfinite(err) and value != 0 else ""
-                lines.append(f"    {name + ':':<{width + 1}} {value:.6g} +/- {err:.3g}{rel} {unit}"
-                             f" (init = {self.initial[name]:.6g})")
-            else:
-                lines.append(f"    {name + ':':<{width + 1}} {value:.6g} {unit} (fixed)")
-        pairs = [(abs(self.correlation[i, j]), self.free[i], self.free[j], self.correlation[i, j])
-                 for i in range(len(self.free)) for j in range(i + 1, len(self.free))
-                 if np.isfinite(self.correlation[i, j]) and abs(self.correlation[i, j]) > min_correlation]
-        if pairs:
-            lines.append(f"[[Correlations]] (unreported correlations are < {min_correlation:.3f})")
-            for _, a, b, c in sorted(pairs, reverse=True):
-                lines.append(f"    C({a}, {b}) = {c:+.4f}")
+        units = {n: p.unit for n, p in params.items()}
+        lines += variable_lines(self.values, units, self.stderr,
+                                {n: f" (init = {self.initial[n]:.6g})" for n in self.stderr})
+        lines += correlation_lines(self.free, self.correlation, min_correlation)
         if self.flags:
             lines.append("[[Flags]]")
             lines += [f"    {f}" for f in self.flags]

@@ -168,5 +168,6 @@ def inverse_model_data(rec: TimeRecording, force_constant_n_per_a: float,
     nf, nv, na, _, _ = _chain(fs, sigma_y * rng.standard_normal(rec.n_samples),
                         sigma_f * rng.standard_normal(rec.n_samples), rec.output_kind, filter_hz, r)
     t = rec.time_s[EDGE_SAMPLES: rec.n_samples - EDGE_SAMPLES][::r][: f.size]
-    return InverseModelData(t, f, v, acc, fs / r, r, filter_hz, decimate_band_hz, sigma_f, sigma_y, nf, nv, na, rec.source,
+    return InverseModelData(t, f, v, acc, fs / r, r, filter_hz, decimate_band_hz, sigma_f, sigma_y, nf, nv, na,
+                            rec.source,
                             v_full, position)

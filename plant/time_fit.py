@@ -54,6 +54,7 @@ import scipy.optimize
 import scipy.stats
 
 from plant.errors import EffectError, ParameterError
+from plant.fit_report import correlation_lines, variable_lines
 from plant.inverse_model import InverseModelData, Preprocessing, inverse_model_data
 from plant.models import Plant
 from plant.time_recording import TimeRecording
@@ -175,21 +176,10 @@ class TimeFitResult:
             f"    condition number   = {self.condition_number:.3g}",
             "[[Variables]] (+/- Newey-West standard error; ordinary least squares in brackets)",
         ]
-        width = max(len(n) for n in self.values)
-        for name, value in self.values.items():
-            u = params[name].unit
-            if name in self.stderr:
-                err = self.stderr[name]
-                rel = f" ({100 * err / abs(value):.2f}%)" if math.isfinite(err) and value != 0 else ""
-                lines.append(f"    {name + ':':<{width + 1}} {value:.6g} +/- {err:.3g}{rel} [{self.stderr_ols[name]:.3g}]"
-                             f" {u}")
-            else:
-                lines.append(f"    {name + ':':<{width + 1}} {value:.6g} {u} (fixed)")
-        pairs = [(abs(c), self.free[i], self.free[j], c) for i in range(len(self.free))
-                 for j in range(i + 1, len(self.free)) if abs(c := self.correlation[i, j]) > 0.1]
-        if pairs:
-            lines.append("[[Correlations]] (unreported correlations are < 0.100)")
-            lines += [f"    C({a}, {b}) = {c:+.4f}" for _, a, b, c in sorted(pairs, reverse=True)]
+        units = {n: p.unit for n, p in params.items()}
+        lines += variable_lines(self.values, units, self.stderr,
+                                {n: f" [{self.stderr_ols[n]:.3g}]" for n in self.stderr})
+        lines += correlation_lines(self.free, self.correlation)
         lines.append("[[Structure of the residual]] (mean in quantile bins, chi-square against Newey-West errors)")
         for st in self.structure:
             lines.append(f"    {st.variable:14s} chi2 {st.chi2:.4g} for {st.dof} bins, p = {st.p_value:.2g}"
@@ -275,7 +265,8 @@ def _lag1(e: np.ndarray) -> float:
     return float(ec[1:] @ ec[:-1] / den) if den > 0 else 0.0
 
 
-def _regimes(v: np.ndarray, t: np.ndarray, e: np.ndarray, noise_rms: float, n_eff_per_sample: float) -> tuple[Regime, ...]:
+def _regimes(v: np.ndarray, t: np.ndarray, e: np.ndarray, noise_rms: float,
+             n_eff_per_sample: float) -> tuple[Regime, ...]:
     """Residual at reversals, at low velocity (elsewhere) and while moving."""
     speed = np.abs(v)
     scale = float(np.percentile(speed, 99)) or 1.0
@@ -350,7 +341,8 @@ def _summarise(plant, method, values, free, X, e, measured, model, quantity, t, 
         plant=_plant_with(plant, values, excitation_a), method=method, values=dict(values), free=tuple(free),
         stderr={p: float(s) for p, s in zip(free, se)},
         stderr_ols={p: float(s) for p, s in zip(free, np.sqrt(np.maximum(np.diag(cov_ols), 0.0)))},
-        covariance=cov, correlation=corr, quantity=quantity, time_s=t, velocity_m_per_s=v, measured=measured, model=model, residual=e,
+        covariance=cov, correlation=corr, quantity=quantity, time_s=t, velocity_m_per_s=v, measured=measured,
+        model=model, residual=e,
         rss=rss, n_data=n, n_params=k, n_effective=n_eff, lag1_autocorrelation=rho,
         relative_error_percent=float(100 * math.sqrt(rss) / max(np.linalg.norm(measured), 1e-300)),
         noise_rms=noise_rms, noise_ratio=ratio, explained=explained, regimes=regimes,
@@ -483,7 +475,8 @@ def fit_output_error(plant: Plant, rec: TimeRecording, *, start: TimeFitResult |
         v.update(zip(free, x * scale))
         return simulate_velocity(oe.force_n, oe.step_s, mass_kg=m_per * v["mass_kg"],
                                  damping_n_s_per_m=b_per * v["damping_n_s_per_m"],
-                                 coulomb_n=v.get("coulomb_friction.force_n", 0.0), offset_n=v.get("offset.force_n", 0.0),
+                                 coulomb_n=v.get("coulomb_friction.force_n", 0.0),
+                                 offset_n=v.get("offset.force_n", 0.0),
                                  v0_m_per_s=oe.velocity_m_per_s[0])
 
     def residual(x):

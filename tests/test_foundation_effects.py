@@ -6,7 +6,6 @@ of it that the code does not use, or an independent realisation) or python-contr
 
 import math
 
-import control
 import numpy as np
 import pytest
 

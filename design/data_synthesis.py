@@ -22,16 +22,20 @@ from plant.errors import DataError
 
 
 def measured_plants(spec: Spec, *, base_dir: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(payload_kg, w_rad_s, G) with G shaped (n_payloads, n_freq) on the common frequencies."""
+    """(payload_kg, w_rad_s, G) with G shaped (n_payloads, n_freq) on the common frequencies; stepped sines by
+    the lock-in, time-domain recordings by ``plant.frf_estimation.estimate_frf`` (method chosen from the data)."""
+    from plant.frf_estimation import estimate_frf
     from plant.lockin import estimate_response
-    from plant.recording_io import parse_column_map, read_recording
+    from plant.recording_io import parse_column_map
+    from plant.time_recording import TimeRecording
+    from plant.time_recording_io import read_measurement
 
     entries = sorted(spec.plant.measured, key=lambda e: e.payload_kg)
     resp = []
     for e in entries:
         path = Path(e.file) if Path(e.file).is_absolute() else base_dir / e.file
-        rec = read_recording(path, columns=parse_column_map(e.columns) if e.columns else None)
-        resp.append(estimate_response(rec))
+        rec = read_measurement(path, columns=parse_column_map(e.columns) if e.columns else None)
+        resp.append(estimate_frf(rec) if isinstance(rec, TimeRecording) else estimate_response(rec))
     common = resp[0].f_hz
     for r in resp[1:]:
         common = np.intersect1d(common, r.f_hz)

@@ -78,11 +78,13 @@ class Uncertainty(_Strict):
 
 
 class MeasuredPlant(_Strict):
-    """A measured stepped-sine recording of the plant at one payload (data-driven design)."""
+    """A measured recording of the plant at one payload (data-driven design): a stepped sine, or a
+    time-domain recording whose frequency response is estimated from its excitation."""
 
     payload_kg: float = Field(gt=0, le=1000)
     file: str
-    #: column map for spreadsheets/TDMS, e.g. "frequency=2,current=3,velocity=6"
+    #: column map for spreadsheets/TDMS ("frequency=2,current=3,velocity=6") or .mat files
+    #: ("time=t,current=i,velocity=v")
     columns: str | None = None
 
 

@@ -1,0 +1,90 @@
+"""The commands whose ``--json`` output is the stable contract, and how their outputs are compared.
+
+``python tests/golden/commands.py`` (from the repository root) writes ``tests/golden/*.json``; the files
+in the repository were written by the code before ``design/`` was split into sub-packages, and
+``tests/test_json_contract.py`` checks that the commands still print the same JSON.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import subprocess
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[2]
+GOLDEN = Path(__file__).resolve().parent
+EMPS = "examples/data/emps/DATA_EMPS.mat"
+#: recording made by the ``simulate`` case, used by the fit and diagnose cases
+RECORDING = "golden_recording.csv"
+#: name -> arguments of ``gantry``; {tmp} is a scratch folder
+COMMANDS = {
+    "reproduce_x": ["reproduce", "--json"],
+    "reproduce_y": ["reproduce", "--spec", "specs/thesis_stage_y.toml", "--json"],
+    "synth_x": ["synth", "specs/stage_x_synth.toml", "--json"],
+    "synth_y": ["synth", "specs/stage_y_synth.toml", "--json"],
+    "synth_admittance": ["synth", "specs/stage_x_admittance.toml", "--json"],
+    "synth_infeasible": ["synth", "specs/infeasible_example.toml", "--json"],
+    "sweep_x": ["sweep", "specs/stage_x_synth.toml", "--payload", "5:40:8", "--samples", "50", "--seed", "3",
+                "--json"],
+    "simulate_x": ["simulate", "--stage", "x", "--effects", "delay.seconds=0.001", "--f-hz", "2:120:12",
+                   "--duration-s", "1.5", "--seed", "4", "--out", "{tmp}/" + RECORDING, "--json"],
+    "fit_x": ["fit", "{tmp}/" + RECORDING, "--stage", "x", "--effects", "delay", "--json"],
+    "diagnose_x": ["diagnose", "{tmp}/" + RECORDING, "--stage", "x", "--json"],
+    "fit_emps": ["fit", EMPS, "--stage", "x", "--columns", "time=t,current=vir,position=qm",
+                 "--set", "force_constant_n_per_a=35.15", "--effects", "coulomb_friction,offset", "--json"],
+    "diagnose_emps": ["diagnose", EMPS, "--stage", "x", "--columns", "time=t,current=vir,position=qm",
+                      "--set", "force_constant_n_per_a=35.15", "--json"],
+}
+#: keys whose values depend on the machine (wall times, also "seconds" and any key ending in "_seconds") or on where
+#: files are
+VOLATILE = {"elapsed_s", "simulation_s", "out", "sidecar", "source"}
+
+
+def _volatile(key: str) -> bool:
+    return key in VOLATILE or key == "seconds" or key.endswith("_seconds")
+
+
+def run(name: str, tmp: Path) -> dict:
+    args = [a.replace("{tmp}", str(tmp)) for a in COMMANDS[name]]
+    out = subprocess.run([sys.executable, "-m", "design", *args], capture_output=True, text=True, cwd=ROOT,
+                         timeout=600)
+    try:
+        result = json.loads(out.stdout)
+    except json.JSONDecodeError:
+        raise RuntimeError(f"gantry {' '.join(args)}: exit {out.returncode}: {out.stderr}") from None
+    return {"exit_status": out.returncode, "json": result}
+
+
+def differences(new, old, path: str = "", rel: float = 1e-6, abs_tol: float = 1e-9) -> list[str]:
+    """Where two JSON values differ beyond a relative tolerance (volatile keys skipped)."""
+    if isinstance(old, dict) and isinstance(new, dict):
+        out = [f"{path}.{k}: missing" for k in old if k not in new and not _volatile(k)]
+        for k in old:
+            if k in new and not _volatile(k):
+                out += differences(new[k], old[k], f"{path}.{k}", rel, abs_tol)
+        return out
+    if isinstance(old, list) and isinstance(new, list):
+        if len(old) != len(new):
+            return [f"{path}: {len(new)} items, was {len(old)}"]
+        return [d for i, (a, b) in enumerate(zip(new, old)) for d in differences(a, b, f"{path}[{i}]", rel, abs_tol)]
+    if isinstance(old, float) or isinstance(new, float):
+        if isinstance(old, (int, float)) and isinstance(new, (int, float)) and not isinstance(old, bool) \
+                and math.isclose(new, old, rel_tol=rel, abs_tol=abs_tol):
+            return []
+        return [f"{path}: {new!r}, was {old!r}"]
+    return [] if new == old else [f"{path}: {new!r}, was {old!r}"]
+
+
+def main() -> None:
+    import tempfile
+
+    with tempfile.TemporaryDirectory() as tmp:
+        for name in COMMANDS:
+            (GOLDEN / f"{name}.json").write_text(json.dumps(run(name, Path(tmp)), indent=1, sort_keys=True) + "\n")
+            print("wrote", name)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,31 @@
+"""The ``--json`` output of every command on the bundled specs and recordings is the stable contract
+(``shared/ARCHITECTURE.md``: keys are added, never renamed): the files in ``tests/golden/`` were
+written by ``tests/golden/commands.py`` before ``design/`` was reorganised, and the commands must
+still print the same keys and values (relative 1e-4: solver round-off differs between machines;
+wall times and file paths are skipped). A new key is allowed; a missing or changed one fails."""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+
+import pytest
+
+sys.path.insert(0, str(Path(__file__).parent / "golden"))
+from commands import COMMANDS, GOLDEN, differences, run  # noqa: E402
+
+
+@pytest.fixture(scope="module")
+def scratch(tmp_path_factory):
+    return tmp_path_factory.mktemp("golden")
+
+
+@pytest.mark.parametrize("name", list(COMMANDS))
+def test_command_prints_the_same_json(name, scratch):
+    if name in ("fit_x", "diagnose_x") and not (scratch / "golden_recording.csv").exists():
+        run("simulate_x", scratch)
+    old = json.loads((GOLDEN / f"{name}.json").read_text())
+    new = run(name, scratch)
+    diffs = differences(new, old, rel=1e-4)
+    assert not diffs, "\n".join(diffs[:20])

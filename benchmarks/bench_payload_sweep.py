@@ -6,14 +6,14 @@ Run:  python benchmarks/bench_payload_sweep.py
 lag, thesis PI gains Kp = 236, Ki = 47 (Appendix A). For every payload: phase margin, gain
 margin and closed-loop -3 dB bandwidth.
 
-* ours: ``design.analysis.payload_sweep`` (one vectorised call on the default 3000-point grid
+* ours: ``design.loop.analysis.payload_sweep`` (one vectorised call on the default 3000-point grid
   ``ANALYSIS_GRID_RAD_S``, exact delay, crossings interpolated between grid points);
 * python-control 0.10: per payload ``Plant.to_control()`` (Pade order 6 for the delay) times the
   PI, ``stability_margins``, ``feedback`` and ``bandwidth(T, dbdrop=-20 log10 sqrt 2)``.
 
 Prints both times (best of several runs, the machine is shared), the ratio (target >= 20x) and the
 largest differences of the numbers (they include the Pade approximation of the delay).
-``design.fast_analysis.fast_analyse_loop`` (the coarse-grid path of ``gantry sweep``) is timed too.
+``design.loop.fast.fast_analyse_loop`` (the coarse-grid path of ``gantry sweep``) is timed too.
 """
 
 import math
@@ -22,15 +22,15 @@ import time
 import control
 import numpy as np
 
-from design.analysis import payload_sweep
-from design.fast_analysis import fast_analyse_loop
-from design.loops import pi_tf
+from design.loop.analysis import payload_sweep
+from design.loop.fast import fast_analyse_loop
+from design.loop.loops import pi_tf
 from plant import CurrentLoop, Delay, stage_x
 
 KP, KI = 236.0, 47.0                      # thesis Appendix A
 PLANT = stage_x() * Delay(0.0005) * CurrentLoop(300.0)
 PAYLOADS_KG = np.linspace(5.0, 40.0, 200)
-DBDROP = -20 * math.log10(math.sqrt(2))   # |T(0)|/sqrt 2, the definition used by design.margins
+DBDROP = -20 * math.log10(math.sqrt(2))   # |T(0)|/sqrt 2, the definition used by design.loop.margins
 
 
 def best_time(fn, repeats):
@@ -72,8 +72,8 @@ def main():
 
     print("200-payload sweep (PM, GM, closed-loop bandwidth), Stage X + 0.5 ms delay + 300 Hz current loop")
     print(f"  python-control loop            {t_pc * 1e3:9.1f} ms")
-    print(f"  design.analysis.payload_sweep  {t_ours * 1e3:9.1f} ms   ratio {t_pc / t_ours:6.1f}x (target >= 20x)")
-    print(f"  design.fast_analysis (coarse)  {t_fast * 1e3:9.1f} ms   ratio {t_pc / t_fast:6.1f}x")
+    print(f"  design.loop.analysis.payload_sweep  {t_ours * 1e3:9.1f} ms   ratio {t_pc / t_ours:6.1f}x (target >= 20x)")
+    print(f"  design.loop.fast (coarse)  {t_fast * 1e3:9.1f} ms   ratio {t_pc / t_fast:6.1f}x")
     for name, res in (("payload_sweep", (r.phase_margin_deg, r.gain_margin_db, r.closed_loop_bandwidth_hz)),
                       ("fast_analysis", (f.phase_margin_deg, f.gain_margin_db, f.closed_loop_bandwidth_hz))):
         d_pm = np.max(np.abs(res[0] - pm))

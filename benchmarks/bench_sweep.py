@@ -1,6 +1,6 @@
 """Benchmark of ``gantry sweep``: 71 payloads x 1000 Monte Carlo samples (issue 6 target: < 10 s
-on a 2-core machine), and the accuracy of the fast path (``design.fast_analysis``) against the
-default-grid computation (``design.analysis.analyse_loop``, 3000 points) and a 30 000-point grid.
+on a 2-core machine), and the accuracy of the fast path (``design.loop.fast``) against the
+default-grid computation (``design.loop.analysis.analyse_loop``, 3000 points) and a 30 000-point grid.
 
 Plant: thesis Stage X (Eq. 3.15) with a 0.5 ms delay and a 1 kHz current loop, thesis PI gains
 (Kp = 236, Ki = 47); uniform uncertainty in damping (330-550 N*s/m, thesis section 3.1), force
@@ -16,9 +16,9 @@ import time
 
 import numpy as np
 
-from design.analysis import analyse_loop
-from design.spec import parse_spec
-from design.sweep import batch_plant, monte_carlo_sweep
+from design.loop.analysis import analyse_loop
+from design.loop.sweep import batch_plant, monte_carlo_sweep
+from design.spec.schema import parse_spec
 from plant.grid import log_grid_rad_s
 
 PAYLOADS = np.linspace(5.0, 40.0, 71)

@@ -8,7 +8,7 @@ Run:  python benchmarks/bench_synthesis.py [--quick] [--admittance (the admittan
   (first call in the process, imports excluded as reported by the tool); the python-control
   verification is timed apart.
 * Brute force: a 60 x 60 log grid of (Kp, Ki) over Kp 10..1e4, Ki 10..1e7, evaluated at the 50
-  dense payloads with the cubic-refined margins of ``design.fast_analysis`` (batched per Kp),
+  dense payloads with the cubic-refined margins of ``design.loop.fast`` (batched per Kp),
   keeping the best pair meeting PM and GM at every payload; then two 25 x 25 refinements around
   it (x/1.25 in Kp, x/1.6 in Ki). The best is re-evaluated exactly like the synthesis' designs.
   ``--quick`` uses 30 x 30 and one refinement.
@@ -25,11 +25,12 @@ from pathlib import Path
 
 import numpy as np
 
-from design.admittance import W_DESIGN, synthesise_admittance
-from design.admittance_model import AdmittanceEvaluator, W_DENSE, dense_payloads as admittance_payloads
-from design.fast_analysis import fast_analyse_loop
-from design.spec import load_spec
-from design.synthesis import dense_payloads, evaluate, synthesise_pi
+from design.admittance.model import W_DENSE, AdmittanceEvaluator
+from design.admittance.model import dense_payloads as admittance_payloads
+from design.admittance.synthesis import W_DESIGN, synthesise_admittance
+from design.loop.fast import fast_analyse_loop
+from design.spec.schema import load_spec
+from design.synth.pi import dense_payloads, evaluate, synthesise_pi
 
 ROOT = Path(__file__).resolve().parents[1]
 QUICK = "--quick" in sys.argv

@@ -59,7 +59,7 @@ def main() -> None:
         print(f"  {' + '.join(('base',) + step.effects):40s} {step.fit.rms_residual:7.3g} N rms   {step.decision}")
     print(f"Verdict: {diag.explanation}")
     if args.report:
-        from design.time_diagnosis_view import time_diagnosis_report
+        from design.views.time_diagnosis import time_diagnosis_report
 
         time_diagnosis_report(diag, title="EMPS benchmark: time-domain diagnosis",
                               provenance=f"examples/emps.py on {DATA.name}").write(args.report)

@@ -83,7 +83,7 @@ for effect in (hidden if isinstance(hidden, tuple) else (hidden,) if hidden is n
               f"{100 * (diag.final.values[key] / true - 1):+.1f} %)")
 print(f"mass_kg: {diag.final.values['mass_kg']:.2f} +/- {diag.final.stderr['mass_kg']:.2g} (true {mass_kg:.2f})")
 if "--report" in sys.argv:
-    from design.diagnosis_view import diagnosis_report
+    from design.views.diagnosis import diagnosis_report
 
     path = sys.argv[sys.argv.index("--report") + 1]
     diagnosis_report(diag, measured, title=f"Hidden effect, seed {seed}", provenance=f"examples/hidden_effect.py "

@@ -10,11 +10,11 @@ from pathlib import Path
 
 import numpy as np
 
-from design.analysis import payload_sweep
-from design.loops import closed_loop_frd, open_loop_frd
-from design.plots import bode, payload_sweep_figure
-from design.reproduce import table_3_1
-from design.spec import load_spec
+from design.loop.analysis import payload_sweep
+from design.loop.loops import closed_loop_frd, open_loop_frd
+from design.loop.reproduce import table_3_1
+from design.spec.schema import load_spec
+from design.views.plots import bode, payload_sweep_figure
 from plant.grid import log_grid_rad_s
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -10,13 +10,21 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from design.admittance import build_rows, ccp_design, ipopt_design, synthesise_admittance
-from design.admittance_model import (AdmittanceEvaluator, MouseModel, gantry_loop, interaction_gain,
-                                     motor_force_per_newton, mouse_corners, rendered_admittance,
-                                     sensor_current_per_newton, virtual_impedance_frd)
-from design.admittance_verify import coupled_polynomials, verify_admittance
-from design.loops import rendered_admittance_frd, virtual_admittance_frd
-from design.spec import load_spec, parse_spec
+from design.admittance.model import (
+    AdmittanceEvaluator,
+    MouseModel,
+    gantry_loop,
+    interaction_gain,
+    motor_force_per_newton,
+    mouse_corners,
+    rendered_admittance,
+    sensor_current_per_newton,
+    virtual_impedance_frd,
+)
+from design.admittance.synthesis import build_rows, ccp_design, ipopt_design, synthesise_admittance
+from design.admittance.verify import coupled_polynomials, verify_admittance
+from design.loop.loops import rendered_admittance_frd, virtual_admittance_frd
+from design.spec.schema import load_spec, parse_spec
 from plant import stage_x
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -232,8 +240,8 @@ def test_stiffest_dynamics_off_the_circle_still_get_an_exact_design():
 def test_admittance_report_section_with_infinite_margins():
     # a tight sensor-current limit needs a virtual mass so large that the interaction loop never
     # crosses 0 dB: the margins are infinite (None in JSON) and the report says so
-    from design.admittance_view import add_admittance_section
-    from design.html import Report
+    from design.views.admittance import add_admittance_section
+    from design.views.html import Report
 
     data = tomllib.loads(SPEC.read_text())
     data["admittance"]["hardware"]["max_current_per_sensor_step_a"] = 0.01

@@ -8,18 +8,18 @@ from the code under test.
 """
 
 import json
-from dataclasses import replace
 import subprocess
 import sys
+from dataclasses import replace
 
 import numpy as np
 import pytest
 
 from plant import CoulombFriction, CurrentLoop, Delay, Resonance, TiltCoupling, stage_x, stage_y
 from plant.diagnosis import detect_nonlinearity, diagnose
-from plant.frequency_response import MeasuredResponse
 from plant.effects import EFFECTS
 from plant.errors import DataError
+from plant.frequency_response import MeasuredResponse
 from plant.lockin import amplitude_dependence, estimate_response
 from plant.recording import write_recording_csv
 from plant.simulate import simulate_stepped_sine

@@ -8,10 +8,10 @@ before), Stage Y rails with an off-centre load, and a truth outside the library.
 
 import math
 
+import independent_sim as sim
 import numpy as np
 import pytest
 
-import independent_sim as sim
 from plant import stage_x, stage_y
 from plant.diagnosis import diagnose
 from plant.effects import Delay, Resonance

@@ -9,9 +9,19 @@ import math
 import numpy as np
 import pytest
 
+from plant import (
+    CoulombFriction,
+    CurrentLoop,
+    Delay,
+    Plant,
+    Resonance,
+    Sampling,
+    TiltCoupling,
+    make_effect,
+    stage_x,
+    stage_y,
+)
 from plant.effects import SensorFilter
-from plant import (CoulombFriction, CurrentLoop, Delay, Plant, Resonance, Sampling, TiltCoupling, make_effect,
-                   stage_x, stage_y)
 from plant.errors import EffectError, GridError, ParameterError
 from plant.grid import check_grid
 

@@ -9,8 +9,13 @@ import numpy as np
 import pytest
 
 from plant.errors import ParameterError
-from plant.excitation import (design_multisine, multisine_variance, predicted_variance, stepped_sine_variance,
-                              write_excitation_csv)
+from plant.excitation import (
+    design_multisine,
+    multisine_variance,
+    predicted_variance,
+    stepped_sine_variance,
+    write_excitation_csv,
+)
 
 
 def gantry(*args):

@@ -9,8 +9,18 @@ import math
 import numpy as np
 import pytest
 
-from plant import (CoulombFriction, CurrentLoop, Delay, Plant, Resonance, Sampling, TiltCoupling, make_effect,
-                   stage_x, stage_y)
+from plant import (
+    CoulombFriction,
+    CurrentLoop,
+    Delay,
+    Plant,
+    Resonance,
+    Sampling,
+    TiltCoupling,
+    make_effect,
+    stage_x,
+    stage_y,
+)
 from plant.errors import EffectError, GridError, ParameterError
 
 W = np.geomspace(0.1, 5000.0, 400)

@@ -13,6 +13,7 @@ held inputs and the closed loop. Statistical checks run many seeded draws:
 
 from __future__ import annotations
 
+import independent_timesim as sim
 import numpy as np
 import pytest
 
@@ -27,7 +28,6 @@ from plant.frf_estimation import (
 )
 from plant.models import Plant
 from plant.time_recording import TimeRecording
-import independent_timesim as sim
 
 FS = 1000.0
 PERIOD = 1000
@@ -416,8 +416,8 @@ def test_data_driven_design_reads_time_domain_recordings(tmp_path):
     periodic estimator and match the simulator's truth."""
     import dataclasses
 
-    from design.data_synthesis import measured_plants
-    from design.spec import load_spec
+    from design.spec.schema import load_spec
+    from design.synth.measured import measured_plants
 
     rows = []
     for m in (20.0, 40.0):

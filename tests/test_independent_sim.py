@@ -4,10 +4,9 @@ import ast
 import csv
 from pathlib import Path
 
+import independent_sim as sim
 import numpy as np
 import pytest
-
-import independent_sim as sim
 
 KT = sim.KT_N_PER_A
 

@@ -1,4 +1,4 @@
-"""Margins and bandwidth (design.margins, design.analysis) against python-control 0.10.2 and closed forms.
+"""Margins and bandwidth (design.loop.margins, design.loop.analysis) against python-control 0.10.2 and closed forms.
 
 Which comparison is fair. python-control has no pure delay, so a loop with a delay can reach it
 in two ways, each with its own approximation:
@@ -23,11 +23,18 @@ import numpy as np
 import pytest
 import scipy.optimize
 
-from design.analysis import ANALYSIS_GRID_RAD_S as W
-from design.analysis import analyse_loop, payload_sweep
-from design.loops import (closed_loop_frd, closed_loop_tf, open_loop_frd, open_loop_tf, pi_frd, pi_tf,
-                          virtual_admittance_frd)
-from design.margins import closed_loop_bandwidth_hz, loop_margins
+from design.loop.analysis import ANALYSIS_GRID_RAD_S as W
+from design.loop.analysis import analyse_loop, payload_sweep
+from design.loop.loops import (
+    closed_loop_frd,
+    closed_loop_tf,
+    open_loop_frd,
+    open_loop_tf,
+    pi_frd,
+    pi_tf,
+    virtual_admittance_frd,
+)
+from design.loop.margins import closed_loop_bandwidth_hz, loop_margins
 from plant import CurrentLoop, Delay, Resonance, stage_x, stage_y
 from plant.errors import GridError
 from plant.grid import log_grid_rad_s
@@ -270,7 +277,7 @@ def test_a_three_point_grid_falls_back_to_linear_interpolation():
                                                                                            rel=1e-12)
 
 
-# --- the loops themselves (design.loops, thesis Eq. 3.17-3.24) --------------------------------------
+# --- the loops themselves (design.loop.loops, thesis Eq. 3.17-3.24) --------------------------------------
 
 @pytest.mark.parametrize("stage", ["x", "y"])
 def test_open_and_closed_loop_are_eq_3_17_to_3_20(stage):

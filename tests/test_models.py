@@ -14,8 +14,13 @@ from plant import CurrentLoop, Delay, Plant, Resonance, Sampling, TiltCoupling, 
 from plant.errors import ParameterError
 from plant.gantry_models import qin_linearised_ss, thesis_state_space, xie_wang_frd, xie_wang_ss
 from plant.models import corner_frequency_hz
-from plant.motor import (back_emf_constant_v_s_per_m, current_loop_bandwidth_hz, current_loop_tf,
-                         thrust_constant_n_per_a, winding_tf)
+from plant.motor import (
+    back_emf_constant_v_s_per_m,
+    current_loop_bandwidth_hz,
+    current_loop_tf,
+    thrust_constant_n_per_a,
+    winding_tf,
+)
 
 W = np.geomspace(0.05, 5000.0, 500)
 S = 1j * W

@@ -12,11 +12,11 @@ import control
 import numpy as np
 import pytest
 
-from design.fast_analysis import fast_analyse_loop
-from design.spec import load_spec, parse_spec
-from design.synth_schedule import gain_schedule
-from design.synth_verify import verify
-from design.synthesis import _casadi_frd, margin_circle, scan_gains, synthesise_pi, W_OPT
+from design.loop.fast import fast_analyse_loop
+from design.spec.schema import load_spec, parse_spec
+from design.synth.pi import W_OPT, _casadi_frd, margin_circle, scan_gains, synthesise_pi
+from design.synth.schedule import gain_schedule
+from design.synth.verify import verify
 from plant import Resonance, SpecError
 from plant.effects import Sampling
 
@@ -190,7 +190,7 @@ def test_gain_schedule_gains_bandwidth_at_each_point():
 
 
 def test_peak_sensitivity_and_disk_margin_requirements_hold():
-    from design.analysis import analyse_loop
+    from design.loop.analysis import analyse_loop
 
     spec = spec_with(requirements={"peak_sensitivity": 1.6, "disk_margin": 0.6})
     res = synthesise_pi(spec)

@@ -16,8 +16,7 @@ import numpy as np
 import pytest
 from typer.testing import CliRunner
 
-import design.cli
-
+import design.cli.common
 from plant import rational_fit
 from plant.errors import DataError, ParameterError
 from plant.rational_fit import fit_rational, thesis_weights
@@ -156,12 +155,12 @@ def test_bad_variance(kwargs, error, words):
 
 def test_cli_rational_json_has_flags(tmp_path):
     # in process (typer's CliRunner): a subprocess would spend seconds importing
-    design.cli._register_commands()
+    design.cli._register()
     rec = tmp_path / "rec.csv"
-    out = CliRunner().invoke(design.cli.app, ["simulate", "--stage", "x", "--f-hz", "2:40:8", "--duration-s", "2",
+    out = CliRunner().invoke(design.cli.common.app, ["simulate", "--stage", "x", "--f-hz", "2:40:8", "--duration-s", "2",
                                               "--seed", "1", "--out", str(rec)])
     assert out.exit_code == 0, out.output
-    out = CliRunner().invoke(design.cli.app, ["fit", str(rec), "--stage", "x", "--rational", "2,1", "--json"])
+    out = CliRunner().invoke(design.cli.common.app, ["fit", str(rec), "--stage", "x", "--rational", "2,1", "--json"])
     assert out.exit_code == 0, out.output
     rat = json.loads(out.stdout, parse_constant=lambda c: pytest.fail(f"non-strict JSON constant {c}"))["rational"]
     assert {"num", "den", "fit_percent", "flags", "success", "weighting", "chi2", "dof", "chi2_p"} <= set(rat)

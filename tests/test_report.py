@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from design.browser import chromium, dom, screenshot
+from design.views.browser import chromium, dom, screenshot
 from plant import Delay, stage_x
 from plant.recording import write_recording_csv
 from plant.simulate import simulate_stepped_sine
@@ -23,7 +23,7 @@ def report_html(tmp_path_factory):
     rec = simulate_stepped_sine(stage_x(mass_kg=38.0) * Delay(0.001), f_hz=np.geomspace(2, 75, 12),
                                 current_amplitude_a=0.5, duration_s=2.0, noise_fraction=0.02, seed=1)
     write_recording_csv(rec, tmp / "rec.csv")
-    out = tmp / "design.html"
+    out = tmp / "design.views.html"
     proc = subprocess.run([sys.executable, "-m", "design", "report", str(SPEC), "--data", str(tmp / "rec.csv"),
                            "--samples", "50", "--out", str(out)], capture_output=True, text=True)
     assert proc.returncode == 0, proc.stderr

@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 from typer.testing import CliRunner
 
-import design.cli
+import design.cli.common
 from plant import __version__
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -64,8 +64,8 @@ def reproduced():
 
 
 def invoke(*args):
-    design.cli._register_commands()
-    return CliRunner().invoke(design.cli.app, [str(a) for a in args])
+    design.cli._register()
+    return CliRunner().invoke(design.cli.common.app, [str(a) for a in args])
 
 
 def test_json_contract(reproduced):

@@ -16,7 +16,15 @@ import pytest
 from scipy.integrate import solve_ivp
 
 from plant import (
-    CoulombFriction, CurrentLoop, Delay, ParameterError, Resonance, Sampling, TiltCoupling, stage_x, stage_y,
+    CoulombFriction,
+    CurrentLoop,
+    Delay,
+    ParameterError,
+    Resonance,
+    Sampling,
+    TiltCoupling,
+    stage_x,
+    stage_y,
 )
 from plant.simulate import simulate_stepped_sine
 
@@ -295,7 +303,7 @@ def _repo_root():
     (["--stage", "x", "--duration-s", "-1"], "--duration-s must be a finite positive"),
 ])
 def test_cli_bad_input_exits_2_with_one_line(tmp_path, monkeypatch, capsys, args, message):
-    # design.cli.main in-process (what the gantry entry point runs), to keep the test fast
+    # design.cli.common.main in-process (what the gantry entry point runs), to keep the test fast
     from design.cli import main
 
     monkeypatch.chdir(tmp_path)

@@ -1,5 +1,5 @@
-"""Robustness sweeps (design/sweep.py), their fast loop analysis (design/fast_analysis.py) and
-``gantry sweep`` (design/cmd_sweep.py)."""
+"""Robustness sweeps (``design.loop.sweep``), their fast loop analysis (``design.loop.fast``) and
+``gantry sweep`` (``design.cli.sweep``)."""
 
 from __future__ import annotations
 
@@ -13,12 +13,12 @@ import control
 import numpy as np
 import pytest
 
-from design.analysis import analyse_loop, payload_sweep
 from design.cli import main
-from design.fast_analysis import fast_analyse_loop
-from design.loops import closed_loop_tf, open_loop_tf
-from design.spec import load_spec
-from design.sweep import batch_plant, monte_carlo_sweep, percentiles_inf
+from design.loop.analysis import analyse_loop, payload_sweep
+from design.loop.fast import fast_analyse_loop
+from design.loop.loops import closed_loop_tf, open_loop_tf
+from design.loop.sweep import batch_plant, monte_carlo_sweep, percentiles_inf
+from design.spec.schema import load_spec
 from plant import CurrentLoop, Delay, Resonance, stage_x, stage_y
 from plant.effects import Sampling, TiltCoupling
 from plant.errors import ParameterError, SpecError
@@ -195,7 +195,7 @@ def test_seed_reproducible_and_recorded(mc_spec):
 
 
 def test_chunks_and_progress_do_not_change_the_result(mc_spec, monkeypatch, capsys):
-    import design.sweep as sweep_module
+    import design.loop.sweep as sweep_module
 
     spec = load_spec(mc_spec)
     calls = []

@@ -10,8 +10,8 @@ import control
 import numpy as np
 import pytest
 
-from design.spec import load_spec
-from design.synthesis import _casadi_frd, margin_circle, synthesise_pi, verify
+from design.spec.schema import load_spec
+from design.synth.pi import _casadi_frd, margin_circle, synthesise_pi, verify
 from plant import Resonance
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -121,8 +121,8 @@ def test_bad_spec_names_the_key(tmp_path):
 def test_peak_sensitivity_and_disk_margin_requirements_hold():
     import tomllib
 
-    from design.analysis import analyse_loop
-    from design.spec import parse_spec
+    from design.loop.analysis import analyse_loop
+    from design.spec.schema import parse_spec
 
     data = tomllib.loads(SPEC_X.read_text())
     data["requirements"].update(peak_sensitivity=1.6, disk_margin=0.6)

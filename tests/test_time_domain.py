@@ -16,8 +16,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 import scipy.io
-
 from independent_friction_sim import Axis, simulate
+
 from plant.effects import make_effect
 from plant.errors import DataError, EffectError, ParameterError
 from plant.inverse_model import Preprocessing

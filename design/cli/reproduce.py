@@ -8,11 +8,10 @@ from typing import Annotated, Optional
 import typer
 from rich.table import Table
 
-from design.cli import app, bundled_spec, console, print_json
+from design.cli.common import app, bundled_spec, console, print_json
 from plant.errors import SpecError
 
 
-@app.command()
 def reproduce(
     spec: Annotated[Optional[list[Path]], typer.Option("--spec", help="Spec file (repeatable); default: the "
                                                        "thesis Stage X and Y specs in specs/.")] = None,
@@ -22,8 +21,8 @@ def reproduce(
     """Reproduce thesis Table 3.1 and the payload sweep (Figure 4.31) from spec files."""
     from dataclasses import asdict
 
-    from design.reproduce import sweeps, table_3_1
-    from design.spec import load_spec
+    from design.loop.reproduce import sweeps, table_3_1
+    from design.spec.schema import load_spec
 
     paths = spec or [bundled_spec("thesis_stage_x.toml"), bundled_spec("thesis_stage_y.toml")]
     specs = {}

@@ -16,10 +16,9 @@ from typing import Annotated, Optional
 import typer
 from rich.table import Table
 
-from design.cli import app, console, print_json
+from design.cli.common import app, console, print_json
 
 
-@app.command()
 def synth(
     spec_file: Annotated[Path, typer.Argument(metavar="SPEC", help="Spec file (TOML).")],
     as_json: Annotated[bool, typer.Option("--json", help="Print JSON.")] = False,
@@ -30,12 +29,12 @@ def synth(
                                                               "bandwidth they gain.")] = False,
 ) -> None:
     """Synthesise PI gains maximising worst-case bandwidth under margin constraints over the payload range."""
-    from design.spec import load_spec
-    from design.synthesis import synthesise_pi
+    from design.spec.schema import load_spec
+    from design.synth.pi import synthesise_pi
 
     spec = load_spec(spec_file)
     if spec.plant.measured:
-        from design.data_synthesis import synthesise_from_data
+        from design.synth.measured import synthesise_from_data
 
         out = synthesise_from_data(spec, base_dir=spec_file.parent)
         if as_json:
@@ -48,13 +47,13 @@ def synth(
     result = synthesise_pi(spec, method=method)
     out = result.to_dict()
     if schedule and out["status"] == "optimal":
-        from design.synth_schedule import gain_schedule, schedule_summary
+        from design.synth.schedule import gain_schedule, schedule_summary
 
         out["schedule"] = schedule_summary(gain_schedule(spec, out["gains"]["kp"], out["gains"]["ki"]))
     if spec.admittance is not None:
         out = with_admittance(spec, out)
     if report is not None and out["status"] == "optimal":
-        from design.report import design_report
+        from design.views.report import design_report
 
         design_report(spec, spec_path=spec_file, kp=out["gains"]["kp"], ki=out["gains"]["ki"],
                       gains_source="synthesised", synthesis=out,
@@ -75,7 +74,7 @@ def synth(
 
 def with_admittance(spec, out: dict) -> dict:
     """Add the admittance stage (PI gains from the PI stage when optimal, else the spec's values)."""
-    from design.admittance import synthesise_admittance
+    from design.admittance.synthesis import synthesise_admittance
 
     kp = out["gains"]["kp"] if out["status"] == "optimal" else spec.controller.kp.value
     ki = out["gains"]["ki"] if out["status"] == "optimal" else spec.controller.ki.value

@@ -1,7 +1,7 @@
 """Gain schedule: the best PI gains for each payload point alone, for experiments where the
 payload is known beforehand, and the bandwidth they gain over the robust design.
 
-Each point is solved like one round of ``design.synthesis.synthesise_pi`` with a single payload
+Each point is solved like one round of ``design.synth.pi.synthesise_pi`` with a single payload
 (scan, then casadi + IPOPT from the robust gains and from the best scan seed), checked with the
 cubic-refined margins and verified with python-control at that payload. The schedule is
 verified at its points only: gains interpolated between points are not checked.
@@ -13,9 +13,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from design.spec import Spec, finite_or_none
-from design.synth_verify import verify
-from design.synthesis import W_OPT, evaluate, exact_design, scan_gains, spec_payloads
+from design.spec.schema import Spec, finite_or_none
+from design.synth.pi import W_OPT, evaluate, exact_design, scan_gains, spec_payloads
+from design.synth.verify import verify
 
 
 @dataclass(frozen=True)

@@ -5,8 +5,7 @@ from __future__ import annotations
 import matplotlib.pyplot as plt
 import numpy as np
 
-import design.plots  # noqa: F401  (selects the Agg backend)
-from design.html import Report, table
+from design.views.html import Report, table
 from plant.time_diagnosis import DELTA_BIC_STRONG, TimeDiagnosis
 from plant.time_fit import bic
 

@@ -26,9 +26,9 @@ may be models or measured responses. The pipeline (``synthesise_pi``):
    again higher up, so when no exact design passes the dense check, a further solve from the first
    start also keeps the margin circle above twice the first crossover (100 points per decade).
 4. **robustness** like systune: every candidate is checked at ``DENSE_PAYLOADS`` payloads with
-   the cubic-refined margins of ``design.fast_analysis``; if none meets the requirements the
+   the cubic-refined margins of ``design.loop.fast``; if none meets the requirements the
    worst violator joins the payload points and the solve repeats.
-5. **verification** (``design.synth_verify``): python-control on the Pade model at every dense
+5. **verification** (``design.synth.verify``): python-control on the Pade model at every dense
    payload; the best verified candidate is reported, and a design that fails is never
    reported as optimal.
 """
@@ -41,10 +41,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from design.fast_analysis import F_LOW_HZ, fast_analyse_loop
-from design.margins import closed_loop_bandwidth_hz, loop_margins
-from design.spec import Spec, finite_or_none
-from design.synth_verify import Verification, verify
+from design.loop.fast import F_LOW_HZ, fast_analyse_loop
+from design.loop.margins import closed_loop_bandwidth_hz, loop_margins
+from design.spec.schema import Spec, finite_or_none
+from design.synth.verify import Verification, verify
 from plant.algebra import CASADI, Pair
 from plant.effects import EFFECTS
 from plant.errors import SpecError
@@ -75,7 +75,7 @@ ACTIVE = 5e-3
 # --- evaluation ---------------------------------------------------------------------------------
 @dataclass(frozen=True)
 class Evaluation:
-    """Gains evaluated at a set of payloads (cubic-refined grid margins of ``design.fast_analysis``)."""
+    """Gains evaluated at a set of payloads (cubic-refined grid margins of ``design.loop.fast``)."""
 
     kp: float
     ki: float
@@ -123,7 +123,7 @@ def evaluate(spec: Spec, kp: float, ki: float, payload_kg=None) -> Evaluation:
              "gain_margin": np.where(np.isfinite(n.gain_margin_db), n.gain_margin_db - req.gain_margin_db, np.inf)}
     scale = {"phase_margin": max(req.phase_margin_deg, 1.0), "gain_margin": max(req.gain_margin_db, 1.0)}
     if req.peak_sensitivity is not None or req.disk_margin is not None:
-        from design.analysis import analyse_loop
+        from design.loop.analysis import analyse_loop
 
         margins = analyse_loop(plant, kp, ki).margins
         if req.peak_sensitivity is not None:
@@ -490,7 +490,7 @@ def exact_design(spec: Spec, payloads: np.ndarray, kp0: float, ki0: float, *,
 def classical_rule(spec: Spec, *, phase_margin_deg: float = 60.0) -> tuple[float, float]:
     """Single-model rule at the nominal payload: crossover where the plant phase is
     -180 + PM + 5.7 deg, kp = 1/|P| there, PI zero a decade below (costing 5.7 deg)."""
-    from design.analysis import ANALYSIS_GRID_RAD_S
+    from design.loop.analysis import ANALYSIS_GRID_RAD_S
 
     plant = spec.plant.plant()
     P = plant.frd(ANALYSIS_GRID_RAD_S)
@@ -643,7 +643,7 @@ def synthesise_pi(spec: Spec, *, method: str = "ccp+exact", max_rounds: int = 6)
     seconds, cpu = time.perf_counter() - t0, time.process_time() - c0
     details = {"cpu_seconds": cpu, "import_seconds": import_seconds, "rounds": rounds, **notes, "solver_ccp": "cvxpy+CLARABEL",
                "solver_exact": "casadi+IPOPT" if method == "ccp+exact" else None,
-               "dense_check": f"{dense.size} payloads, cubic-refined grid margins (design.fast_analysis)"}
+               "dense_check": f"{dense.size} payloads, cubic-refined grid margins (design.loop.fast)"}
     base, names = baselines(spec)
     pts = tuple(float(p) for p in points)
     if not good:

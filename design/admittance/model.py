@@ -13,7 +13,7 @@ resonances included) gives the plant P = K_t E G (current in, velocity out)::
                                     1/(m_v s^2 + b_v), is a typo)
 
 With S = 1/(1 + P C), T = P C S the rendered admittance (velocity per sensed force) is
-Y_r = S G + T Y_v (``design.loops.rendered_admittance_frd``): Y_v where T = 1, the bare gantry G
+Y_r = S G + T Y_v (``design.loop.loops.rendered_admittance_frd``): Y_v where T = 1, the bare gantry G
 where T = 0.
 
 Mouse at the clamp: head mass m_h beyond the sensor (moves with the clamp), body mass m_b on the
@@ -28,7 +28,7 @@ Y_v moves the gantry, which, loaded by the mouse (F_s = -Z_m v), returns F_s = -
 
 (D: the velocity loop with the mouse attached). 1 + L = 0 is the coupled system's characteristic
 equation (D (1 + L) = (1 + P C)(1 + Y_r Z_m)); Nyquist needs D stable, checked on the rational
-model (``design.admittance_verify``). Scaling L scales Y_v, so the gain margin is the factor by
+model (``design.admittance.verify``). Scaling L scales Y_v, so the gain margin is the factor by
 which m_v and b_v could shrink together. In the band where T = 1, L = Z_m / (m_v s + b_v): the
 mouse-to-virtual impedance ratio.
 
@@ -48,12 +48,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from design.analysis import ANALYSIS_GRID_RAD_S
-from design.loops import pi_frd
-from design.margins import loop_margins, unwrapped_phase_deg
-from design.spec import Spec
-from design.synthesis import dense_payloads
-from design.spec_admittance import AdmittanceSpec
+from design.loop.analysis import ANALYSIS_GRID_RAD_S
+from design.loop.loops import pi_frd
+from design.loop.margins import loop_margins, unwrapped_phase_deg
+from design.spec.admittance import AdmittanceSpec
+from design.spec.schema import Spec
+from design.synth.pi import dense_payloads
 from plant.effects import EFFECTS
 from plant.errors import SpecError
 from plant.grid import check_grid
@@ -295,6 +295,6 @@ class AdmittanceEvaluator:
 def evaluate_admittance(spec: Spec, m_v: float, b_v: float, *, kp: float, ki: float, payload_kg=None,
                         w_rad_s=W_DENSE) -> AdmittanceCheck:
     """Exact grid margins, hardware peaks and rendered bandwidth at every payload (default: the
-    PI synthesis' 50 dense payloads, ``design.synthesis.dense_payloads``) and every mouse corner."""
+    PI synthesis' 50 dense payloads, ``design.synth.pi.dense_payloads``) and every mouse corner."""
     m = dense_payloads(spec) if payload_kg is None else payload_kg
     return AdmittanceEvaluator(spec, m, w_rad_s, kp=kp, ki=ki).evaluate(m_v, b_v)

@@ -11,7 +11,7 @@ from typing import Annotated, Optional
 import numpy as np
 import typer
 
-from design.cli import app, console, print_json
+from design.cli.common import app, console, print_json
 from plant.errors import GantryError, ParameterError
 
 #: thesis section 4.1: 0.5 A sine for Stage X, 1.75 A for Stage Y
@@ -97,7 +97,7 @@ def parse_f_hz(text: str, spacing: str) -> np.ndarray:
 def build_simulation_plant(*, spec: Path | None, stage: str | None, set_items: list[str], effect_items: list[str],
                            amplitude_a: float | None):
     """The plant (spec's nominal payload or thesis defaults, then ``--set``/``--effects``) and the amplitude."""
-    from design.spec import load_spec
+    from design.spec.schema import load_spec
     from plant.models import Plant, build_plant
 
     if (spec is None) == (stage is None):
@@ -143,7 +143,6 @@ def _check(option: str, value: float | None, *, allow_zero: bool = False) -> Non
         raise ParameterError(f"{option} must be a finite {word} number, got {value:g}")
 
 
-@app.command()
 def simulate(
     out: Annotated[Path, typer.Option("--out", help="Recording to write (CSV, long format); the settings and "
                                       "seed go to a sidecar FILE.json next to it.")],

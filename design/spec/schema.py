@@ -31,7 +31,7 @@ from typing import Literal
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
-from design.spec_admittance import AdmittanceSpec
+from design.spec.admittance import AdmittanceSpec
 from plant.effects import EFFECTS, make_effect
 from plant.errors import GantryError, SpecError
 from plant.models import Plant

@@ -1,20 +1,18 @@
 """Matplotlib figures (compute, plot and command line are separate layers).
 
 Every function takes computed results, draws on ``ax``/``axes`` when given (else makes a
-new figure) and returns the figure; nothing is shown or saved here.
+new figure) and returns the figure; nothing is shown or saved here. The backend is the caller's
+(the command line selects Agg; a notebook keeps its own).
 """
 
 from __future__ import annotations
 
 from collections.abc import Sequence
 
-import matplotlib
+import matplotlib.pyplot as plt
+import numpy as np
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-
-from design.margins import unwrapped_phase_deg  # noqa: E402
+from design.loop.margins import unwrapped_phase_deg
 
 
 def bode(w_rad_s, responses: Sequence[np.ndarray], labels: Sequence[str], *, axes=None, title: str = "",

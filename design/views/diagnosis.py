@@ -7,9 +7,9 @@ import math
 import matplotlib.pyplot as plt
 import numpy as np
 
-from design.html import Report, table
-from design.plots import bode
-from design.spec import finite_or_none
+from design.spec.schema import finite_or_none
+from design.views.html import Report, table
+from design.views.plots import bode
 from plant.diagnosis import ACCEPT_DELTA_BIC, Diagnosis, failing_bands
 from plant.frequency_response import MeasuredResponse
 

@@ -14,7 +14,7 @@ from rich import box
 from rich.console import Console
 from rich.table import Table
 
-from design.cli import app, console, print_json
+from design.cli.common import app, console, print_json
 from plant.errors import ParameterError, SpecError
 
 #: payload points when --payload is not given and the spec's range is not a single mass
@@ -112,7 +112,6 @@ def _table(result) -> Table:
     return t
 
 
-@app.command()
 def sweep(
     spec: Annotated[Path, typer.Argument(help="Spec file (TOML); plant.uncertainty gives the Monte Carlo ranges.")],
     payload: Annotated[Optional[str], typer.Option(help="Payloads MIN:MAX:POINTS in kg, e.g. 5:40:71 (default: the "
@@ -125,8 +124,8 @@ def sweep(
     as_json: Annotated[bool, typer.Option("--json", help="Print JSON instead of tables.")] = False,
 ) -> None:
     """Margins and bandwidth across payloads, with Monte Carlo over the spec's uncertainty ranges."""
-    from design.spec import load_spec
-    from design.sweep import monte_carlo_sweep
+    from design.loop.sweep import monte_carlo_sweep
+    from design.spec.schema import load_spec
     from plant.recording import atomic_write_text
 
     s = load_spec(spec)

@@ -8,14 +8,22 @@ from typing import Annotated, Optional
 
 import typer
 
-from design.cli import (
-    BandHzOption, DecimateBandHzOption, FilterHzOption, FrfOption, InputHoldOption, SetOption, app, console,
-    parse_band, parse_set, print_json,
+from design.cli.common import (
+    BandHzOption,
+    DecimateBandHzOption,
+    FilterHzOption,
+    FrfOption,
+    InputHoldOption,
+    SetOption,
+    app,
+    console,
+    parse_band,
+    parse_set,
+    print_json,
 )
 from plant.errors import ParameterError
 
 
-@app.command()
 def fit(
     data: Annotated[Path, typer.Argument(
         help="Stepped-sine (.csv, .xlsx, .tdms) or time-domain recording (.csv without frequency_hz, .mat).")],
@@ -49,12 +57,12 @@ def fit(
 ) -> None:
     """Fit bounded physical parameters to a recording: maximum likelihood with inverse-variance weights on a
     stepped sine's frequency response, IDIM-LS or output error on a time-domain recording."""
-    from design.spec import finite_or_none
+    from design.spec.schema import finite_or_none
     from plant.effects import make_effect
     from plant.fitting import fit_plant
-    from plant.lockin import estimate_response
     from plant.frf_estimation import estimate_frf
     from plant.inverse_model import Preprocessing
+    from plant.lockin import estimate_response
     from plant.models import Plant
     from plant.recording_io import parse_column_map
     from plant.time_recording import TimeRecording

@@ -1,13 +1,13 @@
 """Admittance synthesis: the virtual dynamics 1/(m_v s + b_v) a mouse can push with the least
 resistance while the coupled gantry-mouse system keeps its margins (physics and the interaction
-loop L = K / (m_v s + b_v): ``design.admittance_model``).
+loop L = K / (m_v s + b_v): ``design.admittance.model``).
 
 Problem: minimise the peak resistance on a trapezoidal profile, m_v a_pk + b_v v_pk (linear),
 over the spec's bounds, subject to, at every payload, every corner of the mouse ranges and
 every frequency of the constraint grid:
 
 * margins: L outside the circle through -1/g and e^{j(pi - phi)} (Hast, Astrom, Bernhardsson
-  & Boyd 2013; ``design.synthesis.margin_circle``): |K - x0 z| >= r |z|, z = b_v + j w m_v;
+  & Boyd 2013; ``design.synth.pi.margin_circle``): |K - x0 z| >= r |z|, z = b_v + j w m_v;
 * force-sensor step to current: |z| >= res |C S| / i_max;
 * motor force: F_max |z| >= F_pk |T| |1/G - z|.
 
@@ -33,7 +33,7 @@ Pipeline (``synthesise_admittance``):
 4. **robustness** like systune: the design is checked on 50 payloads x every mouse corner on the
    3000-point grid (plus the neck modes); violating payloads join the design payloads and the
    pipeline repeats.
-5. **verification** (``design.admittance_verify``): coupled closed-loop poles and python-control
+5. **verification** (``design.admittance.verify``): coupled closed-loop poles and python-control
    margins on the rational model.
 """
 
@@ -46,12 +46,22 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from design.admittance_model import (AdmittanceCheck, AdmittanceEvaluator, MouseModel, W_DENSE, admittance_spec,
-                                     dense_payloads, gantry_loop, interaction_gain, mouse_corners,
-                                     peak_resistance_n, with_neck_modes)
-from design.admittance_verify import AdmittanceVerification, verify_admittance
-from design.spec import Spec, finite_or_none
-from design.synthesis import margin_circle
+from design.admittance.model import (
+    W_DENSE,
+    AdmittanceCheck,
+    AdmittanceEvaluator,
+    MouseModel,
+    admittance_spec,
+    dense_payloads,
+    gantry_loop,
+    interaction_gain,
+    mouse_corners,
+    peak_resistance_n,
+    with_neck_modes,
+)
+from design.admittance.verify import AdmittanceVerification, verify_admittance
+from design.spec.schema import Spec, finite_or_none
+from design.synth.pi import margin_circle
 from plant.errors import SpecError
 from plant.grid import log_grid_rad_s
 

@@ -9,10 +9,9 @@ from typing import Annotated, Optional
 
 import typer
 
-from design.cli import app, console
+from design.cli.common import app, console
 
 
-@app.command()
 def report(
     spec_file: Annotated[Path, typer.Argument(metavar="SPEC", help="Spec file (TOML).")],
     out: Annotated[Path, typer.Option(help="Output HTML file.")],
@@ -28,14 +27,13 @@ def report(
                                    "resonance); otherwise report the spec's controller values.")] = True,
 ) -> None:
     """Write a design report: summary, plant, Bode/Nyquist/step, margins vs payload, data, reproducibility."""
-    from design.report import design_report
-    from design.spec import load_spec
+    from design.spec.schema import load_spec
+    from design.synth.pi import PHASE_LIMITING, synthesise_pi
+    from design.views.report import design_report
     from plant.diagnosis import diagnose
+    from plant.errors import SpecError
     from plant.lockin import estimate_response
     from plant.recording_io import read_recording
-
-    from design.synthesis import PHASE_LIMITING, synthesise_pi
-    from plant.errors import SpecError
 
     spec = load_spec(spec_file)
     if samples is None:
@@ -47,7 +45,7 @@ def report(
     if synthesise and any(e in PHASE_LIMITING for e in spec.plant.effects):
         synthesis = synthesise_pi(spec).to_dict()
         if spec.admittance is not None:
-            from design.cmd_synth import with_admittance
+            from design.cli.synth import with_admittance
 
             synthesis = with_admittance(spec, synthesis)
         if synthesis["status"] == "optimal":
@@ -68,7 +66,7 @@ def report(
     rep.write(out)
     console.print(f"report written to {out}")
     if pdf:
-        from design.browser import html_to_pdf
+        from design.views.browser import html_to_pdf
 
         html_to_pdf(out, out.with_suffix(".pdf"))
         console.print(f"PDF written to {out.with_suffix('.pdf')}")

@@ -6,8 +6,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from design.loops import open_loop_frd, plant_frd
-from design.margins import Margins, first_drop_hz, loop_margins
+from design.loop.loops import open_loop_frd, plant_frd
+from design.loop.margins import Margins, first_drop_hz, loop_margins
 from plant.grid import check_grid, log_grid_rad_s
 from plant.models import Plant
 
@@ -52,7 +52,7 @@ class PayloadSweep:
     gain_margin_db: np.ndarray
 
     def rows(self) -> list[dict]:
-        from design.spec import finite_or_none
+        from design.spec.schema import finite_or_none
 
         return [
             {"stage": self.stage, "payload_kg": float(m), "open_loop_corner_hz": finite_or_none(c),

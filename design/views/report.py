@@ -16,11 +16,11 @@ from pathlib import Path
 import matplotlib.pyplot as plt
 import numpy as np
 
-from design.analysis import PayloadSweep, payload_sweep
-from design.html import Report, table
-from design.loops import closed_loop_tf, open_loop_frd
-from design.plots import bode
-from design.spec import Spec
+from design.loop.analysis import PayloadSweep, payload_sweep
+from design.loop.loops import closed_loop_tf, open_loop_frd
+from design.spec.schema import Spec
+from design.views.html import Report, table
+from design.views.plots import bode
 from plant import __version__
 from plant.grid import log_grid_rad_s
 from plant.parameters import THESIS
@@ -207,7 +207,7 @@ def design_report(spec: Spec, *, spec_path: Path, kp: float, ki: float, gains_so
     report.heading("Margins and bandwidth against payload")
     mc = None
     if samples:
-        from design.sweep import monte_carlo_sweep
+        from design.loop.sweep import monte_carlo_sweep
 
         mc = monte_carlo_sweep(spec, payload_kg=check.sweep.payload_kg, samples=samples, seed=seed, kp=kp, ki=ki)
     report.figure(payload_figure(check.sweep, thesis.sweep, spec, mc),
@@ -220,12 +220,12 @@ def design_report(spec: Spec, *, spec_path: Path, kp: float, ki: float, gains_so
                                                       thesis.sweep.closed_loop_bandwidth_hz))[::7]]))
 
     if synthesis and synthesis.get("admittance"):
-        from design.admittance_view import add_admittance_section
+        from design.views.admittance import add_admittance_section
 
         add_admittance_section(report, spec, synthesis)
 
     if recordings:
-        from design.diagnosis_view import add_diagnosis_section
+        from design.views.diagnosis import add_diagnosis_section
 
         report.heading("Measurements against the model")
         for path, measured, diag in recordings:

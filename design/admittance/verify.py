@@ -1,6 +1,6 @@
 """Independent verification of an admittance design on the rational (Pade) model.
 
-The frequency-grid check of ``design.admittance_model`` and the optimiser share the grid
+The frequency-grid check of ``design.admittance.model`` and the optimiser share the grid
 responses; this check does not: it builds the coupled gantry-mouse system from python-control
 transfer functions (Pade for delays), takes the roots of its characteristic polynomial at every
 dense payload and mouse corner, and recomputes the interaction loop's margins with
@@ -14,8 +14,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from design.admittance_model import AdmittanceCheck, MouseModel, admittance_spec, mechanical_plant, mouse_corners
-from design.spec import Spec, finite_or_none
+from design.admittance.model import AdmittanceCheck, MouseModel, admittance_spec, mechanical_plant, mouse_corners
+from design.spec.schema import Spec, finite_or_none
 from plant.models import Plant
 
 #: python-control margins may fall short of the requirement by this much (deg, dB): grid rounding

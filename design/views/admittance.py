@@ -6,10 +6,10 @@ from __future__ import annotations
 import matplotlib.pyplot as plt
 import numpy as np
 
-from design.admittance_model import gantry_loop, rendered_admittance, virtual_impedance_frd
-from design.html import Report, table
-from design.plots import bode
-from design.spec import Spec
+from design.admittance.model import gantry_loop, rendered_admittance, virtual_impedance_frd
+from design.spec.schema import Spec
+from design.views.html import Report, table
+from design.views.plots import bode
 from plant.grid import log_grid_rad_s
 
 

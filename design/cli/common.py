@@ -1,7 +1,4 @@
-"""The ``gantry`` command line: read input, validate, call the library, print or write output.
-
-Bad input (any ``GantryError``) becomes one line on stderr and exit status 2.
-"""
+"""What the commands share: the ``typer`` app, the console, shared options and their parsers, JSON output."""
 
 from __future__ import annotations
 
@@ -112,24 +109,3 @@ def parse_band(text: str | None) -> dict[str, tuple[float, float]]:
     if not sep or not all(math.isfinite(b) for b in band) or not 0 <= band[0] < band[1]:
         raise ParameterError(f"--band-hz {text!r}: expected LOW:HIGH in Hz with 0 <= LOW < HIGH, e.g. 1:200")
     return {"f_range_hz": band}
-
-
-def _register_commands() -> None:
-    """Import every ``design/cmd_*.py``: each registers its command on ``app``."""
-    import importlib
-    import pkgutil
-
-    import design
-
-    for mod in sorted(m.name for m in pkgutil.iter_modules(design.__path__) if m.name.startswith("cmd_")):
-        importlib.import_module(f"design.{mod}")
-
-
-def main() -> None:
-    """Console entry point: ``GantryError`` -> one line on stderr, exit status 2."""
-    _register_commands()
-    try:
-        app()
-    except GantryError as exc:
-        print(f"gantry: error: {exc}", file=sys.stderr)
-        sys.exit(2)

@@ -11,9 +11,18 @@ from typing import Annotated, Optional
 import typer
 from rich.table import Table
 
-from design.cli import (
-    BandHzOption, DecimateBandHzOption, FilterHzOption, FrfOption, InputHoldOption, SetOption, app, console,
-    parse_band, parse_set, print_json,
+from design.cli.common import (
+    BandHzOption,
+    DecimateBandHzOption,
+    FilterHzOption,
+    FrfOption,
+    InputHoldOption,
+    SetOption,
+    app,
+    console,
+    parse_band,
+    parse_set,
+    print_json,
 )
 from plant import __version__
 from plant.errors import ParameterError
@@ -39,7 +48,6 @@ def _measure(path: Path, columns: str | None, sample_rate_hz: float | None):
     return estimate_response(rec)
 
 
-@app.command()
 def diagnose(
     data: Annotated[Path, typer.Argument(
         help="Stepped-sine (.csv, .xlsx, .tdms) or time-domain recording (.csv without frequency_hz, .mat).")],
@@ -70,7 +78,7 @@ def diagnose(
     report: Annotated[Optional[Path], typer.Option(help="Write an HTML diagnosis report here.")] = None,
 ) -> None:
     """Compare a recording with the thesis model, rank the missing effects and add the justified ones."""
-    from design.diagnosis_view import diagnosis_report, diagnosis_to_dict
+    from design.views.diagnosis import diagnosis_report, diagnosis_to_dict
     from plant.diagnosis import diagnose as run_diagnosis
     from plant.effects import EFFECTS
     from plant.frf_estimation import estimate_frf
@@ -166,7 +174,7 @@ def _provenance(data: Path) -> str:
 def _diagnose_time(base, recording, candidates, prep, data: Path, stage: str, report: Path | None,
                    as_json: bool) -> None:
     """The time-domain diagnosis (``plant.time_diagnosis``): text, JSON and HTML report."""
-    from design.time_diagnosis_view import time_diagnosis_report, time_diagnosis_to_dict
+    from design.views.time_diagnosis import time_diagnosis_report, time_diagnosis_to_dict
     from plant.time_diagnosis import diagnose_time
 
     diag = diagnose_time(base, recording, candidates=candidates, prep=prep)

@@ -14,9 +14,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from design.analysis import ANALYSIS_GRID_RAD_S, PayloadSweep, analyse_loop, payload_sweep
-from design.margins import closed_loop_bandwidth_hz
-from design.spec import Spec
+from design.loop.analysis import ANALYSIS_GRID_RAD_S, PayloadSweep, analyse_loop, payload_sweep
+from design.loop.margins import closed_loop_bandwidth_hz
+from design.spec.schema import Spec
 
 #: thesis Table 3.1 and section 3.1 text (phase margins): stage -> quantity -> value
 THESIS_TABLE_3_1 = {

@@ -8,7 +8,7 @@ from typing import Annotated, Optional
 
 import typer
 
-from design.cli import app, console, print_json
+from design.cli.common import app, console, print_json
 from plant.errors import ParameterError
 
 #: velocity noise (m/s, standard deviation) of the prediction when none is given: a velocity
@@ -23,7 +23,6 @@ def _positive(option: str, value: float) -> float:
     return value
 
 
-@app.command()
 def excite(
     out: Annotated[Path, typer.Option("--out", help="CSV to write: time_s,current_a rows of every period.")],
     f_min_hz: Annotated[float, typer.Option(help="Lowest frequency of the band (Hz).")] = 1.0,
@@ -51,8 +50,15 @@ def excite(
 ) -> None:
     """Design an odd log-spaced multisine, write it, and compare its predicted FRF variance per second of
     machine time with the thesis stepped sine (one 5 s block per frequency, same band, same peak current)."""
-    from plant.excitation import (MAX_SAMPLES, THESIS_BLOCK_S, THESIS_FREQUENCIES, design_multisine,
-                                  predicted_variance, samples_per_period, write_excitation_csv)
+    from plant.excitation import (
+        MAX_SAMPLES,
+        THESIS_BLOCK_S,
+        THESIS_FREQUENCIES,
+        design_multisine,
+        predicted_variance,
+        samples_per_period,
+        write_excitation_csv,
+    )
 
     _positive("--amplitude-a", amplitude_a)
     _positive("--period-s", period_s)

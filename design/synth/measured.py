@@ -1,7 +1,7 @@
 """Data-driven PI synthesis: the plant is given as measured responses, one recording per payload.
 
 The loop L_m(jw_k) = G_m(jw_k) (kp + ki/jw_k) is affine in the gains, so the convex-concave
-procedure of ``design.synthesis`` runs unchanged on the measured frequencies; there is no
+procedure of ``design.synth.pi`` runs unchanged on the measured frequencies; there is no
 model for the exact casadi step or for Pade poles, so the design is verified on the data with
 python-control (``stability_margins`` of the ``FrequencyResponseData``) and a stable open loop
 is assumed (a stepped-sine recording of a runaway plant is not possible). Crossings must lie
@@ -16,8 +16,8 @@ from pathlib import Path
 
 import numpy as np
 
-from design.margins import closed_loop_bandwidth_hz, loop_margins
-from design.spec import Spec
+from design.loop.margins import closed_loop_bandwidth_hz, loop_margins
+from design.spec.schema import Spec
 from plant.errors import DataError
 
 
@@ -60,7 +60,7 @@ def synthesise_from_data(spec: Spec, *, base_dir: Path) -> dict:
     """Synthesis on measured responses; returns the same JSON-ready dict as ``SynthesisResult.to_dict``."""
     import control
 
-    from design.synthesis import _CCP
+    from design.synth.pi import _CCP
 
     payload, w, G = measured_plants(spec, base_dir=base_dir)
     t0 = time.perf_counter()

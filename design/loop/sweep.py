@@ -4,8 +4,8 @@ For every payload the same parameter samples are used (common random numbers), s
 ``j`` is one physical machine carried through the whole payload range and the percentile
 bands against payload are smooth. Each uncertain parameter is drawn independently and
 uniformly between its ``min`` and ``max`` (``plant.uncertainty`` of the spec file). The
-nominal sweep uses the default analysis grid (it equals ``design.analysis.payload_sweep``);
-the samples use the fast path of ``design.fast_analysis`` in chunks, so memory stays bounded.
+nominal sweep uses the default analysis grid (it equals ``design.loop.analysis.payload_sweep``);
+the samples use the fast path of ``design.loop.fast`` in chunks, so memory stays bounded.
 """
 
 from __future__ import annotations
@@ -15,9 +15,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from design.analysis import PayloadSweep, payload_sweep
-from design.fast_analysis import fast_analyse_loop
-from design.spec import Spec, Uncertainty, finite_or_none
+from design.loop.analysis import PayloadSweep, payload_sweep
+from design.loop.fast import fast_analyse_loop
+from design.spec.schema import Spec, Uncertainty, finite_or_none
 from plant.errors import ParameterError, SpecError
 from plant.models import Plant
 
@@ -93,7 +93,7 @@ class SweepResult:
     uncertainty: dict[str, tuple[float, float]]
     #: parameter name -> drawn values, shape (n_samples,) (the nominal value when samples == 0)
     parameter_samples: dict[str, np.ndarray]
-    #: nominal plant on the default analysis grid (equals ``design.analysis.payload_sweep``)
+    #: nominal plant on the default analysis grid (equals ``design.loop.analysis.payload_sweep``)
     nominal: PayloadSweep
     closed_loop_bandwidth_hz: Distribution
     phase_margin_deg: Distribution

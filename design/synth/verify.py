@@ -19,7 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from design.spec import Spec, finite_or_none
+from design.spec.schema import Spec, finite_or_none
 
 #: margins may fall short of the requirement by this much (deg, dB) and still pass (rounding)
 MARGIN_TOLERANCE = 0.05
@@ -58,11 +58,11 @@ class Verification:
 def verify(spec: Spec, kp: float, ki: float, *, payload_kg=None, claimed_bandwidth_hz=None,
            pade_order: int = 6) -> Verification:
     """python-control check of (kp, ki) at ``payload_kg`` (default: the dense payloads of
-    ``design.synthesis.dense_payloads``); ``claimed_bandwidth_hz`` (same shape) is compared
+    ``design.synth.pi.dense_payloads``); ``claimed_bandwidth_hz`` (same shape) is compared
     with ``control.bandwidth``."""
     import control
 
-    from design.synthesis import dense_payloads
+    from design.synth.pi import dense_payloads
 
     req = spec.requirements
     payloads = dense_payloads(spec) if payload_kg is None else np.atleast_1d(np.asarray(payload_kg, float))

@@ -1,6 +1,6 @@
 """Loop margins and bandwidth of large plant batches: coarse grid plus cubic crossing refinement.
 
-``design.analysis.analyse_loop`` evaluates every plant on the 3000-point default grid and
+``design.loop.analysis.analyse_loop`` evaluates every plant on the 3000-point default grid and
 interpolates crossings linearly. For Monte Carlo batches (tens of thousands of plants) this
 module evaluates the loop on a coarse log-uniform grid over the same range (default 40
 points per decade, 281 points) and
@@ -17,7 +17,7 @@ points per decade, 281 points) and
 
 Against a 100 000-point grid the result is as accurate as the default grid or better
 (``benchmarks/bench_sweep.py`` and ``tests/test_sweep.py``). The conventions are those of
-``design.margins`` (python-control 0.10 ``stability_margins``): of several crossings the
+``design.loop.margins`` (python-control 0.10 ``stability_margins``): of several crossings the
 gain margin closest to 0 dB and the phase margin smallest in magnitude are kept; the
 bandwidth is the first -3 dB point of T = L/(1 + L); no crossing gives an infinite margin
 or a nan bandwidth. Like any grid method it can miss a feature narrower than the grid
@@ -30,13 +30,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from design.loops import open_loop_frd
+from design.loop.loops import open_loop_frd
 from plant.errors import GridError
 from plant.grid import log_grid_rad_s
 
 #: coarse grid density (points per decade) of the fast path
 POINTS_PER_DECADE = 40
-#: the coarse grid spans the same range as ``design.analysis.ANALYSIS_GRID_RAD_S`` (Hz)
+#: the coarse grid spans the same range as ``design.loop.analysis.ANALYSIS_GRID_RAD_S`` (Hz)
 F_LOW_HZ, F_HIGH_HZ = 1e-3, 1e4
 #: an interval is "rough" when the fourth difference of log L or log T (complex: log-magnitude and
 #: phase in rad) over a window containing it exceeds this in some plant of the batch; the cubic's
@@ -196,7 +196,7 @@ def _first_below(L: np.ndarray, integral: bool):
 
 def fast_analyse_loop(plant, kp, ki, *, points_per_decade: int = POINTS_PER_DECADE) -> LoopNumbers:
     """Margins and closed-loop bandwidth of a ``Plant`` (batch) under PI gains ``kp`` (A per m/s) and
-    ``ki`` (A per m); agrees with ``design.analysis.analyse_loop`` to about 1e-5 (relative)."""
+    ``ki`` (A per m); agrees with ``design.loop.analysis.analyse_loop`` to about 1e-5 (relative)."""
     w = coarse_grid_rad_s(points_per_decade)
     L3 = open_loop_frd(plant, w, kp, ki)
     batch = L3.shape[:-1]

@@ -1,0 +1,2 @@
+"""Velocity loops and their numbers: open loops, margins (exact and fast paths), payload sweeps,
+the thesis reproduction."""

@@ -1,0 +1,1 @@
+"""The spec file: its pydantic schema and the admittance problem it declares."""

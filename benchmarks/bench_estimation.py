@@ -73,7 +73,8 @@ def main():
         (5.0, 1.0, 2000.0, 20.0, False),
         (450.0, 1.0, 2000.0, 20.0, False),    # 4.4 samples per period
     ]
-    print(f"seeds {args.seed} + case index, {args.realisations} realisations per case, |G| = {abs(G):g} m/s/A, I = {AMP_I} A")
+    print(f"seeds {args.seed} + case index, {args.realisations} realisations per case, |G| = {abs(G):g} m/s/A, "
+          f"I = {AMP_I} A")
     print(f"{'f Hz':>6} {'T s':>4} {'fs Hz':>6} {'SNR dB':>6} {'i-noise':>7} | {'scat/CRB(N)':>11} "
           f"{'scat/CRB(Nu)':>12} {'rep/scat':>8} {'bias/sd':>7} {'settle s':>8} {'k':>3} {'time s':>6}")
     worst_crb, calib = 0.0, []

@@ -28,7 +28,13 @@ import time
 import numpy as np
 from scipy.signal import lfilter
 
-from plant.excitation import STEPPED_SETTLE_S, THESIS_BLOCK_S, design_multisine, predicted_variance, thesis_frequencies
+from plant.excitation import (
+    STEPPED_SETTLE_S,
+    THESIS_BLOCK_S,
+    design_multisine,
+    predicted_variance,
+    thesis_frequencies,
+)
 from plant.frf_estimation import periodic_response
 from plant.lockin import estimate_response
 from plant.models import Plant

@@ -76,7 +76,8 @@ def main():
               f"python-control verification {res.details['verification_seconds']:.2f} s")
         print(f"  LP solves {d['solver']['lp_solves']}, IPOPT starts {len(d['solver']['exact_starts'])}, "
               f"rounds {d['solver']['rounds']}")
-        print(f"  ccp alone (the circle design, cvxpy + Clarabel): worst-case bandwidth {ccp.evaluation.worst_bandwidth_hz:.3f} Hz "
+        print("  ccp alone (the circle design, cvxpy + Clarabel): worst-case bandwidth "
+              f"{ccp.evaluation.worst_bandwidth_hz:.3f} Hz "
               f"({ccp.details['chosen']})")
         print(f"  brute force ({brute_s:.0f} s): kp {kp:.2f}, ki {ki:.1f}, worst-case bandwidth {brute_bw:.3f} Hz")
         print(f"  ratio synthesis / brute force: {ours / brute_bw:.4f}")
@@ -127,7 +128,8 @@ def admittance_benchmark():
           f"rounds {s['rounds']}, SOCP solves {s['socp_solves']}, exact polish evaluations "
           f"{s['exact_polish_evaluations']}")
     print("  circle designs (N): " + ", ".join(f"{k} {v:.4f}" for k, v in s["circle_cost_n"].items())
-          + f"; best {s['best_formulation']}, exact polish gains x{min(s['circle_cost_n'].values()) / res.peak_resistance_n:.3f}")
+          + f"; best {s['best_formulation']}, exact polish gains "
+            f"x{min(s['circle_cost_n'].values()) / res.peak_resistance_n:.3f}")
     print(f"  brute force ({evaluations} points, {brute_s:.0f} s): m_v {m:.4f}, b_v {b:.4f}, peak resistance "
           f"{brute:.4f} N (on the 50-payload dense check: {'meets' if dense else 'FAILS'})")
     print(f"  ratio synthesis / brute force: {res.peak_resistance_n / brute:.4f} (lower is better)")

@@ -12,7 +12,16 @@ from pathlib import Path
 
 import numpy as np
 
-from plant import CoulombFriction, CurrentLoop, Delay, Resonance, Sampling, TiltCoupling, stage_x, stage_y
+from plant import (
+    CoulombFriction,
+    CurrentLoop,
+    Delay,
+    Resonance,
+    Sampling,
+    TiltCoupling,
+    stage_x,
+    stage_y,
+)
 from plant.recording import write_recording_csv
 from plant.simulate import simulate_stepped_sine
 

@@ -94,7 +94,8 @@ class CurrentLoop(ChainEffect):
         self._check_positive()
 
     @classmethod
-    def from_motor(cls, *, resistance_ohm: float, inductance_h: float, kp_v_per_a: float, ki_v_per_a_s: float) -> CurrentLoop:
+    def from_motor(cls, *, resistance_ohm: float, inductance_h: float, kp_v_per_a: float,
+                   ki_v_per_a_s: float) -> CurrentLoop:
         """First-order equivalent of the PI current loop of a winding (its exact -3 dB bandwidth)."""
         from plant.motor import current_loop_bandwidth_hz
 

@@ -191,7 +191,8 @@ def _reference_draws(nu: tuple[float, ...], n_out: int) -> np.ndarray:
     terms = rng.chisquare(2, (REFERENCE_DRAWS, n_out, nu_arr.size))
     finite = np.isfinite(nu_arr)
     if finite.any():
-        terms[:, :, finite] /= rng.chisquare(nu_arr[finite], (REFERENCE_DRAWS, n_out, int(finite.sum()))) / nu_arr[finite]
+        scale = rng.chisquare(nu_arr[finite], (REFERENCE_DRAWS, n_out, int(finite.sum()))) / nu_arr[finite]
+        terms[:, :, finite] /= scale
     return terms.sum(axis=1)
 
 
@@ -415,7 +416,8 @@ def _select(fits: dict[tuple[str, ...], FitResult], adequate: dict[tuple[str, ..
     """Lowest BIC among the models consistent with the noise (among all when none is); then, while
     one exists within ``ACCEPT_DELTA_BIC`` of it, a simpler model: one it contains, or one with fewer
     parameters or as many with simpler physics (``Effect.complexity``) that is itself consistent with
-    the noise (an effect, or a more elaborate one, is kept only on very strong evidence); then among the models within ``TIE_DELTA_BIC`` the one with fewest
+    the noise (an effect, or a more elaborate one, is kept only on very strong evidence); then among
+    the models within ``TIE_DELTA_BIC`` the one with fewest
     effects, parameters and the simplest physics (``Effect.complexity``). A model consistent with
     the noise is never traded for one that is not."""
     chosen = min((k for k in fits if adequate[k]) if any(adequate.values()) else fits, key=lambda k: fits[k].bic)
@@ -477,4 +479,5 @@ def _path(fits, base, selected, data, skipped, unidentifiable, pool) -> list[Ste
 
 def failing_bands(step: Step) -> list[dict]:
     """JSON rows of the merged failing bands of a step."""
-    return [{"f_low_hz": lo, "f_high_hz": hi, "reduced_chi2": chi} for lo, hi, chi in merge_failing(step.residuals.bands)]
+    return [{"f_low_hz": lo, "f_high_hz": hi, "reduced_chi2": chi}
+            for lo, hi, chi in merge_failing(step.residuals.bands)]

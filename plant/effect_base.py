@@ -82,7 +82,8 @@ class Effect(abc.ABC):
         fit's bounds: the fitter's hot path)."""
         unknown = set(values) - set(self.bounds)
         if unknown:
-            raise EffectError(f"effect {self.name} has no parameter {sorted(unknown)[0]!r}; known: {sorted(self.bounds)}")
+            raise EffectError(f"effect {self.name} has no parameter {sorted(unknown)[0]!r}; "
+                              f"known: {sorted(self.bounds)}")
         return dataclasses.replace(self, **values) if checked else replace_unchecked(self, values)
 
     def _check_positive(self) -> None:

@@ -21,7 +21,13 @@ from plant.chain import CurrentLoop, Delay, EncoderVelocity, Sampling, SensorFil
 from plant.effect_base import PADE_ORDER, ChainEffect, Effect, MechanicalEffect
 from plant.errors import EffectError, ParameterError
 from plant.mechanics import (
-    CoulombFriction, ModeEffect, Offset, PayloadResonance, Resonance, SecondResonance, TiltCoupling,
+    CoulombFriction,
+    ModeEffect,
+    Offset,
+    PayloadResonance,
+    Resonance,
+    SecondResonance,
+    TiltCoupling,
 )
 
 EFFECTS: dict[str, type[Effect]] = {
@@ -49,6 +55,7 @@ def make_effect(name: str, **params: float) -> Effect:
 
 __all__ = [
     "EFFECTS", "PADE_ORDER", "ChainEffect", "CoulombFriction", "CurrentLoop", "Delay", "Effect", "EncoderVelocity",
-    "MechanicalEffect", "ModeEffect", "Offset", "PayloadResonance", "Resonance", "Sampling", "SecondResonance", "SensorFilter",
+    "MechanicalEffect", "ModeEffect", "Offset", "PayloadResonance", "Resonance", "Sampling", "SecondResonance",
+    "SensorFilter",
     "TiltCoupling", "make_effect",
 ]

@@ -31,7 +31,13 @@ from plant.effects import make_effect
 from plant.errors import EffectError, ParameterError
 from plant.gantry_models import xie_wang_frd
 from plant.grid import check_grid
-from plant.mechanics import BodyChain, CoulombFriction, ModeEffect, TiltCoupling, body_chain
+from plant.mechanics import (
+    BodyChain,
+    CoulombFriction,
+    ModeEffect,
+    TiltCoupling,
+    body_chain,
+)
 from plant.parameters import THESIS, Parameter, check_positive
 
 if TYPE_CHECKING:

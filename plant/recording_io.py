@@ -107,7 +107,8 @@ def read_recording(path: str | Path, *, columns: dict[str, list[str]] | None = N
         role, _, column = name.partition(":")
         if role not in STEPPED_ROLES or isinstance(factor, bool) or not isinstance(factor, (int, float)) \
                 or not math.isfinite(factor) or factor == 0:
-            raise DataError(f"scale {name}={factor!r}: role must be one of {', '.join(STEPPED_ROLES)} (or ROLE:COLUMN for "
+            raise DataError(f"scale {name}={factor!r}: role must be one of {', '.join(STEPPED_ROLES)} "
+                            "(or ROLE:COLUMN for "
                             "one column) and the factor a finite non-zero number")
         targets = [k for k in keys[role] if k in found.ids and (not column or found.ids[k] == column)]
         if column and not targets:

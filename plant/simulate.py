@@ -449,7 +449,8 @@ def simulate_stepped_sine(
         check_positive("noise_fraction", noise_fraction, allow_zero=True)
         if current_noise_a or velocity_noise_m_per_s:
             raise ParameterError("give either noise_fraction or current_noise_a/velocity_noise_m_per_s, not both")
-    for name, value in [("velocity_quantum_m_per_s", velocity_quantum_m_per_s), ("current_quantum_a", current_quantum_a)]:
+    for name, value in [("velocity_quantum_m_per_s", velocity_quantum_m_per_s),
+                        ("current_quantum_a", current_quantum_a)]:
         if value is not None:
             check_positive(name, value)
     check_finite("seed", seed)

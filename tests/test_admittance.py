@@ -21,7 +21,12 @@ from design.admittance.model import (
     sensor_current_per_newton,
     virtual_impedance_frd,
 )
-from design.admittance.synthesis import build_rows, ccp_design, ipopt_design, synthesise_admittance
+from design.admittance.synthesis import (
+    build_rows,
+    ccp_design,
+    ipopt_design,
+    synthesise_admittance,
+)
 from design.admittance.verify import coupled_polynomials, verify_admittance
 from design.loop.loops import rendered_admittance_frd, virtual_admittance_frd
 from design.spec.schema import load_spec, parse_spec

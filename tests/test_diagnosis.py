@@ -15,7 +15,15 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from plant import CoulombFriction, CurrentLoop, Delay, Resonance, TiltCoupling, stage_x, stage_y
+from plant import (
+    CoulombFriction,
+    CurrentLoop,
+    Delay,
+    Resonance,
+    TiltCoupling,
+    stage_x,
+    stage_y,
+)
 from plant.diagnosis import detect_nonlinearity, diagnose
 from plant.effects import EFFECTS
 from plant.errors import DataError

@@ -11,7 +11,12 @@ import pytest
 
 from plant.errors import DataError
 from plant.frequency_response import MeasuredResponse
-from plant.lockin import _basis, _white_noise_factor, amplitude_dependence, estimate_response
+from plant.lockin import (
+    _basis,
+    _white_noise_factor,
+    amplitude_dependence,
+    estimate_response,
+)
 from plant.recording import Block, Recording
 
 FS = 1000.0

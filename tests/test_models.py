@@ -10,9 +10,23 @@ import control
 import numpy as np
 import pytest
 
-from plant import CurrentLoop, Delay, Plant, Resonance, Sampling, TiltCoupling, stage_x, stage_y
+from plant import (
+    CurrentLoop,
+    Delay,
+    Plant,
+    Resonance,
+    Sampling,
+    TiltCoupling,
+    stage_x,
+    stage_y,
+)
 from plant.errors import ParameterError
-from plant.gantry_models import qin_linearised_ss, thesis_state_space, xie_wang_frd, xie_wang_ss
+from plant.gantry_models import (
+    qin_linearised_ss,
+    thesis_state_space,
+    xie_wang_frd,
+    xie_wang_ss,
+)
 from plant.models import corner_frequency_hz
 from plant.motor import (
     back_emf_constant_v_s_per_m,

@@ -157,7 +157,8 @@ def test_cli_rational_json_has_flags(tmp_path):
     # in process (typer's CliRunner): a subprocess would spend seconds importing
     design.cli._register()
     rec = tmp_path / "rec.csv"
-    out = CliRunner().invoke(design.cli.common.app, ["simulate", "--stage", "x", "--f-hz", "2:40:8", "--duration-s", "2",
+    out = CliRunner().invoke(design.cli.common.app, ["simulate", "--stage", "x", "--f-hz", "2:40:8",
+                                                     "--duration-s", "2",
                                               "--seed", "1", "--out", str(rec)])
     assert out.exit_code == 0, out.output
     out = CliRunner().invoke(design.cli.common.app, ["fit", str(rec), "--stage", "x", "--rational", "2,1", "--json"])

@@ -133,7 +133,8 @@ def test_tdms_by_channel_names_with_scale(tmp_path):
     assert np.allclose(rec.blocks[0].time_s, t, rtol=0, atol=1e-12)
     assert np.allclose(rec.blocks[0].current_a, i)
     assert np.allclose(rec.blocks[0].velocity_m_per_s, [v, 2 * v], rtol=1e-12)
-    with pytest.raises(DataError, match=where(path) + r"no channel 'V9' \(velocity\); channels: (scope/)?Freq, (scope/)?Time"):
+    channels = r"no channel 'V9' \(velocity\); channels: (scope/)?Freq, (scope/)?Time"
+    with pytest.raises(DataError, match=where(path) + channels):
         read_recording(path, columns=parse_column_map("frequency=Freq,current=I,velocity=V9"))
 
 

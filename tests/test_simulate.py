@@ -186,7 +186,8 @@ def test_two_rail_friction_equals_single_contact_for_a_centred_load():
     v_rigid = rigid.blocks[0].velocity_m_per_s
     assert np.mean(v_rigid == 0.0) > 0.1                 # stick phases present
     for a, b in zip(rigid.blocks, tilt.blocks):
-        np.testing.assert_allclose(b.velocity_m_per_s, a.velocity_m_per_s, rtol=0, atol=1e-9 * np.abs(a.velocity_m_per_s).max())
+        np.testing.assert_allclose(b.velocity_m_per_s, a.velocity_m_per_s, rtol=0,
+                                   atol=1e-9 * np.abs(a.velocity_m_per_s).max())
 
 
 def test_noise_fraction_sets_the_noise_level():

@@ -18,7 +18,8 @@ Pipeline (``synthesise_admittance``):
 
 1. **ccp** (cvxpy + Clarabel) from the stiffest allowed dynamics (m_v, b_v at their upper
    bounds, which must pass the exact check, else the spec is infeasible; when they miss the
-   conservative circle rows, both formulations stay there and step 3 starts from them): |A| is replaced by its tangent Re(conj(A_k) A(x)) / |A_k| <= |A|, an
+   conservative circle rows, both formulations stay there and step 3 starts from them): |A| is
+   replaced by its tangent Re(conj(A_k) A(x)) / |A_k| <= |A|, an
    inner approximation, so each subproblem is a second-order cone program whose solution is
    feasible; rows are added while any is violated (active set), iterations stop when the cost
    stalls.
@@ -90,7 +91,8 @@ class Rows:
 
     def sides(self, m: float, b: float) -> tuple[np.ndarray, np.ndarray]:
         c = self.coef
-        return (c[:, 1] - c[:, 2] * b) + 1j * (c[:, 3] - c[:, 4] * m), (c[:, 6] - c[:, 7] * b) + 1j * (c[:, 8] - c[:, 9] * m)
+        return ((c[:, 1] - c[:, 2] * b) + 1j * (c[:, 3] - c[:, 4] * m),
+                (c[:, 6] - c[:, 7] * b) + 1j * (c[:, 8] - c[:, 9] * m))
 
     def slack(self, m: float, b: float) -> np.ndarray:
         """log(alpha |A|^2) - log(beta |B|^2): >= 0 where the row holds."""
@@ -241,7 +243,8 @@ def _meets_exactly(ev: AdmittanceEvaluator, m: float, b: float) -> bool:
                 and np.all(c.motor_force_n <= hw.motor_peak_force_n * (1 - f)))
 
 
-def polish(ev: AdmittanceEvaluator, x: np.ndarray, lo, *, rounds: int = 2, rtol: float = 1e-3) -> tuple[np.ndarray, int]:
+def polish(ev: AdmittanceEvaluator, x: np.ndarray, lo, *, rounds: int = 2,
+           rtol: float = 1e-3) -> tuple[np.ndarray, int]:
     """Lower m_v, then b_v, by bisection in log while ``_meets_exactly`` holds (x must meet it)."""
     x = np.asarray(x, float).copy()
     evaluations = 0

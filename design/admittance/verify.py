@@ -14,7 +14,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from design.admittance.model import AdmittanceCheck, MouseModel, admittance_spec, mechanical_plant, mouse_corners
+from design.admittance.model import (
+    AdmittanceCheck,
+    MouseModel,
+    admittance_spec,
+    mechanical_plant,
+    mouse_corners,
+)
 from design.spec.schema import Spec, finite_or_none
 from plant.models import Plant
 

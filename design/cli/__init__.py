@@ -13,7 +13,16 @@ from plant.errors import GantryError
 
 def _register() -> None:
     """Register every command on the app, explicitly."""
-    from design.cli import diagnose, excite, fit, report, reproduce, simulate, sweep, synth
+    from design.cli import (
+        diagnose,
+        excite,
+        fit,
+        report,
+        reproduce,
+        simulate,
+        sweep,
+        synth,
+    )
     from design.cli.common import app
 
     for module, name in ((reproduce, "reproduce"), (simulate, "simulate"), (fit, "fit"), (diagnose, "diagnose"),

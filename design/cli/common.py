@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import json
 import math
-import sys
 from pathlib import Path
 from typing import Annotated, Optional
 
@@ -13,7 +12,7 @@ import typer
 from rich.console import Console
 
 from plant import __version__
-from plant.errors import GantryError, ParameterError, SpecError
+from plant.errors import ParameterError, SpecError
 
 app = typer.Typer(add_completion=False, no_args_is_help=True, pretty_exceptions_enable=False,
                   help="Model, identify and tune the controllers of the exoskeleton H-gantry.")

@@ -18,7 +18,6 @@ from design.cli.common import (
     FrfOption,
     InputHoldOption,
     SetOption,
-    app,
     console,
     parse_band,
     parse_set,
@@ -174,7 +173,10 @@ def _provenance(data: Path) -> str:
 def _diagnose_time(base, recording, candidates, prep, data: Path, stage: str, report: Path | None,
                    as_json: bool) -> None:
     """The time-domain diagnosis (``plant.time_diagnosis``): text, JSON and HTML report."""
-    from design.views.time_diagnosis import time_diagnosis_report, time_diagnosis_to_dict
+    from design.views.time_diagnosis import (
+        time_diagnosis_report,
+        time_diagnosis_to_dict,
+    )
     from plant.time_diagnosis import diagnose_time
 
     diag = diagnose_time(base, recording, candidates=candidates, prep=prep)

@@ -8,7 +8,7 @@ from typing import Annotated, Optional
 
 import typer
 
-from design.cli.common import app, console, print_json
+from design.cli.common import console, print_json
 from plant.errors import ParameterError
 
 #: velocity noise (m/s, standard deviation) of the prediction when none is given: a velocity

@@ -15,7 +15,6 @@ from design.cli.common import (
     FrfOption,
     InputHoldOption,
     SetOption,
-    app,
     console,
     parse_band,
     parse_set,

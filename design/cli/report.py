@@ -9,7 +9,7 @@ from typing import Annotated, Optional
 
 import typer
 
-from design.cli.common import app, console
+from design.cli.common import console
 
 
 def report(

@@ -8,7 +8,7 @@ from typing import Annotated, Optional
 import typer
 from rich.table import Table
 
-from design.cli.common import app, bundled_spec, console, print_json
+from design.cli.common import bundled_spec, console, print_json
 from plant.errors import SpecError
 
 

@@ -11,7 +11,7 @@ from typing import Annotated, Optional
 import numpy as np
 import typer
 
-from design.cli.common import app, console, print_json
+from design.cli.common import console, print_json
 from plant.errors import GantryError, ParameterError
 
 #: thesis section 4.1: 0.5 A sine for Stage X, 1.75 A for Stage Y
@@ -147,7 +147,8 @@ def simulate(
     out: Annotated[Path, typer.Option("--out", help="Recording to write (CSV, long format); the settings and "
                                       "seed go to a sidecar FILE.json next to it.")],
     spec: Annotated[Optional[Path], typer.Option("--spec", help="Spec file: its plant at the nominal payload.")] = None,
-    stage: Annotated[Optional[str], typer.Option("--stage", help="x or y: the thesis plant (instead of --spec).")] = None,
+    stage: Annotated[Optional[str], typer.Option("--stage", help="x or y: the thesis plant (instead of --spec).")] \
+    = None,
     set_items: Annotated[Optional[list[str]], typer.Option("--set", help="KEY=VALUE plant or effect parameter, "
                                                            "e.g. mass_kg=40 (repeatable).")] = None,
     effects: Annotated[Optional[list[str]], typer.Option("--effects", help="Effects to add, comma-separated: "

@@ -16,7 +16,7 @@ from typing import Annotated, Optional
 import typer
 from rich.table import Table
 
-from design.cli.common import app, console, print_json
+from design.cli.common import console, print_json
 
 
 def synth(
@@ -112,7 +112,8 @@ def _print(out: dict) -> None:
     v = out.get("verification")
     if v:
         console.print(f"[bold]independent check[/] ({v['tool']}) at {v['payloads']} payloads: max pole real part "
-                      f"{_num(v['max_closed_loop_pole_real_part'], '.3g')} 1/s, min PM {_num(v['min_phase_margin_deg'])}"
+                      f"{_num(v['max_closed_loop_pole_real_part'], '.3g')} 1/s, "
+                      f"min PM {_num(v['min_phase_margin_deg'])}"
                       f" deg, min GM {_num(v['min_gain_margin_db'])} dB, bandwidth agreement "
                       f"{_num(v['max_bandwidth_rel_error'], '.1e')}; failures: {len(v['failures'])}")
     sch = out.get("schedule")
@@ -130,7 +131,8 @@ def _print(out: dict) -> None:
         bw = adm["rendered_bandwidth_hz"]
         console.print(f"[bold]admittance[/]: m_v = {adm['m_v']:.4g} kg, b_v = {adm['b_v']:.4g} N*s/m; peak resistance "
                       f"{adm['peak_resistance_n']:.3g} N; rendered bandwidth {_num(bw, '.1f')} Hz; interaction PM "
-                      f"{_num(adm['worst_phase_margin_deg'], '.1f')} deg, GM {_num(adm['worst_gain_margin_db'], '.1f')} "
+                      f"{_num(adm['worst_phase_margin_deg'], '.1f')} deg, "
+                      f"GM {_num(adm['worst_gain_margin_db'], '.1f')} "
                       f"dB; binding: {adm['binding']['detail']}")
         console.print(f"  {adm['message']}; solver: {adm['solver']['method']}, {adm['solver']['seconds']:.1f} s")
     t = Table(title="Baselines on the same spec")

@@ -14,7 +14,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from design.loop.analysis import ANALYSIS_GRID_RAD_S, PayloadSweep, analyse_loop, payload_sweep
+from design.loop.analysis import (
+    ANALYSIS_GRID_RAD_S,
+    PayloadSweep,
+    analyse_loop,
+    payload_sweep,
+)
 from design.loop.margins import closed_loop_bandwidth_hz
 from design.spec.schema import Spec
 

@@ -177,7 +177,8 @@ def _ranges(uncertainty: Mapping, plant: Plant) -> dict[str, tuple[float, float]
         if not (np.isfinite(lo) and np.isfinite(hi)) or hi < lo:
             raise SpecError(f"{key}: need finite min <= max, got [{lo:g}, {hi:g}]")
         if lo < p.lower or hi > p.upper:
-            raise SpecError(f"{key}: range [{lo:g}, {hi:g}] leaves the physical bounds [{p.lower:g}, {p.upper:g}] {p.unit}")
+            raise SpecError(f"{key}: range [{lo:g}, {hi:g}] leaves the physical bounds [{p.lower:g}, {p.upper:g}] "
+                            f"{p.unit}")
         out[name] = (lo, hi)
     return out
 

@@ -29,7 +29,14 @@ from pathlib import Path
 from typing import Literal
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
+from pydantic import (
+    BaseModel,
+    ConfigDict,
+    Field,
+    ValidationError,
+    field_validator,
+    model_validator,
+)
 
 from design.spec.admittance import AdmittanceSpec
 from plant.effects import EFFECTS, make_effect
@@ -123,7 +130,8 @@ class PlantSpec(_Strict):
     @model_validator(mode="after")
     def _geometry(self):
         if self.load_position_m >= self.motor_length_m:
-            raise ValueError(f"load_position_m ({self.load_position_m}) must be < motor_length_m ({self.motor_length_m})")
+            raise ValueError(f"load_position_m ({self.load_position_m}) must be < motor_length_m "
+                             f"({self.motor_length_m})")
         return self
 
     def plant(self, payload_kg=None) -> Plant:

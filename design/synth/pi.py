@@ -641,7 +641,8 @@ def synthesise_pi(spec: Spec, *, method: str = "ccp+exact", max_rounds: int = 6)
             break
         points.append(float(worst))
     seconds, cpu = time.perf_counter() - t0, time.process_time() - c0
-    details = {"cpu_seconds": cpu, "import_seconds": import_seconds, "rounds": rounds, **notes, "solver_ccp": "cvxpy+CLARABEL",
+    details = {"cpu_seconds": cpu, "import_seconds": import_seconds, "rounds": rounds, **notes,
+               "solver_ccp": "cvxpy+CLARABEL",
                "solver_exact": "casadi+IPOPT" if method == "ccp+exact" else None,
                "dense_check": f"{dense.size} payloads, cubic-refined grid margins (design.loop.fast)"}
     base, names = baselines(spec)
@@ -683,6 +684,7 @@ def synthesise_pi(spec: Spec, *, method: str = "ccp+exact", max_rounds: int = 6)
         where = "" if b["payload_kg"] is None else f" at {b['payload_kg']:.1f} kg"
         return SynthesisResult(
             "infeasible", f"the best worst-case bandwidth is {ev.worst_bandwidth_hz:.2f} Hz at {ev.payload_kg[i]:.1f} "
-            f"kg (kp = {ev.kp:.4g}, ki = {ev.ki:.4g}), below requirements.min_bandwidth_hz = {req_bw:g}; the {b['constraint'].replace('_', ' ')}{where} "
+            f"kg (kp = {ev.kp:.4g}, ki = {ev.ki:.4g}), below requirements.min_bandwidth_hz = {req_bw:g}; "
+            f"the {b['constraint'].replace('_', ' ')}{where} "
             "limits it", ev, v, method, seconds, base, names, pts, details)
     return SynthesisResult("optimal", f"verified ({label})", ev, v, method, seconds, base, names, pts, details)

@@ -6,7 +6,11 @@ from __future__ import annotations
 import matplotlib.pyplot as plt
 import numpy as np
 
-from design.admittance.model import gantry_loop, rendered_admittance, virtual_impedance_frd
+from design.admittance.model import (
+    gantry_loop,
+    rendered_admittance,
+    virtual_impedance_frd,
+)
 from design.spec.schema import Spec
 from design.views.html import Report, table
 from design.views.plots import bode
@@ -28,7 +32,8 @@ def add_admittance_section(report: Report, spec: Spec, synthesis: dict) -> None:
                 f"{loc.peak_speed_m_per_s:g} m/s): {adm['peak_resistance_n']:.3g} N (the mouse's peak force: "
                 f"{a.mouse.peak_force_n:g} N). The rendered admittance follows 1/(m_v s + b_v) within 3 dB / 30° up "
                 f"to {'—' if bw is None else f'{bw:.1f}'} Hz. Interaction loop (broken at the force-sensor signal): "
-                f"worst PM {_num(adm['worst_phase_margin_deg'])}°, worst GM {_num(adm['worst_gain_margin_db'])} dB over "
+                f"worst PM {_num(adm['worst_phase_margin_deg'])}°, "
+                f"worst GM {_num(adm['worst_gain_margin_db'])} dB over "
                 f"{len(adm['per_payload'])} payloads × {len(adm['mouse_corners'])} mouse corners. Binding: "
                 f"{adm['binding']['detail']}. Verified: {adm['verified']}.", cls="summary")
     rng = spec.plant.payload_kg
@@ -45,7 +50,8 @@ def add_admittance_section(report: Report, spec: Spec, synthesis: dict) -> None:
         ["motor force for the peak mouse force", f"{adm['worst_motor_force_n']:.3g} N", f"{hw.motor_peak_force_n:g} N"],
         ["current per force-sensor step", f"{1e3 * adm['worst_sensor_current_a']:.3g} mA",
          f"{1e3 * hw.max_current_per_sensor_step_a:g} mA"],
-        ["interaction phase margin", f"{_num(adm['worst_phase_margin_deg'], '.2f')} deg", f"{a.phase_margin_deg:g} deg"],
+        ["interaction phase margin", f"{_num(adm['worst_phase_margin_deg'], '.2f')} deg",
+         f"{a.phase_margin_deg:g} deg"],
         ["interaction gain margin", f"{_num(adm['worst_gain_margin_db'], '.2f')} dB", f"{a.gain_margin_db:g} dB"],
     ]))
     report.figure(_profile_figure(m_v, b_v, loc.peak_speed_m_per_s, loc.peak_acceleration_m_per_s2),

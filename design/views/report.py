@@ -165,7 +165,8 @@ def design_report(spec: Spec, *, spec_path: Path, kp: float, ki: float, gains_so
              f"<b>Worst case over {spec.plant.payload_kg.min:g}-{spec.plant.payload_kg.max:g} kg</b> "
              f"({DENSE_PAYLOADS} payloads, recomputed here): bandwidth {check.worst_bandwidth_hz:.2f} Hz, "
              f"phase margin {check.worst_phase_margin_deg:.1f} deg, gain margin "
-             f"{'infinite' if not np.isfinite(check.worst_gain_margin_db) else f'{check.worst_gain_margin_db:.1f} dB'}: "
+             + ("infinite" if not np.isfinite(check.worst_gain_margin_db) else f"{check.worst_gain_margin_db:.1f} dB")
+             + ": "
              f"{status}.",
              f"<b>Limiting:</b> {check.limiting}.",
              f"<b>Thesis gains on the same plant:</b> worst-case bandwidth {thesis.worst_bandwidth_hz:.2f} Hz, "

@@ -1,4 +1,4 @@
-"""Benchmark of ``gantry sweep``: 71 payloads x 1000 Monte Carlo samples (issue 6 target: < 10 s
+"""Benchmark of ``gantry sweep``: 71 payloads x 1000 Monte Carlo samples (target: < 10 s
 on a 2-core machine), and the accuracy of the fast path (``design.loop.fast``) against the
 default-grid computation (``design.loop.analysis.analyse_loop``, 3000 points) and a 30 000-point grid.
 
@@ -6,7 +6,7 @@ Plant: thesis Stage X (Eq. 3.15) with a 0.5 ms delay and a 1 kHz current loop, t
 (Kp = 236, Ki = 47); uniform uncertainty in damping (330-550 N*s/m, thesis section 3.1), force
 constant (18-22 N/A), delay (0.25-1 ms) and current-loop bandwidth (0.5-2 kHz).
 
-Run: ``/work/venv/bin/python benchmarks/bench_sweep.py``; exits 1 if the accuracy check fails.
+Run: ``python benchmarks/bench_sweep.py``; exits 1 if the accuracy check fails.
 """
 
 from __future__ import annotations

@@ -1,9 +1,9 @@
 """Speed of ``fit_plant`` and ``fit_rational`` on 50 frequencies (thesis section 4.1 grid, 1-75 Hz).
 
-Prints the median wall time per call over seeded noisy data sets. Target (issue 4, diagnosis
+Prints the median wall time per call over seeded noisy data sets. Target (the diagnosis
 refits every effect): tens of ms per ``fit_plant`` call.
 
-    /work/venv/bin/python benchmarks/fitting.py
+    python benchmarks/fitting.py
 """
 
 from __future__ import annotations

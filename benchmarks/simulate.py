@@ -1,7 +1,7 @@
 """Speed of ``simulate_stepped_sine`` on the thesis experiment: 50 frequencies 1-75 Hz (log),
 5 s per block at 2 kHz (section 4.1), 1 % noise. Prints the best of 3 wall times per case.
 
-    /work/venv/bin/python benchmarks/simulate.py
+    python benchmarks/simulate.py
 """
 
 from __future__ import annotations

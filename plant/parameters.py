@@ -7,7 +7,7 @@ that go straight to the solver, a ``fixed`` flag and a unit.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 from plant.errors import ParameterError
 
@@ -32,8 +32,6 @@ class Parameter:
                 f"[{self.lower:g}, {self.upper:g}]"
             )
 
-    def with_value(self, value: float) -> Parameter:
-        return replace(self, value=float(value))
 
 
 def check_finite(name: str, value) -> None:

@@ -1,4 +1,4 @@
-"""Admittance synthesis (issue 5): closed forms of the coupled model, the two formulations, a
+"""Admittance synthesis: closed forms of the coupled model, the two formulations, a
 verified and tight design, an explained infeasible spec, bad keys named."""
 
 import json

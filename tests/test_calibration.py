@@ -1,4 +1,4 @@
-"""Calibration of the whole chain (issue 3): simulated recording -> lock-in estimate -> fit.
+"""Calibration of the whole chain: simulated recording -> lock-in estimate -> fit.
 
 Over 60 seeded simulated recordings with known truth (Stage X, mass 40 kg, damping 440 N*s/m,
 delay 1 ms, current loop 300 Hz, 2 % noise), each true parameter must lie inside its reported

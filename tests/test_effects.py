@@ -231,3 +231,29 @@ def test_bad_frequency_grids(grid, words):
         check_grid(grid)
     with pytest.raises(GridError, match=words):
         stage_x().frd(grid)
+
+
+# --- the library's names, rational realisations, tilt -----------------------------------------------
+
+def test_make_effect_builds_every_named_effect():
+    # the names of shared/ARCHITECTURE.md
+    for name, cls in [("delay", Delay), ("current_loop", CurrentLoop), ("sampling", Sampling),
+                      ("resonance", Resonance), ("coulomb_friction", CoulombFriction),
+                      ("tilt_coupling", TiltCoupling)]:
+        assert isinstance(make_effect(name), cls) and make_effect(name).name == name
+    assert make_effect("delay", seconds=0.003) == Delay(0.003)
+
+
+def test_plant_to_control_matches_frd_with_all_series_effects():
+    p = stage_y() * Delay(0.0005) * CurrentLoop(300.0) * Sampling(5000.0) * Resonance(80.0, 50.0, 0.05)
+    low = W < 200.0          # Pade 8 of 0.5 ms, Pade 3 (the sampling cap) of the 0.2 ms sample: exact to 1e-9 here
+    assert np.allclose(p.to_control(pade_order=8)(S[low]), p.frd(W[low]), rtol=1e-8)
+
+
+def test_tilt_coupling_parameters_and_centred_load():
+    t = TiltCoupling(40.0, 2e4)
+    assert t.inertia_kg_m2 == pytest.approx(2e4 / (2 * math.pi * 40.0) ** 2, rel=1e-14)   # J = K_a / w^2
+    # a centred load with equal rail damping does not excite the tilt mode: Eq. 3.16 unchanged
+    assert np.allclose((stage_y() * t).frd_outputs(W), stage_y().frd(W), rtol=1e-9)
+    assert set(t.parameters()) == {"tilt_coupling.frequency_hz", "tilt_coupling.stiffness_n_m_per_rad",
+                                   "tilt_coupling.offset_m"}

@@ -1,4 +1,4 @@
-"""`gantry simulate` -> `gantry fit` end to end (issue 3, "done when")."""
+"""`gantry simulate` -> `gantry fit` end to end."""
 
 import json
 import subprocess

@@ -1,4 +1,4 @@
-"""Lock-in uncertainty where it is hardest (issue 3): few sub-blocks (short, low-frequency blocks),
+"""Lock-in uncertainty where it is hardest: few sub-blocks (short, low-frequency blocks),
 harmonics the sampling aliases, the sub-block count, the thesis-length 1 Hz block, the RMS
 method's own scatter, and amplitude comparisons across recordings.
 

@@ -1,4 +1,4 @@
-"""Lock-in estimation (issue 3): exact on clean sinusoids, harmonics, settling, the thesis's RMS
+"""Lock-in estimation: exact on clean sinusoids, harmonics, settling, the thesis's RMS
 method, amplitude dependence, and the uncertainty against the Cramer-Rao bound.
 
 Signals are synthesised here with known truth (closed form); ``plant.simulate`` is used once,

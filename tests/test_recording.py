@@ -1,4 +1,4 @@
-"""Reading recordings, the cases real files bring (issue 3): blank lines and formatted empty rows,
+"""Reading recordings, the cases real files bring: blank lines and formatted empty rows,
 TDMS groups and waveform timing, per-column unit scales (the thesis scales its second velocity
 column by 100, Appendix B-I), a column named twice, and the shortest block the estimator takes.
 

@@ -1,4 +1,4 @@
-"""Reading recordings (issue 3): CSV, the thesis's xlsx layout, TDMS; every bad input is named
+"""Reading recordings: CSV, the thesis's xlsx layout, TDMS; every bad input is named
 by file and by column, row or block.
 
 Reference values are the synthetic signals written here (closed form): what is read back must be

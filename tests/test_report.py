@@ -1,4 +1,4 @@
-"""Design report (issue 6): self-contained HTML with its figures, rendered by headless Chromium."""
+"""Design report: self-contained HTML with its figures, rendered by headless Chromium."""
 
 import re
 import subprocess

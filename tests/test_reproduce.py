@@ -1,4 +1,4 @@
-"""`gantry reproduce`: thesis Table 3.1, the payload sweep, the JSON contract of issue 2, bad specs.
+"""`gantry reproduce`: thesis Table 3.1, the payload sweep, its JSON contract, bad specs.
 
 Thesis values: Table 3.1 (closed-loop bandwidth, open-loop DC gain, open-loop bandwidth) and the
 phase margins of the section 3.1 text. Computed values are also checked against closed forms of
@@ -26,9 +26,9 @@ THESIS = {  # (stage, quantity): value
     ("x", "open_loop_bandwidth"): 1.9, ("y", "open_loop_bandwidth"): 3.8,         # Table 3.1, Hz
 }
 UNITS = {"closed_loop_bandwidth": "Hz", "phase_margin": "deg", "open_loop_dc_gain": "dB", "open_loop_bandwidth": "Hz"}
-TABLE_KEYS = {"quantity", "stage", "unit", "thesis", "computed", "relative_difference", "definition"}   # issue 2
+TABLE_KEYS = {"quantity", "stage", "unit", "thesis", "computed", "relative_difference", "definition"}
 SWEEP_KEYS = {"stage", "payload_kg", "open_loop_corner_hz", "closed_loop_bandwidth_hz", "phase_margin_deg",
-              "gain_margin_db"}                                                                      # issue 2
+              "gain_margin_db"}                                                                   
 # thesis section 3.1 / Appendix A
 KT, B, M, L_M, L_POS, KP, KI = 20.0, 440.0, 35.0, 0.8, 0.4, 236.0, 47.0
 

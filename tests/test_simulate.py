@@ -248,7 +248,7 @@ def _run(args, cwd):
 
 
 def test_cli_writes_csv_and_sidecar(tmp_path):
-    # the command the fit round trip of issue 3 relies on (shorter grid to keep the test fast)
+    # the command a fit round trip relies on (shorter grid to keep the test fast)
     r = _run(["--stage", "x", "--set", "mass_kg=40", "--effects", "delay.seconds=0.001", "--f-hz", "2,20,60",
               "--duration-s", "1", "--seed", "11", "--out", "rec.csv"], tmp_path)
     assert r.returncode == 0, r.stderr

@@ -53,7 +53,6 @@ from design.loop.loops import pi_frd
 from design.loop.margins import loop_margins, unwrapped_phase_deg
 from design.spec.admittance import AdmittanceSpec
 from design.spec.schema import Spec
-from design.synth.pi import dense_payloads
 from plant.effects import EFFECTS
 from plant.errors import SpecError
 from plant.grid import check_grid
@@ -290,11 +289,3 @@ class AdmittanceEvaluator:
                                               f"(admittance.{name}_{unit.lower()} = {req:g}) at {mk:.1f} kg with "
                                               f"mouse ({mouse.label()})"})
         return tuple(out)
-
-
-def evaluate_admittance(spec: Spec, m_v: float, b_v: float, *, kp: float, ki: float, payload_kg=None,
-                        w_rad_s=W_DENSE) -> AdmittanceCheck:
-    """Exact grid margins, hardware peaks and rendered bandwidth at every payload (default: the
-    PI synthesis' 50 dense payloads, ``design.synth.pi.dense_payloads``) and every mouse corner."""
-    m = dense_payloads(spec) if payload_kg is None else payload_kg
-    return AdmittanceEvaluator(spec, m, w_rad_s, kp=kp, ki=ki).evaluate(m_v, b_v)

@@ -22,7 +22,6 @@ Shape (see ``specs/``)::
 
 from __future__ import annotations
 
-import hashlib
 import math
 import tomllib
 from pathlib import Path
@@ -231,9 +230,6 @@ def load_spec(path: str | Path) -> Spec:
         raise SpecError(f"{path}: not valid TOML: {exc}") from None
     return parse_spec(data, source=str(path))
 
-
-def spec_sha256(path: str | Path) -> str:
-    return hashlib.sha256(Path(path).read_bytes()).hexdigest()
 
 
 def finite_or_none(x) -> float | None:

@@ -28,7 +28,7 @@ THESIS = {  # (stage, quantity): value
 UNITS = {"closed_loop_bandwidth": "Hz", "phase_margin": "deg", "open_loop_dc_gain": "dB", "open_loop_bandwidth": "Hz"}
 TABLE_KEYS = {"quantity", "stage", "unit", "thesis", "computed", "relative_difference", "definition"}
 SWEEP_KEYS = {"stage", "payload_kg", "open_loop_corner_hz", "closed_loop_bandwidth_hz", "phase_margin_deg",
-              "gain_margin_db"}                                                                   
+              "gain_margin_db"}
 # thesis section 3.1 / Appendix A
 KT, B, M, L_M, L_POS, KP, KI = 20.0, 440.0, 35.0, 0.8, 0.4, 236.0, 47.0
 

@@ -10,7 +10,7 @@ Where an effect sits decides how it composes (``plant.effect_base``):
   ``offset`` (a constant force, time-domain data only).
 
 Adding an effect means adding one class here. Parameter names and units follow
-``shared/ARCHITECTURE.md``: an effect parameter is written ``effect.parameter``.
+``docs/formats.md``: an effect parameter is written ``effect.parameter``.
 """
 
 from __future__ import annotations

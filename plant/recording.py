@@ -2,7 +2,7 @@
 
 A ``Recording`` holds the raw samples of every block; readers for CSV, the thesis's
 ``.xlsx`` spreadsheets and LabVIEW ``.tdms`` files return one, the simulator produces
-one, and ``write_recording_csv`` writes the CSV format of ``shared/ARCHITECTURE.md``
+one, and ``write_recording_csv`` writes the CSV format of ``docs/formats.md``
 (long format: ``frequency_hz,time_s,current_a,velocity...``) atomically.
 """
 
@@ -113,7 +113,7 @@ def atomic_write_text(path: str | Path, text: str) -> None:
 
 
 def write_recording_csv(recording: Recording, path: str | Path) -> None:
-    """Write the long CSV format of ``shared/ARCHITECTURE.md`` atomically."""
+    """Write the long CSV format of ``docs/formats.md`` atomically."""
     import io
 
     n_out = len(recording.output_names)

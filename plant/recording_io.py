@@ -1,4 +1,4 @@
-"""Read stepped-sine recordings: the CSV of ``shared/ARCHITECTURE.md``, the thesis's ``.xlsx``
+"""Read stepped-sine recordings: the CSV of ``docs/formats.md``, the thesis's ``.xlsx``
 spreadsheets (thesis Appendix B: no header, frequency in column 2, current in column 3,
 velocities in columns 6 and 7) and LabVIEW ``.tdms`` files, into a validated ``Recording``.
 

@@ -1,7 +1,7 @@
 """Read time-domain recordings (CSV, MATLAB ``.mat``) into a validated ``TimeRecording``, and
 tell them apart from stepped sines (``read_measurement``).
 
-CSV (``shared/ARCHITECTURE.md``): a header with ``time_s``, ``current_a`` and outputs whose
+CSV (``docs/formats.md``): a header with ``time_s``, ``current_a`` and outputs whose
 names start with ``velocity`` (m/s) or ``position`` (m); a column whose name starts with
 ``reference`` is a closed loop's reference; other columns are kept by name. A column map
 (``parse_column_map``: ``time=t,current=vir,position=qm,reference=qg``) names them otherwise;
@@ -75,7 +75,7 @@ def _csv_header(path: Path) -> list[str]:
 
 
 def _default_map(path: Path, header: list[str]) -> dict[str, list[str]]:
-    """Roles by the header names of ``shared/ARCHITECTURE.md``."""
+    """Roles by the header names of ``docs/formats.md``."""
     missing = [c for c in ("time_s", "current_a") if c not in header]
     if missing:
         raise DataError(f"{path}: missing column {missing[0]!r} (header: {', '.join(header)}); or give a column map, "

@@ -236,7 +236,7 @@ def test_bad_frequency_grids(grid, words):
 # --- the library's names, rational realisations, tilt -----------------------------------------------
 
 def test_make_effect_builds_every_named_effect():
-    # the names of shared/ARCHITECTURE.md
+    # the names of docs/formats.md
     for name, cls in [("delay", Delay), ("current_loop", CurrentLoop), ("sampling", Sampling),
                       ("resonance", Resonance), ("coulomb_friction", CoulombFriction),
                       ("tilt_coupling", TiltCoupling)]:

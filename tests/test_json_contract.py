@@ -1,5 +1,5 @@
 """The ``--json`` output of every command on the bundled specs and recordings is the stable contract
-(``shared/ARCHITECTURE.md``: keys are added, never renamed): the files in ``tests/golden/`` were
+(``docs/formats.md``: keys are added, never renamed): the files in ``tests/golden/`` were
 written by ``tests/golden/commands.py`` before ``design/`` was reorganised, and the commands must
 still print the same keys and values (relative 1e-4: solver round-off differs between machines;
 wall times and file paths are skipped). A new key is allowed; a missing or changed one fails."""

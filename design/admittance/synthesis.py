@@ -53,7 +53,6 @@ from design.admittance.model import (
     AdmittanceEvaluator,
     MouseModel,
     admittance_spec,
-    dense_payloads,
     gantry_loop,
     interaction_gain,
     mouse_corners,
@@ -417,7 +416,7 @@ def synthesise_admittance(spec: Spec, *, kp: float | None = None, ki: float | No
     loc = adm.locomotion
     weights = np.array([loc.peak_acceleration_m_per_s2, loc.peak_speed_m_per_s])
     lo, hi = np.array([adm.m_v.min, adm.b_v.min]), np.array([adm.m_v.max, adm.b_v.max])
-    dense = AdmittanceEvaluator(spec, dense_payloads(spec), W_DENSE, kp=kp, ki=ki)
+    dense = AdmittanceEvaluator(spec, spec.plant.payload_kg.check_points(), W_DENSE, kp=kp, ki=ki)
 
     def result(status, message, x, check, verification, binding, active, **solver):
         return AdmittanceResult(status, message, float(x[0]), float(x[1]), kp, ki,

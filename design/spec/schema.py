@@ -48,6 +48,10 @@ class _Strict(BaseModel):
     model_config = ConfigDict(extra="forbid", frozen=True)
 
 
+#: payloads of the range every design is checked at, beyond the points it was computed at
+DENSE_PAYLOADS = 50
+
+
 class PayloadRange(_Strict):
     """Payload (moving mass M of Eq. 3.15/3.16) range in kg."""
 
@@ -68,6 +72,14 @@ class PayloadRange(_Strict):
 
     def grid(self, points: int | None = None) -> np.ndarray:
         return np.linspace(self.min, self.max, points or self.points)
+
+    def design_points(self) -> np.ndarray:
+        """The payloads a design is computed at: the grid, or the one payload of a fixed one."""
+        return self.grid() if self.max > self.min else np.array([self.min])
+
+    def check_points(self) -> np.ndarray:
+        """The ``DENSE_PAYLOADS`` payloads every design is checked at (one for a fixed payload)."""
+        return np.linspace(self.min, self.max, DENSE_PAYLOADS) if self.max > self.min else np.array([self.min])
 
 
 class Uncertainty(_Strict):

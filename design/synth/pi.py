@@ -54,7 +54,6 @@ from plant.models import Plant
 #: effects that limit the achievable bandwidth (phase lag growing with frequency)
 PHASE_LIMITING = tuple(n for n, cls in EFFECTS.items() if cls.limits_bandwidth and cls.in_synthesis and cls.searched)
 UNSUPPORTED = tuple(n for n, cls in EFFECTS.items() if not cls.in_synthesis)
-DENSE_PAYLOADS = 50
 #: constraint grid of the scan and the optimisation: 1 mHz - 10 kHz, 40 points per decade
 W_OPT = log_grid_rad_s(1e-3, 1.0e4, 281)
 THESIS_GAINS = (236.0, 47.0)
@@ -101,19 +100,9 @@ class Evaluation:
                 "binding": self.binding}
 
 
-def dense_payloads(spec: Spec) -> np.ndarray:
-    rng = spec.plant.payload_kg
-    return np.linspace(rng.min, rng.max, DENSE_PAYLOADS) if rng.max > rng.min else np.array([rng.min])
-
-
-def spec_payloads(spec: Spec) -> np.ndarray:
-    rng = spec.plant.payload_kg
-    return rng.grid() if rng.max > rng.min else np.array([rng.min])
-
-
 def evaluate(spec: Spec, kp: float, ki: float, payload_kg=None) -> Evaluation:
     """Margins and bandwidth of (kp, ki) at every payload (default: the dense payloads)."""
-    m = dense_payloads(spec) if payload_kg is None else np.atleast_1d(np.asarray(payload_kg, float))
+    m = spec.plant.payload_kg.check_points() if payload_kg is None else np.atleast_1d(np.asarray(payload_kg, float))
     plant = spec.plant.plant().with_payload(m)
     n = fast_analyse_loop(plant, kp, ki)
     req = spec.requirements
@@ -614,8 +603,8 @@ def synthesise_pi(spec: Spec, *, method: str = "ccp+exact", max_rounds: int = 6)
 
     import_seconds = time.perf_counter() - i0
     t0, c0 = time.perf_counter(), time.process_time()
-    points = list(spec_payloads(spec))
-    dense = np.union1d(dense_payloads(spec), points)
+    points = list(spec.plant.payload_kg.design_points())
+    dense = np.union1d(spec.plant.payload_kg.check_points(), points)
     notes: dict = {}
     rounds, best_bad, first_scan = 0, None, None
     good: list[tuple[str, Evaluation]] = []

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from design.spec.schema import Spec, finite_or_none
-from design.synth.pi import W_OPT, evaluate, exact_design, scan_gains, spec_payloads
+from design.synth.pi import W_OPT, evaluate, exact_design, scan_gains
 from design.synth.verify import verify
 
 
@@ -45,7 +45,7 @@ def gain_schedule(spec: Spec, kp: float, ki: float) -> list[SchedulePoint]:
     """Per-payload optimum gains at the spec's payload points; (kp, ki) is the robust design."""
     plant = spec.plant.plant()
     out = []
-    for m in spec_payloads(spec):
+    for m in spec.plant.payload_kg.design_points():
         robust = evaluate(spec, kp, ki, [m])
         scan = scan_gains(spec, plant.with_payload(np.array([m])).frd(W_OPT))
         starts = [(kp, ki)] + [(scan.kp[i], scan.ki[i]) for i in scan.best(scan.meets, scan.worst_bandwidth_hz, 1)]

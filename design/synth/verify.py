@@ -58,14 +58,13 @@ class Verification:
 def verify(spec: Spec, kp: float, ki: float, *, payload_kg=None, claimed_bandwidth_hz=None,
            pade_order: int = 6) -> Verification:
     """python-control check of (kp, ki) at ``payload_kg`` (default: the dense payloads of
-    ``design.synth.pi.dense_payloads``); ``claimed_bandwidth_hz`` (same shape) is compared
+    ``PayloadRange.check_points``); ``claimed_bandwidth_hz`` (same shape) is compared
     with ``control.bandwidth``."""
     import control
 
-    from design.synth.pi import dense_payloads
-
     req = spec.requirements
-    payloads = dense_payloads(spec) if payload_kg is None else np.atleast_1d(np.asarray(payload_kg, float))
+    payloads = spec.plant.payload_kg.check_points() if payload_kg is None else \
+        np.atleast_1d(np.asarray(payload_kg, float))
     claimed = None if claimed_bandwidth_hz is None else np.atleast_1d(np.asarray(claimed_bandwidth_hz, float))
     plant = spec.plant.plant()
     C = control.tf([kp, ki], [1.0, 0.0]) if ki > 0 else control.tf([kp], [1.0])   # no s/s without integral

@@ -18,14 +18,13 @@ import numpy as np
 
 from design.loop.analysis import PayloadSweep, payload_sweep
 from design.loop.loops import closed_loop_tf, open_loop_frd
-from design.spec.schema import Spec
+from design.spec.schema import DENSE_PAYLOADS, Spec
 from design.views.html import Report, table
 from design.views.plots import bode
 from plant import __version__
 from plant.grid import log_grid_rad_s
 from plant.parameters import THESIS
 
-DENSE_PAYLOADS = 50
 W_PLOT = log_grid_rad_s(0.1, 2000.0, 1500)
 
 
@@ -44,8 +43,7 @@ class Check:
 
 def check_design(spec: Spec, kp: float, ki: float) -> Check:
     """Margins and bandwidth of (kp, ki) at ``DENSE_PAYLOADS`` payloads of the spec's range."""
-    rng = spec.plant.payload_kg
-    m = np.linspace(rng.min, rng.max, DENSE_PAYLOADS) if rng.max > rng.min else np.array([rng.min])
+    m = spec.plant.payload_kg.check_points()
     s = payload_sweep(spec.plant.plant(), kp, ki, m)
     req = spec.requirements
     pm_slack = s.phase_margin_deg - req.phase_margin_deg

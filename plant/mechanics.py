@@ -285,6 +285,8 @@ class Offset(MechanicalEffect):
     searched: ClassVar[bool] = False
     not_searched: ClassVar[str] = ("a constant force leaves no trace in a frequency response; fitted from "
                                    "time-domain recordings")
+    #: a constant force does not enter a velocity loop's small-signal response: nothing to design for
+    in_synthesis: ClassVar[bool] = False
     complexity: ClassVar[int] = 0
 
     def __post_init__(self) -> None:

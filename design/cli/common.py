@@ -75,6 +75,9 @@ FrfOption = Annotated[Optional[str], typer.Option(
          "fit in the frequency domain, where delays, filters and modes live.")]
 BandHzOption = Annotated[Optional[str], typer.Option(
     help="With --frf: the band LOW:HIGH (Hz) of the frequency response, e.g. 1:200.")]
+PlantFromOption = Annotated[Optional[Path], typer.Option(
+    help="Take the plant's damping, force constant and effects from a fit result (gantry fit --json); the "
+         "spec keeps its payload range, uncertainty and requirements.")]
 InputHoldOption = Annotated[bool, typer.Option(
     "--input-hold", help="Time-domain recordings: the drive held each logged command until the next sample "
                          "(align the force by half a sample).")]

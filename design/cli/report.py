@@ -9,7 +9,7 @@ from typing import Annotated, Optional
 
 import typer
 
-from design.cli.common import console
+from design.cli.common import PlantFromOption, console
 
 
 def report(
@@ -25,17 +25,17 @@ def report(
     synthesise: Annotated[bool, typer.Option(
         "--synth/--no-synth", help="Synthesise the gains (default when the plant has a delay, lag, sampling or "
                                    "resonance); otherwise report the spec's controller values.")] = True,
+    plant_from: PlantFromOption = None,
 ) -> None:
     """Write a design report: summary, plant, Bode/Nyquist/step, margins vs payload, data, reproducibility."""
-    from design.spec.schema import load_spec
-    from design.synth.pi import PHASE_LIMITING, synthesise_pi
+    from design.synth.pi import PHASE_LIMITING
     from design.views.report import design_report
+    from design.workflows import design, load_problem, measure
     from plant.diagnosis import diagnose
     from plant.errors import SpecError
-    from plant.lockin import estimate_response
-    from plant.recording_io import read_recording
 
-    spec = load_spec(spec_file)
+    problem = load_problem(spec_file, plant_from=plant_from)
+    spec = problem.spec
     if samples is None:
         samples = 200 if spec.plant.uncertainty else 0
     elif samples and not spec.plant.uncertainty:     # before any long computation
@@ -43,11 +43,7 @@ def report(
     synthesis = None
     kp, ki, source = spec.controller.kp.value, spec.controller.ki.value, "from the spec's controller values"
     if synthesise and any(e in PHASE_LIMITING for e in spec.plant.effects):
-        synthesis = synthesise_pi(spec).to_dict()
-        if spec.admittance is not None:
-            from design.cli.synth import with_admittance
-
-            synthesis = with_admittance(spec, synthesis)
+        synthesis = design(problem)
         if synthesis["status"] == "optimal":
             kp, ki = synthesis["gains"]["kp"], synthesis["gains"]["ki"]
             source = "synthesised" + (", independently verified" if synthesis["verified"] else ", NOT verified")
@@ -58,7 +54,7 @@ def report(
                         "controller.ki.value are not set")
     recordings = []
     for path in data or []:
-        measured = estimate_response(read_recording(path))
+        measured = measure(path)
         recordings.append((path, measured, diagnose(spec.plant.plant(), measured)))
     rep = design_report(spec, spec_path=spec_file, kp=kp, ki=ki, gains_source=source, synthesis=synthesis,
                         recordings=recordings, command="gantry " + shlex.join(sys.argv[1:]), samples=samples,

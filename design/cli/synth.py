@@ -16,7 +16,7 @@ from typing import Annotated, Optional
 import typer
 from rich.table import Table
 
-from design.cli.common import console, print_json
+from design.cli.common import PlantFromOption, console, print_json
 
 
 def synth(
@@ -27,35 +27,17 @@ def synth(
     = "ccp+exact",
     schedule: Annotated[bool, typer.Option("--schedule", help="Also per-payload gains (a gain schedule) and the "
                                                               "bandwidth they gain.")] = False,
+    plant_from: PlantFromOption = None,
 ) -> None:
     """Synthesise PI gains maximising worst-case bandwidth under margin constraints over the payload range."""
-    from design.spec.schema import load_spec
-    from design.synth.pi import synthesise_pi
+    from design.workflows import design, load_problem
 
-    spec = load_spec(spec_file)
-    if spec.plant.measured:
-        from design.synth.measured import synthesise_from_data
-
-        out = synthesise_from_data(spec, base_dir=spec_file.parent)
-        if as_json:
-            print_json(out)
-        else:
-            _print(out)
-        if out["status"] != "optimal":
-            raise typer.Exit(1)
-        return
-    result = synthesise_pi(spec, method=method)
-    out = result.to_dict()
-    if schedule and out["status"] == "optimal":
-        from design.synth.schedule import gain_schedule, schedule_summary
-
-        out["schedule"] = schedule_summary(gain_schedule(spec, out["gains"]["kp"], out["gains"]["ki"]))
-    if spec.admittance is not None:
-        out = with_admittance(spec, out)
-    if report is not None and out["status"] == "optimal":
+    problem = load_problem(spec_file, plant_from=plant_from)
+    out = design(problem, method=method, schedule=schedule)
+    if report is not None and out["status"] == "optimal" and not problem.spec.plant.measured:
         from design.views.report import design_report
 
-        design_report(spec, spec_path=spec_file, kp=out["gains"]["kp"], ki=out["gains"]["ki"],
+        design_report(problem.spec, spec_path=spec_file, kp=out["gains"]["kp"], ki=out["gains"]["ki"],
                       gains_source="synthesised", synthesis=out,
                       command="gantry " + shlex.join(sys.argv[1:])).write(report)
     if as_json:
@@ -70,25 +52,6 @@ def synth(
         if not as_json:
             console.print(f"[bold red]{out['status']}[/] (exit status 1)")
         raise typer.Exit(1)
-
-
-def with_admittance(spec, out: dict) -> dict:
-    """Add the admittance stage (PI gains from the PI stage when optimal, else the spec's values)."""
-    from design.admittance.synthesis import synthesise_admittance
-
-    kp = out["gains"]["kp"] if out["status"] == "optimal" else spec.controller.kp.value
-    ki = out["gains"]["ki"] if out["status"] == "optimal" else spec.controller.ki.value
-    if kp is None or ki is None:
-        out["admittance"] = {"status": "skipped", "message": "no PI gains (PI synthesis failed and no controller "
-                                                             "values in the spec)", "verified": False}
-        return out
-    adm = synthesise_admittance(spec, kp=kp, ki=ki).to_dict(spec)
-    out = {**out, "admittance": adm, "gains": {**out["gains"], "m_v": adm["m_v"], "b_v": adm["b_v"]}}
-    if adm["status"] != "optimal":
-        out["status"] = "infeasible"
-        out["message"] = f"admittance: {adm['message']}"
-    out["verified"] = bool(out["verified"] and adm["verified"])
-    return out
 
 
 def _print(out: dict) -> None:

@@ -1,0 +1,152 @@
+"""The tool's workflows as a notebook calls them, and as the commands do: read a design problem (a
+spec, optionally with the plant of a fit), design it, measure a recording.
+
+    from design.workflows import design, load_problem, measure
+    problem = load_problem("specs/stage_x_synth.toml", plant_from="fit.json")
+    result = design(problem)                    # the dict ``gantry synth --json`` prints
+    response = measure("run.csv")               # a MeasuredResponse from any recording
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import tomllib
+from dataclasses import dataclass
+from pathlib import Path
+
+from design.spec.schema import Spec, parse_spec
+from plant.effects import EFFECTS
+from plant.errors import SpecError
+from plant.frequency_response import MeasuredResponse
+
+#: plant parameters a fit hands to a design (the mass is the payload the design sweeps)
+FIT_BASE_PARAMETERS = ("damping_n_s_per_m", "force_constant_n_per_a")
+
+
+@dataclass(frozen=True)
+class PlantFromFit:
+    """Where a design's plant came from: a fit result file, and the fitted effects left out."""
+
+    file: str
+    left_out: tuple[str, ...]
+
+
+@dataclass(frozen=True)
+class DesignProblem:
+    """A validated spec, the folder its relative paths start from, and the fit its plant came from."""
+
+    spec: Spec
+    spec_dir: Path
+    plant_from: PlantFromFit | None = None
+
+
+def load_problem(spec_path: str | Path, *, plant_from: str | Path | None = None) -> DesignProblem:
+    """The spec file, with its plant's damping, force constant and effects replaced by those of a fit
+    (the ``gantry fit --json`` output) when ``plant_from`` is given. The payload range, uncertainty,
+    requirements and controller bounds stay the spec's; effects a synthesis cannot design for
+    (``coulomb_friction``, ``offset``: no linear response) are left out and listed."""
+    spec_path = Path(spec_path)
+    try:
+        data = tomllib.loads(spec_path.read_text())
+    except OSError as exc:
+        raise SpecError(f"{spec_path}: cannot read spec file ({exc.strerror})") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise SpecError(f"{spec_path}: not valid TOML: {exc}") from None
+    left_out: list[str] = []
+    if plant_from is not None:
+        plant, left_out = _plant_from_fit(Path(plant_from))
+        data.setdefault("plant", {}).update(plant)
+    spec = parse_spec(data, source=str(spec_path))
+    origin = PlantFromFit(str(plant_from), tuple(left_out)) if plant_from is not None else None
+    return DesignProblem(spec, spec_path.parent, origin)
+
+
+def _plant_from_fit(path: Path) -> tuple[dict, list[str]]:
+    """The ``[plant]`` keys a fit result sets, and the effects left out."""
+    try:
+        fit = json.loads(path.read_text())
+    except OSError as exc:
+        raise SpecError(f"{path}: cannot read the fit result ({exc.strerror})") from None
+    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+        raise SpecError(f"{path}: not a JSON fit result ({exc})") from None
+    if not isinstance(fit, dict) or not isinstance(fit.get("parameters"), dict):
+        raise SpecError(f"{path}: not a fit result: expected the JSON of gantry fit --json (a 'parameters' object)")
+    values = {**(fit.get("fixed") or {}),
+              **{n: p.get("value") if isinstance(p, dict) else None for n, p in fit["parameters"].items()}}
+    plant: dict = {"effects": {}}
+    left_out = set()
+    for name, value in values.items():
+        if not isinstance(value, (int, float)) or isinstance(value, bool) or not math.isfinite(value):
+            raise SpecError(f"{path}: parameters.{name}: {value!r} is not a finite number")
+        effect, dot, field = name.partition(".")
+        if not dot:
+            if name in FIT_BASE_PARAMETERS:
+                plant[name] = float(value)
+            continue
+        if effect not in EFFECTS:
+            raise SpecError(f"{path}: parameters.{name}: unknown effect {effect!r}")
+        if not EFFECTS[effect].in_synthesis:
+            left_out.add(effect)
+            continue
+        plant["effects"].setdefault(effect, {})[field] = float(value)
+    return plant, sorted(left_out)
+
+
+def design(problem: DesignProblem, *, method: str = "ccp+exact", schedule: bool = False) -> dict:
+    """The one synthesis driver: PI gains for the spec's plant family (or its measured responses), the
+    gain schedule when asked, and the admittance stage when the spec has one; the ``gantry synth
+    --json`` contract."""
+    spec = problem.spec
+    if spec.plant.measured:
+        from design.synth.measured import synthesise_from_data
+
+        out = synthesise_from_data(spec, base_dir=problem.spec_dir)
+    else:
+        from design.synth.pi import synthesise_pi
+
+        out = synthesise_pi(spec, method=method).to_dict()
+        if schedule and out["status"] == "optimal":
+            from design.synth.schedule import gain_schedule, schedule_summary
+
+            out["schedule"] = schedule_summary(gain_schedule(spec, out["gains"]["kp"], out["gains"]["ki"]))
+        if spec.admittance is not None:
+            out = _with_admittance(spec, out)
+    if problem.plant_from is not None:
+        out["plant_from"] = {"file": problem.plant_from.file, "left_out": list(problem.plant_from.left_out),
+                             "damping_n_s_per_m": spec.plant.damping_n_s_per_m,
+                             "force_constant_n_per_a": spec.plant.force_constant_n_per_a,
+                             "effects": spec.plant.effects}
+    return out
+
+
+def _with_admittance(spec: Spec, out: dict) -> dict:
+    """Add the admittance stage (PI gains from the PI stage when optimal, else the spec's values)."""
+    from design.admittance.synthesis import synthesise_admittance
+
+    kp = out["gains"]["kp"] if out["status"] == "optimal" else spec.controller.kp.value
+    ki = out["gains"]["ki"] if out["status"] == "optimal" else spec.controller.ki.value
+    if kp is None or ki is None:
+        return {**out, "admittance": {"status": "skipped", "message": "no PI gains (PI synthesis failed and no "
+                                                                    "controller values in the spec)",
+                                      "verified": False}}
+    adm = synthesise_admittance(spec, kp=kp, ki=ki).to_dict(spec)
+    out = {**out, "admittance": adm, "gains": {**out["gains"], "m_v": adm["m_v"], "b_v": adm["b_v"]}}
+    if adm["status"] != "optimal":
+        out = {**out, "status": "infeasible", "message": f"admittance: {adm['message']}"}
+    return {**out, "verified": bool(out["verified"] and adm["verified"])}
+
+
+def measure(path: str | Path, *, columns: str | None = None, sample_rate_hz: float | None = None,
+            frf: str = "auto") -> MeasuredResponse:
+    """The frequency response of any recording: a stepped sine by the lock-in, a time-domain recording
+    by ``plant.frf_estimation.estimate_frf`` (``frf``: auto, periodic, lpm or closed-loop)."""
+    from plant.frf_estimation import estimate_frf
+    from plant.lockin import estimate_response
+    from plant.recording_io import parse_column_map
+    from plant.time_recording import TimeRecording
+    from plant.time_recording_io import read_measurement
+
+    rec = read_measurement(path, columns=parse_column_map(columns) if columns else None,
+                           sample_rate_hz=sample_rate_hz)
+    return estimate_frf(rec, method=frf) if isinstance(rec, TimeRecording) else estimate_response(rec)

@@ -1,0 +1,95 @@
+"""Identification flows into design: ``gantry synth --plant-from fit.json`` designs for the fitted plant,
+exactly as a spec with the fitted values typed in by hand does; the workflow API measures any recording."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from design.workflows import load_problem, measure
+
+ROOT = Path(__file__).resolve().parents[1]
+SPEC_X = ROOT / "specs" / "stage_x_synth.toml"
+EMPS = ROOT / "examples" / "data" / "emps" / "DATA_EMPS.mat"
+
+
+def gantry(*args) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "design", *map(str, args)], capture_output=True, text=True,
+                          timeout=600)
+
+
+@pytest.fixture(scope="module")
+def fit_json(tmp_path_factory) -> Path:
+    tmp = tmp_path_factory.mktemp("fit")
+    rec = tmp / "rec.csv"
+    out = gantry("simulate", "--stage", "x", "--set", "damping_n_s_per_m=400", "--effects",
+                 "delay.seconds=0.0007,current_loop.bandwidth_hz=800", "--f-hz", "2:300:20", "--duration-s", "1",
+                 "--seed", "2", "--out", rec)
+    assert out.returncode == 0, out.stderr
+    out = gantry("fit", rec, "--stage", "x", "--effects", "delay,current_loop", "--json")
+    assert out.returncode == 0, out.stderr
+    path = tmp / "fit.json"
+    path.write_text(out.stdout)
+    return path
+
+
+def test_plant_from_fit_designs_as_the_hand_written_spec_does(fit_json, tmp_path):
+    fitted = json.loads(fit_json.read_text())["parameters"]
+    out = gantry("synth", SPEC_X, "--plant-from", fit_json, "--json")
+    assert out.returncode == 0, out.stderr
+    from_fit = json.loads(out.stdout)
+    assert from_fit["plant_from"]["effects"]["delay"]["seconds"] == fitted["delay.seconds"]["value"]
+    assert from_fit["plant_from"]["damping_n_s_per_m"] == fitted["damping_n_s_per_m"]["value"]
+    by_hand = tmp_path / "by_hand.toml"
+    text = SPEC_X.read_text()
+    text = text.replace("damping_n_s_per_m = 440.0", f"damping_n_s_per_m = {fitted['damping_n_s_per_m']['value']!r}")
+    text = text.replace("delay = { seconds = 0.0005 }", f"delay = {{ seconds = {fitted['delay.seconds']['value']!r} }}")
+    text = text.replace("current_loop = { bandwidth_hz = 1000.0 }",
+                        f"current_loop = {{ bandwidth_hz = {fitted['current_loop.bandwidth_hz']['value']!r} }}")
+    by_hand.write_text(text)
+    out = gantry("synth", by_hand, "--json")
+    assert out.returncode == 0, out.stderr
+    hand = json.loads(out.stdout)
+    assert from_fit["gains"] == hand["gains"]
+    assert from_fit["worst_case"] == hand["worst_case"]
+    # the fitted plant is not the spec's: the design differs from the spec's own
+    spec_only = load_problem(SPEC_X).spec
+    assert spec_only.plant.effects["delay"]["seconds"] != fitted["delay.seconds"]["value"]
+
+
+def test_plant_from_a_time_domain_fit_leaves_out_what_synthesis_cannot_design_for(tmp_path):
+    out = gantry("fit", EMPS, "--stage", "x", "--columns", "time=t,current=vir,position=qm", "--set",
+                 "force_constant_n_per_a=35.15", "--effects", "coulomb_friction,offset", "--json")
+    assert out.returncode == 0, out.stderr
+    path = tmp_path / "emps_fit.json"
+    path.write_text(out.stdout)
+    problem = load_problem(SPEC_X, plant_from=path)
+    assert problem.plant_from.left_out == ("coulomb_friction", "offset")
+    assert problem.spec.plant.effects == {}
+    assert problem.spec.plant.force_constant_n_per_a == pytest.approx(35.15)
+
+
+@pytest.mark.parametrize(("content", "message"), [
+    ("not json", "not a JSON fit result"),
+    ('{"status": "optimal"}', "not a fit result"),
+    ('{"parameters": {"delay.seconds": {"value": null}}}', "parameters.delay.seconds: None is not a finite number"),
+    ('{"parameters": {"backlash.width_m": {"value": 1e-3}}}', "unknown effect 'backlash'"),
+])
+def test_bad_fit_results_are_named(tmp_path, content, message):
+    path = tmp_path / "fit.json"
+    path.write_text(content)
+    out = gantry("synth", SPEC_X, "--plant-from", path)
+    assert out.returncode == 2 and out.stderr.count("\n") == 1 and message in out.stderr, out.stderr
+
+
+def test_measure_reads_stepped_sines_and_time_domain_recordings(fit_json):
+    stepped = measure(fit_json.parent / "rec.csv")
+    assert stepped.method == "lock-in" and stepped.f_hz.size == 20
+    emps = measure(EMPS, columns="time=t,current=vir,position=qm,reference=qg")
+    assert emps.notes[0].startswith("method closed-loop")
+    assert np.all(np.isfinite(emps.response))

@@ -31,7 +31,6 @@ def report(
     from design.synth.pi import PHASE_LIMITING
     from design.views.report import design_report
     from design.workflows import design, load_problem, measure
-    from plant.diagnosis import diagnose
     from plant.errors import SpecError
 
     problem = load_problem(spec_file, plant_from=plant_from)
@@ -54,6 +53,8 @@ def report(
                         "controller.ki.value are not set")
     recordings = []
     for path in data or []:
+        from plant.diagnosis import diagnose
+
         measured = measure(path)
         recordings.append((path, measured, diagnose(spec.plant.plant(), measured)))
     rep = design_report(spec, spec_path=spec_file, kp=kp, ki=ki, gains_source=source, synthesis=synthesis,

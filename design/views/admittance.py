@@ -67,7 +67,7 @@ def _per_payload_figure(adm: dict):
     rows = adm["per_payload"]
     lim = adm["limits"]
     m = [r["payload_kg"] for r in rows]
-    fig, axes = plt.subplots(1, 3, figsize=(12, 3.4))
+    fig, axes = plt.subplots(1, 3, figsize=(12, 3.4), layout="tight")
     series = (("phase_margin_deg", "interaction PM (deg)", lim["phase_margin_deg"]),
               ("sensor_current_a", "current per sensor step (A)", lim["max_current_per_sensor_step_a"]),
               ("motor_force_n", "motor force for peak mouse force (N)", lim["motor_peak_force_n"]))
@@ -81,7 +81,6 @@ def _per_payload_figure(adm: dict):
         ax.set_xlabel("payload (kg)")
         ax.set_title(label, fontsize=10)
         ax.grid(True, alpha=0.3)
-    fig.tight_layout()
     return fig
 
 
@@ -91,7 +90,7 @@ def _profile_figure(m_v: float, b_v: float, v_pk: float, a_pk: float):
     t = np.linspace(0.0, 4 * t_acc, 800)
     acc = np.where(t < t_acc, a_pk, np.where(t < 3 * t_acc, 0.0, -a_pk))
     v = np.clip(np.where(t < 3 * t_acc, a_pk * t, v_pk - a_pk * (t - 3 * t_acc)), 0.0, v_pk)
-    fig, ax = plt.subplots(figsize=(7, 3.2))
+    fig, ax = plt.subplots(figsize=(7, 3.2), layout="tight")
     ax.plot(t, m_v * acc + b_v * v, label="m_v a + b_v v")
     ax.plot(t, b_v * v, "--", label="b_v v")
     ax.set_xlabel("time (s)")
@@ -99,5 +98,4 @@ def _profile_figure(m_v: float, b_v: float, v_pk: float, a_pk: float):
     ax.set_title("Resistance felt over the locomotion profile", fontsize=10)
     ax.grid(True, alpha=0.3)
     ax.legend(fontsize=8)
-    fig.tight_layout()
     return fig

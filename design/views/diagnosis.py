@@ -62,7 +62,7 @@ def diagnosis_to_dict(diag: Diagnosis) -> dict:
 def comparison_figure(diag: Diagnosis, data: MeasuredResponse):
     """Measured (with its 2-sigma band) against the base and the final model, per output."""
     n_out = len(data.output_names)
-    fig, axes = plt.subplots(2, n_out, sharex=True, figsize=(6.5 * n_out, 5.5), squeeze=False)
+    fig, axes = plt.subplots(2, n_out, sharex=True, figsize=(6.5 * n_out, 5.5), layout="tight", squeeze=False)
     w = data.w_rad_s
     base, final = diag.steps[0].fit, diag.final
     for k, name in enumerate(data.output_names):
@@ -76,7 +76,7 @@ def comparison_figure(diag: Diagnosis, data: MeasuredResponse):
 
 def residual_figure(diag: Diagnosis):
     """Normalised residual magnitude per frequency for every step (2 = the 2-sigma line)."""
-    fig, ax = plt.subplots(figsize=(7, 3.4))
+    fig, ax = plt.subplots(figsize=(7, 3.4), layout="tight")
     for s in diag.steps:
         r = np.sqrt(np.mean(np.abs(s.fit.residuals) ** 2, axis=0) / 2)
         ax.loglog(s.fit.f_hz, np.maximum(r, 1e-3), "o-", ms=3, label=" + ".join(("base",) + s.effects) if s.effects
@@ -86,14 +86,13 @@ def residual_figure(diag: Diagnosis):
     ax.set_ylabel("|residual| / σ")
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=8)
-    fig.tight_layout()
     return fig
 
 
 def error_steps_figure(diag: Diagnosis):
     """The error falling step by step: reduced chi-square, RMS magnitude and phase error."""
     labels = ["base"] + [f"+ {s.effects[-1]}" for s in diag.steps[1:]]
-    fig, axes = plt.subplots(1, 3, figsize=(11, 3.2))
+    fig, axes = plt.subplots(1, 3, figsize=(11, 3.2), layout="tight")
     x = np.arange(len(diag.steps))
     values = ([s.fit.reduced_chi2 for s in diag.steps], [s.rms_magnitude_error_db for s in diag.steps],
               [s.rms_phase_error_deg for s in diag.steps])
@@ -104,7 +103,6 @@ def error_steps_figure(diag: Diagnosis):
         ax.set_title(title, fontsize=10)
         ax.grid(True, axis="y", alpha=0.3)
     axes[0].axhline(1, color="k", ls=":")
-    fig.tight_layout()
     return fig
 
 

@@ -27,9 +27,12 @@ pre { background: #f6f8fa; padding: .6em; overflow-x: auto; font-size: .85em; }
 
 
 def svg(fig) -> str:
-    """The figure as an inline ``<svg>`` element (and close it)."""
+    """The figure as an inline ``<svg>`` element (and close it). Text stays text (the browser sets it,
+    instead of matplotlib turning every glyph into a path). A figure laid out by its own layout engine
+    is saved as it is; cropping to the drawn extent (``bbox_inches="tight"``) would draw it twice."""
     buf = io.StringIO()
-    fig.savefig(buf, format="svg", bbox_inches="tight")
+    with plt.rc_context({"svg.fonttype": "none"}):
+        fig.savefig(buf, format="svg", bbox_inches=None if fig.get_layout_engine() is not None else "tight")
     plt.close(fig)
     text = buf.getvalue()
     return text[text.index("<svg"):]

@@ -20,7 +20,7 @@ def bode(w_rad_s, responses: Sequence[np.ndarray], labels: Sequence[str], *, axe
     """Magnitude (dB) and phase (deg) against frequency (Hz); ``bands`` are optional 2-sigma
     magnitude half-widths (same units as the response) drawn as shaded regions."""
     if axes is None:
-        fig, axes = plt.subplots(2, 1, sharex=True, figsize=(7, 5.5))
+        fig, axes = plt.subplots(2, 1, sharex=True, figsize=(7, 5.5), layout="tight")
     fig = axes[0].figure
     f = np.asarray(w_rad_s) / (2 * np.pi)
     for k, (resp, label) in enumerate(zip(responses, labels)):
@@ -40,7 +40,6 @@ def bode(w_rad_s, responses: Sequence[np.ndarray], labels: Sequence[str], *, axe
     axes[0].legend(fontsize=8)
     if title:
         axes[0].set_title(title)
-    fig.tight_layout()
     return fig
 
 
@@ -48,7 +47,7 @@ def payload_sweep_figure(sweeps, *, axes=None, labels: Sequence[str] | None = No
     """Thesis Figure 4.31 extended: plant corner and closed-loop bandwidth (Hz) and phase margin
     against payload, one line per ``PayloadSweep``."""
     if axes is None:
-        fig, axes = plt.subplots(1, 3, figsize=(12, 3.8))
+        fig, axes = plt.subplots(1, 3, figsize=(12, 3.8), layout="tight")
     fig = axes[0].figure
     for k, s in enumerate(sweeps):
         label = labels[k] if labels else f"Stage {s.stage.upper()}"
@@ -62,5 +61,4 @@ def payload_sweep_figure(sweeps, *, axes=None, labels: Sequence[str] | None = No
         ax.set_ylabel(unit)
         ax.grid(True, alpha=0.3)
     axes[0].legend(fontsize=8)
-    fig.tight_layout()
     return fig

@@ -63,7 +63,7 @@ def _regimes(fit) -> list[dict]:
 def force_figure(diag: TimeDiagnosis):
     """Measured force against the base and the final model, and both residuals, over time."""
     base, final = diag.steps[0].fit, diag.final
-    fig, (ax, ax2) = plt.subplots(2, 1, sharex=True, figsize=(9, 5.5))
+    fig, (ax, ax2) = plt.subplots(2, 1, sharex=True, figsize=(9, 5.5), layout="tight")
     ax.plot(base.time_s, base.measured, color="k", lw=1, label="measured K_f u")
     ax.plot(base.time_s, base.model, "--", lw=1, label=f"base model ({base.rms_residual:.3g} N rms)")
     ax.plot(final.time_s, final.model, lw=1, label=f"+ {', '.join(diag.selected) or 'no effect'} "
@@ -78,13 +78,12 @@ def force_figure(diag: TimeDiagnosis):
     ax2.set_ylabel("residual (N)")
     ax2.legend(fontsize=8)
     ax2.grid(alpha=0.3)
-    fig.tight_layout()
     return fig
 
 
 def friction_figure(diag: TimeDiagnosis):
     """Residual force against velocity for the base and the final model: the friction curve."""
-    fig, ax = plt.subplots(figsize=(7, 3.8))
+    fig, ax = plt.subplots(figsize=(7, 3.8), layout="tight")
     for s in (diag.steps[0], diag.steps[-1]):
         ax.plot(s.fit.velocity_m_per_s, s.fit.residual, ".", ms=2, alpha=0.5,
                 label=" + ".join(("base",) + s.effects))
@@ -92,13 +91,12 @@ def friction_figure(diag: TimeDiagnosis):
     ax.set_ylabel("residual force (N)")
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8, markerscale=4)
-    fig.tight_layout()
     return fig
 
 
 def steps_figure(diag: TimeDiagnosis):
     """RMS residual per regime of motion, step by step, against the noise level."""
-    fig, ax = plt.subplots(figsize=(7, 3.4))
+    fig, ax = plt.subplots(figsize=(7, 3.4), layout="tight")
     names = [r.name for r in diag.steps[0].fit.regimes]
     x = np.arange(len(names))
     width = 0.8 / len(diag.steps)
@@ -112,7 +110,6 @@ def steps_figure(diag: TimeDiagnosis):
     ax.set_ylabel("rms residual (N)")
     ax.legend(fontsize=8)
     ax.grid(True, axis="y", alpha=0.3)
-    fig.tight_layout()
     return fig
 
 

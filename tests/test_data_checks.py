@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 import scipy.signal
 
-from design.cli.common import print_json
+from design.views.json import print_json
 from plant.errors import DataError
 from plant.lockin import estimate_response
 from plant.recording import Block, Recording, write_recording_csv

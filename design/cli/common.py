@@ -2,12 +2,10 @@
 
 from __future__ import annotations
 
-import json
 import math
 from pathlib import Path
 from typing import Annotated, Optional
 
-import numpy as np
 import typer
 from rich.console import Console
 
@@ -38,27 +36,6 @@ def bundled_spec(name: str) -> Path:
         if path.is_file():
             return path
     raise SpecError(f"bundled spec specs/{name} not found; run from the project checkout or pass --spec FILE")
-
-
-def print_json(obj) -> None:
-    """Strict JSON on stdout: NaN and infinities anywhere in ``obj`` become null (see ``_strict``)."""
-    print(json.dumps(_strict(obj), indent=2, allow_nan=False))
-
-
-def _strict(obj):
-    """``obj`` with NumPy scalars and arrays as Python values, tuples as lists, and every
-    non-finite float as None, through nested dicts, lists and tuples."""
-    if isinstance(obj, dict):
-        return {key: _strict(value) for key, value in obj.items()}
-    if isinstance(obj, (list, tuple)):
-        return [_strict(value) for value in obj]
-    if isinstance(obj, np.ndarray):
-        return _strict(obj.tolist())
-    if isinstance(obj, np.generic):
-        return _strict(obj.item())
-    if isinstance(obj, float) and not math.isfinite(obj):
-        return None
-    return obj
 
 
 #: options shared by the commands that read recordings (``fit``, ``diagnose``)

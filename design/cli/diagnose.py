@@ -21,8 +21,8 @@ from design.cli.common import (
     console,
     parse_band,
     parse_set,
-    print_json,
 )
+from design.views.json import print_json
 from plant import __version__
 from plant.errors import ParameterError
 
@@ -77,7 +77,8 @@ def diagnose(
     report: Annotated[Optional[Path], typer.Option(help="Write an HTML diagnosis report here.")] = None,
 ) -> None:
     """Compare a recording with the thesis model, rank the missing effects and add the justified ones."""
-    from design.views.diagnosis import diagnosis_report, diagnosis_to_dict
+    from design.views.diagnosis import diagnosis_report
+    from design.views.json import diagnosis_to_dict
     from plant.diagnosis import diagnose as run_diagnosis
     from plant.effects import EFFECTS
     from plant.frf_estimation import estimate_frf
@@ -173,10 +174,8 @@ def _provenance(data: Path) -> str:
 def _diagnose_time(base, recording, candidates, prep, data: Path, stage: str, report: Path | None,
                    as_json: bool) -> None:
     """The time-domain diagnosis (``plant.time_diagnosis``): text, JSON and HTML report."""
-    from design.views.time_diagnosis import (
-        time_diagnosis_report,
-        time_diagnosis_to_dict,
-    )
+    from design.views.json import time_diagnosis_to_dict
+    from design.views.time_diagnosis import time_diagnosis_report
     from plant.time_diagnosis import diagnose_time
 
     diag = diagnose_time(base, recording, candidates=candidates, prep=prep)

@@ -8,7 +8,8 @@ from typing import Annotated, Optional
 
 import typer
 
-from design.cli.common import console, print_json
+from design.cli.common import console
+from design.views.json import print_json
 from plant.errors import ParameterError
 
 #: velocity noise (m/s, standard deviation) of the prediction when none is given: a velocity

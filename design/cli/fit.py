@@ -18,8 +18,8 @@ from design.cli.common import (
     console,
     parse_band,
     parse_set,
-    print_json,
 )
+from design.views.json import fit_to_dict, print_json, time_fit_to_dict
 from plant.errors import ParameterError
 
 
@@ -56,7 +56,6 @@ def fit(
 ) -> None:
     """Fit bounded physical parameters to a recording: maximum likelihood with inverse-variance weights on a
     stepped sine's frequency response, IDIM-LS or output error on a time-domain recording."""
-    from design.spec.schema import finite_or_none
     from plant.effects import make_effect
     from plant.fitting import fit_plant
     from plant.frf_estimation import estimate_frf
@@ -103,24 +102,7 @@ def fit(
                            weights=rational_weighting,
                            variance=measured.variance.mean(axis=0) / measured.response.shape[0])
     if as_json:
-        units = {n: p.unit for n, p in result.plant.parameters().items()}
-        out = {"parameters": {n: {"value": result.values[n], "stderr": finite_or_none(result.stderr[n]),
-                                  "stderr_scaled": finite_or_none(result.stderr_scaled[n]), "unit": units[n]}
-                              for n in result.free},
-               "fixed": {n: v for n, v in result.values.items() if n not in result.free},
-               "reduced_chi2": finite_or_none(result.reduced_chi2), "aic": result.aic, "bic": result.bic,
-               "expected_reduced_chi2": result.expected_reduced_chi2,
-               "chi2": result.chi2, "dof": result.dof, "n_data": result.n_data,
-               "correlation": {"names": list(result.free),
-                               "matrix": [[finite_or_none(c) for c in row] for row in result.correlation]},
-               "flags": list(result.flags), "effects": list(result.plant.effect_names)}
-        if rat is not None:
-            out["rational"] = {"num": rat.num.tolist(), "den": rat.den.tolist(),
-                               "fit_percent": finite_or_none(rat.fit_percent), "flags": list(rat.flags),
-                               "success": rat.success, "weighting": rat.weighting,
-                               "chi2": finite_or_none(rat.chi2), "dof": rat.dof, "chi2_p": finite_or_none(rat.chi2_p),
-                               "stable": rat.stable, "start": rat.start}
-        print_json(out)
+        print_json(fit_to_dict(result, rat))
         return
     console.print(result.report(), markup=False, highlight=False, soft_wrap=True)
     if rat is not None:
@@ -129,24 +111,6 @@ def fit(
                       f"\n{rat.tf}", markup=False, highlight=False)
         if rat.flags:
             console.print("Flags:\n" + "\n".join(f"    {f}" for f in rat.flags), markup=False, highlight=False)
-
-
-def time_fit_to_dict(result) -> dict:
-    """Strict-JSON-ready dict of a ``TimeFitResult`` (``gantry fit --json`` on a time-domain recording)."""
-    units = {n: p.unit for n, p in result.plant.parameters().items()}
-    return {"domain": "time", "method": result.method,
-            "parameters": {n: {"value": result.values[n], "stderr": result.stderr[n],
-                               "stderr_ols": result.stderr_ols[n], "unit": units[n]} for n in result.free},
-            "fixed": {n: v for n, v in result.values.items() if n not in result.free},
-            "fitted_quantity": result.quantity, "rms_residual": result.rms_residual,
-            "relative_error_percent": result.relative_error_percent, "noise_rms": result.noise_rms,
-            "noise_ratio": result.noise_ratio, "explained": result.explained,
-            "n_data": result.n_data, "n_effective": result.n_effective,
-            "lag1_autocorrelation": result.lag1_autocorrelation, "condition_number": result.condition_number,
-            "correlation": {"names": list(result.free), "matrix": result.correlation},
-            "regimes": [{"name": r.name, "share": r.share, "rms_residual": r.rms_residual,
-                         "noise_ratio": r.noise_ratio, "significant": r.significant} for r in result.regimes],
-            "flags": list(result.flags), "effects": list(result.effect_names), "starts": result.n_starts}
 
 
 def _fit_time(plant, recording, free, method, prep, as_json) -> None:

@@ -8,7 +8,8 @@ from typing import Annotated, Optional
 import typer
 from rich.table import Table
 
-from design.cli.common import bundled_spec, console, print_json
+from design.cli.common import bundled_spec, console
+from design.views.json import print_json
 from plant.errors import SpecError
 
 

@@ -11,7 +11,8 @@ from typing import Annotated, Optional
 import numpy as np
 import typer
 
-from design.cli.common import console, print_json
+from design.cli.common import console
+from design.views.json import print_json
 from plant.errors import GantryError, ParameterError
 
 #: thesis section 4.1: 0.5 A sine for Stage X, 1.75 A for Stage Y

@@ -14,7 +14,8 @@ from rich import box
 from rich.console import Console
 from rich.table import Table
 
-from design.cli.common import console, print_json
+from design.cli.common import console
+from design.views.json import print_json
 from plant.errors import ParameterError, SpecError
 
 #: payload points when --payload is not given and the spec's range is not a single mass

@@ -16,7 +16,8 @@ from typing import Annotated, Optional
 import typer
 from rich.table import Table
 
-from design.cli.common import PlantFromOption, console, print_json
+from design.cli.common import PlantFromOption, console
+from design.views.json import print_json
 
 
 def synth(

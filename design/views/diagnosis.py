@@ -7,56 +7,10 @@ import math
 import matplotlib.pyplot as plt
 import numpy as np
 
-from design.spec.schema import finite_or_none
 from design.views.html import Report, table
 from design.views.plots import bode
-from plant.diagnosis import ACCEPT_DELTA_BIC, Diagnosis, failing_bands
+from plant.diagnosis import ACCEPT_DELTA_BIC, Diagnosis
 from plant.frequency_response import MeasuredResponse
-
-
-def diagnosis_to_dict(diag: Diagnosis) -> dict:
-    """Strict-JSON-ready dict: the ``gantry diagnose --json`` contract."""
-    first = diag.steps[0]
-    final = diag.final
-    return {
-        "steps": [{"effects": list(s.effects), "reduced_chi2": finite_or_none(s.fit.reduced_chi2),
-                   "rms_magnitude_error_db": s.rms_magnitude_error_db, "rms_phase_error_deg": s.rms_phase_error_deg,
-                   "bic": s.fit.bic, "decision": s.decision} for s in diag.steps],
-        "ranking": [{"effect": c.effect, "delta_bic": finite_or_none(c.delta_bic),
-                     "reduced_chi2": finite_or_none(c.reduced_chi2), "skipped": c.skipped or None}
-                    for c in first.ranking],
-        "final_effects": list(diag.final_effects),
-        "added_effects": list(diag.added),
-        "parameters": {name: {"value": final.values[name],
-                              "stderr": finite_or_none(final.stderr[name]) if name in final.stderr else None,
-                              "fixed": name not in final.stderr}
-                       for name in final.values},
-        "failing_bands": failing_bands(first),
-        "failing_bands_final": failing_bands(diag.steps[-1]),
-        "where_it_fails": first.residuals.description,
-        "nonlinearity": {"detected": diag.nonlinearity.detected,
-                         "max_third_harmonic": diag.nonlinearity.max_third_harmonic,
-                         "max_third_harmonic_f_hz": diag.nonlinearity.max_third_harmonic_f_hz,
-                         "threshold": diag.nonlinearity.threshold,
-                         "amplitude_dependent": diag.nonlinearity.amplitude_dependent,
-                         "description": diag.nonlinearity.description},
-        "notes": list(diag.notes),
-        "flags": list(final.flags),
-        "verdict": diag.verdict,
-        "explanation": diag.explanation,
-        "final_reduced_chi2": finite_or_none(final.reduced_chi2),
-        "expected_reduced_chi2": finite_or_none(final.expected_reduced_chi2),
-        "models_evaluated": len(diag.models),
-        "alternatives": [{"effects": list(a.effects), "delta_bic": finite_or_none(a.delta_bic),
-                          "reduced_chi2": finite_or_none(a.reduced_chi2),
-                          "consistent_with_noise": a.consistent_with_noise, "note": a.note}
-                         for a in diag.alternatives],
-        "main_parameters": {e.name: {"name": f"{e.name}.{e.main_parameter}",
-                                     "value": final.values[f"{e.name}.{e.main_parameter}"]}
-                            for e in final.plant.effects},
-        "modes_hz": [float(f) for f in final.plant.modes_hz()],
-        "antiresonances_hz": [float(f) for f in final.plant.antiresonances_hz()],
-    }
 
 
 def comparison_figure(diag: Diagnosis, data: MeasuredResponse):

@@ -6,58 +6,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from design.views.html import Report, table
-from plant.time_diagnosis import DELTA_BIC_STRONG, TimeDiagnosis
-from plant.time_fit import bic
-
-
-def time_diagnosis_to_dict(diag: TimeDiagnosis) -> dict:
-    """Strict-JSON-ready dict with the keys of the stepped-sine diagnosis where they mean the same."""
-    final = diag.final
-    best_bic = min(s.bic for s in diag.steps)
-    alternatives = [{"effects": list(c), "delta_bic": _bic(diag, c) - _bic(diag, diag.selected),
-                     "rms_residual_n": f.rms_residual, "consistent_with_noise": f.explained}
-                    for c, f in diag.models.items() if c != diag.selected
-                    and _bic(diag, c) - _bic(diag, diag.selected) < DELTA_BIC_STRONG]
-    return {
-        "domain": "time",
-        "steps": [{"effects": list(s.effects), "rms_residual_n": s.fit.rms_residual, "noise_ratio": s.fit.noise_ratio,
-                   "relative_error_percent": s.fit.relative_error_percent, "bic": s.bic, "decision": s.decision,
-                   "regimes": _regimes(s.fit)} for s in diag.steps],
-        "ranking": [{"effect": c.effect, "delta_bic": c.delta_bic, "rms_residual_n": c.rms_residual_n}
-                    for c in diag.ranking],
-        "final_effects": list(diag.final_effects),
-        "added_effects": list(diag.added),
-        "parameters": {n: {"value": v, "stderr": final.stderr.get(n), "stderr_ols": final.stderr_ols.get(n),
-                           "fixed": n not in final.stderr} for n, v in final.values.items()},
-        "where_it_fails": diag.where_it_fails,
-        "direction": {"forward_n": diag.direction.forward_n, "backward_n": diag.direction.backward_n,
-                      "description": diag.direction.description},
-        "notes": list(diag.notes),
-        "flags": list(final.flags),
-        "verdict": diag.verdict,
-        "explanation": diag.explanation,
-        "final_rms_residual_n": final.rms_residual,
-        "final_noise_ratio": final.noise_ratio,
-        "noise_rms_n": final.noise_rms,
-        "n_effective": diag.n_effective,
-        "best_bic": best_bic,
-        "residual_peak_hz": diag.residual_peak_hz,
-        "residual_peak_share": diag.residual_peak_share,
-        "models_evaluated": len(diag.models),
-        "alternatives": alternatives,
-        "main_parameters": {e.name: {"name": f"{e.name}.{e.main_parameter}",
-                                     "value": final.values[f"{e.name}.{e.main_parameter}"]}
-                            for e in final.plant.effects},
-    }
-
-
-def _bic(diag: TimeDiagnosis, combo) -> float:
-    return bic(diag.models[combo], diag.n_effective)
-
-
-def _regimes(fit) -> list[dict]:
-    return [{"name": r.name, "share": r.share, "rms_residual_n": r.rms_residual, "noise_ratio": r.noise_ratio,
-             "significant": r.significant} for r in fit.regimes]
+from plant.time_diagnosis import TimeDiagnosis
 
 
 def force_figure(diag: TimeDiagnosis):

@@ -1,0 +1,172 @@
+"""The one place results become JSON: strict (no NaN or Infinity) dicts of the fit, diagnosis and time-domain
+results, the ``--json`` contract of the commands (``docs/formats.md``)."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+
+from design.spec.schema import finite_or_none
+from plant.diagnosis import Diagnosis, failing_bands
+from plant.fitting import FitResult
+from plant.rational_fit import RationalFit
+from plant.time_diagnosis import DELTA_BIC_STRONG, TimeDiagnosis
+from plant.time_fit import TimeFitResult, bic
+
+
+def print_json(obj) -> None:
+    """Strict JSON on stdout: NaN and infinities anywhere in ``obj`` become null (see ``_strict``)."""
+    print(json.dumps(_strict(obj), indent=2, allow_nan=False))
+
+
+def _strict(obj):
+    """``obj`` with NumPy scalars and arrays as Python values, tuples as lists, and every
+    non-finite float as None, through nested dicts, lists and tuples."""
+    if isinstance(obj, dict):
+        return {key: _strict(value) for key, value in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_strict(value) for value in obj]
+    if isinstance(obj, np.ndarray):
+        return _strict(obj.tolist())
+    if isinstance(obj, np.generic):
+        return _strict(obj.item())
+    if isinstance(obj, float) and not math.isfinite(obj):
+        return None
+    return obj
+
+
+def fit_to_dict(result: FitResult, rat: RationalFit | None = None) -> dict:
+    """``gantry fit --json`` on a stepped sine or an estimated frequency response (with the rational fit)."""
+    units = {n: p.unit for n, p in result.plant.parameters().items()}
+    out = {"parameters": {n: {"value": result.values[n], "stderr": finite_or_none(result.stderr[n]),
+                              "stderr_scaled": finite_or_none(result.stderr_scaled[n]), "unit": units[n]}
+                          for n in result.free},
+           "fixed": {n: v for n, v in result.values.items() if n not in result.free},
+           "reduced_chi2": finite_or_none(result.reduced_chi2), "aic": result.aic, "bic": result.bic,
+           "expected_reduced_chi2": result.expected_reduced_chi2,
+           "chi2": result.chi2, "dof": result.dof, "n_data": result.n_data,
+           "correlation": {"names": list(result.free),
+                           "matrix": [[finite_or_none(c) for c in row] for row in result.correlation]},
+           "flags": list(result.flags), "effects": list(result.plant.effect_names)}
+    if rat is not None:
+        out["rational"] = {"num": rat.num.tolist(), "den": rat.den.tolist(),
+                           "fit_percent": finite_or_none(rat.fit_percent), "flags": list(rat.flags),
+                           "success": rat.success, "weighting": rat.weighting,
+                           "chi2": finite_or_none(rat.chi2), "dof": rat.dof, "chi2_p": finite_or_none(rat.chi2_p),
+                           "stable": rat.stable, "start": rat.start}
+    return out
+
+
+def time_fit_to_dict(result: TimeFitResult) -> dict:
+    """Strict-JSON-ready dict of a ``TimeFitResult`` (``gantry fit --json`` on a time-domain recording)."""
+    units = {n: p.unit for n, p in result.plant.parameters().items()}
+    return {"domain": "time", "method": result.method,
+            "parameters": {n: {"value": result.values[n], "stderr": result.stderr[n],
+                               "stderr_ols": result.stderr_ols[n], "unit": units[n]} for n in result.free},
+            "fixed": {n: v for n, v in result.values.items() if n not in result.free},
+            "fitted_quantity": result.quantity, "rms_residual": result.rms_residual,
+            "relative_error_percent": result.relative_error_percent, "noise_rms": result.noise_rms,
+            "noise_ratio": result.noise_ratio, "explained": result.explained,
+            "n_data": result.n_data, "n_effective": result.n_effective,
+            "lag1_autocorrelation": result.lag1_autocorrelation, "condition_number": result.condition_number,
+            "correlation": {"names": list(result.free), "matrix": result.correlation},
+            "regimes": [{"name": r.name, "share": r.share, "rms_residual": r.rms_residual,
+                         "noise_ratio": r.noise_ratio, "significant": r.significant} for r in result.regimes],
+            "flags": list(result.flags), "effects": list(result.effect_names), "starts": result.n_starts}
+
+
+def diagnosis_to_dict(diag: Diagnosis) -> dict:
+    """Strict-JSON-ready dict: the ``gantry diagnose --json`` contract."""
+    first = diag.steps[0]
+    final = diag.final
+    return {
+        "steps": [{"effects": list(s.effects), "reduced_chi2": finite_or_none(s.fit.reduced_chi2),
+                   "rms_magnitude_error_db": s.rms_magnitude_error_db, "rms_phase_error_deg": s.rms_phase_error_deg,
+                   "bic": s.fit.bic, "decision": s.decision} for s in diag.steps],
+        "ranking": [{"effect": c.effect, "delta_bic": finite_or_none(c.delta_bic),
+                     "reduced_chi2": finite_or_none(c.reduced_chi2), "skipped": c.skipped or None}
+                    for c in first.ranking],
+        "final_effects": list(diag.final_effects),
+        "added_effects": list(diag.added),
+        "parameters": {name: {"value": final.values[name],
+                              "stderr": finite_or_none(final.stderr[name]) if name in final.stderr else None,
+                              "fixed": name not in final.stderr}
+                       for name in final.values},
+        "failing_bands": failing_bands(first),
+        "failing_bands_final": failing_bands(diag.steps[-1]),
+        "where_it_fails": first.residuals.description,
+        "nonlinearity": {"detected": diag.nonlinearity.detected,
+                         "max_third_harmonic": diag.nonlinearity.max_third_harmonic,
+                         "max_third_harmonic_f_hz": diag.nonlinearity.max_third_harmonic_f_hz,
+                         "threshold": diag.nonlinearity.threshold,
+                         "amplitude_dependent": diag.nonlinearity.amplitude_dependent,
+                         "description": diag.nonlinearity.description},
+        "notes": list(diag.notes),
+        "flags": list(final.flags),
+        "verdict": diag.verdict,
+        "explanation": diag.explanation,
+        "final_reduced_chi2": finite_or_none(final.reduced_chi2),
+        "expected_reduced_chi2": finite_or_none(final.expected_reduced_chi2),
+        "models_evaluated": len(diag.models),
+        "alternatives": [{"effects": list(a.effects), "delta_bic": finite_or_none(a.delta_bic),
+                          "reduced_chi2": finite_or_none(a.reduced_chi2),
+                          "consistent_with_noise": a.consistent_with_noise, "note": a.note}
+                         for a in diag.alternatives],
+        "main_parameters": {e.name: {"name": f"{e.name}.{e.main_parameter}",
+                                     "value": final.values[f"{e.name}.{e.main_parameter}"]}
+                            for e in final.plant.effects},
+        "modes_hz": [float(f) for f in final.plant.modes_hz()],
+        "antiresonances_hz": [float(f) for f in final.plant.antiresonances_hz()],
+    }
+
+
+def time_diagnosis_to_dict(diag: TimeDiagnosis) -> dict:
+    """Strict-JSON-ready dict with the keys of the stepped-sine diagnosis where they mean the same."""
+    final = diag.final
+    best_bic = min(s.bic for s in diag.steps)
+    alternatives = [{"effects": list(c), "delta_bic": _bic(diag, c) - _bic(diag, diag.selected),
+                     "rms_residual_n": f.rms_residual, "consistent_with_noise": f.explained}
+                    for c, f in diag.models.items() if c != diag.selected
+                    and _bic(diag, c) - _bic(diag, diag.selected) < DELTA_BIC_STRONG]
+    return {
+        "domain": "time",
+        "steps": [{"effects": list(s.effects), "rms_residual_n": s.fit.rms_residual, "noise_ratio": s.fit.noise_ratio,
+                   "relative_error_percent": s.fit.relative_error_percent, "bic": s.bic, "decision": s.decision,
+                   "regimes": _regimes(s.fit)} for s in diag.steps],
+        "ranking": [{"effect": c.effect, "delta_bic": c.delta_bic, "rms_residual_n": c.rms_residual_n}
+                    for c in diag.ranking],
+        "final_effects": list(diag.final_effects),
+        "added_effects": list(diag.added),
+        "parameters": {n: {"value": v, "stderr": final.stderr.get(n), "stderr_ols": final.stderr_ols.get(n),
+                           "fixed": n not in final.stderr} for n, v in final.values.items()},
+        "where_it_fails": diag.where_it_fails,
+        "direction": {"forward_n": diag.direction.forward_n, "backward_n": diag.direction.backward_n,
+                      "description": diag.direction.description},
+        "notes": list(diag.notes),
+        "flags": list(final.flags),
+        "verdict": diag.verdict,
+        "explanation": diag.explanation,
+        "final_rms_residual_n": final.rms_residual,
+        "final_noise_ratio": final.noise_ratio,
+        "noise_rms_n": final.noise_rms,
+        "n_effective": diag.n_effective,
+        "best_bic": best_bic,
+        "residual_peak_hz": diag.residual_peak_hz,
+        "residual_peak_share": diag.residual_peak_share,
+        "models_evaluated": len(diag.models),
+        "alternatives": alternatives,
+        "main_parameters": {e.name: {"name": f"{e.name}.{e.main_parameter}",
+                                     "value": final.values[f"{e.name}.{e.main_parameter}"]}
+                            for e in final.plant.effects},
+    }
+
+
+def _bic(diag: TimeDiagnosis, combo) -> float:
+    return bic(diag.models[combo], diag.n_effective)
+
+
+def _regimes(fit) -> list[dict]:
+    return [{"name": r.name, "share": r.share, "rms_residual_n": r.rms_residual, "noise_ratio": r.noise_ratio,
+             "significant": r.significant} for r in fit.regimes]

@@ -9,7 +9,6 @@ from pathlib import Path
 from typing import Annotated, Optional
 
 import typer
-from rich.table import Table
 
 from design.cli.common import (
     BandHzOption,
@@ -22,6 +21,7 @@ from design.cli.common import (
     parse_band,
     parse_set,
 )
+from design.views.console import print_diagnosis, print_time_diagnosis
 from design.views.json import print_json
 from plant import __version__
 from plant.errors import ParameterError
@@ -123,43 +123,7 @@ def diagnose(
     if as_json:
         print_json(diagnosis_to_dict(diag))
         return
-    console.print(f"[bold]Verdict:[/] {diag.explanation}")
-    console.print(f"[bold]Where the base model fails:[/] {diag.steps[0].residuals.description}")
-    console.print(f"[bold]Nonlinearity:[/] {diag.nonlinearity.description}")
-    t = Table(title="Candidates tried on the base model")
-    for col in ("effect", "dBIC", "reduced chi2", "note"):
-        t.add_column(col, justify="left" if col in ("effect", "note") else "right")
-    for c in diag.steps[0].ranking:
-        t.add_row(c.effect, "" if c.skipped else f"{c.delta_bic:+.1f}",
-                  "" if c.skipped else f"{c.reduced_chi2:.3g}", c.skipped)
-    console.print(t)
-    t = Table(title="The error, step by step")
-    for col in ("model", "reduced chi2", "RMS mag dB", "RMS phase deg", "BIC"):
-        t.add_column(col, justify="left" if col == "model" else "right")
-    for s in diag.steps:
-        t.add_row(" + ".join(("base",) + s.effects), f"{s.fit.reduced_chi2:.3g}", f"{s.rms_magnitude_error_db:.3f}",
-                  f"{s.rms_phase_error_deg:.2f}", f"{s.fit.bic:.1f}")
-    console.print(t)
-    for s in diag.steps:
-        console.print(f"  -> {s.decision}")
-    if diag.alternatives:
-        t = Table(title="Models within dBIC 10 of the selected one")
-        for col in ("model", "dBIC", "reduced chi2", "relation"):
-            t.add_column(col, justify="right" if col in ("dBIC", "reduced chi2") else "left")
-        for a in diag.alternatives:
-            t.add_row(" + ".join(a.effects) or "base", f"{a.delta_bic:+.1f}", f"{a.reduced_chi2:.3g}", a.note)
-        console.print(t)
-    final = diag.final
-    console.print(f"[bold]{'Final' if diag.verdict == 'explained' else 'Best (not explained)'} effects:[/] "
-                  f"{', '.join(diag.final_effects) or 'none'}")
-    modes = final.plant.modes_hz()
-    if modes.size:
-        console.print(f"  mechanical modes: {', '.join(f'{m:.4g} Hz' for m in modes)}")
-    for name, value in final.values.items():
-        err = final.stderr.get(name)
-        console.print(f"  {name:32s} {value:.6g}" + (f" +/- {err:.2g}" if err is not None else " (fixed)"))
-    for note in diag.notes:
-        console.print(f"[yellow]Note:[/] {note}")
+    print_diagnosis(console, diag)
     if report is not None:
         console.print(f"report written to {report}")
 
@@ -185,32 +149,6 @@ def _diagnose_time(base, recording, candidates, prep, data: Path, stage: str, re
     if as_json:
         print_json(time_diagnosis_to_dict(diag))
         return
-    console.print(f"[bold]Verdict:[/] {diag.explanation}", soft_wrap=True)
-    console.print(f"[bold]Where the base model fails:[/] {diag.where_it_fails}", soft_wrap=True)
-    console.print(f"[bold]By direction of motion:[/] {diag.direction.description}", soft_wrap=True)
-    t = Table(title="Candidates tried on the base model")
-    for col in ("effect", "dBIC", "rms residual (N)"):
-        t.add_column(col, justify="left" if col == "effect" else "right")
-    for c in diag.ranking:
-        t.add_row(c.effect, f"{c.delta_bic:+.1f}", f"{c.rms_residual_n:.4g}")
-    console.print(t)
-    t = Table(title="The error, step by step")
-    for col in ("model", "rms residual (N)", "x noise", *(r.name for r in diag.steps[0].fit.regimes), "BIC"):
-        t.add_column(col, justify="left" if col == "model" else "right")
-    for s in diag.steps:
-        by = {r.name: f"{r.rms_residual:.3g}" for r in s.fit.regimes}
-        t.add_row(" + ".join(("base",) + s.effects), f"{s.fit.rms_residual:.4g}", f"{s.fit.noise_ratio:.3g}",
-                  *(by.get(r.name, "") for r in diag.steps[0].fit.regimes), f"{s.bic:.1f}")
-    console.print(t)
-    for s in diag.steps:
-        console.print(f"  -> {s.decision}", soft_wrap=True)
-    final = diag.final
-    console.print(f"[bold]{'Final' if diag.verdict == 'explained' else 'Best (not explained)'} effects:[/] "
-                  f"{', '.join(diag.final_effects) or 'none'}")
-    for name, value in final.values.items():
-        err = final.stderr.get(name)
-        console.print(f"  {name:32s} {value:.6g}" + (f" +/- {err:.2g}" if err is not None else " (fixed)"))
-    for note in diag.notes:
-        console.print(f"[yellow]Note:[/] {note}", soft_wrap=True)
+    print_time_diagnosis(console, diag)
     if report is not None:
         console.print(f"report written to {report}")

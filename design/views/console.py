@@ -1,0 +1,144 @@
+"""Results as text on the console: the output of the commands without ``--json``."""
+
+from __future__ import annotations
+
+from rich.console import Console
+from rich.table import Table
+
+from plant.diagnosis import Diagnosis
+from plant.time_diagnosis import TimeDiagnosis
+
+
+def print_diagnosis(console: Console, diag: Diagnosis) -> None:
+    """The text of ``gantry diagnose`` on a frequency response: verdict, candidates, steps, alternatives."""
+    console.print(f"[bold]Verdict:[/] {diag.explanation}")
+    console.print(f"[bold]Where the base model fails:[/] {diag.steps[0].residuals.description}")
+    console.print(f"[bold]Nonlinearity:[/] {diag.nonlinearity.description}")
+    t = Table(title="Candidates tried on the base model")
+    for col in ("effect", "dBIC", "reduced chi2", "note"):
+        t.add_column(col, justify="left" if col in ("effect", "note") else "right")
+    for c in diag.steps[0].ranking:
+        t.add_row(c.effect, "" if c.skipped else f"{c.delta_bic:+.1f}",
+                  "" if c.skipped else f"{c.reduced_chi2:.3g}", c.skipped)
+    console.print(t)
+    t = Table(title="The error, step by step")
+    for col in ("model", "reduced chi2", "RMS mag dB", "RMS phase deg", "BIC"):
+        t.add_column(col, justify="left" if col == "model" else "right")
+    for s in diag.steps:
+        t.add_row(" + ".join(("base",) + s.effects), f"{s.fit.reduced_chi2:.3g}", f"{s.rms_magnitude_error_db:.3f}",
+                  f"{s.rms_phase_error_deg:.2f}", f"{s.fit.bic:.1f}")
+    console.print(t)
+    for s in diag.steps:
+        console.print(f"  -> {s.decision}")
+    if diag.alternatives:
+        t = Table(title="Models within dBIC 10 of the selected one")
+        for col in ("model", "dBIC", "reduced chi2", "relation"):
+            t.add_column(col, justify="right" if col in ("dBIC", "reduced chi2") else "left")
+        for a in diag.alternatives:
+            t.add_row(" + ".join(a.effects) or "base", f"{a.delta_bic:+.1f}", f"{a.reduced_chi2:.3g}", a.note)
+        console.print(t)
+    final = diag.final
+    console.print(f"[bold]{'Final' if diag.verdict == 'explained' else 'Best (not explained)'} effects:[/] "
+                  f"{', '.join(diag.final_effects) or 'none'}")
+    modes = final.plant.modes_hz()
+    if modes.size:
+        console.print(f"  mechanical modes: {', '.join(f'{m:.4g} Hz' for m in modes)}")
+    for name, value in final.values.items():
+        err = final.stderr.get(name)
+        console.print(f"  {name:32s} {value:.6g}" + (f" +/- {err:.2g}" if err is not None else " (fixed)"))
+    for note in diag.notes:
+        console.print(f"[yellow]Note:[/] {note}")
+
+
+def print_time_diagnosis(console: Console, diag: TimeDiagnosis) -> None:
+    """The text of ``gantry diagnose`` on a time-domain recording."""
+    console.print(f"[bold]Verdict:[/] {diag.explanation}", soft_wrap=True)
+    console.print(f"[bold]Where the base model fails:[/] {diag.where_it_fails}", soft_wrap=True)
+    console.print(f"[bold]By direction of motion:[/] {diag.direction.description}", soft_wrap=True)
+    t = Table(title="Candidates tried on the base model")
+    for col in ("effect", "dBIC", "rms residual (N)"):
+        t.add_column(col, justify="left" if col == "effect" else "right")
+    for c in diag.ranking:
+        t.add_row(c.effect, f"{c.delta_bic:+.1f}", f"{c.rms_residual_n:.4g}")
+    console.print(t)
+    t = Table(title="The error, step by step")
+    for col in ("model", "rms residual (N)", "x noise", *(r.name for r in diag.steps[0].fit.regimes), "BIC"):
+        t.add_column(col, justify="left" if col == "model" else "right")
+    for s in diag.steps:
+        by = {r.name: f"{r.rms_residual:.3g}" for r in s.fit.regimes}
+        t.add_row(" + ".join(("base",) + s.effects), f"{s.fit.rms_residual:.4g}", f"{s.fit.noise_ratio:.3g}",
+                  *(by.get(r.name, "") for r in diag.steps[0].fit.regimes), f"{s.bic:.1f}")
+    console.print(t)
+    for s in diag.steps:
+        console.print(f"  -> {s.decision}", soft_wrap=True)
+    final = diag.final
+    console.print(f"[bold]{'Final' if diag.verdict == 'explained' else 'Best (not explained)'} effects:[/] "
+                  f"{', '.join(diag.final_effects) or 'none'}")
+    for name, value in final.values.items():
+        err = final.stderr.get(name)
+        console.print(f"  {name:32s} {value:.6g}" + (f" +/- {err:.2g}" if err is not None else " (fixed)"))
+    for note in diag.notes:
+        console.print(f"[yellow]Note:[/] {note}", soft_wrap=True)
+
+
+def print_synthesis(console: Console, out: dict) -> None:
+    """The text of ``gantry synth``: status, gains, per-payload table, check, schedule, admittance, baselines."""
+    console.print(f"[bold]status[/]: {out['status']} ({out['message']}); verified: {out['verified']}")
+    g = out["gains"]
+    wc = out["worst_case"]
+    if g["kp"] is not None and wc is not None:
+        b = out["binding"]
+        where = "" if b["payload_kg"] is None else f" at {b['payload_kg']:.1f} kg"
+        console.print(f"[bold]gains[/]: Kp = {g['kp']:.4g} A/(m/s), Ki = {g['ki']:.4g} A/m; worst case: "
+                      f"bandwidth {wc['bandwidth_hz']:.2f} Hz, PM {wc['phase_margin_deg']:.2f} deg, GM "
+                      f"{_num(wc['gain_margin_db'])} dB; binding: {b['constraint']}{where}")
+        rows = out["per_payload"]
+        t = Table(title=f"Per payload (dense check, {len(rows)} payloads; every {max(len(rows) // 8, 1)}th shown)")
+        for col in ("payload kg", "bandwidth Hz", "PM deg", "GM dB"):
+            t.add_column(col, justify="right")
+        for row in rows[::max(len(rows) // 8, 1)] + ([rows[-1]] if (len(rows) - 1) % max(len(rows) // 8, 1) else []):
+            t.add_row(f"{row['payload_kg']:.1f}", f"{row['bandwidth_hz']:.2f}", f"{row['phase_margin_deg']:.2f}",
+                      _num(row["gain_margin_db"]))
+        console.print(t)
+    v = out.get("verification")
+    if v:
+        console.print(f"[bold]independent check[/] ({v['tool']}) at {v['payloads']} payloads: max pole real part "
+                      f"{_num(v['max_closed_loop_pole_real_part'], '.3g')} 1/s, "
+                      f"min PM {_num(v['min_phase_margin_deg'])}"
+                      f" deg, min GM {_num(v['min_gain_margin_db'])} dB, bandwidth agreement "
+                      f"{_num(v['max_bandwidth_rel_error'], '.1e')}; failures: {len(v['failures'])}")
+    sch = out.get("schedule")
+    if sch:
+        t = Table(title=f"Gain schedule (verified at its points: {sch['verified']})")
+        for col in ("payload kg", "Kp", "Ki", "bandwidth Hz", "robust gains Hz", "gain", "PM deg", "GM dB"):
+            t.add_column(col, justify="right")
+        for p in sch["points"]:
+            t.add_row(f"{p['payload_kg']:.1f}", f"{p['kp']:.4g}", f"{p['ki']:.4g}", _num(p["bandwidth_hz"]),
+                      _num(p["robust_bandwidth_hz"]), f"x{_num(p['bandwidth_gain'])}", _num(p["phase_margin_deg"]),
+                      _num(p["gain_margin_db"]))
+        console.print(t)
+    adm = out.get("admittance")
+    if adm and adm.get("m_v") is not None:
+        bw = adm["rendered_bandwidth_hz"]
+        console.print(f"[bold]admittance[/]: m_v = {adm['m_v']:.4g} kg, b_v = {adm['b_v']:.4g} N*s/m; peak resistance "
+                      f"{adm['peak_resistance_n']:.3g} N; rendered bandwidth {_num(bw, '.1f')} Hz; interaction PM "
+                      f"{_num(adm['worst_phase_margin_deg'], '.1f')} deg, "
+                      f"GM {_num(adm['worst_gain_margin_db'], '.1f')} "
+                      f"dB; binding: {adm['binding']['detail']}")
+        console.print(f"  {adm['message']}; solver: {adm['solver']['method']}, {adm['solver']['seconds']:.1f} s")
+    t = Table(title="Baselines on the same spec")
+    for col in ("baseline", "Kp", "Ki", "worst BW Hz", "worst PM deg", "worst GM dB", "meets"):
+        t.add_column(col, justify="left" if col == "baseline" else "right")
+    for b in out["baselines"]:
+        t.add_row(b["name"].split(" (")[0], f"{b['kp']:.4g}", f"{b['ki']:.4g}",
+                  _num(b["worst_bandwidth_hz"]) if b.get("stable", True) else "unstable",
+                  _num(b["worst_phase_margin_deg"], ".1f"), _num(b["worst_gain_margin_db"], ".1f"),
+                  "yes" if b["meets_requirements"] else "NO")
+    console.print(t)
+    s = out["solver"]
+    console.print(f"solver: {s['method']}, {s['seconds']:.2f} s" + (f" ({s['cpu_seconds']:.2f} s CPU)"
+                                                                    if "cpu_seconds" in s else ""))
+
+
+def _num(x, fmt: str = ".2f") -> str:
+    return "inf" if x is None else format(x, fmt)

@@ -17,9 +17,11 @@ from pathlib import Path
 
 from design.spec.schema import Spec, parse_spec
 from plant.effects import EFFECTS
-from plant.errors import SpecError
+from plant.errors import GantryError, ParameterError, SpecError
 from plant.frequency_response import MeasuredResponse
 
+#: thesis section 4.1: 0.5 A sine for Stage X, 1.75 A for Stage Y
+THESIS_AMPLITUDE_A = {"x": 0.5, "y": 1.75}
 #: plant parameters a fit hands to a design (the mass is the payload the design sweeps)
 FIT_BASE_PARAMETERS = ("damping_n_s_per_m", "force_constant_n_per_a")
 
@@ -150,3 +152,45 @@ def measure(path: str | Path, *, columns: str | None = None, sample_rate_hz: flo
     rec = read_measurement(path, columns=parse_column_map(columns) if columns else None,
                            sample_rate_hz=sample_rate_hz)
     return estimate_frf(rec, method=frf) if isinstance(rec, TimeRecording) else estimate_response(rec)
+
+
+def simulation_plant(*, spec: Path | None, stage: str | None, values: dict[str, float],
+                     effects_added: dict[str, dict[str, float]], amplitude_a: float | None):
+    """The plant a simulation runs (the spec's at its nominal payload, or the thesis's, then ``values`` and
+    ``effects_added``) and the excitation amplitude (A; default the thesis's for the stage)."""
+    from design.spec.schema import load_spec
+    from plant.models import Plant, build_plant
+
+    if (spec is None) == (stage is None):
+        raise ParameterError("give exactly one of --spec FILE or --stage x|y")
+    effects: dict[str, dict[str, float]] = {}
+    base: dict[str, float] = {}
+    if spec is not None:
+        p = load_spec(spec).plant
+        stage = p.stage
+        effects = {name: dict(params) for name, params in p.effects.items()}
+        base = {"mass_kg": p.payload_kg.nominal_kg, "damping_n_s_per_m": p.damping_n_s_per_m,
+                "force_constant_n_per_a": p.force_constant_n_per_a, "motor_length_m": p.motor_length_m,
+                "load_position_m": p.load_position_m}
+    elif stage not in ("x", "y"):
+        raise ParameterError(f"--stage must be x or y, got {stage!r}")
+    for name, params in effects_added.items():
+        effects.setdefault(name, {}).update(params)
+    for key, value in values.items():
+        if "." in key:
+            name, param = key.split(".", 1)
+            if name not in effects:
+                raise ParameterError(f"--set {key}: the plant has no effect {name}; add it with --effects {name}")
+            effects[name][param] = value
+        else:
+            base[key] = value
+    if amplitude_a is None:
+        amplitude_a = THESIS_AMPLITUDE_A[stage]
+    if not (math.isfinite(amplitude_a) and amplitude_a > 0):
+        raise ParameterError(f"--amplitude-a must be a positive number of amperes, got {amplitude_a:g}")
+    excitation = amplitude_a if "coulomb_friction" in effects else None
+    try:
+        plant: Plant = build_plant(stage, effects=effects, excitation_current_a=excitation, **base)
+    except GantryError as exc:
+        raise type(exc)(f"plant from --spec/--stage, --set and --effects: {exc}") from None
+    return plant, amplitude_a

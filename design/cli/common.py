@@ -6,11 +6,12 @@ import math
 from pathlib import Path
 from typing import Annotated, Optional
 
+import numpy as np
 import typer
 from rich.console import Console
 
 from plant import __version__
-from plant.errors import ParameterError, SpecError
+from plant.errors import GantryError, ParameterError, SpecError
 
 app = typer.Typer(add_completion=False, no_args_is_help=True, pretty_exceptions_enable=False,
                   help="Model, identify and tune the controllers of the exoskeleton H-gantry.")
@@ -88,3 +89,80 @@ def parse_band(text: str | None) -> dict[str, tuple[float, float]]:
     if not sep or not all(math.isfinite(b) for b in band) or not 0 <= band[0] < band[1]:
         raise ParameterError(f"--band-hz {text!r}: expected LOW:HIGH in Hz with 0 <= LOW < HIGH, e.g. 1:200")
     return {"f_range_hz": band}
+
+
+#: plant keys ``--set KEY=VALUE`` may change besides effect parameters (``effect.parameter``)
+PLANT_KEYS = ("mass_kg", "damping_n_s_per_m", "force_constant_n_per_a", "motor_length_m", "load_position_m")
+
+
+def _number(option: str, item: str, text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise ParameterError(f"{option} {item!r}: {text!r} is not a number") from None
+    if not math.isfinite(value):
+        raise ParameterError(f"{option} {item!r}: value must be finite")
+    return value
+
+
+def parse_effects(items: list[str]) -> dict[str, dict[str, float]]:
+    """``["delay.seconds=0.001,current_loop", ...]`` -> ``{"delay": {"seconds": 0.001}, "current_loop": {}}``.
+
+    An effect named without parameters gets its defaults (``plant.effects.make_effect``)."""
+    from plant.effects import make_effect
+
+    effects: dict[str, dict[str, float]] = {}
+    for item in (part.strip() for chunk in items for part in chunk.split(",")):
+        if not item:
+            continue
+        key, eq, text = item.partition("=")
+        name, dot, param = key.strip().partition(".")
+        if bool(eq) != bool(dot) or (dot and not param):
+            raise ParameterError(f"--effects {item!r}: write an effect name (delay) or effect.parameter=value "
+                                 "(delay.seconds=0.001)")
+        params = effects.setdefault(name, {})
+        if eq:
+            params[param] = _number("--effects", item, text)
+        try:
+            make_effect(name, **params)
+        except GantryError as exc:
+            raise type(exc)(f"--effects {item!r}: {exc}") from None
+    return effects
+
+
+def parse_set_items(items: list[str]) -> dict[str, float]:
+    """``["mass_kg=40", "delay.seconds=0.002"]`` -> ``{"mass_kg": 40.0, "delay.seconds": 0.002}``."""
+    values: dict[str, float] = {}
+    for item in items:
+        key, eq, text = item.partition("=")
+        key = key.strip()
+        if not eq or not key:
+            raise ParameterError(f"--set {item!r}: expected KEY=VALUE, e.g. mass_kg=40")
+        if "." not in key and key not in PLANT_KEYS:
+            raise ParameterError(f"--set {item!r}: unknown parameter {key!r}; plant parameters are "
+                                 f"{', '.join(PLANT_KEYS)}, effect parameters are written effect.parameter")
+        values[key] = _number("--set", item, text)
+    return values
+
+
+def parse_f_hz(text: str, spacing: str) -> np.ndarray:
+    """``"1:75:50"`` (``spacing`` log or linear) or an explicit list ``"1,2,5,10"``, in Hz."""
+    if spacing not in ("log", "linear"):
+        raise ParameterError(f"--f-spacing must be log or linear, got {spacing!r}")
+    if ":" in text:
+        parts = text.split(":")
+        if len(parts) != 3:
+            raise ParameterError(f"--f-hz {text!r}: write START:STOP:COUNT (e.g. 1:75:50) or a list 1,2,5")
+        start, stop = (_number("--f-hz", text, p) for p in parts[:2])
+        count = _number("--f-hz", text, parts[2])
+        if count != int(count) or count < 2:
+            raise ParameterError(f"--f-hz {text!r}: COUNT must be a whole number >= 2")
+        if not 0 < start < stop:
+            raise ParameterError(f"--f-hz {text!r}: need 0 < START < STOP")
+        return (np.geomspace if spacing == "log" else np.linspace)(start, stop, int(count))
+    f = np.array([_number("--f-hz", text, p) for p in text.split(",")])
+    if np.any(f <= 0):
+        raise ParameterError(f"--f-hz {text!r}: frequencies must be positive")
+    if len(np.unique(f)) != len(f):
+        raise ParameterError(f"--f-hz {text!r}: a frequency is listed twice (duplicate block)")
+    return np.sort(f)

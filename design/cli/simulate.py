@@ -8,132 +8,14 @@ import time
 from pathlib import Path
 from typing import Annotated, Optional
 
-import numpy as np
 import typer
 
-from design.cli.common import console
+from design.cli.common import console, parse_effects, parse_f_hz, parse_set_items
 from design.views.json import print_json
-from plant.errors import GantryError, ParameterError
+from design.workflows import simulation_plant
+from plant.errors import ParameterError
 
-#: thesis section 4.1: 0.5 A sine for Stage X, 1.75 A for Stage Y
-THESIS_AMPLITUDE_A = {"x": 0.5, "y": 1.75}
-#: plant keys ``--set`` may change besides effect parameters (``effect.parameter``)
-PLANT_KEYS = ("mass_kg", "damping_n_s_per_m", "force_constant_n_per_a", "motor_length_m", "load_position_m")
 DEFAULT_NOISE_FRACTION = 0.01
-
-
-def _number(option: str, item: str, text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        raise ParameterError(f"{option} {item!r}: {text!r} is not a number") from None
-    if not math.isfinite(value):
-        raise ParameterError(f"{option} {item!r}: value must be finite")
-    return value
-
-
-def parse_effects(items: list[str]) -> dict[str, dict[str, float]]:
-    """``["delay.seconds=0.001,current_loop", ...]`` -> ``{"delay": {"seconds": 0.001}, "current_loop": {}}``.
-
-    An effect named without parameters gets its defaults (``plant.effects.make_effect``)."""
-    from plant.effects import make_effect
-
-    effects: dict[str, dict[str, float]] = {}
-    for item in (part.strip() for chunk in items for part in chunk.split(",")):
-        if not item:
-            continue
-        key, eq, text = item.partition("=")
-        name, dot, param = key.strip().partition(".")
-        if bool(eq) != bool(dot) or (dot and not param):
-            raise ParameterError(f"--effects {item!r}: write an effect name (delay) or effect.parameter=value "
-                                 "(delay.seconds=0.001)")
-        params = effects.setdefault(name, {})
-        if eq:
-            params[param] = _number("--effects", item, text)
-        try:
-            make_effect(name, **params)
-        except GantryError as exc:
-            raise type(exc)(f"--effects {item!r}: {exc}") from None
-    return effects
-
-
-def parse_set(items: list[str]) -> dict[str, float]:
-    """``["mass_kg=40", "delay.seconds=0.002"]`` -> ``{"mass_kg": 40.0, "delay.seconds": 0.002}``."""
-    values: dict[str, float] = {}
-    for item in items:
-        key, eq, text = item.partition("=")
-        key = key.strip()
-        if not eq or not key:
-            raise ParameterError(f"--set {item!r}: expected KEY=VALUE, e.g. mass_kg=40")
-        if "." not in key and key not in PLANT_KEYS:
-            raise ParameterError(f"--set {item!r}: unknown parameter {key!r}; plant parameters are "
-                                 f"{', '.join(PLANT_KEYS)}, effect parameters are written effect.parameter")
-        values[key] = _number("--set", item, text)
-    return values
-
-
-def parse_f_hz(text: str, spacing: str) -> np.ndarray:
-    """``"1:75:50"`` (``spacing`` log or linear) or an explicit list ``"1,2,5,10"``, in Hz."""
-    if spacing not in ("log", "linear"):
-        raise ParameterError(f"--f-spacing must be log or linear, got {spacing!r}")
-    if ":" in text:
-        parts = text.split(":")
-        if len(parts) != 3:
-            raise ParameterError(f"--f-hz {text!r}: write START:STOP:COUNT (e.g. 1:75:50) or a list 1,2,5")
-        start, stop = (_number("--f-hz", text, p) for p in parts[:2])
-        count = _number("--f-hz", text, parts[2])
-        if count != int(count) or count < 2:
-            raise ParameterError(f"--f-hz {text!r}: COUNT must be a whole number >= 2")
-        if not 0 < start < stop:
-            raise ParameterError(f"--f-hz {text!r}: need 0 < START < STOP")
-        return (np.geomspace if spacing == "log" else np.linspace)(start, stop, int(count))
-    f = np.array([_number("--f-hz", text, p) for p in text.split(",")])
-    if np.any(f <= 0):
-        raise ParameterError(f"--f-hz {text!r}: frequencies must be positive")
-    if len(np.unique(f)) != len(f):
-        raise ParameterError(f"--f-hz {text!r}: a frequency is listed twice (duplicate block)")
-    return np.sort(f)
-
-
-def build_simulation_plant(*, spec: Path | None, stage: str | None, set_items: list[str], effect_items: list[str],
-                           amplitude_a: float | None):
-    """The plant (spec's nominal payload or thesis defaults, then ``--set``/``--effects``) and the amplitude."""
-    from design.spec.schema import load_spec
-    from plant.models import Plant, build_plant
-
-    if (spec is None) == (stage is None):
-        raise ParameterError("give exactly one of --spec FILE or --stage x|y")
-    effects: dict[str, dict[str, float]] = {}
-    base: dict[str, float] = {}
-    if spec is not None:
-        p = load_spec(spec).plant
-        stage = p.stage
-        effects = {name: dict(params) for name, params in p.effects.items()}
-        base = {"mass_kg": p.payload_kg.nominal_kg, "damping_n_s_per_m": p.damping_n_s_per_m,
-                "force_constant_n_per_a": p.force_constant_n_per_a, "motor_length_m": p.motor_length_m,
-                "load_position_m": p.load_position_m}
-    elif stage not in ("x", "y"):
-        raise ParameterError(f"--stage must be x or y, got {stage!r}")
-    for name, params in parse_effects(effect_items).items():
-        effects.setdefault(name, {}).update(params)
-    for key, value in parse_set(set_items).items():
-        if "." in key:
-            name, param = key.split(".", 1)
-            if name not in effects:
-                raise ParameterError(f"--set {key}: the plant has no effect {name}; add it with --effects {name}")
-            effects[name][param] = value
-        else:
-            base[key] = value
-    if amplitude_a is None:
-        amplitude_a = THESIS_AMPLITUDE_A[stage]
-    if not (math.isfinite(amplitude_a) and amplitude_a > 0):
-        raise ParameterError(f"--amplitude-a must be a positive number of amperes, got {amplitude_a:g}")
-    excitation = amplitude_a if "coulomb_friction" in effects else None
-    try:
-        plant: Plant = build_plant(stage, effects=effects, excitation_current_a=excitation, **base)
-    except GantryError as exc:
-        raise type(exc)(f"plant from --spec/--stage, --set and --effects: {exc}") from None
-    return plant, amplitude_a
 
 
 def _check(option: str, value: float | None, *, allow_zero: bool = False) -> None:
@@ -186,8 +68,8 @@ def simulate(
     if not out.parent.is_dir():
         raise ParameterError(f"--out {out}: directory {out.parent} does not exist")
     sidecar = out.with_suffix(".json")
-    plant, amplitude_a = build_simulation_plant(spec=spec, stage=stage, set_items=set_items or [],
-                                                effect_items=effects or [], amplitude_a=amplitude_a)
+    plant, amplitude_a = simulation_plant(spec=spec, stage=stage, values=parse_set_items(set_items or []),
+                                          effects_added=parse_effects(effects or []), amplitude_a=amplitude_a)
     f = parse_f_hz(f_hz, f_spacing)
     _check("--duration-s", duration_s)
     _check("--sample-rate-hz", sample_rate_hz)

@@ -18,7 +18,11 @@ from pathlib import Path
 from design.spec.schema import Spec, parse_spec
 from plant.effects import EFFECTS
 from plant.errors import GantryError, ParameterError, SpecError
+from plant.fitting import FitResult
 from plant.frequency_response import MeasuredResponse
+from plant.inverse_model import Preprocessing
+from plant.rational_fit import RationalFit
+from plant.time_fit import TimeFitResult
 
 #: thesis section 4.1: 0.5 A sine for Stage X, 1.75 A for Stage Y
 THESIS_AMPLITUDE_A = {"x": 0.5, "y": 1.75}
@@ -194,3 +198,67 @@ def simulation_plant(*, spec: Path | None, stage: str | None, values: dict[str, 
     except GantryError as exc:
         raise type(exc)(f"plant from --spec/--stage, --set and --effects: {exc}") from None
     return plant, amplitude_a
+
+
+@dataclass(frozen=True)
+class FitOutcome:
+    """A fit of a recording: frequency-domain (``FitResult``, with an optional rational fit) or time-domain
+    (``TimeFitResult``)."""
+
+    result: FitResult | TimeFitResult
+    rational: RationalFit | None = None
+
+
+def fit_recording(path: str | Path, *, stage: str, effects: tuple[str, ...] = (), free: tuple[str, ...] | None = None,
+                  values: dict[str, float] | None = None, load_position_m: float | None = None,
+                  columns: str | None = None, sample_rate_hz: float | None = None, frf: str | None = None,
+                  band: dict | None = None, method: str = "inverse-model", prep: Preprocessing = Preprocessing(),
+                  rational: str | None = None, rational_weighting: str = "inverse_sigma") -> FitOutcome:
+    """Fit a plant with ``effects`` to any recording: a stepped sine (lock-in, then maximum likelihood), a
+    time-domain recording by the inverse model or output error (``method``), or its frequency response
+    (``frf``: auto, periodic, lpm or closed-loop) as a stepped sine's. ``rational`` ("POLES,ZEROS") adds
+    a tfest-like rational fit of the frequency response."""
+    from plant.effects import make_effect
+    from plant.fitting import fit_plant
+    from plant.frf_estimation import estimate_frf
+    from plant.lockin import estimate_response
+    from plant.models import Plant
+    from plant.recording_io import parse_column_map
+    from plant.time_fit import fit_inverse_model, fit_output_error
+    from plant.time_recording import TimeRecording
+    from plant.time_recording_io import read_measurement
+
+    if stage not in ("x", "y"):
+        raise ParameterError(f"--stage must be x or y, got {stage!r}")
+    fx = tuple(make_effect(n) for n in effects)
+    geometry = {"load_position_m": load_position_m} if load_position_m is not None else {}
+    recording = read_measurement(path, columns=parse_column_map(columns) if columns else None,
+                                 sample_rate_hz=sample_rate_hz)
+    if isinstance(recording, TimeRecording) and frf is None:
+        if method not in ("inverse-model", "output-error"):
+            raise ParameterError(f"--method must be inverse-model or output-error, got {method!r}")
+        plant = Plant(stage, effects=fx, excitation_current_a=1.0, **geometry).with_values(values or {})
+        result = fit_inverse_model(plant, recording, free=free, prep=prep)
+        if method == "output-error":
+            result = fit_output_error(plant, recording, start=result, prep=prep)
+        return FitOutcome(result)
+    measured = estimate_frf(recording, method=frf, **(band or {})) if isinstance(recording, TimeRecording) \
+        else estimate_response(recording)
+    plant = Plant(stage, effects=fx, excitation_current_a=float(measured.current_amplitude_a.mean()),
+                  **geometry).with_values(values or {})
+    result = fit_plant(plant, measured, free=free)
+    return FitOutcome(result, _rational(measured, rational, rational_weighting) if rational else None)
+
+
+def _rational(measured: MeasuredResponse, rational: str, weighting: str) -> RationalFit:
+    """The rational fit of the output-averaged response (variance: the mean variance / number of outputs)."""
+    from plant.rational_fit import WEIGHTINGS, fit_rational
+
+    try:
+        n_poles, n_zeros = (int(v) for v in rational.split(","))
+    except ValueError:
+        raise ParameterError(f"--rational {rational!r}: expected POLES,ZEROS, e.g. 1,0") from None
+    if weighting not in WEIGHTINGS:
+        raise ParameterError(f"--rational-weighting must be one of {', '.join(WEIGHTINGS)}, got {weighting!r}")
+    return fit_rational(measured.w_rad_s, measured.response.mean(axis=0), n_poles=n_poles, n_zeros=n_zeros,
+                        weights=weighting, variance=measured.variance.mean(axis=0) / measured.response.shape[0])

@@ -19,8 +19,8 @@ from design.cli.common import (
     parse_band,
     parse_set,
 )
-from design.views.json import fit_to_dict, print_json, time_fit_to_dict
-from plant.errors import ParameterError
+from design.views.console import print_fit
+from design.views.json import fit_outcome_to_dict, print_json
 
 
 def fit(
@@ -56,72 +56,16 @@ def fit(
 ) -> None:
     """Fit bounded physical parameters to a recording: maximum likelihood with inverse-variance weights on a
     stepped sine's frequency response, IDIM-LS or output error on a time-domain recording."""
-    from plant.effects import make_effect
-    from plant.fitting import fit_plant
-    from plant.frf_estimation import estimate_frf
+    from design.workflows import fit_recording
     from plant.inverse_model import Preprocessing
-    from plant.lockin import estimate_response
-    from plant.models import Plant
-    from plant.recording_io import parse_column_map
-    from plant.time_recording import TimeRecording
-    from plant.time_recording_io import read_measurement
 
-    if stage not in ("x", "y"):
-        raise ParameterError(f"--stage must be x or y, got {stage!r}")
-    names = [e.strip() for e in (effects or "").split(",") if e.strip()]
-    fx = tuple(make_effect(n) for n in names)
-    geometry = {"load_position_m": load_position_m} if load_position_m is not None else {}
-    settings = parse_set(set_values)
-    free_names = tuple(p.strip() for p in free.split(",") if p.strip()) if free else None
-    recording = read_measurement(data, columns=parse_column_map(columns) if columns else None,
-                                 sample_rate_hz=sample_rate_hz)
-    if isinstance(recording, TimeRecording) and frf is not None:
-        measured = estimate_frf(recording, method=frf, **parse_band(band_hz))
-    elif isinstance(recording, TimeRecording):
-        plant = Plant(stage, effects=fx, excitation_current_a=1.0, **geometry).with_values(settings)
-        _fit_time(plant, recording, free_names, method, Preprocessing(filter_hz, decimate_band_hz, input_hold), as_json)
-        return
+    outcome = fit_recording(
+        data, stage=stage, effects=tuple(e.strip() for e in (effects or "").split(",") if e.strip()),
+        free=tuple(p.strip() for p in free.split(",") if p.strip()) if free else None, values=parse_set(set_values),
+        load_position_m=load_position_m, columns=columns, sample_rate_hz=sample_rate_hz, frf=frf,
+        band=parse_band(band_hz), method=method, prep=Preprocessing(filter_hz, decimate_band_hz, input_hold),
+        rational=rational, rational_weighting=rational_weighting)
+    if as_json:
+        print_json(fit_outcome_to_dict(outcome))
     else:
-        measured = estimate_response(recording)
-    plant = Plant(stage, effects=fx, excitation_current_a=float(measured.current_amplitude_a.mean()),
-                  **geometry).with_values(settings)
-    result = fit_plant(plant, measured, free=free_names)
-    rat = None
-    if rational:
-        from plant.rational_fit import WEIGHTINGS, fit_rational
-
-        try:
-            n_poles, n_zeros = (int(v) for v in rational.split(","))
-        except ValueError:
-            raise ParameterError(f"--rational {rational!r}: expected POLES,ZEROS, e.g. 1,0") from None
-        if rational_weighting not in WEIGHTINGS:
-            raise ParameterError(f"--rational-weighting must be one of {', '.join(WEIGHTINGS)}, "
-                                 f"got {rational_weighting!r}")
-        # mean over outputs; its variance is the mean variance / number of outputs (independent noise)
-        rat = fit_rational(measured.w_rad_s, measured.response.mean(axis=0), n_poles=n_poles, n_zeros=n_zeros,
-                           weights=rational_weighting,
-                           variance=measured.variance.mean(axis=0) / measured.response.shape[0])
-    if as_json:
-        print_json(fit_to_dict(result, rat))
-        return
-    console.print(result.report(), markup=False, highlight=False, soft_wrap=True)
-    if rat is not None:
-        console.print(f"\nRational fit ({rat.n_poles} poles, {rat.n_zeros} zeros, {rat.weighting} weighting): "
-                      f"fit {rat.fit_percent:.1f} %, chi-square {rat.chi2:.4g} for {rat.dof} degrees of freedom"
-                      f"\n{rat.tf}", markup=False, highlight=False)
-        if rat.flags:
-            console.print("Flags:\n" + "\n".join(f"    {f}" for f in rat.flags), markup=False, highlight=False)
-
-
-def _fit_time(plant, recording, free, method, prep, as_json) -> None:
-    from plant.time_fit import fit_inverse_model, fit_output_error
-
-    if method not in ("inverse-model", "output-error"):
-        raise ParameterError(f"--method must be inverse-model or output-error, got {method!r}")
-    result = fit_inverse_model(plant, recording, free=free, prep=prep)
-    if method == "output-error":
-        result = fit_output_error(plant, recording, start=result, prep=prep)
-    if as_json:
-        print_json(time_fit_to_dict(result))
-        return
-    console.print(result.report(), markup=False, highlight=False, soft_wrap=True)
+        print_fit(console, outcome)

@@ -5,8 +5,21 @@ from __future__ import annotations
 from rich.console import Console
 from rich.table import Table
 
+from design.workflows import FitOutcome
 from plant.diagnosis import Diagnosis
 from plant.time_diagnosis import TimeDiagnosis
+
+
+def print_fit(console: Console, outcome: FitOutcome) -> None:
+    """The text of ``gantry fit``: the fit report, and the rational fit when there is one."""
+    console.print(outcome.result.report(), markup=False, highlight=False, soft_wrap=True)
+    rat = outcome.rational
+    if rat is not None:
+        console.print(f"\nRational fit ({rat.n_poles} poles, {rat.n_zeros} zeros, {rat.weighting} weighting): "
+                      f"fit {rat.fit_percent:.1f} %, chi-square {rat.chi2:.4g} for {rat.dof} degrees of freedom"
+                      f"\n{rat.tf}", markup=False, highlight=False)
+        if rat.flags:
+            console.print("Flags:\n" + "\n".join(f"    {f}" for f in rat.flags), markup=False, highlight=False)
 
 
 def print_diagnosis(console: Console, diag: Diagnosis) -> None:

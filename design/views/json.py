@@ -9,6 +9,7 @@ import math
 import numpy as np
 
 from design.spec.schema import finite_or_none
+from design.workflows import FitOutcome
 from plant.diagnosis import Diagnosis, failing_bands
 from plant.fitting import FitResult
 from plant.rational_fit import RationalFit
@@ -35,6 +36,13 @@ def _strict(obj):
     if isinstance(obj, float) and not math.isfinite(obj):
         return None
     return obj
+
+
+def fit_outcome_to_dict(outcome: FitOutcome) -> dict:
+    """``gantry fit --json``: a frequency-domain fit (with its rational fit) or a time-domain one."""
+    if isinstance(outcome.result, TimeFitResult):
+        return time_fit_to_dict(outcome.result)
+    return fit_to_dict(outcome.result, outcome.rational)
 
 
 def fit_to_dict(result: FitResult, rat: RationalFit | None = None) -> dict:

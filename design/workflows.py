@@ -16,12 +16,15 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from design.spec.schema import Spec, parse_spec
+from plant.diagnosis import Diagnosis
 from plant.effects import EFFECTS
 from plant.errors import GantryError, ParameterError, SpecError
 from plant.fitting import FitResult
 from plant.frequency_response import MeasuredResponse
+from plant.frf_estimation import estimate_frf
 from plant.inverse_model import Preprocessing
 from plant.rational_fit import RationalFit
+from plant.time_diagnosis import TimeDiagnosis
 from plant.time_fit import TimeFitResult
 
 #: thesis section 4.1: 0.5 A sine for Stage X, 1.75 A for Stage Y
@@ -147,7 +150,6 @@ def measure(path: str | Path, *, columns: str | None = None, sample_rate_hz: flo
             frf: str = "auto") -> MeasuredResponse:
     """The frequency response of any recording: a stepped sine by the lock-in, a time-domain recording
     by ``plant.frf_estimation.estimate_frf`` (``frf``: auto, periodic, lpm or closed-loop)."""
-    from plant.frf_estimation import estimate_frf
     from plant.lockin import estimate_response
     from plant.recording_io import parse_column_map
     from plant.time_recording import TimeRecording
@@ -220,7 +222,6 @@ def fit_recording(path: str | Path, *, stage: str, effects: tuple[str, ...] = ()
     a tfest-like rational fit of the frequency response."""
     from plant.effects import make_effect
     from plant.fitting import fit_plant
-    from plant.frf_estimation import estimate_frf
     from plant.lockin import estimate_response
     from plant.models import Plant
     from plant.recording_io import parse_column_map
@@ -262,3 +263,64 @@ def _rational(measured: MeasuredResponse, rational: str, weighting: str) -> Rati
         raise ParameterError(f"--rational-weighting must be one of {', '.join(WEIGHTINGS)}, got {weighting!r}")
     return fit_rational(measured.w_rad_s, measured.response.mean(axis=0), n_poles=n_poles, n_zeros=n_zeros,
                         weights=weighting, variance=measured.variance.mean(axis=0) / measured.response.shape[0])
+
+
+@dataclass(frozen=True)
+class DiagnosisOutcome:
+    """A diagnosis of a recording: on its frequency response (``Diagnosis``, with the response) or on the
+    time-domain force balance (``TimeDiagnosis``)."""
+
+    diagnosis: Diagnosis | TimeDiagnosis
+    measured: MeasuredResponse | None = None
+
+
+#: parameters the frequency-domain diagnosis always fits
+BASE_FREE = ("mass_kg", "damping_n_s_per_m")
+
+
+def diagnose_recording(path: str | Path, *, stage: str, candidates: tuple[str, ...] | None = None,
+                       values: dict[str, float] | None = None, load_position_m: float | None = None,
+                       motor_length_m: float | None = None, columns: str | None = None,
+                       sample_rate_hz: float | None = None, amplitude_files: tuple[Path, ...] = (),
+                       fit_force_constant: bool = False, frf: str | None = None, band: dict | None = None,
+                       prep: Preprocessing = Preprocessing()) -> DiagnosisOutcome:
+    """Start from the thesis model and find what the recording needs: a stepped sine (or a time-domain
+    recording's frequency response, ``frf``) by the frequency-domain diagnosis with recordings at
+    other amplitudes as evidence of nonlinearity; a time-domain recording by its force balance."""
+    from plant.diagnosis import diagnose
+    from plant.lockin import amplitude_dependence, estimate_response
+    from plant.models import Plant
+    from plant.recording_io import parse_column_map
+    from plant.time_diagnosis import diagnose_time
+    from plant.time_recording import TimeRecording
+    from plant.time_recording_io import read_measurement
+
+    if stage not in ("x", "y"):
+        raise ParameterError(f"--stage must be x or y, got {stage!r}")
+    unknown = [e for e in candidates or () if e not in EFFECTS]
+    if unknown:
+        raise ParameterError(f"--effects: unknown effect {unknown[0]!r}; known: {', '.join(EFFECTS)}")
+    geometry = {k: v for k, v in (("load_position_m", load_position_m), ("motor_length_m", motor_length_m))
+                if v is not None}
+    base = Plant(stage, **geometry).with_values(values or {})
+    column_map = parse_column_map(columns) if columns else None
+    recording = read_measurement(path, columns=column_map, sample_rate_hz=sample_rate_hz)
+    if isinstance(recording, TimeRecording) and frf is None:
+        if amplitude_files or fit_force_constant:
+            raise ParameterError("--amplitude-files and --fit-force-constant apply to stepped sines; a time-domain "
+                                 "fit needs the force constant set (--set force_constant_n_per_a=...)")
+        return DiagnosisOutcome(diagnose_time(base, recording, candidates=candidates, prep=prep))
+    measured = estimate_frf(recording, method=frf, **(band or {})) if isinstance(recording, TimeRecording) \
+        else estimate_response(recording)
+    dependent = None
+    if amplitude_files:
+        others = []
+        for other in amplitude_files:
+            rec = read_measurement(other, columns=column_map, sample_rate_hz=sample_rate_hz)
+            if isinstance(rec, TimeRecording):
+                raise ParameterError(f"{other}: a time-domain recording; --amplitude-files takes stepped sines")
+            others.append(estimate_response(rec))
+        dependent = bool(amplitude_dependence([measured, *others]).significant)
+    free = BASE_FREE + (("force_constant_n_per_a",) if fit_force_constant else ())
+    return DiagnosisOutcome(diagnose(base, measured, candidates=candidates, free_base=free,
+                                     amplitude_dependent=dependent), measured)

@@ -9,7 +9,6 @@ from typing import Annotated, Optional
 import typer
 
 from design.cli.common import console
-from design.views.json import print_json
 from plant.errors import ParameterError
 
 #: velocity noise (m/s, standard deviation) of the prediction when none is given: a velocity
@@ -51,6 +50,7 @@ def excite(
 ) -> None:
     """Design an odd log-spaced multisine, write it, and compare its predicted FRF variance per second of
     machine time with the thesis stepped sine (one 5 s block per frequency, same band, same peak current)."""
+    from design.views.json import print_json
     from plant.excitation import (
         MAX_SAMPLES,
         THESIS_BLOCK_S,

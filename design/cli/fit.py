@@ -19,8 +19,6 @@ from design.cli.common import (
     parse_band,
     parse_set,
 )
-from design.views.console import print_fit
-from design.views.json import fit_outcome_to_dict, print_json
 
 
 def fit(
@@ -56,6 +54,8 @@ def fit(
 ) -> None:
     """Fit bounded physical parameters to a recording: maximum likelihood with inverse-variance weights on a
     stepped sine's frequency response, IDIM-LS or output error on a time-domain recording."""
+    from design.views.console import print_fit
+    from design.views.json import fit_outcome_to_dict, print_json
     from design.workflows import fit_recording
     from plant.inverse_model import Preprocessing
 

@@ -9,7 +9,6 @@ import typer
 from rich.table import Table
 
 from design.cli.common import bundled_spec, console
-from design.views.json import print_json
 from plant.errors import SpecError
 
 
@@ -24,6 +23,7 @@ def reproduce(
 
     from design.loop.reproduce import sweeps, table_3_1
     from design.spec.schema import load_spec
+    from design.views.json import print_json
 
     paths = spec or [bundled_spec("thesis_stage_x.toml"), bundled_spec("thesis_stage_y.toml")]
     specs = {}

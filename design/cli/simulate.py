@@ -11,8 +11,6 @@ from typing import Annotated, Optional
 import typer
 
 from design.cli.common import console, parse_effects, parse_f_hz, parse_set_items
-from design.views.json import print_json
-from design.workflows import simulation_plant
 from plant.errors import ParameterError
 
 DEFAULT_NOISE_FRACTION = 0.01
@@ -59,6 +57,8 @@ def simulate(
     as_json: Annotated[bool, typer.Option("--json", help="Print a JSON summary instead of one line.")] = False,
 ) -> None:
     """Simulate a stepped-sine experiment (thesis section 4.1) and write it as a recording."""
+    from design.views.json import print_json
+    from design.workflows import simulation_plant
     from plant import __version__
     from plant.recording import atomic_write_text, write_recording_csv
     from plant.simulate import simulate_stepped_sine

@@ -15,7 +15,6 @@ from rich.console import Console
 from rich.table import Table
 
 from design.cli.common import console
-from design.views.json import print_json
 from plant.errors import ParameterError, SpecError
 
 #: payload points when --payload is not given and the spec's range is not a single mass
@@ -127,6 +126,7 @@ def sweep(
     """Margins and bandwidth across payloads, with Monte Carlo over the spec's uncertainty ranges."""
     from design.loop.sweep import monte_carlo_sweep
     from design.spec.schema import load_spec
+    from design.views.json import print_json
     from plant.recording import atomic_write_text
 
     s = load_spec(spec)

@@ -16,8 +16,6 @@ from typing import Annotated, Optional
 import typer
 
 from design.cli.common import PlantFromOption, console
-from design.views.console import print_synthesis
-from design.views.json import print_json
 
 
 def synth(
@@ -31,6 +29,8 @@ def synth(
     plant_from: PlantFromOption = None,
 ) -> None:
     """Synthesise PI gains maximising worst-case bandwidth under margin constraints over the payload range."""
+    from design.views.console import print_synthesis
+    from design.views.json import print_json
     from design.workflows import design, load_problem
 
     problem = load_problem(spec_file, plant_from=plant_from)

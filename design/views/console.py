@@ -5,7 +5,7 @@ from __future__ import annotations
 from rich.console import Console
 from rich.table import Table
 
-from design.workflows import FitOutcome
+from design.workflows import DiagnosisOutcome, FitOutcome
 from plant.diagnosis import Diagnosis
 from plant.time_diagnosis import TimeDiagnosis
 
@@ -20,6 +20,14 @@ def print_fit(console: Console, outcome: FitOutcome) -> None:
                       f"\n{rat.tf}", markup=False, highlight=False)
         if rat.flags:
             console.print("Flags:\n" + "\n".join(f"    {f}" for f in rat.flags), markup=False, highlight=False)
+
+
+def print_diagnosis_outcome(console: Console, outcome: DiagnosisOutcome) -> None:
+    """The text of ``gantry diagnose``."""
+    if isinstance(outcome.diagnosis, TimeDiagnosis):
+        print_time_diagnosis(console, outcome.diagnosis)
+    else:
+        print_diagnosis(console, outcome.diagnosis)
 
 
 def print_diagnosis(console: Console, diag: Diagnosis) -> None:

@@ -9,8 +9,11 @@ import numpy as np
 
 from design.views.html import Report, table
 from design.views.plots import bode
+from design.views.time_diagnosis import time_diagnosis_report
+from design.workflows import DiagnosisOutcome
 from plant.diagnosis import ACCEPT_DELTA_BIC, Diagnosis
 from plant.frequency_response import MeasuredResponse
+from plant.time_diagnosis import TimeDiagnosis
 
 
 def comparison_figure(diag: Diagnosis, data: MeasuredResponse):
@@ -108,3 +111,10 @@ def diagnosis_report(diag: Diagnosis, data: MeasuredResponse, *, title: str, pro
     report.heading("Reproducibility", 3)
     report.pre(provenance)
     return report
+
+
+def diagnosis_html(outcome: DiagnosisOutcome, *, title: str, provenance: str) -> Report:
+    """The HTML report of a frequency-domain or a time-domain diagnosis."""
+    if isinstance(outcome.diagnosis, TimeDiagnosis):
+        return time_diagnosis_report(outcome.diagnosis, title=f"{title[:-1]}, time domain)", provenance=provenance)
+    return diagnosis_report(outcome.diagnosis, outcome.measured, title=title, provenance=provenance)

@@ -9,7 +9,7 @@ import math
 import numpy as np
 
 from design.spec.schema import finite_or_none
-from design.workflows import FitOutcome
+from design.workflows import DiagnosisOutcome, FitOutcome
 from plant.diagnosis import Diagnosis, failing_bands
 from plant.fitting import FitResult
 from plant.rational_fit import RationalFit
@@ -43,6 +43,13 @@ def fit_outcome_to_dict(outcome: FitOutcome) -> dict:
     if isinstance(outcome.result, TimeFitResult):
         return time_fit_to_dict(outcome.result)
     return fit_to_dict(outcome.result, outcome.rational)
+
+
+def diagnosis_outcome_to_dict(outcome: DiagnosisOutcome) -> dict:
+    """``gantry diagnose --json`` on a frequency response or a time-domain recording."""
+    if isinstance(outcome.diagnosis, TimeDiagnosis):
+        return time_diagnosis_to_dict(outcome.diagnosis)
+    return diagnosis_to_dict(outcome.diagnosis)
 
 
 def fit_to_dict(result: FitResult, rat: RationalFit | None = None) -> dict:

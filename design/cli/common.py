@@ -166,3 +166,27 @@ def parse_f_hz(text: str, spacing: str) -> np.ndarray:
     if len(np.unique(f)) != len(f):
         raise ParameterError(f"--f-hz {text!r}: a frequency is listed twice (duplicate block)")
     return np.sort(f)
+
+
+#: most payload points of ``--payload``
+MAX_PAYLOAD_POINTS = 10000
+
+
+def parse_payload(text: str) -> np.ndarray:
+    """``MIN:MAX:POINTS`` (kg, kg, count) or a single mass ``M`` -> payloads in kg."""
+    parts = text.split(":")
+    usage = f"--payload {text!r}: expected MIN:MAX:POINTS in kg (e.g. 5:40:71) or one mass"
+    if len(parts) not in (1, 3):
+        raise ParameterError(usage)
+    try:
+        lo, hi = float(parts[0]), float(parts[-1 if len(parts) == 1 else 1])
+        points = 1 if len(parts) == 1 else int(parts[2])
+    except ValueError:
+        raise ParameterError(usage) from None
+    if not (math.isfinite(lo) and math.isfinite(hi)) or lo <= 0 or hi <= 0:
+        raise ParameterError(f"--payload {text!r}: masses must be finite and positive (kg)")
+    if hi < lo:
+        raise ParameterError(f"--payload {text!r}: MAX ({hi:g}) must be >= MIN ({lo:g})")
+    if not 1 <= points <= MAX_PAYLOAD_POINTS or (points == 1 and hi != lo):
+        raise ParameterError(f"--payload {text!r}: POINTS must be 2..{MAX_PAYLOAD_POINTS} for a range (1 for one mass)")
+    return np.linspace(lo, hi, points)

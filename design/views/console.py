@@ -2,12 +2,20 @@
 
 from __future__ import annotations
 
+import math
+import time
+
+import numpy as np
+from rich import box
 from rich.console import Console
 from rich.table import Table
 
 from design.workflows import DiagnosisOutcome, FitOutcome
 from plant.diagnosis import Diagnosis
 from plant.time_diagnosis import TimeDiagnosis
+
+#: payload rows shown in the sweep's terminal table (all of them go to --csv / --json)
+TABLE_ROWS = 15
 
 
 def print_fit(console: Console, outcome: FitOutcome) -> None:
@@ -163,3 +171,84 @@ def print_synthesis(console: Console, out: dict) -> None:
 
 def _num(x, fmt: str = ".2f") -> str:
     return "inf" if x is None else format(x, fmt)
+
+
+class LazyProgress:
+    """Progress callback that shows a rich progress bar on stderr once the work has taken a second."""
+
+    def __init__(self, enabled: bool):
+        self.enabled = enabled
+        self.t0 = time.perf_counter()
+        self.bar = None
+        self.task = None
+
+    def __call__(self, done: int, total: int) -> None:
+        if not self.enabled:
+            return
+        if self.bar is None and time.perf_counter() - self.t0 > 1.0 and done < total:
+            from rich.progress import BarColumn, Progress, TimeRemainingColumn
+
+            self.bar = Progress("sweep", BarColumn(), "{task.completed}/{task.total} plants", TimeRemainingColumn(),
+                                console=Console(stderr=True), transient=True)
+            self.bar.start()
+            self.task = self.bar.add_task("sweep", total=total)
+        if self.bar is not None:
+            self.bar.update(self.task, completed=done)
+
+    def close(self) -> None:
+        if self.bar is not None:
+            self.bar.stop()
+
+
+def _fmt(x: float, digits: int | None = None) -> str:
+    """A number for the table: ``digits`` decimals, or 3 significant figures by default."""
+    if not math.isfinite(x):
+        return "nan" if math.isnan(x) else ("inf" if x > 0 else "-inf")
+    return f"{x:.{digits}f}" if digits is not None else f"{x:.3g}"
+
+
+def sweep_table(result) -> Table:
+    """The sweep as a table of at most ``TABLE_ROWS`` payloads (nominal, or Monte Carlo percentiles)."""
+    n = result.payload_kg.size
+    show = np.unique(np.round(np.linspace(0, n - 1, min(n, TABLE_ROWS))).astype(int))
+    note = "" if show.size == n else f" ({show.size} of {n} payloads shown; --csv or --json for all)"
+    if not result.samples:
+        t = Table(title=f"Stage {result.stage.upper()} nominal payload sweep{note}")
+        for col in ("payload kg", "plant corner Hz", "closed-loop BW Hz", "PM deg", "GM dB"):
+            t.add_column(col, justify="right")
+        for i in show:
+            nom = result.nominal
+            t.add_row(f"{result.payload_kg[i]:.2f}", _fmt(nom.open_loop_corner_hz[i], 2),
+                      _fmt(nom.closed_loop_bandwidth_hz[i], 2), _fmt(nom.phase_margin_deg[i], 1),
+                      _fmt(nom.gain_margin_db[i], 1))
+        return t
+    lv = result.levels
+    mid = len(lv) // 2
+    t = Table(title=f"Stage {result.stage.upper()} Monte Carlo sweep, {result.samples} samples, "
+                    f"seed {result.seed}{note}",
+              box=box.SIMPLE_HEAD, padding=(0, 1), collapse_padding=True, pad_edge=False, show_edge=False)
+    t.add_column("load\nkg", justify="right")
+    for d in result.distributions:
+        label = {"closed_loop_bandwidth_hz": "BW", "phase_margin_deg": "PM", "gain_margin_db": "GM"}[d.name]
+        t.add_column(f"{label} {d.unit}\np{lv[mid]:g}", justify="right")
+        t.add_column(f"\np{lv[0]:g}\u2013p{lv[-1]:g}", justify="right")
+        t.add_column("\nworst", justify="right")
+    for i in show:
+        cells = [f"{result.payload_kg[i]:.3g}"]
+        for d in result.distributions:
+            p = d.percentiles[:, i]
+            cells += [_fmt(p[mid]), f"{_fmt(p[0])}\u2013{_fmt(p[-1])}", _fmt(d.worst[i])]
+        t.add_row(*cells)
+    return t
+
+
+def print_sweep(console: Console, result) -> None:
+    """The text of ``gantry sweep``: the table and, with samples, the ranges and the worst cases."""
+    console.print(sweep_table(result))
+    if result.samples:
+        ranges = ", ".join(f"{k} {lo:g}..{hi:g}" for k, (lo, hi) in result.uncertainty.items())
+        console.print(f"Sampling: {result.sampling}; ranges: {ranges}.")
+        console.print("Worst case over all payloads and samples:")
+        for w in result.worst_case().values():
+            params = ", ".join(f"{k} = {v:.4g}" for k, v in w.parameters.items())
+            console.print(f"  {w.name} = {_fmt(w.value, 2)} at {w.payload_kg:.2f} kg ({params})")

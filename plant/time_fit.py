@@ -275,9 +275,11 @@ def _regimes(v: np.ndarray, t: np.ndarray, e: np.ndarray, noise_rms: float,
     direction = np.sign(v)
     idx = np.flatnonzero(moving)
     flips = idx[1:][direction[idx[1:]] != direction[idx[:-1]]]
-    reversal = np.zeros(v.size, bool)
-    for k in flips:
-        reversal |= np.abs(t - t[k]) <= REVERSAL_S
+    flip_t = t[flips]
+    nearest = np.clip(np.searchsorted(flip_t, t), 1, max(flip_t.size - 1, 1))
+    reversal = np.zeros(v.size, bool) if flip_t.size == 0 else \
+        np.minimum(np.abs(t - flip_t[nearest - 1]), np.abs(t - flip_t[np.minimum(nearest, flip_t.size - 1)])) \
+        <= REVERSAL_S
     groups = (("reversals", reversal), ("low velocity", ~moving & ~reversal), ("moving", moving & ~reversal))
     out = []
     for name, mask in groups:
@@ -486,9 +488,9 @@ def fit_output_error(plant: Plant, rec: TimeRecording, *, start: TimeFitResult |
     runs = []
     for fm, fb in OE_START_FACTORS:
         x0 = x_idim.copy()
-        x0[free.index("mass_kg")] *= fm if "mass_kg" in free else 1.0
-        if "damping_n_s_per_m" in free:
-            x0[free.index("damping_n_s_per_m")] *= fb
+        for name, factor in (("mass_kg", fm), ("damping_n_s_per_m", fb)):
+            if name in free:
+                x0[free.index(name)] *= factor
         runs.append(scipy.optimize.least_squares(residual, np.clip(x0, lo, hi), bounds=(lo, hi), x_scale="jac"))
     best = min(runs, key=lambda r: r.cost)
     flags = []
@@ -500,8 +502,7 @@ def fit_output_error(plant: Plant, rec: TimeRecording, *, start: TimeFitResult |
     J = -best.jac / scale
     e = residual(best.x)
     model = oe.velocity_m_per_s - e
-    noise = data.output_noise if rec.output_kind == "velocity" else data.output_noise / oe.step_s
-    noise_rms = float(np.std(data.noise_velocity_m_per_s)) if data.noise_velocity_m_per_s.size else noise
+    noise_rms = float(np.std(data.noise_velocity_m_per_s))
     return _summarise(plant, "output-error", values, free, J, e, oe.velocity_m_per_s, model, "velocity_m_per_s",
                       oe.time_s, oe.velocity_m_per_s, noise_rms, flags, len(runs), time.perf_counter() - t0,
                       _peak_input(plant, data))

@@ -19,6 +19,7 @@ from design.loop.fast import fast_analyse_loop
 from design.loop.loops import closed_loop_tf, open_loop_tf
 from design.loop.sweep import batch_plant, monte_carlo_sweep, percentiles_inf
 from design.spec.schema import load_spec
+from design.views.json import sweep_rows, sweep_to_dict
 from plant import CurrentLoop, Delay, Resonance, stage_x, stage_y
 from plant.effects import Sampling, TiltCoupling
 from plant.errors import ParameterError, SpecError
@@ -133,7 +134,7 @@ def test_nominal_sweep_is_python_controls_margins_and_its_own_worst_case():
         np.testing.assert_array_equal(d.worst, getattr(r.nominal, d.name))
         for values in d.percentiles:
             np.testing.assert_array_equal(values, getattr(r.nominal, d.name))
-    assert r.samples == 0 and "closed_loop_bandwidth_p5_hz" not in r.rows()[0]
+    assert r.samples == 0 and "closed_loop_bandwidth_p5_hz" not in sweep_rows(r)[0]
 
 
 def test_percentiles_bracket_nominal_and_worst_is_minimum(mc_spec):
@@ -195,7 +196,7 @@ def test_seed_reproducible_and_recorded(mc_spec):
         np.testing.assert_array_equal(a.parameter_samples[name], b.parameter_samples[name])
         assert not np.array_equal(a.parameter_samples[name], c.parameter_samples[name])
     np.testing.assert_array_equal(a.phase_margin_deg.samples, b.phase_margin_deg.samples)
-    assert a.to_json()["seed"] == 7 and a.seed == 7
+    assert sweep_to_dict(a)["seed"] == 7 and a.seed == 7
 
 
 def test_chunks_and_progress_do_not_change_the_result(mc_spec, monkeypatch, capsys):

@@ -23,7 +23,7 @@ def reproduce(
 
     from design.loop.reproduce import sweeps, table_3_1
     from design.spec.schema import load_spec
-    from design.views.json import print_json
+    from design.views.json import payload_sweep_rows, print_json
 
     paths = spec or [bundled_spec("thesis_stage_x.toml"), bundled_spec("thesis_stage_y.toml")]
     specs = {}
@@ -38,7 +38,7 @@ def reproduce(
     sw = sweeps(specs, points=points)
     if as_json:
         print_json({"table_3_1": [{k: v for k, v in asdict(r).items()} for r in rows],
-                    "payload_sweep": [row for s in sw for row in s.rows()]})
+                    "payload_sweep": [row for s in sw for row in payload_sweep_rows(s)]})
         return
     t = Table(title="Thesis Table 3.1 (and section 3.1 phase margins) against this model")
     for col in ("quantity", "stage", "unit", "thesis", "computed", "rel. diff."):
@@ -58,7 +58,7 @@ def reproduce(
         t = Table(title=f"Stage {s.stage.upper()} payload sweep (thesis Figure 4.31)")
         for col in ("payload kg", "plant corner Hz", "closed-loop BW Hz", "PM deg", "GM dB"):
             t.add_column(col, justify="right")
-        for row in s.rows():
+        for row in payload_sweep_rows(s):
             gm = row["gain_margin_db"]
             t.add_row(f"{row['payload_kg']:.1f}", f"{row['open_loop_corner_hz']:.2f}",
                       f"{row['closed_loop_bandwidth_hz']:.2f}", f"{row['phase_margin_deg']:.1f}",

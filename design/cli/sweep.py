@@ -30,7 +30,7 @@ def sweep(
     from design.loop.sweep import monte_carlo_sweep
     from design.spec.schema import load_spec
     from design.views.console import LazyProgress, print_sweep
-    from design.views.json import print_json
+    from design.views.json import print_json, sweep_csv, sweep_to_dict
     from plant.recording import atomic_write_text
 
     s = load_spec(spec)
@@ -47,9 +47,9 @@ def sweep(
     finally:
         progress.close()
     if csv is not None:
-        atomic_write_text(csv, result.to_csv())
+        atomic_write_text(csv, sweep_csv(result))
     if as_json:
-        print_json(result.to_json())
+        print_json(sweep_to_dict(result))
         return
     print_sweep(console, result)
     if csv is not None:

@@ -51,16 +51,6 @@ class PayloadSweep:
     phase_margin_deg: np.ndarray
     gain_margin_db: np.ndarray
 
-    def rows(self) -> list[dict]:
-        from design.spec.schema import finite_or_none
-
-        return [
-            {"stage": self.stage, "payload_kg": float(m), "open_loop_corner_hz": finite_or_none(c),
-             "closed_loop_bandwidth_hz": finite_or_none(b), "phase_margin_deg": finite_or_none(p),
-             "gain_margin_db": finite_or_none(g)}
-            for m, c, b, p, g in zip(self.payload_kg, self.open_loop_corner_hz, self.closed_loop_bandwidth_hz,
-                                     self.phase_margin_deg, self.gain_margin_db)
-        ]
 
 
 def payload_sweep(plant: Plant, kp: float, ki: float, payload_kg, *, w_rad_s=ANALYSIS_GRID_RAD_S) -> PayloadSweep:

@@ -17,7 +17,7 @@ import numpy as np
 
 from design.loop.analysis import PayloadSweep, payload_sweep
 from design.loop.fast import fast_analyse_loop
-from design.spec.schema import Spec, Uncertainty, finite_or_none
+from design.spec.schema import Spec, Uncertainty
 from plant.errors import ParameterError, SpecError
 from plant.models import Plant
 
@@ -117,46 +117,6 @@ class SweepResult:
             out[d.name] = WorstCase(d.name, float(d.samples[ip, js]), float(self.payload_kg[ip]), int(js), params)
         return out
 
-    def rows(self) -> list[dict[str, float]]:
-        """One row per payload; column names carry the statistic and the unit (``phase_margin_p5_deg``)."""
-        rows = []
-        for i, m in enumerate(self.payload_kg):
-            row = {"payload_kg": float(m), "open_loop_corner_nominal_hz": float(self.nominal.open_loop_corner_hz[i])}
-            for d in self.distributions:
-                base = d.name.removesuffix(f"_{d.unit.lower()}")
-                row[f"{base}_nominal_{d.unit.lower()}"] = float(getattr(self.nominal, d.name)[i])
-                if self.samples:
-                    for lv, values in zip(d.levels, d.percentiles):
-                        row[f"{base}_p{lv:g}_{d.unit.lower()}"] = float(values[i])
-                    row[f"{base}_worst_{d.unit.lower()}"] = float(d.worst[i])
-            rows.append(row)
-        return rows
-
-    def to_csv(self) -> str:
-        """CSV text of ``rows()``, plus ``samples`` and ``seed`` columns for a Monte Carlo sweep."""
-        rows = self.rows()
-        extra = {"samples": self.samples, "seed": self.seed} if self.samples else {}
-        lines = [",".join([*rows[0], *extra])]
-        lines += [",".join([*(repr(v) for v in row.values()), *(str(v) for v in extra.values())]) for row in rows]
-        return "\n".join(lines) + "\n"
-
-    def to_json(self) -> dict:
-        """Strict-JSON mapping (infinite or undefined values are ``None``)."""
-        payloads = []
-        for i, nominal in enumerate(self.nominal.rows()):
-            entry = {"payload_kg": nominal["payload_kg"],
-                     "nominal": {k: v for k, v in nominal.items() if k not in ("stage", "payload_kg")}}
-            for d in self.distributions:
-                stats = {f"p{lv:g}": finite_or_none(v[i]) for lv, v in zip(d.levels, d.percentiles)}
-                stats["worst"] = finite_or_none(d.worst[i])
-                entry[d.name] = stats
-            payloads.append(entry)
-        worst = {name: {"value": finite_or_none(w.value), "payload_kg": w.payload_kg, "sample_index": w.sample_index,
-                        "parameters": w.parameters} for name, w in self.worst_case().items()}
-        return {"stage": self.stage, "kp": self.kp, "ki": self.ki, "seed": self.seed, "samples": self.samples,
-                "sampling": self.sampling,
-                "uncertainty": {k: {"min": lo, "max": hi} for k, (lo, hi) in self.uncertainty.items()},
-                "percentiles": list(self.levels), "payloads": payloads, "worst_case": worst}
 
 
 def _ranges(uncertainty: Mapping, plant: Plant) -> dict[str, tuple[float, float]]:

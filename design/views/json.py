@@ -8,6 +8,8 @@ import math
 
 import numpy as np
 
+from design.loop.analysis import PayloadSweep
+from design.loop.sweep import SweepResult
 from design.spec.schema import finite_or_none
 from design.workflows import DiagnosisOutcome, FitOutcome
 from plant.diagnosis import Diagnosis, failing_bands
@@ -185,3 +187,56 @@ def _bic(diag: TimeDiagnosis, combo) -> float:
 def _regimes(fit) -> list[dict]:
     return [{"name": r.name, "share": r.share, "rms_residual_n": r.rms_residual, "noise_ratio": r.noise_ratio,
              "significant": r.significant} for r in fit.regimes]
+
+
+def payload_sweep_rows(sweep: PayloadSweep) -> list[dict]:
+    """One row per payload of a nominal payload sweep (``gantry reproduce --json``)."""
+    return [
+        {"stage": sweep.stage, "payload_kg": float(m), "open_loop_corner_hz": finite_or_none(c),
+         "closed_loop_bandwidth_hz": finite_or_none(b), "phase_margin_deg": finite_or_none(p),
+         "gain_margin_db": finite_or_none(g)}
+        for m, c, b, p, g in zip(sweep.payload_kg, sweep.open_loop_corner_hz, sweep.closed_loop_bandwidth_hz,
+                                 sweep.phase_margin_deg, sweep.gain_margin_db)
+    ]
+
+
+def sweep_rows(result: SweepResult) -> list[dict[str, float]]:
+    """One row per payload; column names carry the statistic and the unit (``phase_margin_p5_deg``)."""
+    rows = []
+    for i, m in enumerate(result.payload_kg):
+        row = {"payload_kg": float(m), "open_loop_corner_nominal_hz": float(result.nominal.open_loop_corner_hz[i])}
+        for d in result.distributions:
+            base = d.name.removesuffix(f"_{d.unit.lower()}")
+            row[f"{base}_nominal_{d.unit.lower()}"] = float(getattr(result.nominal, d.name)[i])
+            if result.samples:
+                for lv, values in zip(d.levels, d.percentiles):
+                    row[f"{base}_p{lv:g}_{d.unit.lower()}"] = float(values[i])
+                row[f"{base}_worst_{d.unit.lower()}"] = float(d.worst[i])
+        rows.append(row)
+    return rows
+
+def sweep_csv(result: SweepResult) -> str:
+    """CSV text of ``sweep_rows``, plus ``samples`` and ``seed`` columns for a Monte Carlo sweep."""
+    rows = sweep_rows(result)
+    extra = {"samples": result.samples, "seed": result.seed} if result.samples else {}
+    lines = [",".join([*rows[0], *extra])]
+    lines += [",".join([*(repr(v) for v in row.values()), *(str(v) for v in extra.values())]) for row in rows]
+    return "\n".join(lines) + "\n"
+
+def sweep_to_dict(result: SweepResult) -> dict:
+    """``gantry sweep --json`` (infinite or undefined values are ``None``)."""
+    payloads = []
+    for i, nominal in enumerate(payload_sweep_rows(result.nominal)):
+        entry = {"payload_kg": nominal["payload_kg"],
+                 "nominal": {k: v for k, v in nominal.items() if k not in ("stage", "payload_kg")}}
+        for d in result.distributions:
+            stats = {f"p{lv:g}": finite_or_none(v[i]) for lv, v in zip(d.levels, d.percentiles)}
+            stats["worst"] = finite_or_none(d.worst[i])
+            entry[d.name] = stats
+        payloads.append(entry)
+    worst = {name: {"value": finite_or_none(w.value), "payload_kg": w.payload_kg, "sample_index": w.sample_index,
+                    "parameters": w.parameters} for name, w in result.worst_case().items()}
+    return {"stage": result.stage, "kp": result.kp, "ki": result.ki, "seed": result.seed, "samples": result.samples,
+            "sampling": result.sampling,
+            "uncertainty": {k: {"min": lo, "max": hi} for k, (lo, hi) in result.uncertainty.items()},
+            "percentiles": list(result.levels), "payloads": payloads, "worst_case": worst}

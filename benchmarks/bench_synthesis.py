@@ -26,18 +26,18 @@ from pathlib import Path
 import numpy as np
 
 from design.admittance.model import W_DENSE, AdmittanceEvaluator
-from design.admittance.model import dense_payloads as admittance_payloads
 from design.admittance.synthesis import W_DESIGN, synthesise_admittance
 from design.loop.fast import fast_analyse_loop
 from design.spec.schema import load_spec
-from design.synth.pi import dense_payloads, evaluate, synthesise_pi
+from design.synth.pi import evaluate, synthesise_pi
+from design.views.json import synthesis_to_dict
 
 ROOT = Path(__file__).resolve().parents[1]
 QUICK = "--quick" in sys.argv
 
 
 def brute_force(spec, kp_grid, ki_grid):
-    plant = spec.plant.plant().with_payload(dense_payloads(spec))
+    plant = spec.plant.plant().with_payload(spec.plant.payload_kg.check_points())
     req = spec.requirements
     best = (-np.inf, None, None)
     for kp in kp_grid:
@@ -56,7 +56,7 @@ def main():
         cold = synthesise_pi(spec)
         runs = [synthesise_pi(spec) for _ in range(3)]
         res = runs[-1]
-        d = res.to_dict()
+        d = synthesis_to_dict(res)
         wall = np.median([r.seconds for r in runs])
         cpu = np.median([r.details["cpu_seconds"] for r in runs])
         ccp = synthesise_pi(spec, method="ccp")
@@ -109,7 +109,7 @@ def admittance_brute_force(spec, kp, ki, cost, n0, zooms):
 
 def admittance_benchmark():
     spec = load_spec(ROOT / "specs" / "stage_x_admittance.toml")
-    pi = synthesise_pi(spec).to_dict()
+    pi = synthesis_to_dict(synthesise_pi(spec))
     kp, ki = pi["gains"]["kp"], pi["gains"]["ki"]
     runs = [synthesise_admittance(spec, kp=kp, ki=ki) for _ in range(2)]
     res = runs[-1]
@@ -118,7 +118,7 @@ def admittance_benchmark():
     t0 = time.perf_counter()
     (brute, m, b), evaluations = admittance_brute_force(spec, kp, ki, cost, 30 if QUICK else 60, 1 if QUICK else 2)
     brute_s = time.perf_counter() - t0
-    dense = AdmittanceEvaluator(spec, admittance_payloads(spec), W_DENSE, kp=kp, ki=ki).evaluate(m, b).meets
+    dense = AdmittanceEvaluator(spec, spec.plant.payload_kg.check_points(), W_DENSE, kp=kp, ki=ki).evaluate(m, b).meets
     s = res.solver
     print("== stage_x_admittance.toml")
     print(f"  PI stage: kp {kp:.2f}, ki {ki:.1f}")

@@ -12,42 +12,21 @@ from __future__ import annotations
 import json
 import math
 import tomllib
-from dataclasses import dataclass
 from pathlib import Path
 
+from design.results import DesignProblem, DiagnosisOutcome, FitOutcome, PlantFromFit
 from design.spec.schema import Spec, parse_spec
-from plant.diagnosis import Diagnosis
 from plant.effects import EFFECTS
 from plant.errors import GantryError, ParameterError, SpecError
-from plant.fitting import FitResult
 from plant.frequency_response import MeasuredResponse
 from plant.frf_estimation import estimate_frf
 from plant.inverse_model import Preprocessing
 from plant.rational_fit import RationalFit
-from plant.time_diagnosis import TimeDiagnosis
-from plant.time_fit import TimeFitResult
 
 #: thesis section 4.1: 0.5 A sine for Stage X, 1.75 A for Stage Y
 THESIS_AMPLITUDE_A = {"x": 0.5, "y": 1.75}
 #: plant parameters a fit hands to a design (the mass is the payload the design sweeps)
 FIT_BASE_PARAMETERS = ("damping_n_s_per_m", "force_constant_n_per_a")
-
-
-@dataclass(frozen=True)
-class PlantFromFit:
-    """Where a design's plant came from: a fit result file, and the fitted effects left out."""
-
-    file: str
-    left_out: tuple[str, ...]
-
-
-@dataclass(frozen=True)
-class DesignProblem:
-    """A validated spec, the folder its relative paths start from, and the fit its plant came from."""
-
-    spec: Spec
-    spec_dir: Path
-    plant_from: PlantFromFit | None = None
 
 
 def load_problem(spec_path: str | Path, *, plant_from: str | Path | None = None) -> DesignProblem:
@@ -113,12 +92,14 @@ def design(problem: DesignProblem, *, method: str = "ccp+exact", schedule: bool 
         out = synthesise_from_data(spec, base_dir=problem.spec_dir)
     else:
         from design.synth.pi import synthesise_pi
+        from design.views.json import synthesis_to_dict
 
-        out = synthesise_pi(spec, method=method).to_dict()
+        out = synthesis_to_dict(synthesise_pi(spec, method=method))
         if schedule and out["status"] == "optimal":
-            from design.synth.schedule import gain_schedule, schedule_summary
+            from design.synth.schedule import gain_schedule
+            from design.views.json import schedule_to_dict
 
-            out["schedule"] = schedule_summary(gain_schedule(spec, out["gains"]["kp"], out["gains"]["ki"]))
+            out["schedule"] = schedule_to_dict(gain_schedule(spec, out["gains"]["kp"], out["gains"]["ki"]))
         if spec.admittance is not None:
             out = _with_admittance(spec, out)
     if problem.plant_from is not None:
@@ -132,6 +113,7 @@ def design(problem: DesignProblem, *, method: str = "ccp+exact", schedule: bool 
 def _with_admittance(spec: Spec, out: dict) -> dict:
     """Add the admittance stage (PI gains from the PI stage when optimal, else the spec's values)."""
     from design.admittance.synthesis import synthesise_admittance
+    from design.views.json import admittance_to_dict
 
     kp = out["gains"]["kp"] if out["status"] == "optimal" else spec.controller.kp.value
     ki = out["gains"]["ki"] if out["status"] == "optimal" else spec.controller.ki.value
@@ -139,7 +121,7 @@ def _with_admittance(spec: Spec, out: dict) -> dict:
         return {**out, "admittance": {"status": "skipped", "message": "no PI gains (PI synthesis failed and no "
                                                                     "controller values in the spec)",
                                       "verified": False}}
-    adm = synthesise_admittance(spec, kp=kp, ki=ki).to_dict(spec)
+    adm = admittance_to_dict(synthesise_admittance(spec, kp=kp, ki=ki), spec)
     out = {**out, "admittance": adm, "gains": {**out["gains"], "m_v": adm["m_v"], "b_v": adm["b_v"]}}
     if adm["status"] != "optimal":
         out = {**out, "status": "infeasible", "message": f"admittance: {adm['message']}"}
@@ -202,15 +184,6 @@ def simulation_plant(*, spec: Path | None, stage: str | None, values: dict[str, 
     return plant, amplitude_a
 
 
-@dataclass(frozen=True)
-class FitOutcome:
-    """A fit of a recording: frequency-domain (``FitResult``, with an optional rational fit) or time-domain
-    (``TimeFitResult``)."""
-
-    result: FitResult | TimeFitResult
-    rational: RationalFit | None = None
-
-
 def fit_recording(path: str | Path, *, stage: str, effects: tuple[str, ...] = (), free: tuple[str, ...] | None = None,
                   values: dict[str, float] | None = None, load_position_m: float | None = None,
                   columns: str | None = None, sample_rate_hz: float | None = None, frf: str | None = None,
@@ -263,15 +236,6 @@ def _rational(measured: MeasuredResponse, rational: str, weighting: str) -> Rati
         raise ParameterError(f"--rational-weighting must be one of {', '.join(WEIGHTINGS)}, got {weighting!r}")
     return fit_rational(measured.w_rad_s, measured.response.mean(axis=0), n_poles=n_poles, n_zeros=n_zeros,
                         weights=weighting, variance=measured.variance.mean(axis=0) / measured.response.shape[0])
-
-
-@dataclass(frozen=True)
-class DiagnosisOutcome:
-    """A diagnosis of a recording: on its frequency response (``Diagnosis``, with the response) or on the
-    time-domain force balance (``TimeDiagnosis``)."""
-
-    diagnosis: Diagnosis | TimeDiagnosis
-    measured: MeasuredResponse | None = None
 
 
 #: parameters the frequency-domain diagnosis always fits

@@ -30,6 +30,7 @@ from design.admittance.synthesis import (
 from design.admittance.verify import coupled_polynomials, verify_admittance
 from design.loop.loops import rendered_admittance_frd, virtual_admittance_frd
 from design.spec.schema import load_spec, parse_spec
+from design.views.json import admittance_to_dict
 from plant import stage_x
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -251,7 +252,7 @@ def test_admittance_report_section_with_infinite_margins():
     data = tomllib.loads(SPEC.read_text())
     data["admittance"]["hardware"]["max_current_per_sensor_step_a"] = 0.01
     spec = parse_spec(data)
-    adm = synthesise_admittance(spec, kp=275.0, ki=4.46e4).to_dict(spec)
+    adm = admittance_to_dict(synthesise_admittance(spec, kp=275.0, ki=4.46e4), spec)
     assert adm["verified"] and adm["worst_phase_margin_deg"] is None
     assert adm["binding"]["constraint"] == "sensor_current"
     report = Report("t")

@@ -18,6 +18,7 @@ from design.spec.schema import load_spec, parse_spec
 from design.synth.pi import W_OPT, _casadi_frd, margin_circle, scan_gains, synthesise_pi
 from design.synth.schedule import gain_schedule
 from design.synth.verify import verify
+from design.views.json import synthesis_to_dict
 from plant import Resonance, SpecError
 from plant.effects import Sampling
 
@@ -231,7 +232,7 @@ def test_min_bandwidth_infeasible_names_the_limiting_requirement_and_payload():
 
 def test_gain_bounds_that_no_gains_meet_name_the_payload():
     # kp >= 3000 A/(m/s): at 5 kg the crossover lies far beyond the delay's -180 deg point
-    res = synthesise_pi(spec_with(controller={"kp": {"min": 3000.0, "max": 10000.0}})).to_dict()
+    res = synthesis_to_dict(synthesise_pi(spec_with(controller={"kp": {"min": 3000.0, "max": 10000.0}})))
     assert res["status"] == "infeasible" and not res["verified"] and res["gains"]["kp"] is None
     assert res["binding"]["constraint"] == "phase_margin" and res["binding"]["payload_kg"] == 5.0
     assert "5.0 kg" in res["message"] and "phase margin" in res["message"]

@@ -60,24 +60,34 @@ from design.admittance.model import (
     with_neck_modes,
 )
 from design.admittance.verify import AdmittanceVerification, verify_admittance
-from design.spec.schema import Spec, finite_or_none
+from design.spec.schema import Spec
 from design.synth.pi import margin_circle
 from plant.errors import SpecError
 from plant.grid import log_grid_rad_s
 
 #: constraint grid of the optimiser: 10 mHz - 3 kHz, 700 points, plus points around the neck modes
 W_DESIGN = log_grid_rad_s(0.01, 3000.0, 700)
+
+
 #: the optimiser works a hair inside the limits so the design holds on the denser check grid:
+
+
 #: circle radius x 1.003, hardware limits x 0.997; the exact polish keeps PM + 0.1 deg, GM + 0.05 dB
 ROW_HAIR = 0.003
 POLISH_HAIR = (0.1, 0.05, 0.002)
+
+
 #: rows whose slack (log of the ratio of the two sides) is below this join the active set
 ACTIVE_SLACK = 0.1
 MAX_ROUNDS = 4
 
 
 # --- constraint rows ---------------------------------------------------------------------------------
+
+
 @dataclass(frozen=True)
+
+
 class Rows:
     """Constraints alpha |A|^2 >= beta |B|^2, A = (c1 - c2 b) + j (c3 - c4 m), B = (e1 - e2 b) + j (e3 - e4 m),
     with m = m_v, b = b_v; ``coef`` columns alpha, c1..c4, beta, e1..e4."""
@@ -137,6 +147,8 @@ def build_rows(spec: Spec, payload_kg: np.ndarray, corners, *, kp: float, ki: fl
 
 
 # --- formulation 1: convex-concave procedure in cvxpy + Clarabel -----------------------------------
+
+
 def _socp(rows: Rows, x_k: np.ndarray, lo: np.ndarray, hi: np.ndarray, weights: np.ndarray) -> np.ndarray | None:
     """One CCP subproblem: min weights . x s.t. sqrt(beta) |B(x)| <= sqrt(alpha) Re(conj(n) A(x)), n = A(x_k)/|A(x_k)|.
     Variables are scaled by x_k (y = x / x_k); returns x or None when the solver fails."""
@@ -196,6 +208,8 @@ def ccp_design(rows: Rows, start: np.ndarray, lo, hi, weights, *, iterations: in
 
 
 # --- formulation 2: nonlinear program in casadi + IPOPT ----------------------------------------------
+
+
 def _ipopt(rows: Rows, start, lo, hi, weights) -> np.ndarray:
     """min log(weights . x) over log m_v, log b_v within the bounds s.t. the rows (log-ratio form)."""
     import casadi as ca
@@ -231,6 +245,8 @@ def ipopt_design(rows: Rows, start, lo, hi, weights, *, rounds: int = 20) -> np.
 
 
 # --- exact polish -------------------------------------------------------------------------------------
+
+
 def _meets_exactly(ev: AdmittanceEvaluator, m: float, b: float) -> bool:
     """Exact grid margins and hardware peaks, a hair inside the requirements (``POLISH_HAIR``)."""
     c = ev.evaluate(m, b, bandwidth=False)
@@ -268,7 +284,11 @@ def polish(ev: AdmittanceEvaluator, x: np.ndarray, lo, *, rounds: int = 2,
 
 
 # --- result -------------------------------------------------------------------------------------------
+
+
 @dataclass(frozen=True)
+
+
 class AdmittanceResult:
     """Chosen virtual dynamics with their dense check and independent verification."""
 
@@ -291,46 +311,6 @@ class AdmittanceResult:
     @property
     def verified(self) -> bool:
         return bool(self.status == "optimal" and self.verification is not None and self.verification.verified)
-
-    def to_dict(self, spec: Spec) -> dict:
-        adm = admittance_spec(spec)
-        c, optimal = self.check, self.status == "optimal"
-        worst_pm, worst_gm = np.min(c.phase_margin_deg, axis=0), np.min(c.gain_margin_db, axis=0)
-        loc, hw = adm.locomotion, adm.hardware
-        return {
-            "status": self.status, "message": self.message,
-            "m_v": self.m_v if optimal else None, "b_v": self.b_v if optimal else None,
-            "kp": self.kp, "ki": self.ki,
-            "peak_resistance_n": self.peak_resistance_n if optimal else None,
-            "rendered_bandwidth_hz": finite_or_none(np.nanmin(c.rendered_bandwidth_hz))
-            if np.any(np.isfinite(c.rendered_bandwidth_hz)) else None,
-            "worst_phase_margin_deg": finite_or_none(np.min(worst_pm)),
-            "worst_gain_margin_db": finite_or_none(np.min(worst_gm)),
-            "worst_sensor_current_a": float(np.max(c.sensor_current_a)),
-            "worst_motor_force_n": float(np.max(c.motor_force_n)),
-            "binding": self.binding, "active": list(self.active),
-            "verified": self.verified,
-            "mouse_can_follow_profile": bool(self.peak_resistance_n <= adm.mouse.peak_force_n),
-            "locomotion": {"profile": "trapezoidal (peak acceleration held until peak speed)",
-                           "peak_speed_m_per_s": loc.peak_speed_m_per_s,
-                           "peak_acceleration_m_per_s2": loc.peak_acceleration_m_per_s2},
-            "limits": {"phase_margin_deg": adm.phase_margin_deg, "gain_margin_db": adm.gain_margin_db,
-                       "motor_peak_force_n": hw.motor_peak_force_n,
-                       "max_current_per_sensor_step_a": hw.max_current_per_sensor_step_a,
-                       "force_sensor_resolution_n": hw.force_sensor_resolution_n,
-                       "mouse_peak_force_n": adm.mouse.peak_force_n},
-            "evaluated_at": {"m_v": self.m_v, "b_v": self.b_v},
-            "mouse_corners": [m.as_dict() for m in self.corners],
-            "per_payload": [{"payload_kg": float(m), "phase_margin_deg": finite_or_none(p),
-                             "gain_margin_db": finite_or_none(g), "rendered_bandwidth_hz": finite_or_none(bw),
-                             "sensor_current_a": float(i), "motor_force_n": float(f)}
-                            for m, p, g, bw, i, f in zip(c.payload_kg, worst_pm, worst_gm, c.rendered_bandwidth_hz,
-                                                         c.sensor_current_a, c.motor_force_n)],
-            "violations": [v["detail"] for v in c.violations],
-            "verification": None if self.verification is None else self.verification.to_dict(c.payload_kg.size),
-            "solver": {"method": "ccp (cvxpy + Clarabel) and ipopt (casadi) on margin circles, exact polish by "
-                                 "bisection", "seconds": self.seconds, **self.solver},
-        }
 
 
 _HINTS = {"sensor_current": "allow a larger m_v / b_v, a larger admittance.hardware.max_current_per_sensor_step_a, "

@@ -21,7 +21,7 @@ from design.admittance.model import (
     mechanical_plant,
     mouse_corners,
 )
-from design.spec.schema import Spec, finite_or_none
+from design.spec.schema import Spec
 from plant.models import Plant
 
 #: python-control margins may fall short of the requirement by this much (deg, dB): grid rounding
@@ -30,6 +30,8 @@ PADE_ORDER = 6
 
 
 @dataclass(frozen=True)
+
+
 class AdmittanceVerification:
     verified: bool
     #: largest real part of the coupled closed-loop poles over dense payloads x mouse corners (1/s)
@@ -42,16 +44,6 @@ class AdmittanceVerification:
     min_gain_margin_db: float
     cases: int
     failures: tuple[str, ...]
-
-    def to_dict(self, payloads: int) -> dict:
-        return {"payloads": payloads, "cases": self.cases,
-                "max_closed_loop_pole_real_part": self.max_closed_loop_pole_real_part,
-                "max_open_loop_pole_real_part": self.max_open_loop_pole_real_part,
-                "python_control_min_phase_margin_deg": finite_or_none(self.min_phase_margin_deg),
-                "python_control_min_gain_margin_db": finite_or_none(self.min_gain_margin_db),
-                "failures": list(self.failures),
-                "tool": f"python-control (Pade order {PADE_ORDER}) stability_margins and numpy roots of the "
-                        "coupled characteristic polynomial"}
 
 
 def _polys(tf) -> tuple[np.ndarray, np.ndarray]:

@@ -22,7 +22,6 @@ Shape (see ``specs/``)::
 
 from __future__ import annotations
 
-import math
 import tomllib
 from pathlib import Path
 from typing import Literal
@@ -241,10 +240,3 @@ def load_spec(path: str | Path) -> Spec:
     except tomllib.TOMLDecodeError as exc:
         raise SpecError(f"{path}: not valid TOML: {exc}") from None
     return parse_spec(data, source=str(path))
-
-
-
-def finite_or_none(x) -> float | None:
-    """JSON helper: a float, or None for nan/inf (strict JSON has no NaN or Infinity)."""
-    x = float(x)
-    return x if math.isfinite(x) else None

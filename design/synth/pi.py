@@ -43,7 +43,7 @@ import numpy as np
 
 from design.loop.fast import F_LOW_HZ, fast_analyse_loop
 from design.loop.margins import closed_loop_bandwidth_hz, loop_margins
-from design.spec.schema import Spec, finite_or_none
+from design.spec.schema import Spec
 from design.synth.verify import Verification, verify
 from plant.algebra import CASADI, Pair
 from plant.effects import EFFECTS
@@ -54,25 +54,43 @@ from plant.models import Plant
 #: effects that limit the achievable bandwidth (phase lag growing with frequency)
 PHASE_LIMITING = tuple(n for n, cls in EFFECTS.items() if cls.limits_bandwidth and cls.in_synthesis and cls.searched)
 UNSUPPORTED = tuple(n for n, cls in EFFECTS.items() if not cls.in_synthesis)
+
+
 #: constraint grid of the scan and the optimisation: 1 mHz - 10 kHz, 40 points per decade
 W_OPT = log_grid_rad_s(1e-3, 1.0e4, 281)
 THESIS_GAINS = (236.0, 47.0)
+
+
 #: the solvers aim this far inside the requirements (deg, dB) so the design meets them on the checks
 MARGIN_HAIR = 0.01
+
+
 #: scan grid size per gain
 SCAN_POINTS = 20
+
+
 #: bisection on the bandwidth target stops at this ratio; the exact step takes it from there
 BISECTION_RATIO = 1.05
+
+
 #: exact (IPOPT) starts besides the ccp design
 EXTRA_STARTS = 1
+
+
 #: a gain within this relative distance of its upper bound is "on the bound"
 ON_BOUND = 1e-3
+
+
 #: requirements within this relative slack of their limit are listed as active
 ACTIVE = 5e-3
 
 
 # --- evaluation ---------------------------------------------------------------------------------
+
+
 @dataclass(frozen=True)
+
+
 class Evaluation:
     """Gains evaluated at a set of payloads (cubic-refined grid margins of ``design.loop.fast``)."""
 
@@ -90,14 +108,6 @@ class Evaluation:
     binding: dict
     #: the smallest slack of any requirement relative to the requirement (negative: violated)
     min_relative_slack: float
-
-    def summary(self, label: str) -> dict:
-        return {"name": label, "kp": self.kp, "ki": self.ki,
-                "worst_bandwidth_hz": finite_or_none(self.worst_bandwidth_hz) if self.stable else None,
-                "worst_phase_margin_deg": finite_or_none(np.min(self.phase_margin_deg)),
-                "worst_gain_margin_db": finite_or_none(np.min(self.gain_margin_db)),
-                "stable": self.stable, "meets_requirements": self.meets,
-                "binding": self.binding}
 
 
 def evaluate(spec: Spec, kp: float, ki: float, payload_kg=None) -> Evaluation:
@@ -127,7 +137,7 @@ def evaluate(spec: Spec, kp: float, ki: float, payload_kg=None) -> Evaluation:
     name = min(rel, key=rel.get)
     i = int(np.argmin(slack[name]))
     active = sorted({k for k, v in slack.items() if np.min(v) / scale[k] < ACTIVE})
-    binding = {"constraint": name, "payload_kg": float(m[i]), "slack": finite_or_none(slack[name][i]), "active": active}
+    binding = {"constraint": name, "payload_kg": float(m[i]), "slack": float(slack[name][i]), "active": active}
     c = spec.controller
     for gain, value, bound in (("kp", kp, c.kp.max), ("ki", ki, c.ki.max)):
         if meets and value >= bound * (1 - ON_BOUND) and rel[name] > ON_BOUND:
@@ -138,6 +148,8 @@ def evaluate(spec: Spec, kp: float, ki: float, payload_kg=None) -> Evaluation:
 
 
 # --- scan ----------------------------------------------------------------------------------------
+
+
 def margin_circle(phase_margin_deg: float, gain_margin_db: float) -> tuple[float, float]:
     """Centre (real) and radius of the circle through -1/g and e^{j(pi - phi)}."""
     g = 10 ** (gain_margin_db / 20)
@@ -171,6 +183,8 @@ def _gain_grid(lo: float, hi: float, n: int) -> np.ndarray:
 
 
 @dataclass(frozen=True)
+
+
 class Scan:
     """A log grid of gains evaluated on ``W_OPT`` at the payload points (linear-interpolated margins)."""
 
@@ -246,6 +260,8 @@ def scan_gains(spec: Spec, P: np.ndarray, *, n: int = SCAN_POINTS) -> Scan:
 
 
 # --- convex-concave procedure (cvxpy + Clarabel) -----------------------------------------------
+
+
 class _CCP:
     """Tangent-half-plane LP of the circle constraints, built once with cvxpy parameters."""
 
@@ -306,6 +322,8 @@ class _CCP:
 
 
 @dataclass(frozen=True)
+
+
 class CCPDesign:
     kp: float
     ki: float
@@ -369,6 +387,8 @@ def ccp_design(spec: Spec, P: np.ndarray, scan: Scan) -> CCPDesign:
 
 
 # --- exact margins (casadi + IPOPT) ---------------------------------------------------------------
+
+
 def _casadi_frd(plant: Plant, w):
     """(Re, Im) of P(jw) as casadi expressions of w: the plant's own response formula
     (``Plant.response``) built with casadi arithmetic."""
@@ -388,6 +408,8 @@ def _first_crossing(w, f):
 
 
 @dataclass(frozen=True)
+
+
 class ExactDesign:
     kp: float
     ki: float
@@ -476,6 +498,8 @@ def exact_design(spec: Spec, payloads: np.ndarray, kp0: float, ki0: float, *,
 
 
 # --- baselines -------------------------------------------------------------------------------
+
+
 def classical_rule(spec: Spec, *, phase_margin_deg: float = 60.0) -> tuple[float, float]:
     """Single-model rule at the nominal payload: crossover where the plant phase is
     -180 + PM + 5.7 deg, kp = 1/|P| there, PI zero a decade below (costing 5.7 deg)."""
@@ -499,7 +523,11 @@ def baselines(spec: Spec) -> tuple[tuple[Evaluation, ...], tuple[str, ...]]:
 
 
 # --- the driver -----------------------------------------------------------------------------------
+
+
 @dataclass(frozen=True)
+
+
 class SynthesisResult:
     status: str                      # "optimal" | "unbounded" | "infeasible"
     message: str
@@ -513,27 +541,6 @@ class SynthesisResult:
     details: dict = field(default_factory=dict)
     #: overrides the evaluation's binding (infeasible specs: from the scan's diagnosis)
     binding: dict | None = None
-
-    def to_dict(self) -> dict:
-        e = self.evaluation
-        ok = self.status == "optimal"
-        return {
-            "status": self.status, "message": self.message,
-            "gains": {"kp": e.kp, "ki": e.ki} if e and ok else {"kp": None, "ki": None},
-            "worst_case": ({"bandwidth_hz": finite_or_none(e.worst_bandwidth_hz),
-                            "phase_margin_deg": finite_or_none(np.min(e.phase_margin_deg)),
-                            "gain_margin_db": finite_or_none(np.min(e.gain_margin_db))} if e else None),
-            "per_payload": ([{"payload_kg": float(m), "bandwidth_hz": finite_or_none(b),
-                              "phase_margin_deg": finite_or_none(p), "gain_margin_db": finite_or_none(g)}
-                             for m, b, p, g in zip(e.payload_kg, e.bandwidth_hz, e.phase_margin_deg,
-                                                   e.gain_margin_db)] if e else []),
-            "binding": self.binding or (e.binding if e else None),
-            "verified": bool(self.verification and self.verification.verified and ok),
-            "verification": None if self.verification is None else self.verification.to_dict(),
-            "solver": {"method": self.method, "seconds": self.seconds,
-                       "payload_points": list(self.payload_points_used), **self.details},
-            "baselines": [b.summary(n) for b, n in zip(self.baselines, self.baseline_names)],
-        }
 
 
 def check_supported(spec: Spec) -> None:

@@ -13,12 +13,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from design.spec.schema import Spec, finite_or_none
+from design.spec.schema import Spec
 from design.synth.pi import W_OPT, evaluate, exact_design, scan_gains
 from design.synth.verify import verify
 
 
 @dataclass(frozen=True)
+
+
 class SchedulePoint:
     payload_kg: float
     kp: float
@@ -30,15 +32,6 @@ class SchedulePoint:
     robust_bandwidth_hz: float
     verified: bool
     failures: tuple[str, ...]
-
-    def to_dict(self) -> dict:
-        return {"payload_kg": self.payload_kg, "kp": self.kp, "ki": self.ki,
-                "bandwidth_hz": finite_or_none(self.bandwidth_hz),
-                "phase_margin_deg": finite_or_none(self.phase_margin_deg),
-                "gain_margin_db": finite_or_none(self.gain_margin_db),
-                "robust_bandwidth_hz": finite_or_none(self.robust_bandwidth_hz),
-                "bandwidth_gain": finite_or_none(self.bandwidth_hz / self.robust_bandwidth_hz),
-                "verified": self.verified, "failures": list(self.failures)}
 
 
 def gain_schedule(spec: Spec, kp: float, ki: float) -> list[SchedulePoint]:
@@ -61,14 +54,3 @@ def gain_schedule(spec: Spec, kp: float, ki: float) -> list[SchedulePoint]:
                                  float(best.phase_margin_deg[0]), float(best.gain_margin_db[0]),
                                  float(robust.bandwidth_hz[0]), v.verified, v.failures))
     return out
-
-
-def schedule_summary(points: list[SchedulePoint]) -> dict:
-    """JSON block: the points, and the worst-case bandwidth with and without the schedule."""
-    sched = min(p.bandwidth_hz for p in points)
-    robust = min(p.robust_bandwidth_hz for p in points)
-    return {"points": [p.to_dict() for p in points], "verified": all(p.verified for p in points),
-            "worst_case_bandwidth_hz": finite_or_none(sched), "robust_worst_case_bandwidth_hz": finite_or_none(robust),
-            "min_bandwidth_gain": finite_or_none(min(p.bandwidth_hz / p.robust_bandwidth_hz for p in points)),
-            "max_bandwidth_gain": finite_or_none(max(p.bandwidth_hz / p.robust_bandwidth_hz for p in points)),
-            "note": "verified at the scheduled payloads only; interpolated gains are not checked"}

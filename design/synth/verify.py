@@ -19,17 +19,23 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from design.spec.schema import Spec, finite_or_none
+from design.spec.schema import Spec
 
 #: margins may fall short of the requirement by this much (deg, dB) and still pass (rounding)
 MARGIN_TOLERANCE = 0.05
+
+
 #: claimed and python-control bandwidths must agree to this relative tolerance
 BANDWIDTH_RTOL = 0.01
+
+
 #: frequency grid for Ms / disk margin (rad/s): 1 mHz - 10 kHz, 4000 points
 _W_SENSITIVITY = 2 * np.pi * np.logspace(-3, 4, 4000)
 
 
 @dataclass(frozen=True)
+
+
 class Verification:
     """Independent check with python-control at every dense payload."""
 
@@ -43,16 +49,6 @@ class Verification:
     max_bandwidth_rel_error: float
     failures: tuple[str, ...]
     pade_order: int
-
-    def to_dict(self) -> dict:
-        return {"payloads": self.n_payloads, "max_closed_loop_pole_real_part": finite_or_none(self.max_pole_real_part),
-                "min_phase_margin_deg": finite_or_none(self.min_phase_margin_deg),
-                "min_gain_margin_db": finite_or_none(self.min_gain_margin_db),
-                "min_bandwidth_hz": finite_or_none(self.min_bandwidth_hz),
-                "max_bandwidth_rel_error": finite_or_none(self.max_bandwidth_rel_error),
-                "failures": list(self.failures),
-                "tool": f"python-control (Pade order {self.pade_order}): poles of feedback(L, 1), "
-                        "stability_margins, bandwidth"}
 
 
 def verify(spec: Spec, kp: float, ki: float, *, payload_kg=None, claimed_bandwidth_hz=None,

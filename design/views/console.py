@@ -10,7 +10,7 @@ from rich import box
 from rich.console import Console
 from rich.table import Table
 
-from design.workflows import DiagnosisOutcome, FitOutcome
+from design.results import DiagnosisOutcome, FitOutcome
 from plant.diagnosis import Diagnosis
 from plant.time_diagnosis import TimeDiagnosis
 

@@ -7,10 +7,10 @@ import math
 import matplotlib.pyplot as plt
 import numpy as np
 
+from design.results import DiagnosisOutcome
 from design.views.html import Report, table
 from design.views.plots import bode
 from design.views.time_diagnosis import time_diagnosis_report
-from design.workflows import DiagnosisOutcome
 from plant.diagnosis import ACCEPT_DELTA_BIC, Diagnosis
 from plant.frequency_response import MeasuredResponse
 from plant.time_diagnosis import TimeDiagnosis

@@ -8,15 +8,27 @@ import math
 
 import numpy as np
 
+from design.admittance.model import admittance_spec
+from design.admittance.synthesis import AdmittanceResult
+from design.admittance.verify import PADE_ORDER, AdmittanceVerification
 from design.loop.analysis import PayloadSweep
 from design.loop.sweep import SweepResult
-from design.spec.schema import finite_or_none
-from design.workflows import DiagnosisOutcome, FitOutcome
+from design.results import DiagnosisOutcome, FitOutcome
+from design.spec.schema import Spec
+from design.synth.pi import Evaluation, SynthesisResult
+from design.synth.schedule import SchedulePoint
+from design.synth.verify import Verification
 from plant.diagnosis import Diagnosis, failing_bands
 from plant.fitting import FitResult
 from plant.rational_fit import RationalFit
 from plant.time_diagnosis import DELTA_BIC_STRONG, TimeDiagnosis
 from plant.time_fit import TimeFitResult, bic
+
+
+def finite_or_none(x) -> float | None:
+    """JSON helper: a float, or None for nan/inf (strict JSON has no NaN or Infinity)."""
+    x = float(x)
+    return x if math.isfinite(x) else None
 
 
 def print_json(obj) -> None:
@@ -240,3 +252,125 @@ def sweep_to_dict(result: SweepResult) -> dict:
             "sampling": result.sampling,
             "uncertainty": {k: {"min": lo, "max": hi} for k, (lo, hi) in result.uncertainty.items()},
             "percentiles": list(result.levels), "payloads": payloads, "worst_case": worst}
+
+
+def evaluation_to_dict(ev: Evaluation, label: str) -> dict:
+    """A design or baseline evaluated on the spec (``baselines`` of ``gantry synth --json``)."""
+    return {"name": label, "kp": ev.kp, "ki": ev.ki,
+            "worst_bandwidth_hz": finite_or_none(ev.worst_bandwidth_hz) if ev.stable else None,
+            "worst_phase_margin_deg": finite_or_none(np.min(ev.phase_margin_deg)),
+            "worst_gain_margin_db": finite_or_none(np.min(ev.gain_margin_db)),
+            "stable": ev.stable, "meets_requirements": ev.meets,
+            "binding": ev.binding}
+
+
+def synthesis_to_dict(result: SynthesisResult) -> dict:
+    """``gantry synth --json`` of the PI stage."""
+    e = result.evaluation
+    ok = result.status == "optimal"
+    return {
+        "status": result.status, "message": result.message,
+        "gains": {"kp": e.kp, "ki": e.ki} if e and ok else {"kp": None, "ki": None},
+        "worst_case": ({"bandwidth_hz": finite_or_none(e.worst_bandwidth_hz),
+                        "phase_margin_deg": finite_or_none(np.min(e.phase_margin_deg)),
+                        "gain_margin_db": finite_or_none(np.min(e.gain_margin_db))} if e else None),
+        "per_payload": ([{"payload_kg": float(m), "bandwidth_hz": finite_or_none(b),
+                          "phase_margin_deg": finite_or_none(p), "gain_margin_db": finite_or_none(g)}
+                         for m, b, p, g in zip(e.payload_kg, e.bandwidth_hz, e.phase_margin_deg,
+                                               e.gain_margin_db)] if e else []),
+        "binding": result.binding or (e.binding if e else None),
+        "verified": bool(result.verification and result.verification.verified and ok),
+        "verification": None if result.verification is None else verification_to_dict(result.verification),
+        "solver": {"method": result.method, "seconds": result.seconds,
+                   "payload_points": list(result.payload_points_used), **result.details},
+        "baselines": [evaluation_to_dict(b, n) for b, n in zip(result.baselines, result.baseline_names)],
+    }
+
+
+def verification_to_dict(v: Verification) -> dict:
+    """The independent python-control check of a PI design."""
+    return {"payloads": v.n_payloads, "max_closed_loop_pole_real_part": finite_or_none(v.max_pole_real_part),
+            "min_phase_margin_deg": finite_or_none(v.min_phase_margin_deg),
+            "min_gain_margin_db": finite_or_none(v.min_gain_margin_db),
+            "min_bandwidth_hz": finite_or_none(v.min_bandwidth_hz),
+            "max_bandwidth_rel_error": finite_or_none(v.max_bandwidth_rel_error),
+            "failures": list(v.failures),
+            "tool": f"python-control (Pade order {v.pade_order}): poles of feedback(L, 1), "
+                    "stability_margins, bandwidth"}
+
+
+def schedule_point_to_dict(p: SchedulePoint) -> dict:
+    """One point of a gain schedule."""
+    return {"payload_kg": p.payload_kg, "kp": p.kp, "ki": p.ki,
+            "bandwidth_hz": finite_or_none(p.bandwidth_hz),
+            "phase_margin_deg": finite_or_none(p.phase_margin_deg),
+            "gain_margin_db": finite_or_none(p.gain_margin_db),
+            "robust_bandwidth_hz": finite_or_none(p.robust_bandwidth_hz),
+            "bandwidth_gain": finite_or_none(p.bandwidth_hz / p.robust_bandwidth_hz),
+            "verified": p.verified, "failures": list(p.failures)}
+
+
+def schedule_to_dict(points: list[SchedulePoint]) -> dict:
+    """JSON block: the points, and the worst-case bandwidth with and without the schedule."""
+    sched = min(p.bandwidth_hz for p in points)
+    robust = min(p.robust_bandwidth_hz for p in points)
+    return {"points": [schedule_point_to_dict(p) for p in points], "verified": all(p.verified for p in points),
+            "worst_case_bandwidth_hz": finite_or_none(sched), "robust_worst_case_bandwidth_hz": finite_or_none(robust),
+            "min_bandwidth_gain": finite_or_none(min(p.bandwidth_hz / p.robust_bandwidth_hz for p in points)),
+            "max_bandwidth_gain": finite_or_none(max(p.bandwidth_hz / p.robust_bandwidth_hz for p in points)),
+            "note": "verified at the scheduled payloads only; interpolated gains are not checked"}
+
+
+def admittance_verification_to_dict(v: AdmittanceVerification, payloads: int) -> dict:
+    """The independent check of an admittance design."""
+    return {"payloads": payloads, "cases": v.cases,
+            "max_closed_loop_pole_real_part": v.max_closed_loop_pole_real_part,
+            "max_open_loop_pole_real_part": v.max_open_loop_pole_real_part,
+            "python_control_min_phase_margin_deg": finite_or_none(v.min_phase_margin_deg),
+            "python_control_min_gain_margin_db": finite_or_none(v.min_gain_margin_db),
+            "failures": list(v.failures),
+            "tool": f"python-control (Pade order {PADE_ORDER}) stability_margins and numpy roots of the "
+                    "coupled characteristic polynomial"}
+
+
+def admittance_to_dict(result: AdmittanceResult, spec: Spec) -> dict:
+    """``admittance`` of ``gantry synth --json``."""
+    adm = admittance_spec(spec)
+    c, optimal = result.check, result.status == "optimal"
+    worst_pm, worst_gm = np.min(c.phase_margin_deg, axis=0), np.min(c.gain_margin_db, axis=0)
+    loc, hw = adm.locomotion, adm.hardware
+    return {
+        "status": result.status, "message": result.message,
+        "m_v": result.m_v if optimal else None, "b_v": result.b_v if optimal else None,
+        "kp": result.kp, "ki": result.ki,
+        "peak_resistance_n": result.peak_resistance_n if optimal else None,
+        "rendered_bandwidth_hz": finite_or_none(np.nanmin(c.rendered_bandwidth_hz))
+        if np.any(np.isfinite(c.rendered_bandwidth_hz)) else None,
+        "worst_phase_margin_deg": finite_or_none(np.min(worst_pm)),
+        "worst_gain_margin_db": finite_or_none(np.min(worst_gm)),
+        "worst_sensor_current_a": float(np.max(c.sensor_current_a)),
+        "worst_motor_force_n": float(np.max(c.motor_force_n)),
+        "binding": result.binding, "active": list(result.active),
+        "verified": result.verified,
+        "mouse_can_follow_profile": bool(result.peak_resistance_n <= adm.mouse.peak_force_n),
+        "locomotion": {"profile": "trapezoidal (peak acceleration held until peak speed)",
+                       "peak_speed_m_per_s": loc.peak_speed_m_per_s,
+                       "peak_acceleration_m_per_s2": loc.peak_acceleration_m_per_s2},
+        "limits": {"phase_margin_deg": adm.phase_margin_deg, "gain_margin_db": adm.gain_margin_db,
+                   "motor_peak_force_n": hw.motor_peak_force_n,
+                   "max_current_per_sensor_step_a": hw.max_current_per_sensor_step_a,
+                   "force_sensor_resolution_n": hw.force_sensor_resolution_n,
+                   "mouse_peak_force_n": adm.mouse.peak_force_n},
+        "evaluated_at": {"m_v": result.m_v, "b_v": result.b_v},
+        "mouse_corners": [m.as_dict() for m in result.corners],
+        "per_payload": [{"payload_kg": float(m), "phase_margin_deg": finite_or_none(p),
+                         "gain_margin_db": finite_or_none(g), "rendered_bandwidth_hz": finite_or_none(bw),
+                         "sensor_current_a": float(i), "motor_force_n": float(f)}
+                        for m, p, g, bw, i, f in zip(c.payload_kg, worst_pm, worst_gm, c.rendered_bandwidth_hz,
+                                                     c.sensor_current_a, c.motor_force_n)],
+        "violations": [v["detail"] for v in c.violations],
+        "verification": None if result.verification is None else
+        admittance_verification_to_dict(result.verification, c.payload_kg.size),
+        "solver": {"method": "ccp (cvxpy + Clarabel) and ipopt (casadi) on margin circles, exact polish by "
+                             "bisection", "seconds": result.seconds, **result.solver},
+    }

@@ -5,7 +5,10 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
+from design.admittance.synthesis import AdmittanceResult
 from design.spec.schema import Spec
+from design.synth.pi import SynthesisResult
+from design.synth.schedule import SchedulePoint
 from plant.diagnosis import Diagnosis
 from plant.fitting import FitResult
 from plant.frequency_response import MeasuredResponse
@@ -47,3 +50,19 @@ class DiagnosisOutcome:
 
     diagnosis: Diagnosis | TimeDiagnosis
     measured: MeasuredResponse | None = None
+
+
+@dataclass(frozen=True)
+class DesignOutcome:
+    """What ``design.workflows.design`` found: the PI synthesis on the plant family (or the design from
+    measured responses, ``measured``), its gain schedule when asked, and the admittance stage when the
+    spec has one (on the PI gains when the synthesis succeeded, else on the spec's)."""
+
+    problem: DesignProblem
+    synthesis: SynthesisResult | None = None
+    #: the data-driven design's result (``design.synth.measured``)
+    measured: dict | None = None
+    schedule: tuple[SchedulePoint, ...] | None = None
+    admittance: AdmittanceResult | None = None
+    #: the spec asks for an admittance stage but there were no PI gains to design it on
+    admittance_skipped: bool = False

@@ -3,7 +3,7 @@ spec, optionally with the plant of a fit), design it, measure a recording.
 
     from design.workflows import design, load_problem, measure
     problem = load_problem("specs/stage_x_synth.toml", plant_from="fit.json")
-    result = design(problem)                    # the dict ``gantry synth --json`` prints
+    outcome = design(problem)                   # typed; design_to_dict(outcome) is ``gantry synth --json``
     response = measure("run.csv")               # a MeasuredResponse from any recording
 """
 
@@ -14,8 +14,8 @@ import math
 import tomllib
 from pathlib import Path
 
-from design.results import DesignProblem, DiagnosisOutcome, FitOutcome, PlantFromFit
-from design.spec.schema import Spec, parse_spec
+from design.results import DesignOutcome, DesignProblem, DiagnosisOutcome, FitOutcome, PlantFromFit
+from design.spec.schema import parse_spec
 from plant.effects import EFFECTS
 from plant.errors import GantryError, ParameterError, SpecError
 from plant.frequency_response import MeasuredResponse
@@ -81,51 +81,34 @@ def _plant_from_fit(path: Path) -> tuple[dict, list[str]]:
     return plant, sorted(left_out)
 
 
-def design(problem: DesignProblem, *, method: str = "ccp+exact", schedule: bool = False) -> dict:
+def design(problem: DesignProblem, *, method: str = "ccp+exact", schedule: bool = False) -> DesignOutcome:
     """The one synthesis driver: PI gains for the spec's plant family (or its measured responses), the
-    gain schedule when asked, and the admittance stage when the spec has one; the ``gantry synth
-    --json`` contract."""
+    gain schedule when asked, and the admittance stage when the spec has one. ``design.views.json.
+    design_to_dict`` turns the outcome into the ``gantry synth --json`` contract."""
     spec = problem.spec
     if spec.plant.measured:
         from design.synth.measured import synthesise_from_data
 
-        out = synthesise_from_data(spec, base_dir=problem.spec_dir)
-    else:
-        from design.synth.pi import synthesise_pi
-        from design.views.json import synthesis_to_dict
+        return DesignOutcome(problem, measured=synthesise_from_data(spec, base_dir=problem.spec_dir))
+    from design.synth.pi import synthesise_pi
 
-        out = synthesis_to_dict(synthesise_pi(spec, method=method))
-        if schedule and out["status"] == "optimal":
-            from design.synth.schedule import gain_schedule
-            from design.views.json import schedule_to_dict
+    result = synthesise_pi(spec, method=method)
+    optimal = result.status == "optimal"
+    points = None
+    if schedule and optimal:
+        from design.synth.schedule import gain_schedule
 
-            out["schedule"] = schedule_to_dict(gain_schedule(spec, out["gains"]["kp"], out["gains"]["ki"]))
-        if spec.admittance is not None:
-            out = _with_admittance(spec, out)
-    if problem.plant_from is not None:
-        out["plant_from"] = {"file": problem.plant_from.file, "left_out": list(problem.plant_from.left_out),
-                             "damping_n_s_per_m": spec.plant.damping_n_s_per_m,
-                             "force_constant_n_per_a": spec.plant.force_constant_n_per_a,
-                             "effects": spec.plant.effects}
-    return out
-
-
-def _with_admittance(spec: Spec, out: dict) -> dict:
-    """Add the admittance stage (PI gains from the PI stage when optimal, else the spec's values)."""
-    from design.admittance.synthesis import synthesise_admittance
-    from design.views.json import admittance_to_dict
-
-    kp = out["gains"]["kp"] if out["status"] == "optimal" else spec.controller.kp.value
-    ki = out["gains"]["ki"] if out["status"] == "optimal" else spec.controller.ki.value
+        points = tuple(gain_schedule(spec, result.evaluation.kp, result.evaluation.ki))
+    if spec.admittance is None:
+        return DesignOutcome(problem, synthesis=result, schedule=points)
+    kp = result.evaluation.kp if optimal else spec.controller.kp.value
+    ki = result.evaluation.ki if optimal else spec.controller.ki.value
     if kp is None or ki is None:
-        return {**out, "admittance": {"status": "skipped", "message": "no PI gains (PI synthesis failed and no "
-                                                                    "controller values in the spec)",
-                                      "verified": False}}
-    adm = admittance_to_dict(synthesise_admittance(spec, kp=kp, ki=ki), spec)
-    out = {**out, "admittance": adm, "gains": {**out["gains"], "m_v": adm["m_v"], "b_v": adm["b_v"]}}
-    if adm["status"] != "optimal":
-        out = {**out, "status": "infeasible", "message": f"admittance: {adm['message']}"}
-    return {**out, "verified": bool(out["verified"] and adm["verified"])}
+        return DesignOutcome(problem, synthesis=result, schedule=points, admittance_skipped=True)
+    from design.admittance.synthesis import synthesise_admittance
+
+    return DesignOutcome(problem, synthesis=result, schedule=points,
+                         admittance=synthesise_admittance(spec, kp=kp, ki=ki))
 
 
 def measure(path: str | Path, *, columns: str | None = None, sample_rate_hz: float | None = None,

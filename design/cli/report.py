@@ -29,6 +29,7 @@ def report(
 ) -> None:
     """Write a design report: summary, plant, Bode/Nyquist/step, margins vs payload, data, reproducibility."""
     from design.synth.pi import PHASE_LIMITING
+    from design.views.json import design_to_dict
     from design.views.report import design_report
     from design.workflows import design, load_problem, measure
     from plant.errors import SpecError
@@ -42,7 +43,7 @@ def report(
     synthesis = None
     kp, ki, source = spec.controller.kp.value, spec.controller.ki.value, "from the spec's controller values"
     if synthesise and any(e in PHASE_LIMITING for e in spec.plant.effects):
-        synthesis = design(problem)
+        synthesis = design_to_dict(design(problem))
         if synthesis["status"] == "optimal":
             kp, ki = synthesis["gains"]["kp"], synthesis["gains"]["ki"]
             source = "synthesised" + (", independently verified" if synthesis["verified"] else ", NOT verified")

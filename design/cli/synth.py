@@ -30,11 +30,11 @@ def synth(
 ) -> None:
     """Synthesise PI gains maximising worst-case bandwidth under margin constraints over the payload range."""
     from design.views.console import print_synthesis
-    from design.views.json import print_json
+    from design.views.json import design_to_dict, print_json
     from design.workflows import design, load_problem
 
     problem = load_problem(spec_file, plant_from=plant_from)
-    out = design(problem, method=method, schedule=schedule)
+    out = design_to_dict(design(problem, method=method, schedule=schedule))
     if report is not None and out["status"] == "optimal" and not problem.spec.plant.measured:
         from design.views.report import design_report
 

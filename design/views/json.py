@@ -13,7 +13,7 @@ from design.admittance.synthesis import AdmittanceResult
 from design.admittance.verify import PADE_ORDER, AdmittanceVerification
 from design.loop.analysis import PayloadSweep
 from design.loop.sweep import SweepResult
-from design.results import DiagnosisOutcome, FitOutcome
+from design.results import DesignOutcome, DiagnosisOutcome, FitOutcome
 from design.spec.schema import Spec
 from design.synth.pi import Evaluation, SynthesisResult
 from design.synth.schedule import SchedulePoint
@@ -374,3 +374,30 @@ def admittance_to_dict(result: AdmittanceResult, spec: Spec) -> dict:
         "solver": {"method": "ccp (cvxpy + Clarabel) and ipopt (casadi) on margin circles, exact polish by "
                              "bisection", "seconds": result.seconds, **result.solver},
     }
+
+
+def design_to_dict(outcome: DesignOutcome) -> dict:
+    """``gantry synth --json``: the PI stage, its schedule, the admittance stage (whose failure makes the
+    whole design infeasible) and the fit the plant came from."""
+    problem, spec = outcome.problem, outcome.problem.spec
+    if outcome.measured is not None:
+        out = dict(outcome.measured)
+    else:
+        out = synthesis_to_dict(outcome.synthesis)
+        if outcome.schedule is not None:
+            out["schedule"] = schedule_to_dict(list(outcome.schedule))
+        if outcome.admittance_skipped:
+            out["admittance"] = {"status": "skipped", "message": "no PI gains (PI synthesis failed and no "
+                                                                 "controller values in the spec)", "verified": False}
+        elif outcome.admittance is not None:
+            adm = admittance_to_dict(outcome.admittance, spec)
+            out = {**out, "admittance": adm, "gains": {**out["gains"], "m_v": adm["m_v"], "b_v": adm["b_v"]}}
+            if adm["status"] != "optimal":
+                out = {**out, "status": "infeasible", "message": f"admittance: {adm['message']}"}
+            out["verified"] = bool(out["verified"] and adm["verified"])
+    if problem.plant_from is not None:
+        out["plant_from"] = {"file": problem.plant_from.file, "left_out": list(problem.plant_from.left_out),
+                             "damping_n_s_per_m": spec.plant.damping_n_s_per_m,
+                             "force_constant_n_per_a": spec.plant.force_constant_n_per_a,
+                             "effects": spec.plant.effects}
+    return out

@@ -6,7 +6,7 @@ Candidates are the effects with a force model (``Effect.force_regressors``: ``co
 squares, so each fit is global and a model containing another never fits worse). Models are
 compared by BIC with the residual's own variance and one effective sample size for all (that of
 the largest model; ``plant.time_fit`` module doc). The selected model has the lowest BIC, except
-that a model with fewer effects within ``DELTA_BIC_STRONG`` of it is kept (Kass & Raftery 1995:
+that a model with fewer effects within ``ACCEPT_DELTA_BIC`` of it is kept (Kass & Raftery 1995:
 "very strong" evidence is needed for each added effect). The verdict is "explained" only when
 the selected model's residual has no structure (``TimeFitResult.explained``); otherwise it says
 what is left and where.
@@ -18,12 +18,14 @@ sign both ways, of a constant force.
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
 import math
 from dataclasses import dataclass
 
 import numpy as np
 
+from plant.diagnosis import ACCEPT_DELTA_BIC
 from plant.effects import EFFECTS, make_effect
 from plant.errors import EffectError
 from plant.inverse_model import InverseModelData, Preprocessing, inverse_model_data
@@ -31,8 +33,6 @@ from plant.models import Plant
 from plant.time_fit import TimeFitResult, bic, fit_inverse_model
 from plant.time_recording import TimeRecording
 
-#: BIC difference of "very strong" evidence for a larger model
-DELTA_BIC_STRONG = 10.0
 #: fraction of the 99th percentile of |v| above which a sample counts as moving in one direction
 DIRECTION_FRACTION = 0.05
 
@@ -103,11 +103,10 @@ def time_candidates() -> tuple[str, ...]:
 
 
 def _plant(base: Plant, effects: tuple[str, ...]) -> Plant:
+    """The base plant with ``effects`` at their neutral values (a friction needs an excitation amplitude:
+    the time domain does not use it)."""
     fx = tuple(make_effect(n, **{k: 0.0 for k in EFFECTS[n].neutral}) for n in effects)
-    return base.with_effects(*fx) if not fx or base.excitation_current_a is not None else \
-        Plant(base.stage, mass_kg=base.mass_kg, damping_n_s_per_m=base.damping_n_s_per_m,
-              force_constant_n_per_a=base.force_constant_n_per_a, motor_length_m=base.motor_length_m,
-              load_position_m=base.load_position_m, effects=fx, excitation_current_a=1.0)
+    return dataclasses.replace(base, effects=fx, excitation_current_a=base.excitation_current_a or 1.0)
 
 
 def _direction(fit: TimeFitResult) -> DirectionalResidual:
@@ -211,7 +210,7 @@ def _explanation(final: TimeFitResult, selected: tuple[str, ...], peak_hz: float
 
 def _select(models, bics) -> tuple[str, ...]:
     best = min(bics, key=bics.get)
-    simpler = [c for c in models if set(c) < set(best) and bics[c] - bics[best] < DELTA_BIC_STRONG]
+    simpler = [c for c in models if set(c) < set(best) and bics[c] - bics[best] < ACCEPT_DELTA_BIC]
     return min(simpler, key=lambda c: (len(c), bics[c])) if simpler else best
 
 

@@ -51,16 +51,16 @@ from dataclasses import dataclass
 
 import numpy as np
 import scipy.optimize
+import scipy.signal
 import scipy.stats
 
 from plant.errors import EffectError, ParameterError
 from plant.fit_report import correlation_lines, variable_lines
-from plant.inverse_model import InverseModelData, Preprocessing, inverse_model_data
+from plant.inverse_model import EDGE_SAMPLES, FILTER_ORDER, InverseModelData, Preprocessing, inverse_model_data
+from plant.lockin import TEST_P
 from plant.models import Plant
 from plant.time_recording import TimeRecording
 
-#: false-alarm probability of the test "the residual is noise" (as ``plant.lockin.TEST_P``)
-TEST_P = 1e-4
 #: velocity below this fraction of the 99th percentile of |v| is "low velocity"
 LOW_VELOCITY_FRACTION = 0.05
 #: seconds either side of a change of direction that count as "reversal"
@@ -413,10 +413,6 @@ class _OeData:
 
 
 def _oe_data(rec: TimeRecording, data: InverseModelData, force_constant: float) -> _OeData:
-    import scipy.signal
-
-    from plant.inverse_model import EDGE_SAMPLES, FILTER_ORDER
-
     fs = rec.sample_rate_hz
     q = max(1, int(fs // max(OE_RATE_HZ, 2.5 * data.filter_hz)))
     b, a = scipy.signal.butter(FILTER_ORDER, data.filter_hz / (fs / 2))
@@ -458,13 +454,13 @@ def fit_output_error(plant: Plant, rec: TimeRecording, *, start: TimeFitResult |
     perturbations of its mass and damping; the best start wins, and a start that ends elsewhere with
     a cost within 1e-6 is reported as a flag."""
     t0 = time.perf_counter()
-    start = start or fit_inverse_model(plant, rec, prep=prep)
+    data = inverse_model_data(rec, float(plant.force_constant_n_per_a), prep)
+    start = start or fit_inverse_model(plant, data)
     plant = start.plant
     free = start.free
     if any(n not in ("mass_kg", "damping_n_s_per_m", "coulomb_friction.force_n", "offset.force_n") for n in free):
         raise EffectError("the output-error fit simulates mass, damping, coulomb_friction and offset; "
                           f"free parameters were {', '.join(free)}")
-    data = inverse_model_data(rec, float(plant.force_constant_n_per_a), prep)
     oe = _oe_data(rec, data, float(plant.force_constant_n_per_a))
     m_per, b_per = _effective_factors(plant)
     params = plant.parameters()

@@ -62,19 +62,8 @@ InputHoldOption = Annotated[bool, typer.Option(
 
 
 def parse_set(text: str | None) -> dict[str, float]:
-    """``"force_constant_n_per_a=35.15,mass_kg=90"`` -> values of plant parameters (``--set``)."""
-    out: dict[str, float] = {}
-    for item in (p.strip() for p in (text or "").split(",") if p.strip()):
-        name, eq, value = item.partition("=")
-        try:
-            number = float(value)
-        except ValueError:
-            number = math.nan
-        if not eq or not name.strip() or not math.isfinite(number):
-            raise ParameterError(f"--set item {item!r}: expected NAME=NUMBER with a finite number, e.g. "
-                            "force_constant_n_per_a=35.15")
-        out[name.strip()] = number
-    return out
+    """``"force_constant_n_per_a=35.15,mass_kg=90"`` -> values of plant parameters (``--set`` as one comma list)."""
+    return parse_set_items([p for p in (text or "").split(",") if p.strip()])
 
 
 def parse_band(text: str | None) -> dict[str, tuple[float, float]]:

@@ -18,10 +18,10 @@ from design.spec.schema import Spec
 from design.synth.pi import Evaluation, SynthesisResult
 from design.synth.schedule import SchedulePoint
 from design.synth.verify import Verification
-from plant.diagnosis import Diagnosis, failing_bands
+from plant.diagnosis import ACCEPT_DELTA_BIC, Diagnosis, failing_bands
 from plant.fitting import FitResult
 from plant.rational_fit import RationalFit
-from plant.time_diagnosis import DELTA_BIC_STRONG, TimeDiagnosis
+from plant.time_diagnosis import TimeDiagnosis
 from plant.time_fit import TimeFitResult, bic
 
 
@@ -158,7 +158,7 @@ def time_diagnosis_to_dict(diag: TimeDiagnosis) -> dict:
     alternatives = [{"effects": list(c), "delta_bic": _bic(diag, c) - _bic(diag, diag.selected),
                      "rms_residual_n": f.rms_residual, "consistent_with_noise": f.explained}
                     for c, f in diag.models.items() if c != diag.selected
-                    and _bic(diag, c) - _bic(diag, diag.selected) < DELTA_BIC_STRONG]
+                    and _bic(diag, c) - _bic(diag, diag.selected) < ACCEPT_DELTA_BIC]
     return {
         "domain": "time",
         "steps": [{"effects": list(s.effects), "rms_residual_n": s.fit.rms_residual, "noise_ratio": s.fit.noise_ratio,

@@ -75,14 +75,14 @@ def main() -> int:
     rows = np.sort(rng.choice(PAYLOADS.size * SAMPLES, SUBSET, replace=False))
     fast = {q: d.samples.ravel()[rows] for q, d in
             zip(("closed_loop_bandwidth_hz", "phase_margin_deg", "gain_margin_db"), result.distributions)}
-    plants = batch_plant(SPEC.plant.plant(), PAYLOADS, result.parameter_samples, rows=rows)
+    plants = batch_plant(SPEC.problem().plant.plant(), PAYLOADS, result.parameter_samples, rows=rows)
     err = _errors(fast, analyse_loop(plants, kp, ki))
     print(f"accuracy on {SUBSET} random plants (max over the subset):")
     _show("fast path vs default grid (3000 points)", err)
 
     few = rows[:TRUTH_SUBSET]
     fine = log_grid_rad_s(1e-3, 1e4, 30000)
-    few_plants = batch_plant(SPEC.plant.plant(), PAYLOADS, result.parameter_samples, rows=few)
+    few_plants = batch_plant(SPEC.problem().plant.plant(), PAYLOADS, result.parameter_samples, rows=few)
     truth = analyse_loop(few_plants, kp, ki, w_rad_s=fine)
     default = analyse_loop(few_plants, kp, ki)
     _show(f"fast path vs 30000-point grid ({TRUTH_SUBSET} plants)",

@@ -52,7 +52,7 @@ def brute_force(spec, kp_grid, ki_grid):
 
 def main():
     for name in ("stage_x_synth.toml", "stage_y_synth.toml"):
-        spec = load_spec(ROOT / "specs" / name)
+        spec = load_spec(ROOT / "specs" / name).problem()
         cold = synthesise_pi(spec)
         runs = [synthesise_pi(spec) for _ in range(3)]
         res = runs[-1]
@@ -108,7 +108,7 @@ def admittance_brute_force(spec, kp, ki, cost, n0, zooms):
 
 
 def admittance_benchmark():
-    spec = load_spec(ROOT / "specs" / "stage_x_admittance.toml")
+    spec = load_spec(ROOT / "specs" / "stage_x_admittance.toml").problem()
     pi = synthesis_to_dict(synthesise_pi(spec))
     kp, ki = pi["gains"]["kp"], pi["gains"]["ki"]
     runs = [synthesise_admittance(spec, kp=kp, ki=ki) for _ in range(2)]

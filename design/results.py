@@ -4,17 +4,24 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-from design.admittance.synthesis import AdmittanceResult
-from design.spec.schema import Spec
-from design.synth.pi import SynthesisResult
-from design.synth.schedule import SchedulePoint
-from plant.diagnosis import Diagnosis
-from plant.fitting import FitResult
-from plant.frequency_response import MeasuredResponse
-from plant.rational_fit import RationalFit
-from plant.time_diagnosis import TimeDiagnosis
-from plant.time_fit import TimeFitResult
+if TYPE_CHECKING:
+    from design.admittance.curves import AdmittanceCurves
+    from design.admittance.synthesis import AdmittanceResult
+    from design.loop.curves import LoopCurves
+    from design.loop.sweep import SweepResult
+    from design.problem import LoopProblem
+    from design.spec.schema import Spec
+    from design.synth.measured import MeasuredDesign
+    from design.synth.pi import Evaluation, SynthesisResult
+    from design.synth.schedule import SchedulePoint
+    from plant.diagnosis import Diagnosis
+    from plant.fitting import FitResult
+    from plant.frequency_response import MeasuredResponse
+    from plant.rational_fit import RationalFit
+    from plant.time_diagnosis import TimeDiagnosis
+    from plant.time_fit import TimeFitResult
 
 
 @dataclass(frozen=True)
@@ -27,11 +34,17 @@ class PlantFromFit:
 
 @dataclass(frozen=True)
 class DesignProblem:
-    """A validated spec, the folder its relative paths start from, and the fit its plant came from."""
+    """A validated spec, the problem it poses, its file (relative paths start from its folder), and the
+    fit its plant came from."""
 
     spec: Spec
-    spec_dir: Path
+    loop: LoopProblem
+    spec_path: Path
     plant_from: PlantFromFit | None = None
+
+    @property
+    def spec_dir(self) -> Path:
+        return self.spec_path.parent
 
 
 @dataclass(frozen=True)
@@ -61,8 +74,72 @@ class DesignOutcome:
     problem: DesignProblem
     synthesis: SynthesisResult | None = None
     #: the data-driven design's result (``design.synth.measured``)
-    measured: dict | None = None
+    measured: MeasuredDesign | None = None
     schedule: tuple[SchedulePoint, ...] | None = None
     admittance: AdmittanceResult | None = None
     #: the spec asks for an admittance stage but there were no PI gains to design it on
     admittance_skipped: bool = False
+
+    @property
+    def status(self) -> str:
+        """"optimal", "unbounded" or "infeasible"; a failed admittance stage makes the design infeasible."""
+        if self.measured is not None:
+            return self.measured.status
+        if self.admittance is not None and self.admittance.status != "optimal":
+            return "infeasible"
+        return self.synthesis.status
+
+    @property
+    def message(self) -> str:
+        if self.measured is not None:
+            return self.measured.message
+        if self.admittance is not None and self.admittance.status != "optimal":
+            return f"admittance: {self.admittance.message}"
+        return self.synthesis.message
+
+    @property
+    def verified(self) -> bool:
+        """Every stage's result confirmed by its independent check."""
+        if self.measured is not None:
+            return self.measured.verified
+        s = self.synthesis
+        pi = bool(s.status == "optimal" and s.verification is not None and s.verification.verified)
+        return pi and (self.admittance is None or self.admittance.verified)
+
+    @property
+    def gains(self) -> tuple[float, float] | None:
+        """The designed (kp, ki) when the PI design succeeded."""
+        if self.measured is not None:
+            return None if self.measured.kp is None else (self.measured.kp, self.measured.ki)
+        e = self.synthesis.evaluation
+        return (e.kp, e.ki) if self.synthesis.status == "optimal" and e is not None else None
+
+
+@dataclass(frozen=True)
+class Recording:
+    """A recording compared with the model in a report: its path, response and diagnosis."""
+
+    path: Path
+    measured: MeasuredResponse
+    diagnosis: Diagnosis
+
+
+@dataclass(frozen=True)
+class ReportContent:
+    """Everything a design report shows, computed before it is drawn: the gains on the dense payloads
+    beside the thesis gains, the loop's curves, the Monte Carlo sweep, the design and admittance curves,
+    and the recordings with their diagnoses."""
+
+    problem: DesignProblem
+    kp: float
+    ki: float
+    gains_source: str
+    evaluation: Evaluation
+    thesis: Evaluation
+    curves: LoopCurves
+    monte_carlo: SweepResult | None = None
+    seed: int = 0
+    design: DesignOutcome | None = None
+    admittance_curves: AdmittanceCurves | None = None
+    recordings: tuple[Recording, ...] = ()
+    command: str = ""

@@ -13,15 +13,25 @@ import json
 import math
 import tomllib
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-from design.results import DesignOutcome, DesignProblem, DiagnosisOutcome, FitOutcome, PlantFromFit
+from design.results import (
+    DesignOutcome,
+    DesignProblem,
+    DiagnosisOutcome,
+    FitOutcome,
+    PlantFromFit,
+    Recording,
+    ReportContent,
+)
 from design.spec.schema import parse_spec
 from plant.effects import EFFECTS
 from plant.errors import GantryError, ParameterError, SpecError
-from plant.frequency_response import MeasuredResponse
-from plant.frf_estimation import estimate_frf
-from plant.inverse_model import Preprocessing
-from plant.rational_fit import RationalFit
+
+if TYPE_CHECKING:
+    from plant.frequency_response import MeasuredResponse
+    from plant.inverse_model import Preprocessing
+    from plant.rational_fit import RationalFit
 
 #: thesis section 4.1: 0.5 A sine for Stage X, 1.75 A for Stage Y
 THESIS_AMPLITUDE_A = {"x": 0.5, "y": 1.75}
@@ -46,8 +56,12 @@ def load_problem(spec_path: str | Path, *, plant_from: str | Path | None = None)
         plant, left_out = _plant_from_fit(Path(plant_from))
         data.setdefault("plant", {}).update(plant)
     spec = parse_spec(data, source=str(spec_path))
+    try:
+        loop = spec.problem()
+    except SpecError as exc:
+        raise SpecError(f"{spec_path}: {exc}") from None
     origin = PlantFromFit(str(plant_from), tuple(left_out)) if plant_from is not None else None
-    return DesignProblem(spec, spec_path.parent, origin)
+    return DesignProblem(spec, loop, spec_path, origin)
 
 
 def _plant_from_fit(path: Path) -> tuple[dict, list[str]]:
@@ -85,36 +99,95 @@ def design(problem: DesignProblem, *, method: str = "ccp+exact", schedule: bool 
     """The one synthesis driver: PI gains for the spec's plant family (or its measured responses), the
     gain schedule when asked, and the admittance stage when the spec has one. ``design.views.json.
     design_to_dict`` turns the outcome into the ``gantry synth --json`` contract."""
-    spec = problem.spec
+    spec, loop = problem.spec, problem.loop
     if spec.plant.measured:
         from design.synth.measured import synthesise_from_data
 
-        return DesignOutcome(problem, measured=synthesise_from_data(spec, base_dir=problem.spec_dir))
+        return DesignOutcome(problem, measured=synthesise_from_data(loop, measured_plants(problem)))
     from design.synth.pi import synthesise_pi
 
-    result = synthesise_pi(spec, method=method)
+    result = synthesise_pi(loop, method=method)
     optimal = result.status == "optimal"
     points = None
     if schedule and optimal:
         from design.synth.schedule import gain_schedule
 
-        points = tuple(gain_schedule(spec, result.evaluation.kp, result.evaluation.ki))
-    if spec.admittance is None:
+        points = tuple(gain_schedule(loop, result.evaluation.kp, result.evaluation.ki))
+    if loop.admittance is None:
         return DesignOutcome(problem, synthesis=result, schedule=points)
-    kp = result.evaluation.kp if optimal else spec.controller.kp.value
-    ki = result.evaluation.ki if optimal else spec.controller.ki.value
+    kp = result.evaluation.kp if optimal else loop.controller.kp.value
+    ki = result.evaluation.ki if optimal else loop.controller.ki.value
     if kp is None or ki is None:
         return DesignOutcome(problem, synthesis=result, schedule=points, admittance_skipped=True)
     from design.admittance.synthesis import synthesise_admittance
 
     return DesignOutcome(problem, synthesis=result, schedule=points,
-                         admittance=synthesise_admittance(spec, kp=kp, ki=ki))
+                         admittance=synthesise_admittance(loop, kp=kp, ki=ki))
+
+
+def measured_plants(problem: DesignProblem):
+    """The spec's ``[[plant.measured]]`` recordings as ``MeasuredPlants`` (relative paths from the spec's folder)."""
+    from design.synth.measured import MeasuredPlants
+
+    entries = problem.spec.plant.measured
+    paths = [Path(e.file) if Path(e.file).is_absolute() else problem.spec_dir / e.file for e in entries]
+    return MeasuredPlants.from_responses([e.payload_kg for e in entries],
+                                         [measure(p, columns=e.columns) for p, e in zip(paths, entries)])
+
+
+def report_content(problem: DesignProblem, *, outcome: DesignOutcome | None = None, synthesise: bool = True,
+                   data=(), samples: int | None = None, seed: int = 0, command: str = "") -> ReportContent:
+    """Everything ``design.views.report.design_report`` draws: the gains (of ``outcome``, or synthesised
+    when ``synthesise`` and the plant has a phase-limiting effect, else the spec's controller values)
+    evaluated on the dense payloads beside the thesis gains, the loop's curves, a Monte Carlo sweep over
+    the spec's uncertainty (``samples``; default 200 when it has ranges), and the diagnoses of ``data``."""
+    from design.loop.curves import loop_curves
+    from design.synth.pi import PHASE_LIMITING, THESIS_GAINS, evaluate
+
+    loop = problem.loop
+    if samples is None:
+        samples = 200 if loop.plant.uncertainty else 0
+    elif samples and not loop.plant.uncertainty:     # before any long computation
+        raise SpecError(f"{problem.spec_path}: plant.uncertainty: no parameter ranges to sample; add some or drop "
+                        "--samples")
+    if outcome is None and synthesise and any(e in PHASE_LIMITING for e in loop.plant.effects):
+        outcome = design(problem)
+    kp, ki, source = loop.controller.kp.value, loop.controller.ki.value, "from the spec's controller values"
+    if outcome is not None and outcome.gains is not None:
+        (kp, ki), source = outcome.gains, "synthesised" + (", independently verified" if outcome.verified
+                                                           else ", NOT verified")
+    elif outcome is not None:
+        source += f" (synthesis {outcome.status}: {outcome.message})"
+    if kp is None or ki is None:
+        raise SpecError(f"{problem.spec_path}: no gains to report: synthesis did not succeed and "
+                        "controller.kp.value / controller.ki.value are not set")
+    ev = evaluate(loop, kp, ki)
+    mc = None
+    if samples:
+        from design.loop.sweep import monte_carlo_sweep
+
+        mc = monte_carlo_sweep(loop, payload_kg=ev.payload_kg, samples=samples, seed=seed, kp=kp, ki=ki)
+    adm_curves = None
+    if outcome is not None and outcome.admittance is not None and outcome.admittance.status == "optimal":
+        from design.admittance.curves import admittance_curves
+
+        a = outcome.admittance
+        adm_curves = admittance_curves(loop, kp=a.kp, ki=a.ki, m_v=a.m_v, b_v=a.b_v)
+    recordings = []
+    for path in data:
+        from plant.diagnosis import diagnose
+
+        measured = measure(path)
+        recordings.append(Recording(Path(path), measured, diagnose(loop.plant.plant(), measured)))
+    return ReportContent(problem, kp, ki, source, ev, evaluate(loop, *THESIS_GAINS), loop_curves(loop, kp, ki), mc,
+                         seed, outcome, adm_curves, tuple(recordings), command)
 
 
 def measure(path: str | Path, *, columns: str | None = None, sample_rate_hz: float | None = None,
             frf: str = "auto") -> MeasuredResponse:
     """The frequency response of any recording: a stepped sine by the lock-in, a time-domain recording
     by ``plant.frf_estimation.estimate_frf`` (``frf``: auto, periodic, lpm or closed-loop)."""
+    from plant.frf_estimation import estimate_frf
     from plant.lockin import estimate_response
     from plant.recording_io import parse_column_map
     from plant.time_recording import TimeRecording
@@ -170,7 +243,7 @@ def simulation_plant(*, spec: Path | None, stage: str | None, values: dict[str, 
 def fit_recording(path: str | Path, *, stage: str, effects: tuple[str, ...] = (), free: tuple[str, ...] | None = None,
                   values: dict[str, float] | None = None, load_position_m: float | None = None,
                   columns: str | None = None, sample_rate_hz: float | None = None, frf: str | None = None,
-                  band: dict | None = None, method: str = "inverse-model", prep: Preprocessing = Preprocessing(),
+                  band: dict | None = None, method: str = "inverse-model", prep: Preprocessing | None = None,
                   rational: str | None = None, rational_weighting: str = "inverse_sigma") -> FitOutcome:
     """Fit a plant with ``effects`` to any recording: a stepped sine (lock-in, then maximum likelihood), a
     time-domain recording by the inverse model or output error (``method``), or its frequency response
@@ -178,6 +251,8 @@ def fit_recording(path: str | Path, *, stage: str, effects: tuple[str, ...] = ()
     a tfest-like rational fit of the frequency response."""
     from plant.effects import make_effect
     from plant.fitting import fit_plant
+    from plant.frf_estimation import estimate_frf
+    from plant.inverse_model import Preprocessing
     from plant.lockin import estimate_response
     from plant.models import Plant
     from plant.recording_io import parse_column_map
@@ -185,6 +260,7 @@ def fit_recording(path: str | Path, *, stage: str, effects: tuple[str, ...] = ()
     from plant.time_recording import TimeRecording
     from plant.time_recording_io import read_measurement
 
+    prep = prep or Preprocessing()
     if stage not in ("x", "y"):
         raise ParameterError(f"--stage must be x or y, got {stage!r}")
     fx = tuple(make_effect(n) for n in effects)
@@ -230,11 +306,13 @@ def diagnose_recording(path: str | Path, *, stage: str, candidates: tuple[str, .
                        motor_length_m: float | None = None, columns: str | None = None,
                        sample_rate_hz: float | None = None, amplitude_files: tuple[Path, ...] = (),
                        fit_force_constant: bool = False, frf: str | None = None, band: dict | None = None,
-                       prep: Preprocessing = Preprocessing()) -> DiagnosisOutcome:
+                       prep: Preprocessing | None = None) -> DiagnosisOutcome:
     """Start from the thesis model and find what the recording needs: a stepped sine (or a time-domain
     recording's frequency response, ``frf``) by the frequency-domain diagnosis with recordings at
     other amplitudes as evidence of nonlinearity; a time-domain recording by its force balance."""
     from plant.diagnosis import diagnose
+    from plant.frf_estimation import estimate_frf
+    from plant.inverse_model import Preprocessing
     from plant.lockin import amplitude_dependence, estimate_response
     from plant.models import Plant
     from plant.recording_io import parse_column_map
@@ -242,6 +320,7 @@ def diagnose_recording(path: str | Path, *, stage: str, candidates: tuple[str, .
     from plant.time_recording import TimeRecording
     from plant.time_recording_io import read_measurement
 
+    prep = prep or Preprocessing()
     if stage not in ("x", "y"):
         raise ParameterError(f"--stage must be x or y, got {stage!r}")
     unknown = [e for e in candidates or () if e not in EFFECTS]

@@ -21,7 +21,7 @@ ROOT = Path(__file__).resolve().parents[1]
 out = Path(sys.argv[1]) if len(sys.argv) > 1 else Path("out")
 out.mkdir(parents=True, exist_ok=True)
 
-specs = {stage: load_spec(ROOT / "specs" / f"thesis_stage_{stage}.toml") for stage in ("x", "y")}
+specs = {stage: load_spec(ROOT / "specs" / f"thesis_stage_{stage}.toml").problem() for stage in ("x", "y")}
 for row in table_3_1(specs):
     print(f"{row.stage.upper()} {row.quantity:24s} thesis {row.thesis:7.2f}  computed {row.computed:7.2f} "
           f"{row.unit:4s} ({100 * row.relative_difference:+.1f} %)")

@@ -119,6 +119,34 @@ def samples_per_period(period_s: float, sample_rate_hz: float) -> int:
     return int(whole)
 
 
+def periods_for(*, period_s: float, sample_rate_hz: float, duration_s: float | None = None,
+                periods: int | None = None) -> int:
+    """Number of periods for a total machine time ``duration_s`` (a whole number of periods; default the
+    thesis stepped sine's 50 x 5 s) or given directly; at least 2 (the first is dropped as the transient)
+    and at most ``MAX_SAMPLES`` samples in all."""
+    n_period = samples_per_period(_finite_positive("period_s", period_s),
+                                  _finite_positive("sample_rate_hz", sample_rate_hz))
+    if duration_s is not None and periods is not None:
+        raise ParameterError("give duration_s or periods, not both")
+    if periods is None:
+        duration = THESIS_FREQUENCIES * THESIS_BLOCK_S if duration_s is None else _finite_positive("duration_s",
+                                                                                                  duration_s)
+        if duration * sample_rate_hz > MAX_SAMPLES:
+            raise ParameterError(f"duration_s {duration:g} s at {sample_rate_hz:g} Hz is "
+                                 f"{duration * sample_rate_hz:.3g} samples, more than {MAX_SAMPLES:.3g}")
+        periods = round(duration / period_s)
+        if abs(periods * period_s - duration) > 1e-9 * duration:
+            raise ParameterError(f"duration_s {duration:g} s is not a whole number of periods of period_s "
+                                 f"{period_s:g} s")
+    elif periods * n_period > MAX_SAMPLES:
+        raise ParameterError(f"periods {periods} x {n_period} samples is {periods * n_period:.3g} samples, "
+                             f"more than {MAX_SAMPLES:.3g}")
+    if periods < 2:
+        raise ParameterError(f"{periods} period(s): at least 2 are needed (the first is dropped as the transient); "
+                             "raise duration_s or periods")
+    return int(periods)
+
+
 def odd_log_lines(f_min_hz: float, f_max_hz: float, period_s: float, lines_per_decade: float | None) -> np.ndarray:
     """Odd harmonic numbers h (f = h / period_s) in [f_min_hz, f_max_hz], log-spaced.
 

@@ -96,24 +96,36 @@ def _lattice_step(v: np.ndarray) -> float | None:
     return step
 
 
-def atomic_write_text(path: str | Path, text: str) -> None:
-    """Write ``text`` to ``path`` through a temporary file and a rename (never half-written)."""
-    path = Path(path)
-    fd, tmp = tempfile.mkstemp(dir=path.parent if str(path.parent) else ".", prefix=f".{path.name}.", suffix=".tmp")
+def atomic_write_texts(files: dict[Path, str]) -> None:
+    """Write each text to its path as a set: every file goes to a temporary file first, and the renames
+    happen only when all were written, so a failure leaves none of them half-written or new."""
+    tmps: list[tuple[str, Path]] = []
+    umask = os.umask(0)
+    os.umask(umask)
     try:
-        umask = os.umask(0)
-        os.umask(umask)
-        os.chmod(tmp, 0o666 & ~umask)  # mkstemp makes 0600; give the file the usual permissions
-        with os.fdopen(fd, "w", newline="") as fh:
-            fh.write(text)
-        os.replace(tmp, path)
+        for path, text in files.items():
+            path = Path(path)
+            fd, tmp = tempfile.mkstemp(dir=path.parent if str(path.parent) else ".", prefix=f".{path.name}.",
+                                       suffix=".tmp")
+            tmps.append((tmp, path))
+            os.chmod(tmp, 0o666 & ~umask)  # mkstemp makes 0600; give the file the usual permissions
+            with os.fdopen(fd, "w", newline="") as fh:
+                fh.write(text)
+        for tmp, path in tmps:
+            os.replace(tmp, path)
     except BaseException:
-        Path(tmp).unlink(missing_ok=True)
+        for tmp, _ in tmps:
+            Path(tmp).unlink(missing_ok=True)
         raise
 
 
-def write_recording_csv(recording: Recording, path: str | Path) -> None:
-    """Write the long CSV format of ``docs/formats.md`` atomically."""
+def atomic_write_text(path: str | Path, text: str) -> None:
+    """Write ``text`` to ``path`` through a temporary file and a rename (never half-written)."""
+    atomic_write_texts({Path(path): text})
+
+
+def recording_csv_text(recording: Recording) -> str:
+    """The long CSV format of ``docs/formats.md``."""
     import io
 
     n_out = len(recording.output_names)
@@ -122,4 +134,27 @@ def write_recording_csv(recording: Recording, path: str | Path) -> None:
     for b in recording.blocks:
         cols = np.column_stack([np.full(b.time_s.shape, b.f_hz), b.time_s, b.current_a, *b.velocity_m_per_s])
         np.savetxt(buf, cols, fmt=["%.10g", "%.9f", "%.9g"] + ["%.9g"] * n_out, delimiter=",")
-    atomic_write_text(path, buf.getvalue())
+    return buf.getvalue()
+
+
+def write_recording_csv(recording: Recording, path: str | Path) -> None:
+    """Write the long CSV format of ``docs/formats.md`` atomically."""
+    atomic_write_text(path, recording_csv_text(recording))
+
+
+def write_simulation(recording: Recording, path: str | Path, *, spec: str | Path | None = None) -> Path:
+    """Write a simulated recording (CSV) and its sidecar ``FILE.json`` (tool version, spec, settings, true
+    parameters, seed) as a set; returns the sidecar's path."""
+    import json
+
+    from plant import __version__
+
+    path = Path(path)
+    sidecar = path.with_suffix(".json")
+    side = {"recording": path.name, "gantry_version": __version__, "spec": None if spec is None else str(spec),
+            "settings": recording.metadata}
+    atomic_write_texts({path: recording_csv_text(recording),
+                        sidecar: json.dumps(side, indent=2, allow_nan=False) + "\n"})
+    return sidecar
+
+

@@ -42,7 +42,7 @@ def _spec_with(**admittance):
     data = tomllib.loads(SPEC.read_text())
     for key, value in admittance.items():
         data["admittance"][key] = value
-    return parse_spec(data)
+    return parse_spec(data).problem()
 
 
 def test_ideal_velocity_loop_renders_the_virtual_admittance():
@@ -64,7 +64,7 @@ def test_mouse_impedance_closed_forms():
 
 
 def test_rendered_admittance_matches_design_loops():
-    spec = load_spec(SPEC)
+    spec = load_spec(SPEC).problem()
     loop = gantry_loop(spec, W, [35.0], kp=236.0, ki=47.0)
     ref = rendered_admittance_frd(spec.plant.plant(), W, kp=236.0, ki=47.0, m_v=1.5, b_v=3.0)
     assert np.allclose(rendered_admittance(loop, 1.5, 3.0)[0], ref, rtol=1e-12)
@@ -74,7 +74,7 @@ def test_hardware_responses_have_their_closed_forms():
     # thesis plant without electrical lags: P = K_t/(M s + b), G = 1/(M s + b)
     data = tomllib.loads(SPEC.read_text())
     data["plant"]["effects"] = {}
-    bare = parse_spec(data)
+    bare = parse_spec(data).problem()
     kt, b, M, kp, ki = 20.0, 440.0, 35.0, 236.0, 47.0
     loop = gantry_loop(bare, W, [M], kp=kp, ki=ki)
     s = 1j * W
@@ -96,7 +96,7 @@ def test_rational_interaction_loop_equals_the_grid_loop():
     # two independent paths: grid responses (K / z) and python-control polynomials (no delay: exact)
     data = tomllib.loads(SPEC.read_text())
     data["plant"]["effects"] = {"current_loop": {"bandwidth_hz": 1000.0}}
-    spec = parse_spec(data)
+    spec = parse_spec(data).problem()
     mouse = MouseModel(0.003, 0.025, 120.0, 0.3)
     loop = gantry_loop(spec, W, [20.0], kp=300.0, ki=3e4)
     L_grid = interaction_gain(loop, mouse)[0] / virtual_impedance_frd(W, 0.8, 2.0)
@@ -107,7 +107,7 @@ def test_rational_interaction_loop_equals_the_grid_loop():
 
 
 def test_ccp_and_ipopt_agree_and_keep_every_row():
-    spec = load_spec(SPEC)
+    spec = load_spec(SPEC).problem()
     a = spec.admittance
     lo, hi = np.array([a.m_v.min, a.b_v.min]), np.array([a.m_v.max, a.b_v.max])
     weights = np.array([a.locomotion.peak_acceleration_m_per_s2, a.locomotion.peak_speed_m_per_s])
@@ -130,7 +130,7 @@ def synth_out():
 
 def test_admittance_design_is_verified_and_meets_its_constraints(synth_out):
     adm = synth_out["admittance"]
-    spec = load_spec(SPEC)
+    spec = load_spec(SPEC).problem()
     a = spec.admittance
     assert adm["status"] == "optimal" and adm["verified"] and synth_out["verified"]
     assert synth_out["gains"]["m_v"] == adm["m_v"] and synth_out["gains"]["b_v"] == adm["b_v"]
@@ -158,7 +158,7 @@ def test_admittance_design_is_verified_and_meets_its_constraints(synth_out):
 def test_no_point_of_a_grid_beats_the_design(synth_out):
     # brute force (coarse): every feasible (m_v, b_v) of a 25 x 25 log grid costs at least as much
     adm = synth_out["admittance"]
-    spec = load_spec(SPEC)
+    spec = load_spec(SPEC).problem()
     a = spec.admittance
     ev = AdmittanceEvaluator(spec, np.linspace(5, 40, 8), np.geomspace(0.01, 5000, 1500), kp=adm["kp"], ki=adm["ki"])
     best = np.inf
@@ -171,7 +171,7 @@ def test_no_point_of_a_grid_beats_the_design(synth_out):
 
 
 def test_verification_rejects_an_unstable_design():
-    spec = load_spec(SPEC)
+    spec = load_spec(SPEC).problem()
     ev = AdmittanceEvaluator(spec, np.array([5.0, 40.0]), np.geomspace(0.01, 5000, 2000), kp=275.0, ki=4.46e4)
     check = ev.evaluate(0.005, 0.01)
     assert not check.meets
@@ -246,16 +246,21 @@ def test_stiffest_dynamics_off_the_circle_still_get_an_exact_design():
 def test_admittance_report_section_with_infinite_margins():
     # a tight sensor-current limit needs a virtual mass so large that the interaction loop never
     # crosses 0 dB: the margins are infinite (None in JSON) and the report says so
+    from design.admittance.curves import admittance_curves
+    from design.results import DesignOutcome
     from design.views.admittance import add_admittance_section
     from design.views.html import Report
 
     data = tomllib.loads(SPEC.read_text())
     data["admittance"]["hardware"]["max_current_per_sensor_step_a"] = 0.01
-    spec = parse_spec(data)
-    adm = admittance_to_dict(synthesise_admittance(spec, kp=275.0, ki=4.46e4), spec)
+    spec = parse_spec(data).problem()
+    result = synthesise_admittance(spec, kp=275.0, ki=4.46e4)
+    adm = admittance_to_dict(result, spec)
     assert adm["verified"] and adm["worst_phase_margin_deg"] is None
     assert adm["binding"]["constraint"] == "sensor_current"
     report = Report("t")
-    add_admittance_section(report, spec, {"admittance": adm})
+    outcome = DesignOutcome(None, admittance=result)
+    add_admittance_section(report, spec, outcome,
+                           admittance_curves(spec, kp=result.kp, ki=result.ki, m_v=result.m_v, b_v=result.b_v))
     html = report.render()
     assert "worst PM ∞°" in html and html.count("<svg") == 3

@@ -164,7 +164,7 @@ def test_cli_writes_the_excitation(tmp_path):
     (["--duration-s", "1e9"], "--duration-s"),
     (["--periods", "100000"], "--periods"),
     (["--duration-s", "12"], "--duration-s"),
-    (["--period-s", "0.00025"], "period_s"),
+    (["--period-s", "0.00025"], "--period-s"),
     (["--amplitude-a", "nan"], "--amplitude-a"),
     (["--periods", "1"], "--periods"),
     (["--phases", "chirp"], "phases"),

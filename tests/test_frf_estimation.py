@@ -416,8 +416,7 @@ def test_data_driven_design_reads_time_domain_recordings(tmp_path):
     periodic estimator and match the simulator's truth."""
     import dataclasses
 
-    from design.spec.schema import load_spec
-    from design.synth.measured import measured_plants
+    from design.workflows import load_problem, measured_plants
 
     rows = []
     for m in (20.0, 40.0):
@@ -430,7 +429,8 @@ def test_data_driven_design_reads_time_domain_recordings(tmp_path):
     spec.write_text('[plant]\nstage = "x"\npayload_kg = { min = 20.0, max = 40.0, points = 2 }\nmeasured = [\n'
                     + "\n".join(rows) + '\n]\n[controller]\nkp = { min = 0.0, max = 10000.0 }\n'
                     'ki = { min = 0.0, max = 1.0e7 }\n')
-    payload, w, G = measured_plants(load_spec(spec), base_dir=tmp_path)
+    data = measured_plants(load_problem(spec))
+    payload, w, G = data.payload_kg, data.w_rad_s, data.response
     assert list(payload) == [20.0, 40.0] and w.size == LINES.size
     for m, g in zip(payload, G):
         truth = dataclasses.replace(AXIS, mass_kg=m).response(w / (2 * np.pi))

@@ -298,10 +298,11 @@ def _repo_root():
     ([], "give exactly one of --spec FILE or --stage"),
     (["--stage", "x", "--f-hz", "1:75"], "--f-hz '1:75': write START:STOP:COUNT"),
     (["--stage", "x", "--f-hz", "5,5"], "--f-hz '5,5': a frequency is listed twice"),
-    (["--stage", "x", "--f-hz", "1:900:5"], "--f-hz: 900 Hz has fewer than 4 samples per period at --sample-rate-hz"),
-    (["--stage", "x", "--amplitude-a", "0"], "--amplitude-a must be a positive"),
+    (["--stage", "x", "--f-hz", "1:900:5"],
+     "--f-hz 900 Hz has fewer than 4 samples per period at --sample-rate-hz 2000"),
+    (["--stage", "x", "--amplitude-a", "0"], "--amplitude-a must be finite and > 0"),
     (["--stage", "x", "--noise-fraction", "0.1", "--current-noise-a", "0.01"], "either --noise-fraction"),
-    (["--stage", "x", "--duration-s", "-1"], "--duration-s must be a finite positive"),
+    (["--stage", "x", "--duration-s", "-1"], "--duration-s must be finite and > 0"),
 ])
 def test_cli_bad_input_exits_2_with_one_line(tmp_path, monkeypatch, capsys, args, message):
     # design.cli.common.main in-process (what the gantry entry point runs), to keep the test fast

@@ -121,7 +121,7 @@ def test_fast_analysis_matches_fine_grid(name, gains):
 def test_nominal_sweep_is_python_controls_margins_and_its_own_worst_case():
     """Without samples the sweep's nominal margins are python-control 0.10.2's on the thesis plant (no
     delay: a rational loop), and every distribution collapses onto the nominal value."""
-    spec = load_spec(THESIS_X)
+    spec = load_spec(THESIS_X).problem()
     masses = np.linspace(5, 40, 6)
     r = monte_carlo_sweep(spec, payload_kg=masses)
     for k, m in enumerate(masses):
@@ -138,7 +138,7 @@ def test_nominal_sweep_is_python_controls_margins_and_its_own_worst_case():
 
 
 def test_percentiles_bracket_nominal_and_worst_is_minimum(mc_spec):
-    r = monte_carlo_sweep(load_spec(mc_spec), payload_kg=np.linspace(5, 40, 8), samples=300, seed=4)
+    r = monte_carlo_sweep(load_spec(mc_spec).problem(), payload_kg=np.linspace(5, 40, 8), samples=300, seed=4)
     for d in r.distributions:
         p5, p50, p95 = d.percentiles
         nominal = getattr(r.nominal, d.name)
@@ -147,7 +147,7 @@ def test_percentiles_bracket_nominal_and_worst_is_minimum(mc_spec):
         np.testing.assert_array_equal(d.worst, d.samples.min(axis=1))
         assert np.all(d.worst <= p5)
     # the overall worst sample, recomputed independently on the default grid
-    spec = load_spec(mc_spec)
+    spec = load_spec(mc_spec).problem()
     for name, w in r.worst_case().items():
         assert w.value == getattr(r, name).samples.min()
         plant = spec.plant.plant(w.payload_kg).with_values(w.parameters)
@@ -158,7 +158,7 @@ def test_percentiles_bracket_nominal_and_worst_is_minimum(mc_spec):
 
 
 def test_samples_are_uniform_over_the_ranges(mc_spec):
-    r = monte_carlo_sweep(load_spec(mc_spec), payload_kg=[20.0], samples=4000, seed=2)
+    r = monte_carlo_sweep(load_spec(mc_spec).problem(), payload_kg=[20.0], samples=4000, seed=2)
     for name, (lo, hi) in r.uncertainty.items():
         x = r.parameter_samples[name]
         u = (x - lo) / (hi - lo)
@@ -170,8 +170,9 @@ def test_samples_are_uniform_over_the_ranges(mc_spec):
 
 def test_more_damping_uncertainty_widens_the_spread(tmp_path):
     masses = np.linspace(5, 40, 8)
-    narrow = monte_carlo_sweep(load_spec(damping_spec(tmp_path, 420.0, 460.0)), payload_kg=masses, samples=200)
-    wide = monte_carlo_sweep(load_spec(damping_spec(tmp_path, 330.0, 550.0, "wide.toml")), payload_kg=masses,
+    narrow = monte_carlo_sweep(load_spec(damping_spec(tmp_path, 420.0, 460.0)).problem(), payload_kg=masses,
+                               samples=200)
+    wide = monte_carlo_sweep(load_spec(damping_spec(tmp_path, 330.0, 550.0, "wide.toml")).problem(), payload_kg=masses,
                              samples=200)
     for q in ("closed_loop_bandwidth_hz", "phase_margin_deg"):
         spread_narrow = np.diff(getattr(narrow, q).percentiles[[0, -1]], axis=0)[0]
@@ -181,14 +182,14 @@ def test_more_damping_uncertainty_widens_the_spread(tmp_path):
 
 def test_bandwidth_falls_with_payload():
     # thesis Figure 4.31: the bandwidth decreases with payload (5-40 kg), for every sample
-    r = monte_carlo_sweep(load_spec(THESIS_X), payload_kg=np.linspace(5, 40, 36), samples=200)
+    r = monte_carlo_sweep(load_spec(THESIS_X).problem(), payload_kg=np.linspace(5, 40, 36), samples=200)
     bw = r.closed_loop_bandwidth_hz
     assert np.all(np.diff(bw.samples, axis=0) < 0)
     assert np.all(np.diff(bw.percentiles, axis=1) < 0) and np.all(np.diff(bw.worst) < 0)
 
 
 def test_seed_reproducible_and_recorded(mc_spec):
-    spec = load_spec(mc_spec)
+    spec = load_spec(mc_spec).problem()
     a = monte_carlo_sweep(spec, payload_kg=[5.0, 40.0], samples=50, seed=7)
     b = monte_carlo_sweep(spec, payload_kg=[5.0, 40.0], samples=50, seed=7)
     c = monte_carlo_sweep(spec, payload_kg=[5.0, 40.0], samples=50, seed=8)
@@ -202,7 +203,7 @@ def test_seed_reproducible_and_recorded(mc_spec):
 def test_chunks_and_progress_do_not_change_the_result(mc_spec, monkeypatch, capsys):
     import design.loop.sweep as sweep_module
 
-    spec = load_spec(mc_spec)
+    spec = load_spec(mc_spec).problem()
     calls = []
     whole = monte_carlo_sweep(spec, payload_kg=[5.0, 20.0, 40.0], samples=100, seed=1)
     monkeypatch.setattr(sweep_module, "CHUNK_PLANTS", 64)
@@ -278,7 +279,7 @@ def test_cli_csv_round_trip(mc_spec, tmp_path, monkeypatch, capsys):
     with out_csv.open() as fh:
         rows = list(csv.DictReader(fh))
     assert len(rows) == 6 == len(doc["payloads"])
-    lib = monte_carlo_sweep(load_spec(mc_spec), payload_kg=np.linspace(5, 40, 6), samples=40, seed=3)
+    lib = monte_carlo_sweep(load_spec(mc_spec).problem(), payload_kg=np.linspace(5, 40, 6), samples=40, seed=3)
     for i, (row, entry) in enumerate(zip(rows, doc["payloads"])):
         assert float(row["payload_kg"]) == entry["payload_kg"]
         assert row["seed"] == "3" and row["samples"] == "40"

@@ -35,7 +35,7 @@ def spec_with(**changes):
     data = tomllib.loads(SPEC_X.read_text())
     for section, values in changes.items():
         data[section].update(values)
-    return parse_spec(data)
+    return parse_spec(data).problem()
 
 
 @pytest.fixture(scope="module")
@@ -48,7 +48,7 @@ def synth_x():
 def test_stage_x_gains_are_verified_on_an_independent_dense_check(synth_x):
     assert synth_x["status"] == "optimal" and synth_x["verified"] is True
     kp, ki = synth_x["gains"]["kp"], synth_x["gains"]["ki"]
-    spec = load_spec(SPEC_X)
+    spec = load_spec(SPEC_X).problem()
     plant = spec.plant.plant()
     # independent check here, with python-control 0.10.2 on the Pade model, at 60 payloads 5-40 kg
     for m in np.linspace(5.0, 40.0, 60):
@@ -65,7 +65,7 @@ def test_stage_x_gains_are_verified_on_an_independent_dense_check(synth_x):
 
 
 def test_exact_refinement_improves_on_the_conservative_circles():
-    spec = load_spec(SPEC_X)
+    spec = load_spec(SPEC_X).problem()
     ccp = synthesise_pi(spec, method="ccp")
     exact = synthesise_pi(spec)
     assert ccp.status == exact.status == "optimal"
@@ -125,13 +125,13 @@ def test_data_driven_synthesis_matches_the_model_based_circle_design(tmp_path):
     assert out.returncode == 0, out.stderr
     res = json.loads(out.stdout)
     assert res["data_driven"] and res["verified"]
-    model = synthesise_pi(load_spec(SPEC_X), method="ccp")   # the same plant as a model, 8 payloads
+    model = synthesise_pi(load_spec(SPEC_X).problem(), method="ccp")   # the same plant as a model, 8 payloads
     # 3 measured payloads on 8-450 Hz vs 8 model payloads on the CCP grid: same design within 5 %
     assert res["worst_case"]["bandwidth_hz"] == pytest.approx(model.evaluation.worst_bandwidth_hz, rel=0.05)
 
 
 def test_stage_x_bandwidth_is_within_one_percent_of_brute_force(synth_x):
-    spec = load_spec(SPEC_X)
+    spec = load_spec(SPEC_X).problem()
     kp0, ki0 = synth_x["gains"]["kp"], synth_x["gains"]["ki"]
     best = synth_x["worst_case"]["bandwidth_hz"]
     dense = spec.plant.plant().with_payload(np.linspace(5.0, 40.0, 50))
@@ -181,7 +181,7 @@ def test_m_circle_is_the_bandwidth_condition():
 
 def test_casadi_plant_equals_the_plant_model():
     # the symbolic P(jw) of the exact formulation against plant.frd, with every supported effect
-    plant = load_spec(SPEC_X).plant.plant().with_payload(12.0) * Resonance(60.0, 40.0, 0.05) * Sampling(2000.0)
+    plant = load_spec(SPEC_X).problem().plant.plant(12.0) * Resonance(60.0, 40.0, 0.05) * Sampling(2000.0)
     w = np.geomspace(1, 2e4, 50)
     re, im = _casadi_frd(plant, w)
     z = np.asarray(re, float).ravel() + 1j * np.asarray(im, float).ravel()
@@ -190,7 +190,7 @@ def test_casadi_plant_equals_the_plant_model():
 
 def test_scan_marks_unstable_loops_like_python_control():
     # the Nyquist winding test of the scan against closed-loop poles (python-control 0.10.2)
-    spec = load_spec(SPEC_X)
+    spec = load_spec(SPEC_X).problem()
     plant = spec.plant.plant().with_payload(np.array([5.0]))
     scan = scan_gains(spec, plant.frd(W_OPT), n=8)
     sys5 = plant.with_payload(5.0).to_control(pade_order=10)
@@ -201,7 +201,7 @@ def test_scan_marks_unstable_loops_like_python_control():
 
 
 def test_verification_catches_bad_designs():
-    spec = load_spec(SPEC_X)
+    spec = load_spec(SPEC_X).problem()
     # stable but with too little phase margin at 5 kg (kp 40 % above the optimum's ~275)
     v = verify(spec, 390.0, 44596.0)
     assert not v.verified and v.max_pole_real_part < 0

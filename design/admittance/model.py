@@ -48,11 +48,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from design.admittance.problem import AdmittanceProblem
 from design.loop.analysis import ANALYSIS_GRID_RAD_S
 from design.loop.loops import pi_frd
 from design.loop.margins import loop_margins, unwrapped_phase_deg
-from design.spec.admittance import AdmittanceSpec
-from design.spec.schema import Spec
+from design.problem import LoopProblem
 from plant.effects import EFFECTS
 from plant.errors import SpecError
 from plant.grid import check_grid
@@ -100,20 +100,20 @@ class MouseModel:
                 f"{self.neck_stiffness_n_per_m:g} N/m, {self.neck_damping_n_s_per_m:g} N*s/m")
 
 
-def admittance_spec(spec: Spec) -> AdmittanceSpec:
+def admittance_problem(problem: LoopProblem) -> AdmittanceProblem:
     """The spec's ``[admittance]`` section; SpecError when missing or the plant is nonlinear."""
-    if spec.admittance is None:
+    if problem.admittance is None:
         raise SpecError("spec has no [admittance] section")
-    nonlinear = [n for n in spec.plant.effects if n in EFFECTS and not EFFECTS[n].linear]
+    nonlinear = [n for n in problem.plant.effects if n in EFFECTS and not EFFECTS[n].linear]
     if nonlinear:
         raise SpecError(f"plant.effects.{nonlinear[0]}: nonlinear, not supported by admittance synthesis "
                         "(design on the linear plant; check friction with gantry simulate)")
-    return spec.admittance
+    return problem.admittance
 
 
-def mouse_corners(spec: Spec) -> tuple[MouseModel, ...]:
+def mouse_corners(problem: LoopProblem) -> tuple[MouseModel, ...]:
     """Every corner of the spec's mouse ranges (up to 16)."""
-    m = admittance_spec(spec).mouse
+    m = admittance_problem(problem).mouse
     return tuple(MouseModel(*c) for c in itertools.product(
         m.head_mass_kg.corners(), m.body_mass_kg.corners(), m.neck_stiffness_n_per_m.corners(),
         m.neck_damping_n_s_per_m.corners()))
@@ -144,13 +144,13 @@ def mechanical_plant(plant: Plant) -> Plant:
     return plant.with_effects(*[e for e in plant.effects if e.place != "drive"])
 
 
-def gantry_loop(spec: Spec, w_rad_s, payload_kg, *, kp: float, ki: float) -> GantryLoop:
+def gantry_loop(problem: LoopProblem, w_rad_s, payload_kg, *, kp: float, ki: float) -> GantryLoop:
     """P, G, C, S, T of the spec's plant at ``payload_kg`` (1-D) on ``w_rad_s``."""
     w = check_grid(w_rad_s)
     m = np.atleast_1d(np.asarray(payload_kg, float))
-    plant = spec.plant.plant().with_payload(m)
+    plant = problem.plant.plant().with_payload(m)
     P = plant.frd(w)
-    G = mechanical_plant(plant).frd(w) / spec.plant.force_constant_n_per_a
+    G = mechanical_plant(plant).frd(w) / problem.plant.force_constant_n_per_a
     C = pi_frd(w, kp, ki)
     S = 1.0 / (1.0 + P * C)
     return GantryLoop(w, m, P, G, C, S, 1.0 - S)
@@ -240,11 +240,11 @@ class AdmittanceEvaluator:
     """Exact evaluation of any (m_v, b_v) for fixed PI gains: the responses that do not depend on
     (m_v, b_v) are computed once, so a search can evaluate many candidates cheaply."""
 
-    def __init__(self, spec: Spec, payload_kg, w_rad_s, *, kp: float, ki: float):
-        self.spec = spec
-        self.adm = admittance_spec(spec)
-        self.corners = mouse_corners(spec)
-        self.loop = gantry_loop(spec, with_neck_modes(w_rad_s, self.corners), payload_kg, kp=kp, ki=ki)
+    def __init__(self, problem: LoopProblem, payload_kg, w_rad_s, *, kp: float, ki: float):
+        self.problem = problem
+        self.adm = admittance_problem(problem)
+        self.corners = mouse_corners(problem)
+        self.loop = gantry_loop(problem, with_neck_modes(w_rad_s, self.corners), payload_kg, kp=kp, ki=ki)
         self.gains = np.stack([interaction_gain(self.loop, mouse) for mouse in self.corners])
 
     def evaluate(self, m_v: float, b_v: float, *, bandwidth: bool = True) -> AdmittanceCheck:

@@ -52,7 +52,7 @@ from design.admittance.model import (
     AdmittanceCheck,
     AdmittanceEvaluator,
     MouseModel,
-    admittance_spec,
+    admittance_problem,
     gantry_loop,
     interaction_gain,
     mouse_corners,
@@ -60,7 +60,7 @@ from design.admittance.model import (
     with_neck_modes,
 )
 from design.admittance.verify import AdmittanceVerification, verify_admittance
-from design.spec.schema import Spec
+from design.problem import LoopProblem
 from design.synth.pi import margin_circle
 from plant.errors import SpecError
 from plant.grid import log_grid_rad_s
@@ -114,11 +114,11 @@ class Rows:
         return Rows(self.coef[idx], self.family[idx], self.payload[idx], self.corner[idx], self.f_hz[idx])
 
 
-def build_rows(spec: Spec, payload_kg: np.ndarray, corners, *, kp: float, ki: float) -> Rows:
+def build_rows(problem: LoopProblem, payload_kg: np.ndarray, corners, *, kp: float, ki: float) -> Rows:
     """The sampled constraints at ``payload_kg`` x ``corners`` x ``W_DESIGN`` (module docstring)."""
-    adm = admittance_spec(spec)
+    adm = admittance_problem(problem)
     hw = adm.hardware
-    loop = gantry_loop(spec, with_neck_modes(W_DESIGN, corners), payload_kg, kp=kp, ki=ki)
+    loop = gantry_loop(problem, with_neck_modes(W_DESIGN, corners), payload_kg, kp=kp, ki=ki)
     w = loop.w_rad_s
     W = np.broadcast_to(w, loop.plant.shape)
     Mk = np.broadcast_to(loop.payload_kg[:, None], W.shape)
@@ -354,9 +354,9 @@ def binding_constraint(ev: AdmittanceEvaluator, check: AdmittanceCheck, lo) -> t
              "value": value, "limit": limit, "detail": detail}, active)
 
 
-def _gains(spec: Spec, kp, ki) -> tuple[float, float]:
-    kp = spec.controller.kp.value if kp is None else kp
-    ki = spec.controller.ki.value if ki is None else ki
+def _gains(problem: LoopProblem, kp, ki) -> tuple[float, float]:
+    kp = problem.controller.kp.value if kp is None else kp
+    ki = problem.controller.ki.value if ki is None else ki
     for name, v in (("kp", kp), ("ki", ki)):
         if v is None:
             raise SpecError(f"controller.{name}.value is needed for admittance synthesis (or pass {name}=...)")
@@ -365,10 +365,10 @@ def _gains(spec: Spec, kp, ki) -> tuple[float, float]:
     return float(kp), float(ki)
 
 
-def _design(spec: Spec, payloads: np.ndarray, corners, lo, hi, weights, *, kp: float, ki: float,
+def _design(problem: LoopProblem, payloads: np.ndarray, corners, lo, hi, weights, *, kp: float, ki: float,
             notes: dict) -> np.ndarray:
     """Steps 1-3 of the pipeline at ``payloads``: the best of ccp and ipopt, then the exact polish."""
-    rows = build_rows(spec, payloads, corners, kp=kp, ki=ki)
+    rows = build_rows(problem, payloads, corners, kp=kp, ki=ki)
     x_ccp, info = ccp_design(rows, hi, lo, hi, weights)
     candidates = {"ccp": x_ccp}
     candidates["ipopt from ccp"] = ipopt_design(rows, x_ccp, lo, hi, weights)
@@ -377,7 +377,7 @@ def _design(spec: Spec, payloads: np.ndarray, corners, lo, hi, weights, *, kp: f
     # neither formulation moves, and the exact polish starts from them
     best = min(feasible, key=lambda k: weights @ feasible[k]) if feasible else "upper bounds (no circle-feasible point)"
     x = feasible[best] if feasible else np.asarray(hi, float)
-    ev = AdmittanceEvaluator(spec, payloads, W_DESIGN, kp=kp, ki=ki)
+    ev = AdmittanceEvaluator(problem, payloads, W_DESIGN, kp=kp, ki=ki)
     polished, evaluations = polish(ev, x, lo) if _meets_exactly(ev, *x) else (x, 0)
     notes.update({"rows": int(len(rows.family)), **info, "best_formulation": best,
                   "circle_cost_n": {k: float(weights @ x) for k, x in feasible.items()},
@@ -385,18 +385,19 @@ def _design(spec: Spec, payloads: np.ndarray, corners, lo, hi, weights, *, kp: f
     return polished
 
 
-def synthesise_admittance(spec: Spec, *, kp: float | None = None, ki: float | None = None) -> AdmittanceResult:
+def synthesise_admittance(problem: LoopProblem, *, kp: float | None = None,
+                          ki: float | None = None) -> AdmittanceResult:
     """Choose (m_v, b_v) minimising the peak resistance m_v a_pk + b_v v_pk subject to the
     interaction-loop margins at every payload and mouse corner, the motor's peak force and the
     force-sensor-step current; PI gains default to the spec's ``controller`` values."""
     t0 = time.perf_counter()
-    adm = admittance_spec(spec)
-    kp, ki = _gains(spec, kp, ki)
-    corners = mouse_corners(spec)
+    adm = admittance_problem(problem)
+    kp, ki = _gains(problem, kp, ki)
+    corners = mouse_corners(problem)
     loc = adm.locomotion
     weights = np.array([loc.peak_acceleration_m_per_s2, loc.peak_speed_m_per_s])
     lo, hi = np.array([adm.m_v.min, adm.b_v.min]), np.array([adm.m_v.max, adm.b_v.max])
-    dense = AdmittanceEvaluator(spec, spec.plant.payload_kg.check_points(), W_DENSE, kp=kp, ki=ki)
+    dense = AdmittanceEvaluator(problem, problem.plant.payload_kg.check_points(), W_DENSE, kp=kp, ki=ki)
 
     def result(status, message, x, check, verification, binding, active, **solver):
         return AdmittanceResult(status, message, float(x[0]), float(x[1]), kp, ki,
@@ -413,11 +414,11 @@ def synthesise_admittance(spec: Spec, *, kp: float | None = None, ki: float | No
         binding = {k: worst[k] for k in ("constraint", "payload_kg", "mouse", "value", "limit", "detail")}
         return result("infeasible", msg, hi, safest, None, binding, (worst["constraint"],), rounds=0)
 
-    rng = spec.plant.payload_kg
+    rng = problem.plant.payload_kg
     payloads = np.unique(rng.grid()) if rng.max > rng.min else np.array([rng.min])
     notes: dict = {}
     for rounds in range(1, MAX_ROUNDS + 1):
-        x = _design(spec, payloads, corners, lo, hi, weights, kp=kp, ki=ki, notes=notes)
+        x = _design(problem, payloads, corners, lo, hi, weights, kp=kp, ki=ki, notes=notes)
         check = dense.evaluate(*x)
         if check.meets:
             break
@@ -440,7 +441,7 @@ def synthesise_admittance(spec: Spec, *, kp: float | None = None, ki: float | No
         if not check.meets:   # the ray ends on one bound, short of the stiffest point, which passes
             x, backed_off = np.asarray(hi, float), float("nan")
             check = safest
-    verification = verify_admittance(spec, check, kp=kp, ki=ki)
+    verification = verify_admittance(problem, check, kp=kp, ki=ki)
     binding, active = binding_constraint(dense, check, lo)
     r = peak_resistance_n(*x, peak_speed_m_per_s=loc.peak_speed_m_per_s,
                           peak_acceleration_m_per_s2=loc.peak_acceleration_m_per_s2)

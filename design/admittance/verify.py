@@ -17,11 +17,11 @@ import numpy as np
 from design.admittance.model import (
     AdmittanceCheck,
     MouseModel,
-    admittance_spec,
+    admittance_problem,
     mechanical_plant,
     mouse_corners,
 )
-from design.spec.schema import Spec
+from design.problem import LoopProblem
 from plant.models import Plant
 
 #: python-control margins may fall short of the requirement by this much (deg, dB): grid rounding
@@ -77,15 +77,15 @@ def coupled_polynomials(plant: Plant, mouse: MouseModel, *, kp: float, ki: float
     return num_l, pm(y, char_d), char_d
 
 
-def verify_admittance(spec: Spec, check: AdmittanceCheck, *, kp: float, ki: float) -> AdmittanceVerification:
+def verify_admittance(problem: LoopProblem, check: AdmittanceCheck, *, kp: float, ki: float) -> AdmittanceVerification:
     """Poles of the coupled closed loop and of D at every payload and corner of ``check``;
     python-control margins at the worst payloads of every corner; ``check``'s violations count
     as failures too."""
     import control
 
-    adm = admittance_spec(spec)
-    corners = mouse_corners(spec)
-    base = spec.plant.plant()
+    adm = admittance_problem(problem)
+    corners = mouse_corners(problem)
+    base = problem.plant.plant()
     failures = [v["detail"] for v in check.violations]
     max_cl = max_ol = -math.inf
     loops = [loop_polynomials(base.with_payload(float(mk)), kp=kp, ki=ki) for mk in check.payload_kg]

@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import math
+import re
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Annotated, Optional
 
@@ -28,6 +30,33 @@ def _version(value: bool) -> None:
 def _main(version: Annotated[bool, typer.Option("--version", callback=_version, is_eager=True,
                                                 help="Print the version and exit.")] = False) -> None:
     """Model, identify and tune the controllers of the exoskeleton H-gantry."""
+
+
+def finite_positive(param: typer.CallbackParam, value: float | None) -> float | None:
+    """Option callback: a finite number > 0 (the error names the option)."""
+    if value is not None and not (math.isfinite(value) and value > 0):
+        raise ParameterError(f"{param.opts[0]} must be finite and > 0, got {value:g}")
+    return value
+
+
+def finite_non_negative(param: typer.CallbackParam, value: float | None) -> float | None:
+    """Option callback: a finite number >= 0 (the error names the option)."""
+    if value is not None and not (math.isfinite(value) and value >= 0):
+        raise ParameterError(f"{param.opts[0]} must be a finite non-negative number, got {value:g}")
+    return value
+
+
+@contextmanager
+def options_named(*names: str, **renamed: str):
+    """Library errors name parameters (``duration_s``); re-raise them naming the options (``--duration-s``,
+    or the option given for a parameter in ``renamed``)."""
+    try:
+        yield
+    except ParameterError as exc:
+        msg = str(exc)
+        for n, option in {**{n: "--" + n.replace("_", "-") for n in names}, **renamed}.items():
+            msg = re.sub(rf"(?<![-\w]){n}\b", option, msg)
+        raise ParameterError(msg) from None
 
 
 def bundled_spec(name: str) -> Path:

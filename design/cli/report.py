@@ -28,40 +28,13 @@ def report(
     plant_from: PlantFromOption = None,
 ) -> None:
     """Write a design report: summary, plant, Bode/Nyquist/step, margins vs payload, data, reproducibility."""
-    from design.synth.pi import PHASE_LIMITING
-    from design.views.json import design_to_dict
     from design.views.report import design_report
-    from design.workflows import design, load_problem, measure
-    from plant.errors import SpecError
+    from design.workflows import load_problem, report_content
 
     problem = load_problem(spec_file, plant_from=plant_from)
-    spec = problem.spec
-    if samples is None:
-        samples = 200 if spec.plant.uncertainty else 0
-    elif samples and not spec.plant.uncertainty:     # before any long computation
-        raise SpecError(f"{spec_file}: plant.uncertainty: no parameter ranges to sample; add some or drop --samples")
-    synthesis = None
-    kp, ki, source = spec.controller.kp.value, spec.controller.ki.value, "from the spec's controller values"
-    if synthesise and any(e in PHASE_LIMITING for e in spec.plant.effects):
-        synthesis = design_to_dict(design(problem))
-        if synthesis["status"] == "optimal":
-            kp, ki = synthesis["gains"]["kp"], synthesis["gains"]["ki"]
-            source = "synthesised" + (", independently verified" if synthesis["verified"] else ", NOT verified")
-        else:
-            source += f" (synthesis {synthesis['status']}: {synthesis['message']})"
-    if kp is None or ki is None:
-        raise SpecError(f"{spec_file}: no gains to report: synthesis did not succeed and controller.kp.value / "
-                        "controller.ki.value are not set")
-    recordings = []
-    for path in data or []:
-        from plant.diagnosis import diagnose
-
-        measured = measure(path)
-        recordings.append((path, measured, diagnose(spec.plant.plant(), measured)))
-    rep = design_report(spec, spec_path=spec_file, kp=kp, ki=ki, gains_source=source, synthesis=synthesis,
-                        recordings=recordings, command="gantry " + shlex.join(sys.argv[1:]), samples=samples,
-                        seed=seed)
-    rep.write(out)
+    content = report_content(problem, synthesise=synthesise, data=data or (), samples=samples, seed=seed,
+                             command="gantry " + shlex.join(sys.argv[1:]))
+    design_report(content).write(out)
     console.print(f"report written to {out}")
     if pdf:
         from design.views.browser import html_to_pdf

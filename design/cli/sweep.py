@@ -28,20 +28,20 @@ def sweep(
 ) -> None:
     """Margins and bandwidth across payloads, with Monte Carlo over the spec's uncertainty ranges."""
     from design.loop.sweep import monte_carlo_sweep
-    from design.spec.schema import load_spec
     from design.views.console import LazyProgress, print_sweep
     from design.views.json import print_json, sweep_csv, sweep_to_dict
+    from design.workflows import load_problem
     from plant.recording import atomic_write_text
 
-    s = load_spec(spec)
+    problem = load_problem(spec).loop
     if payload is not None:
         masses = parse_payload(payload)
     else:
-        rng = s.plant.payload_kg
+        rng = problem.plant.payload_kg
         masses = rng.grid(DEFAULT_POINTS if rng.max > rng.min else 1)
     progress = LazyProgress(enabled=not as_json and sys.stderr.isatty())
     try:
-        result = monte_carlo_sweep(s, payload_kg=masses, samples=samples, seed=seed, progress=progress)
+        result = monte_carlo_sweep(problem, payload_kg=masses, samples=samples, seed=seed, progress=progress)
     except SpecError as exc:
         raise SpecError(f"{spec}: {exc}") from None
     finally:

@@ -34,13 +34,14 @@ def synth(
     from design.workflows import design, load_problem
 
     problem = load_problem(spec_file, plant_from=plant_from)
-    out = design_to_dict(design(problem, method=method, schedule=schedule))
+    outcome = design(problem, method=method, schedule=schedule)
+    out = design_to_dict(outcome)
     if report is not None and out["status"] == "optimal" and not problem.spec.plant.measured:
         from design.views.report import design_report
+        from design.workflows import report_content
 
-        design_report(problem.spec, spec_path=spec_file, kp=out["gains"]["kp"], ki=out["gains"]["ki"],
-                      gains_source="synthesised", synthesis=out,
-                      command="gantry " + shlex.join(sys.argv[1:])).write(report)
+        design_report(report_content(problem, outcome=outcome, samples=0,
+                                     command="gantry " + shlex.join(sys.argv[1:]))).write(report)
     if as_json:
         print_json(out)
     else:

@@ -21,7 +21,7 @@ from design.loop.analysis import (
     payload_sweep,
 )
 from design.loop.margins import closed_loop_bandwidth_hz
-from design.spec.schema import Spec
+from design.problem import LoopProblem
 
 #: thesis Table 3.1 and section 3.1 text (phase margins): stage -> quantity -> value
 THESIS_TABLE_3_1 = {
@@ -52,15 +52,15 @@ class TableRow:
     explanation: str
 
 
-def _explain(stage: str, quantity: str, spec: Spec, computed: float, rel: float) -> str:
+def _explain(stage: str, quantity: str, problem: LoopProblem, computed: float, rel: float) -> str:
     if abs(rel) <= TOLERANCE:
         return ""
     if quantity == "open_loop_bandwidth":
         # the thesis's bandwidth agrees with a -3 dB point measured from its own DC-gain reading
         thesis_dc = THESIS_TABLE_3_1[stage]["open_loop_dc_gain"]
         w = ANALYSIS_GRID_RAD_S
-        P = spec.plant.plant().frd(w)
-        L = P * (spec.controller.kp.value + spec.controller.ki.value / (1j * w))
+        P = problem.plant.plant().frd(w)
+        L = P * (problem.controller.kp.value + problem.controller.ki.value / (1j * w))
         alt = float(closed_loop_bandwidth_hz(w, L, dc_gain=10 ** (thesis_dc / 20)))
         return (f"{100 * rel:+.1f} %: no standard definition gives {THESIS_TABLE_3_1[stage][quantity]} Hz with the "
                 f"stated parameters (the corner b/(2 pi M) is {computed:.2f} Hz). Measuring -3 dB from the thesis's "
@@ -69,12 +69,12 @@ def _explain(stage: str, quantity: str, spec: Spec, computed: float, rel: float)
     return f"{100 * rel:+.1f} % from the thesis: the spec differs from the thesis parameters or adds effects."
 
 
-def table_3_1(specs: dict[str, Spec]) -> list[TableRow]:
-    """Computed Table 3.1 rows for the given stages' specs, beside the thesis values."""
+def table_3_1(problems: dict[str, LoopProblem]) -> list[TableRow]:
+    """Computed Table 3.1 rows for the given stages' problems, beside the thesis values."""
     rows = []
-    for stage, spec in specs.items():
-        plant = spec.plant.plant()
-        kp, ki = spec.controller.kp.value, spec.controller.ki.value
+    for stage, problem in problems.items():
+        plant = problem.plant.plant()
+        kp, ki = problem.controller.kp.value, problem.controller.ki.value
         a = analyse_loop(plant, kp, ki)
         p0 = abs(plant.frd(np.array([1e-6]))[0])
         computed = {
@@ -87,15 +87,15 @@ def table_3_1(specs: dict[str, Spec]) -> list[TableRow]:
             value = computed[quantity]
             rel = (value - thesis) / abs(thesis)
             rows.append(TableRow(quantity, stage, UNITS[quantity], thesis, value, rel, DEFINITIONS[quantity],
-                                 _explain(stage, quantity, spec, value, rel)))
+                                 _explain(stage, quantity, problem, value, rel)))
     return rows
 
 
-def sweeps(specs: dict[str, Spec], *, points: int = 36) -> list[PayloadSweep]:
+def sweeps(problems: dict[str, LoopProblem], *, points: int = 36) -> list[PayloadSweep]:
     """Payload sweep per stage over the spec's payload range (thesis Figure 4.31: 5-40 kg)."""
     out = []
-    for spec in specs.values():
-        rng = spec.plant.payload_kg
+    for problem in problems.values():
+        rng = problem.plant.payload_kg
         grid = np.linspace(rng.min, rng.max, points) if rng.max > rng.min else np.array([rng.min])
-        out.append(payload_sweep(spec.plant.plant(), spec.controller.kp.value, spec.controller.ki.value, grid))
+        out.append(payload_sweep(problem.plant.plant(), problem.controller.kp.value, problem.controller.ki.value, grid))
     return out

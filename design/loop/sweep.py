@@ -17,7 +17,7 @@ import numpy as np
 
 from design.loop.analysis import PayloadSweep, payload_sweep
 from design.loop.fast import fast_analyse_loop
-from design.spec.schema import Spec, Uncertainty
+from design.problem import LoopProblem, Uncertainty
 from plant.errors import ParameterError, SpecError
 from plant.models import Plant
 
@@ -160,17 +160,17 @@ def batch_plant(plant: Plant, payload_kg, parameters: Mapping[str, np.ndarray], 
     return plant.with_values(values)
 
 
-def monte_carlo_sweep(source: Spec | Plant, *, payload_kg=None, samples: int = 0, seed: int = 0, kp=None, ki=None,
-                      uncertainty: Mapping | None = None, percentiles=DEFAULT_PERCENTILES,
+def monte_carlo_sweep(source: LoopProblem | Plant, *, payload_kg=None, samples: int = 0, seed: int = 0, kp=None,
+                      ki=None, uncertainty: Mapping | None = None, percentiles=DEFAULT_PERCENTILES,
                       progress: Callable[[int, int], None] | None = None) -> SweepResult:
     """Sweep the velocity loop P (Kp + Ki/s) over ``payload_kg`` with ``samples`` Monte Carlo draws.
 
-    ``source`` is a ``Spec`` (plant, uncertainty, gains and payload range default to it) or a
+    ``source`` is a ``LoopProblem`` (plant, uncertainty, gains and payload range default to it) or a
     ``Plant`` (then ``payload_kg``, ``kp``, ``ki`` are required). ``uncertainty`` maps parameter
     names (``damping_n_s_per_m``, ``delay.seconds``) to ``(min, max)``; ``progress(done, total)``
     is called after each chunk of plants. Gains: ``kp`` in A per (m/s), ``ki`` in A per m.
     """
-    if isinstance(source, Spec):
+    if isinstance(source, LoopProblem):
         plant = source.plant.plant()
         uncertainty = source.plant.uncertainty if uncertainty is None else uncertainty
         payload_kg = source.plant.payload_kg.grid() if payload_kg is None else payload_kg
@@ -184,7 +184,7 @@ def monte_carlo_sweep(source: Spec | Plant, *, payload_kg=None, samples: int = 0
         if payload_kg is None or kp is None or ki is None:
             raise ParameterError("a sweep of a Plant needs payload_kg, kp and ki")
     else:
-        raise ParameterError(f"source must be a Spec or a Plant, got {type(source).__name__}")
+        raise ParameterError(f"source must be a LoopProblem or a Plant, got {type(source).__name__}")
     m = np.asarray(payload_kg, float).ravel()
     if m.size == 0 or not np.all(np.isfinite(m)) or np.any(m <= 0):
         raise ParameterError("payload_kg must be one or more finite positive masses (kg)")

@@ -26,7 +26,6 @@ import tomllib
 from pathlib import Path
 from typing import Literal
 
-import numpy as np
 from pydantic import (
     BaseModel,
     ConfigDict,
@@ -36,62 +35,26 @@ from pydantic import (
     model_validator,
 )
 
-from design.spec.admittance import AdmittanceSpec
+from design.admittance.problem import AdmittanceProblem, Mouse, Range
+from design.problem import (
+    ControllerBounds,
+    GainBounds,
+    LoopProblem,
+    PayloadRange,
+    PlantFamily,
+    Requirements,
+    Uncertainty,
+)
 from plant.effects import EFFECTS, make_effect
 from plant.errors import GantryError, SpecError
 from plant.models import Plant
 from plant.parameters import THESIS
 
+RANGE_KEYS_OF_MOUSE = tuple(k for k, f in Mouse.__dataclass_fields__.items() if f.type in (Range, "Range"))
+
 
 class _Strict(BaseModel):
     model_config = ConfigDict(extra="forbid", frozen=True)
-
-
-#: payloads of the range every design is checked at, beyond the points it was computed at
-DENSE_PAYLOADS = 50
-
-
-class PayloadRange(_Strict):
-    """Payload (moving mass M of Eq. 3.15/3.16) range in kg."""
-
-    min: float = Field(5.0, gt=0, le=1000)
-    max: float = Field(40.0, gt=0, le=1000)
-    points: int = Field(8, ge=1, le=10000)
-    nominal: float | None = Field(None, gt=0, le=1000)
-
-    @model_validator(mode="after")
-    def _ordered(self):
-        if self.max < self.min:
-            raise ValueError(f"max ({self.max}) must be >= min ({self.min})")
-        return self
-
-    @property
-    def nominal_kg(self) -> float:
-        return self.nominal if self.nominal is not None else 0.5 * (self.min + self.max)
-
-    def grid(self, points: int | None = None) -> np.ndarray:
-        return np.linspace(self.min, self.max, points or self.points)
-
-    def design_points(self) -> np.ndarray:
-        """The payloads a design is computed at: the grid, or the one payload of a fixed one."""
-        return self.grid() if self.max > self.min else np.array([self.min])
-
-    def check_points(self) -> np.ndarray:
-        """The ``DENSE_PAYLOADS`` payloads every design is checked at (one for a fixed payload)."""
-        return np.linspace(self.min, self.max, DENSE_PAYLOADS) if self.max > self.min else np.array([self.min])
-
-
-class Uncertainty(_Strict):
-    """A parameter's range for Monte Carlo sweeps (uniform between min and max)."""
-
-    min: float
-    max: float
-
-    @model_validator(mode="after")
-    def _ordered(self):
-        if self.max < self.min:
-            raise ValueError(f"max ({self.max}) must be >= min ({self.min})")
-        return self
 
 
 class MeasuredPlant(_Strict):
@@ -122,7 +85,7 @@ class PlantSpec(_Strict):
     @classmethod
     def _payload(cls, v):
         if isinstance(v, (int, float)):
-            return PayloadRange(min=v, max=v, points=1, nominal=v)
+            return PayloadRange.fixed(v)
         return v
 
     @field_validator("effects")
@@ -144,34 +107,23 @@ class PlantSpec(_Strict):
                              f"({self.motor_length_m})")
         return self
 
-    def plant(self, payload_kg=None) -> Plant:
-        """The plant at ``payload_kg`` (default: nominal); an array gives a batch."""
+    def family(self) -> PlantFamily:
+        """The plant model at the nominal payload, with the payload range and the uncertainty."""
+        nonlinear = [n for n in self.effects if not EFFECTS[n].linear]
+        if nonlinear:
+            raise SpecError(f"plant.effects.{nonlinear[0]}: designs and loop analyses need a linear plant, and "
+                            f"{nonlinear[0]} is nonlinear; design on the linear model and check the effect with "
+                            "gantry simulate")
         effects = tuple(make_effect(name, **params) for name, params in self.effects.items())
-        p = Plant(self.stage, mass_kg=self.payload_kg.nominal_kg, damping_n_s_per_m=self.damping_n_s_per_m,
-                  force_constant_n_per_a=self.force_constant_n_per_a, motor_length_m=self.motor_length_m,
-                  load_position_m=self.load_position_m, effects=effects)
-        return p if payload_kg is None else p.with_payload(payload_kg)
-
-
-class GainSpec(_Strict):
-    """A controller gain: ``value`` (used for analysis), and bounds for synthesis."""
-
-    value: float | None = Field(None, ge=0)
-    min: float = Field(0.0, ge=0)
-    max: float = Field(1.0e7, gt=0)
-
-    @model_validator(mode="after")
-    def _ordered(self):
-        if self.max < self.min:
-            raise ValueError(f"max ({self.max}) must be >= min ({self.min})")
-        if self.value is not None and not self.min <= self.value <= self.max:
-            raise ValueError(f"value ({self.value}) must lie within [min, max] = [{self.min}, {self.max}]")
-        return self
+        nominal = Plant(self.stage, mass_kg=self.payload_kg.nominal_kg, damping_n_s_per_m=self.damping_n_s_per_m,
+                        force_constant_n_per_a=self.force_constant_n_per_a, motor_length_m=self.motor_length_m,
+                        load_position_m=self.load_position_m, effects=effects)
+        return PlantFamily(nominal, self.payload_kg, dict(self.uncertainty))
 
 
 class ControllerSpec(_Strict):
-    kp: GainSpec = GainSpec(value=THESIS["kp"].value, max=1.0e4)
-    ki: GainSpec = GainSpec(value=THESIS["ki"].value)
+    kp: GainBounds = GainBounds(value=THESIS["kp"].value, max=1.0e4)
+    ki: GainBounds = GainBounds(value=THESIS["ki"].value)
 
     @field_validator("kp", "ki", mode="before")
     @classmethod
@@ -179,15 +131,6 @@ class ControllerSpec(_Strict):
         if isinstance(v, (int, float)):
             return {"value": v, "min": 0.0, "max": max(1.0e7, float(v))}
         return v
-
-
-class RequirementsSpec(_Strict):
-    phase_margin_deg: float = Field(45.0, ge=0, lt=90)
-    gain_margin_db: float = Field(6.0, ge=0, le=60)
-    disk_margin: float | None = Field(None, gt=0, lt=2)
-    peak_sensitivity: float | None = Field(None, gt=1)
-    #: optional: synthesis is infeasible when the worst-case bandwidth cannot reach this
-    min_bandwidth_hz: float | None = Field(None, gt=0, le=1e5)
 
 
 class ObjectiveSpec(_Strict):
@@ -198,9 +141,23 @@ class Spec(_Strict):
     name: str = "unnamed design"
     plant: PlantSpec
     controller: ControllerSpec = ControllerSpec()
-    requirements: RequirementsSpec = RequirementsSpec()
+    requirements: Requirements = Requirements()
     objective: ObjectiveSpec = ObjectiveSpec()
-    admittance: AdmittanceSpec | None = None
+    admittance: AdmittanceProblem | None = None
+
+    @field_validator("admittance", mode="before")
+    @classmethod
+    def _one_number_ranges(cls, v):
+        """``m_v = 2.0`` means the range [2, 2]; likewise the mouse's ranges."""
+        def expand(section: dict, keys) -> dict:
+            return {k: ({"min": x, "max": x} if k in keys and isinstance(x, (int, float)) and not isinstance(x, bool)
+                        else x) for k, x in section.items()}
+        if not isinstance(v, dict):
+            return v
+        v = expand(v, ("m_v", "b_v"))
+        if isinstance(v.get("mouse"), dict):
+            v["mouse"] = expand(v["mouse"], RANGE_KEYS_OF_MOUSE)
+        return v
 
     @model_validator(mode="after")
     def _admittance_needs_a_model(self):
@@ -209,6 +166,11 @@ class Spec(_Strict):
                              "frequency), not plant.measured; design the PI gains from the data in a spec of their "
                              "own, then give them as controller.kp.value / controller.ki.value here")
         return self
+
+    def problem(self) -> LoopProblem:
+        """The design problem the numerics solve (``design.problem``), free of the file format."""
+        return LoopProblem(self.plant.family(), ControllerBounds(self.controller.kp, self.controller.ki),
+                           self.requirements, self.admittance)
 
 
 def _key_path(loc) -> str:
@@ -222,7 +184,7 @@ def parse_spec(data: dict, *, source: str = "spec") -> Spec:
     except ValidationError as exc:
         err = exc.errors()[0]
         msg = err["msg"].removeprefix("Value error, ")
-        if err["type"] == "extra_forbidden":
+        if err["type"] in ("extra_forbidden", "unexpected_keyword_argument"):
             msg = "unknown key (check the spelling; see specs/ for the allowed keys)"
         path = _key_path(err["loc"])
         raise SpecError(f"{source}: {path}: {msg}" if path else f"{source}: {msg}") from None

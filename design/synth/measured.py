@@ -12,60 +12,103 @@ from __future__ import annotations
 
 import math
 import time
-from pathlib import Path
+from dataclasses import dataclass
 
 import numpy as np
 
 from design.loop.margins import closed_loop_bandwidth_hz, loop_margins
-from design.spec.schema import Spec
+from design.problem import LoopProblem
 from plant.errors import DataError
+from plant.frequency_response import MeasuredResponse
 
 
-def measured_plants(spec: Spec, *, base_dir: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(payload_kg, w_rad_s, G) with G shaped (n_payloads, n_freq) on the common frequencies; stepped sines by
-    the lock-in, time-domain recordings by ``plant.frf_estimation.estimate_frf`` (method chosen from the data)."""
-    from plant.frf_estimation import estimate_frf
-    from plant.lockin import estimate_response
-    from plant.recording_io import parse_column_map
-    from plant.time_recording import TimeRecording
-    from plant.time_recording_io import read_measurement
+@dataclass(frozen=True)
+class MeasuredPlants:
+    """Measured responses on their common frequencies: G (n_payloads, n_freq) in (m/s)/A."""
 
-    entries = sorted(spec.plant.measured, key=lambda e: e.payload_kg)
-    resp = []
-    for e in entries:
-        path = Path(e.file) if Path(e.file).is_absolute() else base_dir / e.file
-        rec = read_measurement(path, columns=parse_column_map(e.columns) if e.columns else None)
-        resp.append(estimate_frf(rec) if isinstance(rec, TimeRecording) else estimate_response(rec))
-    common = resp[0].f_hz
-    for r in resp[1:]:
-        common = np.intersect1d(common, r.f_hz)
-    if common.size < 5:
-        raise DataError(f"plant.measured: the recordings share {common.size} frequencies; at least 5 are needed")
-    G = np.array([r.response.mean(axis=0)[np.searchsorted(r.f_hz, common)] for r in resp])
-    return np.array([e.payload_kg for e in entries]), 2 * np.pi * common, G
+    payload_kg: np.ndarray
+    w_rad_s: np.ndarray
+    response: np.ndarray
+
+    @classmethod
+    def from_responses(cls, payload_kg, responses: list[MeasuredResponse]) -> MeasuredPlants:
+        order = np.argsort(payload_kg)
+        resp = [responses[i] for i in order]
+        common = resp[0].f_hz
+        for r in resp[1:]:
+            common = np.intersect1d(common, r.f_hz)
+        if common.size < 5:
+            raise DataError(f"plant.measured: the recordings share {common.size} frequencies; at least 5 are needed")
+        G = np.array([r.response.mean(axis=0)[np.searchsorted(r.f_hz, common)] for r in resp])
+        return cls(np.asarray(payload_kg, float)[order], 2 * np.pi * common, G)
 
 
-def _numbers(w, G, kp, ki, spec):
+@dataclass(frozen=True)
+class MeasuredDesign:
+    """PI gains designed and verified on measured responses; gains and the per-payload numbers are
+    None / empty when no gains meet the requirements in the measured band."""
+
+    status: str
+    message: str
+    kp: float | None
+    ki: float | None
+    payload_kg: np.ndarray
+    bandwidth_hz: np.ndarray
+    phase_margin_deg: np.ndarray
+    gain_margin_db: np.ndarray
+    #: the requirement with the least slack: (constraint, payload_kg, slack)
+    binding: tuple[str, float, float] | None
+    verified: bool
+    failures: tuple[str, ...]
+    seconds: float
+    lp_solves: int
+    band_hz: tuple[float, float]
+
+
+def _numbers(w, G, kp, ki, problem: LoopProblem):
     L = G * (kp + ki / (1j * w))
     m = loop_margins(w, L)
     bw = closed_loop_bandwidth_hz(w, L / (1 + L), dc_gain=1.0)
-    req = spec.requirements
+    req = problem.requirements
     gm = np.where(np.isfinite(m.gain_margin_db), m.gain_margin_db, np.inf)
     ok = bool(np.all(m.phase_margin_deg >= req.phase_margin_deg - 1e-6) and np.all(gm >= req.gain_margin_db - 1e-6)
               and np.all(np.isfinite(m.gain_crossover_hz)) and np.all(np.isfinite(bw)))
     return m, bw, ok
 
 
-def synthesise_from_data(spec: Spec, *, base_dir: Path) -> dict:
-    """Synthesis on measured responses; returns the same JSON-ready dict as ``SynthesisResult.to_dict``."""
+def _binding(payload, pm, gm, problem: LoopProblem) -> tuple[str, float, float]:
+    """The requirement with the least slack relative to the requirement, and where."""
+    req = problem.requirements
+    slack = {"phase_margin": (pm - req.phase_margin_deg, max(req.phase_margin_deg, 1.0)),
+             "gain_margin": (np.where(np.isfinite(gm), gm - req.gain_margin_db, np.inf), max(req.gain_margin_db, 1.0))}
+    name = min(slack, key=lambda k: np.min(slack[k][0]) / slack[k][1])
+    i = int(np.argmin(slack[name][0]))
+    return name, float(payload[i]), float(slack[name][0][i])
+
+
+def _independent_failures(payload, w, G, kp, ki, problem: LoopProblem) -> list[str]:
+    """python-control's margins of every measured loop, against the requirements."""
     import control
 
+    req, failures = problem.requirements, []
+    for k, p in enumerate(payload):
+        gm, pm, *_ = control.stability_margins(control.frd(G[k] * (kp + ki / (1j * w)), w))
+        if pm < req.phase_margin_deg - 0.05:
+            failures.append(f"phase margin {pm:.2f} deg at {p:g} kg (python-control, FRD)")
+        if np.isfinite(gm) and 20 * math.log10(gm) < req.gain_margin_db - 0.05:
+            failures.append(f"gain margin {20 * math.log10(gm):.2f} dB at {p:g} kg (python-control, FRD)")
+    return failures
+
+
+def synthesise_from_data(problem: LoopProblem, data: MeasuredPlants) -> MeasuredDesign:
+    """Largest bandwidth target the convex-concave procedure meets on every measured response
+    (bisection on its log), then an independent check of the design on the data."""
     from design.synth.pi import _CCP
 
-    payload, w, G = measured_plants(spec, base_dir=base_dir)
+    payload, w, G = data.payload_kg, data.w_rad_s, data.response
     t0 = time.perf_counter()
-    c = spec.controller
-    ccp = _CCP(G, w, spec)
+    c = problem.controller
+    ccp = _CCP(G, w, problem)
     lo, hi = math.log(w[0]), math.log(w[-1])
     x = np.array([max(c.kp.min, 1e-6 * c.kp.max), max(c.ki.min, 1e-6 * c.ki.max)]) / ccp.scale
     best, solves = None, 0
@@ -80,39 +123,20 @@ def synthesise_from_data(spec: Spec, *, base_dir: Path) -> dict:
         if hi - lo < 0.01:
             break
     seconds = time.perf_counter() - t0
-    base = {"solver": {"method": "ccp on measured responses (cvxpy+CLARABEL)", "seconds": seconds,
-                       "lp_solves": solves, "payload_points": payload.tolist(),
-                       "frequency_band_hz": [float(w[0] / 2 / np.pi), float(w[-1] / 2 / np.pi)]},
-            "baselines": [], "data_driven": True}
+    band = (float(w[0] / 2 / np.pi), float(w[-1] / 2 / np.pi))
+    empty = np.array([])
     if best is None:
-        return {**base, "status": "infeasible", "message": "no gains meet the requirements on the measured data "
-                "even at the lowest bandwidth target in the measured band", "gains": {"kp": None, "ki": None},
-                "worst_case": None, "per_payload": [], "binding": None, "verified": False}
+        return MeasuredDesign("infeasible", "no gains meet the requirements on the measured data even at the lowest "
+                              "bandwidth target in the measured band", None, None, payload, empty, empty, empty,
+                              None, False, (), seconds, solves, band)
     kp, ki = (best * ccp.scale).tolist()
-    m, bw, ok = _numbers(w, G, kp, ki, spec)
-    failures = []
-    for k, p in enumerate(payload):     # independent check: python-control on the measured FRD
-        L = control.frd(G[k] * (kp + ki / (1j * w)), w)
-        gm, pm, *_ = control.stability_margins(L)
-        if pm < spec.requirements.phase_margin_deg - 0.05:
-            failures.append(f"phase margin {pm:.2f} deg at {p:g} kg (python-control, FRD)")
-        if np.isfinite(gm) and 20 * math.log10(gm) < spec.requirements.gain_margin_db - 0.05:
-            failures.append(f"gain margin {20 * math.log10(gm):.2f} dB at {p:g} kg (python-control, FRD)")
+    m, bw, ok = _numbers(w, G, kp, ki, problem)
+    failures = _independent_failures(payload, w, G, kp, ki, problem)
     if not np.all(np.isfinite(m.gain_crossover_hz)):
         failures.append("a gain crossover lies outside the measured band: measure to higher frequency")
-    i = int(np.argmin(m.phase_margin_deg))
-    out = {**base, "gains": {"kp": kp, "ki": ki},
-           "worst_case": {"bandwidth_hz": float(np.min(bw)), "phase_margin_deg": float(np.min(m.phase_margin_deg)),
-                          "gain_margin_db": None if not np.all(np.isfinite(m.gain_margin_db))
-                          else float(np.min(m.gain_margin_db))},
-           "per_payload": [{"payload_kg": float(p), "bandwidth_hz": float(b), "phase_margin_deg": float(pm_),
-                            "gain_margin_db": float(g) if np.isfinite(g) else None}
-                           for p, b, pm_, g in zip(payload, bw, m.phase_margin_deg, m.gain_margin_db)],
-           "binding": {"constraint": "phase_margin", "payload_kg": float(payload[i]),
-                       "slack": float(m.phase_margin_deg[i] - spec.requirements.phase_margin_deg)},
-           "verified": ok and not failures,
-           "verification": {"tool": "python-control stability_margins on the measured FRD (open loop assumed "
-                                     "stable)", "failures": failures, "payloads": int(payload.size)}}
-    out["status"] = "optimal" if out["verified"] else "infeasible"
-    out["message"] = "verified on the data" if out["verified"] else "; ".join(failures or ["margins not met"])
-    return out
+    verified = ok and not failures
+    return MeasuredDesign("optimal" if verified else "infeasible",
+                          "verified on the data" if verified else "; ".join(failures or ["margins not met"]),
+                          kp, ki, payload, bw, m.phase_margin_deg, m.gain_margin_db,
+                          _binding(payload, m.phase_margin_deg, m.gain_margin_db, problem), verified,
+                          tuple(failures), seconds, solves, band)

@@ -43,7 +43,7 @@ import numpy as np
 
 from design.loop.fast import F_LOW_HZ, fast_analyse_loop
 from design.loop.margins import closed_loop_bandwidth_hz, loop_margins
-from design.spec.schema import Spec
+from design.problem import LoopProblem
 from design.synth.verify import Verification, verify
 from plant.algebra import CASADI, Pair
 from plant.effects import EFFECTS
@@ -110,12 +110,12 @@ class Evaluation:
     min_relative_slack: float
 
 
-def evaluate(spec: Spec, kp: float, ki: float, payload_kg=None) -> Evaluation:
+def evaluate(problem: LoopProblem, kp: float, ki: float, payload_kg=None) -> Evaluation:
     """Margins and bandwidth of (kp, ki) at every payload (default: the dense payloads)."""
-    m = spec.plant.payload_kg.check_points() if payload_kg is None else np.atleast_1d(np.asarray(payload_kg, float))
-    plant = spec.plant.plant().with_payload(m)
+    m = problem.plant.payload_kg.check_points() if payload_kg is None else np.atleast_1d(np.asarray(payload_kg, float))
+    plant = problem.plant.plant().with_payload(m)
     n = fast_analyse_loop(plant, kp, ki)
-    req = spec.requirements
+    req = problem.requirements
     # a bandwidth at the grid's lowest frequency is below the grid: unknown, counted as 0
     bw = np.where(n.closed_loop_bandwidth_hz > 1.01 * F_LOW_HZ, n.closed_loop_bandwidth_hz, 0.0)
     slack = {"phase_margin": n.phase_margin_deg - req.phase_margin_deg,
@@ -138,7 +138,7 @@ def evaluate(spec: Spec, kp: float, ki: float, payload_kg=None) -> Evaluation:
     i = int(np.argmin(slack[name]))
     active = sorted({k for k, v in slack.items() if np.min(v) / scale[k] < ACTIVE})
     binding = {"constraint": name, "payload_kg": float(m[i]), "slack": float(slack[name][i]), "active": active}
-    c = spec.controller
+    c = problem.controller
     for gain, value, bound in (("kp", kp, c.kp.max), ("ki", ki, c.ki.max)):
         if meets and value >= bound * (1 - ON_BOUND) and rel[name] > ON_BOUND:
             binding = {"constraint": f"controller.{gain}.max", "payload_kg": None, "slack": 0.0,
@@ -167,9 +167,9 @@ def disk_margin_circle(alpha: float) -> tuple[float, float]:
     return 2.0 / (1 - k**2) - 1.0, 2.0 * k / (k**2 - 1)
 
 
-def requirement_circles(spec: Spec) -> list[tuple[float, float]]:
+def requirement_circles(problem: LoopProblem) -> list[tuple[float, float]]:
     """(centre, radius) of every circle the Nyquist curve must stay outside."""
-    req = spec.requirements
+    req = problem.requirements
     circles = [margin_circle(req.phase_margin_deg, req.gain_margin_db)]
     if req.peak_sensitivity is not None:      # |1 + L| >= 1/Ms
         circles.append((-1.0, 1.0 / req.peak_sensitivity))
@@ -197,7 +197,7 @@ class Scan:
     circle_ok: np.ndarray
     #: highest grid frequency (Hz) up to which |L - 1| >= sqrt 2 at every point
     circle_bandwidth_hz: np.ndarray
-    #: least requirement slack relative to the requirement (for infeasible specs)
+    #: least requirement slack relative to the requirement (for infeasible problems)
     relative_slack: np.ndarray
     #: relative slack per requirement, each shaped (gains, payloads)
     slack: dict
@@ -225,9 +225,9 @@ class Scan:
         return [int(i) for i in idx[np.argsort(-score[idx])][:k]]
 
 
-def scan_gains(spec: Spec, P: np.ndarray, *, n: int = SCAN_POINTS) -> Scan:
+def scan_gains(problem: LoopProblem, P: np.ndarray, *, n: int = SCAN_POINTS) -> Scan:
     """Evaluate an n x n log grid of (kp, ki) on the responses ``P`` (payloads x ``W_OPT``)."""
-    c, req = spec.controller, spec.requirements
+    c, req = problem.controller, problem.requirements
     KP, KI = np.meshgrid(_gain_grid(c.kp.min, c.kp.max, n), _gain_grid(c.ki.min, c.ki.max, n), indexing="ij")
     kp, ki = KP.ravel(), KI.ravel()
     L = P[None] * (kp[:, None, None] + ki[:, None, None] / (1j * W_OPT))
@@ -248,7 +248,7 @@ def scan_gains(spec: Spec, P: np.ndarray, *, n: int = SCAN_POINTS) -> Scan:
         slack["disk_margin"] = (mg.disk_margin - req.disk_margin) / req.disk_margin
     rel = np.min(np.min(np.array(list(slack.values())), axis=0), axis=-1)
     circle_ok = rel >= 0     # outside the circles, and on the stable side of them
-    for centre, radius in requirement_circles(spec):
+    for centre, radius in requirement_circles(problem):
         circle_ok &= np.all(np.abs(L - centre) >= radius * 1.003, axis=(-2, -1))
     inside = np.abs(L - 1) < math.sqrt(2)
     inside[..., 0] = False
@@ -265,16 +265,16 @@ def scan_gains(spec: Spec, P: np.ndarray, *, n: int = SCAN_POINTS) -> Scan:
 class _CCP:
     """Tangent-half-plane LP of the circle constraints, built once with cvxpy parameters."""
 
-    def __init__(self, P: np.ndarray, w: np.ndarray, spec: Spec):
+    def __init__(self, P: np.ndarray, w: np.ndarray, problem: LoopProblem):
         import cvxpy as cp
 
-        c = spec.controller
+        c = problem.controller
         self.scale = np.array([max(c.kp.max, 1e-9), max(c.ki.max, 1e-9)])
         # L = a kp + b ki per (payload, frequency), flattened
         self.a = P.ravel()
         self.b = (P / (1j * w)).ravel()
         self.wrow = np.broadcast_to(w, P.shape).ravel()
-        self.circles = requirement_circles(spec)
+        self.circles = requirement_circles(problem)
         self.lp_solves = 0
         n = self.a.size
         nm = n * len(self.circles)
@@ -341,7 +341,7 @@ def _circle_bandwidth(P: np.ndarray, w: np.ndarray, gains: np.ndarray) -> float:
     return float(w[max(int(np.min(first)) - 1, 0)])
 
 
-def ccp_design(spec: Spec, P: np.ndarray, scan: Scan) -> CCPDesign:
+def ccp_design(problem: LoopProblem, P: np.ndarray, scan: Scan) -> CCPDesign:
     """Bisection on the bandwidth target (log scale) with the CCP as feasibility test, bracketed by
     the scan: the best circle-feasible seed is feasible at its bandwidth; the circles are
     conservative, so the ccp optimum lies below the best seed meeting the exact requirements
@@ -353,12 +353,12 @@ def ccp_design(spec: Spec, P: np.ndarray, scan: Scan) -> CCPDesign:
         # two decades below the seed's bandwidth |L| >> 1 lies far outside every circle: leave those rows out
         keep = W_OPT >= math.exp(lo) / 100
         w, P = W_OPT[keep], P[..., keep]
-        ccp = _CCP(P, w, spec)
+        ccp = _CCP(P, w, problem)
         best = np.array([scan.kp[i], scan.ki[i]]) / ccp.scale
     else:
         w = W_OPT
-        ccp = _CCP(P, w, spec)
-        c = spec.controller
+        ccp = _CCP(P, w, problem)
+        c = problem.controller
         x, t = ccp.solve(np.array([max(c.kp.min, 1e-6 * c.kp.max), max(c.ki.min, 1e-6 * c.ki.max)]) / ccp.scale,
                          W_OPT[0])
         if t < 0:
@@ -417,16 +417,16 @@ class ExactDesign:
     note: str
 
 
-def exact_design(spec: Spec, payloads: np.ndarray, kp0: float, ki0: float, *,
+def exact_design(problem: LoopProblem, payloads: np.ndarray, kp0: float, ki0: float, *,
                  high_circle: bool = False) -> ExactDesign:
     """IPOPT on the exact crossings from the start (kp0, ki0); ``high_circle`` also keeps the Nyquist curve
     outside the margin circle above twice the first crossover (see the module doc)."""
     import casadi as ca
 
-    req, c = spec.requirements, spec.controller
+    req, c = problem.requirements, problem.controller
     g = 10 ** ((req.gain_margin_db + MARGIN_HAIR) / 20)
     cos_phi = math.cos(math.radians(req.phase_margin_deg + MARGIN_HAIR))
-    base = spec.plant.plant()
+    base = problem.plant.plant()
     kps, kis = max(kp0, 1e-9 * c.kp.max, 1e-12), max(ki0, 1e-9 * c.ki.max, 1e-12)
     u = ca.SX.sym("u", 2)           # gains relative to the start
     kp, ki = u[0] * kps, u[1] * kis
@@ -469,10 +469,10 @@ def exact_design(spec: Spec, payloads: np.ndarray, kp0: float, ki0: float, *,
         # sampled circles |L - centre|^2 >= radius^2: Ms and disk margin on W_OPT; the margin circle
         # from twice the first crossover on (resonances can cross again up there: the exact crossings
         # above track only the first ones)
-        circles = [(c_, r_, W_OPT) for c_, r_ in requirement_circles(spec)[1:]]
+        circles = [(c_, r_, W_OPT) for c_, r_ in requirement_circles(problem)[1:]]
         if high_circle and starts["c"] is not None and 2 * starts["c"] < W_OPT[-1]:
             high = np.geomspace(2 * starts["c"], W_OPT[-1], max(int(100 * np.log10(W_OPT[-1] / starts["c"] / 2)), 2))
-            circles.append((*requirement_circles(spec)[0], high))
+            circles.append((*requirement_circles(problem)[0], high))
         for centre, radius, wg in circles:
             a = base.with_payload(float(m)).frd(wg) if wg is not W_OPT else P[k]
             b = a / (1j * wg)
@@ -500,25 +500,25 @@ def exact_design(spec: Spec, payloads: np.ndarray, kp0: float, ki0: float, *,
 # --- baselines -------------------------------------------------------------------------------
 
 
-def classical_rule(spec: Spec, *, phase_margin_deg: float = 60.0) -> tuple[float, float]:
+def classical_rule(problem: LoopProblem, *, phase_margin_deg: float = 60.0) -> tuple[float, float]:
     """Single-model rule at the nominal payload: crossover where the plant phase is
     -180 + PM + 5.7 deg, kp = 1/|P| there, PI zero a decade below (costing 5.7 deg)."""
     from design.loop.analysis import ANALYSIS_GRID_RAD_S
 
-    plant = spec.plant.plant()
+    plant = problem.plant.plant()
     P = plant.frd(ANALYSIS_GRID_RAD_S)
     phase = np.degrees(np.unwrap(np.angle(P)))
     target = -180.0 + phase_margin_deg + math.degrees(math.atan(0.1))
     i = int(np.argmax(phase < target)) if np.any(phase < target) else len(P) - 1
     wc = ANALYSIS_GRID_RAD_S[i]
-    kp = min(1.0 / abs(P[i]) / math.sqrt(1 + 0.01), spec.controller.kp.max)
-    return float(kp), float(min(kp * wc / 10, spec.controller.ki.max))
+    kp = min(1.0 / abs(P[i]) / math.sqrt(1 + 0.01), problem.controller.kp.max)
+    return float(kp), float(min(kp * wc / 10, problem.controller.ki.max))
 
 
-def baselines(spec: Spec) -> tuple[tuple[Evaluation, ...], tuple[str, ...]]:
-    """The thesis gains and the classical single-model rule, evaluated on the spec."""
-    kp, ki = classical_rule(spec)
-    return ((evaluate(spec, *THESIS_GAINS), evaluate(spec, kp, ki)),
+def baselines(problem: LoopProblem) -> tuple[tuple[Evaluation, ...], tuple[str, ...]]:
+    """The thesis gains and the classical single-model rule, evaluated on the problem."""
+    kp, ki = classical_rule(problem)
+    return ((evaluate(problem, *THESIS_GAINS), evaluate(problem, kp, ki)),
             ("thesis gains", "classical rule (PM 60 deg at nominal payload, PI zero a decade below crossover)"))
 
 
@@ -539,18 +539,18 @@ class SynthesisResult:
     baseline_names: tuple[str, ...] = ()
     payload_points_used: tuple[float, ...] = ()
     details: dict = field(default_factory=dict)
-    #: overrides the evaluation's binding (infeasible specs: from the scan's diagnosis)
+    #: overrides the evaluation's binding (infeasible problems: from the scan's diagnosis)
     binding: dict | None = None
 
 
-def check_supported(spec: Spec) -> None:
-    bad = [e for e in spec.plant.effects if e in UNSUPPORTED]
+def check_supported(problem: LoopProblem) -> None:
+    bad = [e for e in problem.plant.effects if e in UNSUPPORTED]
     if bad:
         raise SpecError(f"plant.effects.{bad[0]}: synthesis needs a linear plant without {', '.join(UNSUPPORTED)}; "
                         "design on the linear model and check the effect with gantry simulate")
 
 
-def unbounded_message(spec: Spec) -> str:
+def unbounded_message(problem: LoopProblem) -> str:
     return ("nothing in the plant limits the bandwidth (plant.effects has none of "
             f"{', '.join(PHASE_LIMITING)}): the loop of a first-order plant with PI control keeps more than 90 deg "
             "of phase margin and an infinite gain margin at any gain, so the optimum is at the gain bounds. Add "
@@ -558,19 +558,19 @@ def unbounded_message(spec: Spec) -> str:
             "current_loop = { bandwidth_hz = 1000.0 }.")
 
 
-def _solve(spec: Spec, payloads: np.ndarray, dense: np.ndarray, method: str,
+def _solve(problem: LoopProblem, payloads: np.ndarray, dense: np.ndarray, method: str,
            notes: dict) -> tuple[list[tuple[str, float, float]], Scan]:
     """Candidate designs (label, kp, ki) for the payload points: the best scan seeds, the ccp design and
     the exact refinements from the ccp design and the best seeds (method "ccp": the ccp design); and
     the scan."""
-    P = spec.plant.plant().with_payload(payloads).frd(W_OPT)
-    scan = scan_gains(spec, P)
+    P = problem.plant.plant().with_payload(payloads).frd(W_OPT)
+    scan = scan_gains(problem, P)
     notes["scan_designs"] = notes.get("scan_designs", 0) + scan.kp.size
     seeds = scan.best(scan.meets, scan.worst_bandwidth_hz, EXTRA_STARTS)
     if not seeds:   # nothing meets the requirements: start from the least violating gains
         seeds = scan.best(np.ones(scan.kp.size, bool), scan.relative_slack, 1)
     cands = [(f"scan seed {k + 1}", float(scan.kp[i]), float(scan.ki[i])) for k, i in enumerate(seeds)]
-    ccp = ccp_design(spec, P, scan)
+    ccp = ccp_design(problem, P, scan)
     notes["lp_solves"] = notes.get("lp_solves", 0) + ccp.lp_solves
     starts = list(cands)
     if math.isfinite(ccp.kp):
@@ -580,13 +580,13 @@ def _solve(spec: Spec, payloads: np.ndarray, dense: np.ndarray, method: str,
             cands = cands[-1:]
     if method == "ccp+exact":
         def exact(label, kp0, ki0, high):
-            ex = exact_design(spec, payloads, kp0, ki0, high_circle=high)
+            ex = exact_design(problem, payloads, kp0, ki0, high_circle=high)
             name = f"exact (casadi+IPOPT{', high-frequency circle' if high else ''}) from {label}"
             notes.setdefault("exact_starts", []).append({"design": name, "kp0": kp0, "ki0": ki0, "kp": ex.kp,
                                                          "ki": ex.ki, "ipopt": ex.note})
             if ex.success:
                 cands.append((name, ex.kp, ex.ki))
-                return evaluate(spec, ex.kp, ex.ki, dense).meets
+                return evaluate(problem, ex.kp, ex.ki, dense).meets
             return False
 
         met = [exact(*start, False) for start in starts]
@@ -595,14 +595,14 @@ def _solve(spec: Spec, payloads: np.ndarray, dense: np.ndarray, method: str,
     return cands, scan
 
 
-def synthesise_pi(spec: Spec, *, method: str = "ccp+exact", max_rounds: int = 6) -> SynthesisResult:
+def synthesise_pi(problem: LoopProblem, *, method: str = "ccp+exact", max_rounds: int = 6) -> SynthesisResult:
     """Robust PI synthesis on ``spec`` (see the module doc). Never reports an unverified design as optimal."""
-    check_supported(spec)
+    check_supported(problem)
     if method not in ("ccp", "ccp+exact"):
         raise SpecError(f"method must be 'ccp' or 'ccp+exact', got {method!r}")
-    if not any(e in PHASE_LIMITING for e in spec.plant.effects):
-        b, names = baselines(spec)
-        return SynthesisResult("unbounded", unbounded_message(spec), None, None, method, 0.0, b, names,
+    if not any(e in PHASE_LIMITING for e in problem.plant.effects):
+        b, names = baselines(problem)
+        return SynthesisResult("unbounded", unbounded_message(problem), None, None, method, 0.0, b, names,
                                details={"missing_effects": list(PHASE_LIMITING)})
     i0 = time.perf_counter()
     import casadi  # noqa: F401  (the one-off imports are timed apart from the solve)
@@ -610,15 +610,15 @@ def synthesise_pi(spec: Spec, *, method: str = "ccp+exact", max_rounds: int = 6)
 
     import_seconds = time.perf_counter() - i0
     t0, c0 = time.perf_counter(), time.process_time()
-    points = list(spec.plant.payload_kg.design_points())
-    dense = np.union1d(spec.plant.payload_kg.check_points(), points)
+    points = list(problem.plant.payload_kg.design_points())
+    dense = np.union1d(problem.plant.payload_kg.check_points(), points)
     notes: dict = {}
     rounds, best_bad, first_scan = 0, None, None
     good: list[tuple[str, Evaluation]] = []
     for rounds in range(1, max_rounds + 1):
-        cands, scan = _solve(spec, np.array(points), dense, method, notes)
+        cands, scan = _solve(problem, np.array(points), dense, method, notes)
         first_scan = first_scan or (scan, np.array(points))
-        evs = [(label, evaluate(spec, kp, ki, dense)) for label, kp, ki in cands]
+        evs = [(label, evaluate(problem, kp, ki, dense)) for label, kp, ki in cands]
         good += [(label, ev) for label, ev in evs if ev.meets]
         bad = [(label, ev) for label, ev in evs if not ev.meets]
         if bad:
@@ -641,7 +641,7 @@ def synthesise_pi(spec: Spec, *, method: str = "ccp+exact", max_rounds: int = 6)
                "solver_ccp": "cvxpy+CLARABEL",
                "solver_exact": "casadi+IPOPT" if method == "ccp+exact" else None,
                "dense_check": f"{dense.size} payloads, cubic-refined grid margins (design.loop.fast)"}
-    base, names = baselines(spec)
+    base, names = baselines(problem)
     pts = tuple(float(p) for p in points)
     if not good:
         d = first_scan[0].diagnose(first_scan[1])
@@ -654,7 +654,7 @@ def synthesise_pi(spec: Spec, *, method: str = "ccp+exact", max_rounds: int = 6)
                    f"each payload alone can meet the requirements, but no single pair of gains within the controller "
                    f"bounds meets them at every payload: the {what} at {where} binds (the least violating gains "
                    f"{short})")
-        ev = evaluate(spec, d["kp"], d["ki"], dense)
+        ev = evaluate(problem, d["kp"], d["ki"], dense)
         return SynthesisResult("infeasible", message, ev, None, method, seconds, base, names, pts,
                                {**details, "diagnosis": d},
                                binding={"constraint": d["constraint"], "payload_kg": d["payload_kg"],
@@ -663,7 +663,7 @@ def synthesise_pi(spec: Spec, *, method: str = "ccp+exact", max_rounds: int = 6)
     t1 = time.perf_counter()
     tried = []
     for label, ev in good[:3]:      # the best verified of the three best candidates
-        v = verify(spec, ev.kp, ev.ki, payload_kg=ev.payload_kg, claimed_bandwidth_hz=ev.bandwidth_hz)
+        v = verify(problem, ev.kp, ev.ki, payload_kg=ev.payload_kg, claimed_bandwidth_hz=ev.bandwidth_hz)
         tried.append({"design": label, "verified": v.verified})
         if v.verified:
             break
@@ -673,7 +673,7 @@ def synthesise_pi(spec: Spec, *, method: str = "ccp+exact", max_rounds: int = 6)
     if not v.verified:
         return SynthesisResult("infeasible", "the optimised designs failed the independent check: "
                                + "; ".join(v.failures[:3]), ev, v, method, seconds, base, names, pts, details)
-    req_bw = spec.requirements.min_bandwidth_hz
+    req_bw = problem.requirements.min_bandwidth_hz
     if req_bw is not None and ev.worst_bandwidth_hz < req_bw:
         i = int(np.argmin(ev.bandwidth_hz))
         b = ev.binding

@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from design.spec.schema import Spec
+from design.problem import LoopProblem
 from design.synth.pi import W_OPT, evaluate, exact_design, scan_gains
 from design.synth.verify import verify
 
@@ -34,22 +34,22 @@ class SchedulePoint:
     failures: tuple[str, ...]
 
 
-def gain_schedule(spec: Spec, kp: float, ki: float) -> list[SchedulePoint]:
+def gain_schedule(problem: LoopProblem, kp: float, ki: float) -> list[SchedulePoint]:
     """Per-payload optimum gains at the spec's payload points; (kp, ki) is the robust design."""
-    plant = spec.plant.plant()
+    plant = problem.plant.plant()
     out = []
-    for m in spec.plant.payload_kg.design_points():
-        robust = evaluate(spec, kp, ki, [m])
-        scan = scan_gains(spec, plant.with_payload(np.array([m])).frd(W_OPT))
+    for m in problem.plant.payload_kg.design_points():
+        robust = evaluate(problem, kp, ki, [m])
+        scan = scan_gains(problem, plant.with_payload(np.array([m])).frd(W_OPT))
         starts = [(kp, ki)] + [(scan.kp[i], scan.ki[i]) for i in scan.best(scan.meets, scan.worst_bandwidth_hz, 1)]
         best = robust
         for kp0, ki0 in starts:
-            ex = exact_design(spec, np.array([m]), float(kp0), float(ki0))
+            ex = exact_design(problem, np.array([m]), float(kp0), float(ki0))
             if ex.success:
-                ev = evaluate(spec, ex.kp, ex.ki, [m])
+                ev = evaluate(problem, ex.kp, ex.ki, [m])
                 if ev.meets and ev.worst_bandwidth_hz > best.worst_bandwidth_hz:
                     best = ev
-        v = verify(spec, best.kp, best.ki, payload_kg=[m], claimed_bandwidth_hz=best.bandwidth_hz)
+        v = verify(problem, best.kp, best.ki, payload_kg=[m], claimed_bandwidth_hz=best.bandwidth_hz)
         out.append(SchedulePoint(float(m), best.kp, best.ki, float(best.bandwidth_hz[0]),
                                  float(best.phase_margin_deg[0]), float(best.gain_margin_db[0]),
                                  float(robust.bandwidth_hz[0]), v.verified, v.failures))

@@ -19,7 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from design.spec.schema import Spec
+from design.problem import LoopProblem
 
 #: margins may fall short of the requirement by this much (deg, dB) and still pass (rounding)
 MARGIN_TOLERANCE = 0.05
@@ -51,18 +51,18 @@ class Verification:
     pade_order: int
 
 
-def verify(spec: Spec, kp: float, ki: float, *, payload_kg=None, claimed_bandwidth_hz=None,
+def verify(problem: LoopProblem, kp: float, ki: float, *, payload_kg=None, claimed_bandwidth_hz=None,
            pade_order: int = 6) -> Verification:
     """python-control check of (kp, ki) at ``payload_kg`` (default: the dense payloads of
     ``PayloadRange.check_points``); ``claimed_bandwidth_hz`` (same shape) is compared
     with ``control.bandwidth``."""
     import control
 
-    req = spec.requirements
-    payloads = spec.plant.payload_kg.check_points() if payload_kg is None else \
+    req = problem.requirements
+    payloads = problem.plant.payload_kg.check_points() if payload_kg is None else \
         np.atleast_1d(np.asarray(payload_kg, float))
     claimed = None if claimed_bandwidth_hz is None else np.atleast_1d(np.asarray(claimed_bandwidth_hz, float))
-    plant = spec.plant.plant()
+    plant = problem.plant.plant()
     C = control.tf([kp, ki], [1.0, 0.0]) if ki > 0 else control.tf([kp], [1.0])   # no s/s without integral
     failures: list[str] = []
     max_re, pms, gms, bws, errs = -math.inf, [], [], [], [0.0]

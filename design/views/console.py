@@ -10,8 +10,12 @@ from rich import box
 from rich.console import Console
 from rich.table import Table
 
+from design.loop.analysis import PayloadSweep
+from design.loop.reproduce import TableRow
 from design.results import DiagnosisOutcome, FitOutcome
 from plant.diagnosis import Diagnosis
+from plant.excitation import THESIS_BLOCK_S, Multisine, VariancePrediction
+from plant.recording import Recording
 from plant.time_diagnosis import TimeDiagnosis
 
 #: payload rows shown in the sweep's terminal table (all of them go to --csv / --json)
@@ -252,3 +256,63 @@ def print_sweep(console: Console, result) -> None:
         for w in result.worst_case().values():
             params = ", ".join(f"{k} = {v:.4g}" for k, v in w.parameters.items())
             console.print(f"  {w.name} = {_fmt(w.value, 2)} at {w.payload_kg:.2f} kg ({params})")
+
+
+def print_reproduction(console: Console, rows: list[TableRow], sweeps: list[PayloadSweep]) -> None:
+    """``gantry reproduce``: thesis Table 3.1 against the model, definitions, explanations, payload sweeps."""
+    from design.views.json import payload_sweep_rows
+
+    t = Table(title="Thesis Table 3.1 (and section 3.1 phase margins) against this model")
+    for col in ("quantity", "stage", "unit", "thesis", "computed", "rel. diff."):
+        t.add_column(col, justify="right" if col not in ("quantity", "stage") else "left")
+    for r in rows:
+        flag = "" if not r.explanation else " *"
+        t.add_row(r.quantity, r.stage.upper(), r.unit, f"{r.thesis:g}", f"{r.computed:.2f}",
+                  f"{100 * r.relative_difference:+.1f} %{flag}")
+    console.print(t)
+    console.print("Definitions:")
+    for q in dict.fromkeys(r.quantity for r in rows):
+        console.print(f"  [bold]{q}[/]: {next(r.definition for r in rows if r.quantity == q)}")
+    for r in rows:
+        if r.explanation:
+            console.print(f"  * {r.stage.upper()} {r.quantity}: {r.explanation}")
+    for s in sweeps:
+        t = Table(title=f"Stage {s.stage.upper()} payload sweep (thesis Figure 4.31)")
+        for col in ("payload kg", "plant corner Hz", "closed-loop BW Hz", "PM deg", "GM dB"):
+            t.add_column(col, justify="right")
+        for row in payload_sweep_rows(s):
+            gm = row["gain_margin_db"]
+            t.add_row(f"{row['payload_kg']:.1f}", f"{row['open_loop_corner_hz']:.2f}",
+                      f"{row['closed_loop_bandwidth_hz']:.2f}", f"{row['phase_margin_deg']:.1f}",
+                      "inf" if gm is None else f"{gm:.1f}")
+        console.print(t)
+
+
+def print_excitation(console: Console, out, ms: Multisine, pred: VariancePrediction) -> None:
+    """``gantry excite``: what was written, the lines, crest factor, and the predicted variance per second."""
+    lines = [
+        f"wrote {out}: {ms.current_a.size} samples at {ms.sample_rate_hz:g} Hz, {ms.periods} periods of "
+        f"{ms.period_s:g} s = {ms.duration_s:g} s of machine time",
+        f"lines: {ms.f_hz.size} odd harmonics of {1 / ms.period_s:g} Hz, {ms.f_hz[0]:g} to {ms.f_hz[-1]:g} Hz, "
+        f"{ms.amplitudes[0]:.4g} A each",
+        f"peak {ms.peak_a:.4g} A, RMS {ms.rms_a:.4g} A, crest factor {ms.crest_factor:.3f} ({ms.phase_method} phases)",
+        f"predicted FRF variance for {pred.noise_m_per_s:g} m/s velocity noise, mean per line x machine time:",
+        f"  multisine    {pred.multisine_variance_s:.4g} (m/s per A)^2 s  ({ms.f_hz.size} lines in "
+        f"{pred.multisine_time_s:g} s, first period dropped)",
+        f"  stepped sine {pred.stepped_variance_s:.4g} (m/s per A)^2 s  ({pred.stepped_f_hz.size} log-spaced "
+        f"frequencies, {THESIS_BLOCK_S:g} s blocks at {ms.peak_a:g} A, {pred.stepped_time_s:g} s)",
+        f"  ratio stepped / multisine: {pred.ratio:.3g} (> 1: the multisine is better per second)",
+    ]
+    console.print("\n".join(lines), markup=False, highlight=False, soft_wrap=True)
+
+
+def print_simulation(console: Console, rec: Recording, out, sidecar, *, amplitude_a: float) -> None:
+    """``gantry simulate``: one line saying what was written."""
+    md = rec.metadata
+    noise = (f"noise {100 * md['noise_fraction']:g} %" if md["noise_fraction"] is not None
+             else f"noise {np.max(md['current_noise_std_a']):g} A / {np.max(md['velocity_noise_std_m_per_s']):g} m/s")
+    f = md["f_hz"]
+    console.print(f"wrote {out}: stage {md['stage'].upper()}, effects {', '.join(md['effects']) or 'none'}, "
+                  f"{len(rec.blocks)} blocks {f[0]:g}-{f[-1]:g} Hz x {md['duration_s']:g} s at "
+                  f"{md['sample_rate_hz']:g} Hz, {amplitude_a:g} A, {noise}, seed {md['seed']} (settings in "
+                  f"{sidecar.name})", highlight=False, soft_wrap=True)

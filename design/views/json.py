@@ -8,19 +8,22 @@ import math
 
 import numpy as np
 
-from design.admittance.model import admittance_spec
+from design.admittance.model import admittance_problem
 from design.admittance.synthesis import AdmittanceResult
 from design.admittance.verify import PADE_ORDER, AdmittanceVerification
 from design.loop.analysis import PayloadSweep
 from design.loop.sweep import SweepResult
+from design.problem import LoopProblem
 from design.results import DesignOutcome, DiagnosisOutcome, FitOutcome
-from design.spec.schema import Spec
+from design.synth.measured import MeasuredDesign
 from design.synth.pi import Evaluation, SynthesisResult
 from design.synth.schedule import SchedulePoint
 from design.synth.verify import Verification
 from plant.diagnosis import ACCEPT_DELTA_BIC, Diagnosis, failing_bands
+from plant.excitation import THESIS_BLOCK_S, Multisine, VariancePrediction
 from plant.fitting import FitResult
 from plant.rational_fit import RationalFit
+from plant.recording import Recording
 from plant.time_diagnosis import TimeDiagnosis
 from plant.time_fit import TimeFitResult, bic
 
@@ -333,9 +336,9 @@ def admittance_verification_to_dict(v: AdmittanceVerification, payloads: int) ->
                     "coupled characteristic polynomial"}
 
 
-def admittance_to_dict(result: AdmittanceResult, spec: Spec) -> dict:
+def admittance_to_dict(result: AdmittanceResult, problem: LoopProblem) -> dict:
     """``admittance`` of ``gantry synth --json``."""
-    adm = admittance_spec(spec)
+    adm = admittance_problem(problem)
     c, optimal = result.check, result.status == "optimal"
     worst_pm, worst_gm = np.min(c.phase_margin_deg, axis=0), np.min(c.gain_margin_db, axis=0)
     loc, hw = adm.locomotion, adm.hardware
@@ -376,12 +379,37 @@ def admittance_to_dict(result: AdmittanceResult, spec: Spec) -> dict:
     }
 
 
+def measured_design_to_dict(d: MeasuredDesign) -> dict:
+    """A design on measured responses, in the ``gantry synth --json`` contract."""
+    out = {"solver": {"method": "ccp on measured responses (cvxpy+CLARABEL)", "seconds": d.seconds,
+                      "lp_solves": d.lp_solves, "payload_points": d.payload_kg.tolist(),
+                      "frequency_band_hz": list(d.band_hz)},
+           "baselines": [], "data_driven": True}
+    if d.kp is None:
+        return {**out, "status": d.status, "message": d.message, "gains": {"kp": None, "ki": None},
+                "worst_case": None, "per_payload": [], "binding": None, "verified": False}
+    gm_all_finite = bool(np.all(np.isfinite(d.gain_margin_db)))
+    return {**out, "gains": {"kp": d.kp, "ki": d.ki},
+            "worst_case": {"bandwidth_hz": float(np.min(d.bandwidth_hz)),
+                           "phase_margin_deg": float(np.min(d.phase_margin_deg)),
+                           "gain_margin_db": float(np.min(d.gain_margin_db)) if gm_all_finite else None},
+            "per_payload": [{"payload_kg": float(p), "bandwidth_hz": float(b), "phase_margin_deg": float(pm),
+                             "gain_margin_db": finite_or_none(g)}
+                            for p, b, pm, g in zip(d.payload_kg, d.bandwidth_hz, d.phase_margin_deg,
+                                                   d.gain_margin_db)],
+            "binding": {"constraint": d.binding[0], "payload_kg": d.binding[1], "slack": d.binding[2]},
+            "verified": d.verified,
+            "verification": {"tool": "python-control stability_margins on the measured FRD (open loop assumed "
+                                     "stable)", "failures": list(d.failures), "payloads": int(d.payload_kg.size)},
+            "status": d.status, "message": d.message}
+
+
 def design_to_dict(outcome: DesignOutcome) -> dict:
     """``gantry synth --json``: the PI stage, its schedule, the admittance stage (whose failure makes the
     whole design infeasible) and the fit the plant came from."""
     problem, spec = outcome.problem, outcome.problem.spec
     if outcome.measured is not None:
-        out = dict(outcome.measured)
+        out = measured_design_to_dict(outcome.measured)
     else:
         out = synthesis_to_dict(outcome.synthesis)
         if outcome.schedule is not None:
@@ -390,14 +418,37 @@ def design_to_dict(outcome: DesignOutcome) -> dict:
             out["admittance"] = {"status": "skipped", "message": "no PI gains (PI synthesis failed and no "
                                                                  "controller values in the spec)", "verified": False}
         elif outcome.admittance is not None:
-            adm = admittance_to_dict(outcome.admittance, spec)
-            out = {**out, "admittance": adm, "gains": {**out["gains"], "m_v": adm["m_v"], "b_v": adm["b_v"]}}
-            if adm["status"] != "optimal":
-                out = {**out, "status": "infeasible", "message": f"admittance: {adm['message']}"}
-            out["verified"] = bool(out["verified"] and adm["verified"])
+            adm = admittance_to_dict(outcome.admittance, problem.loop)
+            out = {**out, "admittance": adm, "gains": {**out["gains"], "m_v": adm["m_v"], "b_v": adm["b_v"]},
+                   "status": outcome.status, "message": outcome.message, "verified": outcome.verified}
     if problem.plant_from is not None:
         out["plant_from"] = {"file": problem.plant_from.file, "left_out": list(problem.plant_from.left_out),
                              "damping_n_s_per_m": spec.plant.damping_n_s_per_m,
                              "force_constant_n_per_a": spec.plant.force_constant_n_per_a,
                              "effects": spec.plant.effects}
     return out
+
+
+def excitation_to_dict(ms: Multisine, pred: VariancePrediction) -> dict:
+    """``gantry excite --json`` (without ``out``): the multisine and its predicted FRF variance."""
+    return {"f_hz": ms.f_hz, "harmonics": ms.harmonics, "amplitudes_a": ms.amplitudes,
+            "phases_rad": ms.phases, "phase_method": ms.phase_method, "period_s": ms.period_s,
+            "periods": ms.periods, "machine_time_s": ms.duration_s, "sample_rate_hz": ms.sample_rate_hz,
+            "samples": int(ms.current_a.size), "peak_a": ms.peak_a, "rms_a": ms.rms_a,
+            "crest_factor": ms.crest_factor, "noise_m_per_s": pred.noise_m_per_s,
+            "multisine_variance": pred.multisine_variance,
+            "multisine_variance_s": pred.multisine_variance_s,
+            "stepped": {"f_hz": pred.stepped_f_hz, "block_s": THESIS_BLOCK_S, "amplitude_a": ms.peak_a,
+                        "machine_time_s": pred.stepped_time_s, "variance": pred.stepped_variance,
+                        "variance_s": pred.stepped_variance_s},
+            "ratio": pred.ratio}
+
+
+def simulation_to_dict(rec: Recording, out, sidecar, *, amplitude_a: float, simulation_s: float) -> dict:
+    """``gantry simulate --json``: where the recording went and how it was simulated."""
+    md = rec.metadata
+    return {"out": str(out), "sidecar": str(sidecar), "stage": md["stage"], "effects": md["effects"],
+            "parameters": md["parameters"], "n_blocks": len(rec.blocks), "f_hz": md["f_hz"],
+            "current_amplitude_a": amplitude_a, "duration_s": md["duration_s"],
+            "sample_rate_hz": md["sample_rate_hz"], "noise_fraction": md["noise_fraction"], "seed": md["seed"],
+            "method": md["method"], "simulation_s": simulation_s}

@@ -1,0 +1,147 @@
+"""The design problem the numerics solve, free of any file format: a plant family (the model at a
+payload, the payload range, parameter uncertainty), the PI gain bounds, the loop requirements and
+an optional admittance stage.
+
+The records are frozen dataclasses; their ``Annotated`` bounds are what ``design.spec.schema``
+checks when it reads a spec file (pydantic validates dataclasses field by field), so the limits
+live in one place and apply to every command.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Annotated
+
+import numpy as np
+from annotated_types import Ge, Gt, Le, Lt
+
+from plant.models import Plant
+
+if TYPE_CHECKING:
+    from design.admittance.problem import AdmittanceProblem
+
+#: payloads of the range every design is checked at, beyond the points it was computed at
+DENSE_PAYLOADS = 50
+
+#: pydantic configuration of every record: a key that is not a field is an error
+FORBID = {"extra": "forbid"}
+
+
+def check_ordered(lo: float, hi: float) -> None:
+    """A range's ``max`` must not be below its ``min``."""
+    if hi < lo:
+        raise ValueError(f"max ({hi}) must be >= min ({lo})")
+
+
+@dataclass(frozen=True)
+class PayloadRange:
+    """Payload (moving mass M of Eq. 3.15/3.16) range in kg."""
+
+    __pydantic_config__ = FORBID
+    min: Annotated[float, Gt(0), Le(1000)] = 5.0
+    max: Annotated[float, Gt(0), Le(1000)] = 40.0
+    points: Annotated[int, Ge(1), Le(10000)] = 8
+    nominal: Annotated[float, Gt(0), Le(1000)] | None = None
+
+    def __post_init__(self):
+        check_ordered(self.min, self.max)
+
+    @classmethod
+    def fixed(cls, payload_kg: float) -> PayloadRange:
+        return cls(min=payload_kg, max=payload_kg, points=1, nominal=payload_kg)
+
+    @property
+    def nominal_kg(self) -> float:
+        return self.nominal if self.nominal is not None else 0.5 * (self.min + self.max)
+
+    def grid(self, points: int | None = None) -> np.ndarray:
+        return np.linspace(self.min, self.max, points or self.points)
+
+    def design_points(self) -> np.ndarray:
+        """The payloads a design is computed at: the grid, or the one payload of a fixed one."""
+        return self.grid() if self.max > self.min else np.array([self.min])
+
+    def check_points(self) -> np.ndarray:
+        """The ``DENSE_PAYLOADS`` payloads every design is checked at (one for a fixed payload)."""
+        return np.linspace(self.min, self.max, DENSE_PAYLOADS) if self.max > self.min else np.array([self.min])
+
+
+@dataclass(frozen=True)
+class Uncertainty:
+    """A parameter's range for Monte Carlo sweeps (uniform between min and max)."""
+
+    __pydantic_config__ = FORBID
+    min: float
+    max: float
+
+    def __post_init__(self):
+        check_ordered(self.min, self.max)
+
+
+@dataclass(frozen=True)
+class GainBounds:
+    """A controller gain: ``value`` (used for analysis), and bounds for synthesis."""
+
+    __pydantic_config__ = FORBID
+    value: Annotated[float, Ge(0)] | None = None
+    min: Annotated[float, Ge(0)] = 0.0
+    max: Annotated[float, Gt(0)] = 1.0e7
+
+    def __post_init__(self):
+        check_ordered(self.min, self.max)
+        if self.value is not None and not self.min <= self.value <= self.max:
+            raise ValueError(f"value ({self.value}) must lie within [min, max] = [{self.min}, {self.max}]")
+
+
+@dataclass(frozen=True)
+class ControllerBounds:
+    """PI gains kp (A per m/s) and ki (A per m)."""
+
+    kp: GainBounds
+    ki: GainBounds
+
+
+@dataclass(frozen=True)
+class Requirements:
+    """Loop requirements, checked at every payload."""
+
+    __pydantic_config__ = FORBID
+    phase_margin_deg: Annotated[float, Ge(0), Lt(90)] = 45.0
+    gain_margin_db: Annotated[float, Ge(0), Le(60)] = 6.0
+    disk_margin: Annotated[float, Gt(0), Lt(2)] | None = None
+    peak_sensitivity: Annotated[float, Gt(1)] | None = None
+    #: optional: synthesis is infeasible when the worst-case bandwidth cannot reach this
+    min_bandwidth_hz: Annotated[float, Gt(0), Le(1e5)] | None = None
+
+
+@dataclass(frozen=True)
+class PlantFamily:
+    """The plant model at its nominal payload, the payload range it spans, and parameter ranges
+    (keyed ``damping_n_s_per_m``, ``delay.seconds``…) for Monte Carlo."""
+
+    nominal: Plant
+    payload_kg: PayloadRange
+    uncertainty: dict[str, Uncertainty] = field(default_factory=dict)
+
+    @property
+    def effects(self) -> tuple[str, ...]:
+        return tuple(e.name for e in self.nominal.effects)
+
+    @property
+    def force_constant_n_per_a(self) -> float:
+        return self.nominal.force_constant_n_per_a
+
+    def plant(self, payload_kg=None) -> Plant:
+        """The plant at ``payload_kg`` (default: nominal); an array gives a batch."""
+        return self.nominal if payload_kg is None else self.nominal.with_payload(payload_kg)
+
+
+@dataclass(frozen=True)
+class LoopProblem:
+    """What a velocity-loop design or analysis needs: the plant family, the gain bounds, the
+    requirements, and the admittance stage when there is one."""
+
+    plant: PlantFamily
+    controller: ControllerBounds
+    requirements: Requirements = Requirements()
+    admittance: AdmittanceProblem | None = None

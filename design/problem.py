@@ -2,6 +2,27 @@
 payload, the payload range, parameter uncertainty), the PI gain bounds, the loop requirements and
 an optional admittance stage.
 
+The admittance stage's section of a spec file, every key optional (defaults below)::
+
+    [admittance]
+    m_v = { min = 0.005, max = 100.0 }        # virtual mass bounds, kg
+    b_v = { min = 0.01, max = 500.0 }         # virtual damping bounds, N*s/m
+    phase_margin_deg = 45.0                   # interaction loop
+    gain_margin_db = 6.0
+    [admittance.mouse]                        # ranges: { min, max } or one number
+    head_mass_kg = { min = 0.002, max = 0.004 }
+    body_mass_kg = { min = 0.020, max = 0.035 }
+    neck_stiffness_n_per_m = { min = 20.0, max = 200.0 }
+    neck_damping_n_s_per_m = { min = 0.2, max = 1.0 }
+    peak_force_n = 0.3
+    [admittance.locomotion]
+    peak_speed_m_per_s = 0.5
+    peak_acceleration_m_per_s2 = 5.0
+    [admittance.hardware]
+    motor_peak_force_n = 300.0
+    force_sensor_resolution_n = 0.00625
+    max_current_per_sensor_step_a = 0.1
+
 The records are frozen dataclasses; their ``Annotated`` bounds are what ``design.spec.schema``
 checks when it reads a spec file (pydantic validates dataclasses field by field), so the limits
 live in one place and apply to every command.
@@ -10,15 +31,12 @@ live in one place and apply to every command.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Annotated
+from typing import Annotated
 
 import numpy as np
 from annotated_types import Ge, Gt, Le, Lt
 
 from plant.models import Plant
-
-if TYPE_CHECKING:
-    from design.admittance.problem import AdmittanceProblem
 
 #: payloads of the range every design is checked at, beyond the points it was computed at
 DENSE_PAYLOADS = 50
@@ -134,6 +152,75 @@ class PlantFamily:
     def plant(self, payload_kg=None) -> Plant:
         """The plant at ``payload_kg`` (default: nominal); an array gives a batch."""
         return self.nominal if payload_kg is None else self.nominal.with_payload(payload_kg)
+
+
+# --- the admittance stage: virtual dynamics 1/(m_v s + b_v), interaction-loop margins, mouse, profile,
+# hardware limits (spec section [admittance], see specs/stage_x_admittance.toml)
+
+_Positive = Annotated[float, Gt(0), Le(1e6)]
+
+
+@dataclass(frozen=True)
+class Range:
+    """A positive range; a spec file may give one number for min = max."""
+
+    __pydantic_config__ = FORBID
+    min: _Positive
+    max: _Positive
+
+    def __post_init__(self):
+        check_ordered(self.min, self.max)
+
+    def corners(self) -> tuple[float, ...]:
+        return (self.min,) if self.min == self.max else (self.min, self.max)
+
+
+@dataclass(frozen=True)
+class Mouse:
+    """The mouse at the head clamp: head mass beyond the force sensor (moves with the gantry),
+    body mass coupled to the head through the neck (stiffness, damping), and the peak force it
+    exerts on the clamp. Defaults are assumptions (see the example spec)."""
+
+    __pydantic_config__ = FORBID
+    head_mass_kg: Range = Range(min=0.002, max=0.004)
+    body_mass_kg: Range = Range(min=0.020, max=0.035)
+    neck_stiffness_n_per_m: Range = Range(min=20.0, max=200.0)
+    neck_damping_n_s_per_m: Range = Range(min=0.2, max=1.0)
+    #: peak force the mouse exerts on the head clamp, i.e. the sensed force (N)
+    peak_force_n: Annotated[float, Gt(0), Le(100)] = 0.3
+
+
+@dataclass(frozen=True)
+class Locomotion:
+    """Trapezoidal locomotion profile the mouse should be able to perform."""
+
+    __pydantic_config__ = FORBID
+    peak_speed_m_per_s: Annotated[float, Gt(0), Le(10)] = 0.5
+    peak_acceleration_m_per_s2: Annotated[float, Gt(0), Le(200)] = 5.0
+
+
+@dataclass(frozen=True)
+class Hardware:
+    __pydantic_config__ = FORBID
+    motor_peak_force_n: Annotated[float, Gt(0), Le(1e5)] = 300.0
+    #: thesis section 1.2: ATI Nano17, resolution 6.25 mN
+    force_sensor_resolution_n: Annotated[float, Gt(0), Le(10)] = 0.00625
+    #: motor current caused by a one-resolution-step change of the sensed force, at most (A)
+    max_current_per_sensor_step_a: Annotated[float, Gt(0), Le(1000)] = 0.1
+
+
+@dataclass(frozen=True)
+class AdmittanceProblem:
+    """Bounds of the virtual dynamics 1/(m_v s + b_v), interaction-loop margins, mouse, profile, hardware."""
+
+    __pydantic_config__ = FORBID
+    m_v: Range = Range(min=0.005, max=100.0)          # kg
+    b_v: Range = Range(min=0.01, max=500.0)           # N*s/m
+    phase_margin_deg: Annotated[float, Ge(0), Lt(90)] = 45.0
+    gain_margin_db: Annotated[float, Ge(0), Le(60)] = 6.0
+    mouse: Mouse = Mouse()
+    locomotion: Locomotion = Locomotion()
+    hardware: Hardware = Hardware()
 
 
 @dataclass(frozen=True)

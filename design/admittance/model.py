@@ -48,11 +48,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from design.admittance.problem import AdmittanceProblem
 from design.loop.analysis import ANALYSIS_GRID_RAD_S
 from design.loop.loops import pi_frd
 from design.loop.margins import loop_margins, unwrapped_phase_deg
-from design.problem import LoopProblem
+from design.problem import AdmittanceProblem, LoopProblem
 from plant.effects import EFFECTS
 from plant.errors import SpecError
 from plant.grid import check_grid

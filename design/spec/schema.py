@@ -35,13 +35,15 @@ from pydantic import (
     model_validator,
 )
 
-from design.admittance.problem import AdmittanceProblem, Mouse, Range
 from design.problem import (
+    AdmittanceProblem,
     ControllerBounds,
     GainBounds,
     LoopProblem,
+    Mouse,
     PayloadRange,
     PlantFamily,
+    Range,
     Requirements,
     Uncertainty,
 )

@@ -224,6 +224,16 @@ class AdmittanceProblem:
 
 
 @dataclass(frozen=True)
+class Verification:
+    """How a design is verified beyond its scenarios: ``monte_carlo_samples`` independent draws over
+    payload x the uncertainty (seeded with ``seed``)."""
+
+    __pydantic_config__ = FORBID
+    monte_carlo_samples: Annotated[int, Ge(1), Le(1_000_000)] = 10_000
+    seed: Annotated[int, Ge(0)] = 20_261_124
+
+
+@dataclass(frozen=True)
 class LoopProblem:
     """What a velocity-loop design or analysis needs: the plant family, the gain bounds, the
     requirements, and the admittance stage when there is one."""
@@ -232,3 +242,4 @@ class LoopProblem:
     controller: ControllerBounds
     requirements: Requirements = Requirements()
     admittance: AdmittanceProblem | None = None
+    verification: Verification = Verification()

@@ -14,6 +14,7 @@ if TYPE_CHECKING:
     from design.problem import LoopProblem
     from design.spec.schema import Spec
     from design.synth.measured import MeasuredDesign
+    from design.synth.monte_carlo import MonteCarloCheck
     from design.synth.pi import Evaluation, SynthesisResult
     from design.synth.schedule import SchedulePoint
     from plant.diagnosis import Diagnosis
@@ -125,6 +126,17 @@ class Recording:
 
 
 @dataclass(frozen=True)
+class DesignOnPlants:
+    """One pair of gains on the nominal plants (payload range at the nominal parameters), on the check
+    scenarios of the uncertainty, and on the Monte Carlo draws."""
+
+    name: str
+    nominal: Evaluation
+    robust: Evaluation
+    monte_carlo: MonteCarloCheck
+
+
+@dataclass(frozen=True)
 class ReportContent:
     """Everything a design report shows, computed before it is drawn: the gains on the dense payloads
     beside the thesis gains, the loop's curves, the Monte Carlo sweep, the design and admittance curves,
@@ -143,3 +155,7 @@ class ReportContent:
     admittance_curves: AdmittanceCurves | None = None
     recordings: tuple[Recording, ...] = ()
     command: str = ""
+    #: the reported gains on the Monte Carlo draws over the uncertainty (problems with uncertainty)
+    monte_carlo_check: MonteCarloCheck | None = None
+    #: the robust design beside the design for the nominal parameters alone (synthesised, uncertain problems)
+    comparison: tuple[DesignOnPlants, ...] = ()

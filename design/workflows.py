@@ -179,8 +179,35 @@ def report_content(problem: DesignProblem, *, outcome: DesignOutcome | None = No
 
         measured = measure(path)
         recordings.append(Recording(Path(path), measured, diagnose(loop.plant.plant(), measured)))
+    check, comparison = None, ()
+    if loop.plant.uncertainty:
+        check, comparison = _robustness(loop, kp, ki, outcome)
     return ReportContent(problem, kp, ki, source, ev, evaluate(loop, *THESIS_GAINS), loop_curves(loop, kp, ki), mc,
-                         seed, outcome, adm_curves, tuple(recordings), command)
+                         seed, outcome, adm_curves, tuple(recordings), command, check, comparison)
+
+
+def _robustness(loop, kp: float, ki: float, outcome: DesignOutcome | None):
+    """The reported gains on the Monte Carlo draws; and, when they were synthesised, the robust design beside
+    the design for the nominal parameters, each on the nominal plants, the check scenarios and the draws."""
+    from dataclasses import replace
+
+    from design.results import DesignOnPlants
+    from design.synth.monte_carlo import monte_carlo_check
+    from design.synth.pi import evaluate, synthesise_pi
+
+    s = outcome.synthesis if outcome is not None else None
+    robust_synthesised = s is not None and s.status == "optimal" and s.monte_carlo is not None
+    check = s.monte_carlo if robust_synthesised else monte_carlo_check(loop, kp, ki)
+    if not robust_synthesised:
+        return check, ()
+    nominal_problem = replace(loop, plant=replace(loop.plant, uncertainty={}))
+    nominal = synthesise_pi(loop, nominal=True)
+    rows = [DesignOnPlants("robust (this design)", evaluate(nominal_problem, kp, ki), s.evaluation, check)]
+    if nominal.status == "optimal":
+        n = nominal.evaluation
+        rows.append(DesignOnPlants("nominal parameters only", evaluate(nominal_problem, n.kp, n.ki),
+                                   evaluate(loop, n.kp, n.ki), monte_carlo_check(loop, n.kp, n.ki)))
+    return check, tuple(rows)
 
 
 def measure(path: str | Path, *, columns: str | None = None, sample_rate_hz: float | None = None,

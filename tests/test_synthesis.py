@@ -2,6 +2,7 @@
 the exact refinement, gain schedules, data-driven design, unbounded and infeasible explanations, bad
 specs, and an independent check that catches bad designs."""
 
+import itertools
 import json
 import math
 import subprocess
@@ -14,8 +15,9 @@ import numpy as np
 import pytest
 
 from design.loop.fast import fast_analyse_loop
-from design.spec.schema import load_spec, parse_spec
+from design.spec.schema import parse_spec
 from design.synth.pi import W_OPT, _casadi_frd, margin_circle, scan_gains, synthesise_pi
+from design.synth.scenarios import Scenarios
 from design.synth.schedule import gain_schedule
 from design.synth.verify import verify
 from design.views.json import synthesis_to_dict
@@ -30,9 +32,12 @@ def gantry(*args):
     return subprocess.run([sys.executable, "-m", "design", *map(str, args)], capture_output=True, text=True)
 
 
-def spec_with(**changes):
-    """Stage X example spec with top-level sections updated, e.g. requirements={...}."""
+def spec_with(*, uncertainty: bool = False, **changes):
+    """Stage X example spec with top-level sections updated, e.g. requirements={...}; without its
+    plant.uncertainty unless ``uncertainty`` (the nominal design problem)."""
     data = tomllib.loads(SPEC_X.read_text())
+    if not uncertainty:
+        data["plant"].pop("uncertainty")
     for section, values in changes.items():
         data[section].update(values)
     return parse_spec(data).problem()
@@ -45,27 +50,47 @@ def synth_x():
     return json.loads(out.stdout)
 
 
-def test_stage_x_gains_are_verified_on_an_independent_dense_check(synth_x):
+def test_stage_x_robust_design_holds_on_every_corner_and_on_the_monte_carlo(synth_x):
     assert synth_x["status"] == "optimal" and synth_x["verified"] is True
     kp, ki = synth_x["gains"]["kp"], synth_x["gains"]["ki"]
-    spec = load_spec(SPEC_X).problem()
+    spec = spec_with(uncertainty=True)
     plant = spec.plant.plant()
-    # independent check here, with python-control 0.10.2 on the Pade model, at 60 payloads 5-40 kg
-    for m in np.linspace(5.0, 40.0, 60):
-        L = plant.with_payload(m).to_control(pade_order=8) * control.tf([kp, ki], [1, 0])
-        gm, pm, _, _ = control.margin(L)
-        assert pm >= 45.0 - 0.05 and 20 * math.log10(gm) >= 6.0 - 0.05, (m, pm, gm)
-        assert np.all(np.real(control.poles(control.feedback(L, 1))) < 0)
-    # the design beats the thesis gains, which meet the requirements on this plant
-    thesis = next(b for b in synth_x["baselines"] if b["name"] == "thesis gains")
-    assert thesis["meets_requirements"]
-    assert synth_x["worst_case"]["bandwidth_hz"] > 2 * thesis["worst_bandwidth_hz"]
+    # independent check here, with python-control 0.10.2 on the Pade model, at 12 payloads 5-40 kg times
+    # every corner of the spec's uncertainty box (damping 330-550, delay 0.3-0.8 ms, current loop 700-1300 Hz)
+    corners = list(itertools.product((330.0, 550.0), (3e-4, 8e-4), (700.0, 1300.0)))
+    for m in np.linspace(5.0, 40.0, 12):
+        for d, tau, fc in corners:
+            p = plant.with_values({"mass_kg": m, "damping_n_s_per_m": d, "delay.seconds": tau,
+                                   "current_loop.bandwidth_hz": fc})
+            L = p.to_control(pade_order=8) * control.tf([kp, ki], [1, 0])
+            gm, pm, _, _ = control.margin(L)
+            assert pm >= 45.0 - 0.05 and 20 * math.log10(gm) >= 6.0 - 0.05, (m, d, tau, fc, pm, gm)
+            assert np.all(np.real(control.poles(control.feedback(L, 1))) < 0)
+    mc = synth_x["monte_carlo"]
+    assert mc["samples"] == 10000 and mc["violations"] == 0 and mc["unstable"] == 0
+    # Clopper-Pearson with 0 of n: 1 - 0.05^(1/n) (closed form)
+    assert mc["rate_upper_bound_95"] == pytest.approx(1 - 0.05 ** (1 / 10000), rel=1e-9)
+    assert mc["worst_phase_margin_deg"] >= 45.0 - 0.05 and mc["worst_gain_margin_db"] >= 6.0 - 0.05
+    # the worst case names the uncertain parameters where the phase margin binds
+    assert set(synth_x["binding"]["scenario"]) == {"damping_n_s_per_m", "delay.seconds", "current_loop.bandwidth_hz"}
     assert len(synth_x["per_payload"]) >= 50
     assert synth_x["solver"]["solver_ccp"] == "cvxpy+CLARABEL" and synth_x["solver"]["solver_exact"] == "casadi+IPOPT"
 
 
+def test_the_nominal_design_violates_on_the_uncertainty_the_robust_one_holds_on(synth_x):
+    from design.synth.monte_carlo import monte_carlo_check
+
+    spec = spec_with(uncertainty=True)
+    nominal = synthesise_pi(spec, nominal=True)
+    assert nominal.status == "optimal" and nominal.monte_carlo is None
+    # the nominal design is faster on the nominal plant, and it is what the robustness costs
+    assert nominal.evaluation.worst_bandwidth_hz > 1.3 * synth_x["worst_case"]["bandwidth_hz"]
+    mc = monte_carlo_check(spec, nominal.evaluation.kp, nominal.evaluation.ki, samples=4000, seed=7)
+    assert mc.rate > 0.05 and mc.worst_phase_margin_deg < 40.0
+
+
 def test_exact_refinement_improves_on_the_conservative_circles():
-    spec = load_spec(SPEC_X).problem()
+    spec = spec_with()
     ccp = synthesise_pi(spec, method="ccp")
     exact = synthesise_pi(spec)
     assert ccp.status == exact.status == "optimal"
@@ -125,15 +150,16 @@ def test_data_driven_synthesis_matches_the_model_based_circle_design(tmp_path):
     assert out.returncode == 0, out.stderr
     res = json.loads(out.stdout)
     assert res["data_driven"] and res["verified"]
-    model = synthesise_pi(load_spec(SPEC_X).problem(), method="ccp")   # the same plant as a model, 8 payloads
+    model = synthesise_pi(spec_with(), method="ccp")   # the same plant as a model, 8 payloads
     # 3 measured payloads on 8-450 Hz vs 8 model payloads on the CCP grid: same design within 5 %
     assert res["worst_case"]["bandwidth_hz"] == pytest.approx(model.evaluation.worst_bandwidth_hz, rel=0.05)
 
 
-def test_stage_x_bandwidth_is_within_one_percent_of_brute_force(synth_x):
-    spec = load_spec(SPEC_X).problem()
-    kp0, ki0 = synth_x["gains"]["kp"], synth_x["gains"]["ki"]
-    best = synth_x["worst_case"]["bandwidth_hz"]
+def test_stage_x_bandwidth_is_within_one_percent_of_brute_force():
+    spec = spec_with()
+    res = synthesis_to_dict(synthesise_pi(spec))
+    kp0, ki0 = res["gains"]["kp"], res["gains"]["ki"]
+    best = res["worst_case"]["bandwidth_hz"]
     dense = spec.plant.plant().with_payload(np.linspace(5.0, 40.0, 50))
 
     def brute(kp, ki):
@@ -151,7 +177,7 @@ def test_stage_x_bandwidth_is_within_one_percent_of_brute_force(synth_x):
     # the local grid reaches near the optimum, so the comparison is not vacuous
     assert local > 0.97 * best
     # the thesis gains meet the requirements on this plant, and the design more than doubles their bandwidth
-    thesis = next(b for b in synth_x["baselines"] if b["name"] == "thesis gains")
+    thesis = next(b for b in res["baselines"] if b["name"] == "thesis gains")
     assert thesis["meets_requirements"] and best > 2 * thesis["worst_bandwidth_hz"]
 
 
@@ -181,7 +207,7 @@ def test_m_circle_is_the_bandwidth_condition():
 
 def test_casadi_plant_equals_the_plant_model():
     # the symbolic P(jw) of the exact formulation against plant.frd, with every supported effect
-    plant = load_spec(SPEC_X).problem().plant.plant(12.0) * Resonance(60.0, 40.0, 0.05) * Sampling(2000.0)
+    plant = spec_with().plant.plant(12.0) * Resonance(60.0, 40.0, 0.05) * Sampling(2000.0)
     w = np.geomspace(1, 2e4, 50)
     re, im = _casadi_frd(plant, w)
     z = np.asarray(re, float).ravel() + 1j * np.asarray(im, float).ravel()
@@ -190,7 +216,7 @@ def test_casadi_plant_equals_the_plant_model():
 
 def test_scan_marks_unstable_loops_like_python_control():
     # the Nyquist winding test of the scan against closed-loop poles (python-control 0.10.2)
-    spec = load_spec(SPEC_X).problem()
+    spec = spec_with()
     plant = spec.plant.plant().with_payload(np.array([5.0]))
     scan = scan_gains(spec, plant.frd(W_OPT), n=8)
     sys5 = plant.with_payload(5.0).to_control(pade_order=10)
@@ -201,7 +227,7 @@ def test_scan_marks_unstable_loops_like_python_control():
 
 
 def test_verification_catches_bad_designs():
-    spec = load_spec(SPEC_X).problem()
+    spec = spec_with()
     # stable but with too little phase margin at 5 kg (kp 40 % above the optimum's ~275)
     v = verify(spec, 390.0, 44596.0)
     assert not v.verified and v.max_pole_real_part < 0
@@ -210,7 +236,7 @@ def test_verification_catches_bad_designs():
     v = verify(spec, 3000.0, 1.0e6)
     assert not v.verified and any("unstable" in f for f in v.failures)
     # a wrong bandwidth claim is caught too
-    v = verify(spec, 236.0, 47.0, payload_kg=[5.0, 40.0], claimed_bandwidth_hz=[80.0, 30.0])
+    v = verify(spec, 236.0, 47.0, Scenarios(np.array([5.0, 40.0])), claimed_worst_bandwidth_hz=30.0)
     assert not v.verified and "claimed worst-case bandwidth" in v.failures[0]
 
 

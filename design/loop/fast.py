@@ -31,6 +31,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from design.loop.loops import open_loop_frd
+from design.loop.margins import nyquist_stable
 from plant.errors import GridError
 from plant.grid import log_grid_rad_s
 
@@ -61,6 +62,8 @@ class LoopNumbers:
     gain_crossover_hz: np.ndarray
     #: where the phase of L crosses -180 deg (Hz); nan when it never does
     phase_crossover_hz: np.ndarray
+    #: closed loop stable by the Nyquist criterion on the grid (open loops without unstable poles)
+    stable: np.ndarray
 
 
 def coarse_grid_rad_s(points_per_decade: int = POINTS_PER_DECADE) -> np.ndarray:
@@ -242,4 +245,4 @@ def fast_analyse_loop(plant, kp, ki, *, points_per_decade: int = POINTS_PER_DECA
     u = c.cubic(np.log(np.abs(c.L / (1 + c.L)))).root(0.5 * np.log(dc2[rows] / 2))
     bw = np.full(n, np.nan)
     bw[rows] = c.f_hz(u)
-    return LoopNumbers(*(v.reshape(batch) for v in (bw, pm, gm, wc, wpc)))
+    return LoopNumbers(*(v.reshape(batch) for v in (bw, pm, gm, wc, wpc, nyquist_stable(L))))

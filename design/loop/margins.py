@@ -11,6 +11,7 @@ margin the one smallest in magnitude; a margin with no crossing is ``inf``.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -40,6 +41,17 @@ class Margins:
 def unwrapped_phase_deg(resp: np.ndarray) -> np.ndarray:
     """Phase in degrees unwrapped along frequency, starting in (-180, 180] at the lowest frequency."""
     return np.degrees(np.unwrap(np.angle(resp), axis=-1))
+
+
+def nyquist_stable(loop: np.ndarray) -> np.ndarray:
+    """Closed-loop stability of loops ``(..., n_freq)`` sampled on a rising grid from where an integrator
+    (or the DC gain) dominates to where |L| < 1, for open loops without right-half-plane poles (the
+    Nyquist criterion on positive frequencies): stable, the phase of 1 + L changes by -90 to +90 deg
+    over the grid; each unstable closed-loop pole takes 180 deg more away. False when |L| >= 1 at the
+    top of the grid (the winding is not complete there)."""
+    L = np.asarray(loop)
+    turn = np.unwrap(np.angle(1 + L), axis=-1)
+    return (turn[..., -1] - turn[..., 0] > -math.pi / 4) & (np.abs(L[..., -1]) < 1)
 
 
 def _per_row_min(rows: np.ndarray, key: np.ndarray, n_rows: int):

@@ -119,7 +119,7 @@ class SweepResult:
 
 
 
-def _ranges(uncertainty: Mapping, plant: Plant) -> dict[str, tuple[float, float]]:
+def checked_ranges(uncertainty: Mapping, plant: Plant) -> dict[str, tuple[float, float]]:
     """Validate ``uncertainty`` (name -> Uncertainty or (min, max)) against the plant's parameters."""
     known = plant.parameters()
     out = {}
@@ -193,7 +193,7 @@ def monte_carlo_sweep(source: LoopProblem | Plant, *, payload_kg=None, samples: 
     levels = tuple(float(q) for q in percentiles)
     if not levels or any(not 0 <= q <= 100 for q in levels):
         raise ParameterError(f"percentiles must lie in [0, 100], got {percentiles!r}")
-    ranges = _ranges(uncertainty or {}, plant)
+    ranges = checked_ranges(uncertainty or {}, plant)
     if samples and not ranges:
         raise SpecError("plant.uncertainty: no parameter ranges to sample; add some or drop --samples")
 

@@ -46,6 +46,7 @@ from design.problem import (
     Range,
     Requirements,
     Uncertainty,
+    Verification,
 )
 from plant.effects import EFFECTS, make_effect
 from plant.errors import GantryError, SpecError
@@ -146,6 +147,7 @@ class Spec(_Strict):
     requirements: Requirements = Requirements()
     objective: ObjectiveSpec = ObjectiveSpec()
     admittance: AdmittanceProblem | None = None
+    verification: Verification = Verification()
 
     @field_validator("admittance", mode="before")
     @classmethod
@@ -172,7 +174,7 @@ class Spec(_Strict):
     def problem(self) -> LoopProblem:
         """The design problem the numerics solve (``design.problem``), free of the file format."""
         return LoopProblem(self.plant.family(), ControllerBounds(self.controller.kp, self.controller.ki),
-                           self.requirements, self.admittance)
+                           self.requirements, self.admittance, self.verification)
 
 
 def _key_path(loc) -> str:

@@ -37,13 +37,15 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
 from design.loop.fast import F_LOW_HZ, fast_analyse_loop
-from design.loop.margins import closed_loop_bandwidth_hz, loop_margins
+from design.loop.margins import closed_loop_bandwidth_hz, loop_margins, nyquist_stable
 from design.problem import LoopProblem
+from design.synth.monte_carlo import MonteCarloCheck, monte_carlo_check
+from design.synth.scenarios import Scenarios, check_scenarios, design_scenarios
 from design.synth.verify import Verification, verify
 from plant.algebra import CASADI, Pair
 from plant.effects import EFFECTS
@@ -77,6 +79,14 @@ BISECTION_RATIO = 1.05
 EXTRA_STARTS = 1
 
 
+#: check scenarios with the least slack verified with python-control beside the design scenarios
+VERIFY_TIGHTEST = 40
+
+
+#: Monte Carlo checks that may add their worst violator to the design scenarios
+MONTE_CARLO_ROUNDS = 2
+
+
 #: a gain within this relative distance of its upper bound is "on the bound"
 ON_BOUND = 1e-3
 
@@ -89,10 +99,9 @@ ACTIVE = 5e-3
 
 
 @dataclass(frozen=True)
-
-
 class Evaluation:
-    """Gains evaluated at a set of payloads (cubic-refined grid margins of ``design.loop.fast``)."""
+    """Gains evaluated on a set of scenarios (cubic-refined grid margins of ``design.loop.fast``); the
+    per-payload arrays are the worst over the scenarios of each payload."""
 
     kp: float
     ki: float
@@ -101,53 +110,72 @@ class Evaluation:
     phase_margin_deg: np.ndarray
     gain_margin_db: np.ndarray
     meets: bool
-    #: every payload's closed loop stable (PM > 0 and GM > 0 for this stable open loop)
+    #: every scenario's closed loop stable (PM > 0 and GM > 0 for this stable open loop)
     stable: bool
     worst_bandwidth_hz: float
-    #: the tightest requirement, or a gain's upper bound: {"constraint", "payload_kg", "slack"}
+    #: the tightest requirement, or a gain's upper bound: {"constraint", "payload_kg", "slack", "active"},
+    #: with "scenario" (the uncertain parameters' values there) when the problem has uncertainty
     binding: dict
     #: the smallest slack of any requirement relative to the requirement (negative: violated)
     min_relative_slack: float
+    #: the scenario where the tightest requirement binds (payload_kg and the uncertain parameters)
+    worst_scenario: dict = field(default_factory=dict)
+    #: per scenario: the least relative slack of any requirement, and the bandwidth (Hz; 0: below the grid)
+    row_relative_slack: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    row_bandwidth_hz: np.ndarray = field(default_factory=lambda: np.zeros(0))
+
+    def tightest(self, k: int) -> np.ndarray:
+        """Rows of the ``k`` scenarios with the least slack, and the one with the lowest bandwidth."""
+        return np.union1d(np.argsort(self.row_relative_slack, kind="stable")[:k], [np.argmin(self.row_bandwidth_hz)])
 
 
-def evaluate(problem: LoopProblem, kp: float, ki: float, payload_kg=None) -> Evaluation:
-    """Margins and bandwidth of (kp, ki) at every payload (default: the dense payloads)."""
-    m = problem.plant.payload_kg.check_points() if payload_kg is None else np.atleast_1d(np.asarray(payload_kg, float))
-    plant = problem.plant.plant().with_payload(m)
+def evaluate(problem: LoopProblem, kp: float, ki: float, scenarios: Scenarios | None = None) -> Evaluation:
+    """Margins and bandwidth of (kp, ki) on every scenario (default: the check scenarios)."""
+    s = check_scenarios(problem) if scenarios is None else scenarios
+    plant = s.plants(problem.plant.plant())
     n = fast_analyse_loop(plant, kp, ki)
     req = problem.requirements
+    pm, gm = np.ravel(n.phase_margin_deg), np.ravel(n.gain_margin_db)
     # a bandwidth at the grid's lowest frequency is below the grid: unknown, counted as 0
-    bw = np.where(n.closed_loop_bandwidth_hz > 1.01 * F_LOW_HZ, n.closed_loop_bandwidth_hz, 0.0)
-    slack = {"phase_margin": n.phase_margin_deg - req.phase_margin_deg,
-             "gain_margin": np.where(np.isfinite(n.gain_margin_db), n.gain_margin_db - req.gain_margin_db, np.inf)}
+    bw = np.ravel(np.where(n.closed_loop_bandwidth_hz > 1.01 * F_LOW_HZ, n.closed_loop_bandwidth_hz, 0.0))
+    slack = {"phase_margin": pm - req.phase_margin_deg,
+             "gain_margin": np.where(np.isfinite(gm), gm - req.gain_margin_db, np.inf)}
     scale = {"phase_margin": max(req.phase_margin_deg, 1.0), "gain_margin": max(req.gain_margin_db, 1.0)}
     if req.peak_sensitivity is not None or req.disk_margin is not None:
         from design.loop.analysis import analyse_loop
 
         margins = analyse_loop(plant, kp, ki).margins
         if req.peak_sensitivity is not None:
-            slack["peak_sensitivity"] = req.peak_sensitivity - margins.peak_sensitivity
+            slack["peak_sensitivity"] = req.peak_sensitivity - np.ravel(margins.peak_sensitivity)
             scale["peak_sensitivity"] = req.peak_sensitivity
         if req.disk_margin is not None:
-            slack["disk_margin"] = margins.disk_margin - req.disk_margin
+            slack["disk_margin"] = np.ravel(margins.disk_margin) - req.disk_margin
             scale["disk_margin"] = req.disk_margin
-    meets = bool(all(np.all(v >= -1e-6) for v in slack.values()) and np.all(bw > 0))
-    stable = bool(np.all(n.phase_margin_deg > 0) and np.all(n.gain_margin_db > 0))
+    stable = bool(np.all(n.stable) and np.all(pm > 0) and np.all(gm > 0))
+    meets = bool(all(np.all(v >= -1e-6) for v in slack.values()) and np.all(bw > 0) and stable)
     rel = {k: float(np.min(v)) / scale[k] for k, v in slack.items()}
     name = min(rel, key=rel.get)
     i = int(np.argmin(slack[name]))
     active = sorted({k for k, v in slack.items() if np.min(v) / scale[k] < ACTIVE})
-    binding = {"constraint": name, "payload_kg": float(m[i]), "slack": float(slack[name][i]), "active": active}
+    worst = s.row(i)
+    binding = {"constraint": name, "payload_kg": float(s.payload_kg[i]), "slack": float(slack[name][i]),
+               "active": active}
+    if s.parameters:
+        binding["scenario"] = {k: v for k, v in worst.items() if k != "payload_kg"}
     c = problem.controller
     for gain, value, bound in (("kp", kp, c.kp.max), ("ki", ki, c.ki.max)):
         if meets and value >= bound * (1 - ON_BOUND) and rel[name] > ON_BOUND:
             binding = {"constraint": f"controller.{gain}.max", "payload_kg": None, "slack": 0.0,
                        "active": active + [f"controller.{gain}.max"]}
-    return Evaluation(float(kp), float(ki), m, np.where(bw > 0, bw, np.nan), n.phase_margin_deg, n.gain_margin_db,
-                      meets, stable, float(np.min(bw)), binding, rel[name])
-
-
-# --- scan ----------------------------------------------------------------------------------------
+    m, inverse = np.unique(s.payload_kg, return_inverse=True)
+    per = {}
+    for key, v in (("bw", np.where(bw > 0, bw, np.nan)), ("pm", pm), ("gm", gm)):
+        out = np.full(m.size, np.inf)
+        np.minimum.at(out, inverse, np.where(np.isnan(v), -np.inf, v))
+        per[key] = np.where(out == -np.inf, np.nan, out)
+    row_rel = np.min([v / scale[k] for k, v in slack.items()], axis=0)
+    return Evaluation(float(kp), float(ki), m, per["bw"], per["pm"], per["gm"], meets, stable, float(np.min(bw)),
+                      binding, rel[name], worst, row_rel, bw)
 
 
 def margin_circle(phase_margin_deg: float, gain_margin_db: float) -> tuple[float, float]:
@@ -199,10 +227,10 @@ class Scan:
     circle_bandwidth_hz: np.ndarray
     #: least requirement slack relative to the requirement (for infeasible problems)
     relative_slack: np.ndarray
-    #: relative slack per requirement, each shaped (gains, payloads)
+    #: relative slack per requirement, each shaped (gains, scenarios)
     slack: dict
 
-    def diagnose(self, payloads: np.ndarray) -> dict:
+    def diagnose(self, scenarios: Scenarios) -> dict:
         """Why nothing on the scan meets the requirements: the payload where the best gains for that
         payload alone fall furthest short, or, when each payload alone is feasible, the conflict."""
         per = np.min(np.array(list(self.slack.values())), axis=0)          # (gains, payloads)
@@ -211,13 +239,14 @@ class Scan:
         if alone[j] < 0:
             i = int(np.argmax(per[:, j]))
             name = min(self.slack, key=lambda k: self.slack[k][i, j])
-            return {"constraint": name, "payload_kg": float(payloads[j]), "relative_slack": float(alone[j]),
-                    "kp": float(self.kp[i]), "ki": float(self.ki[i]), "alone": True}
+            return {"constraint": name, "payload_kg": float(scenarios.payload_kg[j]), "where": scenarios.describe(j),
+                    "relative_slack": float(alone[j]), "kp": float(self.kp[i]), "ki": float(self.ki[i]),
+                    "alone": True}
         i = int(np.argmax(per.min(axis=1)))
         j = int(np.argmin(per[i]))
         name = min(self.slack, key=lambda k: self.slack[k][i, j])
-        return {"constraint": name, "payload_kg": float(payloads[j]), "relative_slack": float(per[i, j]),
-                "kp": float(self.kp[i]), "ki": float(self.ki[i]), "alone": False}
+        return {"constraint": name, "payload_kg": float(scenarios.payload_kg[j]), "where": scenarios.describe(j),
+                "relative_slack": float(per[i, j]), "kp": float(self.kp[i]), "ki": float(self.ki[i]), "alone": False}
 
     def best(self, mask: np.ndarray, score: np.ndarray, k: int = 1) -> list[int]:
         """Indices of the ``k`` best entries of ``score`` under ``mask`` (distinct gains)."""
@@ -226,7 +255,7 @@ class Scan:
 
 
 def scan_gains(problem: LoopProblem, P: np.ndarray, *, n: int = SCAN_POINTS) -> Scan:
-    """Evaluate an n x n log grid of (kp, ki) on the responses ``P`` (payloads x ``W_OPT``)."""
+    """Evaluate an n x n log grid of (kp, ki) on the responses ``P`` (scenarios x ``W_OPT``)."""
     c, req = problem.controller, problem.requirements
     KP, KI = np.meshgrid(_gain_grid(c.kp.min, c.kp.max, n), _gain_grid(c.ki.min, c.ki.max, n), indexing="ij")
     kp, ki = KP.ravel(), KI.ravel()
@@ -236,8 +265,7 @@ def scan_gains(problem: LoopProblem, P: np.ndarray, *, n: int = SCAN_POINTS) -> 
     # Nyquist: with no open-loop poles in the right half-plane, the phase of 1 + L rises by 0 to 90 deg
     # from the lowest to the highest grid frequency when the closed loop is stable, and falls by 180 deg
     # more per unstable closed-loop pole; an unstable loop's margins are wrapped angles: count PM as 0
-    turn = np.unwrap(np.angle(1 + L), axis=-1)
-    stable = turn[..., -1] - turn[..., 0] > -math.pi / 4
+    stable = nyquist_stable(L)
     pm = np.where(stable, mg.phase_margin_deg, 0.0)
     slack = {"phase_margin": (pm - req.phase_margin_deg) / max(req.phase_margin_deg, 1.0),
              "gain_margin": np.minimum(mg.gain_margin_db - req.gain_margin_db, 1e3) / max(req.gain_margin_db, 1.0),
@@ -417,7 +445,7 @@ class ExactDesign:
     note: str
 
 
-def exact_design(problem: LoopProblem, payloads: np.ndarray, kp0: float, ki0: float, *,
+def exact_design(problem: LoopProblem, scenarios: Scenarios, kp0: float, ki0: float, *,
                  high_circle: bool = False) -> ExactDesign:
     """IPOPT on the exact crossings from the start (kp0, ki0); ``high_circle`` also keeps the Nyquist curve
     outside the margin circle above twice the first crossover (see the module doc)."""
@@ -434,9 +462,9 @@ def exact_design(problem: LoopProblem, payloads: np.ndarray, kp0: float, ki0: fl
     xs, x0, lbx, ubx = [u, t], [kp0 / kps, ki0 / kis], [c.kp.min / kps, c.ki.min / kis], [c.kp.max / kps,
                                                                                           c.ki.max / kis]
     gs, lbg, ubg, t_start = [], [], [], []
-    P = base.with_payload(np.asarray(payloads, float)).frd(W_OPT)
-    for k, m in enumerate(payloads):
-        plant = base.with_payload(float(m))
+    P = scenarios.plants(base).frd(W_OPT)
+    for k in range(len(scenarios)):
+        plant = scenarios.plant(base, k)
         L0 = P[k] * (kp0 + ki0 / (1j * W_OPT))
         starts = {"c": _first_crossing(W_OPT, np.abs(L0) ** 2 - 1),
                   "p": _first_crossing(W_OPT, np.where(np.real(L0) < 0, np.imag(L0), np.nan)),
@@ -474,7 +502,7 @@ def exact_design(problem: LoopProblem, payloads: np.ndarray, kp0: float, ki0: fl
             high = np.geomspace(2 * starts["c"], W_OPT[-1], max(int(100 * np.log10(W_OPT[-1] / starts["c"] / 2)), 2))
             circles.append((*requirement_circles(problem)[0], high))
         for centre, radius, wg in circles:
-            a = base.with_payload(float(m)).frd(wg) if wg is not W_OPT else P[k]
+            a = plant.frd(wg) if wg is not W_OPT else P[k]
             b = a / (1j * wg)
             re = ca.DM(a.real) * kp + ca.DM(b.real) * ki - centre
             im = ca.DM(a.imag) * kp + ca.DM(b.imag) * ki
@@ -541,6 +569,8 @@ class SynthesisResult:
     details: dict = field(default_factory=dict)
     #: overrides the evaluation's binding (infeasible problems: from the scan's diagnosis)
     binding: dict | None = None
+    #: independent draws over payload x the uncertainty (problems with uncertainty, optimal designs)
+    monte_carlo: MonteCarloCheck | None = None
 
 
 def check_supported(problem: LoopProblem) -> None:
@@ -558,12 +588,12 @@ def unbounded_message(problem: LoopProblem) -> str:
             "current_loop = { bandwidth_hz = 1000.0 }.")
 
 
-def _solve(problem: LoopProblem, payloads: np.ndarray, dense: np.ndarray, method: str,
+def _solve(problem: LoopProblem, scenarios: Scenarios, dense: Scenarios, method: str,
            notes: dict) -> tuple[list[tuple[str, float, float]], Scan]:
-    """Candidate designs (label, kp, ki) for the payload points: the best scan seeds, the ccp design and
+    """Candidate designs (label, kp, ki) for the design scenarios: the best scan seeds, the ccp design and
     the exact refinements from the ccp design and the best seeds (method "ccp": the ccp design); and
     the scan."""
-    P = problem.plant.plant().with_payload(payloads).frd(W_OPT)
+    P = scenarios.plants(problem.plant.plant()).frd(W_OPT)
     scan = scan_gains(problem, P)
     notes["scan_designs"] = notes.get("scan_designs", 0) + scan.kp.size
     seeds = scan.best(scan.meets, scan.worst_bandwidth_hz, EXTRA_STARTS)
@@ -580,7 +610,7 @@ def _solve(problem: LoopProblem, payloads: np.ndarray, dense: np.ndarray, method
             cands = cands[-1:]
     if method == "ccp+exact":
         def exact(label, kp0, ki0, high):
-            ex = exact_design(problem, payloads, kp0, ki0, high_circle=high)
+            ex = exact_design(problem, scenarios, kp0, ki0, high_circle=high)
             name = f"exact (casadi+IPOPT{', high-frequency circle' if high else ''}) from {label}"
             notes.setdefault("exact_starts", []).append({"design": name, "kp0": kp0, "ki0": ki0, "kp": ex.kp,
                                                          "ki": ex.ki, "ipopt": ex.note})
@@ -595,8 +625,44 @@ def _solve(problem: LoopProblem, payloads: np.ndarray, dense: np.ndarray, method
     return cands, scan
 
 
-def synthesise_pi(problem: LoopProblem, *, method: str = "ccp+exact", max_rounds: int = 6) -> SynthesisResult:
-    """Robust PI synthesis on ``spec`` (see the module doc). Never reports an unverified design as optimal."""
+def verification_scenarios(points: Scenarios, dense: Scenarios, ev: Evaluation) -> Scenarios:
+    """Where python-control checks a design: every dense payload when there is no uncertainty; else every
+    scenario designed for and the ``VERIFY_TIGHTEST`` check scenarios with the least slack (with the one
+    of the lowest bandwidth)."""
+    if not dense.parameters:
+        return dense
+    out = points
+    for i in ev.tightest(VERIFY_TIGHTEST):
+        row = dense.row(int(i))
+        if not out.contains(row):
+            out = out.with_row(row)
+    return out
+
+
+def synthesise_pi(problem: LoopProblem, *, method: str = "ccp+exact", max_rounds: int = 6,
+                  nominal: bool = False) -> SynthesisResult:
+    """Robust PI synthesis on ``problem`` (see the module doc). Never reports an unverified design as optimal.
+
+    With ``plant.uncertainty`` the design holds on every payload point x corner of the uncertainty box
+    (and the violators the checks add); the Monte Carlo check then draws independent plants
+    (``problem.verification``: how many, the first seed), and while it finds a violator (at most
+    ``MONTE_CARLO_ROUNDS`` times) the worst joins the design scenarios and the design is repeated,
+    checked again on fresh draws. ``nominal`` ignores the uncertainty (the design for the nominal
+    parameters, for comparison)."""
+    if nominal:
+        problem = replace(problem, plant=replace(problem.plant, uncertainty={}))
+    extra: list[dict] = []
+    for k in range(MONTE_CARLO_ROUNDS + 1):
+        result = _synthesise(problem, method, max_rounds, extra, problem.verification.seed + k)
+        mc = result.monte_carlo
+        if mc is None or mc.violations == 0 or k == MONTE_CARLO_ROUNDS:
+            return result
+        extra.append(mc.worst_scenario)
+    raise AssertionError("unreachable")
+
+
+def _synthesise(problem: LoopProblem, method: str, max_rounds: int, extra: list[dict],
+                seed: int) -> SynthesisResult:
     check_supported(problem)
     if method not in ("ccp", "ccp+exact"):
         raise SpecError(f"method must be 'ccp' or 'ccp+exact', got {method!r}")
@@ -610,14 +676,17 @@ def synthesise_pi(problem: LoopProblem, *, method: str = "ccp+exact", max_rounds
 
     import_seconds = time.perf_counter() - i0
     t0, c0 = time.perf_counter(), time.process_time()
-    points = list(problem.plant.payload_kg.design_points())
-    dense = np.union1d(problem.plant.payload_kg.check_points(), points)
+    points = design_scenarios(problem)
+    for row in extra:
+        points = points.with_row(row)
+    dense = check_scenarios(problem, np.union1d(problem.plant.payload_kg.check_points(),
+                                                problem.plant.payload_kg.design_points()))
     notes: dict = {}
     rounds, best_bad, first_scan = 0, None, None
     good: list[tuple[str, Evaluation]] = []
     for rounds in range(1, max_rounds + 1):
-        cands, scan = _solve(problem, np.array(points), dense, method, notes)
-        first_scan = first_scan or (scan, np.array(points))
+        cands, scan = _solve(problem, points, dense, method, notes)
+        first_scan = first_scan or (scan, points)
         evs = [(label, evaluate(problem, kp, ki, dense)) for label, kp, ki in cands]
         good += [(label, ev) for label, ev in evs if ev.meets]
         bad = [(label, ev) for label, ev in evs if not ev.meets]
@@ -632,20 +701,22 @@ def synthesise_pi(problem: LoopProblem, *, method: str = "ccp+exact", max_rounds
             if good:
                 break
             top = best_bad[1] if best_bad else None
-        worst = None if top is None else top.binding["payload_kg"]
-        if worst is None or any(abs(worst - p) < 1e-9 for p in points):
+        if top is None or top.binding["payload_kg"] is None or points.contains(top.worst_scenario):
             break
-        points.append(float(worst))
+        points = points.with_row(top.worst_scenario)
     seconds, cpu = time.perf_counter() - t0, time.process_time() - c0
     details = {"cpu_seconds": cpu, "import_seconds": import_seconds, "rounds": rounds, **notes,
                "solver_ccp": "cvxpy+CLARABEL",
                "solver_exact": "casadi+IPOPT" if method == "ccp+exact" else None,
-               "dense_check": f"{dense.size} payloads, cubic-refined grid margins (design.loop.fast)"}
+               "dense_check": f"{len(dense)} scenarios ({np.unique(dense.payload_kg).size} payloads"
+                              + (f" x {len(dense) // np.unique(dense.payload_kg).size} parameter sets: corners and "
+                                 "seeded draws of plant.uncertainty" if dense.parameters else "")
+                              + "), cubic-refined grid margins (design.loop.fast)"}
     base, names = baselines(problem)
-    pts = tuple(float(p) for p in points)
+    pts = tuple(float(p) for p in np.unique(points.payload_kg))
     if not good:
         d = first_scan[0].diagnose(first_scan[1])
-        what, where = d["constraint"].replace("_", " "), f"{d['payload_kg']:.1f} kg"
+        what, where = d["constraint"].replace("_", " "), d["where"]
         short = (f"kp = {d['kp']:.4g}, ki = {d['ki']:.4g} miss it by {-100 * d['relative_slack']:.1f} %"
                  if d["relative_slack"] > -1 else f"the closed loop is unstable, e.g. kp = {d['kp']:.4g}, "
                                                  f"ki = {d['ki']:.4g}")
@@ -663,7 +734,8 @@ def synthesise_pi(problem: LoopProblem, *, method: str = "ccp+exact", max_rounds
     t1 = time.perf_counter()
     tried = []
     for label, ev in good[:3]:      # the best verified of the three best candidates
-        v = verify(problem, ev.kp, ev.ki, payload_kg=ev.payload_kg, claimed_bandwidth_hz=ev.bandwidth_hz)
+        v = verify(problem, ev.kp, ev.ki, verification_scenarios(points, dense, ev),
+                   claimed_worst_bandwidth_hz=ev.worst_bandwidth_hz)
         tried.append({"design": label, "verified": v.verified})
         if v.verified:
             break
@@ -683,4 +755,19 @@ def synthesise_pi(problem: LoopProblem, *, method: str = "ccp+exact", max_rounds
             f"kg (kp = {ev.kp:.4g}, ki = {ev.ki:.4g}), below requirements.min_bandwidth_hz = {req_bw:g}; "
             f"the {b['constraint'].replace('_', ' ')}{where} "
             "limits it", ev, v, method, seconds, base, names, pts, details)
-    return SynthesisResult("optimal", f"verified ({label})", ev, v, method, seconds, base, names, pts, details)
+    if not dense.parameters:
+        return SynthesisResult("optimal", f"verified ({label})", ev, v, method, seconds, base, names, pts, details)
+    mc = monte_carlo_check(problem, ev.kp, ev.ki, seed=seed)
+    details["design_scenarios"] = len(points)
+    if mc.violations:
+        return SynthesisResult("infeasible", f"verified on the {len(points)} design scenarios ({label}), but "
+                               f"{mc.violations} of {mc.samples} Monte Carlo draws over the uncertainty violate the "
+                               f"requirements (worst at {_describe(mc.worst_scenario)})", ev, v, method, seconds, base,
+                               names, pts, details, monte_carlo=mc)
+    return SynthesisResult("optimal", f"verified ({label}) on {len(points)} design scenarios; 0 of {mc.samples} "
+                           f"Monte Carlo draws violate (95 % upper bound {100 * mc.rate_upper_bound:.2g} %)", ev, v,
+                           method, seconds, base, names, pts, details, monte_carlo=mc)
+
+
+def _describe(row: dict) -> str:
+    return ", ".join(f"{k} = {v:.4g}" for k, v in row.items())

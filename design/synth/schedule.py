@@ -2,8 +2,9 @@
 payload is known beforehand, and the bandwidth they gain over the robust design.
 
 Each point is solved like one round of ``design.synth.pi.synthesise_pi`` with a single payload
-(scan, then casadi + IPOPT from the robust gains and from the best scan seed), checked with the
-cubic-refined margins and verified with python-control at that payload. The schedule is
+(scan, then casadi + IPOPT from the robust gains and from the best scan seed) on the corners of the
+uncertainty at that payload, checked with the cubic-refined margins on its check scenarios and
+verified with python-control. The schedule is
 verified at its points only: gains interpolated between points are not checked.
 """
 
@@ -11,10 +12,9 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-import numpy as np
-
 from design.problem import LoopProblem
-from design.synth.pi import W_OPT, evaluate, exact_design, scan_gains
+from design.synth.pi import W_OPT, evaluate, exact_design, scan_gains, verification_scenarios
+from design.synth.scenarios import check_scenarios, design_scenarios
 from design.synth.verify import verify
 
 
@@ -35,21 +35,24 @@ class SchedulePoint:
 
 
 def gain_schedule(problem: LoopProblem, kp: float, ki: float) -> list[SchedulePoint]:
-    """Per-payload optimum gains at the spec's payload points; (kp, ki) is the robust design."""
+    """Per-payload optimum gains at the problem's payload points, each robust to its uncertainty; (kp, ki) is
+    the design for the whole range."""
     plant = problem.plant.plant()
     out = []
     for m in problem.plant.payload_kg.design_points():
-        robust = evaluate(problem, kp, ki, [m])
-        scan = scan_gains(problem, plant.with_payload(np.array([m])).frd(W_OPT))
+        corners, check = design_scenarios(problem, [m]), check_scenarios(problem, [m])
+        robust = evaluate(problem, kp, ki, check)
+        scan = scan_gains(problem, corners.plants(plant).frd(W_OPT))
         starts = [(kp, ki)] + [(scan.kp[i], scan.ki[i]) for i in scan.best(scan.meets, scan.worst_bandwidth_hz, 1)]
         best = robust
         for kp0, ki0 in starts:
-            ex = exact_design(problem, np.array([m]), float(kp0), float(ki0))
+            ex = exact_design(problem, corners, float(kp0), float(ki0))
             if ex.success:
-                ev = evaluate(problem, ex.kp, ex.ki, [m])
+                ev = evaluate(problem, ex.kp, ex.ki, check)
                 if ev.meets and ev.worst_bandwidth_hz > best.worst_bandwidth_hz:
                     best = ev
-        v = verify(problem, best.kp, best.ki, payload_kg=[m], claimed_bandwidth_hz=best.bandwidth_hz)
+        v = verify(problem, best.kp, best.ki, verification_scenarios(corners, check, best),
+                   claimed_worst_bandwidth_hz=best.worst_bandwidth_hz)
         out.append(SchedulePoint(float(m), best.kp, best.ki, float(best.bandwidth_hz[0]),
                                  float(best.phase_margin_deg[0]), float(best.gain_margin_db[0]),
                                  float(robust.bandwidth_hz[0]), v.verified, v.failures))

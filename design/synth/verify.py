@@ -20,6 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from design.problem import LoopProblem
+from design.synth.scenarios import Scenarios
 
 #: margins may fall short of the requirement by this much (deg, dB) and still pass (rounding)
 MARGIN_TOLERANCE = 0.05
@@ -37,10 +38,10 @@ _W_SENSITIVITY = 2 * np.pi * np.logspace(-3, 4, 4000)
 
 
 class Verification:
-    """Independent check with python-control at every dense payload."""
+    """Independent check with python-control on a set of plants (payloads x uncertainty scenarios)."""
 
     verified: bool
-    n_payloads: int
+    n_plants: int
     max_pole_real_part: float
     min_phase_margin_deg: float
     min_gain_margin_db: float
@@ -51,23 +52,23 @@ class Verification:
     pade_order: int
 
 
-def verify(problem: LoopProblem, kp: float, ki: float, *, payload_kg=None, claimed_bandwidth_hz=None,
-           pade_order: int = 6) -> Verification:
-    """python-control check of (kp, ki) at ``payload_kg`` (default: the dense payloads of
-    ``PayloadRange.check_points``); ``claimed_bandwidth_hz`` (same shape) is compared
-    with ``control.bandwidth``."""
+def verify(problem: LoopProblem, kp: float, ki: float, scenarios: Scenarios | None = None, *,
+           claimed_worst_bandwidth_hz: float | None = None, pade_order: int = 6) -> Verification:
+    """python-control check of (kp, ki) on every scenario (default: the dense payloads of
+    ``PayloadRange.check_points`` at the nominal parameters); ``claimed_worst_bandwidth_hz`` is compared
+    with the lowest ``control.bandwidth`` over them."""
     import control
 
     req = problem.requirements
-    payloads = problem.plant.payload_kg.check_points() if payload_kg is None else \
-        np.atleast_1d(np.asarray(payload_kg, float))
-    claimed = None if claimed_bandwidth_hz is None else np.atleast_1d(np.asarray(claimed_bandwidth_hz, float))
-    plant = problem.plant.plant()
+    if scenarios is None:
+        scenarios = Scenarios(problem.plant.payload_kg.check_points())
+    base = problem.plant.plant()
     C = control.tf([kp, ki], [1.0, 0.0]) if ki > 0 else control.tf([kp], [1.0])   # no s/s without integral
     failures: list[str] = []
     max_re, pms, gms, bws, errs = -math.inf, [], [], [], [0.0]
-    for k, m in enumerate(payloads):
-        L = plant.with_payload(float(m)).to_control(pade_order=pade_order) * C
+    for k in range(len(scenarios)):
+        m = scenarios.describe(k)
+        L = scenarios.plant(base, k).to_control(pade_order=pade_order) * C
         T = control.feedback(L, 1)
         re = float(np.max(np.real(control.poles(T))))
         max_re = max(max_re, re)
@@ -80,30 +81,31 @@ def verify(problem: LoopProblem, kp: float, ki: float, *, payload_kg=None, claim
         pms.append(pm)
         gms.append(gm_db)
         if re >= 0:
-            failures.append(f"unstable closed loop at {m:.1f} kg (pole real part {re:.3g})")
+            failures.append(f"unstable closed loop at {m} (pole real part {re:.3g})")
             bws.append(math.nan)
             continue
         bw = float(control.bandwidth(T, dbdrop=-20 * math.log10(math.sqrt(2)))) / (2 * math.pi)
         bws.append(bw)
         if pm < req.phase_margin_deg - MARGIN_TOLERANCE:
-            failures.append(f"phase margin {pm:.2f} deg < {req.phase_margin_deg:g} at {m:.1f} kg")
+            failures.append(f"phase margin {pm:.2f} deg < {req.phase_margin_deg:g} at {m}")
         if gm_db < req.gain_margin_db - MARGIN_TOLERANCE:
-            failures.append(f"gain margin {gm_db:.2f} dB < {req.gain_margin_db:g} at {m:.1f} kg")
-        if claimed is not None:
-            errs.append(abs(claimed[k] - bw) / bw if np.isfinite(claimed[k]) and np.isfinite(bw) else math.inf)
+            failures.append(f"gain margin {gm_db:.2f} dB < {req.gain_margin_db:g} at {m}")
         if req.peak_sensitivity is not None or req.disk_margin is not None:
             S = control.frequency_response(control.feedback(1, L), _W_SENSITIVITY).complex.ravel()
             ms, alpha = float(np.max(np.abs(S))), float(1.0 / np.max(np.abs(S - 0.5)))
             if req.peak_sensitivity is not None and ms > req.peak_sensitivity * 1.001:
-                failures.append(f"peak sensitivity {ms:.3f} > {req.peak_sensitivity:g} at {m:.1f} kg")
+                failures.append(f"peak sensitivity {ms:.3f} > {req.peak_sensitivity:g} at {m}")
             if req.disk_margin is not None and alpha < req.disk_margin * 0.999:
-                failures.append(f"disk margin {alpha:.3f} < {req.disk_margin:g} at {m:.1f} kg")
-    if claimed is not None and np.all(np.isfinite(bws)):
-        # the objective: the worst-case bandwidth must agree (per payload the rational model may differ a
+                failures.append(f"disk margin {alpha:.3f} < {req.disk_margin:g} at {m}")
+    errs = [0.0]
+    if claimed_worst_bandwidth_hz is not None and np.all(np.isfinite(bws)):
+        # the objective: the worst-case bandwidth must agree (per scenario the rational model may differ a
         # little from the exact response where it approximates, e.g. a zero-order hold far above crossover)
-        worst, ref = float(np.nanmin(claimed)), float(np.min(bws))
-        if not abs(worst - ref) <= BANDWIDTH_RTOL * ref:
-            failures.append(f"claimed worst-case bandwidth {worst:.3f} Hz differs from python-control's {ref:.3f} Hz")
-    return Verification(not failures, len(payloads), max_re, float(np.min(pms)), float(np.min(gms)),
+        ref = float(np.min(bws))
+        errs.append(abs(claimed_worst_bandwidth_hz - ref) / ref)
+        if not errs[-1] <= BANDWIDTH_RTOL:
+            failures.append(f"claimed worst-case bandwidth {claimed_worst_bandwidth_hz:.3f} Hz differs from "
+                            f"python-control's {ref:.3f} Hz")
+    return Verification(not failures, len(scenarios), max_re, float(np.min(pms)), float(np.min(gms)),
                         float(np.nanmin(bws)) if np.any(np.isfinite(bws)) else math.nan, float(max(errs)),
                         tuple(failures), pade_order)

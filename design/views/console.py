@@ -122,11 +122,14 @@ def print_synthesis(console: Console, out: dict) -> None:
     if g["kp"] is not None and wc is not None:
         b = out["binding"]
         where = "" if b["payload_kg"] is None else f" at {b['payload_kg']:.1f} kg"
+        scenario = "".join(f", {k} = {v:.4g}" for k, v in (b.get("scenario") or {}).items())
         console.print(f"[bold]gains[/]: Kp = {g['kp']:.4g} A/(m/s), Ki = {g['ki']:.4g} A/m; worst case: "
                       f"bandwidth {wc['bandwidth_hz']:.2f} Hz, PM {wc['phase_margin_deg']:.2f} deg, GM "
-                      f"{_num(wc['gain_margin_db'])} dB; binding: {b['constraint']}{where}")
+                      f"{_num(wc['gain_margin_db'])} dB; binding: {b['constraint']}{where}{scenario}")
         rows = out["per_payload"]
-        t = Table(title=f"Per payload (dense check, {len(rows)} payloads; every {max(len(rows) // 8, 1)}th shown)")
+        over = " worst over the uncertainty" if out.get("monte_carlo") else ""
+        t = Table(title=f"Per payload (dense check, {len(rows)} payloads{over}; every {max(len(rows) // 8, 1)}th "
+                        "shown)")
         for col in ("payload kg", "bandwidth Hz", "PM deg", "GM dB"):
             t.add_column(col, justify="right")
         for row in rows[::max(len(rows) // 8, 1)] + ([rows[-1]] if (len(rows) - 1) % max(len(rows) // 8, 1) else []):
@@ -135,11 +138,18 @@ def print_synthesis(console: Console, out: dict) -> None:
         console.print(t)
     v = out.get("verification")
     if v:
-        console.print(f"[bold]independent check[/] ({v['tool']}) at {v['payloads']} payloads: max pole real part "
+        console.print(f"[bold]independent check[/] ({v['tool']}) on {v['payloads']} plants: max pole real part "
                       f"{_num(v['max_closed_loop_pole_real_part'], '.3g')} 1/s, "
                       f"min PM {_num(v['min_phase_margin_deg'])}"
                       f" deg, min GM {_num(v['min_gain_margin_db'])} dB, bandwidth agreement "
                       f"{_num(v['max_bandwidth_rel_error'], '.1e')}; failures: {len(v['failures'])}")
+    mc = out.get("monte_carlo")
+    if mc:
+        console.print(f"[bold]Monte Carlo[/] ({mc['samples']} independent draws over payload x plant.uncertainty, seed "
+                      f"{mc['seed']}): {mc['violations']} violate ({100 * mc['rate']:.2g} %, 95 % upper bound "
+                      f"{100 * mc['rate_upper_bound_95']:.2g} %); worst PM {_num(mc['worst_phase_margin_deg'])} deg, "
+                      f"worst GM {_num(mc['worst_gain_margin_db'])} dB, lowest bandwidth "
+                      f"{_num(mc['worst_bandwidth_hz'])} Hz")
     sch = out.get("schedule")
     if sch:
         t = Table(title=f"Gain schedule (verified at its points: {sch['verified']})")

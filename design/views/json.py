@@ -16,6 +16,7 @@ from design.loop.sweep import SweepResult
 from design.problem import LoopProblem
 from design.results import DesignOutcome, DiagnosisOutcome, FitOutcome
 from design.synth.measured import MeasuredDesign
+from design.synth.monte_carlo import MonteCarloCheck
 from design.synth.pi import Evaluation, SynthesisResult
 from design.synth.schedule import SchedulePoint
 from design.synth.verify import Verification
@@ -287,12 +288,26 @@ def synthesis_to_dict(result: SynthesisResult) -> dict:
         "solver": {"method": result.method, "seconds": result.seconds,
                    "payload_points": list(result.payload_points_used), **result.details},
         "baselines": [evaluation_to_dict(b, n) for b, n in zip(result.baselines, result.baseline_names)],
+        **({"monte_carlo": monte_carlo_to_dict(result.monte_carlo)} if result.monte_carlo is not None else {}),
     }
+
+
+def monte_carlo_to_dict(mc: MonteCarloCheck) -> dict:
+    """The Monte Carlo check of a design over payload x the spec's uncertainty."""
+    return {"samples": mc.samples, "seed": mc.seed, "violations": mc.violations, "rate": mc.rate,
+            "rate_upper_bound_95": mc.rate_upper_bound, "unstable": mc.unstable,
+            "worst_phase_margin_deg": finite_or_none(mc.worst_phase_margin_deg),
+            "worst_gain_margin_db": finite_or_none(mc.worst_gain_margin_db),
+            "worst_bandwidth_hz": finite_or_none(mc.worst_bandwidth_hz), "worst_scenario": mc.worst_scenario,
+            "sampling": "uniform and independent over the payload range and each plant.uncertainty range; "
+                        "none of the draws is a design scenario",
+            "bound": "Clopper-Pearson, one-sided 95 %"}
 
 
 def verification_to_dict(v: Verification) -> dict:
     """The independent python-control check of a PI design."""
-    return {"payloads": v.n_payloads, "max_closed_loop_pole_real_part": finite_or_none(v.max_pole_real_part),
+    return {"payloads": v.n_plants, "plants": v.n_plants,
+            "max_closed_loop_pole_real_part": finite_or_none(v.max_pole_real_part),
             "min_phase_margin_deg": finite_or_none(v.min_phase_margin_deg),
             "min_gain_margin_db": finite_or_none(v.min_gain_margin_db),
             "min_bandwidth_hz": finite_or_none(v.min_bandwidth_hz),

@@ -1,0 +1,121 @@
+"""Scenarios: the plants a design must hold on. A scenario is one payload with one value of every
+uncertain parameter (``plant.uncertainty`` of the spec); a set of them is a batch of plants.
+
+A design is computed on the payload points times the corners of the uncertainty box, and checked
+on the dense payloads times the corners and a fixed set of seeded random draws; the worst violator
+of the check joins the design set round by round (as systune does with its sampled uncertainty).
+Every range is uniform and independent, as in ``design.loop.sweep``.
+"""
+
+from __future__ import annotations
+
+import itertools
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from design.problem import LoopProblem
+from plant.models import Plant
+
+#: seeded random draws of the uncertain parameters added to the corners in the check set
+CHECK_DRAWS = 24
+#: more uncertain parameters than this: the corners (2^n) are replaced by the draws alone
+MAX_CORNER_PARAMETERS = 6
+
+
+@dataclass(frozen=True)
+class Scenarios:
+    """Rows of (payload, uncertain parameter values): ``payload_kg`` (n,), ``parameters`` name -> (n,)."""
+
+    payload_kg: np.ndarray
+    parameters: dict[str, np.ndarray] = field(default_factory=dict)
+
+    def __len__(self) -> int:
+        return int(self.payload_kg.size)
+
+    def values(self, rows=None) -> dict[str, np.ndarray]:
+        """``Plant.with_values`` arguments of the rows as (n, 1) batches."""
+        r = slice(None) if rows is None else rows
+        return {"mass_kg": self.payload_kg[r][:, None], **{k: v[r][:, None] for k, v in self.parameters.items()}}
+
+    def plants(self, base: Plant, rows=None) -> Plant:
+        """The scenarios as one (n, 1) batch of ``base``."""
+        return base.with_values(self.values(rows))
+
+    def plant(self, base: Plant, k: int) -> Plant:
+        """Scenario ``k`` as a scalar plant."""
+        return base.with_values({"mass_kg": float(self.payload_kg[k]),
+                                 **{n: float(v[k]) for n, v in self.parameters.items()}})
+
+    def row(self, k: int) -> dict[str, float]:
+        return {"payload_kg": float(self.payload_kg[k]), **{n: float(v[k]) for n, v in self.parameters.items()}}
+
+    def describe(self, k: int) -> str:
+        """'5.0 kg' or '5.0 kg, damping_n_s_per_m = 330, delay.seconds = 0.0008'."""
+        extra = "".join(f", {n} = {v[k]:.4g}" for n, v in self.parameters.items())
+        return f"{self.payload_kg[k]:.1f} kg{extra}"
+
+    def with_row(self, row: dict[str, float]) -> Scenarios:
+        return Scenarios(np.append(self.payload_kg, row["payload_kg"]),
+                         {n: np.append(v, row[n]) for n, v in self.parameters.items()})
+
+    def contains(self, row: dict[str, float]) -> bool:
+        same = np.isclose(self.payload_kg, row["payload_kg"], rtol=1e-9, atol=0)
+        for n, v in self.parameters.items():
+            same &= np.isclose(v, row[n], rtol=1e-9, atol=0)
+        return bool(np.any(same))
+
+    def at_payload(self, payload_kg: float) -> Scenarios:
+        """The rows of one payload (for a gain schedule)."""
+        keep = np.isclose(self.payload_kg, payload_kg, rtol=1e-12, atol=0)
+        return Scenarios(self.payload_kg[keep], {n: v[keep] for n, v in self.parameters.items()})
+
+
+def uncertainty_ranges(problem: LoopProblem) -> dict[str, tuple[float, float]]:
+    """The problem's uncertain parameters and their (min, max), checked against the plant (sorted by name)."""
+    from design.loop.sweep import checked_ranges
+
+    return dict(sorted(checked_ranges(problem.plant.uncertainty, problem.plant.plant()).items()))
+
+
+def parameter_sets(ranges: dict[str, tuple[float, float]], *, draws: int, seed: int = 0) -> dict[str, np.ndarray]:
+    """Corners of the box (every min/max combination, up to ``MAX_CORNER_PARAMETERS`` parameters) and
+    ``draws`` seeded uniform draws; a degenerate range (min = max) contributes one value."""
+    names = list(ranges)
+    if not names:
+        return {}
+    sets = []
+    if len(names) <= MAX_CORNER_PARAMETERS:
+        sets += list(itertools.product(*[sorted({lo, hi}) for lo, hi in ranges.values()]))
+    rng = np.random.default_rng(seed)
+    sets += [tuple(rng.uniform(lo, hi) for lo, hi in ranges.values()) for _ in range(draws)]
+    cols = np.array(sets, float).T
+    return {n: cols[i] for i, n in enumerate(names)}
+
+
+def grid(payload_kg, sets: dict[str, np.ndarray]) -> Scenarios:
+    """Every payload with every parameter set, payload-major."""
+    m = np.asarray(payload_kg, float).ravel()
+    n_s = len(next(iter(sets.values()))) if sets else 1
+    return Scenarios(np.repeat(m, n_s), {n: np.tile(v, m.size) for n, v in sets.items()})
+
+
+def design_scenarios(problem: LoopProblem, payload_kg=None) -> Scenarios:
+    """The payload design points (or ``payload_kg``) times the corners of the uncertainty box."""
+    m = problem.plant.payload_kg.design_points() if payload_kg is None else payload_kg
+    return grid(m, parameter_sets(uncertainty_ranges(problem), draws=0))
+
+
+def check_scenarios(problem: LoopProblem, payload_kg=None) -> Scenarios:
+    """The dense payloads (or ``payload_kg``) times the corners and ``CHECK_DRAWS`` seeded draws."""
+    m = problem.plant.payload_kg.check_points() if payload_kg is None else payload_kg
+    ranges = uncertainty_ranges(problem)
+    return grid(m, parameter_sets(ranges, draws=CHECK_DRAWS if ranges else 0))
+
+
+def random_scenarios(problem: LoopProblem, samples: int, *, seed: int) -> Scenarios:
+    """``samples`` independent uniform draws over payload x the uncertainty box."""
+    rng = np.random.default_rng(seed)
+    rp = problem.plant.payload_kg
+    m = rng.uniform(rp.min, rp.max, samples) if rp.max > rp.min else np.full(samples, rp.min)
+    return Scenarios(m, {n: rng.uniform(lo, hi, samples) for n, (lo, hi) in uncertainty_ranges(problem).items()})

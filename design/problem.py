@@ -113,10 +113,13 @@ class GainBounds:
 
 @dataclass(frozen=True)
 class ControllerBounds:
-    """PI gains kp (A per m/s) and ki (A per m)."""
+    """PI gains kp (A per m/s) and ki (A per m); ``loop_rate_hz``: the drive's velocity-loop rate, when
+    the design is to be exported as the drive runs it (its hold and computation delay are then in the
+    plant as the ``sampling`` effect)."""
 
     kp: GainBounds
     ki: GainBounds
+    loop_rate_hz: float | None = None
 
 
 @dataclass(frozen=True)

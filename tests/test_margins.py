@@ -108,12 +108,23 @@ def test_disk_margin_matches_python_control(k):
     L = plant.to_control(pade_order=6) * pi_tf(kp, ki)
     resp = L(1j * W)
     ours = loop_margins(W, resp)
-    dm, dgm, dpm = control.disk_margins(L, W)    # python-control 0.10.2, balanced (skew 0), same grid
-    assert ours.disk_margin == pytest.approx(dm, rel=1e-9)
-    assert ours.disk_phase_margin_deg == pytest.approx(dpm, rel=1e-9)
-    assert ours.disk_gain_margin_db == pytest.approx(dgm, rel=1e-9)
+    # python-control 0.10.2, balanced (skew 0): on the same grid, and on a 10x denser one (the reference)
+    dm, dgm, dpm = control.disk_margins(L, W)
+    dense = np.geomspace(W[0], W[-1], 10 * W.size)
+    dm_ref = control.disk_margins(L, dense)[0]
+    # ours is refined between the grid points: never above the grid's value, and closer to the reference
+    assert ours.disk_margin <= dm * (1 + 1e-12)
+    assert abs(ours.disk_margin - dm_ref) <= abs(dm - dm_ref) + 1e-6 * dm_ref
+    # the disk gain and phase margins are the closed forms of alpha (Seiler et al. 2020), as python-control's
+    half = ours.disk_margin / 2
+    assert ours.disk_phase_margin_deg == pytest.approx(math.degrees(2 * math.atan(half)), rel=1e-12)
+    if half < 1:
+        assert ours.disk_gain_margin_db == pytest.approx(20 * math.log10((1 + half) / (1 - half)), rel=1e-12)
+    assert dpm == pytest.approx(math.degrees(2 * math.atan(dm / 2)), rel=1e-9)
     S = control.feedback(1, L)                   # peak sensitivity from python-control's own S
-    assert ours.peak_sensitivity == pytest.approx(np.max(np.abs(S(1j * W))), rel=1e-9)
+    ms_grid, ms_ref = np.max(np.abs(S(1j * W))), np.max(np.abs(S(1j * dense)))
+    assert ours.peak_sensitivity >= ms_grid * (1 - 1e-12)
+    assert abs(ours.peak_sensitivity - ms_ref) <= abs(ms_grid - ms_ref) + 1e-6 * ms_ref
 
 
 # --- 2. exact delay: the exact model, and python-control's FRD method ------------------------------
@@ -309,3 +320,42 @@ def test_virtual_admittance_is_eq_3_23_with_the_eq_3_24_typo_corrected():
     assert np.allclose(virtual_admittance_frd(W, m_v, b_v, k_v), s / (m_v * s**2 + b_v * s + k_v), rtol=1e-13)
     # k_v = 0: 1 / (m_v s + b_v) (the thesis prints 1 / (m_v s^2 + b_v) in Eq. 3.24)
     assert np.allclose(virtual_admittance_frd(W, m_v, b_v), 1 / (m_v * s + b_v), rtol=1e-13)
+
+
+@pytest.mark.parametrize("kp,ki", [(275.0, 4.46e4), (1500.0, 2e5), (2000.0, 1e6), (3000.0, 1e6), (600.0, 5e5)])
+def test_closed_loop_stability_agrees_with_the_closed_loop_poles(kp, ki):
+    # an unstable loop can show a large positive PM (3000, 1e6: +179 deg): the verdict must not trust it
+    plant = stage_x(mass_kg=5.0) * Delay(0.0005) * CurrentLoop(1000.0)
+    a = analyse_loop(plant, kp, ki)
+    L = plant.to_control(pade_order=8) * control.tf([kp, ki], [1, 0])
+    poles_stable = bool(np.all(np.real(control.poles(control.feedback(L, 1))) < 0))   # python-control 0.10.2
+    assert bool(a.margins.closed_loop_stable) == poles_stable
+
+
+def test_the_grid_grows_to_hold_a_crossover_below_it():
+    # L ~ ki P(0) / (j w) at low frequency: crossover at ki kt / b = 2e-3 x 20 / 440 = 9.09e-5 rad/s, below the
+    # default grid's 1 mHz; on the fixed grid the margin reads infinite
+    plant = stage_x(mass_kg=5.0) * Delay(0.0005) * CurrentLoop(1000.0)
+    fixed = loop_margins(W, open_loop_frd(plant, W, 5e-4, 2e-3))
+    assert np.isinf(fixed.phase_margin_deg) and not fixed.crossings_on_grid
+    a = analyse_loop(plant, 5e-4, 2e-3)
+    assert a.margins.crossings_on_grid
+    assert 2 * np.pi * a.margins.gain_crossover_hz == pytest.approx(2e-3 * 20.0 / 440.0, rel=2e-3)
+    gm, pm, _, _ = control.margin(plant.to_control(pade_order=8) * control.tf([5e-4, 2e-3], [1, 0]))
+    assert a.margins.phase_margin_deg == pytest.approx(pm, abs=1e-3)
+
+
+@pytest.mark.parametrize("k", [0.5, 1.0, 2.0])
+def test_peak_sensitivity_and_disk_margin_are_refined_between_grid_points(k):
+    # L = k e^{-0.3 s} / (s (s + 1)) on 15 points per decade; reference: the same loop on 200,001 points
+    coarse, dense = np.geomspace(0.01, 100, 60), np.geomspace(0.01, 100, 200_001)
+
+    def loop(w):
+        return k / (1j * w * (1j * w + 1)) * np.exp(-0.3j * w)
+
+    ref, got = loop_margins(dense, loop(dense)), loop_margins(coarse, loop(coarse))
+    on_grid = float(np.max(1 / np.abs(1 + loop(coarse))))
+    assert got.peak_sensitivity == pytest.approx(ref.peak_sensitivity, rel=5e-3)
+    assert got.disk_margin == pytest.approx(ref.disk_margin, rel=5e-3)
+    # the grid maximum alone misses up to 10 % at k = 2
+    assert abs(got.peak_sensitivity - ref.peak_sensitivity) <= abs(on_grid - ref.peak_sensitivity)

@@ -337,3 +337,25 @@ def test_sampled_loop_exact_design_is_verified():
         L = spec.plant.plant().with_payload(m).frd(w) * (res.evaluation.kp + res.evaluation.ki / (1j * w))
         gm, pm, *_ = control.stability_margins(control.frd(L, w))
         assert pm >= 45.0 - 0.05 and 20 * math.log10(gm) >= 6.0 - 0.05, (m, pm, gm)
+
+
+@pytest.mark.parametrize("edit,key", [
+    (("[controller]", "[controller]\nloop_rate_hz = 4000.0"), None),
+    (("[requirements]", "[verification]\nmonte_carlo_samples = 0\n[requirements]"), "verification.monte_carlo_samples"),
+    (("{ min = 330.0, max = 550.0 }", "{ min = 550.0, max = 330.0 }"), "plant.uncertainty.damping_n_s_per_m"),
+    (("current_loop = { bandwidth_hz = 1000.0 }",
+      "current_loop = { bandwidth_hz = 1000.0 }\nsensor_filter = { frequency_hz = 200.0, damping_ratio = -0.7 }"),
+     "sensor_filter"),
+])
+def test_bad_verification_filter_and_uncertainty_specs_get_one_line(tmp_path, edit, key):
+    text = SPEC_X.read_text()
+    assert edit[0] in text
+    text = text.replace(edit[0], edit[1], 1)
+    if key is None:     # a drive filter above the Nyquist frequency of the loop rate
+        text = text.replace("current_loop = { bandwidth_hz = 1000.0 }",
+                            "current_loop = { bandwidth_hz = 1000.0 }\nsensor_filter = { frequency_hz = 2500.0 }", 1)
+        key = "Nyquist"
+    bad = tmp_path / "bad.toml"
+    bad.write_text(text)
+    out = gantry("synth", bad)
+    assert out.returncode == 2 and key in out.stderr and out.stderr.count("\n") == 1, out.stderr

@@ -26,9 +26,35 @@ class LoopAnalysis:
     open_loop_corner_hz: np.ndarray
 
 
-def analyse_loop(plant, kp, ki, *, w_rad_s=ANALYSIS_GRID_RAD_S) -> LoopAnalysis:
-    """Analyse the loop for a ``Plant`` (possibly a payload batch) or a measured response array."""
+#: decades the analysis grid may grow by, below and above, to hold every gain crossover
+EXTEND_DECADES = (4, 3)
+
+
+def extended_grid(plant: Plant, kp, ki, w_rad_s) -> np.ndarray:
+    """``w_rad_s`` extended by whole decades (same points per decade, at most ``EXTEND_DECADES``) until
+    |L| > 1 at its lowest and |L| < 1 at its highest frequency for every plant of the batch, so that no
+    crossover lies outside it (a PI loop's |L| grows without bound towards 0 rad/s)."""
     w = check_grid(w_rad_s)
+    per_decade = (w.size - 1) / np.log10(w[-1] / w[0])
+    lo, hi = w[0], w[-1]
+    for _ in range(EXTEND_DECADES[0]):
+        if np.all(np.abs(open_loop_frd(plant, np.array([lo]), kp, ki)) > 1):
+            break
+        lo /= 10
+    for _ in range(EXTEND_DECADES[1]):
+        if np.all(np.abs(open_loop_frd(plant, np.array([hi]), kp, ki)) < 1):
+            break
+        hi *= 10
+    if lo == w[0] and hi == w[-1]:
+        return w
+    return np.geomspace(lo, hi, int(round(per_decade * np.log10(hi / lo))) + 1)
+
+
+def analyse_loop(plant, kp, ki, *, w_rad_s=ANALYSIS_GRID_RAD_S) -> LoopAnalysis:
+    """Analyse the loop for a ``Plant`` (possibly a payload batch; the grid then grows until it holds every
+    crossover, ``extended_grid``) or a measured response array (``margins.crossings_on_grid`` says
+    whether it does). Check ``margins.closed_loop_stable`` before trusting a margin."""
+    w = extended_grid(plant, kp, ki, w_rad_s) if isinstance(plant, Plant) else check_grid(w_rad_s)
     P = plant_frd(plant, w)
     L = open_loop_frd(P, w, kp, ki)
     margins = loop_margins(w, L)
@@ -50,6 +76,8 @@ class PayloadSweep:
     closed_loop_bandwidth_hz: np.ndarray
     phase_margin_deg: np.ndarray
     gain_margin_db: np.ndarray
+    #: closed loop stable (Nyquist on the analysis grid); the margins of an unstable loop mean nothing
+    closed_loop_stable: np.ndarray
 
 
 
@@ -58,4 +86,4 @@ def payload_sweep(plant: Plant, kp: float, ki: float, payload_kg, *, w_rad_s=ANA
     m = np.asarray(payload_kg, dtype=float).ravel()
     a = analyse_loop(plant.with_payload(m), kp, ki, w_rad_s=w_rad_s)
     return PayloadSweep(plant.stage, m, a.open_loop_corner_hz, a.closed_loop_bandwidth_hz,
-                        a.margins.phase_margin_deg, a.margins.gain_margin_db)
+                        a.margins.phase_margin_deg, a.margins.gain_margin_db, a.margins.closed_loop_stable)

@@ -36,6 +36,11 @@ class Margins:
     disk_phase_margin_deg: np.ndarray
     #: peak sensitivity Ms = max |1 / (1 + L)|
     peak_sensitivity: np.ndarray
+    #: closed loop stable by the Nyquist criterion on the grid (``nyquist_stable``; open loops without
+    #: unstable poles); the margins of an unstable loop are no guarantee of anything
+    closed_loop_stable: np.ndarray
+    #: |L| > 1 at the lowest and < 1 at the highest grid frequency: every gain crossover lies on the grid
+    crossings_on_grid: np.ndarray
 
 
 def unwrapped_phase_deg(resp: np.ndarray) -> np.ndarray:
@@ -180,18 +185,39 @@ def loop_margins(w_rad_s, loop) -> Margins:
     gm_db[found_g] = gm_log_all[j[found_g]] * 20 / np.log(10)
     wpc[found_g] = np.exp(x_p[j[found_g]])
 
-    # |S| = 1/|1 + L| and |S - 1/2| = |1 - L| / (2 |1 + L|), in real arithmetic
+    # |S| = 1/|1 + L| and |S - 1/2| = |1 - L| / (2 |1 + L|), in real arithmetic; each extreme refined
+    # between grid points on the complex quadratic through L at it and its neighbours (in log w)
     plus2 = (1.0 + re) ** 2 + im * im
     minus2 = (1.0 - re) ** 2 + im * im
     with np.errstate(divide="ignore", invalid="ignore"):
-        ms = 1.0 / np.sqrt(plus2.min(axis=-1))
-        alpha = 2.0 / np.sqrt(np.max(minus2 / plus2, axis=-1))
+        ratio = minus2 / plus2
+        fine = _near(lw, L2, np.argmin(plus2, axis=-1))
+        ms = 1.0 / np.sqrt(np.min(np.abs(1.0 + fine) ** 2, axis=-1))
+        fine = _near(lw, L2, np.argmax(np.where(np.isnan(ratio), -np.inf, ratio), axis=-1))
+        alpha = 2.0 / np.sqrt(np.max(np.abs(1.0 - fine) ** 2 / np.abs(1.0 + fine) ** 2, axis=-1))
     half = alpha / 2
     with np.errstate(divide="ignore", invalid="ignore"):
         dgm = np.where(half < 1, 20 * np.log10((1 + half) / (1 - half)), np.inf)
     dpm = np.degrees(2 * np.arctan(half))
+    stable = nyquist_stable(L2)
+    on_grid = (mag2[:, 0] > 1.0) & (mag2[:, -1] < 1.0)
     return Margins(*(x.reshape(batch) for x in (gm_db, pm, wpc / (2 * np.pi), wc / (2 * np.pi), alpha, dgm,
-                                                  dpm, ms)))
+                                                  dpm, ms, stable, on_grid)))
+
+
+def _near(x: np.ndarray, L: np.ndarray, i: np.ndarray, points: int = 65) -> np.ndarray:
+    """L of each row (n_rows, n) at ``points`` log-frequencies from grid point i-1 to i+1, on the complex
+    quadratic (Lagrange, in log w) through L there; the grid values themselves are among them."""
+    rows = np.arange(L.shape[0])
+    j = np.clip(i, 1, L.shape[1] - 2)[:, None]
+    x0, x1, x2 = x[j - 1], x[j], x[j + 1]
+    t = x0 + (x2 - x0) * np.linspace(0.0, 1.0, points)
+    t = np.sort(np.concatenate([t, x1], axis=1), axis=1)
+    l0 = (t - x1) * (t - x2) / ((x0 - x1) * (x0 - x2))
+    l1 = (t - x0) * (t - x2) / ((x1 - x0) * (x1 - x2))
+    l2 = (t - x0) * (t - x1) / ((x2 - x0) * (x2 - x1))
+    r = rows[:, None]
+    return L[r, j - 1] * l0 + L[r, j] * l1 + L[r, j + 1] * l2
 
 
 def closed_loop_bandwidth_hz(w_rad_s, closed_loop, *, dc_gain=None) -> np.ndarray:

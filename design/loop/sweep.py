@@ -98,6 +98,8 @@ class SweepResult:
     closed_loop_bandwidth_hz: Distribution
     phase_margin_deg: Distribution
     gain_margin_db: Distribution
+    #: samples per payload whose closed loop is unstable (their margins are no guarantee), (n_payloads,)
+    unstable_samples: np.ndarray
 
     @property
     def distributions(self) -> tuple[Distribution, ...]:
@@ -201,26 +203,29 @@ def monte_carlo_sweep(source: LoopProblem | Plant, *, payload_kg=None, samples: 
     if samples:
         params = draw_samples(ranges, int(samples), seed=seed)
         raw = _fast_samples(plant, m, params, kp, ki, progress)
+        unstable = np.sum(~raw.pop("stable"), axis=1)
     else:
         params = {name: np.array([plant.parameters()[name].value]) for name in sorted(ranges)}
         raw = {q: getattr(nominal, q)[:, None] for q in QUANTITIES}
+        unstable = (~nominal.closed_loop_stable).astype(int)
         if progress is not None:
             progress(m.size, m.size)
     dists = {q: Distribution(q, unit, raw[q], levels, percentiles_inf(raw[q], levels), np.fmin.reduce(raw[q], axis=1))
              for q, unit in QUANTITIES.items()}
     return SweepResult(plant.stage, float(kp), float(ki), m, int(seed), int(samples), SAMPLING, ranges, params,
-                       nominal, **dists)
+                       nominal, **dists, unstable_samples=unstable)
 
 
 def _fast_samples(plant, m, params, kp, ki, progress) -> dict[str, np.ndarray]:
     n_s = len(next(iter(params.values())))
     total = m.size * n_s
-    out = {q: np.empty(total) for q in QUANTITIES}
+    out = {q: np.empty(total) for q in (*QUANTITIES, "stable")}
     for start in range(0, total, CHUNK_PLANTS):
         idx = np.arange(start, min(start + CHUNK_PLANTS, total))
         numbers = fast_analyse_loop(batch_plant(plant, m, params, rows=idx), kp, ki)
-        for q in QUANTITIES:
-            out[q][idx] = getattr(numbers, q)
+        for q in (*QUANTITIES, "stable"):
+            out[q][idx] = np.ravel(getattr(numbers, q))
         if progress is not None:
             progress(int(idx[-1]) + 1, total)
-    return {q: v.reshape(m.size, n_s) for q, v in out.items()}
+    return {q: v.reshape(m.size, n_s) if q != "stable" else v.reshape(m.size, n_s).astype(bool)
+            for q, v in out.items()}

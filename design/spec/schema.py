@@ -23,6 +23,7 @@ Shape (see ``specs/``)::
 from __future__ import annotations
 
 import tomllib
+from dataclasses import replace
 from pathlib import Path
 from typing import Literal
 
@@ -127,6 +128,9 @@ class PlantSpec(_Strict):
 class ControllerSpec(_Strict):
     kp: GainBounds = GainBounds(value=THESIS["kp"].value, max=1.0e4)
     ki: GainBounds = GainBounds(value=THESIS["ki"].value)
+    #: the drive's velocity-loop rate (Hz): designs are verified with its hold and computation delay and
+    #: exported as discrete gains and filter coefficients
+    loop_rate_hz: float | None = Field(None, gt=0, le=1e6)
 
     @field_validator("kp", "ki", mode="before")
     @classmethod
@@ -172,8 +176,26 @@ class Spec(_Strict):
         return self
 
     def problem(self) -> LoopProblem:
-        """The design problem the numerics solve (``design.problem``), free of the file format."""
-        return LoopProblem(self.plant.family(), ControllerBounds(self.controller.kp, self.controller.ki),
+        """The design problem the numerics solve (``design.problem``), free of the file format. With
+        ``controller.loop_rate_hz`` the plant carries the ``sampling`` effect at that rate."""
+        family = self.plant.family()
+        rate = self.controller.loop_rate_hz
+        if rate is not None:
+            given = self.plant.effects.get("sampling")
+            if given is not None and given.get("rate_hz") != rate:
+                raise SpecError(f"controller.loop_rate_hz = {rate:g} and plant.effects.sampling disagree; give the "
+                                "loop rate once (controller.loop_rate_hz adds the sampling effect)")
+            for name, params in self.plant.effects.items():
+                f = params.get("frequency_hz")
+                if name == "sensor_filter" and f is not None and f >= rate / 2:
+                    raise SpecError(f"plant.effects.{name}.frequency_hz = {f:g} Hz is at or above the Nyquist "
+                                    f"frequency of controller.loop_rate_hz = {rate:g} Hz ({rate / 2:g} Hz): the "
+                                    "drive cannot run that filter")
+            if given is None:
+                nominal = family.nominal
+                family = replace(family, nominal=replace(nominal, effects=(*nominal.effects,
+                                                                           make_effect("sampling", rate_hz=rate))))
+        return LoopProblem(family, ControllerBounds(self.controller.kp, self.controller.ki, rate),
                            self.requirements, self.admittance, self.verification)
 
 

@@ -41,6 +41,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from design.loop.discrete import DiscreteCheck, DiscreteDesign
 from design.loop.fast import F_LOW_HZ, fast_analyse_loop
 from design.loop.margins import closed_loop_bandwidth_hz, loop_margins, nyquist_stable
 from design.problem import LoopProblem
@@ -81,6 +82,10 @@ EXTRA_STARTS = 1
 
 #: check scenarios with the least slack verified with python-control beside the design scenarios
 VERIFY_TIGHTEST = 40
+
+
+#: check scenarios with the least slack on which the discrete loop is checked beside the payload points
+DISCRETE_TIGHTEST = 8
 
 
 #: Monte Carlo checks that may add their worst violator to the design scenarios
@@ -571,6 +576,8 @@ class SynthesisResult:
     binding: dict | None = None
     #: independent draws over payload x the uncertainty (problems with uncertainty, optimal designs)
     monte_carlo: MonteCarloCheck | None = None
+    #: the design at ``controller.loop_rate_hz`` and python-control's check of its discrete loop
+    discrete: tuple[DiscreteDesign, DiscreteCheck] | None = None
 
 
 def check_supported(problem: LoopProblem) -> None:
@@ -755,18 +762,45 @@ def _synthesise(problem: LoopProblem, method: str, max_rounds: int, extra: list[
             f"kg (kp = {ev.kp:.4g}, ki = {ev.ki:.4g}), below requirements.min_bandwidth_hz = {req_bw:g}; "
             f"the {b['constraint'].replace('_', ' ')}{where} "
             "limits it", ev, v, method, seconds, base, names, pts, details)
+    discrete = None
+    if problem.controller.loop_rate_hz is not None:
+        discrete = _discrete(problem, ev, points, dense)
+        if not discrete[1].verified:
+            return SynthesisResult("infeasible", "the discrete loop at controller.loop_rate_hz misses the "
+                                   "requirements: " + "; ".join(discrete[1].failures[:3]), ev, v, method, seconds,
+                                   base, names, pts, details, discrete=discrete)
     if not dense.parameters:
-        return SynthesisResult("optimal", f"verified ({label})", ev, v, method, seconds, base, names, pts, details)
+        return SynthesisResult("optimal", f"verified ({label})", ev, v, method, seconds, base, names, pts, details,
+                               discrete=discrete)
     mc = monte_carlo_check(problem, ev.kp, ev.ki, seed=seed)
     details["design_scenarios"] = len(points)
     if mc.violations:
         return SynthesisResult("infeasible", f"verified on the {len(points)} design scenarios ({label}), but "
                                f"{mc.violations} of {mc.samples} Monte Carlo draws over the uncertainty violate the "
                                f"requirements (worst at {_describe(mc.worst_scenario)})", ev, v, method, seconds, base,
-                               names, pts, details, monte_carlo=mc)
+                               names, pts, details, monte_carlo=mc, discrete=discrete)
     return SynthesisResult("optimal", f"verified ({label}) on {len(points)} design scenarios; 0 of {mc.samples} "
                            f"Monte Carlo draws violate (95 % upper bound {100 * mc.rate_upper_bound:.2g} %)", ev, v,
-                           method, seconds, base, names, pts, details, monte_carlo=mc)
+                           method, seconds, base, names, pts, details, monte_carlo=mc, discrete=discrete)
+
+
+def _discrete(problem: LoopProblem, ev: Evaluation, points: Scenarios, dense: Scenarios):
+    """The design as the drive runs it at ``controller.loop_rate_hz``, checked with python-control on the
+    discrete loop at the payload points (nominal parameters) and the ``DISCRETE_TIGHTEST`` tightest checks."""
+    from design.loop.discrete import check_discrete, discretise
+
+    base = problem.plant.plant()
+    rows = Scenarios(np.unique(points.payload_kg), {n: np.full(np.unique(points.payload_kg).size,
+                                                                 base.parameters()[n].value)
+                                                    for n in dense.parameters})
+    for i in ev.tightest(DISCRETE_TIGHTEST):
+        if not rows.contains(dense.row(int(i))):
+            rows = rows.with_row(dense.row(int(i)))
+    design = discretise(base, ev.kp, ev.ki, problem.controller.loop_rate_hz)
+    req = problem.requirements
+    check = check_discrete([(rows.describe(k), rows.plant(base, k)) for k in range(len(rows))], design,
+                           phase_margin_deg=req.phase_margin_deg, gain_margin_db=req.gain_margin_db)
+    return design, check
 
 
 def _describe(row: dict) -> str:

@@ -8,6 +8,7 @@ import time
 import numpy as np
 from rich import box
 from rich.console import Console
+from rich.markup import escape
 from rich.table import Table
 
 from design.loop.analysis import PayloadSweep
@@ -143,6 +144,17 @@ def print_synthesis(console: Console, out: dict) -> None:
                       f"min PM {_num(v['min_phase_margin_deg'])}"
                       f" deg, min GM {_num(v['min_gain_margin_db'])} dB, bandwidth agreement "
                       f"{_num(v['max_bandwidth_rel_error'], '.1e')}; failures: {len(v['failures'])}")
+    dd = out.get("discrete")
+    if dd:
+        v = dd["verification"]
+        console.print(f"[bold]discrete[/] at {dd['loop_rate_hz']:g} Hz: Kp = {dd['kp']:.6g}, integral gain per sample "
+                      f"{dd['ki_per_sample']:.6g} ({escape(dd['integrator'])}); discrete loop on {v['plants']} plants: "
+                      f"min PM "
+                      f"{_num(v['min_phase_margin_deg'])} deg, min GM {_num(v['min_gain_margin_db'])} dB, verified "
+                      f"{v['verified']}")
+        for f in dd["filters"]:
+            console.print(f"  {f['name']} ({f['frequency_hz']:g} Hz, damping {f['damping_ratio']:.4g}): "
+                          + ", ".join(f"{k} = {f[k]:.10g}" for k in ("b0", "b1", "b2", "a1", "a2")))
     mc = out.get("monte_carlo")
     if mc:
         console.print(f"[bold]Monte Carlo[/] ({mc['samples']} independent draws over payload x plant.uncertainty, seed "
@@ -232,9 +244,11 @@ def sweep_table(result) -> Table:
             t.add_column(col, justify="right")
         for i in show:
             nom = result.nominal
+            ok = bool(nom.closed_loop_stable[i])
             t.add_row(f"{result.payload_kg[i]:.2f}", _fmt(nom.open_loop_corner_hz[i], 2),
-                      _fmt(nom.closed_loop_bandwidth_hz[i], 2), _fmt(nom.phase_margin_deg[i], 1),
-                      _fmt(nom.gain_margin_db[i], 1))
+                      _fmt(nom.closed_loop_bandwidth_hz[i], 2) if ok else "unstable",
+                      _fmt(nom.phase_margin_deg[i], 1) if ok else "unstable",
+                      _fmt(nom.gain_margin_db[i], 1) if ok else "unstable")
         return t
     lv = result.levels
     mid = len(lv) // 2
@@ -259,6 +273,10 @@ def sweep_table(result) -> Table:
 def print_sweep(console: Console, result) -> None:
     """The text of ``gantry sweep``: the table and, with samples, the ranges and the worst cases."""
     console.print(sweep_table(result))
+    unstable = int(np.sum(result.unstable_samples))
+    if unstable:
+        console.print(f"[bold red]{unstable} of {result.payload_kg.size * max(result.samples, 1)} closed loops are "
+                      "UNSTABLE[/]: their margins are no guarantee (Nyquist on the analysis grid)")
     if result.samples:
         ranges = ", ".join(f"{k} {lo:g}..{hi:g}" for k, (lo, hi) in result.uncertainty.items())
         console.print(f"Sampling: {result.sampling}; ranges: {ranges}.")

@@ -12,6 +12,7 @@ from design.admittance.model import admittance_problem
 from design.admittance.synthesis import AdmittanceResult
 from design.admittance.verify import PADE_ORDER, AdmittanceVerification
 from design.loop.analysis import PayloadSweep
+from design.loop.discrete import DiscreteCheck, DiscreteDesign
 from design.loop.sweep import SweepResult
 from design.problem import LoopProblem
 from design.results import DesignOutcome, DiagnosisOutcome, FitOutcome
@@ -27,6 +28,10 @@ from plant.rational_fit import RationalFit
 from plant.recording import Recording
 from plant.time_diagnosis import TimeDiagnosis
 from plant.time_fit import TimeFitResult, bic
+
+#: how every closed-loop bandwidth of the tool is defined
+BANDWIDTH_DEFINITION = ("first frequency where |T| = |L/(1 + L)| falls to |T(0)|/sqrt 2 (half power, -3.01 dB; "
+                        "T(0) = 1 with integral action)")
 
 
 def finite_or_none(x) -> float | None:
@@ -210,9 +215,9 @@ def payload_sweep_rows(sweep: PayloadSweep) -> list[dict]:
     return [
         {"stage": sweep.stage, "payload_kg": float(m), "open_loop_corner_hz": finite_or_none(c),
          "closed_loop_bandwidth_hz": finite_or_none(b), "phase_margin_deg": finite_or_none(p),
-         "gain_margin_db": finite_or_none(g)}
-        for m, c, b, p, g in zip(sweep.payload_kg, sweep.open_loop_corner_hz, sweep.closed_loop_bandwidth_hz,
-                                 sweep.phase_margin_deg, sweep.gain_margin_db)
+         "gain_margin_db": finite_or_none(g), "closed_loop_stable": bool(st)}
+        for m, c, b, p, g, st in zip(sweep.payload_kg, sweep.open_loop_corner_hz, sweep.closed_loop_bandwidth_hz,
+                                     sweep.phase_margin_deg, sweep.gain_margin_db, sweep.closed_loop_stable)
     ]
 
 
@@ -249,13 +254,15 @@ def sweep_to_dict(result: SweepResult) -> dict:
             stats = {f"p{lv:g}": finite_or_none(v[i]) for lv, v in zip(d.levels, d.percentiles)}
             stats["worst"] = finite_or_none(d.worst[i])
             entry[d.name] = stats
+        entry["unstable_samples"] = int(result.unstable_samples[i])
         payloads.append(entry)
     worst = {name: {"value": finite_or_none(w.value), "payload_kg": w.payload_kg, "sample_index": w.sample_index,
                     "parameters": w.parameters} for name, w in result.worst_case().items()}
     return {"stage": result.stage, "kp": result.kp, "ki": result.ki, "seed": result.seed, "samples": result.samples,
             "sampling": result.sampling,
             "uncertainty": {k: {"min": lo, "max": hi} for k, (lo, hi) in result.uncertainty.items()},
-            "percentiles": list(result.levels), "payloads": payloads, "worst_case": worst}
+            "percentiles": list(result.levels), "payloads": payloads, "worst_case": worst,
+            "unstable_samples": int(np.sum(result.unstable_samples)), "bandwidth_definition": BANDWIDTH_DEFINITION}
 
 
 def evaluation_to_dict(ev: Evaluation, label: str) -> dict:
@@ -289,7 +296,27 @@ def synthesis_to_dict(result: SynthesisResult) -> dict:
                    "payload_points": list(result.payload_points_used), **result.details},
         "baselines": [evaluation_to_dict(b, n) for b, n in zip(result.baselines, result.baseline_names)],
         **({"monte_carlo": monte_carlo_to_dict(result.monte_carlo)} if result.monte_carlo is not None else {}),
+        **({"discrete": discrete_to_dict(*result.discrete)} if result.discrete is not None else {}),
     }
+
+
+def discrete_to_dict(d: DiscreteDesign, check: DiscreteCheck) -> dict:
+    """The design as the drive runs it: gains per sample period and biquad coefficients."""
+    return {"loop_rate_hz": d.loop_rate_hz, "sample_period_s": 1.0 / d.loop_rate_hz, "kp": d.kp,
+            "ki_per_sample": d.ki_per_sample,
+            "integrator": "trapezoidal: i[k] = i[k-1] + ki_per_sample (e[k] + e[k-1]) / 2, u[k] = kp e[k] + i[k]",
+            "filters": [{"name": f.name, "frequency_hz": f.frequency_hz, "damping_ratio": f.damping_ratio,
+                         "b0": f.b0, "b1": f.b1, "b2": f.b2, "a1": f.a1, "a2": f.a2,
+                         "form": "H(z) = (b0 + b1 z^-1 + b2 z^-2) / (1 + a1 z^-1 + a2 z^-2), Tustin pre-warped at "
+                                 "frequency_hz"} for f in d.filters],
+            "verification": {"tool": "python-control stability_margins (FRD, 500 points per decade to Nyquist) and "
+                                     "closed-loop poles of the discrete loop: plant "
+                                     "sampled exactly with its delay (zero-order hold), one sample of computation "
+                                     "delay, discrete PI and filters",
+                             "plants": check.plants, "verified": check.verified,
+                             "min_phase_margin_deg": finite_or_none(check.min_phase_margin_deg),
+                             "min_gain_margin_db": finite_or_none(check.min_gain_margin_db),
+                             "failures": list(check.failures)}}
 
 
 def monte_carlo_to_dict(mc: MonteCarloCheck) -> dict:

@@ -30,7 +30,8 @@ live in one place and apply to every command.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+import math
+from dataclasses import dataclass, field, replace
 from typing import Annotated
 
 import numpy as np
@@ -112,6 +113,27 @@ class GainBounds:
 
 
 @dataclass(frozen=True)
+class DriveFilter:
+    """A biquad after the PI controller (``design.loop.filters``): ``kind`` low_pass or notch, its
+    fixed parameters and the ranges of those the synthesis chooses (empty: a filter the drive already
+    has, kept as it is)."""
+
+    kind: str
+    fixed: dict[str, float]
+    ranges: dict[str, tuple[float, float]] = field(default_factory=dict)
+
+    @property
+    def designed(self) -> bool:
+        return bool(self.ranges)
+
+    def start(self) -> dict[str, float]:
+        """Its parameters, the designed ones at the geometric (depth: arithmetic) middle of their range."""
+        mid = {k: (math.sqrt(lo * hi) if k != "depth" and lo > 0 else 0.5 * (lo + hi))
+               for k, (lo, hi) in self.ranges.items()}
+        return {**self.fixed, **mid}
+
+
+@dataclass(frozen=True)
 class ControllerBounds:
     """PI gains kp (A per m/s) and ki (A per m); ``loop_rate_hz``: the drive's velocity-loop rate, when
     the design is to be exported as the drive runs it (its hold and computation delay are then in the
@@ -120,6 +142,8 @@ class ControllerBounds:
     kp: GainBounds
     ki: GainBounds
     loop_rate_hz: float | None = None
+    #: biquads after the PI controller, in the loop in this order
+    filters: tuple[DriveFilter, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -246,3 +270,21 @@ class LoopProblem:
     requirements: Requirements = Requirements()
     admittance: AdmittanceProblem | None = None
     verification: Verification = Verification()
+
+
+def with_filters(family: PlantFamily, filters: tuple[DriveFilter, ...],
+                 values: list[dict] | None = None) -> PlantFamily:
+    """The family with the drive's filters in the loop (as effects at the drive, replacing any there):
+    at ``values`` (one dict per filter; None leaves a designed filter out), else at their start values."""
+    from design.loop.filters import FILTERS, KINDS
+
+    nominal = family.nominal
+    kept = tuple(e for e in nominal.effects if e.name not in FILTERS)
+    chosen = values if values is not None else [f.start() for f in filters]
+    added = tuple(KINDS[f.kind](**v) for f, v in zip(filters, chosen) if v is not None)
+    return replace(family, nominal=replace(nominal, effects=(*kept, *added)))
+
+
+def with_filter_values(problem: LoopProblem, values: list[dict]) -> LoopProblem:
+    """The problem with its drive filters at ``values`` (one dict of parameters per filter)."""
+    return replace(problem, plant=with_filters(problem.plant, problem.controller.filters, values))

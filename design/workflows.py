@@ -104,7 +104,7 @@ def design(problem: DesignProblem, *, method: str = "ccp+exact", schedule: bool 
         from design.synth.measured import synthesise_from_data
 
         return DesignOutcome(problem, measured=synthesise_from_data(loop, measured_plants(problem)))
-    from design.synth.pi import synthesise_pi
+    from design.synth.pi import as_designed, synthesise_pi
 
     result = synthesise_pi(loop, method=method)
     optimal = result.status == "optimal"
@@ -112,9 +112,10 @@ def design(problem: DesignProblem, *, method: str = "ccp+exact", schedule: bool 
     if schedule and optimal:
         from design.synth.schedule import gain_schedule
 
-        points = tuple(gain_schedule(loop, result.evaluation.kp, result.evaluation.ki))
+        points = tuple(gain_schedule(as_designed(loop, result), result.evaluation.kp, result.evaluation.ki))
     if loop.admittance is None:
         return DesignOutcome(problem, synthesis=result, schedule=points)
+    loop = as_designed(loop, result)
     kp = result.evaluation.kp if optimal else loop.controller.kp.value
     ki = result.evaluation.ki if optimal else loop.controller.ki.value
     if kp is None or ki is None:
@@ -142,7 +143,7 @@ def report_content(problem: DesignProblem, *, outcome: DesignOutcome | None = No
     evaluated on the dense payloads beside the thesis gains, the loop's curves, a Monte Carlo sweep over
     the spec's uncertainty (``samples``; default 200 when it has ranges), and the diagnoses of ``data``."""
     from design.loop.curves import loop_curves
-    from design.synth.pi import PHASE_LIMITING, THESIS_GAINS, evaluate
+    from design.synth.pi import PHASE_LIMITING, THESIS_GAINS, as_designed, evaluate
 
     loop = problem.loop
     if samples is None:
@@ -152,6 +153,8 @@ def report_content(problem: DesignProblem, *, outcome: DesignOutcome | None = No
                         "--samples")
     if outcome is None and synthesise and any(e in PHASE_LIMITING for e in loop.plant.effects):
         outcome = design(problem)
+    if outcome is not None and outcome.synthesis is not None:
+        loop = as_designed(loop, outcome.synthesis)
     kp, ki, source = loop.controller.kp.value, loop.controller.ki.value, "from the spec's controller values"
     if outcome is not None and outcome.gains is not None:
         (kp, ki), source = outcome.gains, "synthesised" + (", independently verified" if outcome.verified

@@ -27,7 +27,7 @@ from plant.errors import SpecError
 from plant.models import Plant
 
 #: continuous effects realised in the drive's discrete controller (coefficients exported)
-DRIVE_FILTERS = ("sensor_filter",)
+DRIVE_FILTERS = ("sensor_filter", "low_pass_filter", "notch_filter")
 #: continuous effects the discrete loop replaces by its own hold and computation delay
 REPLACED = ("sampling",)
 
@@ -82,6 +82,10 @@ def discretise(plant: Plant, kp: float, ki: float, loop_rate_hz: float) -> Discr
             wn = 2 * math.pi * f
             coef = tustin_biquad((0.0, 0.0, wn * wn), (1.0, 2 * z * wn, wn * wn), loop_rate_hz, f)
             filters.append(DiscreteBiquad(e.name, f, z, *coef))
+        elif e.name in DRIVE_FILTERS:
+            f = float(e.frequency_hz)
+            coef = tustin_biquad(*e.polynomials(), loop_rate_hz, f)
+            filters.append(DiscreteBiquad(e.name, f, float(e.damping_ratio), *coef))
     return DiscreteDesign(float(loop_rate_hz), float(kp), float(ki) / loop_rate_hz, tuple(filters))
 
 

@@ -39,6 +39,7 @@ from pydantic import (
 from design.problem import (
     AdmittanceProblem,
     ControllerBounds,
+    DriveFilter,
     GainBounds,
     LoopProblem,
     Mouse,
@@ -48,6 +49,7 @@ from design.problem import (
     Requirements,
     Uncertainty,
     Verification,
+    with_filters,
 )
 from plant.effects import EFFECTS, make_effect
 from plant.errors import GantryError, SpecError
@@ -125,12 +127,65 @@ class PlantSpec(_Strict):
         return PlantFamily(nominal, self.payload_kg, dict(self.uncertainty))
 
 
+class FilterRange(_Strict):
+    """A filter parameter the synthesis chooses, between ``min`` and ``max``."""
+
+    min: float = Field(ge=0)
+    max: float = Field(ge=0)
+
+    @model_validator(mode="after")
+    def _ordered(self):
+        if self.max < self.min:
+            raise ValueError(f"max ({self.max}) must be >= min ({self.min})")
+        return self
+
+
+class FilterSpec(_Strict):
+    """A biquad after the PI controller: every parameter a number (the drive's filter, kept) or a range
+    (the synthesis chooses it). Defaults: low-pass Butterworth damping 1/sqrt 2; notch damping 0.3,
+    depth 0.1."""
+
+    kind: Literal["low_pass", "notch"]
+    frequency_hz: float | FilterRange
+    damping_ratio: float | FilterRange | None = None
+    depth: float | FilterRange | None = None
+
+    @model_validator(mode="after")
+    def _valid(self):
+        from design.loop.filters import KINDS
+
+        if self.kind == "low_pass" and self.depth is not None:
+            raise ValueError("depth is a notch parameter; a low-pass filter has none")
+        cls = KINDS[self.kind]
+        for end in ("min", "max"):
+            values = {k: (getattr(v, end) if isinstance(v, FilterRange) else v)
+                      for k, v in self.parameters().items()}
+            try:
+                cls(**values)
+            except (GantryError, ValueError) as exc:
+                raise ValueError(str(exc).replace(f"{cls.name}.", "")) from None
+        return self
+
+    def parameters(self) -> dict[str, float | FilterRange]:
+        defaults = {"damping_ratio": 0.7071067811865476} if self.kind == "low_pass" else \
+            {"damping_ratio": 0.3, "depth": 0.1}
+        given = {"frequency_hz": self.frequency_hz, "damping_ratio": self.damping_ratio, "depth": self.depth}
+        return {k: (given[k] if given.get(k) is not None else defaults[k]) for k in ("frequency_hz", *defaults)}
+
+    def drive_filter(self) -> DriveFilter:
+        p = self.parameters()
+        return DriveFilter(self.kind, {k: float(v) for k, v in p.items() if not isinstance(v, FilterRange)},
+                           {k: (v.min, v.max) for k, v in p.items() if isinstance(v, FilterRange)})
+
+
 class ControllerSpec(_Strict):
     kp: GainBounds = GainBounds(value=THESIS["kp"].value, max=1.0e4)
     ki: GainBounds = GainBounds(value=THESIS["ki"].value)
     #: the drive's velocity-loop rate (Hz): designs are verified with its hold and computation delay and
     #: exported as discrete gains and filter coefficients
     loop_rate_hz: float | None = Field(None, gt=0, le=1e6)
+    #: biquads after the PI controller (``[[controller.filters]]``)
+    filters: list[FilterSpec] = Field(default_factory=list, max_length=2)
 
     @field_validator("kp", "ki", mode="before")
     @classmethod
@@ -195,7 +250,16 @@ class Spec(_Strict):
                 nominal = family.nominal
                 family = replace(family, nominal=replace(nominal, effects=(*nominal.effects,
                                                                            make_effect("sampling", rate_hz=rate))))
-        return LoopProblem(family, ControllerBounds(self.controller.kp, self.controller.ki, rate),
+        filters = tuple(f.drive_filter() for f in self.controller.filters)
+        if len({f.kind for f in filters}) < len(filters):
+            raise SpecError("controller.filters: at most one low_pass and one notch")
+        for k, f in enumerate(filters):
+            top = max(f.fixed.get("frequency_hz", 0.0), f.ranges.get("frequency_hz", (0.0, 0.0))[1])
+            if rate is not None and top >= rate / 2:
+                raise SpecError(f"controller.filters.{k}.frequency_hz reaches {top:g} Hz, at or above the Nyquist "
+                                f"frequency of controller.loop_rate_hz = {rate:g} Hz ({rate / 2:g} Hz)")
+        return LoopProblem(with_filters(family, filters), ControllerBounds(self.controller.kp, self.controller.ki,
+                                                                            rate, filters),
                            self.requirements, self.admittance, self.verification)
 
 

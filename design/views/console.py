@@ -144,6 +144,12 @@ def print_synthesis(console: Console, out: dict) -> None:
                       f"min PM {_num(v['min_phase_margin_deg'])}"
                       f" deg, min GM {_num(v['min_gain_margin_db'])} dB, bandwidth agreement "
                       f"{_num(v['max_bandwidth_rel_error'], '.1e')}; failures: {len(v['failures'])}")
+    for f in out.get("filters") or []:
+        if not f["used"]:
+            console.print(f"[bold]{f['kind']} filter[/]: left out (the design is faster without it)")
+            continue
+        params = ", ".join(f"{k} = {f[k]:.4g}" for k in ("frequency_hz", "damping_ratio", "depth") if k in f)
+        console.print(f"[bold]{f['kind']} filter[/]: {params} (chosen: {', '.join(f['designed']) or 'none, kept'})")
     dd = out.get("discrete")
     if dd:
         v = dd["verification"]

@@ -297,6 +297,7 @@ def synthesis_to_dict(result: SynthesisResult) -> dict:
         "baselines": [evaluation_to_dict(b, n) for b, n in zip(result.baselines, result.baseline_names)],
         **({"monte_carlo": monte_carlo_to_dict(result.monte_carlo)} if result.monte_carlo is not None else {}),
         **({"discrete": discrete_to_dict(*result.discrete)} if result.discrete is not None else {}),
+        **({"filters": list(result.filters)} if result.filters else {}),
     }
 
 

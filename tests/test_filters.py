@@ -1,0 +1,123 @@
+"""The drive's filters: closed forms of the biquads, their symbolic form for the exact synthesis, the
+spec section, and designs on a resonant stage checked here with python-control."""
+
+from __future__ import annotations
+
+import json
+import math
+import subprocess
+import sys
+import tomllib
+from pathlib import Path
+
+import control
+import numpy as np
+import pytest
+
+from design.loop.filters import LowPassFilter, NotchFilter
+from design.spec.schema import parse_spec
+from design.synth.pi import _casadi_frd
+from plant import CurrentLoop, Delay, stage_x
+from plant.errors import SpecError
+
+ROOT = Path(__file__).resolve().parents[1]
+RESONANT = ROOT / "specs" / "stage_x_resonant_payload.toml"
+
+
+def gantry(*args):
+    return subprocess.run([sys.executable, "-m", "design", *map(str, args)], capture_output=True, text=True)
+
+
+@pytest.mark.parametrize("zeta", [0.3, 1 / math.sqrt(2), 1.2])
+def test_low_pass_closed_form_at_its_corner(zeta):
+    f = LowPassFilter(200.0, zeta)
+    w = 2 * math.pi * np.array([200.0, 1e-3, 2e5])
+    h = f.response(1j * w)
+    assert h[0] == pytest.approx(1 / (2j * zeta), rel=1e-12)        # -90 deg, 1/(2 zeta) at the corner
+    r = np.array([200.0, 1e-3, 2e5]) / 200.0
+    np.testing.assert_allclose(h, 1 / (1 - r**2 + 2j * zeta * r), rtol=1e-12)   # the closed form everywhere
+    assert abs(h[1] - 1) < 1e-4 and abs(h[2]) < 1.1e-6                 # passes DC, -40 dB/decade above
+
+
+@pytest.mark.parametrize("depth", [0.0, 0.1, 0.5])
+def test_notch_depth_is_its_gain_at_the_centre(depth):
+    f = NotchFilter(80.0, 0.3, depth)
+    h = f.response(1j * 2 * math.pi * np.array([80.0, 0.01, 1e6]))
+    assert abs(h[0]) == pytest.approx(depth, abs=1e-12)
+    r = np.array([80.0, 0.01, 1e6]) / 80.0
+    np.testing.assert_allclose(h, (1 - r**2 + 0.6j * depth * r) / (1 - r**2 + 0.6j * r), rtol=1e-12, atol=1e-15)
+    assert abs(h[1] - 1) < 1e-4 and abs(h[2] - 1) < 1e-4          # unity far from the notch
+    # python-control's transfer function of the same polynomials agrees
+    assert f.to_tf()(2j * math.pi * 80.0) == pytest.approx(h[0], abs=1e-12)
+
+
+def test_the_symbolic_filters_equal_the_numeric_ones():
+    plant = stage_x(mass_kg=20.0) * Delay(5e-4) * CurrentLoop(1000.0) * NotchFilter(60.0, 0.2, 0.1) \
+        * LowPassFilter(300.0, 0.7)
+    w = np.geomspace(1.0, 2e4, 40)
+    re, im = _casadi_frd(plant, w)
+    z = np.asarray(re, float).ravel() + 1j * np.asarray(im, float).ravel()
+    np.testing.assert_allclose(z, plant.frd(w), rtol=1e-12)
+
+
+def _spec(**filters):
+    data = tomllib.loads(RESONANT.read_text())
+    data["controller"]["filters"] = [filters]
+    return data
+
+
+@pytest.mark.parametrize("filters,key", [
+    ({"kind": "notch", "frequency_hz": 60.0, "damping_ratio": -0.2}, "damping_ratio"),
+    ({"kind": "notch", "frequency_hz": 60.0, "depth": 1.5}, "depth"),
+    ({"kind": "low_pass", "frequency_hz": 60.0, "depth": 0.2}, "depth"),
+    ({"kind": "band_pass", "frequency_hz": 60.0}, "kind"),
+    ({"kind": "notch", "frequency_hz": {"min": 90.0, "max": 30.0}}, "frequency_hz"),
+])
+def test_bad_filters_name_the_key(filters, key):
+    with pytest.raises(SpecError, match=f"controller.filters.0.*{key}|{key}"):
+        parse_spec(_spec(**filters), source="f.toml").problem()
+
+
+def test_a_filter_above_the_nyquist_frequency_of_the_loop_rate_is_refused():
+    data = _spec(kind="notch", frequency_hz={"min": 20.0, "max": 3000.0})
+    data["controller"]["loop_rate_hz"] = 4000.0
+    with pytest.raises(SpecError, match="Nyquist"):
+        parse_spec(data).problem()
+
+
+def test_fixed_filters_join_the_loop_and_designed_ones_start_in_their_range():
+    p = parse_spec(_spec(kind="low_pass", frequency_hz=200.0)).problem()
+    lp = p.plant.plant().effect("low_pass_filter")
+    assert lp.frequency_hz == 200.0 and lp.damping_ratio == pytest.approx(1 / math.sqrt(2), rel=1e-12)
+    p = parse_spec(_spec(kind="notch", frequency_hz={"min": 20.0, "max": 180.0})).problem()
+    assert p.plant.plant().effect("notch_filter").frequency_hz == pytest.approx(60.0)   # sqrt(20 x 180)
+
+
+def test_filters_designed_with_the_gains_beat_pi_alone_and_hold_independently(tmp_path):
+    # the payload-sensed mode at 60 Hz limits PI alone; the synthesis may use a notch and a low-pass
+    with_filters = gantry("synth", RESONANT, "--json")
+    assert with_filters.returncode == 0, with_filters.stderr
+    res = json.loads(with_filters.stdout)
+    data = tomllib.loads(RESONANT.read_text())
+    data["controller"].pop("filters")
+    alone = tmp_path / "pi.toml"
+    alone.write_text(RESONANT.read_text().split("[[controller.filters]]")[0]
+                     + "[requirements]\nphase_margin_deg = 45.0\ngain_margin_db = 6.0\n")
+    pi = json.loads(gantry("synth", alone, "--json").stdout)
+    assert res["status"] == pi["status"] == "optimal"
+    assert res["worst_case"]["bandwidth_hz"] >= 1.3 * pi["worst_case"]["bandwidth_hz"]
+    # independent: python-control 0.10.2 on the Pade model, the filters built here from the reported numbers
+    kp, ki = res["gains"]["kp"], res["gains"]["ki"]
+    F = control.tf([1.0], [1.0])
+    for f in res["filters"]:
+        if not f["used"]:
+            continue
+        w, z = 2 * math.pi * f["frequency_hz"], f["damping_ratio"]
+        num = [w * w] if f["kind"] == "low_pass" else [1.0, 2 * f["depth"] * z * w, w * w]
+        F = F * control.tf(num, [1.0, 2 * z * w, w * w])
+    plant = parse_spec(data).problem().plant.plant()
+    for m in np.linspace(5.0, 40.0, 12):
+        L = plant.with_payload(m).to_control(pade_order=8) * control.tf([kp, ki], [1, 0]) * F
+        assert np.all(np.real(control.poles(control.feedback(L, 1))) < 0)
+        gm, pm, *_ = control.stability_margins(L)
+        assert pm >= 45.0 - 0.05 and 20 * math.log10(gm) >= 6.0 - 0.05, (m, pm, gm)

@@ -32,7 +32,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field, replace
-from typing import Annotated
+from typing import Annotated, Literal
 
 import numpy as np
 from annotated_types import Ge, Gt, Le, Lt
@@ -157,6 +157,14 @@ class Requirements:
     peak_sensitivity: Annotated[float, Gt(1)] | None = None
     #: optional: synthesis is infeasible when the worst-case bandwidth cannot reach this
     min_bandwidth_hz: Annotated[float, Gt(0), Le(1e5)] | None = None
+    #: closed-loop bandwidth: where |T| falls to |T(0)|/sqrt 2 ("half_power", -3.01 dB) or 3 dB below
+    #: |T(0)| ("minus_3_db", MATLAB's ``bandwidth``)
+    bandwidth_definition: Literal["half_power", "minus_3_db"] = "half_power"
+
+    @property
+    def level2(self) -> float:
+        """|T(w_b)|^2 / |T(0)|^2 of the bandwidth definition."""
+        return 0.5 if self.bandwidth_definition == "half_power" else 10 ** (-0.3)
 
 
 @dataclass(frozen=True)

@@ -359,3 +359,17 @@ def test_peak_sensitivity_and_disk_margin_are_refined_between_grid_points(k):
     assert got.disk_margin == pytest.approx(ref.disk_margin, rel=5e-3)
     # the grid maximum alone misses up to 10 % at k = 2
     assert abs(got.peak_sensitivity - ref.peak_sensitivity) <= abs(on_grid - ref.peak_sensitivity)
+
+
+@pytest.mark.parametrize("definition", ["half_power", "minus_3_db"])
+def test_bandwidth_definitions_match_python_control(definition):
+    from design.loop.fast import fast_analyse_loop
+    from design.loop.margins import BANDWIDTH_LEVELS2
+
+    level2 = BANDWIDTH_LEVELS2[definition]
+    plant = stage_x(mass_kg=20.0) * Delay(0.0005) * CurrentLoop(1000.0)
+    T = control.feedback(plant.to_control(pade_order=8) * control.tf([275.0, 4.46e4], [1, 0]), 1)
+    ref = control.bandwidth(T, dbdrop=10 * math.log10(level2)) / (2 * math.pi)   # python-control 0.10.2
+    assert analyse_loop(plant, 275.0, 4.46e4, level2=level2).closed_loop_bandwidth_hz == pytest.approx(ref, rel=1e-5)
+    assert fast_analyse_loop(plant, 275.0, 4.46e4, level2=level2).closed_loop_bandwidth_hz == pytest.approx(ref,
+                                                                                                           rel=1e-5)

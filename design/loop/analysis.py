@@ -50,10 +50,11 @@ def extended_grid(plant: Plant, kp, ki, w_rad_s) -> np.ndarray:
     return np.geomspace(lo, hi, int(round(per_decade * np.log10(hi / lo))) + 1)
 
 
-def analyse_loop(plant, kp, ki, *, w_rad_s=ANALYSIS_GRID_RAD_S) -> LoopAnalysis:
+def analyse_loop(plant, kp, ki, *, w_rad_s=ANALYSIS_GRID_RAD_S, level2: float = 0.5) -> LoopAnalysis:
     """Analyse the loop for a ``Plant`` (possibly a payload batch; the grid then grows until it holds every
     crossover, ``extended_grid``) or a measured response array (``margins.crossings_on_grid`` says
-    whether it does). Check ``margins.closed_loop_stable`` before trusting a margin."""
+    whether it does). Check ``margins.closed_loop_stable`` before trusting a margin. ``level2``: the
+    bandwidth definition, |T(w_b)|^2 / |T(0)|^2 (``design.loop.margins.BANDWIDTH_LEVELS2``)."""
     w = extended_grid(plant, kp, ki, w_rad_s) if isinstance(plant, Plant) else check_grid(w_rad_s)
     P = plant_frd(plant, w)
     L = open_loop_frd(P, w, kp, ki)
@@ -61,7 +62,7 @@ def analyse_loop(plant, kp, ki, *, w_rad_s=ANALYSIS_GRID_RAD_S) -> LoopAnalysis:
     dc2 = 1.0 if np.all(np.asarray(ki) > 0) else None
     # |T|^2 = |L|^2 / |1 + L|^2 of T = L / (1 + L) (Eq. 3.19/3.20), in real arithmetic
     T2 = (L.real**2 + L.imag**2) / ((1.0 + L.real) ** 2 + L.imag**2)
-    bw = first_drop_hz(w, T2, dc2)
+    bw = first_drop_hz(w, T2, dc2, level2=level2)
     corner = first_drop_hz(w, P.real**2 + P.imag**2)
     return LoopAnalysis(margins, bw, corner)
 
@@ -81,9 +82,10 @@ class PayloadSweep:
 
 
 
-def payload_sweep(plant: Plant, kp: float, ki: float, payload_kg, *, w_rad_s=ANALYSIS_GRID_RAD_S) -> PayloadSweep:
-    """Evaluate all payloads at once (one vectorised call)."""
+def payload_sweep(plant: Plant, kp: float, ki: float, payload_kg, *, w_rad_s=ANALYSIS_GRID_RAD_S,
+                  level2: float = 0.5) -> PayloadSweep:
+    """Evaluate all payloads at once (one vectorised call); ``level2`` as in ``analyse_loop``."""
     m = np.asarray(payload_kg, dtype=float).ravel()
-    a = analyse_loop(plant.with_payload(m), kp, ki, w_rad_s=w_rad_s)
+    a = analyse_loop(plant.with_payload(m), kp, ki, w_rad_s=w_rad_s, level2=level2)
     return PayloadSweep(plant.stage, m, a.open_loop_corner_hz, a.closed_loop_bandwidth_hz,
                         a.margins.phase_margin_deg, a.margins.gain_margin_db, a.margins.closed_loop_stable)

@@ -183,21 +183,22 @@ def _refined_grid(w: np.ndarray, rough: np.ndarray) -> np.ndarray:
     return np.exp(np.log(w[k])[:, None] + np.log(w[k + 1] / w[k])[:, None] * frac).ravel()
 
 
-def _first_below(L: np.ndarray, integral: bool):
-    """First grid index where |T| = |L/(1 + L)| < |T(0)|/sqrt 2 (0 when none), i.e. where
-    |L|^2 < (|T(0)|^2 / 2) |1 + L|^2; T(0) = 1 with integral action, else |T| at the first point.
+def _first_below(L: np.ndarray, integral: bool, level2: float = 0.5):
+    """First grid index where |T|^2 = |L/(1 + L)|^2 < level2 |T(0)|^2 (0 when none), i.e. where
+    |L|^2 < level2 |T(0)|^2 |1 + L|^2; T(0) = 1 with integral action, else |T| at the first point.
     Also returns |L|^2, |1 + L|^2 and |T(0)|^2 per row."""
     re, im = L.real, L.imag
     mag2 = re * re + im * im
     one_plus2 = mag2 + 2 * re + 1
     dc2 = np.ones(L.shape[0]) if integral else mag2[:, 0] / one_plus2[:, 0]
-    below = mag2 < 0.5 * dc2[:, None] * one_plus2
+    below = mag2 < level2 * dc2[:, None] * one_plus2
     below[:, 0] = False
     i = np.argmax(below, axis=-1)
     return np.where(below[np.arange(L.shape[0]), i], i, 0), mag2, one_plus2, dc2
 
 
-def fast_analyse_loop(plant, kp, ki, *, points_per_decade: int = POINTS_PER_DECADE) -> LoopNumbers:
+def fast_analyse_loop(plant, kp, ki, *, points_per_decade: int = POINTS_PER_DECADE,
+                      level2: float = 0.5) -> LoopNumbers:
     """Margins and closed-loop bandwidth of a ``Plant`` (batch) under PI gains ``kp`` (A per m/s) and
     ``ki`` (A per m); agrees with ``design.loop.analysis.analyse_loop`` to about 1e-5 (relative)."""
     w = coarse_grid_rad_s(points_per_decade)
@@ -205,7 +206,7 @@ def fast_analyse_loop(plant, kp, ki, *, points_per_decade: int = POINTS_PER_DECA
     batch = L3.shape[:-1]
     L = L3.reshape(-1, w.size)
     integral = bool(np.all(np.asarray(ki) > 0))
-    first_below, mag2, one_plus2, dc2 = _first_below(L, integral)
+    first_below, mag2, one_plus2, dc2 = _first_below(L, integral, level2)
     rough = _rough_intervals(L, mag2, one_plus2, np.where(first_below > 0, first_below, L.shape[-1]))
     if rough.any():
         extra = _refined_grid(w, rough)
@@ -213,7 +214,7 @@ def fast_analyse_loop(plant, kp, ki, *, points_per_decade: int = POINTS_PER_DECA
         order = np.argsort(np.concatenate([w, extra]))
         w = np.concatenate([w, extra])[order]
         L = np.concatenate([L, L_extra], axis=-1)[:, order]
-        first_below, mag2, one_plus2, dc2 = _first_below(L, integral)
+        first_below, mag2, one_plus2, dc2 = _first_below(L, integral, level2)
     x = np.log(w)
     n = L.shape[0]
 
@@ -242,7 +243,7 @@ def fast_analyse_loop(plant, kp, ki, *, points_per_decade: int = POINTS_PER_DECA
     # closed-loop bandwidth: root of log|T| = log(|T(0)|/sqrt 2) in the interval before the first point below
     rows = np.nonzero(first_below > 0)[0]
     c = _Crossings(x, L, rows, first_below[rows] - 1)
-    u = c.cubic(np.log(np.abs(c.L / (1 + c.L)))).root(0.5 * np.log(dc2[rows] / 2))
+    u = c.cubic(np.log(np.abs(c.L / (1 + c.L)))).root(0.5 * np.log(dc2[rows] * level2))
     bw = np.full(n, np.nan)
     bw[rows] = c.f_hz(u)
     return LoopNumbers(*(v.reshape(batch) for v in (bw, pm, gm, wc, wpc, nyquist_stable(L))))

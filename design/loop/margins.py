@@ -220,8 +220,14 @@ def _near(x: np.ndarray, L: np.ndarray, i: np.ndarray, points: int = 65) -> np.n
     return L[r, j - 1] * l0 + L[r, j] * l1 + L[r, j + 1] * l2
 
 
-def closed_loop_bandwidth_hz(w_rad_s, closed_loop, *, dc_gain=None) -> np.ndarray:
-    """First frequency (Hz) where |T| falls below |T(0)|/sqrt(2); ``nan`` if it never does on the grid.
+#: closed-loop bandwidth definitions: |T(w_b)|^2 / |T(0)|^2 (half power is |T(0)|/sqrt 2, -3.01 dB;
+#: MATLAB's ``bandwidth`` uses -3 dB)
+BANDWIDTH_LEVELS2 = {"half_power": 0.5, "minus_3_db": 10 ** (-0.3)}
+
+
+def closed_loop_bandwidth_hz(w_rad_s, closed_loop, *, dc_gain=None, level2: float = 0.5) -> np.ndarray:
+    """First frequency (Hz) where |T|^2 falls below ``level2`` |T(0)|^2 (default half power, |T(0)|/sqrt 2);
+    ``nan`` if it never does on the grid.
 
     ``dc_gain`` is |T(0)|; by default |T| at the lowest grid frequency (pass 1.0 for loops
     with integral action, whose T(0) = 1 exactly). The crossing is refined like those of
@@ -231,25 +237,26 @@ def closed_loop_bandwidth_hz(w_rad_s, closed_loop, *, dc_gain=None) -> np.ndarra
     T = np.asarray(closed_loop, dtype=complex)
     if T.shape[-1] != w.size:
         raise GridError(f"closed-loop response has {T.shape[-1]} frequencies but the grid has {w.size}")
-    return first_drop_hz(w, T.real**2 + T.imag**2, None if dc_gain is None else np.asarray(dc_gain, float) ** 2)
+    return first_drop_hz(w, T.real**2 + T.imag**2, None if dc_gain is None else np.asarray(dc_gain, float) ** 2,
+                         level2=level2)
 
 
-def first_drop_hz(w_rad_s: np.ndarray, mag2: np.ndarray, dc_gain2=None) -> np.ndarray:
+def first_drop_hz(w_rad_s: np.ndarray, mag2: np.ndarray, dc_gain2=None, *, level2: float = 0.5) -> np.ndarray:
     """``closed_loop_bandwidth_hz`` from squared magnitudes |T|^2 (and |T(0)|^2) on a checked grid."""
     w = np.asarray(w_rad_s, float)
     n = w.size
     batch = mag2.shape[:-1]
     m2 = mag2.reshape(-1, n)
     dc2 = m2[:, 0] if dc_gain2 is None else np.broadcast_to(np.asarray(dc_gain2, float), batch).reshape(-1)
-    level2 = dc2 / 2
-    below = m2 < level2[:, None]
+    level = dc2 * level2
+    below = m2 < level[:, None]
     below[:, 0] = False  # the first grid point defines the reference
     i = np.argmax(below, axis=-1)  # first index below the level
     rows = np.flatnonzero(below[np.arange(m2.shape[0]), i])
     i0 = i[rows] - 1
     idx = _stencil(i0, n) if n >= 4 else np.stack([i0, i0 + 1], axis=1)
     with np.errstate(divide="ignore", invalid="ignore"):
-        y = np.log(m2[rows[:, None], idx]) - np.log(level2[rows])[:, None]
+        y = np.log(m2[rows[:, None], idx]) - np.log(level[rows])[:, None]
     out = np.full(m2.shape[0], np.nan)
     out[rows] = np.exp(_root(np.log(w)[idx], y, i0 - idx[:, 0])) / (2 * np.pi)
     return out.reshape(batch)

@@ -17,6 +17,7 @@ import numpy as np
 
 from design.loop.analysis import PayloadSweep, payload_sweep
 from design.loop.fast import fast_analyse_loop
+from design.loop.margins import BANDWIDTH_LEVELS2
 from design.problem import LoopProblem, Uncertainty
 from plant.errors import ParameterError, SpecError
 from plant.models import Plant
@@ -100,6 +101,8 @@ class SweepResult:
     gain_margin_db: Distribution
     #: samples per payload whose closed loop is unstable (their margins are no guarantee), (n_payloads,)
     unstable_samples: np.ndarray
+    #: "half_power" (|T(0)|/sqrt 2) or "minus_3_db"
+    bandwidth_definition: str = "half_power"
 
     @property
     def distributions(self) -> tuple[Distribution, ...]:
@@ -172,7 +175,9 @@ def monte_carlo_sweep(source: LoopProblem | Plant, *, payload_kg=None, samples: 
     names (``damping_n_s_per_m``, ``delay.seconds``) to ``(min, max)``; ``progress(done, total)``
     is called after each chunk of plants. Gains: ``kp`` in A per (m/s), ``ki`` in A per m.
     """
+    definition = "half_power"
     if isinstance(source, LoopProblem):
+        definition = source.requirements.bandwidth_definition
         plant = source.plant.plant()
         uncertainty = source.plant.uncertainty if uncertainty is None else uncertainty
         payload_kg = source.plant.payload_kg.grid() if payload_kg is None else payload_kg
@@ -199,10 +204,11 @@ def monte_carlo_sweep(source: LoopProblem | Plant, *, payload_kg=None, samples: 
     if samples and not ranges:
         raise SpecError("plant.uncertainty: no parameter ranges to sample; add some or drop --samples")
 
-    nominal = payload_sweep(plant, kp, ki, m)
+    level2 = BANDWIDTH_LEVELS2[definition]
+    nominal = payload_sweep(plant, kp, ki, m, level2=level2)
     if samples:
         params = draw_samples(ranges, int(samples), seed=seed)
-        raw = _fast_samples(plant, m, params, kp, ki, progress)
+        raw = _fast_samples(plant, m, params, kp, ki, progress, level2)
         unstable = np.sum(~raw.pop("stable"), axis=1)
     else:
         params = {name: np.array([plant.parameters()[name].value]) for name in sorted(ranges)}
@@ -213,16 +219,16 @@ def monte_carlo_sweep(source: LoopProblem | Plant, *, payload_kg=None, samples: 
     dists = {q: Distribution(q, unit, raw[q], levels, percentiles_inf(raw[q], levels), np.fmin.reduce(raw[q], axis=1))
              for q, unit in QUANTITIES.items()}
     return SweepResult(plant.stage, float(kp), float(ki), m, int(seed), int(samples), SAMPLING, ranges, params,
-                       nominal, **dists, unstable_samples=unstable)
+                       nominal, **dists, unstable_samples=unstable, bandwidth_definition=definition)
 
 
-def _fast_samples(plant, m, params, kp, ki, progress) -> dict[str, np.ndarray]:
+def _fast_samples(plant, m, params, kp, ki, progress, level2: float) -> dict[str, np.ndarray]:
     n_s = len(next(iter(params.values())))
     total = m.size * n_s
     out = {q: np.empty(total) for q in (*QUANTITIES, "stable")}
     for start in range(0, total, CHUNK_PLANTS):
         idx = np.arange(start, min(start + CHUNK_PLANTS, total))
-        numbers = fast_analyse_loop(batch_plant(plant, m, params, rows=idx), kp, ki)
+        numbers = fast_analyse_loop(batch_plant(plant, m, params, rows=idx), kp, ki, level2=level2)
         for q in (*QUANTITIES, "stable"):
             out[q][idx] = np.ravel(getattr(numbers, q))
         if progress is not None:

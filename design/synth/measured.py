@@ -68,7 +68,7 @@ class MeasuredDesign:
 def _numbers(w, G, kp, ki, problem: LoopProblem):
     L = G * (kp + ki / (1j * w))
     m = loop_margins(w, L)
-    bw = closed_loop_bandwidth_hz(w, L / (1 + L), dc_gain=1.0)
+    bw = closed_loop_bandwidth_hz(w, L / (1 + L), dc_gain=1.0, level2=problem.requirements.level2)
     req = problem.requirements
     gm = np.where(np.isfinite(m.gain_margin_db), m.gain_margin_db, np.inf)
     ok = bool(np.all(m.phase_margin_deg >= req.phase_margin_deg - 1e-6) and np.all(gm >= req.gain_margin_db - 1e-6)

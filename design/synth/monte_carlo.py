@@ -69,7 +69,7 @@ def monte_carlo_check(problem: LoopProblem, kp: float, ki: float, *, samples: in
     pm, gm, bw, stable = (np.empty(len(s)) for _ in range(4))
     for start in range(0, len(s), CHUNK):
         rows = np.arange(start, min(start + CHUNK, len(s)))
-        n = fast_analyse_loop(s.plants(base, rows), kp, ki)
+        n = fast_analyse_loop(s.plants(base, rows), kp, ki, level2=req.level2)
         pm[rows], gm[rows] = np.ravel(n.phase_margin_deg), np.ravel(n.gain_margin_db)
         bw[rows], stable[rows] = np.ravel(n.closed_loop_bandwidth_hz), np.ravel(n.stable)
     slack = np.minimum((pm - req.phase_margin_deg) / max(req.phase_margin_deg, 1.0),

@@ -143,8 +143,8 @@ def evaluate(problem: LoopProblem, kp: float, ki: float, scenarios: Scenarios | 
     """Margins and bandwidth of (kp, ki) on every scenario (default: the check scenarios)."""
     s = check_scenarios(problem) if scenarios is None else scenarios
     plant = s.plants(problem.plant.plant())
-    n = fast_analyse_loop(plant, kp, ki)
     req = problem.requirements
+    n = fast_analyse_loop(plant, kp, ki, level2=req.level2)
     pm, gm = np.ravel(n.phase_margin_deg), np.ravel(n.gain_margin_db)
     # a bandwidth at the grid's lowest frequency is below the grid: unknown, counted as 0
     bw = np.ravel(np.where(n.closed_loop_bandwidth_hz > 1.01 * F_LOW_HZ, n.closed_loop_bandwidth_hz, 0.0))
@@ -203,6 +203,12 @@ def disk_margin_circle(alpha: float) -> tuple[float, float]:
     Apollonius circle |z - 2| = k |z|, k = 2/alpha > 1: centre 2/(1 - k^2) - 1 and radius 2k/(k^2 - 1) in L."""
     k = 2.0 / alpha
     return 2.0 / (1 - k**2) - 1.0, 2.0 * k / (k**2 - 1)
+
+
+def bandwidth_circle(level2: float) -> tuple[float, float]:
+    """(centre, radius) of the circle outside which |T|^2 = |L/(1 + L)|^2 >= level2 (T(0) = 1):
+    |L|^2 >= g |1 + L|^2  <=>  |L - g/(1 - g)| >= sqrt(g)/(1 - g), g = level2 (half power: |L - 1| >= sqrt 2)."""
+    return level2 / (1 - level2), math.sqrt(level2) / (1 - level2)
 
 
 def requirement_circles(problem: LoopProblem) -> list[tuple[float, float]]:
@@ -271,7 +277,7 @@ def scan_gains(problem: LoopProblem, P: np.ndarray, *, n: int = SCAN_POINTS) -> 
     kp, ki = KP.ravel(), KI.ravel()
     L = P[None] * (kp[:, None, None] + ki[:, None, None] / (1j * W_OPT))
     mg = loop_margins(W_OPT, L)
-    bw = closed_loop_bandwidth_hz(W_OPT, L / (1 + L), dc_gain=np.ones(L.shape[:-1]))
+    bw = closed_loop_bandwidth_hz(W_OPT, L / (1 + L), dc_gain=np.ones(L.shape[:-1]), level2=req.level2)
     # Nyquist: with no open-loop poles in the right half-plane, the phase of 1 + L rises by 0 to 90 deg
     # from the lowest to the highest grid frequency when the closed loop is stable, and falls by 180 deg
     # more per unstable closed-loop pole; an unstable loop's margins are wrapped angles: count PM as 0
@@ -288,7 +294,8 @@ def scan_gains(problem: LoopProblem, P: np.ndarray, *, n: int = SCAN_POINTS) -> 
     circle_ok = rel >= 0     # outside the circles, and on the stable side of them
     for centre, radius in requirement_circles(problem):
         circle_ok &= np.all(np.abs(L - centre) >= radius * 1.003, axis=(-2, -1))
-    inside = np.abs(L - 1) < math.sqrt(2)
+    bc, br = bandwidth_circle(req.level2)
+    inside = np.abs(L - bc) < br
     inside[..., 0] = False
     first = np.where(inside.any(axis=-1), np.argmax(inside, axis=-1), W_OPT.size - 1)
     circle_bw = W_OPT[np.maximum(np.min(first, axis=-1) - 1, 0)] / (2 * np.pi)
@@ -313,6 +320,7 @@ class _CCP:
         self.b = (P / (1j * w)).ravel()
         self.wrow = np.broadcast_to(w, P.shape).ravel()
         self.circles = requirement_circles(problem)
+        self.bandwidth = bandwidth_circle(problem.requirements.level2)
         self.lp_solves = 0
         n = self.a.size
         nm = n * len(self.circles)
@@ -344,7 +352,7 @@ class _CCP:
             # radii 0.3 % larger: a hair inside the requirements, so the design meets them on the dense grid
             rows = [self._rows(L0, c, 1.003 * r) for c, r in self.circles]
             Am, bm = np.vstack([r[0] for r in rows]), np.concatenate([r[1] for r in rows])
-            Ab, bb = self._rows(L0, 1.0, math.sqrt(2.0))
+            Ab, bb = self._rows(L0, *self.bandwidth)
             Ab[~active] = 0.0
             bb[~active] = -1e3
             self.Am.value, self.bm.value, self.Ab.value, self.bb.value = Am, bm, Ab, bb
@@ -370,10 +378,11 @@ class CCPDesign:
     lp_solves: int
 
 
-def _circle_bandwidth(P: np.ndarray, w: np.ndarray, gains: np.ndarray) -> float:
-    """Highest grid frequency (rad/s) below which |L - 1| >= sqrt 2 at every payload."""
+def _circle_bandwidth(P: np.ndarray, w: np.ndarray, gains: np.ndarray, level2: float) -> float:
+    """Highest grid frequency (rad/s) below which L stays outside the bandwidth circle at every payload."""
     L = P * (gains[0] + gains[1] / (1j * w))
-    inside = np.abs(L - 1) < math.sqrt(2)
+    bc, br = bandwidth_circle(level2)
+    inside = np.abs(L - bc) < br
     inside[..., 0] = False
     first = np.where(inside.any(axis=-1), np.argmax(inside, axis=-1), w.size - 1)
     return float(w[max(int(np.min(first)) - 1, 0)])
@@ -411,7 +420,7 @@ def ccp_design(problem: LoopProblem, P: np.ndarray, scan: Scan) -> CCPDesign:
         x, t = ccp.solve(best, math.exp(target))
         if t < 0:
             return False
-        best, lo = x, max(target, math.log(_circle_bandwidth(P, w, x * ccp.scale)))
+        best, lo = x, max(target, math.log(_circle_bandwidth(P, w, x * ccp.scale, problem.requirements.level2)))
         return True
 
     while hi < math.log(W_OPT[-1]) and feasible(hi):          # widen until infeasible
@@ -506,7 +515,7 @@ def exact_design(problem: LoopProblem, scenarios: Scenarios, kp0: float, ki0: fl
         L0 = P[k] * (kp0 + ki0 / (1j * W_OPT))
         starts = {"c": _first_crossing(W_OPT, np.abs(L0) ** 2 - 1),
                   "p": _first_crossing(W_OPT, np.where(np.real(L0) < 0, np.imag(L0), np.nan)),
-                  "b": _first_crossing(W_OPT, np.abs(L0) ** 2 - np.abs(1 + L0) ** 2 / 2)}
+                  "b": _first_crossing(W_OPT, np.abs(L0) ** 2 - req.level2 * np.abs(1 + L0) ** 2)}
         for kind, w0 in starts.items():
             if w0 is None:
                 continue
@@ -528,7 +537,8 @@ def exact_design(problem: LoopProblem, scenarios: Scenarios, kp0: float, ki0: fl
                 lbg += [0.0, 0.0]
                 ubg += [0.0, math.inf]
             else:
-                gs += [lr**2 + li**2 - 2 * lr - 1, lw - t]
+                g2 = req.level2     # |L|^2 = g2 |1 + L|^2
+                gs += [(1 - g2) * (lr**2 + li**2) - 2 * g2 * lr - g2, lw - t]
                 lbg += [0.0, 0.0]
                 ubg += [0.0, math.inf]
                 t_start.append(math.log(w0))
@@ -631,6 +641,8 @@ class SynthesisResult:
     discrete: tuple[DiscreteDesign, DiscreteCheck] | None = None
     #: the drive filters the design runs with: {"kind", parameters..., "designed": [the chosen ones]}
     filters: tuple[dict, ...] = ()
+    #: ``requirements.bandwidth_definition`` of every bandwidth reported
+    bandwidth_definition: str = "half_power"
 
 
 def check_supported(problem: LoopProblem) -> None:
@@ -755,8 +767,10 @@ def synthesise_pi(problem: LoopProblem, *, method: str = "ccp+exact", max_rounds
     if nominal:
         problem = replace(problem, plant=replace(problem.plant, uncertainty={}))
     if any(f.designed for f in problem.controller.filters):
-        return _with_designed_filters(problem, method, max_rounds)
-    return _robust(problem, method, max_rounds)
+        result = _with_designed_filters(problem, method, max_rounds)
+    else:
+        result = _robust(problem, method, max_rounds)
+    return replace(result, bandwidth_definition=problem.requirements.bandwidth_definition)
 
 
 def _robust(problem: LoopProblem, method: str, max_rounds: int) -> SynthesisResult:

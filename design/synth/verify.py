@@ -84,7 +84,7 @@ def verify(problem: LoopProblem, kp: float, ki: float, scenarios: Scenarios | No
             failures.append(f"unstable closed loop at {m} (pole real part {re:.3g})")
             bws.append(math.nan)
             continue
-        bw = float(control.bandwidth(T, dbdrop=-20 * math.log10(math.sqrt(2)))) / (2 * math.pi)
+        bw = float(control.bandwidth(T, dbdrop=10 * math.log10(req.level2))) / (2 * math.pi)
         bws.append(bw)
         if pm < req.phase_margin_deg - MARGIN_TOLERANCE:
             failures.append(f"phase margin {pm:.2f} deg < {req.phase_margin_deg:g} at {m}")

@@ -29,9 +29,11 @@ from plant.recording import Recording
 from plant.time_diagnosis import TimeDiagnosis
 from plant.time_fit import TimeFitResult, bic
 
-#: how every closed-loop bandwidth of the tool is defined
-BANDWIDTH_DEFINITION = ("first frequency where |T| = |L/(1 + L)| falls to |T(0)|/sqrt 2 (half power, -3.01 dB; "
-                        "T(0) = 1 with integral action)")
+#: the closed-loop bandwidth definitions (``requirements.bandwidth_definition``)
+BANDWIDTH_DEFINITIONS = {
+    "half_power": "first frequency where |T| = |L/(1 + L)| falls to |T(0)|/sqrt 2 (half power, -3.01 dB; T(0) = 1 "
+                  "with integral action)",
+    "minus_3_db": "first frequency where |T| = |L/(1 + L)| falls 3 dB below |T(0)| (MATLAB's bandwidth)"}
 
 
 def finite_or_none(x) -> float | None:
@@ -262,7 +264,8 @@ def sweep_to_dict(result: SweepResult) -> dict:
             "sampling": result.sampling,
             "uncertainty": {k: {"min": lo, "max": hi} for k, (lo, hi) in result.uncertainty.items()},
             "percentiles": list(result.levels), "payloads": payloads, "worst_case": worst,
-            "unstable_samples": int(np.sum(result.unstable_samples)), "bandwidth_definition": BANDWIDTH_DEFINITION}
+            "unstable_samples": int(np.sum(result.unstable_samples)),
+            "bandwidth_definition": BANDWIDTH_DEFINITIONS[result.bandwidth_definition]}
 
 
 def evaluation_to_dict(ev: Evaluation, label: str) -> dict:
@@ -298,6 +301,7 @@ def synthesis_to_dict(result: SynthesisResult) -> dict:
         **({"monte_carlo": monte_carlo_to_dict(result.monte_carlo)} if result.monte_carlo is not None else {}),
         **({"discrete": discrete_to_dict(*result.discrete)} if result.discrete is not None else {}),
         **({"filters": list(result.filters)} if result.filters else {}),
+        "bandwidth_definition": BANDWIDTH_DEFINITIONS[result.bandwidth_definition],
     }
 
 

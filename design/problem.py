@@ -160,6 +160,10 @@ class Requirements:
     #: closed-loop bandwidth: where |T| falls to |T(0)|/sqrt 2 ("half_power", -3.01 dB) or 3 dB below
     #: |T(0)| ("minus_3_db", MATLAB's ``bandwidth``)
     bandwidth_definition: Literal["half_power", "minus_3_db"] = "half_power"
+    #: optional noise limit: the controller's gain |(kp + ki/jw) F(jw)| in A per (m/s), the drive filters F
+    #: included, may not exceed this above ``high_frequency_hz`` (sensor noise reaches the current there)
+    max_high_frequency_gain: Annotated[float, Gt(0)] | None = None
+    high_frequency_hz: Annotated[float, Gt(0), Le(1e5)] = 500.0
 
     @property
     def level2(self) -> float:

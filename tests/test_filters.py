@@ -121,3 +121,25 @@ def test_filters_designed_with_the_gains_beat_pi_alone_and_hold_independently(tm
         assert np.all(np.real(control.poles(control.feedback(L, 1))) < 0)
         gm, pm, *_ = control.stability_margins(L)
         assert pm >= 45.0 - 0.05 and 20 * math.log10(gm) >= 6.0 - 0.05, (m, pm, gm)
+
+
+def test_the_noise_limit_holds_with_the_designed_filters(tmp_path):
+    # at most 150 A/(m/s) of controller gain above 300 Hz (sensor noise); without the limit the design
+    # puts 235 A/(m/s) of proportional gain there
+    motor = ROOT / "specs" / "stage_x_resonant_motor.toml"
+    spec = tmp_path / "noise.toml"
+    spec.write_text(motor.read_text().replace("phase_margin_deg = 45.0\n", "phase_margin_deg = 45.0\n"
+                                              "max_high_frequency_gain = 150.0\nhigh_frequency_hz = 300.0\n"))
+    out = gantry("synth", spec, "--json")
+    assert out.returncode == 0, out.stderr
+    res = json.loads(out.stdout)
+    assert res["status"] == "optimal" and "high_frequency_gain" in res["binding"]["active"]
+    # independent: |(kp + ki/s) F(s)| with python-control from the reported numbers, 300 Hz - 20 kHz
+    C = control.tf([res["gains"]["kp"], res["gains"]["ki"]], [1, 0])
+    for f in res["filters"]:
+        if f["used"]:
+            w, z = 2 * math.pi * f["frequency_hz"], f["damping_ratio"]
+            num = [w * w] if f["kind"] == "low_pass" else [1.0, 2 * f["depth"] * z * w, w * w]
+            C = C * control.tf(num, [1.0, 2 * z * w, w * w])
+    w = 2 * math.pi * np.geomspace(300.0, 2e4, 5000)
+    assert np.max(np.abs(C(1j * w))) <= 150.0 * 1.001

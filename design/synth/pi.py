@@ -84,6 +84,11 @@ EXTRA_STARTS = 1
 VERIFY_TIGHTEST = 40
 
 
+#: the noise limit is checked on this many frequencies from ``requirements.high_frequency_hz`` up to HF_TOP_HZ
+HF_POINTS = 120
+HF_TOP_HZ = 20_000.0
+
+
 #: check scenarios with the least slack on which the discrete loop is checked beside the payload points
 DISCRETE_TIGHTEST = 8
 
@@ -162,6 +167,10 @@ def evaluate(problem: LoopProblem, kp: float, ki: float, scenarios: Scenarios | 
             slack["disk_margin"] = np.ravel(margins.disk_margin) - req.disk_margin
             scale["disk_margin"] = req.disk_margin
     stable = bool(np.all(n.stable) and np.all(pm > 0) and np.all(gm > 0))
+    hf = high_frequency_gain(problem, kp, ki)
+    if hf is not None:
+        slack["high_frequency_gain"] = np.full(len(s), req.max_high_frequency_gain - hf)
+        scale["high_frequency_gain"] = req.max_high_frequency_gain
     meets = bool(all(np.all(v >= -1e-6) for v in slack.values()) and np.all(bw > 0) and stable)
     rel = {k: float(np.min(v)) / scale[k] for k, v in slack.items()}
     name = min(rel, key=rel.get)
@@ -203,6 +212,30 @@ def disk_margin_circle(alpha: float) -> tuple[float, float]:
     Apollonius circle |z - 2| = k |z|, k = 2/alpha > 1: centre 2/(1 - k^2) - 1 and radius 2k/(k^2 - 1) in L."""
     k = 2.0 / alpha
     return 2.0 / (1 - k**2) - 1.0, 2.0 * k / (k**2 - 1)
+
+
+def high_frequency_rows(problem: LoopProblem) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+    """(w, a, b) with the controller's response kp a + ki b = (kp + ki/jw) F(jw) at ``HF_POINTS`` frequencies
+    from ``requirements.high_frequency_hz`` to ``HF_TOP_HZ`` (or just below the loop rate's Nyquist
+    frequency), F the drive filters the plant carries; None without a noise limit."""
+    from design.loop.filters import FILTERS
+
+    req = problem.requirements
+    if req.max_high_frequency_gain is None:
+        return None
+    top = HF_TOP_HZ if problem.controller.loop_rate_hz is None else 0.49 * problem.controller.loop_rate_hz
+    w = 2 * np.pi * np.geomspace(req.high_frequency_hz, max(top, 1.01 * req.high_frequency_hz), HF_POINTS)
+    F = np.ones(w.size, complex)
+    for e in problem.plant.plant().effects:
+        if e.name in FILTERS:
+            F = F * e.response(1j * w)
+    return w, F, F / (1j * w)
+
+
+def high_frequency_gain(problem: LoopProblem, kp: float, ki: float) -> float | None:
+    """max |(kp + ki/jw) F(jw)| above ``requirements.high_frequency_hz`` (A per m/s), or None."""
+    rows = high_frequency_rows(problem)
+    return None if rows is None else float(np.max(np.abs(kp * rows[1] + ki * rows[2])))
 
 
 def bandwidth_circle(level2: float) -> tuple[float, float]:
@@ -333,6 +366,13 @@ class _CCP:
         lo = np.array([c.kp.min, c.ki.min]) / self.scale
         cons = [self.Am @ self.x >= self.bm, self.Ab @ self.x - self.t >= self.bb, self.x >= lo, self.x <= 1.0,
                 self.t <= 1.0]
+        hf = high_frequency_rows(problem)
+        if hf is not None:      # |kp a + ki b| <= limit: second-order cones, convex as they stand
+            _, a, b = hf
+            re = np.column_stack([a.real, b.real]) * self.scale
+            im = np.column_stack([a.imag, b.imag]) * self.scale
+            lim = problem.requirements.max_high_frequency_gain * (1 - MARGIN_HAIR / 100)
+            cons.append(cp.norm(cp.vstack([re @ self.x, im @ self.x]), 2, axis=0) <= lim)
         self.problem = cp.Problem(cp.Maximize(self.t), cons)
 
     def _rows(self, L0, centre, radius):
@@ -474,7 +514,7 @@ def exact_design(problem: LoopProblem, scenarios: Scenarios, kp0: float, ki0: fl
     the problem's plant carries."""
     import casadi as ca
 
-    from design.loop.filters import KINDS
+    from design.loop.filters import FILTERS, KINDS
     from plant.effect_base import replace_unchecked
 
     req, c = problem.requirements, problem.controller
@@ -568,6 +608,21 @@ def exact_design(problem: LoopProblem, scenarios: Scenarios, kp0: float, ki0: fl
             gs.append(re**2 + im**2 - radius**2 * 1.003**2)
             lbg += [0.0] * wg.size
             ubg += [math.inf] * wg.size
+    hf = high_frequency_rows(problem)
+    if hf is not None:      # the noise limit |(kp + ki/jw) F(jw)|^2 <= limit^2, F symbolic where designed
+        w_hf, a, _ = hf
+        fixed = np.ones(w_hf.size, complex)
+        f_sym = Pair(ca.DM(np.ones(w_hf.size)), ca.DM(np.zeros(w_hf.size)))
+        for e in base.effects:
+            if e.name in symbolic:
+                f_sym = f_sym * replace_unchecked(e, symbolic[e.name]).response(Pair(0.0, ca.DM(w_hf)), CASADI)
+            elif e.name in FILTERS:
+                fixed = fixed * e.response(1j * w_hf)
+        f = f_sym * Pair(ca.DM(fixed.real), ca.DM(fixed.imag))
+        cre, cim = kp, -ki / ca.DM(w_hf)
+        gs.append((f.re * cre - f.im * cim) ** 2 + (f.re * cim + f.im * cre) ** 2)
+        lbg += [0.0] * w_hf.size
+        ubg += [(req.max_high_frequency_gain * (1 - MARGIN_HAIR / 100)) ** 2] * w_hf.size
     if not t_start:
         return ExactDesign(kp0, ki0, False, "no bandwidth crossing at the start")
     x0.insert(2, min(t_start))

@@ -97,6 +97,18 @@ def verify(problem: LoopProblem, kp: float, ki: float, scenarios: Scenarios | No
                 failures.append(f"peak sensitivity {ms:.3f} > {req.peak_sensitivity:g} at {m}")
             if req.disk_margin is not None and alpha < req.disk_margin * 0.999:
                 failures.append(f"disk margin {alpha:.3f} < {req.disk_margin:g} at {m}")
+    if req.max_high_frequency_gain is not None:   # the noise limit on python-control's C(s) F(s)
+        from design.loop.filters import FILTERS
+
+        w = 2 * math.pi * np.geomspace(req.high_frequency_hz, 20 * req.high_frequency_hz, 2000)
+        CF = C
+        for e in base.effects:
+            if e.name in FILTERS:
+                CF = CF * e.to_tf()
+        peak = float(np.max(np.abs(CF(1j * w))))
+        if peak > req.max_high_frequency_gain * 1.001:
+            failures.append(f"controller gain {peak:.4g} A/(m/s) above {req.high_frequency_hz:g} Hz exceeds "
+                            f"requirements.max_high_frequency_gain = {req.max_high_frequency_gain:g}")
     errs = [0.0]
     if claimed_worst_bandwidth_hz is not None and np.all(np.isfinite(bws)):
         # the objective: the worst-case bandwidth must agree (per scenario the rational model may differ a

@@ -200,15 +200,11 @@ _Positive = Annotated[float, Gt(0), Le(1e6)]
 
 
 @dataclass(frozen=True)
-class Range:
+class Range(Uncertainty):
     """A positive range; a spec file may give one number for min = max."""
 
-    __pydantic_config__ = FORBID
     min: _Positive
     max: _Positive
-
-    def __post_init__(self):
-        check_ordered(self.min, self.max)
 
     def corners(self) -> tuple[float, ...]:
         return (self.min,) if self.min == self.max else (self.min, self.max)

@@ -128,8 +128,9 @@ def test_the_noise_limit_holds_with_the_designed_filters(tmp_path):
     # puts 235 A/(m/s) of proportional gain there
     motor = ROOT / "specs" / "stage_x_resonant_motor.toml"
     spec = tmp_path / "noise.toml"
-    spec.write_text(motor.read_text().replace("phase_margin_deg = 45.0\n", "phase_margin_deg = 45.0\n"
-                                              "max_high_frequency_gain = 150.0\nhigh_frequency_hz = 300.0\n"))
+    text = motor.read_text().replace("points = 8", "points = 4")   # four design payloads keep it quick
+    spec.write_text(text.replace("phase_margin_deg = 45.0\n", "phase_margin_deg = 45.0\n"
+                                 "max_high_frequency_gain = 150.0\nhigh_frequency_hz = 300.0\n"))
     out = gantry("synth", spec, "--json")
     assert out.returncode == 0, out.stderr
     res = json.loads(out.stdout)

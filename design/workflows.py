@@ -44,11 +44,11 @@ def load_problem(spec_path: str | Path, *, plant_from: str | Path | None = None)
     (the ``gantry fit --json`` output) when ``plant_from`` is given. The payload range, uncertainty,
     requirements and controller bounds stay the spec's; effects a synthesis cannot design for
     (``coulomb_friction``, ``offset``: no linear response) are left out and listed."""
+    from plant.text_io import read_text
+
     spec_path = Path(spec_path)
     try:
-        data = tomllib.loads(spec_path.read_text())
-    except OSError as exc:
-        raise SpecError(f"{spec_path}: cannot read spec file ({exc.strerror})") from None
+        data = tomllib.loads(read_text(spec_path))
     except tomllib.TOMLDecodeError as exc:
         raise SpecError(f"{spec_path}: not valid TOML: {exc}") from None
     left_out: list[str] = []
@@ -66,11 +66,11 @@ def load_problem(spec_path: str | Path, *, plant_from: str | Path | None = None)
 
 def _plant_from_fit(path: Path) -> tuple[dict, list[str]]:
     """The ``[plant]`` keys a fit result sets, and the effects left out."""
+    from plant.text_io import read_text
+
     try:
-        fit = json.loads(path.read_text())
-    except OSError as exc:
-        raise SpecError(f"{path}: cannot read the fit result ({exc.strerror})") from None
-    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+        fit = json.loads(read_text(path))
+    except json.JSONDecodeError as exc:
         raise SpecError(f"{path}: not a JSON fit result ({exc})") from None
     if not isinstance(fit, dict) or not isinstance(fit.get("parameters"), dict):
         raise SpecError(f"{path}: not a fit result: expected the JSON of gantry fit --json (a 'parameters' object)")

@@ -15,6 +15,8 @@ from pathlib import Path
 
 import numpy as np
 
+from plant.errors import DataError
+
 
 @dataclass(frozen=True)
 class Block:
@@ -99,6 +101,12 @@ def _lattice_step(v: np.ndarray) -> float | None:
 def atomic_write_texts(files: dict[Path, str]) -> None:
     """Write each text to its path as a set: every file goes to a temporary file first, and the renames
     happen only when all were written, so a failure leaves none of them half-written or new."""
+    for path in map(Path, files):
+        parent = path.parent if str(path.parent) else Path(".")
+        if path.is_dir():
+            raise DataError(f"{path}: is a directory; give a file name to write")
+        if not parent.is_dir():
+            raise DataError(f"{path}: cannot write: directory {parent} does not exist")
     tmps: list[tuple[str, Path]] = []
     umask = os.umask(0)
     os.umask(umask)
@@ -113,6 +121,11 @@ def atomic_write_texts(files: dict[Path, str]) -> None:
                 fh.write(text)
         for tmp, path in tmps:
             os.replace(tmp, path)
+    except OSError as exc:
+        for tmp, _ in tmps:
+            Path(tmp).unlink(missing_ok=True)
+        target = tmps[-1][1] if tmps else next(iter(files))
+        raise DataError(f"{target}: cannot write ({exc.strerror or exc})") from None
     except BaseException:
         for tmp, _ in tmps:
             Path(tmp).unlink(missing_ok=True)

@@ -19,6 +19,7 @@ import numpy as np
 
 from plant.errors import DataError
 from plant.recording import Block, Recording
+from plant.text_io import data_suffix, read_text
 
 ROLES = ("frequency", "time", "current", "velocity", "position", "reference")
 #: roles a stepped-sine recording may map
@@ -91,7 +92,7 @@ def read_recording(path: str | Path, *, columns: dict[str, list[str]] | None = N
         if other:
             raise DataError(f"{path}: a stepped-sine recording has no {other[0]} column (roles: "
                             f"{', '.join(STEPPED_ROLES)})")
-    suffix = path.suffix.lower()
+    suffix = data_suffix(path)
     if suffix == ".csv":
         found = _read_csv(path, columns)
     elif suffix in (".xlsx", ".xlsm"):
@@ -147,12 +148,11 @@ def _need_map(path: Path, columns):
 def _read_csv(path: Path, columns):
     """Columns by header name: frequency_hz, time_s, current_a, velocity* (or a column map of names).
     A UTF-8 byte-order mark (spreadsheet exports) is ignored."""
-    with path.open(newline="", encoding="utf-8-sig") as fh:
-        reader = csv.reader(fh)
-        try:
-            header = [h.strip() for h in next(reader)]
-        except StopIteration:
-            raise DataError(f"{path}: the file is empty") from None
+    text = read_text(path)
+    try:
+        header = [h.strip() for h in next(csv.reader(text.splitlines()))]
+    except StopIteration:
+        raise DataError(f"{path}: the file is empty") from None
     if columns:
         wanted = {"frequency_hz": columns["frequency"][0], "current_a": columns["current"][0]}
         if "time" in columns:
@@ -171,7 +171,7 @@ def _read_csv(path: Path, columns):
     cols = [header.index(col) for _, col in keys]
     labels = {key: f"column {col!r}" for key, col in keys}
     ids = {key: col for key, col in keys}
-    lines = path.read_text(encoding="utf-8-sig").splitlines()[1:]
+    lines = text.splitlines()[1:]
     kept = [k for k, line in enumerate(lines) if line.strip()]      # blank lines are skipped
     rows = np.asarray(kept, dtype=int) + 2                            # file row numbers (header = row 1)
     if not kept:

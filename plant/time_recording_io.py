@@ -22,6 +22,7 @@ import numpy as np
 from plant.errors import DataError
 from plant.recording import Recording
 from plant.recording_io import read_recording
+from plant.text_io import data_suffix, read_text
 from plant.time_recording import SAMPLING_TOLERANCE, TimeRecording
 
 #: fewest samples of a time-domain recording
@@ -37,7 +38,7 @@ def read_measurement(path: str | Path, *, columns: dict[str, list[str]] | None =
     path = Path(path)
     if not path.is_file():
         raise DataError(f"{path}: no such file")
-    suffix = path.suffix.lower()
+    suffix = data_suffix(path)
     if suffix == ".mat":
         return read_time_recording(path, columns=columns)
     if suffix == ".csv":
@@ -55,7 +56,7 @@ def read_time_recording(path: str | Path, *, columns: dict[str, list[str]] | Non
     if columns and "frequency" in columns:
         raise DataError(f"{path}: a time-domain recording has no frequency column (remove frequency=... from the "
                         "column map)")
-    suffix = path.suffix.lower()
+    suffix = data_suffix(path)
     if suffix == ".mat":
         if not columns:
             raise DataError(f"{path}: a .mat file needs a column map naming its variables, e.g. "
@@ -67,11 +68,10 @@ def read_time_recording(path: str | Path, *, columns: dict[str, list[str]] | Non
 
 
 def _csv_header(path: Path) -> list[str]:
-    with path.open(newline="", encoding="utf-8-sig") as fh:
-        try:
-            return [h.strip() for h in next(csv.reader(fh))]
-        except StopIteration:
-            raise DataError(f"{path}: the file is empty") from None
+    try:
+        return [h.strip() for h in next(csv.reader(read_text(path).splitlines()))]
+    except StopIteration:
+        raise DataError(f"{path}: the file is empty") from None
 
 
 def _default_map(path: Path, header: list[str]) -> dict[str, list[str]]:
@@ -106,7 +106,7 @@ def _read_csv(path: Path, columns):
         for col in cols:
             if col not in header:
                 raise DataError(f"{path}: missing column {col!r} (header: {', '.join(header)})")
-    lines = path.read_text(encoding="utf-8-sig").splitlines()[1:]
+    lines = read_text(path).splitlines()[1:]
     kept = [k for k, line in enumerate(lines) if line.strip()]
     if not kept:
         raise DataError(f"{path}: no data rows below the header")

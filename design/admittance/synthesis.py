@@ -62,6 +62,7 @@ from design.admittance.model import (
 from design.admittance.verify import AdmittanceVerification, verify_admittance
 from design.problem import LoopProblem
 from design.synth.pi import margin_circle
+from design.synth.solvers import raise_if_interrupted
 from plant.errors import SpecError
 from plant.grid import log_grid_rad_s
 
@@ -225,6 +226,7 @@ def _ipopt(rows: Rows, start, lo, hi, weights) -> np.ndarray:
                         "ipopt.tol": 1e-10, "ipopt.constr_viol_tol": 1e-10})
     res = solver(x0=np.clip(np.log(start), np.log(lo), np.log(hi)), lbx=np.log(lo), ubx=np.log(hi), lbg=0.0,
                  ubg=np.inf)
+    raise_if_interrupted(solver)
     return np.exp(np.asarray(res["x"]).ravel())
 
 

@@ -1,11 +1,13 @@
 """The ``gantry`` command line: one thin module per command (parse, call the library, write), registered
 here by name.
 
-Bad input (any ``GantryError``) becomes one line on stderr and exit status 2.
+``main`` is the one error boundary: bad input becomes one line on stderr and exit status 2, Ctrl-C
+exit status 130, and a genuine bug keeps its traceback.
 """
 
 from __future__ import annotations
 
+import signal
 import sys
 
 from plant.errors import GantryError
@@ -31,15 +33,56 @@ def _register() -> None:
 
 
 def main() -> None:
-    """Console entry point: ``GantryError`` -> one line on stderr, exit status 2."""
+    """Console entry point, the one error boundary: bad input (``GantryError``, usage errors, files that
+    cannot be read or written, not enough memory) is one line on stderr and exit status 2; Ctrl-C is
+    exit status 130; anything else is a bug, shown with its traceback and a request to report it."""
     import matplotlib
+    import typer
+
+    try:    # typer >= 0.20 carries its own click
+        from typer._click.exceptions import ClickException
+    except ImportError:     # pragma: no cover
+        from click.exceptions import ClickException
 
     matplotlib.use("Agg")
     from design.cli.common import app
 
     _register()
+    signal.signal(signal.SIGTERM, _terminated)   # unwind (temporary files removed) instead of dying mid-write
     try:
-        app()
+        code = app(standalone_mode=False)     # Ctrl-C inside a command comes back as exit code 130
     except GantryError as exc:
-        print(f"gantry: error: {exc}", file=sys.stderr)
-        sys.exit(2)
+        _fail(str(exc), 2)
+    except (typer.Abort, KeyboardInterrupt):
+        _fail("interrupted", 130)
+    except Terminated:
+        _fail("terminated", 143)
+    except ClickException as exc:
+        _fail(f"{exc.format_message()} (gantry --help lists the commands; gantry COMMAND --help their options)",
+              exc.exit_code)
+    except MemoryError:
+        _fail("not enough memory for this input; use fewer payloads, samples, frequencies or a shorter duration", 2)
+    except OSError as exc:
+        where = f"{exc.filename}: " if exc.filename else ""
+        _fail(f"{where}{exc.strerror or exc}", 2)
+    except Exception:
+        import traceback
+
+        traceback.print_exc()
+        _fail("this is a bug in gantry, not a problem with your input: please report it with the traceback above", 1)
+    if code == 130:
+        _fail("interrupted", 130)
+    sys.exit(code if isinstance(code, int) else 0)
+
+
+class Terminated(BaseException):
+    """SIGTERM, raised where the program is so that it unwinds like Ctrl-C."""
+
+
+def _terminated(signum, frame) -> None:
+    raise Terminated
+
+
+def _fail(message: str, status: int) -> None:
+    print(f"gantry: error: {message}", file=sys.stderr)
+    sys.exit(status)

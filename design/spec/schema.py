@@ -55,6 +55,7 @@ from plant.effects import EFFECTS, make_effect
 from plant.errors import GantryError, SpecError
 from plant.models import Plant
 from plant.parameters import THESIS
+from plant.text_io import read_text
 
 RANGE_KEYS_OF_MOUSE = tuple(k for k, f in Mouse.__dataclass_fields__.items() if f.type in (Range, "Range"))
 
@@ -283,10 +284,7 @@ def parse_spec(data: dict, *, source: str = "spec") -> Spec:
 def load_spec(path: str | Path) -> Spec:
     """Read and validate a TOML spec file."""
     path = Path(path)
-    try:
-        text = path.read_text()
-    except OSError as exc:
-        raise SpecError(f"{path}: cannot read spec file ({exc.strerror})") from None
+    text = read_text(path)
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:

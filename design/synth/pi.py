@@ -47,6 +47,7 @@ from design.loop.margins import closed_loop_bandwidth_hz, loop_margins, nyquist_
 from design.problem import LoopProblem
 from design.synth.monte_carlo import MonteCarloCheck, monte_carlo_check
 from design.synth.scenarios import Scenarios, check_scenarios, design_scenarios
+from design.synth.solvers import raise_if_interrupted
 from design.synth.verify import Verification, verify
 from plant.algebra import CASADI, Pair
 from plant.effects import EFFECTS
@@ -633,7 +634,7 @@ def exact_design(problem: LoopProblem, scenarios: Scenarios, kp0: float, ki0: fl
     solver = ca.nlpsol("exact_pi", "ipopt", nlp, {"print_time": False, "ipopt": {
         "print_level": 0, "sb": "yes", "max_iter": 200, "tol": 1e-9}})
     sol = solver(x0=x0, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg)
-    stats = solver.stats()
+    stats = raise_if_interrupted(solver)
     x = np.asarray(sol["x"]).ravel()
     # IPOPT may leave a bound by its relaxation (1e-8 relative): clip onto the box
     present = [base.effect(KINDS[f.kind].name) for f in c.filters] if design_filters else []

@@ -21,6 +21,7 @@ from design.synth.pi import Evaluation
 from design.views.html import Report, table
 from design.views.plots import bode, fixed_margins
 from plant import __version__
+from plant.text_io import read_text
 
 
 def limiting_text(ev: Evaluation, requirements) -> str:
@@ -223,7 +224,7 @@ def design_report(content: ReportContent) -> Report:
 
     report.heading("Reproducibility")
     spec_path = problem.spec_path
-    text = spec_path.read_text()
+    text = read_text(spec_path)
     report.raw(table(["item", "value"], [
         ["tool", f"gantry {__version__}"], ["command", c.command or "(library call)"],
         ["spec", f"{spec_path} (sha256 {hashlib.sha256(text.encode()).hexdigest()})"],

@@ -1,0 +1,104 @@
+"""Bytes, paths and usage as users have them: every failure is one line on stderr with exit status 2,
+and text in UTF-16, Latin-1 or gzip reads as the UTF-8 original does."""
+
+from __future__ import annotations
+
+import gzip
+import json
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from plant import Delay, stage_x
+from plant.errors import DataError
+from plant.recording import write_recording_csv
+from plant.simulate import simulate_stepped_sine
+from plant.text_io import decode
+
+ROOT = Path(__file__).resolve().parents[1]
+THESIS_X = ROOT / "specs" / "thesis_stage_x.toml"
+
+
+def gantry(*args):
+    return subprocess.run([sys.executable, "-m", "design", *map(str, args)], capture_output=True, text=True)
+
+
+def one_line(out, status=2):
+    return out.returncode == status and out.stderr.count("\n") == 1 and out.stderr.startswith("gantry: error:") \
+        and "Traceback" not in out.stderr
+
+
+@pytest.mark.parametrize("text", ["frequency_hz,current_a\n1.0,0.5\n", "µ-stage, 5 µm\n", "# Stufe µ\nkp = 1\n"])
+def test_decoding_round_trips_utf8_utf16_and_latin1(text):
+    for raw in (text.encode("utf-8"), b"\xef\xbb\xbf" + text.encode("utf-8"), text.encode("utf-16"),
+                text.encode("utf-16-le"), text.encode("latin-1")):
+        assert decode(raw, source="t")[0] == text
+
+
+@pytest.mark.parametrize("raw", [bytes(range(256)) * 4, b"\x00\x00\x00\x01PK\x03\x04" * 50,
+                                 b"\x7fELF\x02\x01\x01" + b"\x00" * 64])
+def test_binary_data_is_refused(raw):
+    with pytest.raises(DataError, match="not a text file|UTF-16"):
+        decode(raw, source="blob.csv")
+
+
+@pytest.fixture(scope="module")
+def recording(tmp_path_factory):
+    path = tmp_path_factory.mktemp("rec") / "rec.csv"
+    rec = simulate_stepped_sine(stage_x(mass_kg=20.0) * Delay(0.001), f_hz=np.geomspace(2, 80, 10),
+                                current_amplitude_a=0.5, duration_s=1.0, noise_fraction=0.01, seed=3)
+    write_recording_csv(rec, path)
+    return path
+
+
+def test_a_recording_reads_the_same_in_utf16_and_gzip(recording, tmp_path):
+    text = recording.read_text()
+    variants = {"utf16.csv": text.encode("utf-16"), "rec.csv.gz": gzip.compress(text.encode())}
+    fits = []
+    for name, raw in {"rec.csv": text.encode(), **variants}.items():
+        (tmp_path / name).write_bytes(raw)
+        out = gantry("fit", tmp_path / name, "--stage", "x", "--effects", "delay", "--json")
+        assert out.returncode == 0, out.stderr
+        fits.append(json.loads(out.stdout)["parameters"])
+    assert fits[0] == fits[1] == fits[2]
+
+
+def test_a_latin1_comment_in_a_spec_is_read(tmp_path):
+    spec = tmp_path / "latin1.toml"
+    spec.write_bytes(("# Stufe X, Auflösung 1 µm\n" + THESIS_X.read_text()).encode("latin-1"))
+    out = gantry("sweep", spec, "--payload", "5:40:3", "--json")
+    assert out.returncode == 0, out.stderr
+
+
+@pytest.mark.parametrize("args", [
+    ["synth", "BINARY"], ["fit", "BINARY", "--stage", "x"], ["synth", "MISSING"],
+    ["sweep", str(THESIS_X), "--csv", "NODIR/x.csv"], ["sweep", str(THESIS_X), "--csv", "DIR"],
+    ["synth", str(THESIS_X), "--no-such-option"], ["no-such-command"], ["synth"],
+])
+def test_every_failure_is_one_line_with_status_2(tmp_path, args):
+    (tmp_path / "blob.csv").write_bytes(bytes(range(256)) * 8)
+    subs = {"BINARY": tmp_path / "blob.csv", "MISSING": tmp_path / "missing.toml", "NODIR": tmp_path / "nodir",
+            "DIR": tmp_path}
+    args = [str(subs[a]) if a in subs else a.replace("NODIR", str(tmp_path / "nodir")) for a in args]
+    out = gantry(*args)
+    assert one_line(out), (out.returncode, out.stderr)
+    assert not (tmp_path / "nodir").exists()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["blob.csv"]      # nothing half-written left behind
+
+
+@pytest.mark.parametrize("sig,status,word", [(signal.SIGINT, 130, "interrupted"), (signal.SIGTERM, 143, "terminated")])
+def test_a_signal_ends_a_command_with_its_status_and_no_output(tmp_path, sig, status, word):
+    # the admittance synthesis spends seconds in IPOPT, which traps Ctrl-C itself
+    out = tmp_path / "design.html"
+    p = subprocess.Popen([sys.executable, "-m", "design", "synth", str(ROOT / "specs" / "stage_x_admittance.toml"),
+                          "--report", str(out)], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    time.sleep(3.0)
+    p.send_signal(sig)
+    _, err = p.communicate(timeout=120)
+    assert p.returncode == status and err == f"gantry: error: {word}\n"
+    assert list(tmp_path.iterdir()) == []

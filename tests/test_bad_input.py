@@ -102,3 +102,13 @@ def test_a_signal_ends_a_command_with_its_status_and_no_output(tmp_path, sig, st
     _, err = p.communicate(timeout=120)
     assert p.returncode == status and err == f"gantry: error: {word}\n"
     assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("args", [["sweep", "SPEC", "--csv", "SPEC"], ["report", "SPEC", "--out", "SPEC", "--no-synth"],
+                                  ["synth", "SPEC", "--report", "SPEC"]])
+def test_an_output_never_replaces_an_input(tmp_path, args):
+    spec = tmp_path / "spec.toml"
+    spec.write_text(THESIS_X.read_text())
+    out = gantry(*[str(spec) if a == "SPEC" else a for a in args])
+    assert one_line(out) and "is an input of this command" in out.stderr
+    assert spec.read_text() == THESIS_X.read_text()

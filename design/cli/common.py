@@ -59,6 +59,14 @@ def options_named(*names: str, **renamed: str):
         raise ParameterError(msg) from None
 
 
+def keep_inputs(outputs: dict[str, Path | None], inputs: list[Path | None]) -> None:
+    """Refuse an output option that names one of the command's inputs (it would replace it)."""
+    given = {Path(p).resolve() for p in inputs if p is not None}
+    for option, path in outputs.items():
+        if path is not None and Path(path).resolve() in given:
+            raise ParameterError(f"{option} {path}: is an input of this command; write the output to another file")
+
+
 def bundled_spec(name: str) -> Path:
     """A spec of ``specs/`` next to the package (source checkout) or in the working directory."""
     for root in (Path(__file__).resolve().parents[1], Path.cwd()):

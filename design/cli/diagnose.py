@@ -18,6 +18,7 @@ from design.cli.common import (
     InputHoldOption,
     SetOption,
     console,
+    keep_inputs,
     parse_band,
     parse_set,
 )
@@ -62,6 +63,7 @@ def diagnose(
     from design.workflows import diagnose_recording
     from plant.inverse_model import Preprocessing
 
+    keep_inputs({"--report": report}, [data, *(amplitude_files or [])])
     outcome = diagnose_recording(
         data, stage=stage, candidates=tuple(e.strip() for e in effects.split(",") if e.strip()) if effects else None,
         values=parse_set(set_values), load_position_m=load_position_m, motor_length_m=motor_length_m,

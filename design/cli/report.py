@@ -9,7 +9,7 @@ from typing import Annotated, Optional
 
 import typer
 
-from design.cli.common import PlantFromOption, console
+from design.cli.common import PlantFromOption, console, keep_inputs
 
 
 def report(
@@ -31,6 +31,8 @@ def report(
     from design.views.report import design_report
     from design.workflows import load_problem, report_content
 
+    keep_inputs({"--out": out, "--pdf": out.with_suffix(".pdf") if pdf else None},
+                [spec_file, plant_from, *(data or [])])
     problem = load_problem(spec_file, plant_from=plant_from)
     content = report_content(problem, synthesise=synthesise, data=data or (), samples=samples, seed=seed,
                              command="gantry " + shlex.join(sys.argv[1:]))

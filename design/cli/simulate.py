@@ -12,6 +12,7 @@ from design.cli.common import (
     console,
     finite_non_negative,
     finite_positive,
+    keep_inputs,
     options_named,
     parse_effects,
     parse_f_hz,
@@ -69,6 +70,7 @@ def simulate(
         raise ParameterError(f"--out {out}: the recording is written as CSV; give a FILE.csv")
     if not out.parent.is_dir():
         raise ParameterError(f"--out {out}: directory {out.parent} does not exist")
+    keep_inputs({"--out": out, "--out (sidecar)": out.with_suffix(".json")}, [spec])
     plant, amplitude_a = simulation_plant(spec=spec, stage=stage, values=parse_set_items(set_items or []),
                                           effects_added=parse_effects(effects or []), amplitude_a=amplitude_a)
     if noise_fraction is None and not (current_noise_a or velocity_noise):

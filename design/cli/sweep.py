@@ -8,7 +8,7 @@ from typing import Annotated, Optional
 
 import typer
 
-from design.cli.common import console, parse_payload
+from design.cli.common import console, keep_inputs, parse_payload
 from plant.errors import SpecError
 
 #: payload points when --payload is not given and the spec's range is not a single mass
@@ -33,6 +33,7 @@ def sweep(
     from design.workflows import load_problem
     from plant.recording import atomic_write_text
 
+    keep_inputs({"--csv": csv}, [spec])
     problem = load_problem(spec).loop
     if payload is not None:
         masses = parse_payload(payload)

@@ -15,7 +15,7 @@ from typing import Annotated, Optional
 
 import typer
 
-from design.cli.common import PlantFromOption, console
+from design.cli.common import PlantFromOption, console, keep_inputs
 
 
 def synth(
@@ -33,6 +33,7 @@ def synth(
     from design.views.json import design_to_dict, print_json
     from design.workflows import design, load_problem
 
+    keep_inputs({"--report": report}, [spec_file, plant_from])
     problem = load_problem(spec_file, plant_from=plant_from)
     outcome = design(problem, method=method, schedule=schedule)
     out = design_to_dict(outcome)

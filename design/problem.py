@@ -39,11 +39,14 @@ from annotated_types import Ge, Gt, Le, Lt
 
 from plant.models import Plant
 
+#: the payloads (kg) any command accepts: the moving mass of the thesis gantry is 5-40 kg
+PAYLOAD_MAX_KG = 1000.0
+
 #: payloads of the range every design is checked at, beyond the points it was computed at
 DENSE_PAYLOADS = 50
 
-#: pydantic configuration of every record: a key that is not a field is an error
-FORBID = {"extra": "forbid"}
+#: pydantic configuration of every record: a key that is not a field is an error, and so is inf or nan
+FORBID = {"extra": "forbid", "allow_inf_nan": False}
 
 
 def check_ordered(lo: float, hi: float) -> None:
@@ -57,10 +60,11 @@ class PayloadRange:
     """Payload (moving mass M of Eq. 3.15/3.16) range in kg."""
 
     __pydantic_config__ = FORBID
-    min: Annotated[float, Gt(0), Le(1000)] = 5.0
-    max: Annotated[float, Gt(0), Le(1000)] = 40.0
-    points: Annotated[int, Ge(1), Le(10000)] = 8
-    nominal: Annotated[float, Gt(0), Le(1000)] | None = None
+    min: Annotated[float, Gt(0), Le(PAYLOAD_MAX_KG)] = 5.0
+    max: Annotated[float, Gt(0), Le(PAYLOAD_MAX_KG)] = 40.0
+    #: the design points (the check adds 50 dense payloads and the violators it finds)
+    points: Annotated[int, Ge(1), Le(200)] = 8
+    nominal: Annotated[float, Gt(0), Le(PAYLOAD_MAX_KG)] | None = None
 
     def __post_init__(self):
         check_ordered(self.min, self.max)

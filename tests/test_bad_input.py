@@ -112,3 +112,30 @@ def test_an_output_never_replaces_an_input(tmp_path, args):
     out = gantry(*[str(spec) if a == "SPEC" else a for a in args])
     assert one_line(out) and "is an input of this command" in out.stderr
     assert spec.read_text() == THESIS_X.read_text()
+
+
+@pytest.mark.parametrize("old,new,key", [
+    ("damping_n_s_per_m = 440.0", "damping_n_s_per_m = true", "plant.damping_n_s_per_m: true is not a number"),
+    ("kp = { value = 236.0, min = 0.0, max = 10000.0 }", "kp = { value = 236.0, min = 0.0, max = inf }",
+     "controller.kp.max"),
+    ("points = 8", "points = 10000", "plant.payload_kg.points"),
+    ("{ min = 330.0, max = 550.0 }", "{ min = 330.0, max = nan }", "plant.uncertainty.damping_n_s_per_m.max"),
+])
+def test_non_finite_boolean_and_oversized_spec_values_are_refused(tmp_path, old, new, key):
+    text = (ROOT / "specs" / "stage_x_synth.toml").read_text()
+    assert old in text
+    spec = tmp_path / "bad.toml"
+    spec.write_text(text.replace(old, new, 1))
+    out = gantry("sweep", spec, "--payload", "5:40:3")
+    assert one_line(out) and key in out.stderr, out.stderr
+
+
+@pytest.mark.parametrize("args,word", [
+    (["simulate", "--stage", "x", "--f-hz", "1:10:1e9", "--out", "OUT"], "2000"),
+    (["simulate", "--stage", "x", "--duration-s", "1e5", "--out", "OUT"], "GB"),
+    (["sweep", str(THESIS_X), "--payload", "1e9:1e9:1"], "1000 kg"),
+])
+def test_sizes_are_refused_before_any_work(tmp_path, args, word):
+    out = gantry(*[str(tmp_path / "rec.csv") if a == "OUT" else a for a in args])
+    assert one_line(out) and word in out.stderr, out.stderr
+    assert list(tmp_path.iterdir()) == []

@@ -171,6 +171,10 @@ def parse_set_items(items: list[str]) -> dict[str, float]:
     return values
 
 
+#: most blocks of a stepped sine (``--f-hz``)
+MAX_FREQUENCIES = 2000
+
+
 def parse_f_hz(text: str, spacing: str) -> np.ndarray:
     """``"1:75:50"`` (``spacing`` log or linear) or an explicit list ``"1,2,5,10"``, in Hz."""
     if spacing not in ("log", "linear"):
@@ -183,6 +187,9 @@ def parse_f_hz(text: str, spacing: str) -> np.ndarray:
         count = _number("--f-hz", text, parts[2])
         if count != int(count) or count < 2:
             raise ParameterError(f"--f-hz {text!r}: COUNT must be a whole number >= 2")
+        if count > MAX_FREQUENCIES:
+            raise ParameterError(f"--f-hz {text!r}: {count:g} frequencies is more than the {MAX_FREQUENCIES} a stepped "
+                                 "sine can have (one block each)")
         if not 0 < start < stop:
             raise ParameterError(f"--f-hz {text!r}: need 0 < START < STOP")
         return (np.geomspace if spacing == "log" else np.linspace)(start, stop, int(count))
@@ -209,8 +216,13 @@ def parse_payload(text: str) -> np.ndarray:
         points = 1 if len(parts) == 1 else int(parts[2])
     except ValueError:
         raise ParameterError(usage) from None
+    from design.problem import PAYLOAD_MAX_KG
+
     if not (math.isfinite(lo) and math.isfinite(hi)) or lo <= 0 or hi <= 0:
         raise ParameterError(f"--payload {text!r}: masses must be finite and positive (kg)")
+    if hi > PAYLOAD_MAX_KG:
+        raise ParameterError(f"--payload {text!r}: {hi:g} kg is above the {PAYLOAD_MAX_KG:g} kg any payload may have "
+                             "(the same limit as plant.payload_kg of a spec)")
     if hi < lo:
         raise ParameterError(f"--payload {text!r}: MAX ({hi:g}) must be >= MIN ({lo:g})")
     if not 1 <= points <= MAX_PAYLOAD_POINTS or (points == 1 and hi != lo):

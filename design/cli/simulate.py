@@ -21,6 +21,8 @@ from design.cli.common import (
 from plant.errors import ParameterError
 
 DEFAULT_NOISE_FRACTION = 0.01
+#: most samples a simulated recording may have (all blocks; about 48 bytes each to simulate and write)
+MAX_SAMPLES = 2e7
 
 
 def simulate(
@@ -73,13 +75,19 @@ def simulate(
     keep_inputs({"--out": out, "--out (sidecar)": out.with_suffix(".json")}, [spec])
     plant, amplitude_a = simulation_plant(spec=spec, stage=stage, values=parse_set_items(set_items or []),
                                           effects_added=parse_effects(effects or []), amplitude_a=amplitude_a)
+    f = parse_f_hz(f_hz, f_spacing)
+    samples = f.size * duration_s * sample_rate_hz
+    if samples > MAX_SAMPLES:
+        raise ParameterError(f"--f-hz, --duration-s, --sample-rate-hz: {f.size} blocks x {duration_s:g} s x "
+                             f"{sample_rate_hz:g} Hz is {samples:.3g} samples (about {samples * 48 / 1e9:.2g} GB to "
+                             f"simulate and write), more than the {MAX_SAMPLES:.0e} allowed")
     if noise_fraction is None and not (current_noise_a or velocity_noise):
         noise_fraction = DEFAULT_NOISE_FRACTION
     t0 = time.perf_counter()
     with options_named("duration_s", "sample_rate_hz", "noise_fraction", "current_noise_a", "current_quantum_a",
                        "seed", "velocity_noise_m_per_s", "velocity_quantum_m_per_s", f_hz="--f-hz",
                        current_amplitude_a="--amplitude-a"):
-        rec = simulate_stepped_sine(plant, f_hz=parse_f_hz(f_hz, f_spacing), current_amplitude_a=amplitude_a,
+        rec = simulate_stepped_sine(plant, f_hz=f, current_amplitude_a=amplitude_a,
                                     duration_s=duration_s, sample_rate_hz=sample_rate_hz,
                                     current_noise_a=current_noise_a, velocity_noise_m_per_s=velocity_noise,
                                     noise_fraction=noise_fraction, velocity_quantum_m_per_s=velocity_quantum,

@@ -61,7 +61,7 @@ RANGE_KEYS_OF_MOUSE = tuple(k for k, f in Mouse.__dataclass_fields__.items() if 
 
 
 class _Strict(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True)
+    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
 
 
 class MeasuredPlant(_Strict):
@@ -268,8 +268,24 @@ def _key_path(loc) -> str:
     return ".".join(str(p) for p in loc if not (isinstance(p, str) and p in ("float", "PayloadRange")))
 
 
+def _no_booleans(data, path: str = "") -> None:
+    """No spec key takes true/false: a boolean where a number belongs is an error, not 1 or 0."""
+    if isinstance(data, bool):
+        raise SpecError(f"{path}: {str(data).lower()} is not a number")
+    if isinstance(data, dict):
+        for k, v in data.items():
+            _no_booleans(v, f"{path}.{k}" if path else str(k))
+    elif isinstance(data, list):
+        for i, v in enumerate(data):
+            _no_booleans(v, f"{path}.{i}")
+
+
 def parse_spec(data: dict, *, source: str = "spec") -> Spec:
     """Validate a spec mapping; ``SpecError`` names the first failing key path."""
+    try:
+        _no_booleans(data)
+    except SpecError as exc:
+        raise SpecError(f"{source}: {exc}") from None
     try:
         return Spec.model_validate(data)
     except ValidationError as exc:

@@ -125,7 +125,7 @@ def print_synthesis(console: Console, out: dict) -> None:
         where = "" if b["payload_kg"] is None else f" at {b['payload_kg']:.1f} kg"
         scenario = "".join(f", {k} = {v:.4g}" for k, v in (b.get("scenario") or {}).items())
         console.print(f"[bold]gains[/]: Kp = {g['kp']:.4g} A/(m/s), Ki = {g['ki']:.4g} A/m; worst case: "
-                      f"bandwidth {wc['bandwidth_hz']:.2f} Hz, PM {wc['phase_margin_deg']:.2f} deg, GM "
+                      f"bandwidth {_val(wc['bandwidth_hz'])} Hz, PM {_val(wc['phase_margin_deg'])} deg, GM "
                       f"{_num(wc['gain_margin_db'])} dB; binding: {b['constraint']}{where}{scenario}")
         rows = out["per_payload"]
         over = " worst over the uncertainty" if out.get("monte_carlo") else ""
@@ -134,16 +134,20 @@ def print_synthesis(console: Console, out: dict) -> None:
         for col in ("payload kg", "bandwidth Hz", "PM deg", "GM dB"):
             t.add_column(col, justify="right")
         for row in rows[::max(len(rows) // 8, 1)] + ([rows[-1]] if (len(rows) - 1) % max(len(rows) // 8, 1) else []):
-            t.add_row(f"{row['payload_kg']:.1f}", f"{row['bandwidth_hz']:.2f}", f"{row['phase_margin_deg']:.2f}",
+            t.add_row(f"{row['payload_kg']:.1f}", _val(row["bandwidth_hz"]), _val(row["phase_margin_deg"]),
                       _num(row["gain_margin_db"]))
         console.print(t)
     v = out.get("verification")
     if v:
-        console.print(f"[bold]independent check[/] ({v['tool']}) on {v['payloads']} plants: max pole real part "
-                      f"{_num(v['max_closed_loop_pole_real_part'], '.3g')} 1/s, "
-                      f"min PM {_num(v['min_phase_margin_deg'])}"
-                      f" deg, min GM {_num(v['min_gain_margin_db'])} dB, bandwidth agreement "
-                      f"{_num(v['max_bandwidth_rel_error'], '.1e')}; failures: {len(v['failures'])}")
+        if "max_closed_loop_pole_real_part" in v:
+            console.print(f"[bold]independent check[/] ({v['tool']}) on {v['payloads']} plants: max pole real part "
+                          f"{_num(v['max_closed_loop_pole_real_part'], '.3g')} 1/s, "
+                          f"min PM {_num(v['min_phase_margin_deg'])}"
+                          f" deg, min GM {_num(v['min_gain_margin_db'])} dB, bandwidth agreement "
+                          f"{_num(v['max_bandwidth_rel_error'], '.1e')}; failures: {len(v['failures'])}")
+        else:       # a design on measured responses
+            console.print(f"[bold]independent check[/] ({v['tool']}) on {v['payloads']} recordings; failures: "
+                          f"{len(v['failures'])}" + "".join(f"\n  {f}" for f in v["failures"]))
     for f in out.get("filters") or []:
         if not f["used"]:
             console.print(f"[bold]{f['kind']} filter[/]: left out (the design is faster without it)")
@@ -202,7 +206,13 @@ def print_synthesis(console: Console, out: dict) -> None:
 
 
 def _num(x, fmt: str = ".2f") -> str:
+    """A margin: None in the JSON is an infinite one."""
     return "inf" if x is None else format(x, fmt)
+
+
+def _val(x, fmt: str = ".2f") -> str:
+    """A bandwidth or phase margin: None in the JSON is one outside the measured band, unknown."""
+    return "n/a" if x is None else format(x, fmt)
 
 
 class LazyProgress:

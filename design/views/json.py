@@ -437,10 +437,11 @@ def measured_design_to_dict(d: MeasuredDesign) -> dict:
                 "worst_case": None, "per_payload": [], "binding": None, "verified": False}
     gm_all_finite = bool(np.all(np.isfinite(d.gain_margin_db)))
     return {**out, "gains": {"kp": d.kp, "ki": d.ki},
-            "worst_case": {"bandwidth_hz": float(np.min(d.bandwidth_hz)),
-                           "phase_margin_deg": float(np.min(d.phase_margin_deg)),
+            "worst_case": {"bandwidth_hz": finite_or_none(np.min(d.bandwidth_hz)),
+                           "phase_margin_deg": finite_or_none(np.min(d.phase_margin_deg)),
                            "gain_margin_db": float(np.min(d.gain_margin_db)) if gm_all_finite else None},
-            "per_payload": [{"payload_kg": float(p), "bandwidth_hz": float(b), "phase_margin_deg": float(pm),
+            "per_payload": [{"payload_kg": float(p), "bandwidth_hz": finite_or_none(b),
+                             "phase_margin_deg": finite_or_none(pm),
                              "gain_margin_db": finite_or_none(g)}
                             for p, b, pm, g in zip(d.payload_kg, d.bandwidth_hz, d.phase_margin_deg,
                                                    d.gain_margin_db)],

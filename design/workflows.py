@@ -48,7 +48,7 @@ def load_problem(spec_path: str | Path, *, plant_from: str | Path | None = None)
 
     spec_path = Path(spec_path)
     try:
-        data = tomllib.loads(read_text(spec_path))
+        data = tomllib.loads(read_text(spec_path, what="spec file"))
     except tomllib.TOMLDecodeError as exc:
         raise SpecError(f"{spec_path}: not valid TOML: {exc}") from None
     left_out: list[str] = []
@@ -69,7 +69,7 @@ def _plant_from_fit(path: Path) -> tuple[dict, list[str]]:
     from plant.text_io import read_text
 
     try:
-        fit = json.loads(read_text(path))
+        fit = json.loads(read_text(path, what="the fit result"))
     except json.JSONDecodeError as exc:
         raise SpecError(f"{path}: not a JSON fit result ({exc})") from None
     if not isinstance(fit, dict) or not isinstance(fit.get("parameters"), dict):

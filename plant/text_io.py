@@ -54,9 +54,9 @@ def _checked(text: str, encoding: str, source: str) -> tuple[str, str]:
     return text, encoding
 
 
-def read_text(path: str | Path) -> str:
+def read_text(path: str | Path, *, what: str = "file") -> str:
     """The text of ``path`` (see the module doc); ``DataError`` for a missing, unreadable, too large,
-    binary or undecodable file, naming it."""
+    binary or undecodable file, naming it (and ``what`` it is)."""
     path = Path(path)
     try:
         size = path.stat().st_size
@@ -67,7 +67,7 @@ def read_text(path: str | Path) -> str:
     except IsADirectoryError:
         raise DataError(f"{path}: is a directory, not a file") from None
     except OSError as exc:
-        raise DataError(f"{path}: cannot read ({exc.strerror})") from None
+        raise DataError(f"{path}: cannot read {what} ({exc.strerror})") from None
     for magic, (name, inflate) in _COMPRESSED.items():
         if raw.startswith(magic):
             try:

@@ -300,7 +300,7 @@ def parse_spec(data: dict, *, source: str = "spec") -> Spec:
 def load_spec(path: str | Path) -> Spec:
     """Read and validate a TOML spec file."""
     path = Path(path)
-    text = read_text(path)
+    text = read_text(path, what="spec file")
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:

@@ -91,16 +91,15 @@ def test_every_failure_is_one_line_with_status_2(tmp_path, args):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["blob.csv"]      # nothing half-written left behind
 
 
-@pytest.mark.parametrize("sig,status,word", [(signal.SIGINT, 130, "interrupted"), (signal.SIGTERM, 143, "terminated")])
-def test_a_signal_ends_a_command_with_its_status_and_no_output(tmp_path, sig, status, word):
+def test_ctrl_c_during_the_admittance_solve_ends_with_130_and_no_output(tmp_path):
     # the admittance synthesis spends seconds in IPOPT, which traps Ctrl-C itself
     out = tmp_path / "design.html"
     p = subprocess.Popen([sys.executable, "-m", "design", "synth", str(ROOT / "specs" / "stage_x_admittance.toml"),
                           "--report", str(out)], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     time.sleep(3.0)
-    p.send_signal(sig)
+    p.send_signal(signal.SIGINT)
     _, err = p.communicate(timeout=120)
-    assert p.returncode == status and err == f"gantry: error: {word}\n"
+    assert p.returncode == 130 and err == "gantry: error: interrupted\n"
     assert list(tmp_path.iterdir()) == []
 
 

@@ -108,9 +108,9 @@ def zoh_with_delay(system, T: float, delay_s: float):
         E = expm(M)
         return E[:n, :n], E[:n, n:]
 
-    Phi, _ = integral(T)
+    Phi, gamma = integral(T)
     if delay_s <= 0:
-        return control.ss(Phi, integral(T)[1], C, 0.0, T)
+        return control.ss(Phi, gamma, C, 0.0, T)
     d = max(int(math.ceil(delay_s / T - 1e-12)), 1)
     frac = delay_s - (d - 1) * T
     E0, G0 = integral(T - frac)

@@ -590,9 +590,10 @@ def exact_design(problem: LoopProblem, scenarios: Scenarios, kp0: float, ki0: fl
         if high_circle and starts["c"] is not None and 2 * starts["c"] < W_OPT[-1]:
             high = np.geomspace(2 * starts["c"], W_OPT[-1], max(int(100 * np.log10(W_OPT[-1] / starts["c"] / 2)), 2))
             circles.append((*requirement_circles(problem)[0], high))
+        rest = replace(numeric, effects=tuple(e for e in numeric.effects if e.name not in symbolic)) \
+            if symbolic else None
         for centre, radius, wg in circles:
             if symbolic:    # P = P_0 F(theta): the numeric response without the designed filters, times theirs
-                rest = replace(numeric, effects=tuple(e for e in numeric.effects if e.name not in symbolic))
                 p0 = rest.frd(wg)
                 pf = Pair(ca.DM(p0.real), ca.DM(p0.imag))
                 for e in plant.effects:
@@ -1058,9 +1059,8 @@ def _discrete(problem: LoopProblem, ev: Evaluation, points: Scenarios, dense: Sc
     from design.loop.discrete import check_discrete, discretise
 
     base = problem.plant.plant()
-    rows = Scenarios(np.unique(points.payload_kg), {n: np.full(np.unique(points.payload_kg).size,
-                                                                 base.parameters()[n].value)
-                                                    for n in dense.parameters})
+    payloads = np.unique(points.payload_kg)
+    rows = Scenarios(payloads, {n: np.full(payloads.size, base.parameters()[n].value) for n in dense.parameters})
     for i in ev.tightest(DISCRETE_TIGHTEST):
         if not rows.contains(dense.row(int(i))):
             rows = rows.with_row(dense.row(int(i)))

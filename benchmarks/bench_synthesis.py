@@ -21,8 +21,11 @@ Run:  python benchmarks/bench_synthesis.py [--quick] [--admittance (the admittan
 * Admittance (``specs/stage_x_admittance.toml``, PI gains from its PI stage): solve time of
   ``synthesise_admittance`` and its peak resistance against a brute-force search over
   (m_v, b_v): a 60 x 60 log grid over the spec's bounds, then two 40 x 40 zooms around the best
-  (+-2 cells), each point checked exactly (grid margins, hardware peaks) at the spec's 8
-  payloads; the brute-force best is then re-checked on the 50-payload dense grid.
+  (+-2 cells), each point checked exactly (grid margins, hardware peaks) on the synthesis' design
+  scenarios (the 8 payloads x the corners of the spec's uncertainty); the brute-force best is then
+  re-checked on the synthesis' dense check scenarios. The Monte Carlo check of the design (10,000
+  draws over payload x uncertainty x mouse) is printed beside that of the design for the nominal
+  parameters alone on the same draws.
 """
 
 import sys
@@ -32,11 +35,13 @@ from pathlib import Path
 import numpy as np
 
 from design.admittance.model import W_DENSE, AdmittanceEvaluator
+from design.admittance.monte_carlo import admittance_monte_carlo
 from design.admittance.synthesis import W_DESIGN, synthesise_admittance
+from design.admittance.synthesis import check_scenarios as admittance_check_scenarios
 from design.loop.fast import fast_analyse_loop
 from design.spec.schema import load_spec
 from design.synth.pi import evaluate, synthesise_pi
-from design.synth.scenarios import check_scenarios
+from design.synth.scenarios import check_scenarios, design_scenarios
 from design.views.json import synthesis_to_dict
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -120,7 +125,7 @@ def main():
 
 def admittance_brute_force(spec, kp, ki, cost, n0, zooms):
     a = spec.admittance
-    ev = AdmittanceEvaluator(spec, spec.plant.payload_kg.grid(), W_DESIGN, kp=kp, ki=ki)
+    ev = AdmittanceEvaluator(spec, design_scenarios(spec), W_DESIGN, kp=kp, ki=ki)
     m_grid, b_grid = np.geomspace(a.m_v.min, a.m_v.max, n0), np.geomspace(a.b_v.min, a.b_v.max, n0)
     best, evaluations = (np.inf, None, None), 0
     for zoom in range(zooms + 1):
@@ -146,7 +151,9 @@ def admittance_benchmark():
     t0 = time.perf_counter()
     (brute, m, b), evaluations = admittance_brute_force(spec, kp, ki, cost, 30 if QUICK else 60, 1 if QUICK else 2)
     brute_s = time.perf_counter() - t0
-    dense = AdmittanceEvaluator(spec, spec.plant.payload_kg.check_points(), W_DENSE, kp=kp, ki=ki).evaluate(m, b).meets
+    dense = AdmittanceEvaluator(spec, admittance_check_scenarios(spec), W_DENSE, kp=kp, ki=ki).evaluate(m, b).meets
+    nominal = synthesise_admittance(spec, kp=kp, ki=ki, nominal=True)
+    nominal_mc = admittance_monte_carlo(spec, kp=kp, ki=ki, m_v=nominal.m_v, b_v=nominal.b_v)
     s = res.solver
     print("== stage_x_admittance.toml")
     print(f"  PI stage: kp {kp:.2f}, ki {ki:.1f}")
@@ -159,8 +166,13 @@ def admittance_benchmark():
           + f"; best {s['best_formulation']}, exact polish gains "
             f"x{min(s['circle_cost_n'].values()) / res.peak_resistance_n:.3f}")
     print(f"  brute force ({evaluations} points, {brute_s:.0f} s): m_v {m:.4f}, b_v {b:.4f}, peak resistance "
-          f"{brute:.4f} N (on the 50-payload dense check: {'meets' if dense else 'FAILS'})")
+          f"{brute:.4f} N (on the {len(admittance_check_scenarios(spec))} dense check scenarios: "
+          f"{'meets' if dense else 'FAILS'})")
     print(f"  ratio synthesis / brute force: {res.peak_resistance_n / brute:.4f} (lower is better)")
+    for name, r, mc in (("robust design", res, res.monte_carlo), ("nominal design", nominal, nominal_mc)):
+        print(f"  {name}: peak resistance {r.peak_resistance_n:.4f} N; Monte Carlo {mc.violations} of {mc.samples} "
+              f"violate (95 % upper bound {100 * mc.rate_upper_bound:.3g} %), worst sensor-step current "
+              f"{1e3 * mc.worst_sensor_current_a:.2f} mA, worst PM {mc.worst_phase_margin_deg:.1f} deg")
 
 
 if __name__ == "__main__":

@@ -8,6 +8,7 @@ from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
     from design.admittance.curves import AdmittanceCurves
+    from design.admittance.monte_carlo import AdmittanceMonteCarlo
     from design.admittance.synthesis import AdmittanceResult
     from design.loop.curves import LoopCurves
     from design.loop.sweep import SweepResult
@@ -137,6 +138,15 @@ class DesignOnPlants:
 
 
 @dataclass(frozen=True)
+class AdmittanceComparison:
+    """The admittance design for the nominal parameters alone (same PI gains), and how it fares on the
+    Monte Carlo draws over the uncertainty the robust design holds on."""
+
+    nominal: AdmittanceResult
+    monte_carlo: AdmittanceMonteCarlo | None
+
+
+@dataclass(frozen=True)
 class ReportContent:
     """Everything a design report shows, computed before it is drawn: the gains on the dense payloads
     beside the thesis gains, the loop's curves, the Monte Carlo sweep, the design and admittance curves,
@@ -159,3 +169,5 @@ class ReportContent:
     monte_carlo_check: MonteCarloCheck | None = None
     #: the robust design beside the design for the nominal parameters alone (synthesised, uncertain problems)
     comparison: tuple[DesignOnPlants, ...] = ()
+    #: the same for the admittance design
+    admittance_comparison: AdmittanceComparison | None = None

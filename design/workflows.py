@@ -182,11 +182,27 @@ def report_content(problem: DesignProblem, *, outcome: DesignOutcome | None = No
 
         measured = measure(path)
         recordings.append(Recording(Path(path), measured, diagnose(loop.plant.plant(), measured)))
-    check, comparison = None, ()
+    check, comparison, adm_comparison = None, (), None
     if loop.plant.uncertainty:
         check, comparison = _robustness(loop, kp, ki, outcome)
+        if adm_curves is not None:
+            adm_comparison = _admittance_robustness(loop, outcome.admittance)
     return ReportContent(problem, kp, ki, source, ev, evaluate(loop, *THESIS_GAINS), loop_curves(loop, kp, ki), mc,
-                         seed, outcome, adm_curves, tuple(recordings), command, check, comparison)
+                         seed, outcome, adm_curves, tuple(recordings), command, check, comparison, adm_comparison)
+
+
+def _admittance_robustness(loop, robust):
+    """The admittance design for the nominal parameters (the robust design's PI gains), with its Monte
+    Carlo check over the uncertainty the robust design was made for."""
+    from design.admittance.monte_carlo import admittance_monte_carlo
+    from design.admittance.synthesis import synthesise_admittance
+    from design.results import AdmittanceComparison
+
+    nominal = synthesise_admittance(loop, kp=robust.kp, ki=robust.ki, nominal=True)
+    mc = None
+    if nominal.status == "optimal":
+        mc = admittance_monte_carlo(loop, kp=robust.kp, ki=robust.ki, m_v=nominal.m_v, b_v=nominal.b_v)
+    return AdmittanceComparison(nominal, mc)
 
 
 def _robustness(loop, kp: float, ki: float, outcome: DesignOutcome | None):

@@ -67,8 +67,7 @@ def test_report_bad_spec_exits_2(tmp_path):
     assert not (tmp_path / "r.html").exists()
 
 
-def test_admittance_report_without_uncertainty_has_its_section(tmp_path):
-    # the admittance spec has no plant.uncertainty: the default skips the Monte Carlo band
+def test_admittance_report_has_its_section_beside_the_nominal_design(tmp_path):
     spec = ROOT / "specs" / "stage_x_admittance.toml"
     out = tmp_path / "adm.html"
     proc = subprocess.run([sys.executable, "-m", "design", "report", str(spec), "--out", str(out)],
@@ -78,10 +77,14 @@ def test_admittance_report_without_uncertainty_has_its_section(tmp_path):
     assert ">Admittance (mouse following)</h2>" in html and "<b>Admittance:</b> m_v = " in html
     section = html[html.index(">Admittance (mouse following)</h2>"):html.index(">Reproducibility</h2>")]
     assert section.count("<svg") == 3 and "Verified: True" in section
+    assert "Monte Carlo: 0 of 10000 independent draws over payload, uncertainty and mouse violate" in section
+    # the design for the nominal parameters alone, on the same draws over the uncertainty, misses some
+    row = section[section.index("nominal parameters only"):]
+    assert "0 of 10000" not in row[:row.index("</tr>")] and "Robustness costs" in section
 
 
 def test_report_samples_without_uncertainty_exits_2_at_once(tmp_path):
-    spec = ROOT / "specs" / "stage_x_admittance.toml"
+    spec = ROOT / "specs" / "stage_x_resonant_motor.toml"
     proc = subprocess.run([sys.executable, "-m", "design", "report", str(spec), "--samples", "10", "--out",
                            str(tmp_path / "r.html")], capture_output=True, text=True)
     assert proc.returncode == 2 and "plant.uncertainty" in proc.stderr and proc.stderr.count("\n") == 1

@@ -44,14 +44,16 @@ from __future__ import annotations
 
 import itertools
 import math
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
 
 from design.loop.analysis import ANALYSIS_GRID_RAD_S
 from design.loop.loops import pi_frd
-from design.loop.margins import loop_margins, unwrapped_phase_deg
+from design.loop.margins import loop_margins, nyquist_stable, unwrapped_phase_deg
 from design.problem import AdmittanceProblem, LoopProblem
+from design.synth.scenarios import Scenarios
 from plant.effects import EFFECTS
 from plant.errors import SpecError
 from plant.grid import check_grid
@@ -125,17 +127,29 @@ def with_neck_modes(w_rad_s: np.ndarray, corners, *, points: int = 60) -> np.nda
     return np.unique(np.concatenate([np.asarray(w_rad_s, float), *local]))
 
 
+def as_scenarios(scenarios) -> Scenarios:
+    """``Scenarios`` as given, or payloads (kg) with the nominal parameters."""
+    if isinstance(scenarios, Scenarios):
+        return scenarios
+    return Scenarios(np.atleast_1d(np.asarray(scenarios, float)))
+
+
 @dataclass(frozen=True)
 class GantryLoop:
-    """Free gantry under the PI velocity loop on a grid, batch over payloads (axis 0)."""
+    """Free gantry under the PI velocity loop on a grid, batch over scenarios (axis 0): payloads
+    with the values of the uncertain parameters."""
 
     w_rad_s: np.ndarray
-    payload_kg: np.ndarray
-    plant: np.ndarray          # P, velocity per current (m/s per A), (n_payload, n_freq)
+    scenarios: Scenarios
+    plant: np.ndarray          # P, velocity per current (m/s per A), (n_scenario, n_freq)
     mobility: np.ndarray       # G, velocity per force on the moving mass (m/s per N)
     controller: np.ndarray     # C = Kp + Ki/s (A per m/s), (n_freq,)
     sensitivity: np.ndarray    # S = 1/(1 + P C)
     complementary: np.ndarray  # T = P C / (1 + P C)
+
+    @property
+    def payload_kg(self) -> np.ndarray:
+        return self.scenarios.payload_kg
 
 
 def mechanical_plant(plant: Plant) -> Plant:
@@ -143,16 +157,17 @@ def mechanical_plant(plant: Plant) -> Plant:
     return plant.with_effects(*[e for e in plant.effects if e.place != "drive"])
 
 
-def gantry_loop(problem: LoopProblem, w_rad_s, payload_kg, *, kp: float, ki: float) -> GantryLoop:
-    """P, G, C, S, T of the spec's plant at ``payload_kg`` (1-D) on ``w_rad_s``."""
+def gantry_loop(problem: LoopProblem, w_rad_s, scenarios, *, kp: float, ki: float) -> GantryLoop:
+    """P, G, C, S, T of the spec's plant in ``scenarios`` (``Scenarios``, or payloads in kg with the
+    nominal parameters) on ``w_rad_s``."""
     w = check_grid(w_rad_s)
-    m = np.atleast_1d(np.asarray(payload_kg, float))
-    plant = problem.plant.plant().with_payload(m)
-    P = plant.frd(w)
-    G = mechanical_plant(plant).frd(w) / problem.plant.force_constant_n_per_a
+    s = as_scenarios(scenarios)
+    plant = s.plants(problem.plant.plant())
+    P = np.broadcast_to(plant.frd(w), (len(s), w.size))
+    G = np.broadcast_to(mechanical_plant(plant).frd(w) / np.asarray(plant.force_constant_n_per_a, float), P.shape)
     C = pi_frd(w, kp, ki)
     S = 1.0 / (1.0 + P * C)
-    return GantryLoop(w, m, P, G, C, S, 1.0 - S)
+    return GantryLoop(w, s, P, G, C, S, 1.0 - S)
 
 
 def virtual_impedance_frd(w_rad_s, m_v, b_v) -> np.ndarray:
@@ -211,40 +226,78 @@ def admittance_bandwidth_hz(w_rad_s, rendered, virtual) -> np.ndarray:
 # --- exact evaluation ------------------------------------------------------------------------------
 @dataclass(frozen=True)
 class AdmittanceCheck:
-    """(m_v, b_v) evaluated exactly on a grid: payloads x mouse corners x frequencies."""
+    """(m_v, b_v) evaluated exactly on a grid: scenarios (payload x uncertain parameters) x mouse
+    corners x frequencies."""
 
     m_v: float
     b_v: float
-    payload_kg: np.ndarray
-    #: grid margins (cubic-refined crossings) of the interaction loop, (n_corner, n_payload)
+    scenarios: Scenarios
+    #: grid margins (cubic-refined crossings) of the interaction loop, (n_corner, n_scenario)
     phase_margin_deg: np.ndarray
     gain_margin_db: np.ndarray
-    #: motor current per force-sensor step, peak over frequency (A), (n_payload,)
+    #: the coupled loop and the velocity loop with the mouse attached are stable (Nyquist on the grid),
+    #: (n_corner, n_scenario)
+    stable: np.ndarray
+    #: motor current per force-sensor step, peak over frequency (A), (n_scenario,)
     sensor_current_a: np.ndarray
-    #: motor force for the spec's peak mouse force, peak over frequency (N), (n_payload,)
+    #: motor force for the spec's peak mouse force, peak over frequency (N), (n_scenario,)
     motor_force_n: np.ndarray
     rendered_bandwidth_hz: np.ndarray
-    #: frequencies (Hz) of those peaks, (n_payload,)
+    #: frequencies (Hz) of those peaks, (n_scenario,)
     sensor_peak_hz: np.ndarray
     motor_peak_hz: np.ndarray
-    #: each violated requirement as {"constraint", "payload_kg", "mouse", "value", "limit", "detail"}
+    #: each violated requirement as {"constraint", "payload_kg", "scenario", "mouse", "value", "limit", "detail"}
     violations: tuple[dict, ...]
 
     @property
     def meets(self) -> bool:
         return not self.violations
 
+    @property
+    def payload_kg(self) -> np.ndarray:
+        return self.scenarios.payload_kg
+
+    def slack(self, adm: AdmittanceProblem) -> np.ndarray:
+        """Least relative slack of every requirement per scenario (n_scenario,): < 0 violates."""
+        hw = adm.hardware
+        return np.min(np.stack([
+            (np.min(self.phase_margin_deg, axis=0) - adm.phase_margin_deg) / max(adm.phase_margin_deg, 1.0),
+            (np.min(self.gain_margin_db, axis=0) - adm.gain_margin_db) / max(adm.gain_margin_db, 1.0),
+            1 - self.sensor_current_a / hw.max_current_per_sensor_step_a,
+            1 - self.motor_force_n / hw.motor_peak_force_n]), axis=0)
+
+    def per_payload(self) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+        """The payloads and, at each, the worst over its scenarios and the mouse corners of: phase_margin_deg,
+        gain_margin_db, rendered_bandwidth_hz (min) and sensor_current_a, motor_force_n (max)."""
+        m = np.unique(self.payload_kg)
+        idx = [np.flatnonzero(self.payload_kg == mk) for mk in m]
+        worst = {"phase_margin_deg": (np.min(self.phase_margin_deg, axis=0), np.min),
+                 "gain_margin_db": (np.min(self.gain_margin_db, axis=0), np.min),
+                 "rendered_bandwidth_hz": (self.rendered_bandwidth_hz, np.nanmin),
+                 "sensor_current_a": (self.sensor_current_a, np.max), "motor_force_n": (self.motor_force_n, np.max)}
+        out = {}
+        for name, (v, f) in worst.items():
+            with warnings.catch_warnings():      # all-nan bandwidth at a payload: nan
+                warnings.simplefilter("ignore", RuntimeWarning)
+                out[name] = np.array([f(v[i]) for i in idx])
+        return m, out
+
 
 class AdmittanceEvaluator:
     """Exact evaluation of any (m_v, b_v) for fixed PI gains: the responses that do not depend on
     (m_v, b_v) are computed once, so a search can evaluate many candidates cheaply."""
 
-    def __init__(self, problem: LoopProblem, payload_kg, w_rad_s, *, kp: float, ki: float):
+    def __init__(self, problem: LoopProblem, scenarios, w_rad_s, *, kp: float, ki: float):
         self.problem = problem
         self.adm = admittance_problem(problem)
         self.corners = mouse_corners(problem)
-        self.loop = gantry_loop(problem, with_neck_modes(w_rad_s, self.corners), payload_kg, kp=kp, ki=ki)
+        self.loop = gantry_loop(problem, with_neck_modes(w_rad_s, self.corners), scenarios, kp=kp, ki=ki)
         self.gains = np.stack([interaction_gain(self.loop, mouse) for mouse in self.corners])
+        # D = (1 + P C)(1 + S G Z_m): the velocity loop with the mouse attached, which the Nyquist test
+        # of the interaction loop assumes stable
+        self.attached_stable = np.stack([nyquist_stable(self.loop.sensitivity * self.loop.mobility
+                                                        * mouse.impedance_frd(self.loop.w_rad_s))
+                                         for mouse in self.corners])
 
     def evaluate(self, m_v: float, b_v: float, *, bandwidth: bool = True) -> AdmittanceCheck:
         loop, hw = self.loop, self.adm.hardware
@@ -256,35 +309,43 @@ class AdmittanceEvaluator:
         bw = (admittance_bandwidth_hz(w, rendered_admittance(loop, m_v, b_v), 1.0 / z) if bandwidth
               else np.full(loop.payload_kg.shape, np.nan))
         fhz = w / (2 * np.pi)
-        check = AdmittanceCheck(float(m_v), float(b_v), loop.payload_kg, mg.phase_margin_deg, mg.gain_margin_db,
-                                i_resp.max(-1), f_resp.max(-1), bw, fhz[i_resp.argmax(-1)], fhz[f_resp.argmax(-1)],
-                                ())
+        check = AdmittanceCheck(float(m_v), float(b_v), loop.scenarios, mg.phase_margin_deg, mg.gain_margin_db,
+                                mg.closed_loop_stable & self.attached_stable, i_resp.max(-1), f_resp.max(-1), bw,
+                                fhz[i_resp.argmax(-1)], fhz[f_resp.argmax(-1)], ())
         return AdmittanceCheck(**{**check.__dict__, "violations": self._violations(check)})
 
     def _violations(self, c: AdmittanceCheck) -> tuple[dict, ...]:
         adm, hw = self.adm, self.adm.hardware
         out = []
         for j, mk in enumerate(c.payload_kg):
+            where, row = c.scenarios.describe(j), c.scenarios.row(j)
             if c.sensor_current_a[j] > hw.max_current_per_sensor_step_a * (1 + 1e-6):
-                out.append({"constraint": "sensor_current", "payload_kg": float(mk), "mouse": None,
+                out.append({"constraint": "sensor_current", "payload_kg": float(mk), "scenario": row, "mouse": None,
                             "value": float(c.sensor_current_a[j]), "limit": hw.max_current_per_sensor_step_a,
                             "detail": f"one force-sensor step ({hw.force_sensor_resolution_n * 1e3:g} mN) drives "
                                       f"{c.sensor_current_a[j]:.4g} A (admittance.hardware."
                                       f"max_current_per_sensor_step_a = {hw.max_current_per_sensor_step_a:g} A) at "
-                                      f"{mk:.1f} kg, {c.sensor_peak_hz[j]:.3g} Hz"})
+                                      f"{where}, {c.sensor_peak_hz[j]:.3g} Hz"})
             if c.motor_force_n[j] > hw.motor_peak_force_n * (1 + 1e-6):
-                out.append({"constraint": "motor_force", "payload_kg": float(mk), "mouse": None,
+                out.append({"constraint": "motor_force", "payload_kg": float(mk), "scenario": row, "mouse": None,
                             "value": float(c.motor_force_n[j]), "limit": hw.motor_peak_force_n,
                             "detail": f"a {adm.mouse.peak_force_n:g} N mouse force asks {c.motor_force_n[j]:.4g} N of "
                                       f"the motor (admittance.hardware.motor_peak_force_n = "
-                                      f"{hw.motor_peak_force_n:g} N) at {mk:.1f} kg, {c.motor_peak_hz[j]:.3g} Hz"})
+                                      f"{hw.motor_peak_force_n:g} N) at {where}, {c.motor_peak_hz[j]:.3g} Hz"})
             for k, mouse in enumerate(self.corners):
+                if not c.stable[k, j]:
+                    out.append({"constraint": "stability", "payload_kg": float(mk), "scenario": row,
+                                "mouse": mouse.as_dict(), "value": float("nan"), "limit": float("nan"),
+                                "detail": f"the coupled gantry-mouse loop is unstable at {where} with mouse "
+                                          f"({mouse.label()})"})
+                    continue
                 for name, val, req, unit in (("phase_margin", c.phase_margin_deg[k, j], adm.phase_margin_deg, "deg"),
                                              ("gain_margin", c.gain_margin_db[k, j], adm.gain_margin_db, "dB")):
                     if val < req - 1e-6:
-                        out.append({"constraint": name, "payload_kg": float(mk), "mouse": mouse.as_dict(),
+                        out.append({"constraint": name, "payload_kg": float(mk), "scenario": row,
+                                    "mouse": mouse.as_dict(),
                                     "value": float(val), "limit": req,
                                     "detail": f"interaction-loop {name.replace('_', ' ')} {val:.3g} {unit} "
-                                              f"(admittance.{name}_{unit.lower()} = {req:g}) at {mk:.1f} kg with "
+                                              f"(admittance.{name}_{unit.lower()} = {req:g}) at {where} with "
                                               f"mouse ({mouse.label()})"})
         return tuple(out)

@@ -3,8 +3,9 @@ resistance while the coupled gantry-mouse system keeps its margins (physics and 
 loop L = K / (m_v s + b_v): ``design.admittance.model``).
 
 Problem: minimise the peak resistance on a trapezoidal profile, m_v a_pk + b_v v_pk (linear),
-over the spec's bounds, subject to, at every payload, every corner of the mouse ranges and
-every frequency of the constraint grid:
+over the spec's bounds, subject to, at every design scenario (a payload point with a corner of the
+spec's ``plant.uncertainty`` box, ``design.synth.scenarios``), every corner of the mouse ranges
+and every frequency of the constraint grid:
 
 * margins: L outside the circle through -1/g and e^{j(pi - phi)} (Hast, Astrom, Bernhardsson
   & Boyd 2013; ``design.synth.pi.margin_circle``): |K - x0 z| >= r |z|, z = b_v + j w m_v;
@@ -29,13 +30,16 @@ Pipeline (``synthesise_admittance``):
    e.g. the middle of the box, ended at poor local points in the benchmark: 210 N against
    3.19 N, so they are not used.)
 3. **exact polish**: the circle is conservative, so m_v and then b_v are lowered by bisection
-   while the exact grid margins (``loop_margins``) and hardware peaks hold at the design payloads
+   while the exact grid margins (``loop_margins``) and hardware peaks hold at the design scenarios
    (two rounds).
-4. **robustness** like systune: the design is checked on 50 payloads x every mouse corner on the
-   3000-point grid (plus the neck modes); violating payloads join the design payloads and the
-   pipeline repeats.
-5. **verification** (``design.admittance.verify``): coupled closed-loop poles and python-control
-   margins on the rational model.
+4. **robustness** like systune: the design is checked on 50 payloads x the uncertainty corners x
+   every mouse corner on the 3000-point grid (plus the neck modes), with Nyquist stability; the
+   worst violating scenario joins the design scenarios and the pipeline repeats.
+5. **Monte Carlo** (``design.admittance.monte_carlo``): 10,000 independent draws over payload x
+   uncertainty x mouse; the worst violator joins the design scenarios and the pipeline repeats on
+   fresh draws (at most ``MONTE_CARLO_ROUNDS`` times).
+6. **verification** (``design.admittance.verify``): coupled closed-loop poles and python-control
+   margins on the rational model, at the design scenarios and the tightest dense ones.
 """
 
 from __future__ import annotations
@@ -43,7 +47,7 @@ from __future__ import annotations
 import math
 import time
 import warnings
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -59,9 +63,11 @@ from design.admittance.model import (
     peak_resistance_n,
     with_neck_modes,
 )
+from design.admittance.monte_carlo import AdmittanceMonteCarlo, admittance_monte_carlo
 from design.admittance.verify import AdmittanceVerification, verify_admittance
 from design.problem import LoopProblem
-from design.synth.pi import margin_circle
+from design.synth.pi import MONTE_CARLO_ROUNDS, VERIFY_TIGHTEST, margin_circle
+from design.synth.scenarios import Scenarios, design_scenarios, grid, parameter_sets, uncertainty_ranges
 from design.synth.solvers import raise_if_interrupted
 from plant.errors import SpecError
 from plant.grid import log_grid_rad_s
@@ -80,6 +86,7 @@ POLISH_HAIR = (0.1, 0.05, 0.002)
 
 #: rows whose slack (log of the ratio of the two sides) is below this join the active set
 ACTIVE_SLACK = 0.1
+MAX_ACTIVE = 3000
 MAX_ROUNDS = 4
 
 
@@ -115,11 +122,12 @@ class Rows:
         return Rows(self.coef[idx], self.family[idx], self.payload[idx], self.corner[idx], self.f_hz[idx])
 
 
-def build_rows(problem: LoopProblem, payload_kg: np.ndarray, corners, *, kp: float, ki: float) -> Rows:
-    """The sampled constraints at ``payload_kg`` x ``corners`` x ``W_DESIGN`` (module docstring)."""
+def build_rows(problem: LoopProblem, scenarios, corners, *, kp: float, ki: float) -> Rows:
+    """The sampled constraints at ``scenarios`` (or payloads, kg) x ``corners`` x ``W_DESIGN`` (module
+    docstring)."""
     adm = admittance_problem(problem)
     hw = adm.hardware
-    loop = gantry_loop(problem, with_neck_modes(W_DESIGN, corners), payload_kg, kp=kp, ki=ki)
+    loop = gantry_loop(problem, with_neck_modes(W_DESIGN, corners), scenarios, kp=kp, ki=ki)
     w = loop.w_rad_s
     W = np.broadcast_to(w, loop.plant.shape)
     Mk = np.broadcast_to(loop.payload_kg[:, None], W.shape)
@@ -182,27 +190,37 @@ def _socp(rows: Rows, x_k: np.ndarray, lo: np.ndarray, hi: np.ndarray, weights: 
     return np.asarray(y.value) * x_k
 
 
+def _nearest(slack: np.ndarray, below: float = ACTIVE_SLACK) -> np.ndarray:
+    """The rows with slack below ``below``, at most the ``MAX_ACTIVE`` with the least (rows the
+    subproblem then violates are added on top)."""
+    near = slack < below
+    if near.sum() > MAX_ACTIVE:
+        near[:] = False
+        near[np.argpartition(slack, MAX_ACTIVE)[:MAX_ACTIVE]] = True
+    return near
+
+
 def ccp_design(rows: Rows, start: np.ndarray, lo, hi, weights, *, iterations: int = 30) -> tuple[np.ndarray, dict]:
     """CCP from the feasible ``start`` (m_v, b_v); every accepted iterate meets every row."""
     x = np.asarray(start, float)
-    active = rows.slack(*x) < ACTIVE_SLACK
+    active = _nearest(rows.slack(*x))
     solves = 0
     for _ in range(iterations):
-        for _ in range(10):       # active set: add the rows the subproblem's solution violates
+        for _ in range(20):       # active set: add the rows the subproblem's solution violates most
             x_new = _socp(rows.take(active), x, lo, hi, weights)
             solves += 1
             if x_new is None:
                 return x, {"socp_solves": solves, "active_rows": int(active.sum())}
             g = rows.slack(*x_new)
-            violated = (g < -1e-9) & ~active
-            if not violated.any():
+            violated = np.flatnonzero((g < -1e-9) & ~active)
+            if not violated.size:
                 break
-            active |= violated
+            active[violated[np.argsort(g[violated])[:MAX_ACTIVE]]] = True
         if g.min() < -1e-9:       # still violated: keep the last feasible iterate
             break
         gain = weights @ x - weights @ x_new
         x = x_new
-        active |= g < ACTIVE_SLACK
+        active |= _nearest(g)
         if gain <= 1e-5 * (weights @ x):
             break
     return x, {"socp_solves": solves, "active_rows": int(active.sum())}
@@ -234,7 +252,7 @@ def ipopt_design(rows: Rows, start, lo, hi, weights, *, rounds: int = 20) -> np.
     """IPOPT on the rows near or past their bound (slack < 0.3), adding the rows its solution
     violates or nears until none is added (the optimum of no rows is the lower corner)."""
     x = np.asarray(start, float)
-    active = rows.slack(*x) < 0.3
+    active = _nearest(rows.slack(*x), 0.3)
     for _ in range(rounds):
         x = _ipopt(rows.take(active), x, lo, hi, weights) if active.any() else np.asarray(lo, float)
         g = rows.slack(*x)
@@ -242,7 +260,7 @@ def ipopt_design(rows: Rows, start, lo, hi, weights, *, rounds: int = 20) -> np.
         if not add.any():
             break
         idx = np.flatnonzero(add)
-        active[idx[np.argsort(g[idx])[:3000]]] = True
+        active[idx[np.argsort(g[idx])[:MAX_ACTIVE]]] = True
     return x
 
 
@@ -309,6 +327,10 @@ class AdmittanceResult:
     corners: tuple[MouseModel, ...]
     seconds: float
     solver: dict = field(default_factory=dict)
+    #: the independent draws over payload x uncertainty x mouse
+    monte_carlo: AdmittanceMonteCarlo | None = None
+    #: designed for the nominal parameters only (the uncertainty ignored), for comparison
+    nominal: bool = False
 
     @property
     def verified(self) -> bool:
@@ -320,7 +342,8 @@ _HINTS = {"sensor_current": "allow a larger m_v / b_v, a larger admittance.hardw
           "motor_force": "raise admittance.hardware.motor_peak_force_n, lower admittance.mouse.peak_force_n, or "
                          "allow a larger m_v",
           "phase_margin": "allow a larger m_v / b_v, a lower margin requirement, or a better damped velocity loop",
-          "gain_margin": "allow a larger m_v / b_v, a lower margin requirement, or a better damped velocity loop"}
+          "gain_margin": "allow a larger m_v / b_v, a lower margin requirement, or a better damped velocity loop",
+          "stability": "allow a larger m_v / b_v or a better damped velocity loop"}
 
 
 def binding_constraint(ev: AdmittanceEvaluator, check: AdmittanceCheck, lo) -> tuple[dict, tuple[str, ...]]:
@@ -339,21 +362,22 @@ def binding_constraint(ev: AdmittanceEvaluator, check: AdmittanceCheck, lo) -> t
     idx = np.unravel_index(int(np.argmin(slack[name])), np.shape(slack[name]))
     j = idx[-1]
     mouse = ev.corners[idx[0]] if len(idx) == 2 else None
-    mk = float(check.payload_kg[j])
+    mk, where = float(check.payload_kg[j]), check.scenarios.describe(j)
     if name in ("phase_margin", "gain_margin"):
         value = float(getattr(check, f"{name}_{'deg' if name == 'phase_margin' else 'db'}")[idx])
         limit = a.phase_margin_deg if name == "phase_margin" else a.gain_margin_db
-        detail = f"interaction-loop {name.replace('_', ' ')} {value:.2f} (required {limit:g}) at {mk:.1f} kg with " \
+        detail = f"interaction-loop {name.replace('_', ' ')} {value:.2f} (required {limit:g}) at {where} with " \
                  f"mouse ({mouse.label()})"
     elif name == "sensor_current":
         value, limit = float(check.sensor_current_a[j]), hw.max_current_per_sensor_step_a
-        detail = f"one force-sensor step drives {value:.4g} A (limit {limit:g} A) at {mk:.1f} kg, " \
+        detail = f"one force-sensor step drives {value:.4g} A (limit {limit:g} A) at {where}, " \
                  f"{check.sensor_peak_hz[j]:.3g} Hz"
     else:
         value, limit = float(check.motor_force_n[j]), hw.motor_peak_force_n
-        detail = f"motor force {value:.4g} N (limit {limit:g} N) at {mk:.1f} kg, {check.motor_peak_hz[j]:.3g} Hz"
-    return ({"constraint": name, "payload_kg": mk, "mouse": None if mouse is None else mouse.as_dict(),
-             "value": value, "limit": limit, "detail": detail}, active)
+        detail = f"motor force {value:.4g} N (limit {limit:g} N) at {where}, {check.motor_peak_hz[j]:.3g} Hz"
+    return ({"constraint": name, "payload_kg": mk, "scenario": check.scenarios.row(j),
+             "mouse": None if mouse is None else mouse.as_dict(), "value": value, "limit": limit,
+             "detail": detail}, active)
 
 
 def _gains(problem: LoopProblem, kp, ki) -> tuple[float, float]:
@@ -367,10 +391,10 @@ def _gains(problem: LoopProblem, kp, ki) -> tuple[float, float]:
     return float(kp), float(ki)
 
 
-def _design(problem: LoopProblem, payloads: np.ndarray, corners, lo, hi, weights, *, kp: float, ki: float,
+def _design(problem: LoopProblem, scenarios: Scenarios, corners, lo, hi, weights, *, kp: float, ki: float,
             notes: dict) -> np.ndarray:
-    """Steps 1-3 of the pipeline at ``payloads``: the best of ccp and ipopt, then the exact polish."""
-    rows = build_rows(problem, payloads, corners, kp=kp, ki=ki)
+    """Steps 1-3 of the pipeline on ``scenarios``: the best of ccp and ipopt, then the exact polish."""
+    rows = build_rows(problem, scenarios, corners, kp=kp, ki=ki)
     x_ccp, info = ccp_design(rows, hi, lo, hi, weights)
     candidates = {"ccp": x_ccp}
     candidates["ipopt from ccp"] = ipopt_design(rows, x_ccp, lo, hi, weights)
@@ -379,7 +403,7 @@ def _design(problem: LoopProblem, payloads: np.ndarray, corners, lo, hi, weights
     # neither formulation moves, and the exact polish starts from them
     best = min(feasible, key=lambda k: weights @ feasible[k]) if feasible else "upper bounds (no circle-feasible point)"
     x = feasible[best] if feasible else np.asarray(hi, float)
-    ev = AdmittanceEvaluator(problem, payloads, W_DESIGN, kp=kp, ki=ki)
+    ev = AdmittanceEvaluator(problem, scenarios, W_DESIGN, kp=kp, ki=ki)
     polished, evaluations = polish(ev, x, lo) if _meets_exactly(ev, *x) else (x, 0)
     notes.update({"rows": int(len(rows.family)), **info, "best_formulation": best,
                   "circle_cost_n": {k: float(weights @ x) for k, x in feasible.items()},
@@ -387,25 +411,51 @@ def _design(problem: LoopProblem, payloads: np.ndarray, corners, lo, hi, weights
     return polished
 
 
-def synthesise_admittance(problem: LoopProblem, *, kp: float | None = None,
-                          ki: float | None = None) -> AdmittanceResult:
+def check_scenarios(problem: LoopProblem) -> Scenarios:
+    """The dense check: ``DENSE_PAYLOADS`` payloads x the corners of the uncertainty box (the random
+    draws of the PI check are left to the Monte Carlo, which also draws the mouse: every scenario
+    here is evaluated at every mouse corner on the 3000-point grid)."""
+    return grid(problem.plant.payload_kg.check_points(), parameter_sets(uncertainty_ranges(problem), draws=0))
+
+
+def verification_scenarios(points: Scenarios, check: AdmittanceCheck, adm) -> Scenarios:
+    """Where the poles are computed: every dense scenario without uncertainty; else every scenario
+    designed for and the ``VERIFY_TIGHTEST`` dense scenarios with the least slack."""
+    if not check.scenarios.parameters:
+        return check.scenarios
+    out = points
+    for j in np.argsort(check.slack(adm))[:VERIFY_TIGHTEST]:
+        row = check.scenarios.row(int(j))
+        if not out.contains(row):
+            out = out.with_row(row)
+    return out
+
+
+def synthesise_admittance(problem: LoopProblem, *, kp: float | None = None, ki: float | None = None,
+                          nominal: bool = False) -> AdmittanceResult:
     """Choose (m_v, b_v) minimising the peak resistance m_v a_pk + b_v v_pk subject to the
-    interaction-loop margins at every payload and mouse corner, the motor's peak force and the
-    force-sensor-step current; PI gains default to the spec's ``controller`` values."""
+    interaction-loop margins at every design scenario (payload x corners of ``plant.uncertainty``) and
+    mouse corner, the motor's peak force and the force-sensor-step current; then the dense check,
+    the independent verification and the Monte Carlo check, whose worst violator joins the design
+    scenarios (at most ``MONTE_CARLO_ROUNDS`` times). PI gains default to the spec's ``controller``
+    values; ``nominal`` ignores the uncertainty (the design for the nominal parameters, for comparison)."""
     t0 = time.perf_counter()
+    if nominal:
+        problem = replace(problem, plant=replace(problem.plant, uncertainty={}))
     adm = admittance_problem(problem)
     kp, ki = _gains(problem, kp, ki)
     corners = mouse_corners(problem)
     loc = adm.locomotion
     weights = np.array([loc.peak_acceleration_m_per_s2, loc.peak_speed_m_per_s])
     lo, hi = np.array([adm.m_v.min, adm.b_v.min]), np.array([adm.m_v.max, adm.b_v.max])
-    dense = AdmittanceEvaluator(problem, problem.plant.payload_kg.check_points(), W_DENSE, kp=kp, ki=ki)
+    dense = AdmittanceEvaluator(problem, check_scenarios(problem), W_DENSE, kp=kp, ki=ki)
 
-    def result(status, message, x, check, verification, binding, active, **solver):
+    def result(status, message, x, check, verification, binding, active, mc=None, **solver):
         return AdmittanceResult(status, message, float(x[0]), float(x[1]), kp, ki,
                                 peak_resistance_n(*x, peak_speed_m_per_s=loc.peak_speed_m_per_s,
                                                   peak_acceleration_m_per_s2=loc.peak_acceleration_m_per_s2),
-                                check, verification, binding, active, corners, time.perf_counter() - t0, solver)
+                                check, verification, binding, active, corners, time.perf_counter() - t0, solver,
+                                monte_carlo=mc, nominal=nominal)
 
     # the stiffest virtual dynamics allowed are the safest: when they fail, nothing in the box passes
     safest = dense.evaluate(*hi)
@@ -416,46 +466,79 @@ def synthesise_admittance(problem: LoopProblem, *, kp: float | None = None,
         binding = {k: worst[k] for k in ("constraint", "payload_kg", "mouse", "value", "limit", "detail")}
         return result("infeasible", msg, hi, safest, None, binding, (worst["constraint"],), rounds=0)
 
-    rng = problem.plant.payload_kg
-    payloads = np.unique(rng.grid()) if rng.max > rng.min else np.array([rng.min])
+    scenarios = design_scenarios(problem)
     notes: dict = {}
-    for rounds in range(1, MAX_ROUNDS + 1):
-        x = _design(problem, payloads, corners, lo, hi, weights, kp=kp, ki=ki, notes=notes)
-        check = dense.evaluate(*x)
-        if check.meets:
+    for mc_round in range(MONTE_CARLO_ROUNDS + 1):
+        x, check, backed_off, rounds = _robust(problem, dense, scenarios, safest, corners, lo, hi, weights,
+                                               kp=kp, ki=ki, notes=notes)
+        mc = admittance_monte_carlo(problem, kp=kp, ki=ki, m_v=x[0], b_v=x[1],
+                                    seed=problem.verification.seed + mc_round)
+        if mc.violations == 0 or mc_round == MONTE_CARLO_ROUNDS or scenarios.contains(mc.worst_scenario):
             break
-        worst = min(check.violations, key=_relative_slack)["payload_kg"]
-        if worst in payloads:
-            break
-        payloads = np.unique(np.append(payloads, worst))
-    backed_off = 1.0
-    if not check.meets:   # scale the virtual dynamics up along the ray to the nearest passing point
-        t_lo, t_hi = 0.0, float(np.min(np.log(hi / x)))
-        for _ in range(30):
-            t = 0.5 * (t_lo + t_hi)
-            if dense.evaluate(*(x * math.exp(t)), bandwidth=False).meets:
-                t_hi = t
-            else:
-                t_lo = t
-        backed_off = math.exp(t_hi)
-        x = x * backed_off
-        check = dense.evaluate(*x)
-        if not check.meets:   # the ray ends on one bound, short of the stiffest point, which passes
-            x, backed_off = np.asarray(hi, float), float("nan")
-            check = safest
-    verification = verify_admittance(problem, check, kp=kp, ki=ki)
+        scenarios = scenarios.with_row(mc.worst_scenario)
+    verification = verify_admittance(problem, check, kp=kp, ki=ki,
+                                     scenarios=verification_scenarios(scenarios, check, adm))
     binding, active = binding_constraint(dense, check, lo)
     r = peak_resistance_n(*x, peak_speed_m_per_s=loc.peak_speed_m_per_s,
                           peak_acceleration_m_per_s2=loc.peak_acceleration_m_per_s2)
-    msg = "verified" if verification.verified else "NOT verified: " + "; ".join(verification.failures[:3])
+    status = "optimal" if verification.verified and mc.violations == 0 else "infeasible"
+    if not verification.verified:
+        msg = "NOT verified: " + "; ".join(verification.failures[:3])
+    elif mc.violations:
+        msg = (f"verified on the {len(scenarios)} design scenarios, but {mc.violations} of {mc.samples} Monte Carlo "
+               f"draws over payload, uncertainty and mouse violate the requirements (worst at "
+               f"{_describe(mc.worst_scenario)}, mouse {_describe_mouse(mc.worst_mouse)})")
+    else:
+        msg = (f"verified on {len(scenarios)} design scenarios; 0 of {mc.samples} Monte Carlo draws over payload, "
+               f"uncertainty and mouse violate (95 % upper bound {100 * mc.rate_upper_bound:.2g} %)")
     if r > adm.mouse.peak_force_n:
         msg += (f"; note: the resistance on the locomotion profile ({r:.3g} N) exceeds the mouse's peak force "
                 f"({adm.mouse.peak_force_n:g} N), so the mouse cannot perform that profile")
-    return result("optimal" if verification.verified else "infeasible", msg, x, check, verification, binding, active,
-                  rounds=rounds, payload_points=[float(p) for p in payloads], backed_off_factor=backed_off, **notes)
+    return result(status, msg, x, check, verification, binding, active, mc, rounds=rounds,
+                  monte_carlo_rounds=mc_round, design_scenarios=len(scenarios),
+                  payload_points=sorted({float(p) for p in scenarios.payload_kg}), backed_off_factor=backed_off,
+                  **notes)
+
+
+def _robust(problem, dense: AdmittanceEvaluator, scenarios: Scenarios, safest: AdmittanceCheck, corners, lo, hi,
+            weights, *, kp: float, ki: float, notes: dict):
+    """Design on ``scenarios``, the dense check's worst violator joining them round by round; a design
+    that still fails is scaled up along the ray to the nearest passing point. Returns (x, check,
+    backed-off factor, rounds)."""
+    for rounds in range(1, MAX_ROUNDS + 1):
+        x = _design(problem, scenarios, corners, lo, hi, weights, kp=kp, ki=ki, notes=notes)
+        check = dense.evaluate(*x)
+        if check.meets:
+            return x, check, 1.0, rounds
+        worst = min(check.violations, key=_relative_slack)["scenario"]
+        if scenarios.contains(worst):
+            break
+        scenarios = scenarios.with_row(worst)
+    t_lo, t_hi = 0.0, float(np.min(np.log(hi / x)))
+    for _ in range(30):
+        t = 0.5 * (t_lo + t_hi)
+        if dense.evaluate(*(x * math.exp(t)), bandwidth=False).meets:
+            t_hi = t
+        else:
+            t_lo = t
+    check = dense.evaluate(*(x * math.exp(t_hi)))
+    if check.meets:
+        return x * math.exp(t_hi), check, math.exp(t_hi), rounds
+    # the ray ends on one bound, short of the stiffest point, which passes
+    return np.asarray(hi, float), safest, float("nan"), rounds
+
+
+def _describe(row: dict) -> str:
+    return ", ".join(f"{k} = {v:.4g}" for k, v in row.items())
+
+
+def _describe_mouse(mouse: dict) -> str:
+    return MouseModel(**mouse).label()
 
 
 def _relative_slack(violation: dict) -> float:
+    if violation["constraint"] == "stability":
+        return -math.inf
     return (violation["limit"] - violation["value"]) / max(abs(violation["limit"]), 1e-12) * (
         1 if violation["constraint"] in ("sensor_current", "motor_force") else -1)
 

@@ -3,8 +3,9 @@
 The frequency-grid check of ``design.admittance.model`` and the optimiser share the grid
 responses; this check does not: it builds the coupled gantry-mouse system from python-control
 transfer functions (Pade for delays), takes the roots of its characteristic polynomial at every
-dense payload and mouse corner, and recomputes the interaction loop's margins with
-``control.stability_margins`` at the worst payloads (phase and gain margin) of every corner.
+verified scenario (payload and uncertain parameters) and mouse corner, and recomputes the
+interaction loop's margins with ``control.stability_margins`` at the worst scenarios (phase and
+gain margin) of every corner.
 """
 
 from __future__ import annotations
@@ -22,6 +23,7 @@ from design.admittance.model import (
     mouse_corners,
 )
 from design.problem import LoopProblem
+from design.synth.scenarios import Scenarios
 from plant.models import Plant
 
 #: python-control margins may fall short of the requirement by this much (deg, dB): grid rounding
@@ -34,12 +36,12 @@ PADE_ORDER = 6
 
 class AdmittanceVerification:
     verified: bool
-    #: largest real part of the coupled closed-loop poles over dense payloads x mouse corners (1/s)
+    #: largest real part of the coupled closed-loop poles over the verified scenarios x mouse corners (1/s)
     max_closed_loop_pole_real_part: float
     #: largest real part of the roots of char_D: the poles of D = 1 + P C + G Z_m (velocity loop with
     #: the mouse attached; Nyquist needs them < 0), which include the mechanical pole -b/M once more
     max_open_loop_pole_real_part: float
-    #: python-control stability_margins at the worst payloads (PM, GM) of each corner
+    #: python-control stability_margins at the worst scenarios (PM, GM) of each corner
     min_phase_margin_deg: float
     min_gain_margin_db: float
     cases: int
@@ -77,34 +79,38 @@ def coupled_polynomials(plant: Plant, mouse: MouseModel, *, kp: float, ki: float
     return num_l, pm(y, char_d), char_d
 
 
-def verify_admittance(problem: LoopProblem, check: AdmittanceCheck, *, kp: float, ki: float) -> AdmittanceVerification:
-    """Poles of the coupled closed loop and of D at every payload and corner of ``check``;
-    python-control margins at the worst payloads of every corner; ``check``'s violations count
-    as failures too."""
+def verify_admittance(problem: LoopProblem, check: AdmittanceCheck, *, kp: float, ki: float,
+                      scenarios: Scenarios | None = None) -> AdmittanceVerification:
+    """Poles of the coupled closed loop and of D at every mouse corner of ``scenarios`` (default: every
+    scenario of ``check``); python-control margins at the worst scenarios of ``check`` for every
+    corner; ``check``'s violations count as failures too."""
     import control
 
     adm = admittance_problem(problem)
     corners = mouse_corners(problem)
     base = problem.plant.plant()
+    scenarios = check.scenarios if scenarios is None else scenarios
     failures = [v["detail"] for v in check.violations]
     max_cl = max_ol = -math.inf
-    loops = [loop_polynomials(base.with_payload(float(mk)), kp=kp, ki=ki) for mk in check.payload_kg]
-    for mk, loop in zip(check.payload_kg, loops):
+    for j in range(len(scenarios)):
+        plant = scenarios.plant(base, j)
+        loop = loop_polynomials(plant, kp=kp, ki=ki)
         for mouse in corners:
-            num, den, char_d = coupled_polynomials(base, mouse, kp=kp, ki=ki, m_v=check.m_v, b_v=check.b_v, loop=loop)
+            num, den, char_d = coupled_polynomials(plant, mouse, kp=kp, ki=ki, m_v=check.m_v, b_v=check.b_v, loop=loop)
             cl = float(np.max(np.roots(np.polyadd(den, num)).real))
             ol = float(np.max(np.roots(char_d).real))
             if cl >= 0:
-                failures.append(f"unstable coupled loop at {mk:.1f} kg with mouse ({mouse.label()}): pole real part "
-                                f"{cl:.3g} 1/s")
+                failures.append(f"unstable coupled loop at {scenarios.describe(j)} with mouse ({mouse.label()}): pole "
+                                f"real part {cl:.3g} 1/s")
             if ol >= 0:
-                failures.append(f"velocity loop with the mouse attached unstable at {mk:.1f} kg ({mouse.label()})")
+                failures.append(f"velocity loop with the mouse attached unstable at {scenarios.describe(j)} "
+                                f"({mouse.label()})")
             max_cl, max_ol = max(max_cl, cl), max(max_ol, ol)
     pms, gms = [], []
     for k, j in sorted({(k, int(np.argmin(check.phase_margin_deg[k]))) for k in range(len(corners))}
                        | {(k, int(np.argmin(check.gain_margin_db[k]))) for k in range(len(corners))}):
-        mouse = corners[k]
-        num, den, _ = coupled_polynomials(base, mouse, kp=kp, ki=ki, m_v=check.m_v, b_v=check.b_v, loop=loops[j])
+        mouse, plant = corners[k], check.scenarios.plant(base, j)
+        num, den, _ = coupled_polynomials(plant, mouse, kp=kp, ki=ki, m_v=check.m_v, b_v=check.b_v)
         with np.errstate(over="ignore", invalid="ignore"):
             gm, pm, *_ = control.stability_margins(control.tf(num, den))
         gm_db = 20 * math.log10(gm) if np.isfinite(gm) and gm > 0 else math.inf
@@ -112,7 +118,7 @@ def verify_admittance(problem: LoopProblem, check: AdmittanceCheck, *, kp: float
         pms.append(pm)
         gms.append(gm_db)
         if pm < adm.phase_margin_deg - MARGIN_TOLERANCE[0] or gm_db < adm.gain_margin_db - MARGIN_TOLERANCE[1]:
-            failures.append(f"python-control margins PM {pm:.2f} deg, GM {gm_db:.2f} dB at {check.payload_kg[j]:.1f} "
-                            f"kg with mouse ({mouse.label()})")
+            failures.append(f"python-control margins PM {pm:.2f} deg, GM {gm_db:.2f} dB at "
+                            f"{check.scenarios.describe(j)} with mouse ({mouse.label()})")
     return AdmittanceVerification(not failures, max_cl, max_ol, float(np.min(pms)), float(np.min(gms)),
-                                  check.payload_kg.size * len(corners), tuple(failures))
+                                  len(scenarios) * len(corners), tuple(failures))

@@ -55,8 +55,9 @@ def nyquist_stable(loop: np.ndarray) -> np.ndarray:
     over the grid; each unstable closed-loop pole takes 180 deg more away. False when |L| >= 1 at the
     top of the grid (the winding is not complete there)."""
     L = np.asarray(loop)
-    turn = np.unwrap(np.angle(1 + L), axis=-1)
-    return (turn[..., -1] - turn[..., 0] > -math.pi / 4) & (np.abs(L[..., -1]) < 1)
+    a = 1 + L
+    turn = np.angle(a[..., 1:] / a[..., :-1]).sum(axis=-1)      # the unwrapped phase change
+    return (turn > -math.pi / 4) & (np.abs(L[..., -1]) < 1)
 
 
 def _per_row_min(rows: np.ndarray, key: np.ndarray, n_rows: int):

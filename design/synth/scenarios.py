@@ -65,10 +65,13 @@ class Scenarios:
             same &= np.isclose(v, row[n], rtol=1e-9, atol=0)
         return bool(np.any(same))
 
+    def take(self, rows) -> Scenarios:
+        """The scenarios of ``rows`` (an index array or a boolean mask)."""
+        return Scenarios(self.payload_kg[rows], {n: v[rows] for n, v in self.parameters.items()})
+
     def at_payload(self, payload_kg: float) -> Scenarios:
         """The rows of one payload (for a gain schedule)."""
-        keep = np.isclose(self.payload_kg, payload_kg, rtol=1e-12, atol=0)
-        return Scenarios(self.payload_kg[keep], {n: v[keep] for n, v in self.parameters.items()})
+        return self.take(np.isclose(self.payload_kg, payload_kg, rtol=1e-12, atol=0))
 
 
 def uncertainty_ranges(problem: LoopProblem) -> dict[str, tuple[float, float]]:

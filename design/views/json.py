@@ -9,6 +9,7 @@ import math
 import numpy as np
 
 from design.admittance.model import admittance_problem
+from design.admittance.monte_carlo import AdmittanceMonteCarlo
 from design.admittance.synthesis import AdmittanceResult
 from design.admittance.verify import PADE_ORDER, AdmittanceVerification
 from design.loop.analysis import PayloadSweep
@@ -383,11 +384,25 @@ def admittance_verification_to_dict(v: AdmittanceVerification, payloads: int) ->
                     "coupled characteristic polynomial"}
 
 
+def admittance_monte_carlo_to_dict(mc: AdmittanceMonteCarlo) -> dict:
+    """The Monte Carlo check of an admittance design over payload x uncertainty x mouse."""
+    return {"samples": mc.samples, "seed": mc.seed, "violations": mc.violations, "rate": mc.rate,
+            "rate_upper_bound_95": mc.rate_upper_bound, "unstable": mc.unstable,
+            "worst_phase_margin_deg": finite_or_none(mc.worst_phase_margin_deg),
+            "worst_gain_margin_db": finite_or_none(mc.worst_gain_margin_db),
+            "worst_sensor_current_a": mc.worst_sensor_current_a, "worst_motor_force_n": mc.worst_motor_force_n,
+            "worst_scenario": mc.worst_scenario, "worst_mouse": mc.worst_mouse,
+            "sampling": "uniform and independent over the payload range, each plant.uncertainty range and each "
+                        "admittance.mouse range; none of the draws is a design scenario",
+            "bound": "Clopper-Pearson, one-sided 95 %"}
+
+
 def admittance_to_dict(result: AdmittanceResult, problem: LoopProblem) -> dict:
     """``admittance`` of ``gantry synth --json``."""
     adm = admittance_problem(problem)
     c, optimal = result.check, result.status == "optimal"
     worst_pm, worst_gm = np.min(c.phase_margin_deg, axis=0), np.min(c.gain_margin_db, axis=0)
+    payloads, w = c.per_payload()
     loc, hw = adm.locomotion, adm.hardware
     return {
         "status": result.status, "message": result.message,
@@ -413,14 +428,16 @@ def admittance_to_dict(result: AdmittanceResult, problem: LoopProblem) -> dict:
                    "mouse_peak_force_n": adm.mouse.peak_force_n},
         "evaluated_at": {"m_v": result.m_v, "b_v": result.b_v},
         "mouse_corners": [m.as_dict() for m in result.corners],
-        "per_payload": [{"payload_kg": float(m), "phase_margin_deg": finite_or_none(p),
-                         "gain_margin_db": finite_or_none(g), "rendered_bandwidth_hz": finite_or_none(bw),
-                         "sensor_current_a": float(i), "motor_force_n": float(f)}
-                        for m, p, g, bw, i, f in zip(c.payload_kg, worst_pm, worst_gm, c.rendered_bandwidth_hz,
-                                                     c.sensor_current_a, c.motor_force_n)],
+        "per_payload": [{"payload_kg": float(m), "phase_margin_deg": finite_or_none(w["phase_margin_deg"][j]),
+                         "gain_margin_db": finite_or_none(w["gain_margin_db"][j]),
+                         "rendered_bandwidth_hz": finite_or_none(w["rendered_bandwidth_hz"][j]),
+                         "sensor_current_a": float(w["sensor_current_a"][j]),
+                         "motor_force_n": float(w["motor_force_n"][j])} for j, m in enumerate(payloads)],
+        "check_scenarios": len(c.scenarios),
         "violations": [v["detail"] for v in c.violations],
         "verification": None if result.verification is None else
-        admittance_verification_to_dict(result.verification, c.payload_kg.size),
+        admittance_verification_to_dict(result.verification, payloads.size),
+        "monte_carlo": None if result.monte_carlo is None else admittance_monte_carlo_to_dict(result.monte_carlo),
         "solver": {"method": "ccp (cvxpy + Clarabel) and ipopt (casadi) on margin circles, exact polish by "
                              "bisection", "seconds": result.seconds, **result.solver},
     }

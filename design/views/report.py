@@ -212,7 +212,7 @@ def design_report(content: ReportContent) -> Report:
     if d is not None and (d.admittance is not None or d.admittance_skipped):
         from design.views.admittance import add_admittance_section
 
-        add_admittance_section(report, loop, d, c.admittance_curves)
+        add_admittance_section(report, loop, d, c.admittance_curves, c.admittance_comparison)
 
     if c.recordings:
         from design.views.diagnosis import add_diagnosis_section

@@ -3,18 +3,21 @@ and text in UTF-16, Latin-1 or gzip reads as the UTF-8 original does."""
 
 from __future__ import annotations
 
+import bz2
 import gzip
 import json
+import lzma
 import signal
 import subprocess
 import sys
 import time
+import tracemalloc
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-from plant import Delay, stage_x
+from plant import Delay, stage_x, text_io
 from plant.errors import DataError
 from plant.recording import write_recording_csv
 from plant.simulate import simulate_stepped_sine
@@ -138,3 +141,25 @@ def test_sizes_are_refused_before_any_work(tmp_path, args, word):
     out = gantry(*[str(tmp_path / "rec.csv") if a == "OUT" else a for a in args])
     assert one_line(out) and word in out.stderr, out.stderr
     assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("compress", [gzip.compress, bz2.compress, lzma.compress], ids=["gzip", "bzip2", "xz"])
+def test_a_compressed_file_is_refused_as_it_passes_the_size_cap(tmp_path, monkeypatch, compress):
+    monkeypatch.setattr(text_io, "MAX_TEXT_BYTES", 2**20)
+    bomb = tmp_path / "bomb.csv.gz"
+    bomb.write_bytes(compress(b"0" * 2**25))      # 32 MiB of text in a few kB
+    tracemalloc.start()
+    try:
+        with pytest.raises(DataError, match="bomb.csv.gz: .*expands to more than the 1 MiB"):
+            text_io.read_text(bomb)
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert peak < 2**24      # in pieces (xz keeps an 8 MiB dictionary), never the 32 MiB whole
+
+
+def test_a_compressed_file_below_the_cap_reads_whole(tmp_path, monkeypatch):
+    monkeypatch.setattr(text_io, "MAX_TEXT_BYTES", 2**20)
+    text = "frequency_hz,current_a\n" + "1.0,0.5\n" * 100_000     # 800 kB, several pieces
+    (tmp_path / "rec.csv.xz").write_bytes(lzma.compress(text.encode()))
+    assert text_io.read_text(tmp_path / "rec.csv.xz") == text

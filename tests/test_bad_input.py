@@ -7,7 +7,9 @@ import bz2
 import gzip
 import json
 import lzma
+import os
 import signal
+import stat
 import subprocess
 import sys
 import time
@@ -163,3 +165,17 @@ def test_a_compressed_file_below_the_cap_reads_whole(tmp_path, monkeypatch):
     text = "frequency_hz,current_a\n" + "1.0,0.5\n" * 100_000     # 800 kB, several pieces
     (tmp_path / "rec.csv.xz").write_bytes(lzma.compress(text.encode()))
     assert text_io.read_text(tmp_path / "rec.csv.xz") == text
+
+
+def test_an_output_that_is_a_link_is_written_through_it_with_its_permissions(tmp_path):
+    (tmp_path / "results").mkdir()
+    target = tmp_path / "results" / "sweep.csv"
+    target.write_text("old\n")
+    target.chmod(0o640)
+    link = tmp_path / "sweep.csv"
+    link.symlink_to(target)
+    out = gantry("sweep", THESIS_X, "--payload", "5:40:3", "--csv", link)
+    assert out.returncode == 0, out.stderr
+    assert link.is_symlink() and os.readlink(link) == str(target)
+    assert target.read_text().startswith("payload_kg,") and stat.S_IMODE(target.stat().st_mode) == 0o640
+    assert sorted(p.name for p in target.parent.iterdir()) == ["sweep.csv"]

@@ -108,6 +108,16 @@ def test_ctrl_c_during_the_admittance_solve_ends_with_130_and_no_output(tmp_path
     assert list(tmp_path.iterdir()) == []
 
 
+@pytest.mark.parametrize("args,words", [([], "no command given"), (["sweep", "--payload"], "'--payload' requires"),
+                                        (["report", str(THESIS_X)], "Missing option '--out'"),
+                                        (["sweep", str(THESIS_X), "--bogus"], "No such option: --bogus")])
+def test_a_usage_error_is_one_line_naming_what_is_wrong(args, words):
+    out = gantry(*args)
+    assert one_line(out) and words in out.stderr, out.stderr
+    assert "Usage:" not in out.stderr and "╭" not in out.stderr      # no box
+    assert ("Usage:" in out.stdout) == (args == [])        # the bare command shows the help
+
+
 @pytest.mark.parametrize("args", [["sweep", "SPEC", "--csv", "SPEC"], ["report", "SPEC", "--out", "SPEC", "--no-synth"],
                                   ["synth", "SPEC", "--report", "SPEC"]])
 def test_an_output_never_replaces_an_input(tmp_path, args):

@@ -189,3 +189,25 @@ def test_an_output_that_is_a_link_is_written_through_it_with_its_permissions(tmp
     assert link.is_symlink() and os.readlink(link) == str(target)
     assert target.read_text().startswith("payload_kg,") and stat.S_IMODE(target.stat().st_mode) == 0o640
     assert sorted(p.name for p in target.parent.iterdir()) == ["sweep.csv"]
+
+
+def test_report_reads_a_spreadsheet_with_the_column_map_its_error_asks_for(tmp_path):
+    openpyxl = pytest.importorskip("openpyxl")
+    rec = simulate_stepped_sine(stage_x(mass_kg=35.0), f_hz=[3.0, 10.0, 30.0], current_amplitude_a=0.5,
+                                duration_s=1.0, noise_fraction=0.01, seed=1)
+    wb = openpyxl.Workbook()
+    for b in rec.blocks:        # thesis layout: no header, no time; frequency, current, velocity in columns 2, 3, 6
+        for i, v in zip(b.current_a, b.velocity_m_per_s[0]):
+            wb.active.append([0, b.f_hz, float(i), 0, 0, float(v)])
+    sheet = tmp_path / "stage_x.xlsx"
+    wb.save(sheet)
+    html = tmp_path / "report.html"
+    out = gantry("report", THESIS_X, "--no-synth", "--data", sheet, "--out", html)
+    assert one_line(out) and "--columns frequency=2" in out.stderr and not html.exists(), out.stderr
+    out = gantry("report", THESIS_X, "--no-synth", "--data", sheet, "--out", html, "--columns",
+                 "frequency=2,current=3,velocity=6")
+    assert one_line(out) and "--sample-rate-hz" in out.stderr and not html.exists(), out.stderr
+    out = gantry("report", THESIS_X, "--no-synth", "--data", sheet, "--out", html, "--columns",
+                 "frequency=2,current=3,velocity=6", "--sample-rate-hz", "2000")
+    assert out.returncode == 0, out.stderr
+    assert "stage_x.xlsx" in html.read_text()

@@ -76,7 +76,11 @@ def bundled_spec(name: str) -> Path:
     raise SpecError(f"bundled spec specs/{name} not found; run from the project checkout or pass --spec FILE")
 
 
-#: options shared by the commands that read recordings (``fit``, ``diagnose``)
+#: options shared by the commands that read recordings (``fit``, ``diagnose``; ``report`` the first two)
+ColumnsOption = Annotated[Optional[str], typer.Option(
+    help="Column map: spreadsheets/TDMS frequency=2,current=3,velocity=6,velocity=7; time-domain CSV/.mat "
+         "time=t,current=vir,position=qm,reference=qg.")]
+SampleRateHzOption = Annotated[Optional[float], typer.Option(help="Sample rate when the file has no time column.")]
 SetOption = Annotated[Optional[str], typer.Option(
     "--set", help="Parameter values (held fixed unless fitted), e.g. force_constant_n_per_a=35.15 for a drive "
                   "command in V with its gain in N/V.")]

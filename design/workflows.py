@@ -267,6 +267,7 @@ def simulation_plant(*, spec: Path | None, stage: str | None, values: dict[str, 
     excitation = amplitude_a if "coulomb_friction" in effects else None
     try:
         plant: Plant = build_plant(stage, effects=effects, excitation_current_a=excitation, **base)
+        plant.parameters()          # within the limits every command checks
     except GantryError as exc:
         raise type(exc)(f"plant from --spec/--stage, --set and --effects: {exc}") from None
     return plant, amplitude_a

@@ -147,7 +147,7 @@ def test_non_finite_boolean_and_oversized_spec_values_are_refused(tmp_path, old,
 @pytest.mark.parametrize("args,word", [
     (["simulate", "--stage", "x", "--f-hz", "1:10:1e9", "--out", "OUT"], "2000"),
     (["simulate", "--stage", "x", "--duration-s", "1e5", "--out", "OUT"], "GB"),
-    (["sweep", str(THESIS_X), "--payload", "1e9:1e9:1"], "1000 kg"),
+    (["sweep", str(THESIS_X), "--payload", "1e9:1e9:1"], "outside [0.5, 500] kg"),
 ])
 def test_sizes_are_refused_before_any_work(tmp_path, args, word):
     out = gantry(*[str(tmp_path / "rec.csv") if a == "OUT" else a for a in args])
@@ -211,3 +211,70 @@ def test_report_reads_a_spreadsheet_with_the_column_map_its_error_asks_for(tmp_p
                  "frequency=2,current=3,velocity=6", "--sample-rate-hz", "2000")
     assert out.returncode == 0, out.stderr
     assert "stage_x.xlsx" in html.read_text()
+
+
+def in_process(monkeypatch, capsys, *args) -> tuple[int, str, str]:
+    """Exit status, stderr and stdout of the console entry point, run in this process (faster than a
+    subprocess)."""
+    from design.cli import main
+
+    monkeypatch.setattr(sys, "argv", ["gantry", *map(str, args)])
+    with pytest.raises(SystemExit) as exc:
+        main()
+    out, err = capsys.readouterr()
+    return exc.value.code, err, out
+
+
+SYNTH_X = ROOT / "specs" / "stage_x_synth.toml"
+
+
+@pytest.mark.parametrize("old,new,message", [
+    ('stage = "x"', 'stgae = "x"', "plant.stgae: unknown key (did you mean plant.stage?)"),
+    ('[requirements]', '[requirments]', "requirments: unknown key (did you mean requirements?)"),
+    ("points = 8", "pionts = 8", "plant.payload_kg.pionts: unknown key (did you mean plant.payload_kg.points?)"),
+    ("delay = { seconds", "dealy = { seconds", "plant.effects.dealy: unknown key (did you mean plant.effects.delay?)"),
+    ("delay = { seconds", "delay = { secnds",
+     "plant.effects.delay.secnds: unknown key (did you mean plant.effects.delay.seconds?)"),
+    ('"delay.seconds" =', '"delay.second" =',
+     "plant.uncertainty.delay.second: unknown key (did you mean plant.uncertainty.delay.seconds?)"),
+    ("kp = { value", "kp = { vale", "controller.kp.vale: unknown key (did you mean controller.kp.value?)"),
+    ('maximise = "', 'zzz = "', "objective.zzz: unknown key; objective takes maximise"),
+])
+def test_an_unknown_key_is_named_with_the_closest_known_one(tmp_path, monkeypatch, capsys, old, new, message):
+    text = SYNTH_X.read_text()
+    assert old in text
+    spec = tmp_path / "spec.toml"
+    spec.write_text(text.replace(old, new, 1))
+    code, err, _ = in_process(monkeypatch, capsys, "sweep", spec, "--payload", "5:40:3")
+    assert code == 2 and err == f"gantry: error: {spec}: {message}\n"
+
+
+@pytest.mark.parametrize("old,new,message", [
+    ("max = 40.0, points", "max = 600, points", "plant.payload_kg.max = 600: must be <= 500"),
+    ("{ min = 5.0, max = 40.0, points = 8, nominal = 35.0 }", "1e-9", "plant.payload_kg = 1e-09: must be >= 0.5"),
+    ("delay = { seconds = 0.0005 }", "delay = { seconds = 0.5 }",
+     "plant.effects.delay.seconds = 0.5: outside its limits [0, 0.02] s"),
+    ("damping_n_s_per_m = { min = 330.0, max = 550.0 }", "damping_n_s_per_m = { min = 330.0, max = 5e4 }",
+     "plant.uncertainty.damping_n_s_per_m.max = 50000.0: outside its limits [1, 10000] N*s/m"),
+])
+@pytest.mark.parametrize("command", [["synth"], ["sweep"], ["report", "--no-synth", "--out", "OUT"]])
+def test_every_command_holds_a_spec_to_the_same_limits_naming_the_key(tmp_path, monkeypatch, capsys, old, new,
+                                                                      message, command):
+    text = SYNTH_X.read_text()
+    assert old in text
+    spec = tmp_path / "spec.toml"
+    spec.write_text(text.replace(old, new, 1))
+    args = [str(tmp_path / "r.html") if a == "OUT" else a for a in command]
+    code, err, _ = in_process(monkeypatch, capsys, args[0], spec, *args[1:])
+    assert code == 2 and err == f"gantry: error: {spec}: {message}\n"
+    assert [p.name for p in tmp_path.iterdir()] == ["spec.toml"]
+
+
+def test_the_payload_option_and_a_simulation_hold_to_the_same_limits(tmp_path, monkeypatch, capsys):
+    code, err, _ = in_process(monkeypatch, capsys, "sweep", THESIS_X, "--payload", "0.1:40:3")
+    assert code == 2 and "0.1 kg is outside [0.5, 500] kg" in err
+    code, err, _ = in_process(monkeypatch, capsys, "simulate", "--stage", "x", "--set", "mass_kg=600", "--out",
+                           tmp_path / "r.csv")
+    assert code == 2 and "mass_kg = 600 kg is outside its bounds [0.5, 500]" in err
+    assert list(tmp_path.iterdir()) == []
+

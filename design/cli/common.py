@@ -220,13 +220,12 @@ def parse_payload(text: str) -> np.ndarray:
         points = 1 if len(parts) == 1 else int(parts[2])
     except ValueError:
         raise ParameterError(usage) from None
-    from design.problem import PAYLOAD_MAX_KG
+    from design.problem import PAYLOAD_MAX_KG, PAYLOAD_MIN_KG
 
-    if not (math.isfinite(lo) and math.isfinite(hi)) or lo <= 0 or hi <= 0:
-        raise ParameterError(f"--payload {text!r}: masses must be finite and positive (kg)")
-    if hi > PAYLOAD_MAX_KG:
-        raise ParameterError(f"--payload {text!r}: {hi:g} kg is above the {PAYLOAD_MAX_KG:g} kg any payload may have "
-                             "(the same limit as plant.payload_kg of a spec)")
+    for mass in (lo, hi):
+        if not PAYLOAD_MIN_KG <= mass <= PAYLOAD_MAX_KG:
+            raise ParameterError(f"--payload {text!r}: {mass:g} kg is outside [{PAYLOAD_MIN_KG:g}, {PAYLOAD_MAX_KG:g}] "
+                                 "kg, the payloads every command accepts (as plant.payload_kg of a spec)")
     if hi < lo:
         raise ParameterError(f"--payload {text!r}: MAX ({hi:g}) must be >= MIN ({lo:g})")
     if not 1 <= points <= MAX_PAYLOAD_POINTS or (points == 1 and hi != lo):

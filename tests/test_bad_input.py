@@ -278,3 +278,38 @@ def test_the_payload_option_and_a_simulation_hold_to_the_same_limits(tmp_path, m
     assert code == 2 and "mass_kg = 600 kg is outside its bounds [0.5, 500]" in err
     assert list(tmp_path.iterdir()) == []
 
+
+def test_simulate_refuses_blocks_the_estimate_cannot_use_and_fit_uses_every_block_it_writes(tmp_path, monkeypatch,
+                                                                                            capsys):
+    rec = tmp_path / "rec.csv"
+    code, err, _ = in_process(monkeypatch, capsys, "simulate", "--stage", "x", "--f-hz", "1:75:10",
+                              "--duration-s", "0.5", "--out", rec)
+    assert code == 2 and err.count("\n") == 1, err
+    assert "--duration-s 0.5: the 1 Hz block would hold 0.5 periods" in err and "--duration-s 1.5 or more" in err
+    assert list(tmp_path.iterdir()) == []
+    code, _, _ = in_process(monkeypatch, capsys, "simulate", "--stage", "x", "--f-hz", "1:75:10",
+                            "--duration-s", "1.5", "--out", rec)
+    assert code == 0
+    code, _, out = in_process(monkeypatch, capsys, "fit", rec, "--stage", "x", "--json")
+    assert code == 0
+    assert json.loads(out)["n_data"] == 2 * 10        # no block left out
+
+
+def test_simulate_refuses_a_stage_stuck_in_its_friction_and_diagnose_finds_the_friction_it_writes(tmp_path,
+                                                                                                  monkeypatch, capsys):
+    rec = tmp_path / "rec.csv"
+    args = ["simulate", "--stage", "x", "--effects", "coulomb_friction.force_n=20", "--f-hz", "2:40:6",
+            "--duration-s", "1", "--out", rec]
+    code, err, _ = in_process(monkeypatch, capsys, *args)      # 0.5 A x 20 N/A = 10 N < 20 N: never moves
+    assert code == 2 and err.count("\n") == 1, err
+    assert "--amplitude-a 0.5 A: the stage never breaks loose" in err and "6 blocks at 2-40 Hz" in err
+    assert "raise --amplitude-a above 1 A" in err
+    assert list(tmp_path.iterdir()) == []
+    code, _, _ = in_process(monkeypatch, capsys, *args, "--amplitude-a", "2")
+    assert code == 0
+    code, _, out = in_process(monkeypatch, capsys, "diagnose", rec, "--stage", "x", "--json")
+    assert code == 0
+    found = json.loads(out)
+    assert found["added_effects"] == ["coulomb_friction"]
+    friction = found["parameters"]["coulomb_friction.force_n"]
+    assert abs(friction["value"] - 20.0) < 3 * friction["stderr"]

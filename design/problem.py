@@ -37,10 +37,11 @@ from typing import Annotated, Literal
 import numpy as np
 from annotated_types import Ge, Gt, Le, Lt
 
-from plant.models import Plant
+from plant.models import BASE_BOUNDS, Plant
 
-#: the payloads (kg) any command accepts: the moving mass of the thesis gantry is 5-40 kg
-PAYLOAD_MAX_KG = 1000.0
+#: the payloads (kg) every command accepts: the bounds of the plant's ``mass_kg``, which fits, simulations
+#: and the loop analyses check too (the moving mass of the thesis gantry is 5-40 kg)
+PAYLOAD_MIN_KG, PAYLOAD_MAX_KG = BASE_BOUNDS["mass_kg"][:2]
 
 #: payloads of the range every design is checked at, beyond the points it was computed at
 DENSE_PAYLOADS = 50
@@ -60,11 +61,11 @@ class PayloadRange:
     """Payload (moving mass M of Eq. 3.15/3.16) range in kg."""
 
     __pydantic_config__ = FORBID
-    min: Annotated[float, Gt(0), Le(PAYLOAD_MAX_KG)] = 5.0
-    max: Annotated[float, Gt(0), Le(PAYLOAD_MAX_KG)] = 40.0
+    min: Annotated[float, Ge(PAYLOAD_MIN_KG), Le(PAYLOAD_MAX_KG)] = 5.0
+    max: Annotated[float, Ge(PAYLOAD_MIN_KG), Le(PAYLOAD_MAX_KG)] = 40.0
     #: the design points (the check adds 50 dense payloads and the violators it finds)
     points: Annotated[int, Ge(1), Le(200)] = 8
-    nominal: Annotated[float, Gt(0), Le(PAYLOAD_MAX_KG)] | None = None
+    nominal: Annotated[float, Ge(PAYLOAD_MIN_KG), Le(PAYLOAD_MAX_KG)] | None = None
 
     def __post_init__(self):
         check_ordered(self.min, self.max)

@@ -137,11 +137,13 @@ def measured_plants(problem: DesignProblem):
 
 
 def report_content(problem: DesignProblem, *, outcome: DesignOutcome | None = None, synthesise: bool = True,
-                   data=(), samples: int | None = None, seed: int = 0, command: str = "") -> ReportContent:
+                   data=(), columns: str | None = None, sample_rate_hz: float | None = None,
+                   samples: int | None = None, seed: int = 0, command: str = "") -> ReportContent:
     """Everything ``design.views.report.design_report`` draws: the gains (of ``outcome``, or synthesised
     when ``synthesise`` and the plant has a phase-limiting effect, else the spec's controller values)
     evaluated on the dense payloads beside the thesis gains, the loop's curves, a Monte Carlo sweep over
-    the spec's uncertainty (``samples``; default 200 when it has ranges), and the diagnoses of ``data``."""
+    the spec's uncertainty (``samples``; default 200 when it has ranges), and the diagnoses of ``data``
+    (recordings read with the column map ``columns`` and ``sample_rate_hz`` in Hz, as ``measure``)."""
     from design.loop.curves import loop_curves
     from design.synth.pi import PHASE_LIMITING, THESIS_GAINS, as_designed, evaluate
 
@@ -151,6 +153,7 @@ def report_content(problem: DesignProblem, *, outcome: DesignOutcome | None = No
     elif samples and not loop.plant.uncertainty:     # before any long computation
         raise SpecError(f"{problem.spec_path}: plant.uncertainty: no parameter ranges to sample; add some or drop "
                         "--samples")
+    measured = [measure(path, columns=columns, sample_rate_hz=sample_rate_hz) for path in data]   # before the work
     if outcome is None and synthesise and any(e in PHASE_LIMITING for e in loop.plant.effects):
         outcome = design(problem)
     if outcome is not None and outcome.synthesis is not None:
@@ -177,11 +180,10 @@ def report_content(problem: DesignProblem, *, outcome: DesignOutcome | None = No
         a = outcome.admittance
         adm_curves = admittance_curves(loop, kp=a.kp, ki=a.ki, m_v=a.m_v, b_v=a.b_v)
     recordings = []
-    for path in data:
+    for path, response in zip(data, measured):
         from plant.diagnosis import diagnose
 
-        measured = measure(path)
-        recordings.append(Recording(Path(path), measured, diagnose(loop.plant.plant(), measured)))
+        recordings.append(Recording(Path(path), response, diagnose(loop.plant.plant(), response)))
     check, comparison, adm_comparison = None, (), None
     if loop.plant.uncertainty:
         check, comparison = _robustness(loop, kp, ki, outcome)
@@ -281,6 +283,7 @@ def simulation_plant(*, spec: Path | None, stage: str | None, values: dict[str, 
     excitation = amplitude_a if "coulomb_friction" in effects else None
     try:
         plant: Plant = build_plant(stage, effects=effects, excitation_current_a=excitation, **base)
+        plant.parameters()          # within the limits every command checks
     except GantryError as exc:
         raise type(exc)(f"plant from --spec/--stage, --set and --effects: {exc}") from None
     return plant, amplitude_a

@@ -130,7 +130,7 @@ def _settling_time(block: Block, fs: float, basis: np.ndarray) -> float:
     period the estimate needs.
     """
     f, t = block.f_hz, block.time_s
-    seg = math.ceil(MIN_SEGMENT_SAMPLES * 2 * f / fs) * 0.5 / f
+    seg = _segment_s(f, fs)
     n_seg = int(np.floor((t[-1] + 1.0 / fs) / seg + 1e-9))
     cap_s = max(t[-1] + 1.0 / fs - MIN_PERIODS / f, 0.0)
     floor_s = min(max(seg, MIN_SETTLE_S), cap_s)
@@ -174,6 +174,18 @@ def _settling_time(block: Block, fs: float, basis: np.ndarray) -> float:
             ok = np.flatnonzero(bias < 0.1 / np.sqrt(left))
             cut = int(j[ok[0]]) if ok.size else max(cut, n_seg // 2)
     return min(max(cut * seg, floor_s), cap_s)
+
+
+def _segment_s(f_hz: float, fs: float) -> float:
+    """Length (s) of a segment of the settling search: whole half periods of ``MIN_SEGMENT_SAMPLES``."""
+    return math.ceil(MIN_SEGMENT_SAMPLES * 2 * f_hz / fs) * 0.5 / f_hz
+
+
+def shortest_block_s(f_hz: float, sample_rate_hz: float) -> float:
+    """The shortest block (s) at ``f_hz`` whose estimate keeps ``MIN_PERIODS`` after the shortest settling
+    (one segment, at least ``MIN_SETTLE_S``): a shorter block is left out, or its settling is cut short
+    and its start-up transient biases the estimate."""
+    return max(_segment_s(f_hz, sample_rate_hz), MIN_SETTLE_S) + MIN_PERIODS / f_hz
 
 
 def _whole_half_periods(block: Block, settle_s: float, fs: float) -> tuple[np.ndarray, int]:

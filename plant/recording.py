@@ -9,6 +9,7 @@ one, and ``write_recording_csv`` writes the CSV format of ``docs/formats.md``
 from __future__ import annotations
 
 import os
+import stat
 import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -100,23 +101,30 @@ def _lattice_step(v: np.ndarray) -> float | None:
 
 def atomic_write_texts(files: dict[Path, str]) -> None:
     """Write each text to its path as a set: every file goes to a temporary file first, and the renames
-    happen only when all were written, so a failure leaves none of them half-written or new."""
-    for path in map(Path, files):
-        parent = path.parent if str(path.parent) else Path(".")
-        if path.is_dir():
+    happen only when all were written, so a failure leaves none of them half-written or new.
+
+    A path that is a symbolic link is written through to the file it points to (the link stays); a
+    file that is replaced keeps its permission bits, a new one gets the usual ``0666`` less the umask."""
+    given = {Path(os.path.realpath(path)): Path(path) for path in files}
+    targets = {target: files[path] for target, path in given.items()}
+    for target, path in given.items():
+        if target.is_dir():
             raise DataError(f"{path}: is a directory; give a file name to write")
-        if not parent.is_dir():
-            raise DataError(f"{path}: cannot write: directory {parent} does not exist")
+        if not target.parent.is_dir():
+            raise DataError(f"{path}: cannot write: directory {target.parent} does not exist")
     tmps: list[tuple[str, Path]] = []
     umask = os.umask(0)
     os.umask(umask)
+    path = next(iter(targets))
     try:
-        for path, text in files.items():
-            path = Path(path)
-            fd, tmp = tempfile.mkstemp(dir=path.parent if str(path.parent) else ".", prefix=f".{path.name}.",
-                                       suffix=".tmp")
+        for path, text in targets.items():
+            fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
             tmps.append((tmp, path))
-            os.chmod(tmp, 0o666 & ~umask)  # mkstemp makes 0600; give the file the usual permissions
+            try:
+                mode = stat.S_IMODE(path.stat().st_mode)
+            except FileNotFoundError:
+                mode = 0o666 & ~umask       # mkstemp makes 0600; a new file gets the usual permissions
+            os.chmod(tmp, mode)
             with os.fdopen(fd, "w", newline="") as fh:
                 fh.write(text)
         for tmp, path in tmps:
@@ -124,8 +132,7 @@ def atomic_write_texts(files: dict[Path, str]) -> None:
     except OSError as exc:
         for tmp, _ in tmps:
             Path(tmp).unlink(missing_ok=True)
-        target = tmps[-1][1] if tmps else next(iter(files))
-        raise DataError(f"{target}: cannot write ({exc.strerror or exc})") from None
+        raise DataError(f"{given[path]}: cannot write ({exc.strerror or exc})") from None
     except BaseException:
         for tmp, _ in tmps:
             Path(tmp).unlink(missing_ok=True)

@@ -395,6 +395,33 @@ def _check_plant(plant: Plant) -> None:
         _scalar(name, getattr(plant.effect(effect_name), field) if effect_name else getattr(plant, name))
 
 
+#: a block whose largest velocity stays below this fraction of the frictionless response never moved
+STUCK_FRACTION = 1e-9
+
+
+def _refuse_stuck_blocks(plant: Plant, f_hz: np.ndarray, amp_a: np.ndarray, velocity: np.ndarray) -> None:
+    """``ParameterError`` when the stage never breaks loose from its Coulomb friction in a block: its
+    velocity is zero throughout (the force of the drive stays below the friction), so the block records
+    no dynamics, only that the friction exceeds the force; it names the blocks and the current that
+    moves the stage in all of them."""
+    w = 2 * np.pi * f_hz
+    frictionless = plant.with_effects(*(e for e in plant.effects if e.linear))
+    free = amp_a * np.max(np.abs(frictionless.frd_outputs(w)), axis=-2)          # (n_blocks,)
+    stuck = np.flatnonzero(np.max(np.abs(velocity), axis=(1, 2)) <= STUCK_FRACTION * free)
+    if stuck.size == 0:
+        return
+    friction_n = _scalar("coulomb_friction.force_n", plant.effect("coulomb_friction").force_n)
+    drive = np.abs(np.broadcast_to(plant.chain_response(1j * w, "drive"), w.shape))
+    breakaway_a = friction_n / (_scalar("force_constant_n_per_a", plant.force_constant_n_per_a) * drive)
+    k = stuck[0]
+    where, holds = (f"the block at {f_hz[k]:g} Hz", "it holds") if stuck.size == 1 else \
+        (f"{stuck.size} blocks at {f_hz[k]:g}-{f_hz[stuck[-1]]:g} Hz", "they hold")
+    raise ParameterError(f"current_amplitude_a {amp_a[k]:g} A: the stage never breaks loose from its Coulomb "
+                         f"friction ({friction_n:g} N) in {where}: the velocity stays zero, so {holds} no dynamics "
+                         f"to estimate; raise current_amplitude_a above {np.max(breakaway_a[stuck]):.3g} A (the drive "
+                         "force then exceeds the friction) or lower coulomb_friction.force_n")
+
+
 def simulate_stepped_sine(
     plant: Plant,
     *,
@@ -420,7 +447,8 @@ def simulate_stepped_sine(
     deviation as a fraction of each block's fundamental amplitude (per column, from the noiseless signal's
     least-squares sine fit over the block's second half). Quantisation rounds to multiples of the quanta
     after the noise. The recorded current is the command (before delay, sampling and current loop), the
-    input of ``Plant.frd``. ``friction_rate_hz``: minimum internal rate with Coulomb friction. The settings,
+    input of ``Plant.frd``. ``friction_rate_hz``: minimum internal rate with Coulomb friction; a block in
+    which the stage never breaks loose from the friction is a ``ParameterError``. The settings,
     true parameters, per-block noise levels and ``seed`` are in ``Recording.metadata``.
     """
     f = np.asarray(f_hz, dtype=float).ravel()
@@ -475,6 +503,8 @@ def simulate_stepped_sine(
                                      delay_s=delay_s, controller_rate_hz=controller_rate_hz, internal_rate=rate)
         method = "exact-discretisation time stepping" + (" with Moreau implicit Coulomb friction" if friction else "")
         internal_rate_hz = float(rate)
+    if friction:
+        _refuse_stuck_blocks(plant, f, amp, velocity)
     current = amp[:, None] * np.sin(w[:, None] * t)
 
     if noise_fraction is not None:

@@ -11,11 +11,12 @@ from pathlib import Path
 
 from plant.errors import DataError
 
-#: larger files are refused before they are read (bytes)
+#: larger files, and compressed files that expand beyond it, are refused (bytes)
 MAX_TEXT_BYTES = 2 * 1024**3
+#: bytes decompressed at a time: a compressed file is inflated in pieces and refused at the cap
+CHUNK_BYTES = 1024**2
 
-_COMPRESSED = {b"\x1f\x8b": ("gzip", gzip.decompress), b"BZh": ("bzip2", bz2.decompress),
-               b"\xfd7zXZ\x00": ("xz", lzma.decompress)}
+_COMPRESSED = {b"\x1f\x8b": ("gzip", gzip.open), b"BZh": ("bzip2", bz2.open), b"\xfd7zXZ\x00": ("xz", lzma.open)}
 
 
 def decode(raw: bytes, *, source: str) -> tuple[str, str]:
@@ -55,27 +56,53 @@ def _checked(text: str, encoding: str, source: str) -> tuple[str, str]:
 
 
 def read_text(path: str | Path, *, what: str = "file") -> str:
-    """The text of ``path`` (see the module doc); ``DataError`` for a missing, unreadable, too large,
-    binary or undecodable file, naming it (and ``what`` it is)."""
+    """The text of ``path`` (see the module doc); ``DataError`` for a missing, unreadable, too large
+    (also once decompressed), binary or undecodable file, naming it (and ``what`` it is)."""
     path = Path(path)
     try:
         size = path.stat().st_size
         if size > MAX_TEXT_BYTES:
-            raise DataError(f"{path}: {size / 1024**3:.1f} GiB is more than the {MAX_TEXT_BYTES / 1024**3:g} GiB "
-                            "a text input may have")
-        raw = path.read_bytes()
+            raise DataError(f"{path}: {_size(size)} is more than the {_size(MAX_TEXT_BYTES)} a text input may have")
+        with path.open("rb") as fh:
+            magic = fh.read(6)
+        compression = next(((name, opener) for m, (name, opener) in _COMPRESSED.items() if magic.startswith(m)),
+                           None)
+        raw = path.read_bytes() if compression is None else _inflate(path, *compression)
     except IsADirectoryError:
         raise DataError(f"{path}: is a directory, not a file") from None
     except OSError as exc:
         raise DataError(f"{path}: cannot read {what} ({exc.strerror})") from None
-    for magic, (name, inflate) in _COMPRESSED.items():
-        if raw.startswith(magic):
-            try:
-                raw = inflate(raw)
-            except (OSError, EOFError, lzma.LZMAError, ValueError) as exc:
-                raise DataError(f"{path}: {name}-compressed but cannot be decompressed ({exc})") from None
-            break
     return decode(raw, source=str(path))[0]
+
+
+def _inflate(path: Path, name: str, opener) -> bytes:
+    """The decompressed bytes of ``path``, read ``CHUNK_BYTES`` at a time and refused as soon as they
+    pass ``MAX_TEXT_BYTES`` (a small file may expand a thousandfold)."""
+    chunks: list[bytes] = []
+    total = 0
+    try:
+        with opener(path, "rb") as fh:
+            while chunk := fh.read(CHUNK_BYTES):
+                total += len(chunk)
+                if total > MAX_TEXT_BYTES:
+                    raise DataError(f"{path}: {name}-compressed text that expands to more than the "
+                                    f"{_size(MAX_TEXT_BYTES)} a text input may have")
+                chunks.append(chunk)
+    except DataError:
+        raise
+    except (EOFError, lzma.LZMAError, ValueError, OSError) as exc:
+        if isinstance(exc, OSError) and exc.strerror is not None:     # the file system, not the stream
+            raise
+        raise DataError(f"{path}: {name}-compressed but cannot be decompressed ({exc})") from None
+    return b"".join(chunks)
+
+
+def _size(n: int) -> str:
+    """Bytes in the largest binary unit that keeps a number >= 1 (``2 GiB``, ``1.5 MiB``)."""
+    for unit, factor in (("GiB", 1024**3), ("MiB", 1024**2), ("KiB", 1024)):
+        if n >= factor:
+            return f"{n / factor:.3g} {unit}"
+    return f"{n} bytes"
 
 
 def data_suffix(path: str | Path) -> str:

@@ -3,18 +3,23 @@ and text in UTF-16, Latin-1 or gzip reads as the UTF-8 original does."""
 
 from __future__ import annotations
 
+import bz2
 import gzip
 import json
+import lzma
+import os
 import signal
+import stat
 import subprocess
 import sys
 import time
+import tracemalloc
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-from plant import Delay, stage_x
+from plant import Delay, stage_x, text_io
 from plant.errors import DataError
 from plant.recording import write_recording_csv
 from plant.simulate import simulate_stepped_sine
@@ -103,6 +108,16 @@ def test_ctrl_c_during_the_admittance_solve_ends_with_130_and_no_output(tmp_path
     assert list(tmp_path.iterdir()) == []
 
 
+@pytest.mark.parametrize("args,words", [([], "no command given"), (["sweep", "--payload"], "'--payload' requires"),
+                                        (["report", str(THESIS_X)], "Missing option '--out'"),
+                                        (["sweep", str(THESIS_X), "--bogus"], "No such option: --bogus")])
+def test_a_usage_error_is_one_line_naming_what_is_wrong(args, words):
+    out = gantry(*args)
+    assert one_line(out) and words in out.stderr, out.stderr
+    assert "Usage:" not in out.stderr and "╭" not in out.stderr      # no box
+    assert ("Usage:" in out.stdout) == (args == [])        # the bare command shows the help
+
+
 @pytest.mark.parametrize("args", [["sweep", "SPEC", "--csv", "SPEC"], ["report", "SPEC", "--out", "SPEC", "--no-synth"],
                                   ["synth", "SPEC", "--report", "SPEC"]])
 def test_an_output_never_replaces_an_input(tmp_path, args):
@@ -132,9 +147,169 @@ def test_non_finite_boolean_and_oversized_spec_values_are_refused(tmp_path, old,
 @pytest.mark.parametrize("args,word", [
     (["simulate", "--stage", "x", "--f-hz", "1:10:1e9", "--out", "OUT"], "2000"),
     (["simulate", "--stage", "x", "--duration-s", "1e5", "--out", "OUT"], "GB"),
-    (["sweep", str(THESIS_X), "--payload", "1e9:1e9:1"], "1000 kg"),
+    (["sweep", str(THESIS_X), "--payload", "1e9:1e9:1"], "outside [0.5, 500] kg"),
 ])
 def test_sizes_are_refused_before_any_work(tmp_path, args, word):
     out = gantry(*[str(tmp_path / "rec.csv") if a == "OUT" else a for a in args])
     assert one_line(out) and word in out.stderr, out.stderr
     assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("compress", [gzip.compress, bz2.compress, lzma.compress], ids=["gzip", "bzip2", "xz"])
+def test_a_compressed_file_is_refused_as_it_passes_the_size_cap(tmp_path, monkeypatch, compress):
+    monkeypatch.setattr(text_io, "MAX_TEXT_BYTES", 2**20)
+    bomb = tmp_path / "bomb.csv.gz"
+    bomb.write_bytes(compress(b"0" * 2**25))      # 32 MiB of text in a few kB
+    tracemalloc.start()
+    try:
+        with pytest.raises(DataError, match="bomb.csv.gz: .*expands to more than the 1 MiB"):
+            text_io.read_text(bomb)
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert peak < 2**24      # in pieces (xz keeps an 8 MiB dictionary), never the 32 MiB whole
+
+
+def test_a_compressed_file_below_the_cap_reads_whole(tmp_path, monkeypatch):
+    monkeypatch.setattr(text_io, "MAX_TEXT_BYTES", 2**20)
+    text = "frequency_hz,current_a\n" + "1.0,0.5\n" * 100_000     # 800 kB, several pieces
+    (tmp_path / "rec.csv.xz").write_bytes(lzma.compress(text.encode()))
+    assert text_io.read_text(tmp_path / "rec.csv.xz") == text
+
+
+def test_an_output_that_is_a_link_is_written_through_it_with_its_permissions(tmp_path):
+    (tmp_path / "results").mkdir()
+    target = tmp_path / "results" / "sweep.csv"
+    target.write_text("old\n")
+    target.chmod(0o640)
+    link = tmp_path / "sweep.csv"
+    link.symlink_to(target)
+    out = gantry("sweep", THESIS_X, "--payload", "5:40:3", "--csv", link)
+    assert out.returncode == 0, out.stderr
+    assert link.is_symlink() and os.readlink(link) == str(target)
+    assert target.read_text().startswith("payload_kg,") and stat.S_IMODE(target.stat().st_mode) == 0o640
+    assert sorted(p.name for p in target.parent.iterdir()) == ["sweep.csv"]
+
+
+def test_report_reads_a_spreadsheet_with_the_column_map_its_error_asks_for(tmp_path):
+    openpyxl = pytest.importorskip("openpyxl")
+    rec = simulate_stepped_sine(stage_x(mass_kg=35.0), f_hz=[3.0, 10.0, 30.0], current_amplitude_a=0.5,
+                                duration_s=1.0, noise_fraction=0.01, seed=1)
+    wb = openpyxl.Workbook()
+    for b in rec.blocks:        # thesis layout: no header, no time; frequency, current, velocity in columns 2, 3, 6
+        for i, v in zip(b.current_a, b.velocity_m_per_s[0]):
+            wb.active.append([0, b.f_hz, float(i), 0, 0, float(v)])
+    sheet = tmp_path / "stage_x.xlsx"
+    wb.save(sheet)
+    html = tmp_path / "report.html"
+    out = gantry("report", THESIS_X, "--no-synth", "--data", sheet, "--out", html)
+    assert one_line(out) and "--columns frequency=2" in out.stderr and not html.exists(), out.stderr
+    out = gantry("report", THESIS_X, "--no-synth", "--data", sheet, "--out", html, "--columns",
+                 "frequency=2,current=3,velocity=6")
+    assert one_line(out) and "--sample-rate-hz" in out.stderr and not html.exists(), out.stderr
+    out = gantry("report", THESIS_X, "--no-synth", "--data", sheet, "--out", html, "--columns",
+                 "frequency=2,current=3,velocity=6", "--sample-rate-hz", "2000")
+    assert out.returncode == 0, out.stderr
+    assert "stage_x.xlsx" in html.read_text()
+
+
+def in_process(monkeypatch, capsys, *args) -> tuple[int, str, str]:
+    """Exit status, stderr and stdout of the console entry point, run in this process (faster than a
+    subprocess)."""
+    from design.cli import main
+
+    monkeypatch.setattr(sys, "argv", ["gantry", *map(str, args)])
+    with pytest.raises(SystemExit) as exc:
+        main()
+    out, err = capsys.readouterr()
+    return exc.value.code, err, out
+
+
+SYNTH_X = ROOT / "specs" / "stage_x_synth.toml"
+
+
+@pytest.mark.parametrize("old,new,message", [
+    ('stage = "x"', 'stgae = "x"', "plant.stgae: unknown key (did you mean plant.stage?)"),
+    ('[requirements]', '[requirments]', "requirments: unknown key (did you mean requirements?)"),
+    ("points = 8", "pionts = 8", "plant.payload_kg.pionts: unknown key (did you mean plant.payload_kg.points?)"),
+    ("delay = { seconds", "dealy = { seconds", "plant.effects.dealy: unknown key (did you mean plant.effects.delay?)"),
+    ("delay = { seconds", "delay = { secnds",
+     "plant.effects.delay.secnds: unknown key (did you mean plant.effects.delay.seconds?)"),
+    ('"delay.seconds" =', '"delay.second" =',
+     "plant.uncertainty.delay.second: unknown key (did you mean plant.uncertainty.delay.seconds?)"),
+    ("kp = { value", "kp = { vale", "controller.kp.vale: unknown key (did you mean controller.kp.value?)"),
+    ('maximise = "', 'zzz = "', "objective.zzz: unknown key; objective takes maximise"),
+])
+def test_an_unknown_key_is_named_with_the_closest_known_one(tmp_path, monkeypatch, capsys, old, new, message):
+    text = SYNTH_X.read_text()
+    assert old in text
+    spec = tmp_path / "spec.toml"
+    spec.write_text(text.replace(old, new, 1))
+    code, err, _ = in_process(monkeypatch, capsys, "sweep", spec, "--payload", "5:40:3")
+    assert code == 2 and err == f"gantry: error: {spec}: {message}\n"
+
+
+@pytest.mark.parametrize("old,new,message", [
+    ("max = 40.0, points", "max = 600, points", "plant.payload_kg.max = 600: must be <= 500"),
+    ("{ min = 5.0, max = 40.0, points = 8, nominal = 35.0 }", "1e-9", "plant.payload_kg = 1e-09: must be >= 0.5"),
+    ("delay = { seconds = 0.0005 }", "delay = { seconds = 0.5 }",
+     "plant.effects.delay.seconds = 0.5: outside its limits [0, 0.02] s"),
+    ("damping_n_s_per_m = { min = 330.0, max = 550.0 }", "damping_n_s_per_m = { min = 330.0, max = 5e4 }",
+     "plant.uncertainty.damping_n_s_per_m.max = 50000.0: outside its limits [1, 10000] N*s/m"),
+])
+@pytest.mark.parametrize("command", [["synth"], ["sweep"], ["report", "--no-synth", "--out", "OUT"]])
+def test_every_command_holds_a_spec_to_the_same_limits_naming_the_key(tmp_path, monkeypatch, capsys, old, new,
+                                                                      message, command):
+    text = SYNTH_X.read_text()
+    assert old in text
+    spec = tmp_path / "spec.toml"
+    spec.write_text(text.replace(old, new, 1))
+    args = [str(tmp_path / "r.html") if a == "OUT" else a for a in command]
+    code, err, _ = in_process(monkeypatch, capsys, args[0], spec, *args[1:])
+    assert code == 2 and err == f"gantry: error: {spec}: {message}\n"
+    assert [p.name for p in tmp_path.iterdir()] == ["spec.toml"]
+
+
+def test_the_payload_option_and_a_simulation_hold_to_the_same_limits(tmp_path, monkeypatch, capsys):
+    code, err, _ = in_process(monkeypatch, capsys, "sweep", THESIS_X, "--payload", "0.1:40:3")
+    assert code == 2 and "0.1 kg is outside [0.5, 500] kg" in err
+    code, err, _ = in_process(monkeypatch, capsys, "simulate", "--stage", "x", "--set", "mass_kg=600", "--out",
+                           tmp_path / "r.csv")
+    assert code == 2 and "mass_kg = 600 kg is outside its bounds [0.5, 500]" in err
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_simulate_refuses_blocks_the_estimate_cannot_use_and_fit_uses_every_block_it_writes(tmp_path, monkeypatch,
+                                                                                            capsys):
+    rec = tmp_path / "rec.csv"
+    code, err, _ = in_process(monkeypatch, capsys, "simulate", "--stage", "x", "--f-hz", "1:75:10",
+                              "--duration-s", "0.5", "--out", rec)
+    assert code == 2 and err.count("\n") == 1, err
+    assert "--duration-s 0.5: the 1 Hz block would hold 0.5 periods" in err and "--duration-s 1.5 or more" in err
+    assert list(tmp_path.iterdir()) == []
+    code, _, _ = in_process(monkeypatch, capsys, "simulate", "--stage", "x", "--f-hz", "1:75:10",
+                            "--duration-s", "1.5", "--out", rec)
+    assert code == 0
+    code, _, out = in_process(monkeypatch, capsys, "fit", rec, "--stage", "x", "--json")
+    assert code == 0
+    assert json.loads(out)["n_data"] == 2 * 10        # no block left out
+
+
+def test_simulate_refuses_a_stage_stuck_in_its_friction_and_diagnose_finds_the_friction_it_writes(tmp_path,
+                                                                                                  monkeypatch, capsys):
+    rec = tmp_path / "rec.csv"
+    args = ["simulate", "--stage", "x", "--effects", "coulomb_friction.force_n=20", "--f-hz", "2:40:6",
+            "--duration-s", "1", "--out", rec]
+    code, err, _ = in_process(monkeypatch, capsys, *args)      # 0.5 A x 20 N/A = 10 N < 20 N: never moves
+    assert code == 2 and err.count("\n") == 1, err
+    assert "--amplitude-a 0.5 A: the stage never breaks loose" in err and "6 blocks at 2-40 Hz" in err
+    assert "raise --amplitude-a above 1 A" in err
+    assert list(tmp_path.iterdir()) == []
+    code, _, _ = in_process(monkeypatch, capsys, *args, "--amplitude-a", "2")
+    assert code == 0
+    code, _, out = in_process(monkeypatch, capsys, "diagnose", rec, "--stage", "x", "--json")
+    assert code == 0
+    found = json.loads(out)
+    assert found["added_effects"] == ["coulomb_friction"]
+    friction = found["parameters"]["coulomb_friction.force_n"]
+    assert abs(friction["value"] - 20.0) < 3 * friction["stderr"]

@@ -5,7 +5,9 @@ Reference values are the synthetic signals written here (closed form): what is r
 what was written, times the stated unit scale factor.
 """
 
+import os
 import re
+import stat
 import warnings
 
 import numpy as np
@@ -13,7 +15,7 @@ import pytest
 
 from plant.errors import DataError
 from plant.lockin import estimate_response
-from plant.recording import Block, Recording, atomic_write_text, write_recording_csv
+from plant.recording import Block, Recording, atomic_write_text, atomic_write_texts, write_recording_csv
 from plant.recording_io import parse_column_map, read_recording
 
 FS = 1000.0
@@ -328,3 +330,25 @@ def test_atomic_write_keeps_the_old_file_on_failure(tmp_path):
         atomic_write_text(path, "new \ud800\n")          # a lone surrogate cannot be encoded mid-write
     assert path.read_text() == "old\n"
     assert [p.name for p in tmp_path.iterdir()] == ["out.csv"]
+
+
+def test_atomic_write_goes_through_a_link_and_keeps_permissions(tmp_path):
+    target, link, new = tmp_path / "real.csv", tmp_path / "link.csv", tmp_path / "new.csv"
+    target.write_text("old\n")
+    target.chmod(0o640)
+    link.symlink_to(target.name)
+    atomic_write_texts({link: "new\n", new: "fresh\n"})
+    assert link.is_symlink() and os.readlink(link) == "real.csv"
+    assert target.read_text() == "new\n" and stat.S_IMODE(target.stat().st_mode) == 0o640
+    umask = os.umask(0)
+    os.umask(umask)
+    assert stat.S_IMODE(new.stat().st_mode) == 0o666 & ~umask
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["link.csv", "new.csv", "real.csv"]
+
+
+def test_atomic_write_through_a_dangling_link_creates_its_target(tmp_path):
+    (tmp_path / "sub").mkdir()
+    link = tmp_path / "link.csv"
+    link.symlink_to(tmp_path / "sub" / "made.csv")
+    atomic_write_text(link, "x\n")
+    assert link.is_symlink() and (tmp_path / "sub" / "made.csv").read_text() == "x\n"

@@ -146,7 +146,8 @@ def test_table_output_shows_rows_definitions_and_explanations():
     ('[plant]\nstage = "x"\ndamping_n_s_per_m = -3.0\n', "plant.damping_n_s_per_m"),
     ('[plant]\nstage = "x"\ndamping_n_s_per_m = nan\n', "plant.damping_n_s_per_m"),
     ('[plant]\nstage = "x"\ndamping = 330.0\n', "plant.damping: unknown key"),
-    ('[plant]\nstage = "x"\neffects = { dealy = { seconds = 0.001 } }\n', "unknown effect 'dealy'"),
+    ('[plant]\nstage = "x"\neffects = { dealy = { seconds = 0.001 } }\n',
+     "plant.effects.dealy: unknown key (did you mean plant.effects.delay?)"),
     ('[plant\nstage = "x"\n', "not valid TOML"),
     (None, "cannot read spec file"),
 ], ids=["negative-damping", "nan-damping", "unknown-key", "unknown-effect", "bad-toml", "missing-file"])

@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 
 from design.workflows import load_problem, measure
+from plant.errors import SpecError
 
 ROOT = Path(__file__).resolve().parents[1]
 SPEC_X = ROOT / "specs" / "stage_x_synth.toml"
@@ -68,10 +69,13 @@ def test_plant_from_a_time_domain_fit_leaves_out_what_synthesis_cannot_design_fo
     assert out.returncode == 0, out.stderr
     path = tmp_path / "emps_fit.json"
     path.write_text(out.stdout)
-    problem = load_problem(SPEC_X, plant_from=path)
+    problem = load_problem(ROOT / "specs" / "thesis_stage_x.toml", plant_from=path)
     assert problem.plant_from.left_out == ("coulomb_friction", "offset")
     assert problem.spec.plant.effects == {}
     assert problem.spec.plant.force_constant_n_per_a == pytest.approx(35.15)
+    # the spec's uncertainty of its delay has no delay in the fitted plant to vary
+    with pytest.raises(SpecError, match="plant.uncertainty.delay.seconds: unknown key"):
+        load_problem(SPEC_X, plant_from=path)
 
 
 @pytest.mark.parametrize(("content", "message"), [

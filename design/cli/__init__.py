@@ -40,9 +40,9 @@ def main() -> None:
     import typer
 
     try:    # typer >= 0.20 carries its own click
-        from typer._click.exceptions import ClickException
+        from typer._click.exceptions import ClickException, NoArgsIsHelpError
     except ImportError:     # pragma: no cover
-        from click.exceptions import ClickException
+        from click.exceptions import ClickException, NoArgsIsHelpError
 
     matplotlib.use("Agg")
     from design.cli.common import app
@@ -57,6 +57,10 @@ def main() -> None:
         _fail("interrupted", 130)
     except Terminated:
         _fail("terminated", 143)
+    except NoArgsIsHelpError as exc:     # the help (rich prints it itself and leaves the message empty)
+        if exc.format_message().strip():
+            print(exc.format_message())
+        _fail("no command given (gantry --help lists the commands)", exc.exit_code)
     except ClickException as exc:
         _fail(f"{exc.format_message()} (gantry --help lists the commands; gantry COMMAND --help their options)",
               exc.exit_code)
@@ -84,5 +88,7 @@ def _terminated(signum, frame) -> None:
 
 
 def _fail(message: str, status: int) -> None:
-    print(f"gantry: error: {message}", file=sys.stderr)
+    """The one line on stderr (a message over several lines is joined) and the exit status."""
+    line = " ".join(part.strip() for part in message.splitlines() if part.strip())
+    print(f"gantry: error: {line}", file=sys.stderr)
     sys.exit(status)

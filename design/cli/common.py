@@ -76,7 +76,11 @@ def bundled_spec(name: str) -> Path:
     raise SpecError(f"bundled spec specs/{name} not found; run from the project checkout or pass --spec FILE")
 
 
-#: options shared by the commands that read recordings (``fit``, ``diagnose``)
+#: options shared by the commands that read recordings (``fit``, ``diagnose``; ``report`` the first two)
+ColumnsOption = Annotated[Optional[str], typer.Option(
+    help="Column map: spreadsheets/TDMS frequency=2,current=3,velocity=6,velocity=7; time-domain CSV/.mat "
+         "time=t,current=vir,position=qm,reference=qg.")]
+SampleRateHzOption = Annotated[Optional[float], typer.Option(help="Sample rate when the file has no time column.")]
 SetOption = Annotated[Optional[str], typer.Option(
     "--set", help="Parameter values (held fixed unless fitted), e.g. force_constant_n_per_a=35.15 for a drive "
                   "command in V with its gain in N/V.")]
@@ -216,13 +220,12 @@ def parse_payload(text: str) -> np.ndarray:
         points = 1 if len(parts) == 1 else int(parts[2])
     except ValueError:
         raise ParameterError(usage) from None
-    from design.problem import PAYLOAD_MAX_KG
+    from design.problem import PAYLOAD_MAX_KG, PAYLOAD_MIN_KG
 
-    if not (math.isfinite(lo) and math.isfinite(hi)) or lo <= 0 or hi <= 0:
-        raise ParameterError(f"--payload {text!r}: masses must be finite and positive (kg)")
-    if hi > PAYLOAD_MAX_KG:
-        raise ParameterError(f"--payload {text!r}: {hi:g} kg is above the {PAYLOAD_MAX_KG:g} kg any payload may have "
-                             "(the same limit as plant.payload_kg of a spec)")
+    for mass in (lo, hi):
+        if not PAYLOAD_MIN_KG <= mass <= PAYLOAD_MAX_KG:
+            raise ParameterError(f"--payload {text!r}: {mass:g} kg is outside [{PAYLOAD_MIN_KG:g}, {PAYLOAD_MAX_KG:g}] "
+                                 "kg, the payloads every command accepts (as plant.payload_kg of a spec)")
     if hi < lo:
         raise ParameterError(f"--payload {text!r}: MAX ({hi:g}) must be >= MIN ({lo:g})")
     if not 1 <= points <= MAX_PAYLOAD_POINTS or (points == 1 and hi != lo):

@@ -12,10 +12,12 @@ import typer
 
 from design.cli.common import (
     BandHzOption,
+    ColumnsOption,
     DecimateBandHzOption,
     FilterHzOption,
     FrfOption,
     InputHoldOption,
+    SampleRateHzOption,
     SetOption,
     console,
     keep_inputs,
@@ -42,11 +44,8 @@ def diagnose(
     = False,
     effects: Annotated[Optional[str], typer.Option(
         help="Candidate effects to try (comma list); default: every effect of the library.")] = None,
-    columns: Annotated[Optional[str], typer.Option(
-        help="Column map: spreadsheets/TDMS frequency=2,current=3,velocity=6,velocity=7; time-domain CSV/.mat "
-             "time=t,current=vir,position=qm,reference=qg.")] = None,
-    sample_rate_hz: Annotated[Optional[float], typer.Option(help="Sample rate when the file has no time column.")]
-    = None,
+    columns: ColumnsOption = None,
+    sample_rate_hz: SampleRateHzOption = None,
     set_values: SetOption = None,
     filter_hz: FilterHzOption = 100.0,
     decimate_band_hz: DecimateBandHzOption = 40.0,

@@ -10,10 +10,12 @@ import typer
 
 from design.cli.common import (
     BandHzOption,
+    ColumnsOption,
     DecimateBandHzOption,
     FilterHzOption,
     FrfOption,
     InputHoldOption,
+    SampleRateHzOption,
     SetOption,
     console,
     parse_band,
@@ -30,11 +32,8 @@ def fit(
         help="Parameters to fit (comma list); default mass, damping and every effect parameter.")] = None,
     load_position_m: Annotated[Optional[float], typer.Option(help="Stage Y: load position from rail Y1 (m).")]
     = None,
-    columns: Annotated[Optional[str], typer.Option(
-        help="Column map: spreadsheets/TDMS frequency=2,current=3,velocity=6,velocity=7; time-domain CSV/.mat "
-             "time=t,current=vir,position=qm,reference=qg.")] = None,
-    sample_rate_hz: Annotated[Optional[float], typer.Option(help="Sample rate when the file has no time column.")]
-    = None,
+    columns: ColumnsOption = None,
+    sample_rate_hz: SampleRateHzOption = None,
     rational: Annotated[Optional[str], typer.Option(
         help="Also fit a rational transfer function like MATLAB tfest: POLES,ZEROS (e.g. 1,0).")]
     = None,

@@ -9,7 +9,7 @@ from typing import Annotated, Optional
 
 import typer
 
-from design.cli.common import PlantFromOption, console, keep_inputs
+from design.cli.common import ColumnsOption, PlantFromOption, SampleRateHzOption, console, keep_inputs
 
 
 def report(
@@ -17,6 +17,8 @@ def report(
     out: Annotated[Path, typer.Option(help="Output HTML file.")],
     data: Annotated[Optional[list[Path]], typer.Option(
         "--data", help="Recording(s) to compare with the model and diagnose (repeatable).")] = None,
+    columns: ColumnsOption = None,
+    sample_rate_hz: SampleRateHzOption = None,
     samples: Annotated[Optional[int], typer.Option(
         help="Monte Carlo samples over the spec's plant.uncertainty (0: none; default 200 when the spec has "
              "uncertainty ranges, else 0).", min=0, max=100000)] = None,
@@ -34,7 +36,8 @@ def report(
     keep_inputs({"--out": out, "--pdf": out.with_suffix(".pdf") if pdf else None},
                 [spec_file, plant_from, *(data or [])])
     problem = load_problem(spec_file, plant_from=plant_from)
-    content = report_content(problem, synthesise=synthesise, data=data or (), samples=samples, seed=seed,
+    content = report_content(problem, synthesise=synthesise, data=data or (), columns=columns,
+                             sample_rate_hz=sample_rate_hz, samples=samples, seed=seed,
                              command="gantry " + shlex.join(sys.argv[1:]))
     design_report(content).write(out)
     console.print(f"report written to {out}")

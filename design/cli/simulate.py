@@ -76,6 +76,7 @@ def simulate(
     plant, amplitude_a = simulation_plant(spec=spec, stage=stage, values=parse_set_items(set_items or []),
                                           effects_added=parse_effects(effects or []), amplitude_a=amplitude_a)
     f = parse_f_hz(f_hz, f_spacing)
+    _blocks_long_enough(f, duration_s, sample_rate_hz)
     samples = f.size * duration_s * sample_rate_hz
     if samples > MAX_SAMPLES:
         raise ParameterError(f"--f-hz, --duration-s, --sample-rate-hz: {f.size} blocks x {duration_s:g} s x "
@@ -98,3 +99,18 @@ def simulate(
         print_json(simulation_to_dict(rec, out, sidecar, amplitude_a=amplitude_a, simulation_s=elapsed_s))
     else:
         print_simulation(console, rec, out, sidecar, amplitude_a=amplitude_a)
+
+
+def _blocks_long_enough(f_hz, duration_s: float, sample_rate_hz: float) -> None:
+    """Refuse blocks too short for the estimate of ``gantry fit`` and ``diagnose`` (``plant.lockin``): it
+    drops a block's start-up transient (every simulated block starts from rest) and needs a period after it."""
+    from plant.lockin import MIN_PERIODS, shortest_block_s
+
+    short = [f for f in f_hz if duration_s < shortest_block_s(f, sample_rate_hz) * (1 - 1e-9)]
+    if short:
+        need = shortest_block_s(short[0], sample_rate_hz)
+        raise ParameterError(
+            f"--duration-s {duration_s:g}: the {short[0]:g} Hz block would hold {duration_s * short[0]:.3g} periods; "
+            f"gantry fit and diagnose use a block from {MIN_PERIODS:g} period after its start-up transient "
+            f"({need - MIN_PERIODS / short[0]:.3g} s at least), so it needs {need:.3g} s: give --duration-s {need:.3g} "
+            f"or more, or --f-hz without the {len(short)} block(s) at and below {short[-1]:g} Hz")

@@ -22,10 +22,14 @@ Shape (see ``specs/``)::
 
 from __future__ import annotations
 
+import dataclasses
+import difflib
 import tomllib
+import types
+import typing
 from dataclasses import replace
 from pathlib import Path
-from typing import Literal
+from typing import Annotated, Literal
 
 from pydantic import (
     BaseModel,
@@ -37,6 +41,8 @@ from pydantic import (
 )
 
 from design.problem import (
+    PAYLOAD_MAX_KG,
+    PAYLOAD_MIN_KG,
     AdmittanceProblem,
     ControllerBounds,
     DriveFilter,
@@ -53,7 +59,7 @@ from design.problem import (
 )
 from plant.effects import EFFECTS, make_effect
 from plant.errors import GantryError, SpecError
-from plant.models import Plant
+from plant.models import BASE_BOUNDS, Plant
 from plant.parameters import THESIS
 from plant.text_io import read_text
 
@@ -68,32 +74,37 @@ class MeasuredPlant(_Strict):
     """A measured recording of the plant at one payload (data-driven design): a stepped sine, or a
     time-domain recording whose frequency response is estimated from its excitation."""
 
-    payload_kg: float = Field(gt=0, le=1000)
+    payload_kg: float = Field(ge=PAYLOAD_MIN_KG, le=PAYLOAD_MAX_KG)
     file: str
     #: column map for spreadsheets/TDMS ("frequency=2,current=3,velocity=6") or .mat files
     #: ("time=t,current=i,velocity=v")
     columns: str | None = None
 
 
+def _limits(name: str):
+    """``Field`` bounds of a base plant parameter: its ``BASE_BOUNDS``, the limits of every command."""
+    lo, hi, _ = BASE_BOUNDS[name]
+    return Field(THESIS[name].value, ge=lo, le=hi)
+
+
 class PlantSpec(_Strict):
     stage: Literal["x", "y"]
-    force_constant_n_per_a: float = Field(THESIS["force_constant_n_per_a"].value, gt=0, le=1000)
-    damping_n_s_per_m: float = Field(THESIS["damping_n_s_per_m"].value, gt=0, le=1e5)
+    force_constant_n_per_a: float = _limits("force_constant_n_per_a")
+    damping_n_s_per_m: float = _limits("damping_n_s_per_m")
     motor_length_m: float = Field(THESIS["motor_length_m"].value, gt=0, le=100)
     load_position_m: float = Field(THESIS["load_position_m"].value, gt=0, le=100)
-    payload_kg: PayloadRange | float = PayloadRange()
+    #: a range, or one payload (a range of one point)
+    payload_kg: PayloadRange | Annotated[float, Field(ge=PAYLOAD_MIN_KG, le=PAYLOAD_MAX_KG)] = PayloadRange()
     effects: dict[str, dict[str, float]] = Field(default_factory=dict)
     #: parameter ranges for Monte Carlo, keyed by parameter name (``damping_n_s_per_m``, ``delay.seconds``)
     uncertainty: dict[str, Uncertainty] = Field(default_factory=dict)
     #: measured responses, one recording per payload: synthesis then uses the data, not the model
     measured: list[MeasuredPlant] = Field(default_factory=list)
 
-    @field_validator("payload_kg", mode="before")
+    @field_validator("payload_kg")
     @classmethod
     def _payload(cls, v):
-        if isinstance(v, (int, float)):
-            return PayloadRange.fixed(v)
-        return v
+        return PayloadRange.fixed(v) if isinstance(v, (int, float)) else v
 
     @field_validator("effects")
     @classmethod
@@ -264,8 +275,167 @@ class Spec(_Strict):
                            self.requirements, self.admittance, self.verification)
 
 
-def _key_path(loc) -> str:
-    return ".".join(str(p) for p in loc if not (isinstance(p, str) and p in ("float", "PayloadRange")))
+#: pydantic's bound errors and the comparison each states
+_BOUNDS = {"greater_than": ">", "greater_than_equal": ">=", "less_than": "<", "less_than_equal": "<="}
+#: pydantic's errors for a value of the wrong kind: a union reports one per member it tried
+_WRONG_KIND = ("dataclass_type", "model_type", "dict_type", "float_type", "int_type", "float_parsing",
+               "int_parsing", "string_type", "list_type", "literal_error", "none_required")
+
+
+def _key_path(loc, data) -> str:
+    """The key path of an error location as the file writes it: the keys and list indices found in
+    ``data``, without the union members pydantic adds (``PayloadRange``, ``constrained-float``)."""
+    keys, node = [], data
+    for part in loc:
+        if isinstance(node, dict) and part in node:
+            node = node[part]
+        elif isinstance(node, list) and isinstance(part, int) and 0 <= part < len(node):
+            node = node[part]
+        else:
+            continue
+        keys.append(str(part))
+    return ".".join(keys)
+
+
+def _message(exc: ValidationError, data: dict) -> str:
+    """One line for a validation error: the key path and what is wrong, a bound with the value as written.
+    Of a union's errors, a violated bound or rule wins over the members the value is not."""
+    errors = exc.errors()
+    first = _key_path(errors[0]["loc"], data)
+    same = [e for e in errors if _within(_key_path(e["loc"], data), first)]
+    err = next((e for e in same if e["type"] not in _WRONG_KIND), errors[0])
+    path = _key_path(err["loc"], data)
+    if err["type"] in ("extra_forbidden", "unexpected_keyword_argument"):
+        msg = "unknown key"
+    elif err["type"] in _BOUNDS and err.get("ctx"):
+        limit = next(iter(err["ctx"].values()))
+        return f"{path} = {err['input']!r}: must be {_BOUNDS[err['type']]} {limit:g}"
+    else:
+        msg = err["msg"].removeprefix("Value error, ")
+    return f"{path}: {msg}" if path else msg
+
+
+def _within(a: str, b: str) -> bool:
+    """One key path lies within the other (a union's members report at and below the key)."""
+    return a == b or a.startswith(b + ".") or b.startswith(a + ".")
+
+
+def _members(tp) -> tuple:
+    """The types ``tp`` stands for: itself, or the members of a union, without ``Annotated``."""
+    origin = typing.get_origin(tp)
+    if origin is Annotated:
+        return _members(typing.get_args(tp)[0])
+    if origin in (typing.Union, types.UnionType):
+        return tuple(m for arg in typing.get_args(tp) for m in _members(arg))
+    return (tp,)
+
+
+def _keys(tp) -> dict[str, object] | None:
+    """The keys a table of type ``tp`` takes and the type of each (None: ``tp`` is no record)."""
+    for member in _members(tp):
+        if isinstance(member, type) and issubclass(member, BaseModel):
+            return {(f.alias or name): f.annotation for name, f in member.model_fields.items()}
+        if dataclasses.is_dataclass(member):
+            hints = typing.get_type_hints(member, include_extras=True)
+            return {f.name: hints[f.name] for f in dataclasses.fields(member) if f.init}
+    return None
+
+
+def _unknown(parent: str, key: str, known, hint: str = "") -> str:
+    """``parent.key: unknown key (did you mean parent.close?)``, or the keys ``parent`` takes (and ``hint``)
+    when none is close."""
+    where = f"{parent}." if parent else ""
+    close = difflib.get_close_matches(key, list(known), n=1, cutoff=0.6)
+    if close:
+        return f"{where}{key}: unknown key (did you mean {where}{close[0]}?)"
+    return f"{where}{key}: unknown key; {parent or 'the top level'} takes {', '.join(known)}{hint}"
+
+
+def _unknown_key(data: dict, tp, path: str = "") -> str | None:
+    """The first key in ``data`` (in file order, depth first) that its table of type ``tp`` does not
+    take, as ``_unknown`` words it; None when every key is known. ``plant.effects`` takes the effects
+    and their parameters."""
+    known = _keys(tp)
+    if known is None:
+        return None
+    for key, value in data.items():
+        where = f"{path}.{key}" if path else str(key)
+        if key not in known:
+            return _unknown(path, key, known)
+        found = _unknown_effect_key(value, where) if where == "plant.effects" else _unknown_below(value, known[key],
+                                                                                                  where)
+        if found:
+            return found
+    return None
+
+
+def _unknown_below(value, tp, path: str) -> str | None:
+    """``_unknown_key`` of a table or of the tables in a list or a mapping of type ``tp``."""
+    for member in _members(tp):
+        origin, args = typing.get_origin(member), typing.get_args(member)
+        if isinstance(value, list) and origin is list:
+            return next(filter(None, (_unknown_below(v, args[0], f"{path}.{i}") for i, v in enumerate(value))), None)
+        if isinstance(value, dict) and origin is dict:
+            return next(filter(None, (_unknown_below(v, args[1], f"{path}.{k}") for k, v in value.items())), None)
+    if isinstance(value, dict):
+        return _unknown_key(value, tp, path)
+    return None
+
+
+def _unknown_effect_key(effects, path: str) -> str | None:
+    """``_unknown_key`` of ``plant.effects``: the effect names and each effect's parameters."""
+    if not isinstance(effects, dict):
+        return None
+    for name, params in effects.items():
+        if name not in EFFECTS:
+            return _unknown(path, name, EFFECTS)
+        for param in params if isinstance(params, dict) else ():
+            if param not in EFFECTS[name].bounds:
+                return _unknown(f"{path}.{name}", param, EFFECTS[name].bounds)
+    return None
+
+
+def _outside(key: str, value: float, bounds: tuple[float, float, str]) -> SpecError | None:
+    lo, hi, unit = bounds
+    if lo <= value <= hi:
+        return None
+    return SpecError(f"{key} = {value!r}: outside its limits [{lo:g}, {hi:g}]{' ' + unit if unit else ''}")
+
+
+def _check_limits(spec: Spec) -> None:
+    """Every plant parameter a spec gives, within the bounds of ``Plant.parameters`` (``BASE_BOUNDS`` and
+    the effects' ``bounds``: what fits, simulations and every design command check): effect parameters,
+    the drive filters, the loop rate's sampling and the uncertainty ranges, named by their keys."""
+    from design.loop.filters import KINDS
+
+    plant = spec.plant
+    problems = [_outside(f"plant.effects.{name}.{param}", value, EFFECTS[name].bounds[param])
+                for name, params in plant.effects.items() for param, value in params.items()]
+    rate = spec.controller.loop_rate_hz
+    if rate is not None:
+        problems.append(_outside("controller.loop_rate_hz", rate, EFFECTS["sampling"].bounds["rate_hz"]))
+    for k, f in enumerate(spec.controller.filters):
+        bounds = KINDS[f.kind].bounds
+        for param, v in f.parameters().items():
+            ends = {"": v} if not isinstance(v, FilterRange) else {".min": v.min, ".max": v.max}
+            problems += [_outside(f"controller.filters.{k}.{param}{end}", x, bounds[param]) for end, x in ends.items()]
+    effects = {name: EFFECTS[name] for name in plant.effects}
+    if rate is not None:
+        effects["sampling"] = EFFECTS["sampling"]
+    effects.update({KINDS[f.kind].name: KINDS[f.kind] for f in spec.controller.filters})
+    known = {n: b for n, b in BASE_BOUNDS.items() if n != "mass_kg"}
+    known.update({f"{name}.{p}": b for name, cls in effects.items() for p, b in cls.bounds.items()})
+    for name, rng in plant.uncertainty.items():
+        key = f"plant.uncertainty.{name}"
+        if name == "mass_kg":
+            raise SpecError(f"{key}: the payload is swept (plant.payload_kg or --payload), it cannot also be uncertain")
+        if name not in known:
+            raise SpecError(_unknown("plant.uncertainty", name, known, " (an effect's parameters need the effect under "
+                                                                     "plant.effects)"))
+        problems += [_outside(f"{key}.{end}", getattr(rng, end), known[name]) for end in ("min", "max")]
+    for problem in problems:
+        if problem is not None:
+            raise problem
 
 
 def _no_booleans(data, path: str = "") -> None:
@@ -281,20 +451,21 @@ def _no_booleans(data, path: str = "") -> None:
 
 
 def parse_spec(data: dict, *, source: str = "spec") -> Spec:
-    """Validate a spec mapping; ``SpecError`` names the first failing key path."""
+    """Validate a spec mapping; ``SpecError`` names the first failing key path (an unknown key first, with
+    the closest known one) and, for a value out of bounds, the value as written."""
     try:
         _no_booleans(data)
+        unknown = _unknown_key(data, Spec)
+        if unknown:
+            raise SpecError(unknown)
+        try:
+            spec = Spec.model_validate(data)
+        except ValidationError as exc:
+            raise SpecError(_message(exc, data)) from None
+        _check_limits(spec)
     except SpecError as exc:
         raise SpecError(f"{source}: {exc}") from None
-    try:
-        return Spec.model_validate(data)
-    except ValidationError as exc:
-        err = exc.errors()[0]
-        msg = err["msg"].removeprefix("Value error, ")
-        if err["type"] in ("extra_forbidden", "unexpected_keyword_argument"):
-            msg = "unknown key (check the spelling; see specs/ for the allowed keys)"
-        path = _key_path(err["loc"])
-        raise SpecError(f"{source}: {path}: {msg}" if path else f"{source}: {msg}") from None
+    return spec
 
 
 def load_spec(path: str | Path) -> Spec:

@@ -11,7 +11,7 @@ Run:  python benchmarks/bench_filters.py [--quick]
   cells of the previous around its best, evaluated on the 50 dense payloads with the cubic-refined
   margins of ``design.loop.fast`` (closed loops stable by the Nyquist test).
 * Brute force, PI + filters: every filter setting of a grid (notch left out, or its frequency on 8
-  log points of its range x damping {0.05, 0.2, 0.5, 1} x depth {0, 0.1, 0.25, 0.5}; low-pass left
+  log points of its range x damping {0.05, 0.2, 0.5, 1, 2} x depth {0, 0.1, 0.25, 0.5}; low-pass left
   out, or at 4 log points of its range), each with the gains of a 10 x 10 grid and one 7 x 7 zoom on
   15 payloads; the 4 best settings (3 with ``--quick``) then get a local 3 x 3 x 3 filter grid around
   them and a (Kp, Ki) search (12 x 12, three 9 x 9 zooms) on the 50 dense payloads. ``--quick``
@@ -123,7 +123,8 @@ def main():
 
         t0 = time.perf_counter()
         brute_pi = gain_search(pi_problem, dense, 20, 3, 11)
-        points = {"frequency": max(int(8 * scale), 4), "damping": [0.05, 0.2, 0.5, 1.0], "depth": [0.0, 0.1, 0.25, 0.5]}
+        points = {"frequency": max(int(8 * scale), 4), "damping": [0.05, 0.2, 0.5, 1.0, 2.0],
+                  "depth": [0.0, 0.1, 0.25, 0.5]}
         first = []
         for values in filter_grid(problem, points):
             p = with_filter_values(problem, list(values))

@@ -6,8 +6,8 @@ The contract: exit status 0 (success) or 2 (bad input: exactly one line on stder
 its files, with no temporary file left, and every file that was there before is unchanged otherwise.
 
 ``GANTRY_FUZZ_SEED`` changes the seed (default ``SEED``). ``GANTRY_FUZZ_LOG=FILE`` turns a run into a
-survey: every case is appended to FILE as a JSON line (test, seed, arguments, status, seconds, problems)
-and a failing case is logged instead of stopping its test.
+survey: every case is appended to FILE as a JSON line (test, seed, arguments, status, seconds, problems),
+and a failing case is logged, its input files kept in FILE.cases/N/, instead of stopping its test.
 """
 
 from __future__ import annotations
@@ -41,7 +41,6 @@ SEED = int(os.environ.get("GANTRY_FUZZ_SEED", "1414"))
 LOG = os.environ.get("GANTRY_FUZZ_LOG")
 #: address space a command may use (bytes): a runaway allocation fails with MemoryError instead of the machine
 MEMORY_LIMIT = 8 * 1024**3
-CLASSES = ("traceback", "wrong exit", "message", "partial output", "hang")
 
 
 def explore(part: str, examples: tuple[int, int], strategy, body, *, shrink: bool = True) -> None:
@@ -97,6 +96,11 @@ class Interrupt:
 
 def _raise_hang(signum, frame):
     raise Hang
+
+
+def _show_warning(message, category, filename, lineno, file=None, line=None):
+    """Print a warning to stderr as Python does (pytest would otherwise collect it)."""
+    sys.stderr.write(warnings.formatwarning(message, category, filename, lineno, line))
 
 
 @contextlib.contextmanager
@@ -169,6 +173,7 @@ def call(args: list[str], *, cwd: Path, timeout: float = 60.0, interrupt: Interr
     try:
         with contextlib.redirect_stdout(stdout), contextlib.redirect_stderr(stderr), warnings.catch_warnings():
             warnings.resetwarnings()
+            warnings.showwarning = _show_warning
             warnings.simplefilter("default")
             for category in (DeprecationWarning, PendingDeprecationWarning, ImportWarning, ResourceWarning):
                 warnings.simplefilter("ignore", category)
@@ -211,8 +216,6 @@ def count_calls(args: list[str], *, cwd: Path) -> int:
     def profile(frame, event, arg):
         nonlocal total
         total += event in ("call", "c_call")
-
-    from design.cli import main  # noqa: F401  (imported before counting)
 
     sys.setprofile(profile)
     try:
@@ -284,14 +287,10 @@ def run_case(case: Case) -> None:
             (root / d).chmod(0o555)
         before = _snapshot(root)
         result = call(case.args, cwd=root, timeout=case.timeout, interrupt=case.interrupt)
-        for d in case.read_only:
-            (root / d).chmod(0o755)
-        after = _snapshot(root)
-        problems = contract(case, result, before, after)
+        problems = contract(case, result, before, _snapshot(root))
     finally:
         for d in case.read_only:
-            if (root / d).is_dir():
-                (root / d).chmod(0o755)
+            (root / d).chmod(0o755)
         shutil.rmtree(root, ignore_errors=True)
     report(case, result, problems)
 
@@ -307,7 +306,8 @@ def _strict_json(text: str) -> bool:
 
 
 def contract(case: Case, r: Result, before: dict, after: dict) -> list[tuple[str, str]]:
-    """(class, detail) of every way the run broke the contract (``CLASSES``)."""
+    """(class, detail) of every way the run broke the contract; the classes are traceback, wrong exit, message
+    (not one line), partial output and hang."""
     problems = []
     if r.hung:
         return [("hang", f"still running after {case.timeout:g} s")]
@@ -357,6 +357,13 @@ def report(case: Case, r: Result, problems: list[tuple[str, str]]) -> None:
                                                                                           "where": r.where},
                  "files": {k: len(v) for k, v in case.files.items()}, "problems": problems,
                  "stderr": r.err[-2000:]}
+        if problems:
+            kept = Path(f"{LOG}.cases")
+            keep = kept / str(len(list(kept.iterdir())) if kept.is_dir() else 0)
+            for name, raw in case.files.items():
+                (keep / name).parent.mkdir(parents=True, exist_ok=True)
+                (keep / name).write_bytes(raw)
+            entry["kept"] = str(keep)
         with open(LOG, "a") as fh:
             fh.write(json.dumps(entry, default=str) + "\n")
         return
@@ -377,11 +384,15 @@ class Blob(bytes):
 
 
 class Text(str):
+    """Text with a short repr."""
+
     def __repr__(self) -> str:
         return f"<{len(self)} characters>"
 
 
 class Rows(tuple):
+    """Rows with a short repr."""
+
     def __repr__(self) -> str:
         return f"<{len(self)} rows>"
 

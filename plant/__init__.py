@@ -1,36 +1,36 @@
-"""Physics of the exoskeleton gantry: parameters, thesis models, effects, data, fitting."""
+"""Physics of the exoskeleton gantry: parameters, thesis models, effects, data, fitting.
 
-from plant.effects import (
-    EFFECTS,
-    CoulombFriction,
-    CurrentLoop,
-    Delay,
-    Effect,
-    EncoderVelocity,
-    PayloadResonance,
-    Resonance,
-    Sampling,
-    SecondResonance,
-    SensorFilter,
-    TiltCoupling,
-    make_effect,
-)
-from plant.errors import (
-    DataError,
-    EffectError,
-    GantryError,
-    GridError,
-    ParameterError,
-    SpecError,
-)
-from plant.models import Plant, build_plant, corner_frequency_hz, stage_x, stage_y
-from plant.parameters import THESIS, Parameter
+The names below are imported on first use (PEP 562), so that importing a light submodule such as
+``plant.interrupts`` or ``plant.errors`` does not load numpy and the models first: the command line
+installs its signal handlers before anything heavy is imported.
+"""
+
+from __future__ import annotations
+
+import importlib
 
 __version__ = "0.1.0"
 
-__all__ = [
-    "EFFECTS", "THESIS", "CoulombFriction", "CurrentLoop", "DataError", "Delay", "Effect", "EffectError",
-    "EncoderVelocity", "GantryError", "GridError", "Parameter", "ParameterError", "PayloadResonance", "Plant",
-    "Resonance", "Sampling", "SecondResonance", "SensorFilter", "SpecError", "TiltCoupling", "build_plant",
-    "corner_frequency_hz", "make_effect", "stage_x", "stage_y",
-]
+_EXPORTS = {
+    "plant.effects": ("EFFECTS", "CoulombFriction", "CurrentLoop", "Delay", "Effect", "EncoderVelocity",
+                      "PayloadResonance", "Resonance", "Sampling", "SecondResonance", "SensorFilter", "TiltCoupling",
+                      "make_effect"),
+    "plant.errors": ("DataError", "EffectError", "GantryError", "GridError", "ParameterError", "SpecError"),
+    "plant.models": ("Plant", "build_plant", "corner_frequency_hz", "stage_x", "stage_y"),
+    "plant.parameters": ("THESIS", "Parameter"),
+}
+_WHERE = {name: module for module, names in _EXPORTS.items() for name in names}
+
+__all__ = sorted(_WHERE)
+
+
+def __getattr__(name: str):
+    if name not in _WHERE:
+        raise AttributeError(f"module 'plant' has no attribute {name!r}")
+    value = getattr(importlib.import_module(_WHERE[name]), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted([*globals(), *_WHERE])

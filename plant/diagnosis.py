@@ -328,6 +328,8 @@ def diagnose(plant: Plant, data: MeasuredResponse, *, candidates: tuple[str, ...
     velocity is an encoder position differenced at its sample rate (``data.metadata``) gets that
     sensor in every model.
     """
+    if candidates is not None:
+        candidates = tuple(dict.fromkeys(candidates))      # an effect named twice is one candidate
     n_freq = len(data.f_hz)
     n_values = 2 * n_freq * len(data.output_names)
     if n_values <= len(free_base) + len(plant.parameters()) - 3:

@@ -76,6 +76,11 @@ class Plant:
             check_positive(name, getattr(self, name))
         check_positive("motor_length_m", self.motor_length_m)
         check_positive("load_position_m", self.load_position_m)
+        if self.load_position_m < _RAIL_CLEARANCE * self.motor_length_m:
+            raise ParameterError(
+                f"load_position_m ({self.load_position_m:g}) must be at least {_RAIL_CLEARANCE:g} x motor_length_m "
+                f"({_RAIL_CLEARANCE * self.motor_length_m:g} m) from rail Y1: the moving mass the motors see, "
+                "2 M l / L (thesis Eq. 3.16), vanishes there")
         if self.load_position_m >= self.motor_length_m:
             raise ParameterError(
                 f"load_position_m ({self.load_position_m:g}) must lie inside the beam (motor_length_m "

@@ -17,6 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from plant.errors import DataError
+from plant.interrupts import raise_if_requested
 
 
 @dataclass(frozen=True)
@@ -104,7 +105,9 @@ def atomic_write_texts(files: dict[Path, str]) -> None:
     happen only when all were written, so a failure leaves none of them half-written or new.
 
     A path that is a symbolic link is written through to the file it points to (the link stays); a
-    file that is replaced keeps its permission bits, a new one gets the usual ``0666`` less the umask."""
+    file that is replaced keeps its permission bits, a new one gets the usual ``0666`` less the umask.
+    Nothing is written once Ctrl-C or SIGTERM was requested (``plant.interrupts``)."""
+    raise_if_requested()
     given = {Path(os.path.realpath(path)): Path(path) for path in files}
     targets = {target: files[path] for target, path in given.items()}
     for target, path in given.items():
@@ -127,6 +130,7 @@ def atomic_write_texts(files: dict[Path, str]) -> None:
             os.chmod(tmp, mode)
             with os.fdopen(fd, "w", newline="") as fh:
                 fh.write(text)
+        raise_if_requested()          # a stop that a library swallowed: nothing is committed
         for tmp, path in tmps:
             os.replace(tmp, path)
     except OSError as exc:

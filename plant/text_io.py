@@ -23,7 +23,11 @@ def decode(raw: bytes, *, source: str) -> tuple[str, str]:
     """(text, encoding) of ``raw``: a BOM decides (UTF-8, UTF-16); else UTF-8, then UTF-16 when every
     other byte is NUL, then Latin-1. ``DataError`` naming ``source`` for binary data."""
     if raw.startswith(b"\xef\xbb\xbf"):
-        return _checked(raw[3:].decode("utf-8", errors="strict"), "utf-8 (BOM)", source)
+        try:
+            return _checked(raw[3:].decode("utf-8"), "utf-8 (BOM)", source)
+        except UnicodeDecodeError as exc:
+            raise DataError(f"{source}: starts with a UTF-8 byte-order mark but is not UTF-8 text (byte "
+                            f"{exc.start + 3})") from None
     if raw.startswith((b"\xff\xfe", b"\xfe\xff")):
         try:
             return _checked(raw.decode("utf-16"), "utf-16", source)

@@ -36,6 +36,8 @@ import numpy as np
 from hypothesis import HealthCheck, Phase, given, seed, settings
 from hypothesis import strategies as st
 
+from plant.interrupts import Terminated
+
 ROOT = Path(__file__).resolve().parents[1]
 SEED = int(os.environ.get("GANTRY_FUZZ_SEED", "1414"))
 LOG = os.environ.get("GANTRY_FUZZ_LOG")
@@ -83,11 +85,10 @@ class Interrupt:
     target: str | None = None
     signal: str = "SIGINT"
 
-    @property
-    def exception(self) -> type[BaseException]:
-        from design.cli import Terminated
-
-        return KeyboardInterrupt if self.signal == "SIGINT" else Terminated
+    def deliver(self) -> None:
+        """Send the signal to this process, as the terminal or a supervisor would: the command line's
+        handler raises (and records) it."""
+        signal.raise_signal(signal.SIGINT if self.signal == "SIGINT" else signal.SIGTERM)
 
     @property
     def status(self) -> int:
@@ -105,7 +106,7 @@ def _show_warning(message, category, filename, lineno, file=None, line=None):
 
 @contextlib.contextmanager
 def _injected(interrupt: Interrupt | None, result: Result):
-    """Raise ``interrupt``'s exception once, where it says."""
+    """Deliver ``interrupt``'s signal once, where it says."""
     if interrupt is None:
         yield
         return
@@ -115,7 +116,7 @@ def _injected(interrupt: Interrupt | None, result: Result):
         result.interrupted = True
         frames = traceback.extract_stack(sys._getframe(2), limit=4)
         result.where = " < ".join(f"{Path(f.filename).name}:{f.lineno} {f.name}" for f in reversed(frames))
-        raise interrupt.exception
+        interrupt.deliver()
 
     if interrupt.target is None:
         def profile(frame, event, arg):
@@ -161,7 +162,7 @@ def call(args: list[str], *, cwd: Path, timeout: float = 60.0, interrupt: Interr
     result = Result(0, "", "", 0.0)
     stdout, stderr = io.StringIO(), io.StringIO()
     saved = (sys.argv, os.getcwd(), signal.getsignal(signal.SIGTERM), signal.getsignal(signal.SIGALRM),
-             resource.getrlimit(resource.RLIMIT_AS), sys.unraisablehook)
+             resource.getrlimit(resource.RLIMIT_AS), sys.unraisablehook, signal.getsignal(signal.SIGINT))
     lost = []
     sys.unraisablehook = lambda u: lost.append(u.exc_value)     # an interrupt raised in a finaliser is lost
     sys.argv = ["gantry", *map(str, args)]
@@ -200,10 +201,11 @@ def call(args: list[str], *, cwd: Path, timeout: float = 60.0, interrupt: Interr
         signal.signal(signal.SIGALRM, saved[3])
         resource.setrlimit(resource.RLIMIT_AS, saved[4])
         sys.unraisablehook = saved[5]
+        signal.signal(signal.SIGINT, saved[6])
         import matplotlib.pyplot as plt
 
         plt.close("all")
-    if interrupt is not None and any(isinstance(e, interrupt.exception) for e in lost):
+    if interrupt is not None and any(isinstance(e, (KeyboardInterrupt, Terminated)) for e in lost):
         result.interrupted = False
     result.out, result.err = stdout.getvalue(), stderr.getvalue()
     return result
@@ -329,7 +331,10 @@ def contract(case: Case, r: Result, before: dict, after: dict) -> list[tuple[str
     if r.status == 0 and case.json_out and not _strict_json(r.out):
         problems.append(("partial output", f"--json printed no strict JSON: {r.out[-200:]!r}"))
     success = r.status == 0
-    outputs = set(case.outputs)
+    # an output given as a symbolic link is written through to its target; the link stays
+    links = {name: str(Path(name).parent / before[name][1]) for name in case.outputs
+             if isinstance(before.get(name), tuple) and before[name][0] == "link"}
+    outputs = {links.get(name, name) for name in case.outputs}
     changeable = outputs | set(case.may_change) if success else set()
     for name in sorted(set(before) | set(after)):
         if name in changeable:

@@ -108,6 +108,21 @@ def test_ctrl_c_during_the_admittance_solve_ends_with_130_and_no_output(tmp_path
     assert list(tmp_path.iterdir()) == []
 
 
+@pytest.mark.parametrize("sig,status,word", [(signal.SIGINT, 130, "interrupted"), (signal.SIGTERM, 143, "terminated")])
+@pytest.mark.parametrize("after_s", [0.3, 1.5, 3.0])
+def test_a_signal_anywhere_in_a_synthesis_ends_with_its_status_and_no_output(tmp_path, sig, status, word, after_s):
+    # imports, the PI synthesis (Clarabel, IPOPT, casadi's SWIG wrappers, which swallow exceptions) and the
+    # robustness checks: wherever the signal lands, the status is the signal's and nothing is written
+    out = tmp_path / "design.html"
+    p = subprocess.Popen([sys.executable, "-m", "design", "synth", str(ROOT / "specs" / "stage_x_synth.toml"),
+                          "--report", str(out)], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    time.sleep(after_s)
+    p.send_signal(sig)
+    _, err = p.communicate(timeout=120)
+    assert p.returncode == status and err == f"gantry: error: {word}\n", err
+    assert list(tmp_path.iterdir()) == []
+
+
 @pytest.mark.parametrize("args,words", [([], "no command given"), (["sweep", "--payload"], "'--payload' requires"),
                                         (["report", str(THESIS_X)], "Missing option '--out'"),
                                         (["sweep", str(THESIS_X), "--bogus"], "No such option: --bogus")])

@@ -7,10 +7,7 @@ exit status 130, and a genuine bug keeps its traceback.
 
 from __future__ import annotations
 
-import signal
 import sys
-
-from plant.errors import GantryError
 
 
 def _register() -> None:
@@ -35,56 +32,74 @@ def _register() -> None:
 def main() -> None:
     """Console entry point, the one error boundary: bad input (``GantryError``, usage errors, files that
     cannot be read or written, not enough memory) is one line on stderr and exit status 2; Ctrl-C is
-    exit status 130; anything else is a bug, shown with its traceback and a request to report it."""
+    exit status 130 and SIGTERM 143, wherever they land (imports included, and also when a library
+    swallowed the exception: ``plant.interrupts``); anything else is a bug, shown with its traceback and
+    a request to report it."""
+    try:
+        from plant import interrupts
+
+        interrupts.install()
+    except KeyboardInterrupt:      # before the handlers (SIGTERM's default action ends the process quietly)
+        _fail("interrupted", 130)
+    try:
+        code = _run()
+    except KeyboardInterrupt:
+        _fail("interrupted", 130)
+    except interrupts.Terminated:
+        _fail("terminated", 143)
+    _stop_if_requested()
+    if code == 130:
+        _fail("interrupted", 130)
+    sys.exit(code if isinstance(code, int) else 0)
+
+
+def _run():
+    """Parse and run the command; expected failures end in ``_fail``."""
     import matplotlib
     import typer
 
+    from plant.errors import GantryError
+
     try:    # typer >= 0.20 carries its own click
-        from typer._click.exceptions import ClickException, NoArgsIsHelpError
+        from typer._click.exceptions import ClickException
     except ImportError:     # pragma: no cover
-        from click.exceptions import ClickException, NoArgsIsHelpError
+        from click.exceptions import ClickException
 
     matplotlib.use("Agg")
     from design.cli.common import app
 
     _register()
-    signal.signal(signal.SIGTERM, _terminated)   # unwind (temporary files removed) instead of dying mid-write
     try:
-        code = app(standalone_mode=False)     # Ctrl-C inside a command comes back as exit code 130
-    except GantryError as exc:
-        _fail(str(exc), 2)
-    except (typer.Abort, KeyboardInterrupt):
+        return app(standalone_mode=False)     # Ctrl-C inside a command comes back as exit code 130
+    except typer.Abort:
         _fail("interrupted", 130)
-    except Terminated:
-        _fail("terminated", 143)
-    except NoArgsIsHelpError as exc:     # the help (rich prints it itself and leaves the message empty)
-        if exc.format_message().strip():
-            print(exc.format_message())
-        _fail("no command given (gantry --help lists the commands)", exc.exit_code)
+    except GantryError as exc:
+        _stop_if_requested()
+        _fail(str(exc), 2)
     except ClickException as exc:
         _fail(f"{exc.format_message()} (gantry --help lists the commands; gantry COMMAND --help their options)",
               exc.exit_code)
     except MemoryError:
         _fail("not enough memory for this input; use fewer payloads, samples, frequencies or a shorter duration", 2)
     except OSError as exc:
+        _stop_if_requested()
         where = f"{exc.filename}: " if exc.filename else ""
         _fail(f"{where}{exc.strerror or exc}", 2)
     except Exception:
+        _stop_if_requested()        # a solver that turned Ctrl-C into its own failure
         import traceback
 
         traceback.print_exc()
         _fail("this is a bug in gantry, not a problem with your input: please report it with the traceback above", 1)
-    if code == 130:
-        _fail("interrupted", 130)
-    sys.exit(code if isinstance(code, int) else 0)
 
 
-class Terminated(BaseException):
-    """SIGTERM, raised where the program is so that it unwinds like Ctrl-C."""
+def _stop_if_requested() -> None:
+    """Exit 130 (Ctrl-C) or 143 (SIGTERM) when one was received, even if a library swallowed it."""
+    from plant.interrupts import requested
 
-
-def _terminated(signum, frame) -> None:
-    raise Terminated
+    kind = requested()
+    if kind is not None:
+        _fail("interrupted" if kind == "interrupt" else "terminated", 130 if kind == "interrupt" else 143)
 
 
 def _fail(message: str, status: int) -> None:

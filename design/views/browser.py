@@ -8,6 +8,7 @@ import tempfile
 from pathlib import Path
 
 from plant.errors import GantryError
+from plant.interrupts import raise_if_requested
 
 FLAGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
          "--disable-background-networking", "--disable-component-update", "--disable-sync"]
@@ -34,6 +35,7 @@ def html_to_pdf(html_path: Path, pdf_path: Path) -> None:
     tmp = pdf_path.with_name(f".{pdf_path.name}.tmp.pdf")
     try:
         _run([f"--print-to-pdf={tmp}", "--no-pdf-header-footer", html_path.resolve().as_uri()], "PDF output")
+        raise_if_requested()
         tmp.replace(pdf_path)
     finally:
         tmp.unlink(missing_ok=True)

@@ -74,12 +74,18 @@ def nyquist_figure(c: LoopCurves, requirements):
     return fig
 
 
+#: step responses beyond this are drawn clipped and labelled as diverging
+STEP_PLOT_LIMIT = 5.0
+
+
 def step_figure(c: LoopCurves):
     """Closed velocity-loop step response (rational model, Pade for delays)."""
     fig, ax = plt.subplots(figsize=(7, 3.6))
     fixed_margins(fig)
     for m, y in zip(c.payload_kg, c.step_response):
-        ax.plot(c.step_time_s * 1e3, y, label=f"{m:g} kg")
+        finite = np.all(np.isfinite(y)) and np.max(np.abs(y)) < STEP_PLOT_LIMIT
+        ax.plot(c.step_time_s * 1e3, np.clip(np.where(np.isfinite(y), y, np.nan), -STEP_PLOT_LIMIT, STEP_PLOT_LIMIT),
+                label=f"{m:g} kg" + ("" if finite else " (diverges: unstable closed loop)"))
     ax.set_xlabel("time (ms)")
     ax.set_ylabel("velocity / reference")
     ax.grid(True, alpha=0.3)

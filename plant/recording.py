@@ -114,7 +114,9 @@ def atomic_write_texts(files: dict[Path, str]) -> None:
         if target.is_dir():
             raise DataError(f"{path}: is a directory; give a file name to write")
         if not target.parent.is_dir():
-            raise DataError(f"{path}: cannot write: directory {target.parent} does not exist")
+            parent = next(p for p in target.parents if p.exists())
+            raise DataError(f"{path}: cannot write: {parent} is a file, not a directory" if not parent.is_dir()
+                            else f"{path}: cannot write: directory {target.parent} does not exist")
     tmps: list[tuple[str, Path]] = []
     umask = os.umask(0)
     os.umask(umask)

@@ -121,8 +121,8 @@ def _chain(plant: Plant) -> _Chain:
     loop = plant.effect("current_loop")
     sensors = [e for e in plant.effects if isinstance(e, ChainEffect) and e.place == "sensor"]
     if any(e.name == "encoder_velocity" for e in sensors):
-        raise EffectError("encoder_velocity is not simulated as a filter: record quantised positions "
-                          "(velocity_quantum_m_per_s) instead")
+        raise EffectError("effect encoder_velocity (plant.effects.encoder_velocity of the spec, or --effects) is "
+                          "not simulated as a filter: record quantised positions (velocity_quantum_m_per_s) instead")
     if loop is not None:
         assert isinstance(loop, CurrentLoop)
         wc = 2 * math.pi * _scalar("current_loop.bandwidth_hz", loop.bandwidth_hz)

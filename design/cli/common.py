@@ -69,7 +69,7 @@ def keep_inputs(outputs: dict[str, Path | None], inputs: list[Path | None]) -> N
 
 def bundled_spec(name: str) -> Path:
     """A spec of ``specs/`` next to the package (source checkout) or in the working directory."""
-    for root in (Path(__file__).resolve().parents[1], Path.cwd()):
+    for root in (Path(__file__).resolve().parents[2], Path.cwd()):
         path = root / "specs" / name
         if path.is_file():
             return path

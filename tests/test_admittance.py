@@ -75,6 +75,7 @@ def test_hardware_responses_have_their_closed_forms():
     # thesis plant without electrical lags: P = K_t/(M s + b), G = 1/(M s + b)
     data = tomllib.loads(SPEC.read_text())
     data["plant"]["effects"] = {}
+    data["plant"].pop("uncertainty")          # nominal parameters; its ranges name the removed effects
     bare = parse_spec(data).problem()
     kt, b, M, kp, ki = 20.0, 440.0, 35.0, 236.0, 47.0
     loop = gantry_loop(bare, W, [M], kp=kp, ki=ki)
@@ -97,6 +98,7 @@ def test_rational_interaction_loop_equals_the_grid_loop():
     # two independent paths: grid responses (K / z) and python-control polynomials (no delay: exact)
     data = tomllib.loads(SPEC.read_text())
     data["plant"]["effects"] = {"current_loop": {"bandwidth_hz": 1000.0}}
+    data["plant"].pop("uncertainty")
     spec = parse_spec(data).problem()
     mouse = MouseModel(0.003, 0.025, 120.0, 0.3)
     loop = gantry_loop(spec, W, [20.0], kp=300.0, ki=3e4)

@@ -45,6 +45,7 @@ from design.loop.discrete import DiscreteCheck, DiscreteDesign
 from design.loop.fast import F_LOW_HZ, fast_analyse_loop
 from design.loop.margins import closed_loop_bandwidth_hz, loop_margins, nyquist_stable
 from design.problem import LoopProblem
+from design.synth.filter_scan import scan_filters
 from design.synth.monte_carlo import MonteCarloCheck, monte_carlo_check
 from design.synth.scenarios import Scenarios, check_scenarios, design_scenarios
 from design.synth.solvers import raise_if_interrupted
@@ -764,7 +765,7 @@ def polish(problem: LoopProblem, ev: Evaluation, dense: Scenarios, *, outer: Eva
     c = problem.controller
     lo = np.log([max(c.kp.min, 1e-12), max(c.ki.min, 1e-12)])
     hi = np.log([c.kp.max, c.ki.max])
-    x, best, used = np.log([ev.kp, ev.ki]), ev, 0
+    x, best, used = np.log(np.maximum([ev.kp, ev.ki], 1e-12)), ev, 0
 
     def trial(y):
         nonlocal used
@@ -774,7 +775,7 @@ def polish(problem: LoopProblem, ev: Evaluation, dense: Scenarios, *, outer: Eva
 
     if outer is not None:
         a, b = 0.0, 1.0
-        target = np.log([outer.kp, outer.ki])
+        target = np.log(np.maximum([outer.kp, outer.ki], 1e-12))      # a gain of 0: its lower bound
         for _ in range(POLISH_BISECTIONS):
             t = 0.5 * (a + b)
             _, e = trial(x + t * (target - x))
@@ -782,7 +783,7 @@ def polish(problem: LoopProblem, ev: Evaluation, dense: Scenarios, *, outer: Eva
                 a, best = t, e
             else:
                 b = t
-        x = np.log([best.kp, best.ki])
+        x = np.log(np.maximum([best.kp, best.ki], 1e-12))
     step = 0.04
     directions = [np.array(d, float) / np.hypot(*d) for d in ((1, 0), (0, 1), (-1, 0), (0, -1), (1, 1), (-1, -1),
                                                               (1, -1), (-1, 1))]
@@ -899,13 +900,16 @@ def _with_designed_filters(problem: LoopProblem, method: str, max_rounds: int) -
     from design.problem import with_filter_values
 
     t0 = time.perf_counter()
-    tried = [(values, _robust(with_filter_values(problem, values), method, max_rounds))
-             for values in filter_starts(problem)]
+    starts = filter_starts(problem)
+    scanned = scan_filters(problem, design_scenarios(problem))
+    starts += [values for _, values in scanned if values not in starts]
+    tried = [(values, _robust(with_filter_values(problem, values), method, max_rounds)) for values in starts]
 
     def bw(r):
         return r.evaluation.worst_bandwidth_hz if r.status == "optimal" and r.evaluation is not None else -1.0
 
-    notes = {"filter_starts": [{"filters": v, "status": r.status, "worst_bandwidth_hz": bw(r)} for v, r in tried],
+    notes = {"filter_scan": [{"filters": v, "worst_bandwidth_hz": b} for b, v in scanned],
+             "filter_starts": [{"filters": v, "status": r.status, "worst_bandwidth_hz": bw(r)} for v, r in tried],
              "joint_exact": []}
     if method == "ccp+exact":
         designed = [vr for vr in tried if bw(vr[1]) > 0 and any(

@@ -16,11 +16,18 @@ class Terminated(BaseException):
 _requested: list[str] = []
 
 
-def install() -> None:
-    """Handlers for SIGINT (``KeyboardInterrupt``) and SIGTERM (``Terminated``) that record the request."""
+def install() -> tuple:
+    """Handlers for SIGINT (``KeyboardInterrupt``) and SIGTERM (``Terminated``) that record the request;
+    returns the handlers they replace (for ``uninstall``)."""
     _requested.clear()
-    signal.signal(signal.SIGINT, _on_signal)
-    signal.signal(signal.SIGTERM, _on_signal)
+    return signal.signal(signal.SIGINT, _on_signal), signal.signal(signal.SIGTERM, _on_signal)
+
+
+def uninstall(previous: tuple) -> None:
+    """The handlers ``install`` replaced back, and no stop pending."""
+    signal.signal(signal.SIGINT, previous[0])
+    signal.signal(signal.SIGTERM, previous[1])
+    _requested.clear()
 
 
 def _on_signal(signum, frame) -> None:

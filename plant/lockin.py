@@ -366,6 +366,9 @@ def _block_estimate(block: Block, settle_s: float | None, subblocks: int) -> _Bl
     undersampled = _undersampled(label, f, fs)
     if undersampled:
         return undersampled
+    whole = f * (block.time_s[-1] - block.time_s[0] + 1.0 / fs)
+    if not whole >= MIN_PERIODS * (1 - 1e-9):        # too few periods even before settling (or f ~ 0)
+        return _too_short(label, whole, 0.0)
     harmonics = _harmonics(f, fs)
     basis = _basis(block.time_s, f, harmonics)
     settle = _settling_time(block, fs, basis) if settle_s is None else settle_s

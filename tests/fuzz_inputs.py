@@ -24,6 +24,7 @@ import shutil
 import signal
 import sys
 import tempfile
+import threading
 import time
 import tomllib
 import traceback
@@ -87,7 +88,10 @@ class Interrupt:
 
     def deliver(self) -> None:
         """Send the signal to this process, as the terminal or a supervisor would: the command line's
-        handler raises (and records) it."""
+        handler raises (and records) it. In another thread (whose signal the main thread would handle
+        later, perhaps after the command) the exception is raised there instead."""
+        if threading.current_thread() is not threading.main_thread():
+            raise KeyboardInterrupt if self.signal == "SIGINT" else Terminated
         signal.raise_signal(signal.SIGINT if self.signal == "SIGINT" else signal.SIGTERM)
 
     @property

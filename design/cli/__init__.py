@@ -38,18 +38,20 @@ def main() -> None:
     try:
         from plant import interrupts
 
-        interrupts.install()
+        previous = interrupts.install()
     except KeyboardInterrupt:      # before the handlers (SIGTERM's default action ends the process quietly)
         _fail("interrupted", 130)
     try:
         code = _run()
+        _stop_if_requested()
+        if code == 130:
+            _fail("interrupted", 130)
     except KeyboardInterrupt:
         _fail("interrupted", 130)
     except interrupts.Terminated:
         _fail("terminated", 143)
-    _stop_if_requested()
-    if code == 130:
-        _fail("interrupted", 130)
+    finally:        # called in-process (tests, scripts): the caller's handlers back, no stop pending
+        interrupts.uninstall(previous)
     sys.exit(code if isinstance(code, int) else 0)
 
 
@@ -61,9 +63,9 @@ def _run():
     from plant.errors import GantryError
 
     try:    # typer >= 0.20 carries its own click
-        from typer._click.exceptions import ClickException
+        from typer._click.exceptions import ClickException, NoArgsIsHelpError
     except ImportError:     # pragma: no cover
-        from click.exceptions import ClickException
+        from click.exceptions import ClickException, NoArgsIsHelpError
 
     matplotlib.use("Agg")
     from design.cli.common import app
@@ -76,6 +78,10 @@ def _run():
     except GantryError as exc:
         _stop_if_requested()
         _fail(str(exc), 2)
+    except NoArgsIsHelpError as exc:     # the help (rich prints it itself and leaves the message empty)
+        if exc.format_message().strip():
+            print(exc.format_message())
+        _fail("no command given (gantry --help lists the commands)", exc.exit_code)
     except ClickException as exc:
         _fail(f"{exc.format_message()} (gantry --help lists the commands; gantry COMMAND --help their options)",
               exc.exit_code)

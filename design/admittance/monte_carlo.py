@@ -29,9 +29,8 @@ from design.admittance.model import (
 from design.admittance.verify import MARGIN_TOLERANCE
 from design.loop.margins import loop_margins, nyquist_stable
 from design.problem import LoopProblem
-from design.synth.monte_carlo import clopper_pearson_upper
+from design.synth.monte_carlo import clopper_pearson_upper, draw_settings
 from design.synth.scenarios import random_scenarios
-from plant.errors import ParameterError
 
 #: relative excess of a hardware peak over its limit that counts as a violation
 HARDWARE_TOLERANCE = 1e-3
@@ -76,11 +75,7 @@ def admittance_monte_carlo(problem: LoopProblem, *, kp: float, ki: float, m_v: f
     draws (default: the problem's ``verification`` settings)."""
     adm = admittance_problem(problem)
     hw = adm.hardware
-    samples = problem.verification.monte_carlo_samples if samples is None else samples
-    seed = problem.verification.seed if seed is None else seed
-    if isinstance(samples, bool) or int(samples) != samples or samples < 1:
-        raise ParameterError(f"Monte Carlo samples must be a positive integer, got {samples!r}")
-    samples = int(samples)
+    samples, seed = draw_settings(problem, samples, seed)
     draws = random_scenarios(problem, samples, seed=seed)
     mice = random_mice(problem, samples, seed=seed)
     w = with_neck_modes(W_DENSE, mouse_corners(problem))
@@ -108,7 +103,7 @@ def admittance_monte_carlo(problem: LoopProblem, *, kp: float, ki: float, m_v: f
                              1 - cur / hw.max_current_per_sensor_step_a, 1 - force / hw.motor_peak_force_n]), axis=0)
     i = int(np.argmin(np.where(stable, slack, -np.inf)))
     k = int(bad.sum())
-    return AdmittanceMonteCarlo(samples, int(seed), k, clopper_pearson_upper(k, samples), float(np.min(pm)),
+    return AdmittanceMonteCarlo(samples, seed, k, clopper_pearson_upper(k, samples), float(np.min(pm)),
                                 float(np.min(gm)), float(np.max(cur)), float(np.max(force)), int(np.sum(~stable)),
                                 draws.row(i), {n: float(np.asarray(v)[i, 0]) for n, v in mice.as_dict().items()})
 

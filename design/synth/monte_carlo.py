@@ -54,17 +54,23 @@ def clopper_pearson_upper(violations: int, samples: int, confidence: float = CON
     return float(beta.ppf(confidence, violations + 1, samples - violations))
 
 
+def draw_settings(problem: LoopProblem, samples: int | None, seed: int | None) -> tuple[int, int]:
+    """(samples, seed) of a Monte Carlo check: as given, else the problem's ``verification`` settings."""
+    samples = problem.verification.monte_carlo_samples if samples is None else samples
+    seed = problem.verification.seed if seed is None else seed
+    if isinstance(samples, bool) or int(samples) != samples or samples < 1:
+        raise ParameterError(f"Monte Carlo samples must be a positive integer, got {samples!r}")
+    return int(samples), int(seed)
+
+
 def monte_carlo_check(problem: LoopProblem, kp: float, ki: float, *, samples: int | None = None,
                       seed: int | None = None) -> MonteCarloCheck:
     """Phase and gain margin, stability and bandwidth of (kp, ki) on ``samples`` uniform draws over
     payload x ``plant.uncertainty`` (default: the problem's ``verification`` settings); a draw violates
     when a margin falls short of its requirement by more than ``MARGIN_TOLERANCE`` or its closed loop
     is unstable."""
-    samples = problem.verification.monte_carlo_samples if samples is None else samples
-    seed = problem.verification.seed if seed is None else seed
-    if isinstance(samples, bool) or int(samples) != samples or samples < 1:
-        raise ParameterError(f"Monte Carlo samples must be a positive integer, got {samples!r}")
-    s = random_scenarios(problem, int(samples), seed=seed)
+    samples, seed = draw_settings(problem, samples, seed)
+    s = random_scenarios(problem, samples, seed=seed)
     base, req = problem.plant.plant(), problem.requirements
     pm, gm, bw, stable = (np.empty(len(s)) for _ in range(4))
     for start in range(0, len(s), CHUNK):
@@ -78,6 +84,6 @@ def monte_carlo_check(problem: LoopProblem, kp: float, ki: float, *, samples: in
            | (stable == 0))
     i = int(np.argmin(np.where(stable == 0, -np.inf, slack)))
     k = int(bad.sum())
-    return MonteCarloCheck(int(samples), int(seed), k, clopper_pearson_upper(k, int(samples)), float(np.min(pm)),
+    return MonteCarloCheck(samples, seed, k, clopper_pearson_upper(k, samples), float(np.min(pm)),
                            float(np.min(gm)), float(np.nanmin(bw)) if np.any(np.isfinite(bw)) else float("nan"),
                            s.row(i), int(np.sum(stable == 0)))

@@ -178,7 +178,7 @@ def _settling_time(block: Block, fs: float, basis: np.ndarray) -> float:
 
 def _segment_s(f_hz: float, fs: float) -> float:
     """Length (s) of a segment of the settling search: whole half periods of ``MIN_SEGMENT_SAMPLES``."""
-    return math.ceil(MIN_SEGMENT_SAMPLES * 2 * f_hz / fs) * 0.5 / f_hz
+    return max(math.ceil(MIN_SEGMENT_SAMPLES * 2 * f_hz / fs), 1) * 0.5 / f_hz
 
 
 def shortest_block_s(f_hz: float, sample_rate_hz: float) -> float:

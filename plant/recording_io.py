@@ -21,6 +21,10 @@ from plant.errors import DataError
 from plant.recording import Block, Recording
 from plant.text_io import data_suffix, read_text
 
+#: a time step longer than this many median steps within a block is refused (a corrupt time value;
+#: missing samples leave shorter gaps, which the lock-in handles with the actual sample times)
+MAX_GAP_STEPS = 1000
+
 ROLES = ("frequency", "time", "current", "velocity", "position", "reference")
 #: roles a stepped-sine recording may map
 STEPPED_ROLES = ("frequency", "time", "current", "velocity")
@@ -329,6 +333,11 @@ def _blocks(path: Path, table, outs, rows, sample_rate_hz, labels) -> Recording:
                             f"({t[i - 1]:g} s then {t[i]:g} s)")
         if t.size < 2:
             raise DataError(f"{label}: a block needs at least two samples")
+        step = float(np.median(d))
+        if np.any(d > MAX_GAP_STEPS * step):
+            k = int(np.argmax(d > MAX_GAP_STEPS * step)) + 1
+            raise DataError(f"{label}: row {rows[a + k]}, {labels['time_s']}: {t[k - 1]:g} s then {t[k]:g} s, more "
+                            f"than {MAX_GAP_STEPS} sample steps ({step:.3g} s) apart: a wrong time value")
         i = table["current_a"][a:b]
         vel = np.vstack([table[o][a:b] for o in outs])
         blocks.append(Block(fb, t - t[0], i, vel))

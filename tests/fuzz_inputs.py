@@ -127,7 +127,7 @@ def _injected(interrupt: Interrupt | None, result: Result):
             nonlocal count
             if event in ("call", "c_call"):
                 count += 1
-                if count == interrupt.at:
+                if count == interrupt.at + 1:      # the first call is main's own, before any of its code runs
                     sys.setprofile(None)
                     fire()
         sys.setprofile(profile)
@@ -173,6 +173,7 @@ def call(args: list[str], *, cwd: Path, timeout: float = 60.0, interrupt: Interr
     app.registered_commands.clear()      # main() registers the commands, as in a fresh process
     os.chdir(cwd)
     signal.signal(signal.SIGALRM, _raise_hang)
+    signal.signal(signal.SIGINT, signal.default_int_handler)     # as a fresh process has it
     resource.setrlimit(resource.RLIMIT_AS, (MEMORY_LIMIT, saved[4][1]))
     t0 = time.perf_counter()
     try:

@@ -21,7 +21,7 @@ import pytest
 
 from plant import Delay, stage_x, text_io
 from plant.errors import DataError
-from plant.recording import write_recording_csv
+from plant.recording import recording_csv_text, write_recording_csv
 from plant.simulate import simulate_stepped_sine
 from plant.text_io import decode
 
@@ -330,3 +330,22 @@ def test_simulate_refuses_a_stage_stuck_in_its_friction_and_diagnose_finds_the_f
     assert found["added_effects"] == ["coulomb_friction"]
     friction = found["parameters"]["coulomb_friction.force_n"]
     assert abs(friction["value"] - 20.0) < 3 * friction["stderr"]
+
+
+def test_a_corrupt_time_value_is_named_with_its_row(tmp_path):
+    # a time far beyond the block (1e308 s) would overflow the settling search; a gap of a few missing
+    # samples is data, so only steps over a thousand sample steps are refused
+    rec = simulate_stepped_sine(stage_x(mass_kg=35.0), f_hz=[3.0, 10.0, 30.0], current_amplitude_a=0.5,
+                                duration_s=1.0, noise_fraction=0.01, seed=1)
+    lines = recording_csv_text(rec).splitlines()
+    first = next(i for i, line in enumerate(lines) if line[:1].isdigit())
+    last = max(i for i, line in enumerate(lines) if line.split(",")[0] == lines[first].split(",")[0])
+    fields = lines[last].split(",")
+    fields[1] = "1e308"
+    bad = tmp_path / "rec.csv"
+    bad.write_text("\n".join(lines[:last] + [",".join(fields)] + lines[last + 1:]) + "\n")
+    out = gantry("diagnose", bad, "--stage", "x", "--json")
+    assert one_line(out) and f"row {last + 1}" in out.stderr and "time_s" in out.stderr, out.stderr
+    gapped = tmp_path / "gap.csv"           # ten samples missing: still a recording
+    gapped.write_text("\n".join(lines[:first + 50] + lines[first + 60:]) + "\n")
+    assert gantry("diagnose", gapped, "--stage", "x", "--json").returncode == 0

@@ -54,7 +54,7 @@ import scipy.optimize
 import scipy.signal
 import scipy.stats
 
-from plant.errors import EffectError, ParameterError
+from plant.errors import DataError, EffectError, ParameterError
 from plant.fit_report import correlation_lines, variable_lines
 from plant.inverse_model import EDGE_SAMPLES, FILTER_ORDER, InverseModelData, Preprocessing, inverse_model_data
 from plant.lockin import TEST_P
@@ -372,7 +372,15 @@ def fit_inverse_model(plant: Plant, rec: TimeRecording | InverseModelData, *, fr
     X = np.column_stack([cols[p] for p in free])
     lo = np.array([params[p].lower for p in free])
     hi = np.array([params[p].upper for p in free])
-    sol = scipy.optimize.lsq_linear(X, y, bounds=(lo, hi), method="bvls")
+    where = getattr(rec, "source", None) or "recording"
+    if not (np.all(np.isfinite(X)) and np.all(np.isfinite(y))):
+        raise DataError(f"{where}: the model's signals (filtered velocity, acceleration, force) overflow: a value "
+                        "in the recording is far out of range")
+    try:
+        sol = scipy.optimize.lsq_linear(X, y, bounds=(lo, hi), method="bvls")
+    except np.linalg.LinAlgError:
+        raise DataError(f"{where}: the least-squares problem of the model cannot be solved on this recording (its "
+                        "values span too many orders of magnitude)") from None
     beta = sol.x
     values = {name: p.value for name, p in params.items()}
     values.update(dict(zip(free, map(float, beta))))

@@ -157,11 +157,15 @@ def inverse_model_data(rec: TimeRecording, force_constant_n_per_a: float,
     if n_kept < 30:
         raise DataError(f"{rec.source}: {rec.n_samples} samples leave {max(n_kept, 0)} after the edges and decimation "
                         f"by {r}; record at least {(30 * r + 2 * EDGE_SAMPLES) / fs:.3g} s")
-    output = rec.output.mean(axis=0)
-    force = force_constant_n_per_a * rec.current_a
-    if prep.input_hold:
-        force = np.r_[force[0], (force[1:] + force[:-1]) / 2]
-    f, v, acc, v_full, position = _chain(fs, output, force, rec.output_kind, filter_hz, r)
+    with np.errstate(over="ignore", invalid="ignore"):      # a value far out of range: refused just below
+        output = rec.output.mean(axis=0)
+        force = force_constant_n_per_a * rec.current_a
+        if prep.input_hold:
+            force = np.r_[force[0], (force[1:] + force[:-1]) / 2]
+        f, v, acc, v_full, position = _chain(fs, output, force, rec.output_kind, filter_hz, r)
+    if not all(np.all(np.isfinite(x)) for x in (f, v, acc)):
+        raise DataError(f"{rec.source}: the filtered signals overflow: a current or {rec.output_kind} value in the "
+                        "recording is far out of range")
     sigma_f = difference_noise_std(force)
     sigma_y = float(np.mean([difference_noise_std(o) for o in rec.output])) / np.sqrt(rec.output.shape[0])
     rng = np.random.default_rng(NOISE_SEED)

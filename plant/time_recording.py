@@ -20,6 +20,13 @@ OUTPUT_KINDS = ("velocity", "position")
 SAMPLING_TOLERANCE = 0.01
 
 
+#: magnitudes no gantry measurement reaches (a corrupt value far out of range would overflow the filters
+#: and least squares): 10 kA of motor current, 1 km of travel, 1 km/s
+MAX_CURRENT_A = 1e4
+MAX_OUTPUT = {"position": 1e3, "velocity": 1e3}
+UNITS = {"position": "m", "velocity": "m/s"}
+
+
 @dataclass(frozen=True)
 class TimeRecording:
     """One uniformly sampled record. Arrays: ``time_s`` (n,), ``current_a`` (n,), ``output`` (n_outputs, n)."""
@@ -52,6 +59,13 @@ class TimeRecording:
                             f"(time {t.shape}, input {i.shape}, outputs {y.shape})")
         if len(self.output_names) != y.shape[0]:
             raise DataError(f"{self.source}: {y.shape[0]} outputs but {len(self.output_names)} output names")
+        for what, values, limit, unit in (("current", i, MAX_CURRENT_A, "A"),
+                                          (self.output_kind, y, MAX_OUTPUT[self.output_kind], UNITS[self.output_kind])):
+            far = ~(np.abs(values) <= limit)
+            if np.any(far):
+                k = int(np.argmax(far.reshape(-1, t.size).any(axis=0)))
+                raise DataError(f"{self.source}: sample {k + 1} (t = {t[k]:g} s): a {what} beyond {limit:g} {unit} "
+                                "is no measurement of a gantry (a corrupt value)")
         object.__setattr__(self, "time_s", t)
         object.__setattr__(self, "current_a", i)
         object.__setattr__(self, "output", y)

@@ -20,6 +20,7 @@ import numpy as np
 from plant.errors import DataError
 from plant.recording import Block, Recording
 from plant.text_io import data_suffix, read_text
+from plant.time_recording import MAX_CURRENT_A, MAX_OUTPUT
 
 #: a time step longer than this many median steps within a block is refused (a corrupt time value;
 #: missing samples leave shorter gaps, which the lock-in handles with the actual sample times)
@@ -340,6 +341,13 @@ def _blocks(path: Path, table, outs, rows, sample_rate_hz, labels) -> Recording:
                             f"than {MAX_GAP_STEPS} sample steps ({step:.3g} s) apart: a wrong time value")
         i = table["current_a"][a:b]
         vel = np.vstack([table[o][a:b] for o in outs])
+        for name, values, limit in (("current_a", i[None], MAX_CURRENT_A), *((o, vel[k:k + 1], MAX_OUTPUT["velocity"])
+                                                                        for k, o in enumerate(outs))):
+            far = ~(np.abs(values[0]) <= limit)
+            if np.any(far):
+                k = int(np.argmax(far))
+                raise DataError(f"{label}: row {rows[a + k]}, {labels.get(name, name)}: {values[0][k]:g} is beyond "
+                                f"{limit:g}, no measurement of a gantry (a corrupt value)")
         blocks.append(Block(fb, t - t[0], i, vel))
     order = np.argsort([b.f_hz for b in blocks], kind="stable")
     return Recording(tuple(blocks[k] for k in order), tuple(outs), source=where)

@@ -108,6 +108,24 @@ def test_ctrl_c_during_the_admittance_solve_ends_with_130_and_no_output(tmp_path
     assert list(tmp_path.iterdir()) == []
 
 
+def test_ctrl_c_inside_an_executed_string_still_ends_with_130(tmp_path):
+    # a Ctrl-C that lands while an import runs a dataclass's generated code (exec of a string) is handled by
+    # main, yet CPython's `python -m` would still end the process by SIGINT (status -2) unless that is undone
+    (tmp_path / "ctrl_c_in_exec.py").write_text(
+        "import runpy, sys\n"
+        "import design.cli as cli\n"
+        "run = cli._run\n"
+        "def _run():\n"
+        "    exec('import os, signal; os.kill(os.getpid(), signal.SIGINT)')\n"
+        "    return run()\n"
+        "cli._run = _run\n"
+        "sys.argv = ['gantry', 'reproduce']\n"
+        "runpy.run_module('design', run_name='__main__')\n")
+    p = subprocess.run([sys.executable, "-m", "ctrl_c_in_exec"], cwd=tmp_path, capture_output=True, text=True,
+                       env={**os.environ, "PYTHONPATH": os.pathsep.join([str(ROOT), str(tmp_path)])}, timeout=120)
+    assert p.returncode == 130 and p.stderr == "gantry: error: interrupted\n", (p.returncode, p.stderr)
+
+
 @pytest.mark.parametrize("sig,status,word", [(signal.SIGINT, 130, "interrupted"), (signal.SIGTERM, 143, "terminated")])
 @pytest.mark.parametrize("after_s", [1.0, 2.0, 3.0])
 def test_a_signal_anywhere_in_a_synthesis_ends_with_its_status_and_no_output(tmp_path, sig, status, word, after_s):

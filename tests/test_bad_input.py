@@ -284,6 +284,20 @@ def test_an_unknown_key_is_named_with_the_closest_known_one(tmp_path, monkeypatc
     assert code == 2 and err == f"gantry: error: {spec}: {message}\n"
 
 
+@pytest.mark.parametrize("value,message", [
+    ('"heavy"', "plant.payload_kg = 'heavy': must be a table or a number"),
+    ("[5, 40]", "plant.payload_kg = [5, 40]: must be a table or a number"),
+])
+def test_a_value_of_the_wrong_kind_says_what_the_key_takes(tmp_path, monkeypatch, capsys, value, message):
+    text = SYNTH_X.read_text()
+    old = "{ min = 5.0, max = 40.0, points = 8, nominal = 35.0 }"
+    assert old in text
+    spec = tmp_path / "spec.toml"
+    spec.write_text(text.replace(old, value, 1))
+    code, err, _ = in_process(monkeypatch, capsys, "synth", spec)
+    assert code == 2 and err == f"gantry: error: {spec}: {message}\n"
+
+
 @pytest.mark.parametrize("old,new,message", [
     ("max = 40.0, points", "max = 600, points", "plant.payload_kg.max = 600: must be <= 500"),
     ("{ min = 5.0, max = 40.0, points = 8, nominal = 35.0 }", "1e-9", "plant.payload_kg = 1e-09: must be >= 0.5"),

@@ -282,6 +282,12 @@ _WRONG_KIND = ("dataclass_type", "model_type", "dict_type", "float_type", "int_t
                "int_parsing", "string_type", "list_type", "literal_error", "none_required")
 
 
+#: the phrase for each wrong-kind error when a union's members all refuse a value
+_KIND_NAMES = {"dataclass_type": "a table", "model_type": "a table", "dict_type": "a table",
+               "float_type": "a number", "float_parsing": "a number", "int_type": "an integer",
+               "int_parsing": "an integer", "string_type": "a string", "list_type": "a list"}
+
+
 def _key_path(loc, data) -> str:
     """The key path of an error location as the file writes it: the keys and list indices found in
     ``data``, without the union members pydantic adds (``PayloadRange``, ``constrained-float``)."""
@@ -310,9 +316,21 @@ def _message(exc: ValidationError, data: dict) -> str:
     elif err["type"] in _BOUNDS and err.get("ctx"):
         limit = next(iter(err["ctx"].values()))
         return f"{path} = {err['input']!r}: must be {_BOUNDS[err['type']]} {limit:g}"
+    elif err["type"] in _WRONG_KIND and len(kinds := _kinds(same)) > 1:
+        return f"{path} = {err['input']!r}: must be {' or '.join(kinds)}"
     else:
         msg = err["msg"].removeprefix("Value error, ")
     return f"{path}: {msg}" if path else msg
+
+
+def _kinds(errors) -> list[str]:
+    """What a value of the wrong kind should have been, one phrase per member of the union it failed."""
+    kinds = []
+    for e in errors:
+        kind = _KIND_NAMES.get(e["type"])
+        if kind and kind not in kinds:
+            kinds.append(kind)
+    return kinds
 
 
 def _within(a: str, b: str) -> bool:

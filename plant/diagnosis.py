@@ -16,6 +16,10 @@ models within ``TIE_DELTA_BIC`` the one with fewer parameters and simpler physic
 equivalent. The verdict is ``explained`` only when the selected model's chi^2 is consistent
 with the noise (``chi2_is_noise``); otherwise it is ``not_explained`` and says so first,
 describing the residual no effect of the library reproduces.
+
+Coulomb friction on a rigid body is modelled exactly (the stick-slip first harmonic of
+``plant.coulomb_response``); in a chain of several bodies by its describing function, whose
+error counts as misfit like any other, so such a model may be reported as not explaining the data.
 """
 
 from __future__ import annotations
@@ -227,20 +231,6 @@ def detect_nonlinearity(data: MeasuredResponse, *, amplitude_dependent: bool | N
                         ("detected: " if detected else "none: ") + words)
 
 
-def with_distortion_variance(data: MeasuredResponse) -> MeasuredResponse:
-    """Data whose variance also carries the describing function's own error.
-
-    A describing function keeps only the fundamental; its error in the fundamental is of the
-    order of the harmonics it neglects (harmonic balance), so each point's variance is augmented
-    by (|G| * (HD2 + HD3))^2 with the measured harmonic ratios (unmeasurable ones count as 0).
-    Used once a nonlinearity is detected, for every model alike, so their BICs stay comparable.
-    """
-    hd = np.nansum(np.asarray(data.harmonic_distortion, float), axis=-1)
-    extra = (np.abs(data.response) * hd) ** 2
-    return replace(data, variance=np.asarray(data.variance) + extra,
-                   metadata={**data.metadata, "variance": "measurement + describing-function (harmonic) error"})
-
-
 def _pool(plant: Plant, data: MeasuredResponse, nonlinear: Nonlinearity,
           candidates: tuple[str, ...] | None) -> tuple[list[str], dict[str, str]]:
     """Effects the search may add, and why the others are left out."""
@@ -284,7 +274,9 @@ def _fit_child(parents: list[FitResult], name: str, plant: Plant, data: Measured
     parents = sorted(parents, key=lambda r: r.chi2)
     neutral = {f"{name}.{k}": v for k, v in effect.neutral.items()}
     starts = [{**parents[0].values, **neutral}]
-    ratio = data.response / parents[0].model_response
+    model = parents[0].model_response
+    # a parent held by its friction at a frequency (no motion) tells nothing about the new effect there
+    ratio = np.divide(data.response, model, out=np.ones_like(data.response), where=model != 0)
     guesses = effect.guesses(data.w_rad_s, ratio)
     if not effect.linear:
         force = float(np.mean(np.asarray(plant.force_constant_n_per_a) * np.asarray(data.current_amplitude_a)))
@@ -347,8 +339,6 @@ def diagnose(plant: Plant, data: MeasuredResponse, *, candidates: tuple[str, ...
         notes.append(f"velocity is an encoder position differenced at {float(rate):g} Hz (steps of "
                      f"{float(quantum):.3g} m/s): every model includes its half-sample delay and sinc droop")
     nonlinear = detect_nonlinearity(data, amplitude_dependent=amplitude_dependent)
-    if nonlinear.detected:
-        data = with_distortion_variance(data)
     pool, skipped = _pool(plant, data, nonlinear, candidates)
     own = tuple(p for p in plant.parameters() if "." in p and p not in fixed)
     base_fit = fit_plant(plant, data, free=free_base + own)

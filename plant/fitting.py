@@ -371,11 +371,48 @@ def fit_plant(plant: Plant, data: MeasuredResponse, *, free: Sequence[str] | Non
     chain of bodies: variable projection by reweighted linear least squares), and the best
     ``N_POLISH`` are polished by ``least_squares`` over all free parameters; the lowest chi^2 wins.
     ``multistart=False``: only the plant's own values. A nonlinear plant (``coulomb_friction``)
-    gets ``excitation_current_a`` from the data per frequency. ``variance_dof``: real degrees of
+    gets ``excitation_current_a`` from the data per frequency; that amplitude is itself measured, so
+    once fitted, each point's variance also carries its error (``with_current_noise``) and the fit is
+    polished again from its optimum. ``variance_dof``: real degrees of
     freedom of each frequency's variance (scalar or per frequency; inf = known exactly); default
     ``data.metadata["variance_dof"]`` from the estimator (else 2 (k - 1) from its sub-block counts
     ``data.metadata["subblocks"]``), else inf.
     """
+    result = _fit(plant, data, free=free, start=start, starts=starts, multistart=multistart,
+                  variance_dof=variance_dof)
+    if result.plant.linear or not np.all(np.isfinite(np.asarray(data.current_amplitude_variance, float))):
+        return result
+    again = _fit(result.plant, with_current_noise(result.plant, data), free=result.free,
+                 start={n: result.values[n] for n in result.free}, starts=None, multistart=False,
+                 variance_dof=variance_dof)
+    return dataclasses.replace(again, initial=result.initial, n_starts=result.n_starts,
+                               n_evaluations=result.n_evaluations + again.n_evaluations,
+                               elapsed_s=result.elapsed_s + again.elapsed_s)
+
+
+def with_current_noise(plant: Plant, data: MeasuredResponse) -> MeasuredResponse:
+    """``data`` whose variance also carries the error of the measured current amplitude I, on which the
+    response of a nonlinear ``plant`` depends (errors in variables, to first order). A radial error dI
+    moves the residual G - G_model by -(G / I + dG_model/dI) dI; the ratio's part |G / I|^2 var(I) is
+    already in the measured variance, so each point gains (|G / I + dG_model/dI|^2 - |G / I|^2) var(I)
+    (never less than nothing)."""
+    amp = np.asarray(data.current_amplitude_a, float)
+    step = 1e-6 * amp
+    rows = output_map(plant, data.output_names)
+
+    def model(a):
+        out = dataclasses.replace(plant, excitation_current_a=a).frd_outputs(data.w_rad_s)
+        return np.stack([out.mean(axis=-2) if r < 0 else out[..., r, :] for r in rows], axis=-2)
+
+    slope = (model(amp + step) - model(amp - step)) / (2 * step)
+    ratio = np.asarray(data.response) / amp
+    extra = np.maximum(np.abs(ratio + slope) ** 2 - np.abs(ratio) ** 2, 0.0) * data.current_amplitude_variance
+    return dataclasses.replace(data, variance=np.asarray(data.variance) + extra,
+                               metadata={**data.metadata, "variance": "measurement + current amplitude"})
+
+
+def _fit(plant: Plant, data: MeasuredResponse, *, free, start, starts, multistart, variance_dof) -> FitResult:
+    """``fit_plant`` on the data's own variances."""
     t0 = time.perf_counter()
     f, g, var = _check_data(data)
     nu = _variance_dof(data, f.size, variance_dof)

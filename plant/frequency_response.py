@@ -32,7 +32,8 @@ class MeasuredResponse:
     ``notes`` are the estimator's findings about the data: blocks left out and why, short
     blocks, outputs whose fundamental was not detected, the velocity sensor. The per-block
     data checks (``fundamental_fraction``, ``current_fundamental_fraction``,
-    ``current_snr_db``) are NaN where not computed; given as None they are filled with NaN.
+    ``current_snr_db``) and ``current_amplitude_variance`` are NaN where not computed; given as None
+    they are filled with NaN.
     """
 
     f_hz: np.ndarray                     # (n_freq,)
@@ -55,11 +56,13 @@ class MeasuredResponse:
     current_fundamental_fraction: np.ndarray | None = None
     #: fundamental power of the current over its fit residual's, dB, (n_freq,)
     current_snr_db: np.ndarray | None = None
+    #: variance of ``current_amplitude_a`` (A^2), (n_freq,): the model of a nonlinear plant depends on it
+    current_amplitude_variance: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         shape = np.shape(self.response)
         for name, default in (("fundamental_fraction", shape), ("current_fundamental_fraction", shape[-1:]),
-                              ("current_snr_db", shape[-1:])):
+                              ("current_snr_db", shape[-1:]), ("current_amplitude_variance", shape[-1:])):
             if getattr(self, name) is None:
                 object.__setattr__(self, name, np.full(default, np.nan))
         object.__setattr__(self, "notes", tuple(self.notes))

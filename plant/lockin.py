@@ -293,6 +293,8 @@ class _BlockEstimate:
     g: np.ndarray                # complex, m/s per A
     variance: np.ndarray         # (m/s per A)^2
     current_amplitude_a: float
+    #: variance of the current amplitude estimate (A^2): the radial half of its phasor's
+    current_amplitude_variance: float
     snr_db: np.ndarray
     distortion: np.ndarray       # (n_outputs, 2), NaN where not measurable
     fraction: np.ndarray         # the fundamental's share of the output power about its offset
@@ -413,9 +415,10 @@ def _block_estimate(block: Block, settle_s: float | None, subblocks: int) -> _Bl
         n, p = B.shape
         s2 = residual * n / (n - p)                                # unbiased residual mean squares
         var = gain * (s2[1:] + np.abs(g) ** 2 * s2[0]) / abs(amps[0, 0]) ** 2
+        var_i = gain * float(s2[0])
         dof = float(n - p)
-    return _BlockEstimate(g, var, float(abs(amps[0, 0])), snr_db[1:], distortion, fraction[1:], detected, current,
-                          float(settle), periods, k, dof)
+    return _BlockEstimate(g, var, float(abs(amps[0, 0])), var_i / 2, snr_db[1:], distortion, fraction[1:], detected,
+                          current, float(settle), periods, k, dof)
 
 
 def _powers(sig: np.ndarray, B: np.ndarray, coef: np.ndarray, amps: np.ndarray):
@@ -577,6 +580,7 @@ def _response(recording: Recording, results: list, f_hz: np.ndarray, method: str
     G = np.array([r.g for r in results], complex).T.reshape(n_out, n_f)
     var = np.array([r.variance for r in results], float).T.reshape(n_out, n_f)
     amp = np.array([r.current_amplitude_a for r in results], float)
+    amp_var = np.array([getattr(r, "current_amplitude_variance", np.nan) for r in results], float)
     snr, hd = np.full((n_out, n_f), np.nan), np.full((n_out, n_f, 2), np.nan)
     fraction = np.full((n_out, n_f), np.nan)
     current_fraction, current_snr = np.full(n_f, np.nan), np.full(n_f, np.nan)
@@ -586,7 +590,8 @@ def _response(recording: Recording, results: list, f_hz: np.ndarray, method: str
             current_fraction[j], current_snr[j] = r.current.fraction, r.current.snr_db
     return MeasuredResponse(f_hz, G, var, recording.output_names, amp, snr, hd, source=recording.source,
                             method=method, metadata=metadata, notes=notes, fundamental_fraction=fraction,
-                            current_fundamental_fraction=current_fraction, current_snr_db=current_snr)
+                            current_fundamental_fraction=current_fraction, current_snr_db=current_snr,
+                            current_amplitude_variance=amp_var)
 
 
 def _sample_rate_hz(recording: Recording) -> float:

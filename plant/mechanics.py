@@ -236,9 +236,11 @@ def body_chain(mass_kg, rail_damping_n_s_per_m, modes: tuple[ModeEffect, ...]) -
 class CoulombFriction(MechanicalEffect):
     """Coulomb friction of magnitude ``force_n`` opposing the velocity: F_f = force_n * sign(v).
 
-    Frequency domain: its describing function at velocity amplitude V is a real damping
-    N(V) = 4 F_c / (pi V) added to the rail damping (the plant solves for V at the excitation
-    current). Time domain: ``force(v)`` is exact.
+    Frequency domain, at the plant's excitation current: on a rigid body, the exact first harmonic of
+    the periodic steady state with stick-slip (``plant.coulomb_response``); on a chain of several
+    bodies or the tilting beam, the describing function, a real damping N(V) = 4 F_c / (pi V) at
+    velocity amplitude V added to the rail damping (approximate: it assumes a sinusoidal velocity).
+    Time domain: ``force(v)`` is exact.
     """
 
     force_n: float = 10.0

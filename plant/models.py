@@ -26,6 +26,7 @@ from typing import TYPE_CHECKING, Literal
 import numpy as np
 
 from plant.algebra import NUMPY
+from plant.coulomb_response import rigid_body_first_harmonic
 from plant.effect_base import PADE_ORDER, ChainEffect, Effect, replace_unchecked
 from plant.effects import make_effect
 from plant.errors import EffectError, ParameterError
@@ -236,28 +237,42 @@ class Plant:
         return kt * self.chain_response(s, "drive", ops) * mech.velocity_per_force(s) * \
             self.chain_response(s, "sensor", ops)
 
+    def _friction(self) -> CoulombFriction | None:
+        return next((e for e in self.effects if isinstance(e, CoulombFriction)), None)
+
     def _friction_damping(self, w):
-        """Describing-function damping of the nonlinear effect at the excitation amplitude (N*s/m)."""
-        friction = next((e for e in self.effects if isinstance(e, CoulombFriction)), None)
+        """Describing-function damping of the friction at the excitation amplitude (N*s/m): the model of
+        friction in a chain of bodies or the tilting beam."""
+        friction = self._friction()
         if friction is None:
             return 0.0
         m_e, b_e = self._effective_mass_damping()
-        kt = np.asarray(self.force_constant_n_per_a, float)
-        force_amp = kt * self.excitation_current_a * np.abs(self.chain_response(1j * w, "drive"))
         c = 4 * np.asarray(friction.force_n, float) / np.pi
+        force_amp = self._force_amplitude_n(w)
         # |(b_e + j w m_e) V + c| = F  ->  (b_e^2 + (w m_e)^2) V^2 + 2 b_e c V + c^2 - F^2 = 0
         a2 = b_e**2 + (w * m_e) ** 2
         disc = (b_e * c) ** 2 - a2 * (c**2 - force_amp**2)
         v_amp = (-b_e * c + np.sqrt(np.maximum(disc, 0.0))) / a2
         return friction.describing_damping(v_amp)
 
-    def _chain_frd(self, w, n_fric) -> np.ndarray:
-        """Chain of bodies (with the friction damping ``n_fric``) times the chain effects."""
+    def _force_amplitude_n(self, w):
+        """Amplitude (N) of the motor force at the excitation current and frequency."""
+        kt = np.asarray(self.force_constant_n_per_a, float)
+        return kt * self.excitation_current_a * np.abs(self.chain_response(1j * w, "drive"))
+
+    def _chain_frd(self, w) -> np.ndarray:
+        """Chain of bodies times the chain effects; with Coulomb friction, the exact first harmonic of the
+        rigid body (``plant.coulomb_response``) or, for a chain of several bodies, the describing function."""
         s = 1j * w
         kt = np.asarray(self.force_constant_n_per_a, float)
         series = kt * self.chain_response(s, "drive") * self.chain_response(s, "sensor")
-        if np.ndim(n_fric) == 0 and n_fric == 0:
+        friction = self._friction()
+        if friction is None:
             return series * self.mechanics().velocity_per_force(s)
+        if not any(isinstance(e, ModeEffect) for e in self.effects):
+            m_e, b_e = self._effective_mass_damping()
+            return series * rigid_body_first_harmonic(m_e, b_e, friction.force_n, self._force_amplitude_n(w), w)
+        n_fric = self._friction_damping(w)
         stuck = np.isinf(n_fric)
         with np.errstate(invalid="ignore"):
             mech = self.mechanics(extra_damping_n_s_per_m=np.where(stuck, 0.0, n_fric)).velocity_per_force(s)
@@ -266,12 +281,12 @@ class Plant:
     def frd_outputs(self, w_rad_s) -> np.ndarray:
         """Velocity per current at each output, shape (..., n_outputs, n_freq) (m/s per A)."""
         w = check_grid(w_rad_s)
-        n_fric = self._friction_damping(w)
         tilt = self._tilt()
         if tilt is None:
-            resp = self._chain_frd(w, n_fric)[..., None, :]
+            resp = self._chain_frd(w)[..., None, :]
             return np.repeat(resp, len(self.output_names), axis=-2)
         kt = np.asarray(self.force_constant_n_per_a, float)
+        n_fric = self._friction_damping(w)
         stuck = np.isinf(n_fric)
         b = np.asarray(self.damping_n_s_per_m, float) + np.where(stuck, 0, n_fric) / 2
         l1, l2 = self._loads_l1_l2(tilt)
@@ -290,7 +305,7 @@ class Plant:
         """Velocity per current (m/s per A), shape (..., n_freq); Stage Y: mean of the rails Y1, Y2."""
         if self._tilt() is None:  # the outputs coincide: skip the per-output copies
             w = check_grid(w_rad_s)
-            return self._chain_frd(w, self._friction_damping(w))
+            return self._chain_frd(w)
         return self.frd_outputs(w_rad_s).mean(axis=-2)
 
     # --- python-control interoperability ---------------------------------------

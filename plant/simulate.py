@@ -26,10 +26,14 @@ Methods (all exact for the linear parts):
   constant and chosen implicitly so that f lies in -F_c Sign(v_end), v_end being the velocity at
   the end of the step: the contact sticks (v_end = 0 exactly, |f| <= F_c) when the drive force
   cannot break it loose, and slides with |f| = F_c otherwise. This handles stick-slip without
-  the artificial velocity band of Karnopp's model and without chattering at v = 0; the only
-  approximation is that a stick/slip switch is resolved to one internal step (error O(h)).
+  the artificial velocity band of Karnopp's model and without chattering at v = 0. With one
+  contact, a slide that reaches zero inside a step keeps its friction until the crossing (located
+  by linear interpolation of the velocity) and the rest of the step starts from rest, so reversals
+  are second order in the step (a sticking or breakaway step already is); without this, each
+  reversal left a velocity error of 2 F_c theta h / m (0.25 % of the fundamental at 30 Hz).
   Stage Y with tilt coupling has one contact per rail (F_c / 2 each, as in ``Plant.frd``),
-  solved exactly by enumerating the stick/slide modes of the two rails.
+  solved exactly by enumerating the stick/slide modes of the two rails, its switches resolved to
+  one internal step (error O(h)).
 
 The fundamental of a recording equals ``Plant.frd`` exactly for linear plants, except with ``sampling``:
 the zero-order hold also makes images at k * rate_hz +- f, and those that sit at a multiple of
@@ -331,6 +335,7 @@ def _stepped_response(chain: _Chain, *, w_rad_s, amp_a, n_samples, sample_rate_h
     single = contacts is not None and contacts.n == 1
     if single:
         c1, g1, k1, F1 = chain.C_contact[0], G_f[:, 0], -contacts.inv_g, float(contacts.friction_n[0])
+        v_prev = z @ c1 + (0.0 if held else particular(Xc, np.array([eps]))[:, 0, 0])
     N = n_shift
     while N < n_last:
         stop = min(N + _CHUNK, n_last)
@@ -348,11 +353,22 @@ def _stepped_response(chain: _Chain, *, w_rad_s, amp_a, n_samples, sample_rate_h
             if held:
                 z += drive[i]
             if single:
-                v = z @ c1 + v_ext[i, :, 0]
-                v *= k1
-                np.maximum(v, -F1, out=v)
-                np.minimum(v, F1, out=v)
-                z += v[:, None] * g1
+                v_free = z @ c1 + v_ext[i, :, 0]
+                f = v_free * k1
+                np.maximum(f, -F1, out=f)
+                np.minimum(f, F1, out=f)
+                s_old = np.sign(v_prev)
+                v_old = v_free + F1 * s_old / k1          # the end velocity had the old friction acted throughout
+                crosses = v_old * s_old < 0
+                if crosses.any():
+                    # a slide reaching zero inside the step: the old friction acted until then (the fraction
+                    # theta, the velocity linear over the step), then the rest of the step from rest
+                    vp = v_prev[crosses]
+                    theta = vp / (vp - v_old[crosses])
+                    rest = np.clip((v_free[crosses] - vp) * k1, -F1, F1)
+                    f[crosses] = -F1 * s_old[crosses] * theta + (1 - theta) * rest
+                z += f[:, None] * g1
+                v_prev = v_free - f / k1
             elif friction:
                 z += contacts.forces(z @ CcT + v_ext[i]) @ GfT
             if N + 1 + i == next_rec:

@@ -1,5 +1,5 @@
 """Effects of plant.effects: frequency responses against closed forms, rational (Pade) models,
-the Coulomb describing function, and bad input that names the parameter.
+the Coulomb describing function and exact first harmonic, and bad input that names the parameter.
 
 Every reference is a closed form written out here or python-control 0.10.2.
 """
@@ -118,35 +118,75 @@ def test_describing_function_is_the_first_harmonic_of_the_exact_force():
         assert friction.describing_damping(v) * v == pytest.approx(first_harmonic, rel=1e-6)
 
 
+def _first_harmonic_by_integration(m, b, fc, force_n, w) -> complex:
+    """Velocity per force of the fundamental of m v' + b v + F_c sgn(v) = F sin(w t), integrated numerically
+    (scipy, event-located stops; sticking while |F sin(w t)| <= F_c) from rest until periodic, then
+    Fourier-integrated over the last period. Shares no code with plant.coulomb_response."""
+    from scipy.integrate import solve_ivp
+
+    period, rho = 2 * math.pi / w, fc / force_n
+    starts = (math.asin(rho), math.pi + math.asin(rho))         # w t where |F sin| rises through F_c
+    t_end = period * (3 + math.ceil(12 * (m / b) / period))
+    t, pieces = math.asin(rho) / w, []
+    while t < t_end:
+        sign = 1.0 if math.sin(w * t) > 0 else -1.0
+
+        def rhs(s, v, sign=sign):
+            return [(force_n * math.sin(w * s) - b * v[0] - fc * sign) / m]
+
+        def stop(s, v):
+            return v[0]
+        stop.terminal, stop.direction = True, -sign
+        sol = solve_ivp(rhs, (t, t_end), [0.0], events=stop,
+                        dense_output=True, rtol=1e-11, atol=1e-14 * force_n / b, method="DOP853")
+        pieces.append((t, sol.sol, sol.t[-1]))
+        if sol.status != 1:
+            break
+        t_stop = sol.t[-1]
+        if abs(force_n * math.sin(w * t_stop)) > fc:          # the force reverses the body at once
+            t = t_stop
+            continue
+        k = math.floor(w * t_stop / (2 * math.pi))
+        t = min(a + 2 * math.pi * j for j in (k, k + 1) for a in starts if a + 2 * math.pi * j > w * t_stop) / w
+    grid = np.linspace(t_end - period, t_end, 40001)[:-1]
+    v = np.zeros_like(grid)
+    for t0, sol, t1 in pieces:
+        inside = (grid >= t0) & (grid <= t1)
+        if inside.any():
+            v[inside] = sol(grid[inside])[0]
+    first = 2 * np.mean(v * np.exp(-1j * w * grid))
+    return first / (-1j * force_n)
+
+
 @pytest.mark.parametrize("make, m_e, b_e", [(stage_x, M, B), (stage_y, 2 * M * L_POS / L_M, 2 * B)],
                          ids=["x", "y"])
-def test_friction_response_solves_the_harmonic_balance(make, m_e, b_e):
-    # Eq. 3.15 / 3.16 as K_t / (m_e s + b_e). With the describing function the velocity amplitude V
-    # at current amplitude I solves |(b_e + j w m_e) V + 4 F / pi| = K_t I, a quadratic in V
-    amp_a, fc = 0.5, 2.0
-    g = (make(excitation_current_a=amp_a) * CoulombFriction(fc)).frd(W)
-    v = np.abs(g) * amp_a
-    assert np.allclose(np.abs((b_e + 1j * W * m_e) * v + 4 * fc / math.pi), KT * amp_a, rtol=1e-10)
-    # the quadratic's positive root, written out
-    c, f = 4 * fc / math.pi, KT * amp_a
-    a2 = b_e**2 + (W * m_e) ** 2
-    v_closed = (-b_e * c + np.sqrt((b_e * c) ** 2 - a2 * (c**2 - f**2))) / a2
-    assert np.allclose(v, v_closed, rtol=1e-10)
-    # the describing function is real: velocity in phase with the force on b_e + N(V) + j w m_e
-    assert np.allclose(g, KT / (b_e + c / v + 1j * W * m_e), rtol=1e-10)
+@pytest.mark.parametrize("fc", [1.0, 5.0, 8.5])
+def test_friction_response_is_the_exact_first_harmonic_with_stick_slip(make, m_e, b_e, fc):
+    # drive force K_t I = 10 N against 1 N (sliding throughout), 5 N and 8.5 N (stick-slip; above 4 F_c / pi
+    # = 7.85 N the describing function has no motion at all), at 1, 4 and 25 Hz
+    amp_a, w = 0.5, 2 * math.pi * np.array([1.0, 4.0, 25.0])
+    g = (make(excitation_current_a=amp_a) * CoulombFriction(fc)).frd(w)
+    ref = np.array([KT * _first_harmonic_by_integration(m_e, b_e, fc, KT * amp_a, wk) for wk in w])
+    assert np.allclose(g, ref, rtol=1e-6), np.abs(g / ref - 1)
+
+
+def test_friction_response_tends_to_the_linear_plant_and_to_rest():
+    w = W[::20]
+    slight = (stage_x(excitation_current_a=0.5) * CoulombFriction(1e-9)).frd(w)
+    assert np.allclose(slight, KT / (B + 1j * w * M), rtol=1e-8)          # Eq. 3.15
+    near = (stage_x(excitation_current_a=0.5) * CoulombFriction(KT * 0.5 * (1 - 1e-6))).frd(w)
+    assert np.all(np.abs(near) < 1e-3 * np.abs(KT / (B + 1j * w * M)))
 
 
 def test_friction_with_a_current_lag_sees_the_lagged_force():
-    # the current loop scales the force amplitude: |(b + j w M) V + 4 F / pi| = K_t I |G_c(jw)|
+    # the current loop scales the force amplitude to K_t I |G_c(jw)| and turns its phase
     amp_a, fc, f_c = 0.5, 2.0, 40.0
-    p = stage_x(excitation_current_a=amp_a) * CurrentLoop(f_c) * CoulombFriction(fc)
-    v = np.abs(p.frd(W)) * amp_a
-    lag = np.abs(CurrentLoop(f_c).frd(W))
-    moving = v > 0
-    assert np.allclose(np.abs((B + 1j * W * M) * v + 4 * fc / math.pi)[moving], (KT * amp_a * lag)[moving],
-                       rtol=1e-10)
-    # where the lagged force no longer exceeds 4 F / pi the describing function has no moving solution
-    assert np.array_equal(moving, KT * amp_a * lag > 4 * fc / math.pi)
+    g = (stage_x(excitation_current_a=amp_a) * CurrentLoop(f_c) * CoulombFriction(fc)).frd(W)
+    lag = CurrentLoop(f_c).frd(W)
+    alone = np.array([(stage_x(excitation_current_a=amp_a * abs(gk)) * CoulombFriction(fc)).frd(np.array([wk]))[0]
+                      if KT * amp_a * abs(gk) > fc else 0.0 for wk, gk in zip(W[::25], lag[::25])])
+    assert np.allclose(g[::25], lag[::25] * alone, rtol=1e-10, atol=0)
+    assert np.array_equal(g != 0, KT * amp_a * np.abs(lag) > fc)
 
 
 def test_friction_larger_than_the_drive_holds_the_stage():

@@ -176,13 +176,15 @@ def crb(n_samples, amp_i, sigma_v, sigma_i=0.0, g=G1):
 
 
 def realisations(n, f_hz, *, seconds, amp_i, sigma_v, sigma_i=0.0, seed=0, fs=FS):
+    """Estimates of R = ``n`` noisy blocks: G, its reported variance, the current amplitude and its variance."""
     rng = np.random.default_rng(seed)
-    g, v = np.empty(n, complex), np.empty(n)
+    g, v, a, va = np.empty(n, complex), np.empty(n), np.empty(n), np.empty(n)
     for k in range(n):
         m = estimate_response(rec(make_block(f_hz, seconds=seconds, fs=fs, amp_i=amp_i, sigma_v=sigma_v,
                                              sigma_i=sigma_i, rng=rng)))
         g[k], v[k] = m.response[0, 0], m.variance[0, 0]
-    return g, v
+        a[k], va[k] = m.current_amplitude_a[0], m.current_amplitude_variance[0]
+    return g, v, a, va
 
 
 # Statistical reasoning for the bands (R realisations):
@@ -200,12 +202,19 @@ def test_variance_within_crb_and_calibrated(sigma_i_rel):
     f_hz, seconds, amp_i = 20.0, 1.0, 0.5
     sigma_v = 0.05 * abs(G1) * amp_i                   # SNR 26 dB per sample on the velocity
     sigma_i = sigma_i_rel * amp_i
-    g, v = realisations(200, f_hz, seconds=seconds, amp_i=amp_i, sigma_v=sigma_v, sigma_i=sigma_i, seed=42)
+    g, v, a, va = realisations(200, f_hz, seconds=seconds, amp_i=amp_i, sigma_v=sigma_v, sigma_i=sigma_i,
+                               seed=42)
     scatter = np.mean(np.abs(g - G1) ** 2)
     ratio = scatter / crb(seconds * FS, amp_i, sigma_v, sigma_i)     # N: every sample of the block
     assert 0.75 < ratio < 1.5
     assert 0.7 < np.mean(v) / scatter < 1.4
     assert abs(np.mean(g) - G1) < 4 * np.sqrt(scatter / g.size)      # unbiased
+    if sigma_i:
+        # the current amplitude: one real (radial) quadrature, CRB 2 sigma_i^2 / N; its scatter over R = 200
+        # has relative sd sqrt(2 / R) = 10 %, so [0.65, 1.5] is about -4 / +4 sd in log terms
+        amp_scatter = np.mean((a - amp_i) ** 2)
+        assert 0.65 < amp_scatter / (2 * sigma_i**2 / (seconds * FS)) < 1.5
+        assert 0.65 < np.mean(va) / amp_scatter < 1.5
 
 
 @pytest.mark.slow
@@ -216,7 +225,7 @@ def test_variance_within_crb_and_calibrated_slow(f_hz, seconds, fs):
     samples per period, 3 periods only, and 4.2 samples per period."""
     amp_i = 0.5
     sigma_v = 0.05 * abs(G1) * amp_i
-    g, v = realisations(400, f_hz, seconds=seconds, amp_i=amp_i, sigma_v=sigma_v, seed=7, fs=fs)
+    g, v, _, _ = realisations(400, f_hz, seconds=seconds, amp_i=amp_i, sigma_v=sigma_v, seed=7, fs=fs)
     scatter = np.mean(np.abs(g - G1) ** 2)
     assert 0.8 < scatter / crb(seconds * fs, amp_i, sigma_v) < 1.5
     assert 0.75 < np.mean(v) / scatter < 1.33

@@ -310,6 +310,7 @@ def test_stiffest_dynamics_off_the_circle_still_get_an_exact_design():
     assert res.m_v <= 0.43 and res.b_v <= 1.45
 
 
+@pytest.mark.slow
 def test_admittance_report_section_with_infinite_margins():
     # a tight sensor-current limit needs a virtual mass so large that the interaction loop never
     # crosses 0 dB: the margins are infinite (None in JSON) and the report says so

@@ -1,13 +1,15 @@
 """Effects of plant.effects: frequency responses against closed forms, rational (Pade) models,
 the Coulomb describing function and exact first harmonic, and bad input that names the parameter.
 
-Every reference is a closed form written out here or python-control 0.10.2.
+Every reference is a closed form written out here, python-control 0.10.2, or (friction with
+stick-slip) the SciPy event-located integration of ``independent_stick_slip``.
 """
 
 import math
 
 import numpy as np
 import pytest
+from independent_stick_slip import velocity
 
 from plant import (
     CoulombFriction,
@@ -119,43 +121,15 @@ def test_describing_function_is_the_first_harmonic_of_the_exact_force():
 
 
 def _first_harmonic_by_integration(m, b, fc, force_n, w) -> complex:
-    """Velocity per force of the fundamental of m v' + b v + F_c sgn(v) = F sin(w t), integrated numerically
-    (scipy, event-located stops; sticking while |F sin(w t)| <= F_c) from rest until periodic, then
-    Fourier-integrated over the last period. Shares no code with plant.coulomb_response."""
-    from scipy.integrate import solve_ivp
-
-    period, rho = 2 * math.pi / w, fc / force_n
-    starts = (math.asin(rho), math.pi + math.asin(rho))         # w t where |F sin| rises through F_c
+    """Velocity per force of the fundamental of m v' + b v + F_c sgn(v) = F sin(w t) from rest, integrated
+    by ``independent_stick_slip`` (SciPy, event-located stops) until periodic, then Fourier-integrated over
+    the last period. Shares no code with plant.coulomb_response."""
+    period = 2 * math.pi / w
     t_end = period * (3 + math.ceil(12 * (m / b) / period))
-    t, pieces = math.asin(rho) / w, []
-    while t < t_end:
-        sign = 1.0 if math.sin(w * t) > 0 else -1.0
-
-        def rhs(s, v, sign=sign):
-            return [(force_n * math.sin(w * s) - b * v[0] - fc * sign) / m]
-
-        def stop(s, v):
-            return v[0]
-        stop.terminal, stop.direction = True, -sign
-        sol = solve_ivp(rhs, (t, t_end), [0.0], events=stop,
-                        dense_output=True, rtol=1e-11, atol=1e-14 * force_n / b, method="DOP853")
-        pieces.append((t, sol.sol, sol.t[-1]))
-        if sol.status != 1:
-            break
-        t_stop = sol.t[-1]
-        if abs(force_n * math.sin(w * t_stop)) > fc:          # the force reverses the body at once
-            t = t_stop
-            continue
-        k = math.floor(w * t_stop / (2 * math.pi))
-        t = min(a + 2 * math.pi * j for j in (k, k + 1) for a in starts if a + 2 * math.pi * j > w * t_stop) / w
     grid = np.linspace(t_end - period, t_end, 40001)[:-1]
-    v = np.zeros_like(grid)
-    for t0, sol, t1 in pieces:
-        inside = (grid >= t0) & (grid <= t1)
-        if inside.any():
-            v[inside] = sol(grid[inside])[0]
-    first = 2 * np.mean(v * np.exp(-1j * w * grid))
-    return first / (-1j * force_n)
+    v = velocity(np.r_[0.0, grid], mass_kg=m, damping_n_s_per_m=b, friction_n=fc, force_n=force_n,
+                 f_hz=w / (2 * math.pi))[1:]
+    return 2 * np.mean(v * np.exp(-1j * w * grid)) / (-1j * force_n)
 
 
 @pytest.mark.parametrize("make, m_e, b_e", [(stage_x, M, B), (stage_y, 2 * M * L_POS / L_M, 2 * B)],

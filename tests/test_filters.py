@@ -96,6 +96,7 @@ def test_fixed_filters_join_the_loop_and_designed_ones_start_in_their_range():
     assert p.plant.plant().effect("notch_filter").frequency_hz == pytest.approx(60.0)   # sqrt(20 x 180)
 
 
+@pytest.mark.slow
 def test_filters_designed_with_the_gains_beat_pi_alone_and_hold_independently(tmp_path):
     # the payload-sensed mode at 60 Hz limits PI alone; the synthesis may use a notch and a low-pass
     with_filters = gantry("synth", RESONANT, "--json")

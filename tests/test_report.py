@@ -67,6 +67,7 @@ def test_report_bad_spec_exits_2(tmp_path):
     assert not (tmp_path / "r.html").exists()
 
 
+@pytest.mark.slow
 def test_admittance_report_has_its_section_beside_the_nominal_design(tmp_path):
     spec = ROOT / "specs" / "stage_x_admittance.toml"
     out = tmp_path / "adm.html"

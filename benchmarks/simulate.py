@@ -16,7 +16,6 @@ from plant import (
     CoulombFriction,
     CurrentLoop,
     Delay,
-    Resonance,
     Sampling,
     TiltCoupling,
     stage_x,
@@ -28,8 +27,7 @@ from plant.simulate import simulate_stepped_sine
 F_HZ = np.geomspace(1.0, 75.0, 50)
 CASES = {
     "X delay+current_loop (closed form)": (stage_x(mass_kg=40.0) * Delay(0.001) * CurrentLoop(200.0), 0.5),
-    "Y tilt off-centre+resonance (closed form)": (
-        stage_y(load_position_m=0.25) * TiltCoupling() * Resonance(), 1.75),
+    "Y tilt off-centre (closed form)": (stage_y(load_position_m=0.25) * TiltCoupling(), 1.75),
     "X sampling 10 kHz+delay (stepping)": (stage_x() * Sampling(10000.0) * Delay(0.001), 0.5),
     "X Coulomb 2 N (stepping, 20 kHz)": (stage_x(excitation_current_a=0.5) * CoulombFriction(2.0), 0.5),
     "Y tilt+Coulomb 5 N (two contacts)": (

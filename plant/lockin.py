@@ -4,7 +4,9 @@ Per block: drop the start-up transient (``settling_time_s``), fit the known-freq
 sinusoid with a constant offset and the 2nd and 3rd harmonics by least squares over every
 sample after settling -- whole and partial periods alike: the basis at the known frequency
 needs no whole number of periods, and the fit is exact on a clean sinusoid whatever the
-window -- to the current and to every velocity output, and take G = V / I.
+window -- to the current and to every velocity output, and take G = V / I. A transient still
+significant after settling (a block too short to see it decay) is fitted with the sinusoid as an
+exponential decay (``_with_transient``), its time constant's uncertainty in the variance.
 
 Uncertainty: the fitted window is cut into ``subblocks`` sub-blocks of whole half periods
 (whole periods below ``MIN_SEGMENT_SAMPLES`` samples per period) counted back from the end of
@@ -108,11 +110,13 @@ def _harmonics(f_hz: float, fs: float) -> tuple[int, ...]:
 def settling_time_s(block: Block) -> float:
     """Start-up transient (s) estimated from the data; see ``_settling_time``."""
     fs = block.sample_rate_hz
-    return _settling_time(block, fs, _basis(block.time_s, block.f_hz, _harmonics(block.f_hz, fs)))
+    return _settling_time(block, fs, _basis(block.time_s, block.f_hz, _harmonics(block.f_hz, fs)))[0]
 
 
-def _settling_time(block: Block, fs: float, basis: np.ndarray) -> float:
-    """Start-up transient (s) estimated from the data (``basis``: ``_basis`` of the whole block).
+def _settling_time(block: Block, fs: float, basis: np.ndarray) -> tuple[float, bool]:
+    """Start-up transient (s) estimated from the data (``basis``: ``_basis`` of the whole block), and whether
+    some of it may be left: the block was too short to search (or had a gap), the decay never reached its
+    cut, or the cut was capped to keep one period.
 
     The block's offset and harmonics (fitted over its second half) are removed; segments of
     whole half periods with at least ``MIN_SEGMENT_SAMPLES`` samples each give fundamental
@@ -135,11 +139,11 @@ def _settling_time(block: Block, fs: float, basis: np.ndarray) -> float:
     cap_s = max(t[-1] + 1.0 / fs - MIN_PERIODS / f, 0.0)
     floor_s = min(max(seg, MIN_SETTLE_S), cap_s)
     if n_seg < 6:
-        return floor_s
+        return floor_s, True
     edges = np.searchsorted(t, np.arange(n_seg + 1) * seg - 0.5 / fs)
     n_j = np.diff(edges)
     if np.any(n_j < 3):                       # a gap in the samples: no estimate from the data
-        return floor_s
+        return floor_s, True
     n, half = edges[-1], edges[n_seg // 2]
     sig = np.vstack([block.current_a, block.velocity_m_per_s])[:, :n]
     B = basis[half:n]                         # fit over the second half: whole half periods
@@ -150,7 +154,7 @@ def _settling_time(block: Block, fs: float, basis: np.ndarray) -> float:
     a = _segment_fundamentals(basis[:n, 1:3], sig - (basis[:n] @ coef).T, edges[:-1])
     h = n_seg // 2
     if not abs(a[h:, 0].sum()) > 1e-9 * np.sqrt(np.sum(sig[0, half:] ** 2)):
-        return floor_s                        # no current at the block frequency: nothing to settle against
+        return floor_s, False                 # no current at the block frequency: nothing to settle against
     ref = a[h:, 1:].sum(axis=0) / a[h:, 0].sum()            # steady-state G of the second half
     current = np.abs(a[h:, 0].mean())
     # deviation of each segment from the steady relation v = ref i, in units of G: linear in the
@@ -164,6 +168,7 @@ def _settling_time(block: Block, fs: float, basis: np.ndarray) -> float:
     cut = int(outside[-1]) + 1 if outside.size else 0
     lead = np.flatnonzero(d > 3)
     lead = lead[lead == np.arange(lead.size)]      # the leading run of large deviations ...
+    left = False
     if lead.size:
         lead = np.arange(lead.size + 1)            # ... and the next segment, at least at the noise level
         slope, intercept = np.polyfit(lead, np.log(np.maximum(d[lead], 1.0)), 1)
@@ -173,7 +178,8 @@ def _settling_time(block: Block, fs: float, basis: np.ndarray) -> float:
             bias = np.exp(intercept + slope * j) / (1 - np.exp(slope)) / left
             ok = np.flatnonzero(bias < 0.1 / np.sqrt(left))
             cut = int(j[ok[0]]) if ok.size else max(cut, n_seg // 2)
-    return min(max(cut * seg, floor_s), cap_s)
+            left = not ok.size
+    return min(max(cut * seg, floor_s), cap_s), left or max(cut * seg, floor_s) > cap_s
 
 
 def _segment_s(f_hz: float, fs: float) -> float:
@@ -305,6 +311,8 @@ class _BlockEstimate:
     subblocks: int
     #: real degrees of freedom of ``variance``: 2 (k - 1) from the sub-blocks, or the residual's n - p
     variance_dof: float
+    #: time constant (s) of the start-up transient left after settling and fitted with the sinusoid, or None
+    transient_s: float | None = None
 
 
 @dataclass(frozen=True)
@@ -373,13 +381,13 @@ def _block_estimate(block: Block, settle_s: float | None, subblocks: int) -> _Bl
         return _too_short(label, whole, 0.0)
     harmonics = _harmonics(f, fs)
     basis = _basis(block.time_s, f, harmonics)
-    settle = _settling_time(block, fs, basis) if settle_s is None else settle_s
+    settle, left = _settling_time(block, fs, basis) if settle_s is None else (settle_s, False)
     keep, periods = _settled(block, settle, fs)
     if periods < MIN_PERIODS * (1 - 1e-9):
         return _too_short(label, periods, settle)
     t = block.time_s[keep]
     sig = np.vstack([block.current_a[keep], block.velocity_m_per_s[:, keep]]).T   # (n_samples, n_signals)
-    B = basis[keep]
+    B, transient_s = _with_transient(t, basis[keep], sig) if left else (basis[keep], None)
     starts = _subblock_starts(t, f, fs, int(np.floor(2 * periods + 1e-9)), subblocks)
     ends = np.r_[starts[1:], t.size]
     if starts.size < 2 or np.min(t.size - (ends - starts)) < 2 * B.shape[1]:
@@ -389,7 +397,8 @@ def _block_estimate(block: Block, settle_s: float | None, subblocks: int) -> _Bl
     R_j = np.array([B[a:b].T @ sig[a:b] for a, b in zip(starts, ends)])
     A = A_j.sum(axis=0)
     coef = np.linalg.solve(A, R_j.sum(axis=0))
-    amps = (coef[1::2] - 1j * coef[2::2]).T                    # (n_signals, n_harmonics)
+    n_h = len(harmonics)
+    amps = (coef[1:2 * n_h:2] - 1j * coef[2:2 * n_h + 1:2]).T    # (n_signals, n_harmonics)
     if abs(amps[0, 0]) <= 1e-9 * np.sqrt(np.mean(sig[:, 0] ** 2)):
         return _Excluded(f"{label}: the current has no component at {f:g} Hz: excluded", not_sinusoid=True)
     minus = np.linalg.solve(A - A_j, R_j.sum(axis=0) - R_j)   # (k, n_columns, n_signals)
@@ -418,7 +427,58 @@ def _block_estimate(block: Block, settle_s: float | None, subblocks: int) -> _Bl
         var_i = gain * float(s2[0])
         dof = float(n - p)
     return _BlockEstimate(g, var, float(abs(amps[0, 0])), var_i / 2, snr_db[1:], distortion, fraction[1:], detected,
-                          current, float(settle), periods, k, dof)
+                          current, float(settle), periods, k, dof, transient_s)
+
+
+def _with_transient(t: np.ndarray, B: np.ndarray, sig: np.ndarray) -> tuple[np.ndarray, float | None]:
+    """The basis ``B`` of the settled samples, with the columns e^{-(t - t_0) / tau} and its derivative in
+    log tau when a start-up transient is still significant in the outputs, and tau (s); else ``B`` and None.
+
+    Used where the settling search may have left part of the transient (``_settling_time``): for a
+    rigid body it is one exponential of time constant m / b. tau is searched on a log grid from a
+    tenth of the window (faster decays are gone by its end; the jackknife still sees the column in
+    every sub-block) to three times the window and refined (``scipy.optimize.minimize_scalar``), the
+    outputs sharing it; the exponential is
+    kept when the drop of chi^2 it brings (each output's residual variance from the fit with it)
+    exceeds the upper ``TEST_P`` quantile of chi^2 with one amplitude per output plus tau. The derivative
+    column is the fit linearised in log tau at its optimum (a Gauss-Newton step of zero): it leaves the
+    estimate as it is and puts the uncertainty of tau into the variance.
+    """
+    from scipy.optimize import minimize_scalar
+
+    n, p = B.shape
+    n_out = sig.shape[1] - 1
+    if n <= p + 2 * n_out + 2:
+        return B, None
+    Q, _ = np.linalg.qr(B)
+    out = sig[:, 1:]
+    r = out - Q @ (Q.T @ out)
+    ss = np.sum(r**2, axis=0)
+    if not np.all(ss > 0):
+        return B, None
+    dt = (t[-1] - t[0]) / (n - 1)
+
+    def drops(log_tau):
+        """Drop of each output's residual sum of squares with the exponential of each tau, (n_out, n_tau)."""
+        e = np.exp(-(t - t[0])[:, None] / np.exp(np.atleast_1d(log_tau)))
+        pe = e - Q @ (Q.T @ e)
+        return (r.T @ pe) ** 2 / np.maximum(np.sum(pe**2, axis=0), 1e-300)
+
+    def cost(log_tau):
+        return -float(np.sum(drops(log_tau)[:, 0] / ss))
+
+    window = t[-1] - t[0] + dt
+    grid = np.linspace(math.log(window / 10), math.log(3 * window), 32)
+    k = int(np.argmax(np.sum(drops(grid) / ss[:, None], axis=0)))
+    best = minimize_scalar(cost, bounds=(grid[max(k - 1, 0)], grid[min(k + 1, grid.size - 1)]), method="bounded",
+                           options={"xatol": 1e-4})
+    drop = drops(best.x)[:, 0]
+    s2 = (ss - drop) / (n - p - 1 - 1)
+    if not np.sum(drop / s2) > scipy.stats.chi2.isf(TEST_P, n_out + 1):
+        return B, None
+    tau = float(np.exp(best.x))
+    decay = np.exp(-(t - t[0]) / tau)
+    return np.column_stack([B, decay, (t - t[0]) / tau * decay]), tau
 
 
 def _powers(sig: np.ndarray, B: np.ndarray, coef: np.ndarray, amps: np.ndarray):
@@ -558,6 +618,9 @@ def _notes(recording: Recording, j: int, result) -> list[str]:
         only = "only " if result.periods < 2 else ""
         notes.append(f"{label}: {only}{result.periods:.2f} periods after settling ({result.settle_s:.3g} s): used, "
                      f"{source}")
+    if isinstance(result, _BlockEstimate) and result.transient_s is not None:
+        notes.append(f"{label}: a start-up transient is left after settling ({result.settle_s:.3g} s): fitted with "
+                     f"the sinusoid as a decay of time constant {result.transient_s:.3g} s")
     if isinstance(result, _BlockEstimate):
         for k in np.flatnonzero(~result.detected):
             notes.append(f"{label}, output {recording.output_names[k]!r}: the fundamental is not detected above the "

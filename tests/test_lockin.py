@@ -123,6 +123,29 @@ def test_start_up_transient_is_cut_where_it_no_longer_biases():
     assert abs(estimate_response(rec(make_block(2.0, **kw)), settle_s=0.0).response[0, 0] - G1) > 10 * sd
     # ... and the cut does not throw the block away: the bias falls below 0.1 sd at t0 ~ 7 tau (closed form)
     assert settle < 10 * tau
+    assert not any("decay" in note for note in noisy.notes)      # it saw the decay end: nothing left to fit
+
+
+def test_a_transient_too_slow_for_a_short_block_is_fitted_with_its_uncertainty():
+    """1 s blocks of a first-order response from rest (time constant 0.25 s, as a 40 kg stage on 160 N s/m):
+    the settling search cannot see the decay end, so it is fitted, and tau's own uncertainty enters the
+    variance: over 200 noisy blocks the estimate is unbiased and its reported variance calibrated."""
+    f_hz, seconds, amp_i, tau = 3.0, 1.0, 0.5, 0.25
+    t = np.arange(int(seconds * FS)) / FS
+    w = 2 * np.pi * f_hz
+    g = 1 / (160.0 * (1 + 1j * w * tau))                       # K / (1 + j w tau), velocity per current
+    steady = np.real(g * amp_i * np.exp(1j * w * t))
+    v_clean = steady - np.real(g * amp_i) * np.exp(-t / tau)       # from rest: v(0) = 0
+    sigma = 0.01 * abs(g) * amp_i
+    rng = np.random.default_rng(5)
+    est = [estimate_response(rec(Block(f_hz, t, amp_i * np.cos(w * t), (v_clean + rng.normal(0, sigma, t.size))[None])))
+           for _ in range(200)]
+    err = np.array([e.response[0, 0] for e in est]) - g
+    var = np.array([e.variance[0, 0] for e in est])
+    scatter = np.mean(np.abs(err) ** 2)
+    assert abs(np.mean(err)) < 4 * np.sqrt(scatter / err.size)        # unbiased
+    assert 0.7 < np.mean(var) / scatter < 1.4                           # calibrated (bands as below)
+    assert all(any("decay of time constant" in note for note in e.notes) for e in est)
 
 
 @pytest.mark.parametrize("snr_db, current_noise", [(20.0, False), (-10.0, False), (0.0, True), (-10.0, True)])

@@ -473,7 +473,7 @@ def _with_transient(t: np.ndarray, B: np.ndarray, sig: np.ndarray) -> tuple[np.n
     best = minimize_scalar(cost, bounds=(grid[max(k - 1, 0)], grid[min(k + 1, grid.size - 1)]), method="bounded",
                            options={"xatol": 1e-4})
     drop = drops(best.x)[:, 0]
-    s2 = (ss - drop) / (n - p - 1 - 1)
+    s2 = np.maximum(ss - drop, 1e-15 * ss) / (n - p - 2)
     if not np.sum(drop / s2) > scipy.stats.chi2.isf(TEST_P, n_out + 1):
         return B, None
     tau = float(np.exp(best.x))

@@ -400,6 +400,8 @@ def _residual_peak(res: ResidualSummary) -> str:
     """Where the normalised residual is largest, in words ("peaks near 59 Hz, where ")."""
     r = np.sum(np.abs(res.normalised) ** 2, axis=0)
     k = int(np.argmax(r))
+    if np.isnan(res.magnitude_error_db[:, k]).any():
+        return f"is largest near {res.f_hz[k]:.3g} Hz, where the model holds the stage still by its friction, which "
     return f"is largest near {res.f_hz[k]:.3g} Hz ({res.magnitude_error_db[:, k].mean():+.2f} dB, " \
            f"{res.phase_error_deg[:, k].mean():+.1f} deg), which "
 

@@ -242,17 +242,23 @@ class Plant:
 
     def _friction_damping(self, w):
         """Describing-function damping of the friction at the excitation amplitude (N*s/m): the model of
-        friction in a chain of bodies or the tilting beam."""
+        friction in a chain of bodies or the tilting beam. Harmonic balance at the rail, whose velocity
+        amplitude V solves |Z V + 4 F_c / pi| = F with Z the rail's driving-point impedance (the chain's, or
+        the rigid body's m_e s + b_e under the tilting beam) and F the motor force amplitude."""
         friction = self._friction()
         if friction is None:
             return 0.0
-        m_e, b_e = self._effective_mass_damping()
+        if self._tilt() is None:
+            z = 1.0 / dataclasses.replace(self.mechanics(), sensed=0).velocity_per_force(1j * w)
+        else:
+            m_e, b_e = self._effective_mass_damping()
+            z = b_e + 1j * w * m_e
         c = 4 * np.asarray(friction.force_n, float) / np.pi
         force_amp = self._force_amplitude_n(w)
-        # |(b_e + j w m_e) V + c| = F  ->  (b_e^2 + (w m_e)^2) V^2 + 2 b_e c V + c^2 - F^2 = 0
-        a2 = b_e**2 + (w * m_e) ** 2
-        disc = (b_e * c) ** 2 - a2 * (c**2 - force_amp**2)
-        v_amp = (-b_e * c + np.sqrt(np.maximum(disc, 0.0))) / a2
+        # |Z V + c| = F  ->  |Z|^2 V^2 + 2 Re(Z) c V + c^2 - F^2 = 0, its positive root
+        a2 = np.abs(z) ** 2
+        disc = (z.real * c) ** 2 - a2 * (c**2 - force_amp**2)
+        v_amp = (-z.real * c + np.sqrt(np.maximum(disc, 0.0))) / a2
         return friction.describing_damping(v_amp)
 
     def _force_amplitude_n(self, w):

@@ -54,9 +54,11 @@ def residual_summary(f_hz, measured, variance, model, *, n_bands: int = 6) -> Re
     var = np.atleast_2d(variance)
     sigma = np.sqrt(var / 2)
     norm = (G - M) / sigma
-    ratio = G / M
+    # where the model holds the stage still (friction it cannot overcome) there is no ratio: NaN, left out
+    # of the band means below
+    ratio = np.divide(G, M, out=np.full(np.broadcast_shapes(G.shape, M.shape), np.nan + 0j), where=M != 0)
     mag_db = 20 * np.log10(np.abs(ratio))
-    ph_deg = np.degrees(np.angle(ratio))
+    ph_deg = np.where(np.isnan(ratio), np.nan, np.degrees(np.angle(ratio)))
     # 1-sigma of log-magnitude (dB) and phase (deg) from the complex noise: sigma/|G| rad
     rel = sigma / np.abs(G)
     mag_noise = 20 / np.log(10) * rel
@@ -73,12 +75,15 @@ def residual_summary(f_hz, measured, variance, model, *, n_bands: int = 6) -> Re
         r = norm[:, sel]
         chi2 = float(np.sum(r.real**2 + r.imag**2))
         dof = 2 * r.size
-        w_m = 1 / mag_noise[:, sel] ** 2
-        w_p = 1 / ph_noise[:, sel] ** 2
+        defined = np.isfinite(mag_db[:, sel])
+        w_m = np.where(defined, 1 / mag_noise[:, sel] ** 2, 0.0)
+        w_p = np.where(defined, 1 / ph_noise[:, sel] ** 2, 0.0)
+        if not defined.any():
+            w_m = w_p = np.full(defined.shape, np.nan)
         bands.append(Band(
             float(f[sel].min()), float(f[sel].max()), int(sel.sum()), chi2 / dof,
-            float(np.sum(w_m * mag_db[:, sel]) / np.sum(w_m)), float(2 / np.sqrt(np.sum(w_m))),
-            float(np.sum(w_p * ph_deg[:, sel]) / np.sum(w_p)), float(2 / np.sqrt(np.sum(w_p))),
+            float(np.sum(w_m * np.nan_to_num(mag_db[:, sel])) / np.sum(w_m)), float(2 / np.sqrt(np.sum(w_m))),
+            float(np.sum(w_p * np.nan_to_num(ph_deg[:, sel])) / np.sum(w_p)), float(2 / np.sqrt(np.sum(w_p))),
         ))
     failing = tuple(b for b in bands if b.reduced_chi2 > FAILING_REDUCED_CHI2)
     return ResidualSummary(f, norm, mag_db, ph_deg, tuple(bands), failing, describe(tuple(bands), failing))

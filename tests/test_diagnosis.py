@@ -177,3 +177,18 @@ def test_nan_harmonics_never_switch_off_nonlinearity_detection():
     assert nl.detected and nl.max_third_harmonic_f_hz == pytest.approx(f[2])
     none = detect_nonlinearity(replace(data, harmonic_distortion=np.full_like(hd, np.nan)))
     assert not none.detected and "no harmonic was measurable" in none.description
+
+
+def test_a_model_that_holds_the_stage_still_is_compared_without_a_ratio():
+    # a friction model the drive cannot overcome at the top frequencies predicts no motion there: G / M has no
+    # value, the band means leave those points out, and the chi^2 still counts them (no warning: they are errors)
+    from plant.residuals import residual_summary
+
+    g = stage_x().frd(2 * np.pi * F_HZ)[None]
+    model = g.copy()
+    model[0, -4:] = 0.0
+    res = residual_summary(F_HZ, g, (0.01 * np.abs(g)) ** 2, model)
+    assert np.isnan(res.magnitude_error_db[0, -4:]).all() and np.isnan(res.phase_error_deg[0, -4:]).all()
+    assert np.allclose(res.magnitude_error_db[0, :-4], 0.0) and np.allclose(res.phase_error_deg[0, :-4], 0.0)
+    assert all(np.isfinite(b.magnitude_error_db) and np.isfinite(b.phase_error_deg) for b in res.bands)
+    assert res.bands[-1].reduced_chi2 > 1e3 and res.failing == (res.bands[-1],)

@@ -163,6 +163,23 @@ def test_friction_with_a_current_lag_sees_the_lagged_force():
     assert np.array_equal(g != 0, KT * amp_a * np.abs(lag) > fc)
 
 
+def test_friction_on_a_chain_balances_the_rail_impedance():
+    # describing function on a two-mass chain (a motor-sensed mode): the rail's velocity amplitude V solves
+    # |Z V + 4 F_c / pi| = K_t I with the chain's driving-point impedance, written out here from the split
+    # masses, spring and coupling damping: Z = m1 s + b + (k/s + c) m2 s / (k/s + c + m2 s)
+    amp_a, fc = 0.5, 2.0
+    p = stage_x(excitation_current_a=amp_a) * Resonance(45.0, 35.0, 0.05) * CoulombFriction(fc)
+    chain = p.mechanics()
+    (m1, m2), (k,), (c,) = chain.masses_kg, chain.stiffness_n_per_m, chain.damping_n_s_per_m
+    s = 1j * W
+    coupling = k / s + c
+    z = m1 * s + B + coupling * m2 * s / (coupling + m2 * s)
+    v = np.abs(p.frd(W)) * amp_a                       # motor-sensed: the rail velocity amplitude
+    moving = v > 0
+    assert moving.sum() > 0.9 * W.size
+    assert np.allclose(np.abs(z * v + 4 * fc / math.pi)[moving], KT * amp_a, rtol=1e-9)
+
+
 def test_friction_larger_than_the_drive_holds_the_stage():
     # drive K_t I = 2 N, friction 5 N: no moving solution at any frequency (V = 0)
     assert np.all((stage_x(excitation_current_a=0.1) * CoulombFriction(5.0)).frd(W) == 0)

@@ -36,7 +36,8 @@ def bode(w_rad_s, responses: Sequence[np.ndarray], labels: Sequence[str], *, axe
     for k, (resp, label) in enumerate(zip(responses, labels)):
         style = styles[k] if styles else "-"
         mag = np.abs(resp)
-        line, = axes[0].semilogx(f, 20 * np.log10(mag), style, label=label)
+        # a response of zero (a model that holds the stage still by its friction) leaves a gap
+        line, = axes[0].semilogx(f, 20 * np.log10(np.where(mag > 0, mag, np.nan)), style, label=label)
         if bands and bands[k] is not None:
             lo = np.maximum(mag - bands[k], mag * 1e-3)
             axes[0].fill_between(f, 20 * np.log10(lo), 20 * np.log10(mag + bands[k]), color=line.get_color(),

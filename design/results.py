@@ -56,6 +56,8 @@ class FitOutcome:
 
     result: FitResult | TimeFitResult
     rational: RationalFit | None = None
+    #: the frequency response a frequency-domain fit was made on, with the estimator's data checks (``notes``)
+    measured: MeasuredResponse | None = None
 
 
 @dataclass(frozen=True)

@@ -329,7 +329,7 @@ def fit_recording(path: str | Path, *, stage: str, effects: tuple[str, ...] = ()
     plant = Plant(stage, effects=fx, excitation_current_a=float(measured.current_amplitude_a.mean()),
                   **geometry).with_values(values or {})
     result = fit_plant(plant, measured, free=free)
-    return FitOutcome(result, _rational(measured, rational, rational_weighting) if rational else None)
+    return FitOutcome(result, _rational(measured, rational, rational_weighting) if rational else None, measured)
 
 
 def _rational(measured: MeasuredResponse, rational: str, weighting: str) -> RationalFit:

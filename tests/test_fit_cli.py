@@ -53,3 +53,4 @@ def test_short_blocks_of_an_independent_recording_fit_as_long_ones_do(tmp_path):
         p = res["parameters"][name]
         assert abs(p["value"] - true) <= 4 * p["stderr"], (name, p)
     assert not [f for f in res["flags"] if "does not explain" in f], res["flags"]
+    assert any("a start-up transient is left after settling" in note for note in res["notes"]), res["notes"]

@@ -24,8 +24,12 @@ TABLE_ROWS = 15
 
 
 def print_fit(console: Console, outcome: FitOutcome) -> None:
-    """The text of ``gantry fit``: the fit report, and the rational fit when there is one."""
+    """The text of ``gantry fit``: the fit report, the estimator's data checks, and the rational fit when
+    there is one."""
     console.print(outcome.result.report(), markup=False, highlight=False, soft_wrap=True)
+    if outcome.measured is not None and outcome.measured.notes:
+        console.print("[[Data]]\n" + "\n".join(f"    {n}" for n in outcome.measured.notes), markup=False,
+                      highlight=False, soft_wrap=True)
     rat = outcome.rational
     if rat is not None:
         console.print(f"\nRational fit ({rat.n_poles} poles, {rat.n_zeros} zeros, {rat.weighting} weighting): "

@@ -68,7 +68,10 @@ def fit_outcome_to_dict(outcome: FitOutcome) -> dict:
     """``gantry fit --json``: a frequency-domain fit (with its rational fit) or a time-domain one."""
     if isinstance(outcome.result, TimeFitResult):
         return time_fit_to_dict(outcome.result)
-    return fit_to_dict(outcome.result, outcome.rational)
+    out = fit_to_dict(outcome.result, outcome.rational)
+    if outcome.measured is not None:
+        out["notes"] = list(outcome.measured.notes)
+    return out
 
 
 def diagnosis_outcome_to_dict(outcome: DiagnosisOutcome) -> dict:

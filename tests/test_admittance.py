@@ -168,6 +168,7 @@ def test_admittance_design_is_verified_and_meets_its_constraints(synth_out):
     assert not ev.evaluate(adm["m_v"], 0.98 * adm["b_v"]).meets
 
 
+@pytest.mark.slow
 def test_no_point_of_a_grid_beats_the_design(synth_out):
     # brute force (coarse): every (m_v, b_v) of a log grid that meets the requirements on the design
     # scenarios costs at least as much
@@ -207,6 +208,7 @@ def _independent_margins(m_v, b_v, kp, ki, draw, w):
             np.max(np.abs((1 - S) * (1 / (G * z) - 1))) * 0.3)
 
 
+@pytest.mark.slow
 def test_robust_admittance_holds_where_the_nominal_design_fails(synth_out):
     # independent Monte Carlo over payload x the spec's uncertainty x the mouse ranges, with the plant
     # written in closed form here; the design for the nominal parameters must fail on it (else the

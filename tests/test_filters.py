@@ -165,6 +165,7 @@ def test_the_filter_scan_covers_every_designed_range():
     assert min(depths) == notch.ranges["depth"][0] and max(depths) == notch.ranges["depth"][1]
 
 
+@pytest.mark.slow
 def test_the_noise_limit_holds_with_the_designed_filters(tmp_path):
     # at most 150 A/(m/s) of controller gain above 300 Hz (sensor noise); without the limit the design
     # puts 235 A/(m/s) of proportional gain there

@@ -42,10 +42,6 @@ def rigid_body_first_harmonic(mass_kg, damping_n_s_per_m, friction_n, force_ampl
     tau, half = m / b, np.pi / w
     p = -1j * f_safe / (b + 1j * w * m)
     drop = fc / b
-
-    def v_p(t):
-        return np.real(p * np.exp(1j * w * t))
-
     t_break = np.arcsin(fc / f_safe) / w
     stop, sticks = _first_stop(p, w, t_break, half, tau, drop)
 
@@ -56,7 +52,7 @@ def rigid_body_first_harmonic(mass_kg, damping_n_s_per_m, friction_n, force_ampl
 
     t0 = np.where(sticks, t_break, t_cross)
     t1 = np.where(sticks, stop, t_cross + half)
-    c = drop - v_p(t0)
+    c = drop - np.real(p * np.exp(1j * w * t0))
     span = t1 - t0
     integral = (p / 2 * span
                 + np.conj(p) / 2 * (np.exp(-2j * w * t1) - np.exp(-2j * w * t0)) / (-2j * w)

@@ -164,6 +164,11 @@ def output_map(plant: Plant, output_names: Sequence[str]) -> tuple[int, ...]:
                     f"outputs {list(model)}")
 
 
+def at_outputs(out: np.ndarray, rows: Sequence[int]) -> np.ndarray:
+    """The plant's outputs (..., n_outputs, n_freq) at the data's (``output_map``: -1 is their mean)."""
+    return np.stack([out.mean(axis=-2) if r < 0 else out[..., r, :] for r in rows], axis=-2)
+
+
 def _check_data(data: MeasuredResponse) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     f = np.asarray(data.f_hz, dtype=float)
     g = np.atleast_2d(np.asarray(data.response))
@@ -401,8 +406,7 @@ def with_current_noise(plant: Plant, data: MeasuredResponse) -> MeasuredResponse
     rows = output_map(plant, data.output_names)
 
     def model(a):
-        out = dataclasses.replace(plant, excitation_current_a=a).frd_outputs(data.w_rad_s)
-        return np.stack([out.mean(axis=-2) if r < 0 else out[..., r, :] for r in rows], axis=-2)
+        return at_outputs(dataclasses.replace(plant, excitation_current_a=a).frd_outputs(data.w_rad_s), rows)
 
     slope = (model(amp + step) - model(amp - step)) / (2 * step)
     ratio = np.asarray(data.response) / amp
@@ -570,8 +574,7 @@ class _Problem:
     def model(self, values: Mapping[str, float | np.ndarray]) -> np.ndarray:
         """Model at the data outputs, shape (..., n_data_outputs, n_freq)."""
         self.n_evaluations += 1
-        out = self.plant.with_values(dict(values), checked=False).frd_outputs(self.w)
-        return np.stack([out.mean(axis=-2) if r < 0 else out[..., r, :] for r in self.rows], axis=-2)
+        return at_outputs(self.plant.with_values(dict(values), checked=False).frd_outputs(self.w), self.rows)
 
     def _split(self, model: np.ndarray) -> np.ndarray:
         r = (model - self.g) / self.sigma

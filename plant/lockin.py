@@ -168,7 +168,7 @@ def _settling_time(block: Block, fs: float, basis: np.ndarray) -> tuple[float, b
     cut = int(outside[-1]) + 1 if outside.size else 0
     lead = np.flatnonzero(d > 3)
     lead = lead[lead == np.arange(lead.size)]      # the leading run of large deviations ...
-    left = False
+    unsettled = False
     if lead.size:
         lead = np.arange(lead.size + 1)            # ... and the next segment, at least at the noise level
         slope, intercept = np.polyfit(lead, np.log(np.maximum(d[lead], 1.0)), 1)
@@ -178,8 +178,8 @@ def _settling_time(block: Block, fs: float, basis: np.ndarray) -> tuple[float, b
             bias = np.exp(intercept + slope * j) / (1 - np.exp(slope)) / left
             ok = np.flatnonzero(bias < 0.1 / np.sqrt(left))
             cut = int(j[ok[0]]) if ok.size else max(cut, n_seg // 2)
-            left = not ok.size
-    return min(max(cut * seg, floor_s), cap_s), left or max(cut * seg, floor_s) > cap_s
+            unsettled = not ok.size
+    return min(max(cut * seg, floor_s), cap_s), unsettled or max(cut * seg, floor_s) > cap_s
 
 
 def _segment_s(f_hz: float, fs: float) -> float:
@@ -381,13 +381,13 @@ def _block_estimate(block: Block, settle_s: float | None, subblocks: int) -> _Bl
         return _too_short(label, whole, 0.0)
     harmonics = _harmonics(f, fs)
     basis = _basis(block.time_s, f, harmonics)
-    settle, left = _settling_time(block, fs, basis) if settle_s is None else (settle_s, False)
+    settle, unsettled = _settling_time(block, fs, basis) if settle_s is None else (settle_s, False)
     keep, periods = _settled(block, settle, fs)
     if periods < MIN_PERIODS * (1 - 1e-9):
         return _too_short(label, periods, settle)
     t = block.time_s[keep]
     sig = np.vstack([block.current_a[keep], block.velocity_m_per_s[:, keep]]).T   # (n_samples, n_signals)
-    B, transient_s = _with_transient(t, basis[keep], sig) if left else (basis[keep], None)
+    B, transient_s = _with_transient(t, basis[keep], sig) if unsettled else (basis[keep], None)
     starts = _subblock_starts(t, f, fs, int(np.floor(2 * periods + 1e-9)), subblocks)
     ends = np.r_[starts[1:], t.size]
     if starts.size < 2 or np.min(t.size - (ends - starts)) < 2 * B.shape[1]:

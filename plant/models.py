@@ -237,15 +237,12 @@ class Plant:
         return kt * self.chain_response(s, "drive", ops) * mech.velocity_per_force(s) * \
             self.chain_response(s, "sensor", ops)
 
-    def _friction(self) -> CoulombFriction | None:
-        return next((e for e in self.effects if isinstance(e, CoulombFriction)), None)
-
     def _friction_damping(self, w):
         """Describing-function damping of the friction at the excitation amplitude (N*s/m): the model of
         friction in a chain of bodies or the tilting beam. Harmonic balance at the rail, whose velocity
         amplitude V solves |Z V + 4 F_c / pi| = F with Z the rail's driving-point impedance (the chain's, or
         the rigid body's m_e s + b_e under the tilting beam) and F the motor force amplitude."""
-        friction = self._friction()
+        friction = self.effect(CoulombFriction.name)
         if friction is None:
             return 0.0
         if self._tilt() is None:
@@ -272,7 +269,7 @@ class Plant:
         s = 1j * w
         kt = np.asarray(self.force_constant_n_per_a, float)
         series = kt * self.chain_response(s, "drive") * self.chain_response(s, "sensor")
-        friction = self._friction()
+        friction = self.effect(CoulombFriction.name)
         if friction is None:
             return series * self.mechanics().velocity_per_force(s)
         if not any(isinstance(e, ModeEffect) for e in self.effects):

@@ -335,6 +335,7 @@ def _stepped_response(chain: _Chain, *, w_rad_s, amp_a, n_samples, sample_rate_h
     single = contacts is not None and contacts.n == 1
     if single:
         c1, g1, k1, F1 = chain.C_contact[0], G_f[:, 0], -contacts.inv_g, float(contacts.friction_n[0])
+        g_c = -1 / k1                        # contact velocity per unit friction impulse over a step
         v_prev = z @ c1 + (0.0 if held else particular(Xc, np.array([eps]))[:, 0, 0])
     N = n_shift
     while N < n_last:
@@ -357,16 +358,15 @@ def _stepped_response(chain: _Chain, *, w_rad_s, amp_a, n_samples, sample_rate_h
                 f = v_free * k1
                 np.maximum(f, -F1, out=f)
                 np.minimum(f, F1, out=f)
-                s_old = np.sign(v_prev)
-                v_old = v_free + F1 * s_old / k1          # the end velocity had the old friction acted throughout
-                crosses = v_old * s_old < 0
+                v_old = v_free - np.copysign(F1 * g_c, v_prev)   # the end velocity had the old friction acted
+                crosses = v_old * v_prev < 0                     # throughout (a contact at rest never crosses)
                 if crosses.any():
                     # a slide reaching zero inside the step: the old friction acted until then (the fraction
                     # theta, the velocity linear over the step), then the rest of the step from rest
                     vp = v_prev[crosses]
                     theta = vp / (vp - v_old[crosses])
                     rest = np.clip((v_free[crosses] - vp) * k1, -F1, F1)
-                    f[crosses] = -F1 * s_old[crosses] * theta + (1 - theta) * rest
+                    f[crosses] = -F1 * np.sign(vp) * theta + (1 - theta) * rest
                 z += f[:, None] * g1
                 v_prev = v_free - f / k1
             elif friction:

@@ -2,26 +2,41 @@
 payload, the payload range, parameter uncertainty), the PI gain bounds, the loop requirements and
 an optional admittance stage.
 
-The admittance stage's section of a spec file, every key optional (defaults below)::
+The admittance stage's section of a spec file, every key optional (defaults below; sources in
+``specs/stage_x_admittance.toml``)::
 
     [admittance]
     m_v = { min = 0.005, max = 100.0 }        # virtual mass bounds, kg
     b_v = { min = 0.01, max = 500.0 }         # virtual damping bounds, N*s/m
-    phase_margin_deg = 45.0                   # interaction loop
+    phase_margin_deg = 45.0                   # interaction loop, every scenario and mouse
     gain_margin_db = 6.0
+    codesign = false                          # choose the PI gains (and a ranged force filter) as well
+    passivity = { up_to_hz = 5.0 }            # optional: Re Y_r >= 0 up to there ({} = everywhere)
     [admittance.mouse]                        # ranges: { min, max } or one number
-    head_mass_kg = { min = 0.002, max = 0.004 }
+    head_mass_kg = { min = 0.002, max = 0.010 }
     body_mass_kg = { min = 0.020, max = 0.035 }
     neck_stiffness_n_per_m = { min = 20.0, max = 200.0 }
     neck_damping_n_s_per_m = { min = 0.2, max = 1.0 }
-    peak_force_n = 0.3
-    [admittance.locomotion]
-    peak_speed_m_per_s = 0.5
-    peak_acceleration_m_per_s2 = 5.0
+    leg_stiffness_n_per_m = { min = 300.0, max = 1.0e4 }   # 0 allowed: feet off the ground
+    leg_damping_n_s_per_m = 0.5
+    floating = true                           # also the mouse with its feet off the ground
+    peak_force_n = 1.2
+    [admittance.locomotion]                   # the trapezoid the mouse should be able to run
+    peak_speed_m_per_s = 0.2
+    peak_acceleration_m_per_s2 = 1.0
+    travel_m = 0.4
     [admittance.hardware]
     motor_peak_force_n = 300.0
     force_sensor_resolution_n = 0.00625
-    max_current_per_sensor_step_a = 0.1
+    max_current_per_sensor_step_a = 0.1       # optional
+    [admittance.sensor]
+    bias_after_tare_n = 0.00625
+    deadband_n = 0.0
+    max_drift_mm_per_s = 1.0                  # optional
+    [admittance.rig]                          # absent: the admittance law is continuous
+    update_rate_hz = 100.0
+    computation_delay_samples = 0
+    force_filter = { frequency_hz = 30.0, order = 2 }
 
 The records are frozen dataclasses; their ``Annotated`` bounds are what ``design.spec.schema``
 checks when it reads a spec file (pydantic validates dataclasses field by field), so the limits
@@ -199,9 +214,11 @@ class PlantFamily:
 
 
 # --- the admittance stage: virtual dynamics 1/(m_v s + b_v), interaction-loop margins, mouse, profile,
-# hardware limits (spec section [admittance], see specs/stage_x_admittance.toml)
+# hardware limits, the force sensor and the rig's sampled loop (spec section [admittance], see
+# specs/stage_x_admittance.toml, whose comments give the source of every default)
 
 _Positive = Annotated[float, Gt(0), Le(1e6)]
+_NonNegative = Annotated[float, Ge(0), Le(1e7)]
 
 
 @dataclass(frozen=True)
@@ -216,27 +233,55 @@ class Range(Uncertainty):
 
 
 @dataclass(frozen=True)
+class StanceRange(Uncertainty):
+    """A range that may start at 0 (a leg stiffness or damping: 0 is a mouse whose body is not on the
+    ground); one number for min = max."""
+
+    min: _NonNegative
+    max: _NonNegative
+
+    def corners(self) -> tuple[float, ...]:
+        return (self.min,) if self.min == self.max else (self.min, self.max)
+
+    def points(self, inner: int) -> tuple[float, ...]:
+        """The ends and ``inner`` log-spaced points between them (a stiffness between its ends can be
+        the worst: a mode that meets the velocity loop's crossover)."""
+        if self.min == self.max or inner <= 0:
+            return self.corners()
+        lo = max(self.min, self.max * 1e-3)
+        mid = np.geomspace(lo, self.max, inner + 2)[1:-1]
+        return tuple(sorted({self.min, *map(float, mid), self.max}))
+
+
+@dataclass(frozen=True)
 class Mouse:
-    """The mouse at the head clamp: head mass beyond the force sensor (moves with the gantry),
-    body mass coupled to the head through the neck (stiffness, damping), and the peak force it
-    exerts on the clamp. Defaults are assumptions (see the example spec)."""
+    """The mouse at the head clamp: head mass beyond the force sensor (moves with the gantry), body
+    mass coupled to the head through the neck (stiffness, damping) and to the ground through the legs
+    (stiffness, damping: a walking or bracing mouse), and the peak force it exerts on the clamp.
+    ``floating`` adds the mouse with its feet off the ground (legs 0) to every check."""
 
     __pydantic_config__ = FORBID
-    head_mass_kg: Range = Range(min=0.002, max=0.004)
+    head_mass_kg: Range = Range(min=0.002, max=0.010)
     body_mass_kg: Range = Range(min=0.020, max=0.035)
     neck_stiffness_n_per_m: Range = Range(min=20.0, max=200.0)
     neck_damping_n_s_per_m: Range = Range(min=0.2, max=1.0)
+    leg_stiffness_n_per_m: StanceRange = StanceRange(min=300.0, max=1.0e4)
+    leg_damping_n_s_per_m: StanceRange = StanceRange(min=0.5, max=0.5)
+    floating: bool = True
     #: peak force the mouse exerts on the head clamp, i.e. the sensed force (N)
-    peak_force_n: Annotated[float, Gt(0), Le(100)] = 0.3
+    peak_force_n: Annotated[float, Gt(0), Le(100)] = 1.2
 
 
 @dataclass(frozen=True)
 class Locomotion:
-    """Trapezoidal locomotion profile the mouse should be able to perform."""
+    """The trapezoidal locomotion profile the mouse should be able to perform: accelerate at
+    ``peak_acceleration_m_per_s2`` to ``peak_speed_m_per_s``, run, decelerate, over ``travel_m``
+    (bsbrl/exoskeleton ``MAIN_generate_trapezoidal_profile.m``)."""
 
     __pydantic_config__ = FORBID
-    peak_speed_m_per_s: Annotated[float, Gt(0), Le(10)] = 0.5
-    peak_acceleration_m_per_s2: Annotated[float, Gt(0), Le(200)] = 5.0
+    peak_speed_m_per_s: Annotated[float, Gt(0), Le(10)] = 0.2
+    peak_acceleration_m_per_s2: Annotated[float, Gt(0), Le(200)] = 1.0
+    travel_m: Annotated[float, Gt(0), Le(100)] = 0.4
 
 
 @dataclass(frozen=True)
@@ -245,22 +290,89 @@ class Hardware:
     motor_peak_force_n: Annotated[float, Gt(0), Le(1e5)] = 300.0
     #: thesis section 1.2: ATI Nano17, resolution 6.25 mN
     force_sensor_resolution_n: Annotated[float, Gt(0), Le(10)] = 0.00625
-    #: motor current caused by a one-resolution-step change of the sensed force, at most (A)
-    max_current_per_sensor_step_a: Annotated[float, Gt(0), Le(1000)] = 0.1
+    #: optional: motor current one resolution step of the sensed force may cause, at most (A)
+    max_current_per_sensor_step_a: Annotated[float, Gt(0), Le(1000)] | None = None
+
+
+@dataclass(frozen=True)
+class Sensor:
+    """What the force reading does at rest: the offset left after taring (N), the deadband applied to
+    the reading (N; readings within it count as zero, beyond it pass unchanged), and the largest drift
+    of the gantry at rest the spec accepts (mm/s; optional)."""
+
+    __pydantic_config__ = FORBID
+    bias_after_tare_n: Annotated[float, Ge(0), Le(10)] = 0.00625
+    deadband_n: Annotated[float, Ge(0), Le(10)] = 0.0
+    max_drift_mm_per_s: Annotated[float, Gt(0), Le(1e4)] | None = None
+
+
+@dataclass(frozen=True)
+class ForceFilter:
+    """Low-pass on the force reading before the admittance law samples it: Butterworth of ``order`` 1
+    or 2; ``frequency_hz`` fixed, or ``frequency_hz_min``/``frequency_hz_max`` for the co-design to choose."""
+
+    __pydantic_config__ = FORBID
+    frequency_hz: Annotated[float, Gt(0), Le(1e5)] | None = None
+    frequency_hz_min: Annotated[float, Gt(0), Le(1e5)] | None = None
+    frequency_hz_max: Annotated[float, Gt(0), Le(1e5)] | None = None
+    order: Literal[1, 2] = 2
+
+    def __post_init__(self):
+        ranged = (self.frequency_hz_min, self.frequency_hz_max)
+        if (self.frequency_hz is None) == all(v is None for v in ranged):
+            raise ValueError("give frequency_hz, or frequency_hz_min and frequency_hz_max for the co-design")
+        if self.frequency_hz is None:
+            if None in ranged:
+                raise ValueError("give both frequency_hz_min and frequency_hz_max")
+            check_ordered(*ranged)
+
+    @property
+    def designed(self) -> bool:
+        return self.frequency_hz is None
+
+
+@dataclass(frozen=True)
+class Rig:
+    """The admittance law as the rig runs it: sampled at ``update_rate_hz`` (None: continuous) with a
+    zero-order hold on its velocity output and ``computation_delay_samples`` whole samples between the
+    force sample and the output it causes, after an optional force filter."""
+
+    __pydantic_config__ = FORBID
+    update_rate_hz: Annotated[float, Gt(0), Le(1e6)] | None = None
+    computation_delay_samples: Annotated[int, Ge(0), Le(100)] = 0
+    force_filter: ForceFilter | None = None
+
+    @property
+    def sample_period_s(self) -> float | None:
+        return None if self.update_rate_hz is None else 1.0 / self.update_rate_hz
+
+
+@dataclass(frozen=True)
+class Passivity:
+    """Optional requirement: Re Y_r(jw) >= 0 (the rendered dynamics absorb energy) from 0 up to
+    ``up_to_hz`` (None: the whole band the loop is analysed on)."""
+
+    __pydantic_config__ = FORBID
+    up_to_hz: Annotated[float, Gt(0), Le(1e5)] | None = None
 
 
 @dataclass(frozen=True)
 class AdmittanceProblem:
-    """Bounds of the virtual dynamics 1/(m_v s + b_v), interaction-loop margins, mouse, profile, hardware."""
+    """Bounds of the virtual dynamics 1/(m_v s + b_v), interaction-loop margins, mouse, profile, hardware,
+    sensor and rig; ``codesign`` chooses the PI gains (and a designed force filter) with (m_v, b_v)."""
 
     __pydantic_config__ = FORBID
     m_v: Range = Range(min=0.005, max=100.0)          # kg
     b_v: Range = Range(min=0.01, max=500.0)           # N*s/m
     phase_margin_deg: Annotated[float, Ge(0), Lt(90)] = 45.0
     gain_margin_db: Annotated[float, Ge(0), Le(60)] = 6.0
+    passivity: Passivity | None = None
+    codesign: bool = False
     mouse: Mouse = Mouse()
     locomotion: Locomotion = Locomotion()
     hardware: Hardware = Hardware()
+    sensor: Sensor = Sensor()
+    rig: Rig = Rig()
 
 
 @dataclass(frozen=True)

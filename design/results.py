@@ -86,18 +86,22 @@ class DesignOutcome:
 
     @property
     def status(self) -> str:
-        """"optimal", "unbounded" or "infeasible"; a failed admittance stage makes the design infeasible."""
+        """"optimal", "unbounded", "infeasible" or "mouse_cannot_drive" (a verified admittance design the
+        declared mouse cannot drive on the declared profile); a failed admittance stage makes the design
+        infeasible."""
         if self.measured is not None:
             return self.measured.status
+        if self.synthesis.status != "optimal":
+            return self.synthesis.status
         if self.admittance is not None and self.admittance.status != "optimal":
-            return "infeasible"
+            return self.admittance.status
         return self.synthesis.status
 
     @property
     def message(self) -> str:
         if self.measured is not None:
             return self.measured.message
-        if self.admittance is not None and self.admittance.status != "optimal":
+        if self.synthesis.status == "optimal" and self.admittance is not None and self.admittance.status != "optimal":
             return f"admittance: {self.admittance.message}"
         return self.synthesis.message
 

@@ -95,10 +95,13 @@ def _plant_from_fit(path: Path) -> tuple[dict, list[str]]:
     return plant, sorted(left_out)
 
 
-def design(problem: DesignProblem, *, method: str = "ccp+exact", schedule: bool = False) -> DesignOutcome:
+def design(problem: DesignProblem, *, method: str = "ccp+exact", schedule: bool = False,
+           progress=None) -> DesignOutcome:
     """The one synthesis driver: PI gains for the spec's plant family (or its measured responses), the
-    gain schedule when asked, and the admittance stage when the spec has one. ``design.views.json.
-    design_to_dict`` turns the outcome into the ``gantry synth --json`` contract."""
+    gain schedule when asked, and the admittance stage when the spec has one (with ``admittance.codesign``
+    and the spec's controller values: the PI gains chosen with it). ``progress(stage)`` hears the
+    admittance stages. ``design.views.json.design_to_dict`` turns the outcome into the ``gantry synth --json``
+    contract."""
     spec, loop = problem.spec, problem.loop
     if spec.plant.measured:
         from design.synth.measured import synthesise_from_data
@@ -106,6 +109,10 @@ def design(problem: DesignProblem, *, method: str = "ccp+exact", schedule: bool 
         return DesignOutcome(problem, measured=synthesise_from_data(loop, measured_plants(problem)))
     from design.synth.pi import as_designed, synthesise_pi
 
+    codesign = loop.admittance is not None and loop.admittance.codesign
+    given = loop.controller.kp.value is not None and loop.controller.ki.value is not None
+    if codesign and given and not schedule:
+        return _codesigned(problem, progress)
     result = synthesise_pi(loop, method=method)
     optimal = result.status == "optimal"
     points = None
@@ -123,7 +130,31 @@ def design(problem: DesignProblem, *, method: str = "ccp+exact", schedule: bool 
     from design.admittance.synthesis import synthesise_admittance
 
     return DesignOutcome(problem, synthesis=result, schedule=points,
-                         admittance=synthesise_admittance(loop, kp=kp, ki=ki))
+                         admittance=synthesise_admittance(loop, kp=kp, ki=ki, progress=progress))
+
+
+def _codesigned(problem: DesignProblem, progress) -> DesignOutcome:
+    """The admittance co-design from the spec's controller values, and the PI stage reported at the gains it
+    chose: evaluated on the dense scenarios and checked with python-control like a synthesised design."""
+    import time
+
+    from design.admittance.synthesis import synthesise_admittance
+    from design.synth.pi import SynthesisResult, evaluate
+    from design.synth.verify import verify
+
+    loop = problem.loop
+    adm = synthesise_admittance(loop, progress=progress)
+    t0 = time.perf_counter()
+    ev = evaluate(loop, adm.kp, adm.ki)
+    ver = verify(loop, adm.kp, adm.ki)
+    ok = ev.meets and ver.verified
+    message = (f"PI gains chosen with the admittance (co-design from Kp = {loop.controller.kp.value:g}, Ki = "
+               f"{loop.controller.ki.value:g}); the velocity loop alone "
+               + ("meets requirements at every check scenario" if ok else "MISSES its requirements: "
+                  + "; ".join(ver.failures[:2]) if ver.failures else "misses its requirements"))
+    pi = SynthesisResult("optimal" if ok else "infeasible", message, ev, ver, "co-design (design.admittance.codesign)",
+                         time.perf_counter() - t0)
+    return DesignOutcome(problem, synthesis=pi, admittance=adm)
 
 
 def measured_plants(problem: DesignProblem):

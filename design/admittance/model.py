@@ -2,103 +2,71 @@
 
 Physics (thesis section 3.2, Eq. 3.21-3.23 with k_v = 0, Figure 3.22; SI units, s = jw)
 --------------------------------------------------------------------------------------
-Gantry (one axis): velocity v of the moving mass, motor force F_m = K_t E i (E: the electrical
-effects delay / current loop / sampling), sensed force F_s at the head clamp. The mechanical
-mobility G = v / force on the moving mass (1/(M s + b) for Stage X, Eq. 3.15 divided by K_t;
-resonances included) gives the plant P = K_t E G (current in, velocity out)::
+Gantry (one axis): physical velocity v of the moving mass, G its mechanical mobility (velocity per
+force, 1/(M s + b) for Stage X; resonances included), motor force F_m = K_t E i (E: the drive's
+effects: delay, current loop, sampling), the drive measures H v (H: the sensor's effects), and the
+sensed force F_s at the head clamp is a physical force on the gantry. The plant as identified is
+P = K_t E G H (current in, measured velocity out)::
 
-    v = G (F_s + F_m)               the sensed force is a physical force on the gantry
-    F_m = K_t E C (Y_v F_s - v)     PI velocity loop C = Kp + Ki/s on the reference Y_v F_s
-    Y_v = 1 / (m_v s + b_v)         virtual dynamics (Eq. 3.23 with k_v = 0; Eq. 3.24 as printed,
-                                    1/(m_v s^2 + b_v), is a typo)
+    v = G (F_s + F_m),   F_m = K_t E C (v_ref - H v),   C = Kp + Ki/s (PI velocity loop)
 
-With S = 1/(1 + P C), T = P C S the rendered admittance (velocity per sensed force) is
-Y_r = S G + T Y_v (``design.loop.loops.rendered_admittance_frd``): Y_v where T = 1, the bare gantry G
-where T = 0.
+With S = 1/(1 + P C) and the physical velocity per reference R = K_t E C G S (R = T = P C S when
+H = 1): v = S G F_s + R v_ref. The admittance law turns the sensed force into the reference,
+v_ref = W F_s / (m_v sigma + b_v), with sigma = s (continuous) or the backward-Euler operator of the
+rig's update rate, and W the force filter, hold and computation delay (``design.admittance.rig``).
+The rendered admittance is Y_r = v / F_s = S G + R W / (m_v sigma + b_v) (its fundamental when sampled).
 
-Mouse at the clamp: head mass m_h beyond the sensor (moves with the clamp), body mass m_b on the
-neck (stiffness k_n, damping c_n), driven by its legs with F_leg. With Z_n = c_n + k_n/s::
+Mouse at the clamp (``design.admittance.mouse``): F_s = F_mouse - Z_m v. Broken at the force-sensor
+*signal* (the controller's input), a reference u moves the gantry, which, loaded by the mouse,
+returns F_s = -K u with::
 
-    F_s = H_n F_leg - Z_m v,   Z_m = m_h s + m_b s Z_n / (m_b s + Z_n)    (N*s/m, passive)
+    K = Z_m R / (1 + S G Z_m),   L = W K / (m_v sigma + b_v)   (continuous)
 
-Interaction loop, broken at the force-sensor *signal* (the controller's input): a signal u into
-Y_v moves the gantry, which, loaded by the mouse (F_s = -Z_m v), returns F_s = -L u with::
+and, sampled, L = e^(-jwdT) K_d / (m_v sigma + b_v) with K_d the step-invariant transform of H_f K.
+(1 + P C)(1 + S G Z_m) = 1 + P C + G Z_m is the velocity loop with the mouse attached, which the
+Nyquist test of the interaction loop assumes stable (checked here on the grid and on the rational
+model by ``design.admittance.verify``). Scaling L scales 1/(m_v, b_v): the gain margin is the factor
+by which m_v and b_v could shrink together.
 
-    L = K / (m_v s + b_v),   K = Z_m P C / D,   D = 1 + P C + G Z_m
-
-(D: the velocity loop with the mouse attached). 1 + L = 0 is the coupled system's characteristic
-equation (D (1 + L) = (1 + P C)(1 + Y_r Z_m)); Nyquist needs D stable, checked on the rational
-model (``design.admittance.verify``). Scaling L scales Y_v, so the gain margin is the factor by
-which m_v and b_v could shrink together. In the band where T = 1, L = Z_m / (m_v s + b_v): the
-mouse-to-virtual impedance ratio.
-
-Hardware (peaks over frequency, i.e. the steady amplitude at the worst sinusoid):
-* motor force per sensed force F_m / F_s = T (Y_v / G - 1) (~ M / m_v - 1 in band), times the
-  mouse's peak force, within the motor's peak force;
-* a force-reading error n of one resolution step drives the controller but no physical force:
-  i / n = C S Y_v (free gantry); DC b / (K_t b_v), in band M / (K_t m_v); times the resolution,
-  within the spec's current limit.
+Hardware and sensor (peaks over frequency, i.e. the steady amplitude at the worst sinusoid):
+* motor force per sensed force F_m / F_s = Y_r / G - 1, times the mouse's peak force, within the
+  motor's peak force;
+* a force-reading error n drives the controller but no physical force: i / n = C S W / (m_v sigma + b_v)
+  (free gantry); times one resolution step, within the optional current limit;
+* drift at rest: an offset beta left after taring, beyond the deadband d (readings within it are
+  zero, beyond it pass unchanged), is integrated by the law to the steady speed beta / b_v (the DC
+  value of Y_r is 1/b_v: integral action, and W = 1 at DC).
 """
 
 from __future__ import annotations
 
-import itertools
 import math
-import warnings
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
-from design.loop.analysis import ANALYSIS_GRID_RAD_S
-from design.loop.loops import pi_frd
+from design.admittance.mouse import MouseModel, mouse_set, stack
+from design.admittance.rig import RigTiming
 from design.loop.margins import loop_margins, nyquist_stable, unwrapped_phase_deg
 from design.problem import AdmittanceProblem, LoopProblem
 from design.synth.scenarios import Scenarios
 from plant.effects import EFFECTS
 from plant.errors import SpecError
-from plant.grid import check_grid
+from plant.grid import check_grid, log_grid_rad_s
 from plant.models import Plant
 
-#: the dense check's frequency grid: 1 mHz - 10 kHz, 3000 points (plus points around the neck modes)
-W_DENSE = ANALYSIS_GRID_RAD_S
-#: the rendered admittance departs from 1/(m_v s + b_v) by this much at its bandwidth
+#: the continuous loop's check grid: 1 mHz - 3 kHz, 1200 points (plus points around the mouse's modes)
+W_CHECK = log_grid_rad_s(1e-3, 3000.0, 1200)
+#: the rendered admittance departs from the virtual dynamics by this much at its bandwidth
 BANDWIDTH_GAIN_DB = 3.0
 BANDWIDTH_PHASE_DEG = 30.0
-
-
-@dataclass(frozen=True)
-class MouseModel:
-    """Mouse at the head clamp: head beyond the sensor, body through the neck (SI units)."""
-
-    head_mass_kg: float
-    body_mass_kg: float
-    neck_stiffness_n_per_m: float
-    neck_damping_n_s_per_m: float
-
-    def impedance_frd(self, w_rad_s) -> np.ndarray:
-        """Z_m = m_h s + m_b s Z_n / (m_b s + Z_n), Z_n = c_n + k_n/s: force per velocity (N*s/m)."""
-        s = 1j * np.asarray(w_rad_s, float)
-        zn = self.neck_damping_n_s_per_m + self.neck_stiffness_n_per_m / s
-        return self.head_mass_kg * s + self.body_mass_kg * s * zn / (self.body_mass_kg * s + zn)
-
-    def impedance_polys(self) -> tuple[np.ndarray, np.ndarray]:
-        """Z_m as numerator / denominator polynomials in s (highest power first)."""
-        mh, mb = self.head_mass_kg, self.body_mass_kg
-        c, k = self.neck_damping_n_s_per_m, self.neck_stiffness_n_per_m
-        return np.array([mh * mb, (mh + mb) * c, (mh + mb) * k, 0.0]), np.array([mb, c, k])
-
-    def neck_mode_rad_s(self) -> float:
-        """Natural frequency of the body on the neck, sqrt(k_n / m_b) (rad/s)."""
-        return math.sqrt(self.neck_stiffness_n_per_m / self.body_mass_kg)
-
-    def as_dict(self) -> dict:
-        return {"head_mass_kg": self.head_mass_kg, "body_mass_kg": self.body_mass_kg,
-                "neck_stiffness_n_per_m": self.neck_stiffness_n_per_m,
-                "neck_damping_n_s_per_m": self.neck_damping_n_s_per_m}
-
-    def label(self) -> str:
-        return (f"head {self.head_mass_kg * 1e3:g} g, body {self.body_mass_kg * 1e3:g} g, neck "
-                f"{self.neck_stiffness_n_per_m:g} N/m, {self.neck_damping_n_s_per_m:g} N*s/m")
+#: points per decade of the sampled loop's grid, which ends at the Nyquist frequency
+SAMPLED_POINTS_PER_DECADE = 120
+#: scenarios are evaluated in blocks of at most this many mice x scenarios x frequencies (memory)
+CHUNK_ELEMENTS = 4_000_000
+#: the screened check computes exact margins for the SCREEN_TOP mice with the largest ray bound at each
+#: scenario and for every curve whose bound is within SCREEN_RATIO of the design's b_v
+SCREEN_TOP, SCREEN_RATIO = 2, 0.8
 
 
 def admittance_problem(problem: LoopProblem) -> AdmittanceProblem:
@@ -108,23 +76,16 @@ def admittance_problem(problem: LoopProblem) -> AdmittanceProblem:
     nonlinear = [n for n in problem.plant.effects if n in EFFECTS and not EFFECTS[n].linear]
     if nonlinear:
         raise SpecError(f"plant.effects.{nonlinear[0]}: nonlinear, not supported by admittance synthesis "
-                        "(design on the linear plant; check friction with gantry simulate)")
+                        "(design on the linear plant; check friction with gantry mouse-run)")
+    if problem.plant.nominal.stage != "x":
+        raise SpecError("plant.stage: admittance design covers Stage X (one motor, one axis); Stage Y's two "
+                        "motors and yaw mode need a two-input plant")
     return problem.admittance
 
 
-def mouse_corners(problem: LoopProblem) -> tuple[MouseModel, ...]:
-    """Every corner of the spec's mouse ranges (up to 16)."""
-    m = admittance_problem(problem).mouse
-    return tuple(MouseModel(*c) for c in itertools.product(
-        m.head_mass_kg.corners(), m.body_mass_kg.corners(), m.neck_stiffness_n_per_m.corners(),
-        m.neck_damping_n_s_per_m.corners()))
-
-
-def with_neck_modes(w_rad_s: np.ndarray, corners, *, points: int = 60) -> np.ndarray:
-    """``w_rad_s`` plus ``points`` points within +-20 % of every neck mode (lightly damped: a log
-    grid of a few points per decade would step over its peak)."""
-    local = [mouse.neck_mode_rad_s() * np.linspace(0.8, 1.2, points) for mouse in corners]
-    return np.unique(np.concatenate([np.asarray(w_rad_s, float), *local]))
+def mice(problem: LoopProblem) -> tuple[MouseModel, ...]:
+    """The mice every design holds for (``design.admittance.mouse.mouse_set``)."""
+    return mouse_set(admittance_problem(problem).mouse)
 
 
 def as_scenarios(scenarios) -> Scenarios:
@@ -134,74 +95,104 @@ def as_scenarios(scenarios) -> Scenarios:
     return Scenarios(np.atleast_1d(np.asarray(scenarios, float)))
 
 
+def with_mode_points(w_rad_s, corners, timing: RigTiming, *, points: int = 16) -> np.ndarray:
+    """``w_rad_s`` plus ``points`` points within +-20 % of every mouse mode (lightly damped: a log grid of
+    a few points per decade steps over its peak), folded below the Nyquist frequency when sampled."""
+    w = np.asarray(w_rad_s, float)
+    modes = np.unique([m.mode_rad_s() for m in corners])
+    local = (modes[:, None] * np.linspace(0.8, 1.2, points)).ravel()
+    local = timing.folded_rad_s(local)
+    local = local[(local > w[0]) & (local < w[-1])]
+    return np.unique(np.concatenate([w, local]))
+
+
+def check_grid_for(timing: RigTiming) -> np.ndarray:
+    """The interaction loop's grid: ``W_CHECK`` (continuous), or 1 mHz up to the Nyquist frequency."""
+    if not timing.sampled:
+        return W_CHECK
+    top = timing.nyquist_rad_s
+    n = int(SAMPLED_POINTS_PER_DECADE * math.log10(top / 2e-3 / math.pi)) + 2
+    return np.geomspace(2e-3 * math.pi, top, n)
+
+
 @dataclass(frozen=True)
 class GantryLoop:
-    """Free gantry under the PI velocity loop on a grid, batch over scenarios (axis 0): payloads
-    with the values of the uncertain parameters."""
+    """The free gantry under the PI velocity loop at complex frequencies ``s`` (shape (n,)), batch over
+    scenarios (axis 0): payloads with the values of the uncertain parameters. Arrays (n_scenario, n)."""
 
-    w_rad_s: np.ndarray
+    s: np.ndarray
     scenarios: Scenarios
-    plant: np.ndarray          # P, velocity per current (m/s per A), (n_scenario, n_freq)
-    mobility: np.ndarray       # G, velocity per force on the moving mass (m/s per N)
-    controller: np.ndarray     # C = Kp + Ki/s (A per m/s), (n_freq,)
+    mobility: np.ndarray       # G, physical velocity per force on the moving mass (m/s per N)
+    controller: np.ndarray     # C = Kp + Ki/s (A per m/s), (n,)
     sensitivity: np.ndarray    # S = 1/(1 + P C)
-    complementary: np.ndarray  # T = P C / (1 + P C)
+    reference: np.ndarray      # R = K_t E C G S, physical velocity per velocity reference
 
     @property
     def payload_kg(self) -> np.ndarray:
         return self.scenarios.payload_kg
 
+    @property
+    def w_rad_s(self) -> np.ndarray:
+        return self.s.imag
 
-def mechanical_plant(plant: Plant) -> Plant:
-    """The plant without its drive effects: K_t G (velocity per current before the drive)."""
-    return plant.with_effects(*[e for e in plant.effects if e.place != "drive"])
+
+def gantry_loop_at(plants: Plant, s, scenarios: Scenarios, *, kp: float, ki: float) -> GantryLoop:
+    """``GantryLoop`` of a (n, 1) batch of plants at complex ``s``."""
+    s = np.asarray(s, complex)
+    kt = np.asarray(plants.force_constant_n_per_a, float)
+    G = plants.mechanics().velocity_per_force(s)
+    E, H = plants.chain_response(s, "drive"), plants.chain_response(s, "sensor")
+    C = kp + ki / s
+    shape = (len(scenarios), s.size)
+    G = np.broadcast_to(G, shape)
+    drive = np.broadcast_to(kt * E * C * G, shape)
+    S = 1.0 / (1.0 + drive * H)
+    return GantryLoop(s, scenarios, G, C, S, drive * S)
 
 
 def gantry_loop(problem: LoopProblem, w_rad_s, scenarios, *, kp: float, ki: float) -> GantryLoop:
-    """P, G, C, S, T of the spec's plant in ``scenarios`` (``Scenarios``, or payloads in kg with the
-    nominal parameters) on ``w_rad_s``."""
+    """The spec's plant in ``scenarios`` (``Scenarios``, or payloads in kg with the nominal parameters) on
+    the grid ``w_rad_s``."""
     w = check_grid(w_rad_s)
-    s = as_scenarios(scenarios)
-    plant = s.plants(problem.plant.plant())
-    P = np.broadcast_to(plant.frd(w), (len(s), w.size))
-    G = np.broadcast_to(mechanical_plant(plant).frd(w) / np.asarray(plant.force_constant_n_per_a, float), P.shape)
-    C = pi_frd(w, kp, ki)
-    S = 1.0 / (1.0 + P * C)
-    return GantryLoop(w, s, P, G, C, S, 1.0 - S)
+    sc = as_scenarios(scenarios)
+    return gantry_loop_at(sc.plants(problem.plant.plant()), 1j * w, sc, kp=kp, ki=ki)
+
+
+def interaction_gain(loop: GantryLoop, mouse: MouseModel, *, weight=1.0) -> np.ndarray:
+    """K = Z_m R / (1 + S G Z_m) = R / (1/Z_m + S G): sensed force per velocity reference with the mouse
+    attached (times ``weight``, an array over the frequencies); a batch of mice ((n_m, 1) fields) gives
+    (n_m, n_scenario, n)."""
+    ym = 1.0 / mouse.impedance(loop.s)
+    if ym.ndim == 2:
+        ym = ym[:, None, :]
+    return (loop.reference * weight) / (ym + loop.sensitivity * loop.mobility)
+
+
+def attached_loop(loop: GantryLoop, mouse: MouseModel) -> np.ndarray:
+    """S G Z_m: the loop whose Nyquist test says whether the velocity loop with the mouse attached,
+    (1 + P C)(1 + S G Z_m), is stable (given the free velocity loop is)."""
+    zm = mouse.impedance(loop.s)
+    if zm.ndim == 2:
+        zm = zm[:, None, :]
+    return loop.sensitivity * loop.mobility * zm
+
+
+def virtual_impedance(sigma, m_v, b_v) -> np.ndarray:
+    """z = m_v sigma + b_v, the inverse of the virtual dynamics (N*s/m)."""
+    return np.asarray(m_v) * sigma + np.asarray(b_v)
 
 
 def virtual_impedance_frd(w_rad_s, m_v, b_v) -> np.ndarray:
-    """z = m_v s + b_v, the inverse of the virtual dynamics Y_v (N*s/m)."""
-    return np.asarray(m_v) * 1j * np.asarray(w_rad_s) + np.asarray(b_v)
+    """m_v jw + b_v (continuous)."""
+    return virtual_impedance(1j * np.asarray(w_rad_s, float), m_v, b_v)
 
 
-def rendered_admittance(loop: GantryLoop, m_v: float, b_v: float) -> np.ndarray:
-    """Y_r = v / F_s = S G + T / (m_v s + b_v) (m/s per N)."""
-    return loop.sensitivity * loop.mobility + loop.complementary / virtual_impedance_frd(loop.w_rad_s, m_v, b_v)
-
-
-def interaction_gain(loop: GantryLoop, mouse: MouseModel) -> np.ndarray:
-    """K = Z_m P C / (1 + P C + G Z_m), so that the interaction loop is L = K / (m_v s + b_v)."""
-    zm = mouse.impedance_frd(loop.w_rad_s)
-    pc = loop.plant * loop.controller
-    return zm * pc / (1.0 + pc + loop.mobility * zm)
-
-
-def sensor_current_per_newton(loop: GantryLoop, m_v: float, b_v: float) -> np.ndarray:
-    """Motor current per force-reading error, C S / (m_v s + b_v) (A per N)."""
-    return loop.controller * loop.sensitivity / virtual_impedance_frd(loop.w_rad_s, m_v, b_v)
-
-
-def motor_force_per_newton(loop: GantryLoop, m_v: float, b_v: float) -> np.ndarray:
-    """Motor force per sensed force, T (Y_v / G - 1) (N per N)."""
-    z = virtual_impedance_frd(loop.w_rad_s, m_v, b_v)
-    return loop.complementary * (1.0 / (loop.mobility * z) - 1.0)
-
-
-def peak_resistance_n(m_v: float, b_v: float, *, peak_speed_m_per_s: float, peak_acceleration_m_per_s2: float) -> float:
-    """m_v a_pk + b_v v_pk: the virtual dynamics' force at the end of the acceleration phase of a
-    trapezoidal profile, where peak acceleration and peak speed meet (N)."""
-    return m_v * peak_acceleration_m_per_s2 + b_v * peak_speed_m_per_s
+def rendered_admittance(loop: GantryLoop, m_v: float, b_v: float, timing: RigTiming | None = None) -> np.ndarray:
+    """Y_r = v / F_s = S G + R W / (m_v sigma + b_v) (m/s per N): at the input frequency when sampled."""
+    timing = timing or RigTiming(None)
+    w = loop.w_rad_s
+    return loop.sensitivity * loop.mobility + loop.reference * timing.fundamental(w) / virtual_impedance(
+        timing.sigma(w), m_v, b_v)
 
 
 def admittance_bandwidth_hz(w_rad_s, rendered, virtual) -> np.ndarray:
@@ -211,6 +202,11 @@ def admittance_bandwidth_hz(w_rad_s, rendered, virtual) -> np.ndarray:
     ratio = np.asarray(rendered) / np.asarray(virtual)
     dev = np.maximum(np.abs(20 * np.log10(np.abs(ratio))) / BANDWIDTH_GAIN_DB,
                      np.abs(unwrapped_phase_deg(ratio)) / BANDWIDTH_PHASE_DEG) - 1.0
+    return _first_rise_hz(w, dev)
+
+
+def _first_rise_hz(w: np.ndarray, dev: np.ndarray) -> np.ndarray:
+    """First frequency (Hz) where ``dev`` reaches 0 (interpolated in log w); nan when never."""
     over = dev >= 0
     i = np.argmax(over, axis=-1)
     found = np.take_along_axis(over, i[..., None], -1)[..., 0]
@@ -223,29 +219,123 @@ def admittance_bandwidth_hz(w_rad_s, rendered, virtual) -> np.ndarray:
     return np.where(found & (i > 0), f, np.where(found, w[0] / (2 * np.pi), np.nan))
 
 
+def drift_mm_per_s(adm: AdmittanceProblem, b_v) -> np.ndarray:
+    """Steady speed (mm/s) of the free gantry at rest under the offset left after taring: beta / b_v when
+    the offset exceeds the deadband, else 0."""
+    s = adm.sensor
+    beta = s.bias_after_tare_n if s.bias_after_tare_n > s.deadband_n else 0.0
+    return 1e3 * beta / np.asarray(b_v, float)
+
+
+def breakaway_force_n(adm: AdmittanceProblem) -> float:
+    """The smallest push (N) the gantry answers at rest in either direction: the deadband plus the offset
+    left after taring (in the direction the offset opposes)."""
+    return adm.sensor.deadband_n + adm.sensor.bias_after_tare_n
+
+
+# --- the interaction loop's responses on a set of scenarios and mice ---------------------------------------
+@dataclass(frozen=True)
+class InteractionResponses:
+    """What does not depend on (m_v, b_v), on one grid: K_eff (the interaction loop times m_v sigma + b_v),
+    for every mouse and scenario (n_m, n_s, n_f); sigma (n_f,); and the free gantry's hardware paths."""
+
+    w_rad_s: np.ndarray
+    timing: RigTiming
+    scenarios: Scenarios
+    mice: tuple[MouseModel, ...]
+    gain: np.ndarray            # K_eff, (n_m, n_s, n_f)
+    sigma: np.ndarray           # (n_f,)
+    #: |C S W|, current per force-reading error times m_v sigma + b_v, (n_s, n_f)
+    current_path: np.ndarray
+    #: R W and G at the grid (for the motor force Y_r / G - 1), (n_s, n_f)
+    reference_path: np.ndarray
+    mobility: np.ndarray
+    sensitivity_mobility: np.ndarray
+
+
+def interaction_responses(problem: LoopProblem, scenarios, w_rad_s, *, kp: float, ki: float,
+                          timing: RigTiming, corners=None) -> InteractionResponses:
+    """K_eff for every mouse of ``corners`` (default: the spec's mouse set) and scenario on ``w_rad_s`` (which
+    must end at or below the Nyquist frequency when sampled): the continuous K times the force filter, or
+    the sampled sum (``RigTiming.sampled_path``)."""
+    sc = as_scenarios(scenarios)
+    corners = mice(problem) if corners is None else tuple(corners)
+    w = check_grid(w_rad_s)
+    plants = sc.plants(problem.plant.plant())
+    batch = stack(corners)
+
+    def path(s, weight):
+        return interaction_gain(gantry_loop_at(plants, s, sc, kp=kp, ki=ki), batch, weight=weight)
+
+    gain = timing.sampled_path(path, w)
+    loop = gantry_loop_at(plants, 1j * w, sc, kp=kp, ki=ki)
+    W = timing.fundamental(w)
+    return InteractionResponses(w, timing, sc, corners, gain, timing.sigma(w),
+                                np.abs(loop.controller * loop.sensitivity * W), loop.reference * W, loop.mobility,
+                                loop.sensitivity * loop.mobility)
+
+
+def interaction_loop(resp: InteractionResponses, m_v, b_v) -> np.ndarray:
+    """L = K_eff / (m_v sigma + b_v), (n_m, n_s, n_f)."""
+    return resp.gain / virtual_impedance(resp.sigma, m_v, b_v)
+
+
+def sampled_nyquist_stable(loop: np.ndarray) -> np.ndarray:
+    """Stability of a discrete-time loop sampled from low frequency up to the Nyquist frequency, where it
+    is real (open loop without poles outside the unit circle): the phase of 1 + L changes by -90 to
+    +90 deg over the grid and 1 + L > 0 at the Nyquist frequency."""
+    a = 1 + np.asarray(loop)
+    turn = np.angle(a[..., 1:] / a[..., :-1]).sum(axis=-1)
+    return (turn > -math.pi / 4) & (a[..., -1].real > 0)
+
+
+def interaction_margins(resp: InteractionResponses, L: np.ndarray):
+    """(phase margin deg, gain margin dB, stable) of loops L on ``resp``'s grid, (n_m, n_s): grid margins
+    with refined crossings (``loop_margins``); sampled, the gain margin also at the Nyquist frequency,
+    where a real L below -1 / g is a phase crossover the grid's end holds."""
+    mg = loop_margins(resp.w_rad_s, L)
+    pm, gm = mg.phase_margin_deg, mg.gain_margin_db
+    if resp.timing.sampled:
+        end = L[..., -1].real
+        at_nyquist = np.where(end < 0, -20 * np.log10(np.maximum(-end, 1e-300)), np.inf)
+        gm = np.where(np.abs(at_nyquist) < np.abs(gm), at_nyquist, gm)
+        stable = sampled_nyquist_stable(L)
+    else:
+        stable = mg.closed_loop_stable
+    return pm, gm, stable
+
+
 # --- exact evaluation ------------------------------------------------------------------------------
 @dataclass(frozen=True)
 class AdmittanceCheck:
-    """(m_v, b_v) evaluated exactly on a grid: scenarios (payload x uncertain parameters) x mouse
-    corners x frequencies."""
+    """(m_v, b_v) evaluated exactly on a grid: scenarios (payload x uncertain parameters) x mice x
+    frequencies."""
 
     m_v: float
     b_v: float
     scenarios: Scenarios
-    #: grid margins (cubic-refined crossings) of the interaction loop, (n_corner, n_scenario)
+    mice: tuple[MouseModel, ...]
+    #: grid margins (refined crossings) of the interaction loop, (n_mouse, n_scenario); nan where the screened
+    #: check certified the curve by its ray bound instead (``AdmittanceEvaluator.evaluate``)
     phase_margin_deg: np.ndarray
     gain_margin_db: np.ndarray
-    #: the coupled loop and the velocity loop with the mouse attached are stable (Nyquist on the grid),
-    #: (n_corner, n_scenario)
+    #: the coupled loop and the velocity loop with the mouse attached are stable (Nyquist), (n_mouse, n_scenario)
     stable: np.ndarray
+    #: each curve's ray bound over b_v (``design.admittance.ray.curve_bounds``): <= 1 certifies its margins
+    bound_ratio: np.ndarray
     #: motor current per force-sensor step, peak over frequency (A), (n_scenario,)
     sensor_current_a: np.ndarray
     #: motor force for the spec's peak mouse force, peak over frequency (N), (n_scenario,)
     motor_force_n: np.ndarray
+    #: the rendered admittance stays within 3 dB / 30 deg of the virtual dynamics up to here (Hz)
     rendered_bandwidth_hz: np.ndarray
-    #: frequencies (Hz) of those peaks, (n_scenario,)
+    #: Re Y_r >= 0 from DC up to here (Hz; inf: on the whole grid), (n_scenario,)
+    passive_up_to_hz: np.ndarray
+    #: frequencies (Hz) of the hardware peaks, (n_scenario,)
     sensor_peak_hz: np.ndarray
     motor_peak_hz: np.ndarray
+    #: steady drift at rest (mm/s) under the offset left after taring
+    drift_mm_per_s: float
     #: each violated requirement as {"constraint", "payload_kg", "scenario", "mouse", "value", "limit", "detail"}
     violations: tuple[dict, ...]
 
@@ -257,95 +347,198 @@ class AdmittanceCheck:
     def payload_kg(self) -> np.ndarray:
         return self.scenarios.payload_kg
 
-    def slack(self, adm: AdmittanceProblem) -> np.ndarray:
-        """Least relative slack of every requirement per scenario (n_scenario,): < 0 violates."""
-        hw = adm.hardware
-        return np.min(np.stack([
-            (np.min(self.phase_margin_deg, axis=0) - adm.phase_margin_deg) / max(adm.phase_margin_deg, 1.0),
-            (np.min(self.gain_margin_db, axis=0) - adm.gain_margin_db) / max(adm.gain_margin_db, 1.0),
-            1 - self.sensor_current_a / hw.max_current_per_sensor_step_a,
-            1 - self.motor_force_n / hw.motor_peak_force_n]), axis=0)
-
     def per_payload(self) -> tuple[np.ndarray, dict[str, np.ndarray]]:
-        """The payloads and, at each, the worst over its scenarios and the mouse corners of: phase_margin_deg,
-        gain_margin_db, rendered_bandwidth_hz (min) and sensor_current_a, motor_force_n (max)."""
+        """The payloads and, at each, the worst over its scenarios and the mice of: phase_margin_deg,
+        gain_margin_db (min over the mice computed), rendered_bandwidth_hz, passive_up_to_hz (min) and
+        sensor_current_a, motor_force_n (max)."""
         m = np.unique(self.payload_kg)
         idx = [np.flatnonzero(self.payload_kg == mk) for mk in m]
-        worst = {"phase_margin_deg": (np.min(self.phase_margin_deg, axis=0), np.min),
-                 "gain_margin_db": (np.min(self.gain_margin_db, axis=0), np.min),
-                 "rendered_bandwidth_hz": (self.rendered_bandwidth_hz, np.nanmin),
+        worst = {"phase_margin_deg": (np.nanmin(self.phase_margin_deg, axis=0), np.min),
+                 "gain_margin_db": (np.nanmin(self.gain_margin_db, axis=0), np.min),
+                 "rendered_bandwidth_hz": (np.nan_to_num(self.rendered_bandwidth_hz, nan=np.inf), np.min),
+                 "passive_up_to_hz": (self.passive_up_to_hz, np.min),
                  "sensor_current_a": (self.sensor_current_a, np.max), "motor_force_n": (self.motor_force_n, np.max)}
+        return m, {name: np.array([f(v[i]) for i in idx]) for name, (v, f) in worst.items()}
+
+    def worst_by_legs(self) -> dict[str, tuple[float, float]]:
+        """Worst (phase margin deg, gain margin dB) over the scenarios of the floating and of the grounded mice."""
         out = {}
-        for name, (v, f) in worst.items():
-            with warnings.catch_warnings():      # all-nan bandwidth at a payload: nan
-                warnings.simplefilter("ignore", RuntimeWarning)
-                out[name] = np.array([f(v[i]) for i in idx])
-        return m, out
+        for name, keep in (("floating", [not m.grounded for m in self.mice]),
+                           ("grounded", [m.grounded for m in self.mice])):
+            k = np.asarray(keep)
+            if k.any():
+                out[name] = (float(np.nanmin(self.phase_margin_deg[k])), float(np.nanmin(self.gain_margin_db[k])))
+        return out
 
 
 class AdmittanceEvaluator:
-    """Exact evaluation of any (m_v, b_v) for fixed PI gains: the responses that do not depend on
-    (m_v, b_v) are computed once, so a search can evaluate many candidates cheaply."""
+    """Exact evaluation of any (m_v, b_v) for fixed PI gains and rig timing: K_eff and the paths that do not
+    depend on (m_v, b_v) are computed once (in scenario blocks of bounded memory when ``keep`` is False)."""
 
-    def __init__(self, problem: LoopProblem, scenarios, w_rad_s, *, kp: float, ki: float):
+    def __init__(self, problem: LoopProblem, scenarios, *, kp: float, ki: float, timing: RigTiming | None = None,
+                 corners=None, w_rad_s=None):
         self.problem = problem
         self.adm = admittance_problem(problem)
-        self.corners = mouse_corners(problem)
-        self.loop = gantry_loop(problem, with_neck_modes(w_rad_s, self.corners), scenarios, kp=kp, ki=ki)
-        self.gains = np.stack([interaction_gain(self.loop, mouse) for mouse in self.corners])
-        # D = (1 + P C)(1 + S G Z_m): the velocity loop with the mouse attached, which the Nyquist test
-        # of the interaction loop assumes stable
-        self.attached_stable = np.stack([nyquist_stable(self.loop.sensitivity * self.loop.mobility
-                                                        * mouse.impedance_frd(self.loop.w_rad_s))
-                                         for mouse in self.corners])
+        self.timing = timing or RigTiming.of(self.adm.rig)
+        self.kp, self.ki = kp, ki
+        self.corners = mice(problem) if corners is None else tuple(corners)
+        grounded = np.array([m.grounded for m in self.corners])
+        self._leg_groups = [g for g in (np.flatnonzero(~grounded), np.flatnonzero(grounded)) if g.size]
+        self.scenarios = as_scenarios(scenarios)
+        base = check_grid_for(self.timing) if w_rad_s is None else np.asarray(w_rad_s, float)
+        self.w = with_mode_points(base, self.corners, self.timing)
+        self.blocks = _blocks(len(self.scenarios), len(self.corners) * self.w.size)
+        self._kept = None
+        if len(self.blocks) == 1:
+            self._kept = interaction_responses(problem, self.scenarios, self.w, kp=kp, ki=ki, timing=self.timing,
+                                               corners=self.corners)
+        # the velocity loop with the mouse attached, on a continuous grid (it is a continuous loop)
+        wc = with_mode_points(W_CHECK, self.corners, RigTiming(None))
+        self.attached_stable = np.ones((len(self.corners), len(self.scenarios)), bool)
+        self.passive_w = wc
+        self._free = []
+        batch = stack(self.corners)
+        for rows in self.blocks:
+            loop = gantry_loop(problem, wc, self.scenarios.take(rows), kp=kp, ki=ki)
+            self.attached_stable[:, rows] = nyquist_stable(attached_loop(loop, batch))
+            self._free.append(loop)
 
-    def evaluate(self, m_v: float, b_v: float, *, bandwidth: bool = True) -> AdmittanceCheck:
-        loop, hw = self.loop, self.adm.hardware
-        w = loop.w_rad_s
-        z = virtual_impedance_frd(w, m_v, b_v)
-        mg = loop_margins(w, self.gains / z)
-        i_resp = np.abs(loop.controller * loop.sensitivity / z) * hw.force_sensor_resolution_n
-        f_resp = np.abs(loop.complementary * (1.0 / (loop.mobility * z) - 1.0)) * self.adm.mouse.peak_force_n
-        bw = (admittance_bandwidth_hz(w, rendered_admittance(loop, m_v, b_v), 1.0 / z) if bandwidth
-              else np.full(loop.payload_kg.shape, np.nan))
-        fhz = w / (2 * np.pi)
-        check = AdmittanceCheck(float(m_v), float(b_v), loop.scenarios, mg.phase_margin_deg, mg.gain_margin_db,
-                                mg.closed_loop_stable & self.attached_stable, i_resp.max(-1), f_resp.max(-1), bw,
-                                fhz[i_resp.argmax(-1)], fhz[f_resp.argmax(-1)], ())
-        return AdmittanceCheck(**{**check.__dict__, "violations": self._violations(check)})
+    def responses(self):
+        """``InteractionResponses`` per scenario block (computed anew unless they fit in memory at once)."""
+        if self._kept is not None:
+            yield np.arange(len(self.scenarios)), self._kept
+            return
+        for rows in self.blocks:
+            yield rows, interaction_responses(self.problem, self.scenarios.take(rows), self.w, kp=self.kp,
+                                              ki=self.ki, timing=self.timing, corners=self.corners)
 
-    def _violations(self, c: AdmittanceCheck) -> tuple[dict, ...]:
-        adm, hw = self.adm, self.adm.hardware
-        out = []
-        for j, mk in enumerate(c.payload_kg):
-            where, row = c.scenarios.describe(j), c.scenarios.row(j)
-            if c.sensor_current_a[j] > hw.max_current_per_sensor_step_a * (1 + 1e-6):
-                out.append({"constraint": "sensor_current", "payload_kg": float(mk), "scenario": row, "mouse": None,
-                            "value": float(c.sensor_current_a[j]), "limit": hw.max_current_per_sensor_step_a,
-                            "detail": f"one force-sensor step ({hw.force_sensor_resolution_n * 1e3:g} mN) drives "
-                                      f"{c.sensor_current_a[j]:.4g} A (admittance.hardware."
-                                      f"max_current_per_sensor_step_a = {hw.max_current_per_sensor_step_a:g} A) at "
-                                      f"{where}, {c.sensor_peak_hz[j]:.3g} Hz"})
-            if c.motor_force_n[j] > hw.motor_peak_force_n * (1 + 1e-6):
-                out.append({"constraint": "motor_force", "payload_kg": float(mk), "scenario": row, "mouse": None,
-                            "value": float(c.motor_force_n[j]), "limit": hw.motor_peak_force_n,
-                            "detail": f"a {adm.mouse.peak_force_n:g} N mouse force asks {c.motor_force_n[j]:.4g} N of "
-                                      f"the motor (admittance.hardware.motor_peak_force_n = "
-                                      f"{hw.motor_peak_force_n:g} N) at {where}, {c.motor_peak_hz[j]:.3g} Hz"})
-            for k, mouse in enumerate(self.corners):
-                if not c.stable[k, j]:
-                    out.append({"constraint": "stability", "payload_kg": float(mk), "scenario": row,
-                                "mouse": mouse.as_dict(), "value": float("nan"), "limit": float("nan"),
-                                "detail": f"the coupled gantry-mouse loop is unstable at {where} with mouse "
-                                          f"({mouse.label()})"})
-                    continue
-                for name, val, req, unit in (("phase_margin", c.phase_margin_deg[k, j], adm.phase_margin_deg, "deg"),
-                                             ("gain_margin", c.gain_margin_db[k, j], adm.gain_margin_db, "dB")):
-                    if val < req - 1e-6:
-                        out.append({"constraint": name, "payload_kg": float(mk), "scenario": row,
-                                    "mouse": mouse.as_dict(),
-                                    "value": float(val), "limit": req,
-                                    "detail": f"interaction-loop {name.replace('_', ' ')} {val:.3g} {unit} "
-                                              f"(admittance.{name}_{unit.lower()} = {req:g}) at {where} with "
-                                              f"mouse ({mouse.label()})"})
-        return tuple(out)
+    def evaluate(self, m_v: float, b_v: float, *, bandwidth: bool = True, screen: bool = True) -> AdmittanceCheck:
+        """Margins, stability, hardware peaks, passivity band, rendered bandwidth and drift of (m_v, b_v).
+
+        With ``screen`` the margins are computed exactly (``loop_margins``, Nyquist) for the curves (mouse x
+        scenario) nearest their limits: at each scenario the ``SCREEN_TOP`` floating and grounded mice with the
+        largest phase- and the largest gain-margin ray bound (``design.admittance.ray.curve_bounds``: the least b_v along the ray
+        m_v / b_v that keeps the margin; the gain margin's orders the curves exactly as their gain margins)
+        and every curve whose bound is within ``SCREEN_RATIO`` of b_v; the others are certified by their
+        bound (margins and stability hold all along the ray down to it) and their entries are nan."""
+        from design.admittance.ray import curve_bounds, polar
+
+        adm = self.adm
+        n_m, n_s = len(self.corners), len(self.scenarios)
+        pm, gm, ratio = (np.full((n_m, n_s), np.nan) for _ in range(3))
+        stable = np.ones((n_m, n_s), bool)
+        cur, force, cur_hz, force_hz = (np.empty(n_s) for _ in range(4))
+        hw, fpk = adm.hardware, adm.mouse.peak_force_n
+        fhz = self.w / (2 * np.pi)
+        tau = m_v / b_v
+        g = 10 ** (adm.gain_margin_db / 20)
+        for rows, r in self.responses():
+            z = virtual_impedance(r.sigma, m_v, b_v)
+            gain = r.gain.reshape(-1, self.w.size)
+            parts = curve_bounds(*polar(gain), 1.0 + tau * r.sigma, adm.phase_margin_deg, g, self.timing.sampled,
+                                 parts=True)
+            ratio[:, rows] = np.maximum(*parts).reshape(n_m, len(rows)) / b_v
+            if screen:
+                pick = ratio[:, rows] >= SCREEN_RATIO
+                for bound in parts:
+                    for group in self._leg_groups:
+                        b = bound.reshape(n_m, len(rows))[group]
+                        top = group[np.argsort(-b, axis=0)[:SCREEN_TOP]]
+                        pick[top, np.arange(len(rows))[None, :]] = True
+            else:
+                pick = np.ones((n_m, len(rows)), bool)
+            k_idx, j_idx = np.nonzero(pick)
+            L = r.gain[k_idx, j_idx] / z
+            p_, g_, st_ = interaction_margins(r, L)
+            pm[k_idx, rows[j_idx]], gm[k_idx, rows[j_idx]], stable[k_idx, rows[j_idx]] = p_, g_, st_
+            i_resp = r.current_path / np.abs(z) * hw.force_sensor_resolution_n
+            f_resp = np.abs((r.sensitivity_mobility + r.reference_path / z) / r.mobility - 1.0) * fpk
+            cur[rows], force[rows] = i_resp.max(-1), f_resp.max(-1)
+            cur_hz[rows], force_hz[rows] = fhz[i_resp.argmax(-1)], fhz[f_resp.argmax(-1)]
+        stable &= self.attached_stable
+        bw, passive = np.full(n_s, np.nan), np.empty(n_s)
+        for rows, loop in zip(self.blocks, self._free):
+            yr = rendered_admittance(loop, m_v, b_v, self.timing)
+            passive[rows] = passive_up_to_hz(loop.w_rad_s, yr)
+            if bandwidth:
+                bw[rows] = admittance_bandwidth_hz(loop.w_rad_s, yr, 1.0 / virtual_impedance_frd(loop.w_rad_s, m_v, b_v))
+        check = AdmittanceCheck(float(m_v), float(b_v), self.scenarios, self.corners, pm, gm, stable, ratio, cur, force,
+                                bw,
+                                passive, cur_hz, force_hz, float(drift_mm_per_s(adm, b_v)), ())
+        return replace(check, violations=violations(adm, check))
+
+
+def passive_up_to_hz(w_rad_s, rendered) -> np.ndarray:
+    """The top (Hz) of the band from DC where Re Y_r >= 0 (interpolated); inf when Re Y_r never drops below
+    0 on the grid."""
+    w = np.asarray(w_rad_s, float)
+    re = np.asarray(rendered).real
+    scale = np.max(np.abs(rendered), axis=-1, keepdims=True)
+    f = _first_rise_hz(w, -re / scale)
+    return np.where(np.isnan(f), np.inf, f)
+
+
+def _blocks(n_scenarios: int, per_scenario: int) -> list[np.ndarray]:
+    size = max(1, CHUNK_ELEMENTS // max(per_scenario, 1))
+    return [np.arange(i, min(i + size, n_scenarios)) for i in range(0, n_scenarios, size)]
+
+
+def violations(adm: AdmittanceProblem, c: AdmittanceCheck) -> tuple[dict, ...]:
+    """Every requirement ``c`` misses, each naming its spec key, scenario and mouse."""
+    hw, out = adm.hardware, []
+
+    def add(constraint, j, mouse, value, limit, detail):
+        out.append({"constraint": constraint, "payload_kg": None if j is None else float(c.payload_kg[j]),
+                    "scenario": None if j is None else c.scenarios.row(j),
+                    "mouse": None if mouse is None else mouse.as_dict(), "value": float(value),
+                    "limit": float(limit), "detail": detail})
+
+    drift_limit = adm.sensor.max_drift_mm_per_s
+    if drift_limit is not None and c.drift_mm_per_s > drift_limit * (1 + 1e-6):
+        add("drift", None, None, c.drift_mm_per_s, drift_limit,
+            f"the {1e3 * adm.sensor.bias_after_tare_n:g} mN offset left after taring (admittance.sensor."
+            f"bias_after_tare_n, deadband {1e3 * adm.sensor.deadband_n:g} mN) makes the gantry creep at "
+            f"{c.drift_mm_per_s:.3g} mm/s with b_v = {c.b_v:.4g} N*s/m (admittance.sensor.max_drift_mm_per_s = "
+            f"{drift_limit:g})")
+    for j in range(len(c.scenarios)):
+        where = c.scenarios.describe(j)
+        limit = hw.max_current_per_sensor_step_a
+        if limit is not None and c.sensor_current_a[j] > limit * (1 + 1e-6):
+            add("sensor_current", j, None, c.sensor_current_a[j], limit,
+                f"one force-sensor step ({hw.force_sensor_resolution_n * 1e3:g} mN) drives {c.sensor_current_a[j]:.4g}"
+                f" A (admittance.hardware.max_current_per_sensor_step_a = {limit:g} A) at {where}, "
+                f"{c.sensor_peak_hz[j]:.3g} Hz")
+        if c.motor_force_n[j] > hw.motor_peak_force_n * (1 + 1e-6):
+            add("motor_force", j, None, c.motor_force_n[j], hw.motor_peak_force_n,
+                f"a {adm.mouse.peak_force_n:g} N mouse force asks {c.motor_force_n[j]:.4g} N of the motor "
+                f"(admittance.hardware.motor_peak_force_n = {hw.motor_peak_force_n:g} N) at {where}, "
+                f"{c.motor_peak_hz[j]:.3g} Hz")
+        if adm.passivity is not None:
+            top = adm.passivity.up_to_hz
+            need = np.inf if top is None else top
+            if c.passive_up_to_hz[j] < need * (1 - 1e-6):
+                add("passivity", j, None, c.passive_up_to_hz[j], need,
+                    f"Re Y_r < 0 from {c.passive_up_to_hz[j]:.3g} Hz at {where} (admittance.passivity.up_to_hz = "
+                    f"{'everywhere' if top is None else f'{top:g} Hz'}): the controller injects energy there")
+        for k, mouse in enumerate(c.mice):
+            if not c.stable[k, j]:
+                add("stability", j, mouse, math.nan, math.nan,
+                    f"the coupled gantry-mouse loop is unstable at {where} with mouse ({mouse.label()})")
+                continue
+            for name, val, req, unit in (("phase_margin", c.phase_margin_deg[k, j], adm.phase_margin_deg, "deg"),
+                                         ("gain_margin", c.gain_margin_db[k, j], adm.gain_margin_db, "dB")):
+                if val < req - 1e-6:
+                    add(name, j, mouse, val, req,
+                        f"interaction-loop {name.replace('_', ' ')} {val:.3g} {unit} (admittance.{name}_"
+                        f"{unit.lower()} = {req:g}) at {where} with mouse ({mouse.label()})")
+    return tuple(out)
+
+
+def relative_slack(violation: dict) -> float:
+    """How far a violation misses its requirement, relative to it (more negative: worse)."""
+    if violation["constraint"] == "stability":
+        return -math.inf
+    value, limit = violation["value"], violation["limit"]
+    if violation["constraint"] in ("phase_margin", "gain_margin", "passivity"):
+        return (value - limit) / max(abs(limit), 1e-12) if math.isfinite(limit) else -1.0
+    return (limit - value) / max(abs(limit), 1e-12)

@@ -1,13 +1,16 @@
-"""Monte Carlo verification of an admittance design: independent uniform draws over payload x the
-spec's ``plant.uncertainty`` x the mouse ranges (a drawn mouse, not a corner), none of them a design
-scenario, and the violation rate with its exact one-sided 95 % upper bound (Clopper-Pearson,
-``design.synth.monte_carlo``).
+"""Monte Carlo verification of an admittance design: independent draws over payload x the spec's
+``plant.uncertainty`` x the mouse ranges (a drawn mouse, floating or on its legs, not a corner), none
+of them a design scenario, and the violation rate with its exact one-sided 95 % upper bound
+(Clopper-Pearson, ``design.synth.monte_carlo``).
 
-Each draw is evaluated as the dense check evaluates a scenario (``design.admittance.model``): the
-interaction loop's margins and Nyquist stability on the dense grid, and the hardware peaks. A draw
-violates when a margin falls short by more than ``MARGIN_TOLERANCE`` (grid rounding, as in the
-python-control verification), a hardware peak exceeds its limit by more than ``HARDWARE_TOLERANCE``,
-or the coupled loop (or the velocity loop with the mouse attached) is unstable.
+Each draw is one curve (scenario and mouse) evaluated as the screened dense check evaluates one
+(``design.admittance.model.AdmittanceEvaluator.evaluate``): its ray bound certifies it, or, when the
+bound comes within ``SCREEN_RATIO`` of b_v (and for the ``WORST_EXACT`` draws with the largest bounds),
+the interaction loop's grid margins and Nyquist stability are computed; the hardware peaks and the
+stability of the velocity loop with the mouse attached are computed for every draw. A draw violates
+when a margin falls short by more than ``MARGIN_TOLERANCE`` (grid rounding, as in the python-control
+verification), a hardware peak exceeds its limit by more than ``HARDWARE_TOLERANCE``, or a loop is
+unstable.
 """
 
 from __future__ import annotations
@@ -17,24 +20,32 @@ from dataclasses import dataclass
 import numpy as np
 
 from design.admittance.model import (
-    W_DENSE,
-    MouseModel,
+    SCREEN_RATIO,
+    W_CHECK,
+    InteractionResponses,
     admittance_problem,
-    gantry_loop,
-    interaction_gain,
-    mouse_corners,
-    virtual_impedance_frd,
-    with_neck_modes,
+    check_grid_for,
+    gantry_loop_at,
+    interaction_margins,
+    mice,
+    virtual_impedance,
+    with_mode_points,
 )
-from design.admittance.verify import MARGIN_TOLERANCE
-from design.loop.margins import loop_margins, nyquist_stable
+from design.admittance.mouse import FIELDS, MouseModel, random_mice
+from design.admittance.ray import curve_bounds, polar
+from design.admittance.rig import RigTiming
+from design.loop.margins import nyquist_stable
 from design.problem import LoopProblem
 from design.synth.monte_carlo import clopper_pearson_upper, draw_settings
 from design.synth.scenarios import random_scenarios
 
+#: python-control margins may fall short of the requirement by this much (deg, dB): grid rounding
+MARGIN_TOLERANCE = (0.1, 0.05)
 #: relative excess of a hardware peak over its limit that counts as a violation
 HARDWARE_TOLERANCE = 1e-3
+#: draws per chunk, and the draws with the largest ray bounds whose margins are always computed
 CHUNK = 512
+WORST_EXACT = 8
 
 
 @dataclass(frozen=True)
@@ -46,6 +57,7 @@ class AdmittanceMonteCarlo:
     violations: int
     #: the one-sided 95 % upper bound on the violation rate (Clopper-Pearson)
     rate_upper_bound: float
+    #: worst margins over the draws whose margins were computed (the others are certified by their ray bound)
     worst_phase_margin_deg: float
     worst_gain_margin_db: float
     worst_sensor_current_a: float
@@ -55,55 +67,91 @@ class AdmittanceMonteCarlo:
     worst_scenario: dict
     #: and its mouse
     worst_mouse: dict
+    #: draws whose margins were computed on the grid
+    exact: int
 
     @property
     def rate(self) -> float:
         return self.violations / self.samples
 
 
-def random_mice(problem: LoopProblem, samples: int, *, seed: int) -> MouseModel:
-    """``samples`` uniform draws over the spec's mouse ranges, as one ``MouseModel`` of (n, 1) arrays."""
-    m = admittance_problem(problem).mouse
-    rng = np.random.default_rng((seed, 1))
-    return MouseModel(*(rng.uniform(r.min, r.max, (samples, 1)) for r in (
-        m.head_mass_kg, m.body_mass_kg, m.neck_stiffness_n_per_m, m.neck_damping_n_s_per_m)))
+def paired_gain(plants, scenarios, mouse: MouseModel, s, weight, *, kp: float, ki: float) -> np.ndarray:
+    """K of each scenario with its own mouse (row k with mouse k) times ``weight``, (n, len(s))."""
+    loop = gantry_loop_at(plants, s, scenarios, kp=kp, ki=ki)
+    return loop.reference * weight / (1.0 / mouse.impedance(loop.s) + loop.sensitivity * loop.mobility)
 
 
 def admittance_monte_carlo(problem: LoopProblem, *, kp: float, ki: float, m_v: float, b_v: float,
-                           samples: int | None = None, seed: int | None = None) -> AdmittanceMonteCarlo:
+                           timing: RigTiming | None = None, samples: int | None = None,
+                           seed: int | None = None) -> AdmittanceMonteCarlo:
     """Margins, stability and hardware peaks of (m_v, b_v) under the PI gains (kp, ki) on ``samples``
     draws (default: the problem's ``verification`` settings)."""
     adm = admittance_problem(problem)
+    timing = timing or RigTiming.of(adm.rig)
     hw = adm.hardware
     samples, seed = draw_settings(problem, samples, seed)
     draws = random_scenarios(problem, samples, seed=seed)
-    mice = random_mice(problem, samples, seed=seed)
-    w = with_neck_modes(W_DENSE, mouse_corners(problem))
-    z = virtual_impedance_frd(w, m_v, b_v)
-    pm, gm, cur, force = (np.empty(samples) for _ in range(4))
+    drawn = random_mice(adm.mouse, samples, seed=seed)
+    corners = mice(problem)
+    w = with_mode_points(check_grid_for(timing), corners, timing)
+    wc = with_mode_points(W_CHECK, corners, RigTiming(None))
+    sigma = timing.sigma(w)
+    z = virtual_impedance(sigma, m_v, b_v)
+    g = 10 ** (adm.gain_margin_db / 20)
+    bound, cur, force = (np.empty(samples) for _ in range(3))
     stable = np.empty(samples, bool)
+    gains: dict[int, np.ndarray] = {}
+    base = problem.plant.plant()
     for start in range(0, samples, CHUNK):
         rows = np.arange(start, min(start + CHUNK, samples))
-        loop = gantry_loop(problem, w, draws.take(rows), kp=kp, ki=ki)
-        mouse = MouseModel(*(np.asarray(v)[rows] for v in mice.as_dict().values()))
-        zm = mouse.impedance_frd(w)
-        mg = loop_margins(w, interaction_gain(loop, mouse) / z)
-        attached = nyquist_stable(loop.sensitivity * loop.mobility * zm)   # D = (1 + P C)(1 + S G Z_m)
-        pm[rows], gm[rows] = mg.phase_margin_deg, mg.gain_margin_db
-        stable[rows] = mg.closed_loop_stable & attached
-        cur[rows] = np.max(np.abs(loop.controller * loop.sensitivity / z), axis=-1) * hw.force_sensor_resolution_n
-        force[rows] = np.max(np.abs(loop.complementary * (1.0 / (loop.mobility * z) - 1.0)), axis=-1) \
-            * adm.mouse.peak_force_n
+        sc = draws.take(rows)
+        plants = sc.plants(base)
+        mouse = MouseModel(*(np.asarray(getattr(drawn, f))[rows] for f in FIELDS))
+        gain = timing.sampled_path(lambda s, weight: paired_gain(plants, sc, mouse, s, weight, kp=kp, ki=ki), w)
+        bound[rows] = curve_bounds(*polar(gain), 1.0 + (m_v / b_v) * sigma, adm.phase_margin_deg, g,
+                                   timing.sampled)
+        near = np.flatnonzero(bound[rows] >= SCREEN_RATIO * b_v)
+        gains.update({int(rows[i]): gain[i] for i in near})
+        top = np.argsort(-bound[rows])[:WORST_EXACT]
+        gains.update({int(rows[i]): gain[i] for i in top})
+        loop = gantry_loop_at(plants, 1j * w, sc, kp=kp, ki=ki)
+        W = timing.fundamental(w)
+        cur[rows] = np.max(np.abs(loop.controller * loop.sensitivity * W / z), axis=-1) * hw.force_sensor_resolution_n
+        yr = loop.sensitivity * loop.mobility + loop.reference * W / z
+        force[rows] = np.max(np.abs(yr / loop.mobility - 1.0), axis=-1) * adm.mouse.peak_force_n
+        free = gantry_loop_at(plants, 1j * wc, sc, kp=kp, ki=ki)
+        stable[rows] = nyquist_stable(_attached(free, mouse))
+    # every draw near its bound and the WORST_EXACT largest bounds overall (each chunk kept its own)
+    keep = sorted({i for i in gains if bound[i] >= SCREEN_RATIO * b_v}
+                  | set(np.argsort(-bound)[:WORST_EXACT].tolist()))
+    pm, gm = np.full(samples, np.inf), np.full(samples, np.inf)
+    if keep:
+        idx = np.array(keep)
+        resp = InteractionResponses(w, timing, draws.take(idx), (), np.stack([gains[i] for i in keep]), sigma,
+                                    np.empty(0), np.empty(0), np.empty(0), np.empty(0))
+        p_, g_, st = interaction_margins(resp, resp.gain / z)
+        pm[idx], gm[idx] = p_, g_
+        stable[idx] &= st
     d_pm, d_gm = MARGIN_TOLERANCE
+    limit_i = hw.max_current_per_sensor_step_a
     bad = ((pm < adm.phase_margin_deg - d_pm) | (gm < adm.gain_margin_db - d_gm) | ~stable
-           | (cur > hw.max_current_per_sensor_step_a * (1 + HARDWARE_TOLERANCE))
            | (force > hw.motor_peak_force_n * (1 + HARDWARE_TOLERANCE)))
+    if limit_i is not None:
+        bad |= cur > limit_i * (1 + HARDWARE_TOLERANCE)
     slack = np.min(np.stack([(pm - adm.phase_margin_deg) / max(adm.phase_margin_deg, 1.0),
                              np.where(np.isfinite(gm), gm - adm.gain_margin_db, np.inf) / max(adm.gain_margin_db, 1.0),
-                             1 - cur / hw.max_current_per_sensor_step_a, 1 - force / hw.motor_peak_force_n]), axis=0)
+                             np.ones(samples) if limit_i is None else 1 - cur / limit_i,
+                             1 - force / hw.motor_peak_force_n, 1 - bound / b_v]), axis=0)
     i = int(np.argmin(np.where(stable, slack, -np.inf)))
     k = int(bad.sum())
-    return AdmittanceMonteCarlo(samples, seed, k, clopper_pearson_upper(k, samples), float(np.min(pm)),
-                                float(np.min(gm)), float(np.max(cur)), float(np.max(force)), int(np.sum(~stable)),
-                                draws.row(i), {n: float(np.asarray(v)[i, 0]) for n, v in mice.as_dict().items()})
+    computed = np.isfinite(pm)
+    return AdmittanceMonteCarlo(samples, seed, k, clopper_pearson_upper(k, samples),
+                                float(np.min(pm[computed])) if computed.any() else float("inf"),
+                                float(np.min(gm[computed])) if computed.any() else float("inf"),
+                                float(np.max(cur)), float(np.max(force)), int(np.sum(~stable)), draws.row(i),
+                                {n: float(np.asarray(getattr(drawn, n))[i, 0]) for n in FIELDS}, len(keep))
 
+
+def _attached(free, mouse: MouseModel) -> np.ndarray:
+    """S G Z_m of each draw with its own mouse."""
+    return free.sensitivity * free.mobility * mouse.impedance(free.s)

@@ -3,7 +3,9 @@
 Exit status: 0 for a verified optimal design; 1 when there is no such design: the problem is
 unbounded (nothing in the plant limits the bandwidth), infeasible (no gains meet the
 requirements; the binding requirement and payload are named), or the design failed the
-independent check (the output explains which); 2 for bad input (spec errors name the key).
+independent check (the output explains which); 2 for bad input (spec errors name the key); 3 for a
+verified admittance design that the spec's mouse cannot drive on its locomotion profile
+(``mouse_cannot_drive``: the force felt, the binding requirement and the trade-off are printed).
 """
 
 from __future__ import annotations
@@ -29,15 +31,20 @@ def synth(
     plant_from: PlantFromOption = None,
 ) -> None:
     """Synthesise PI gains maximising worst-case bandwidth under margin constraints over the payload range."""
-    from design.views.console import print_synthesis
+    from design.views.console import StageProgress, print_synthesis
     from design.views.json import design_to_dict, print_json
     from design.workflows import design, load_problem
 
     keep_inputs({"--report": report}, [spec_file, plant_from])
     problem = load_problem(spec_file, plant_from=plant_from)
-    outcome = design(problem, method=method, schedule=schedule)
+    progress = StageProgress(enabled=not as_json and sys.stderr.isatty())
+    try:
+        outcome = design(problem, method=method, schedule=schedule, progress=progress)
+    finally:
+        progress.close()
     out = design_to_dict(outcome)
-    if report is not None and out["status"] == "optimal" and not problem.spec.plant.measured:
+    reportable = out["status"] in ("optimal", "mouse_cannot_drive")
+    if report is not None and reportable and not problem.spec.plant.measured:
         from design.views.report import design_report
         from design.workflows import report_content
 
@@ -47,11 +54,12 @@ def synth(
         print_json(out)
     else:
         print_synthesis(console, out)
-        if report is not None and out["status"] == "optimal":
+        if report is not None and reportable:
             console.print(f"report written to {report}")
-    if report is not None and out["status"] != "optimal":
+    if report is not None and not reportable:
         typer.echo(f"no report written to {report}: no verified design", err=True)
     if out["status"] != "optimal":
+        code = 3 if out["status"] == "mouse_cannot_drive" else 1
         if not as_json:
-            console.print(f"[bold red]{out['status']}[/] (exit status 1)")
-        raise typer.Exit(1)
+            console.print(f"[bold red]{out['status']}[/] (exit status {code})")
+        raise typer.Exit(code)

@@ -53,6 +53,7 @@ from design.problem import (
     PlantFamily,
     Range,
     Requirements,
+    StanceRange,
     Uncertainty,
     Verification,
     with_filters,
@@ -63,7 +64,8 @@ from plant.models import BASE_BOUNDS, Plant
 from plant.parameters import THESIS
 from plant.text_io import read_text
 
-RANGE_KEYS_OF_MOUSE = tuple(k for k, f in Mouse.__dataclass_fields__.items() if f.type in (Range, "Range"))
+RANGE_KEYS_OF_MOUSE = tuple(k for k, f in Mouse.__dataclass_fields__.items()
+                            if f.type in (Range, "Range", StanceRange, "StanceRange"))
 
 
 class _Strict(BaseModel):
@@ -456,9 +458,13 @@ def _check_limits(spec: Spec) -> None:
             raise problem
 
 
+#: the spec keys that take true / false
+BOOLEAN_KEYS = ("admittance.codesign", "admittance.mouse.floating")
+
+
 def _no_booleans(data, path: str = "") -> None:
-    """No spec key takes true/false: a boolean where a number belongs is an error, not 1 or 0."""
-    if isinstance(data, bool):
+    """Only ``BOOLEAN_KEYS`` take true/false: a boolean where a number belongs is an error, not 1 or 0."""
+    if isinstance(data, bool) and path not in BOOLEAN_KEYS:
         raise SpecError(f"{path}: {str(data).lower()} is not a number")
     if isinstance(data, dict):
         for k, v in data.items():

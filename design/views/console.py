@@ -188,13 +188,9 @@ def print_synthesis(console: Console, out: dict) -> None:
         console.print(t)
     adm = out.get("admittance")
     if adm and adm.get("m_v") is not None:
-        bw = adm["rendered_bandwidth_hz"]
-        console.print(f"[bold]admittance[/]: m_v = {adm['m_v']:.4g} kg, b_v = {adm['b_v']:.4g} N*s/m; peak resistance "
-                      f"{adm['peak_resistance_n']:.3g} N; rendered bandwidth {_num(bw, '.1f')} Hz; interaction PM "
-                      f"{_num(adm['worst_phase_margin_deg'], '.1f')} deg, "
-                      f"GM {_num(adm['worst_gain_margin_db'], '.1f')} "
-                      f"dB; binding: {adm['binding']['detail']}")
-        console.print(f"  {adm['message']}; solver: {adm['solver']['method']}, {adm['solver']['seconds']:.1f} s")
+        _print_admittance(console, adm)
+    elif adm:
+        console.print(f"[bold]admittance[/]: {adm['status']}: {adm['message']}", soft_wrap=True)
     t = Table(title="Baselines on the same spec")
     for col in ("baseline", "Kp", "Ki", "worst BW Hz", "worst PM deg", "worst GM dB", "meets"):
         t.add_column(col, justify="left" if col == "baseline" else "right")
@@ -207,6 +203,64 @@ def print_synthesis(console: Console, out: dict) -> None:
     s = out["solver"]
     console.print(f"solver: {s['method']}, {s['seconds']:.2f} s" + (f" ({s['cpu_seconds']:.2f} s CPU)"
                                                                     if "cpu_seconds" in s else ""))
+
+
+def _print_admittance(console: Console, adm: dict) -> None:
+    """The admittance stage: the virtual dynamics, what the mouse feels, the margins by mouse, the rig."""
+    bw, m = adm["rendered_bandwidth_hz"], adm.get("mouse") or {}
+    console.print(f"[bold]admittance[/]: m_v = {adm['m_v']:.4g} kg, b_v = {adm['b_v']:.4g} N*s/m with Kp = {adm['kp']:.4g}, "
+                  f"Ki = {adm['ki']:.4g}; rendered bandwidth {_num(bw, '.1f')} Hz; binding: {adm['binding']['detail']}",
+                  soft_wrap=True)
+    if m:
+        console.print(f"  the mouse feels {m['force_felt_peak_n']:.3g} N peak, {m['force_felt_rms_n']:.3g} N RMS on the "
+                      f"profile (m_v a + b_v v = {m['virtual_dynamics_force_n']:.3g} N; it can push "
+                      f"{adm['limits']['mouse_peak_force_n']:g} N: {'can' if m['can_drive'] else 'CANNOT'} drive it); "
+                      f"with its peak force it reaches {m['reachable_speed_m_per_s']:.3g} m/s and "
+                      f"{m['reachable_acceleration_m_per_s2']:.3g} m/s^2; it must push {1e3 * m['breakaway_force_n']:.3g} "
+                      f"mN to start the gantry, which drifts {m['drift_mm_per_s']:.3g} mm/s at rest", soft_wrap=True)
+    for name, v in adm["margins_by_mouse"].items():
+        console.print(f"  interaction loop, {name} mice: worst PM {_num(v['phase_margin_deg'], '.1f')} deg, "
+                      f"GM {_num(v['gain_margin_db'], '.1f')} dB")
+    console.print(f"  passive (Re Y_r >= 0) up to {_num(adm['passive_up_to_hz'], '.3g')} Hz; stable on a grounded "
+                  f"spring up to {_num(adm.get('stiffest_contact_n_per_m'), '.4g')} N/m")
+    rig = adm["rig"]
+    if rig["discrete"]:
+        d = rig["discrete"]
+        console.print(escape(f"  admittance law at {rig['update_rate_hz']:g} Hz: v[k] = {d['alpha']:.10g} v[k-1] + "
+                             f"{d['beta_m_per_s_per_n']:.10g} F[k]"))
+    console.print(f"  {adm['message']}; solver {adm['solver']['seconds']:.1f} s", soft_wrap=True)
+    t = adm.get("tradeoff")
+    if t:
+        front = ", ".join(f"{p['requirement']:g} deg: {_num(p['force_n'], '.3g')} N" for p in t["phase_margin_front"])
+        console.print(f"  trade-off, interaction PM required -> force: {front}", soft_wrap=True)
+        for h in t["hardware_changes"]:
+            console.print(f"  with {h['change']}: {_num(h['force_n'], '.3g')} N (now {_num(h['baseline_n'], '.3g')} N)",
+                          soft_wrap=True)
+
+
+class StageProgress:
+    """Progress callback for a multi-stage computation: a spinner with the current stage on stderr once the
+    work has taken ``after_s`` seconds (a terminal only)."""
+
+    def __init__(self, enabled: bool, *, after_s: float = 1.0):
+        self.enabled = enabled
+        self.t0 = time.perf_counter()
+        self.status = None
+        self.stage = ""
+
+    def __call__(self, stage: str) -> None:
+        if not self.enabled:
+            return
+        self.stage = stage
+        if self.status is None and time.perf_counter() - self.t0 > 0.5:
+            self.status = Console(stderr=True).status(stage)
+            self.status.start()
+        if self.status is not None:
+            self.status.update(f"{stage} ({time.perf_counter() - self.t0:.0f} s)")
+
+    def close(self) -> None:
+        if self.status is not None:
+            self.status.stop()
 
 
 def _num(x, fmt: str = ".2f") -> str:

@@ -375,16 +375,19 @@ def schedule_to_dict(points: list[SchedulePoint]) -> dict:
             "note": "verified at the scheduled payloads only; interpolated gains are not checked"}
 
 
-def admittance_verification_to_dict(v: AdmittanceVerification, payloads: int) -> dict:
+def admittance_verification_to_dict(v: AdmittanceVerification) -> dict:
     """The independent check of an admittance design."""
-    return {"payloads": payloads, "cases": v.cases,
-            "max_closed_loop_pole_real_part": v.max_closed_loop_pole_real_part,
+    return {"cases": v.cases, "sampled": v.sampled,
+            "max_closed_loop_pole": v.max_closed_loop_pole,
+            "max_closed_loop_pole_meaning": "largest modulus (discrete loop)" if v.sampled
+            else "largest real part, 1/s",
             "max_open_loop_pole_real_part": v.max_open_loop_pole_real_part,
             "python_control_min_phase_margin_deg": finite_or_none(v.min_phase_margin_deg),
             "python_control_min_gain_margin_db": finite_or_none(v.min_gain_margin_db),
             "failures": list(v.failures),
-            "tool": f"python-control (Pade order {PADE_ORDER}) stability_margins and numpy roots of the "
-                    "coupled characteristic polynomial"}
+            "tool": f"python-control state-space models interconnected from their blocks (Pade order {PADE_ORDER}), "
+                    "eigenvalues of the closed loops, stability_margins on the loop's response"
+                    + ("; the admittance law's loop sampled by control.c2d (zero-order hold)" if v.sampled else "")}
 
 
 def admittance_monte_carlo_to_dict(mc: AdmittanceMonteCarlo) -> dict:
@@ -394,56 +397,109 @@ def admittance_monte_carlo_to_dict(mc: AdmittanceMonteCarlo) -> dict:
             "worst_phase_margin_deg": finite_or_none(mc.worst_phase_margin_deg),
             "worst_gain_margin_db": finite_or_none(mc.worst_gain_margin_db),
             "worst_sensor_current_a": mc.worst_sensor_current_a, "worst_motor_force_n": mc.worst_motor_force_n,
-            "worst_scenario": mc.worst_scenario, "worst_mouse": mc.worst_mouse,
+            "worst_scenario": mc.worst_scenario, "worst_mouse": mc.worst_mouse, "margins_computed": mc.exact,
             "sampling": "uniform and independent over the payload range, each plant.uncertainty range and each "
-                        "admittance.mouse range; none of the draws is a design scenario",
+                        "admittance.mouse range (leg stiffness log-uniform, a quarter of the mice floating); none "
+                        "of the draws is a design scenario",
             "bound": "Clopper-Pearson, one-sided 95 %"}
+
+
+def _front(points) -> list[dict]:
+    return [{"requirement": p.requirement, "force_n": finite_or_none(p.force_n), "m_v": finite_or_none(p.m_v),
+             "b_v": finite_or_none(p.b_v)} for p in points]
 
 
 def admittance_to_dict(result: AdmittanceResult, problem: LoopProblem) -> dict:
     """``admittance`` of ``gantry synth --json``."""
     adm = admittance_problem(problem)
-    c, optimal = result.check, result.status == "optimal"
-    worst_pm, worst_gm = np.min(c.phase_margin_deg, axis=0), np.min(c.gain_margin_db, axis=0)
+    c = result.check
+    designed = result.status in ("optimal", "mouse_cannot_drive")
     payloads, w = c.per_payload()
-    loc, hw = adm.locomotion, adm.hardware
-    return {
+    loc, hw, sensor = adm.locomotion, adm.hardware, adm.sensor
+    timing, feel = result.timing, result.feel
+    legs = c.worst_by_legs()
+    out = {
         "status": result.status, "message": result.message,
-        "m_v": result.m_v if optimal else None, "b_v": result.b_v if optimal else None,
+        "m_v": result.m_v if designed else None, "b_v": result.b_v if designed else None,
         "kp": result.kp, "ki": result.ki,
-        "peak_resistance_n": result.peak_resistance_n if optimal else None,
+        "peak_resistance_n": result.peak_resistance_n if designed else None,
         "rendered_bandwidth_hz": finite_or_none(np.nanmin(c.rendered_bandwidth_hz))
         if np.any(np.isfinite(c.rendered_bandwidth_hz)) else None,
-        "worst_phase_margin_deg": finite_or_none(np.min(worst_pm)),
-        "worst_gain_margin_db": finite_or_none(np.min(worst_gm)),
+        "worst_phase_margin_deg": finite_or_none(np.nanmin(c.phase_margin_deg)),
+        "worst_gain_margin_db": finite_or_none(np.nanmin(c.gain_margin_db)),
+        "margins_by_mouse": {k: {"phase_margin_deg": finite_or_none(v[0]), "gain_margin_db": finite_or_none(v[1])}
+                             for k, v in legs.items()},
         "worst_sensor_current_a": float(np.max(c.sensor_current_a)),
         "worst_motor_force_n": float(np.max(c.motor_force_n)),
+        "passive_up_to_hz": finite_or_none(np.min(c.passive_up_to_hz)),
+        "drift_mm_per_s": c.drift_mm_per_s,
         "binding": result.binding, "active": list(result.active),
         "verified": result.verified,
-        "mouse_can_follow_profile": bool(result.peak_resistance_n <= adm.mouse.peak_force_n),
-        "locomotion": {"profile": "trapezoidal (peak acceleration held until peak speed)",
+        "mouse_can_follow_profile": None if feel is None else feel.can_drive,
+        "locomotion": {"profile": "trapezoidal (peak acceleration held until peak speed, over the travel)",
                        "peak_speed_m_per_s": loc.peak_speed_m_per_s,
-                       "peak_acceleration_m_per_s2": loc.peak_acceleration_m_per_s2},
+                       "peak_acceleration_m_per_s2": loc.peak_acceleration_m_per_s2, "travel_m": loc.travel_m},
         "limits": {"phase_margin_deg": adm.phase_margin_deg, "gain_margin_db": adm.gain_margin_db,
                    "motor_peak_force_n": hw.motor_peak_force_n,
                    "max_current_per_sensor_step_a": hw.max_current_per_sensor_step_a,
                    "force_sensor_resolution_n": hw.force_sensor_resolution_n,
-                   "mouse_peak_force_n": adm.mouse.peak_force_n},
+                   "mouse_peak_force_n": adm.mouse.peak_force_n,
+                   "max_drift_mm_per_s": sensor.max_drift_mm_per_s,
+                   "passive_up_to_hz": None if adm.passivity is None else
+                   (adm.passivity.up_to_hz if adm.passivity.up_to_hz is not None else "everywhere")},
+        "rig": {"update_rate_hz": None if timing.period_s is None else 1.0 / timing.period_s,
+                "computation_delay_samples": timing.delay_samples, "force_filter_hz": timing.filter_hz,
+                "force_filter_order": timing.filter_order if timing.filter_hz is not None else None,
+                "discrete": None if result.discrete is None else {
+                    "alpha": result.discrete.alpha, "beta_m_per_s_per_n": result.discrete.beta_m_per_s_per_n,
+                    "form": "v[k] = alpha v[k-1] + beta F[k] (backward Euler of 1/(m_v s + b_v)); v held until the "
+                            f"next update, applied {timing.delay_samples} sample(s) after F[k] is read"}},
         "evaluated_at": {"m_v": result.m_v, "b_v": result.b_v},
-        "mouse_corners": [m.as_dict() for m in result.corners],
+        "mice": [m.as_dict() for m in result.corners],
         "per_payload": [{"payload_kg": float(m), "phase_margin_deg": finite_or_none(w["phase_margin_deg"][j]),
                          "gain_margin_db": finite_or_none(w["gain_margin_db"][j]),
                          "rendered_bandwidth_hz": finite_or_none(w["rendered_bandwidth_hz"][j]),
+                         "passive_up_to_hz": finite_or_none(w["passive_up_to_hz"][j]),
                          "sensor_current_a": float(w["sensor_current_a"][j]),
                          "motor_force_n": float(w["motor_force_n"][j])} for j, m in enumerate(payloads)],
         "check_scenarios": len(c.scenarios),
         "violations": [v["detail"] for v in c.violations],
         "verification": None if result.verification is None else
-        admittance_verification_to_dict(result.verification, payloads.size),
+        admittance_verification_to_dict(result.verification),
         "monte_carlo": None if result.monte_carlo is None else admittance_monte_carlo_to_dict(result.monte_carlo),
-        "solver": {"method": "ccp (cvxpy + Clarabel) and ipopt (casadi) on margin circles, exact polish by "
-                             "bisection", "seconds": result.seconds, **result.solver},
+        "solver": {"method": "rays m_v / b_v: closed-form least scale per requirement, scan of the ratio on an "
+                             "active set of (scenario, mouse) curves minimising the force the mouse feels; dense "
+                             "check, Monte Carlo, python-control verification", "seconds": result.seconds,
+                   **result.solver},
     }
+    if feel is not None:
+        out["mouse"] = {"force_felt_peak_n": feel.peak_force_n, "force_felt_rms_n": feel.rms_force_n,
+                        "virtual_dynamics_force_n": feel.ideal_peak_force_n, "worst": feel.worst,
+                        "reachable_speed_m_per_s": feel.reachable_speed_m_per_s,
+                        "reachable_acceleration_m_per_s2": feel.reachable_acceleration_m_per_s2,
+                        "can_drive": feel.can_drive, "breakaway_force_n": feel.breakaway_force_n,
+                        "drift_mm_per_s": feel.drift_mm_per_s,
+                        "force_felt": "the neck force when the body follows the profile and the head rides the clamp"}
+    if result.contact is not None:
+        out["stiffest_contact_n_per_m"] = finite_or_none(result.contact.worst_n_per_m)
+        out["stiffest_contact_at"] = result.contact.worst_scenario
+    if result.codesign is not None:
+        r = result.codesign
+        out["codesign"] = {"kp": r.kp, "ki": r.ki, "force_filter_hz": r.timing.filter_hz, "given_kp": r.given_kp,
+                           "given_ki": r.given_ki, "force_felt_n": finite_or_none(r.force_n),
+                           "given_force_felt_n": finite_or_none(r.given_force_n), "evaluations": r.evaluations,
+                           "pi_phase_margin_deg": finite_or_none(r.pi_phase_margin_deg),
+                           "pi_gain_margin_db": finite_or_none(r.pi_gain_margin_db),
+                           "note": "scores on the reduced co-design set; the design figures above are on the full sets"}
+    if result.tradeoff is not None:
+        t = result.tradeoff
+        out["tradeoff"] = {"force": "m_v a_pk + b_v v_pk, the force the virtual dynamics ask",
+                           "mouse_peak_force_n": t.mouse_peak_force_n,
+                           "phase_margin_front": _front(t.margin_front),
+                           "passivity_front": _front(t.passivity_front),
+                           "hardware_changes": [{"change": h.change, "force_n": finite_or_none(h.force_n),
+                                                 "baseline_n": finite_or_none(h.baseline_n)} for h in t.changes]}
+    return out
 
 
 def measured_design_to_dict(d: MeasuredDesign) -> dict:

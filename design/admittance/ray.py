@@ -1,0 +1,233 @@
+"""The lightest admittance that holds every requirement, along rays of the virtual dynamics.
+
+Write m_v sigma + b_v = t q(sigma), q = 1 + tau sigma, with tau = m_v / b_v (s) fixing the ray and
+t = b_v its scale. Along a ray every requirement of ``design.admittance.model`` is a bound on t alone,
+at each frequency, scenario and mouse, in closed form:
+
+* margins: with p = K_eff / q the interaction loop is L = p / t. Coming down from t = inf (L = 0, the
+  coupled loop stable when the velocity loop with the mouse attached is), the loop keeps phase margin
+  phi and gain margin g for every scale above t exactly when t > |p| wherever the phase of p lies
+  within phi of -180 deg, and t >= g |p| wherever it is -180 deg; no closed-loop pole can cross into
+  the right half plane on the way (it would need L = -1). The window's edges and the -180 deg crossings
+  between grid points are interpolated (``curve_bounds``); the curves (scenario x mouse) are visited in
+  the order of a cheap upper bound, so a ray costs a few curves' exact bounds;
+* motor force |S - 1 + R W / (G t q)| F_pk <= F_max and passivity Re(S G) + Re(R W / q) / t >= 0 are
+  quadratic and linear in 1/t; the sensor-step current |C S W| res / (t |q|) <= i_max, the drift
+  1e3 beta / t <= limit and the bounds of m_v = tau t and b_v = t are bounds on t directly.
+
+The cost of a ray is t (a_pk tau + v_pk), the force the virtual dynamics ask on the locomotion
+profile's corner (linear in (m_v, b_v)); ``best_ray`` scans tau on a log grid and refines around the
+best. The resulting design is then polished and checked on the exact grid margins by the synthesis.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from design.admittance.model import InteractionResponses
+from design.problem import AdmittanceProblem
+
+#: the design keeps this much above the requirements, so the exact check (refined crossings) passes
+HAIR_PM_DEG, HAIR_GM_DB, HAIR_HARDWARE = 0.05, 0.02, 0.002
+#: the margin bounds are strict (t = max |p| puts a crossover on the window's edge): t is kept this much above
+HAIR_SCALE = 1.002
+#: curves (scenario x mouse) joining the active set per round, and the rays that seed it
+ACTIVE_ADD = 24
+SEED_TAUS_S = (0.003, 0.03, 0.3)
+
+
+def polar(gain: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(log |K|, phase of K relative to -180 deg in degrees) as float32: what ``curve_bounds`` reads."""
+    return (np.log(np.maximum(np.abs(gain), 1e-300)).astype(np.float32),
+            np.degrees(np.angle(-gain)).astype(np.float32))
+
+
+def curve_bounds(log_mag: np.ndarray, psi: np.ndarray, q: np.ndarray, phase_margin_deg: float, gain_margin: float,
+                 sampled: bool, *, parts: bool = False):
+    """The least scale t of each curve (rows of ``polar(K_eff)``) for the margins on the ray q: t > |p| where
+    the phase of p = K_eff / q lies within the phase-margin window of -180 deg, at the grid points and at
+    the window's edges (interpolated in log |p| between grid points), and t >= g |p| at the -180 deg
+    crossings (and at the Nyquist frequency when sampled and p is real negative there). With ``parts``, the
+    phase-margin and gain-margin bounds separately."""
+    a = log_mag - np.log(np.abs(q)).astype(np.float32)
+    d = psi - np.degrees(np.angle(q)).astype(np.float32)
+    d = np.where(d > 180, d - 360, np.where(d <= -180, d + 360, d))
+    t_pm = np.where(np.abs(d) < phase_margin_deg, a, -np.inf).max(axis=-1)
+    t_gm = np.full(t_pm.shape, -np.inf, np.float32)
+    d0, d1, a0, a1 = d[..., :-1], d[..., 1:], a[..., :-1], a[..., 1:]
+    step = d1 - d0
+    smooth = np.abs(step) < 180.0             # no wrap through +-180 deg (p near the positive real axis)
+    for edge in (-phase_margin_deg, phase_margin_deg, 0.0):
+        cross = smooth & ((d0 - edge) * (d1 - edge) <= 0) & (step != 0)
+        if not cross.any():
+            continue
+        x = (edge - d0) / np.where(cross, step, 1.0)
+        at = np.where(cross, a0 + x * (a1 - a0), -np.inf).max(axis=-1)
+        if edge == 0.0:
+            t_gm = np.maximum(t_gm, at + math.log(gain_margin))
+        else:
+            t_pm = np.maximum(t_pm, at)
+    if sampled:
+        end = np.abs(d[..., -1]) < 1e-4
+        t_gm = np.maximum(t_gm, np.where(end, a[..., -1] + math.log(gain_margin), -np.inf))
+    t_pm, t_gm = HAIR_SCALE * np.exp(t_pm.astype(float)), HAIR_SCALE * np.exp(t_gm.astype(float))
+    return (t_pm, t_gm) if parts else np.maximum(t_pm, t_gm)
+
+
+@dataclass(frozen=True)
+class RayProblem:
+    """Everything a ray needs, tabulated once from ``InteractionResponses`` and the spec."""
+
+    sigma: np.ndarray
+    w_rad_s: np.ndarray
+    log_mag: np.ndarray                    # log |K_eff| per curve (mouse x scenario), (n_c, n_f), float32
+    psi: np.ndarray                        # phase of K_eff relative to -180 deg (deg)
+    phase_margin_deg: float                # with its hair
+    gain_margin: float                     # g (linear) with its hair
+    sampled: bool
+    current_peak: np.ndarray | None        # max over scenarios of |C S W| res / i_max, (n_f,)
+    sensitivity_m1: np.ndarray             # S - 1, (n_s, n_f)
+    reference_over_g: np.ndarray           # R W / G, (n_s, n_f)
+    force_ratio: float                     # F_max / F_pk
+    passive_re_sg: np.ndarray | None       # Re(S G) on the passivity band, (n_s, n_p)
+    passive_rw: np.ndarray | None          # R W there
+    passive_band: np.ndarray | None        # indices of the band's frequencies
+    t_min: float                           # b_v lower bound, drift
+    t_max: float
+    m_min: float
+    m_max: float
+    a_pk: float
+    v_pk: float
+
+
+def ray_problem(resp: InteractionResponses, adm: AdmittanceProblem, *, phase_margin_deg: float | None = None,
+                gain_margin_db: float | None = None) -> RayProblem:
+    """The data of the rays for ``resp`` (margins overridable, for a trade-off front)."""
+    pm = adm.phase_margin_deg if phase_margin_deg is None else phase_margin_deg
+    gm = adm.gain_margin_db if gain_margin_db is None else gain_margin_db
+    hw, sensor = adm.hardware, adm.sensor
+    current = None
+    if hw.max_current_per_sensor_step_a is not None:
+        current = resp.current_path.max(axis=0) * hw.force_sensor_resolution_n / (
+            hw.max_current_per_sensor_step_a * (1 - HAIR_HARDWARE))
+    band = re_sg = rw = None
+    if adm.passivity is not None:
+        top = math.inf if adm.passivity.up_to_hz is None else 2 * math.pi * adm.passivity.up_to_hz
+        band = np.flatnonzero(resp.w_rad_s <= top)
+        re_sg = resp.sensitivity_mobility[:, band].real
+        rw = resp.reference_path[:, band]
+    t_min = adm.b_v.min
+    if sensor.max_drift_mm_per_s is not None and sensor.bias_after_tare_n > sensor.deadband_n:
+        t_min = max(t_min, 1e3 * sensor.bias_after_tare_n / (sensor.max_drift_mm_per_s * (1 - HAIR_HARDWARE)))
+    return RayProblem(resp.sigma, resp.w_rad_s, *polar(resp.gain.reshape(-1, resp.w_rad_s.size)),
+                      pm + HAIR_PM_DEG, 10 ** ((gm + HAIR_GM_DB) / 20), resp.timing.sampled, current, resp.sensitivity_mobility / resp.mobility - 1.0,
+                      resp.reference_path / resp.mobility,
+                      hw.motor_peak_force_n * (1 - HAIR_HARDWARE) / adm.mouse.peak_force_n, re_sg, rw, band,
+                      t_min, adm.b_v.max, adm.m_v.min, adm.m_v.max, adm.locomotion.peak_acceleration_m_per_s2,
+                      adm.locomotion.peak_speed_m_per_s)
+
+
+@dataclass(frozen=True)
+class RayBound:
+    """The least scale t = b_v along the ray tau that holds every requirement, and which one binds;
+    ``feasible`` False when an upper bound (m_v, b_v maximum, passivity) falls below it."""
+
+    tau_s: float
+    b_v: float
+    binding: str
+    feasible: bool
+
+    @property
+    def m_v(self) -> float:
+        return self.tau_s * self.b_v
+
+    def cost_n(self, a_pk: float, v_pk: float) -> float:
+        return self.b_v * (a_pk * self.tau_s + v_pk) if self.feasible else math.inf
+
+
+def margin_bounds(rp: RayProblem, tau_s: float, curves=None) -> np.ndarray:
+    """``curve_bounds`` of the curves ``curves`` (indices; default all) on the ray ``tau_s``."""
+    rows = slice(None) if curves is None else curves
+    q = 1.0 + tau_s * rp.sigma
+    return curve_bounds(rp.log_mag[rows], rp.psi[rows], q, rp.phase_margin_deg, rp.gain_margin, rp.sampled)
+
+
+def ray_bound(rp: RayProblem, tau_s: float, curves=None) -> RayBound:
+    """``RayBound`` of the ray ``tau_s`` (module docstring), the margins on ``curves`` (default all)."""
+    q = 1.0 + tau_s * rp.sigma
+    aq = np.abs(q)
+    lower = {"margins": float(np.max(margin_bounds(rp, tau_s, curves), initial=0.0)), "b_v_min": rp.t_min,
+             "m_v_min": rp.m_min / tau_s}
+    if rp.current_peak is not None:
+        lower["sensor_current"] = float(np.max(rp.current_peak / aq))
+    # motor force: |a + b u| <= c with u = 1/t; u = 0 holds when |a| <= c, and the admissible u reach u2
+    a, b, c = rp.sensitivity_m1, rp.reference_over_g / q, rp.force_ratio
+    bb, ab = np.abs(b) ** 2, (a * np.conj(b)).real
+    disc = ab**2 - bb * (np.abs(a) ** 2 - c * c)
+    u2 = np.where(disc > 0, (-ab + np.sqrt(np.maximum(disc, 0))) / np.maximum(bb, 1e-300), np.inf)
+    lower["motor_force"] = float(1.0 / np.min(u2)) if np.all(u2 > 0) else math.inf
+    upper = {"b_v_max": rp.t_max, "m_v_max": rp.m_max / tau_s}
+    if rp.passive_band is not None:
+        rw = (rp.passive_rw / q[rp.passive_band]).real
+        re = rp.passive_re_sg
+        # re + rw / t >= 0: a lower bound on t where re >= 0 > rw, an upper one where re < 0 < rw
+        need_low = (re >= 0) & (rw < 0)
+        lower["passivity"] = float(np.max(np.where(need_low, -rw / np.maximum(re, 1e-300), 0.0)))
+        need_high = re < 0
+        ub = np.where(need_high & (rw > 0), rw / -re, np.where(need_high, 0.0, np.inf))
+        upper["passivity"] = float(np.min(ub))
+    name = max(lower, key=lower.get)
+    t = lower[name]
+    return RayBound(tau_s, t, name, bool(math.isfinite(t) and t <= min(upper.values()) * (1 + 1e-12)))
+
+
+def _scan(rp: RayProblem, curves, objective, *, points: int, refine: int) -> tuple[RayBound, float]:
+    """The ray of least ``objective`` with the margins on ``curves``: a log grid of tau over the bounds'
+    range, then ``refine`` rounds of a finer grid between the best point's neighbours."""
+    lo = max(rp.m_min / rp.t_max, 1e-7)
+    hi = max(rp.m_max / rp.t_min, lo * 1.0001)
+    taus = np.geomspace(lo, hi, points)
+    best, best_cost = None, math.inf
+    for _ in range(refine + 1):
+        bounds = [ray_bound(rp, float(t), curves) for t in taus]
+        costs = np.array([objective(r) if r.feasible else math.inf for r in bounds])
+        i = int(np.argmin(costs))
+        if best is None or costs[i] < best_cost:
+            best, best_cost = bounds[i], float(costs[i])
+        if not math.isfinite(costs[i]):
+            break
+        taus = np.geomspace(taus[max(i - 1, 0)], taus[min(i + 1, taus.size - 1)], 11)
+    return best, best_cost
+
+
+def best_ray(rp: RayProblem, *, objective=None, points: int = 40, refine: int = 2) -> RayBound:
+    """The ray of least ``objective(ray)`` (default: the force the virtual dynamics ask on the profile's
+    corner, ``RayBound.cost_n``) over every curve, by an active set of curves: seeded with the curves
+    that bind most on a few rays (``SEED_TAUS_S``), the scan runs on the active curves, every curve is
+    checked on the ray found, and those it violates join, until none does. For an objective that grows
+    with the scale, the scan on a subset is a relaxation, so a ray that holds on every curve is the
+    optimum of the full scan."""
+    objective = objective or (lambda r: r.cost_n(rp.a_pk, rp.v_pk))
+    n = len(rp.log_mag)
+    active = set()
+    for tau in SEED_TAUS_S:
+        active |= set(np.argsort(-margin_bounds(rp, tau))[:ACTIVE_ADD].tolist())
+    while True:
+        curves = np.array(sorted(active))
+        best, _ = _scan(rp, curves, objective, points=points, refine=refine)
+        if not best.feasible or len(active) == n:
+            return ray_bound(rp, best.tau_s) if len(active) < n else best
+        t_all = margin_bounds(rp, best.tau_s)
+        over = np.flatnonzero(t_all > best.b_v * (1 + 1e-9))
+        if not over.size:
+            return best
+        active |= set(over[np.argsort(-t_all[over])][:ACTIVE_ADD].tolist())
+
+
+def front(rp_of_margin, margins_deg, *, points: int = 40) -> list[tuple[float, RayBound]]:
+    """The least force felt for each required phase margin: (margin, best ray) pairs (``rp_of_margin(phi)``
+    builds the ray problem with that phase margin)."""
+    return [(float(m), best_ray(rp_of_margin(float(m)), points=points, refine=1)) for m in margins_deg]

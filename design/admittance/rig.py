@@ -1,0 +1,152 @@
+"""The admittance law as the rig runs it: a force filter, a sampler at the update rate, the virtual
+dynamics as a difference equation, a computation delay and a zero-order hold on the velocity
+reference it hands to the drive's velocity loop.
+
+The virtual dynamics 1/(m_v s + b_v) are run by backward (implicit) Euler, stable for any m_v, b_v > 0
+and sample period T::
+
+    v[k] = alpha v[k-1] + beta F[k],   alpha = m_v / (m_v + b_v T),   beta = T / (m_v + b_v T)
+
+i.e. 1/Y_v(z) = m_v (1 - z^-1) / T + b_v: affine in (m_v, b_v) as the continuous m_v s + b_v is, with
+``sigma`` = (1 - e^(-jwT)) / T in place of s = jw. The velocity output is held (zero-order hold) and
+reaches the drive ``computation_delay_samples`` samples after the force sample that caused it.
+
+Broken at the sampled force signal the coupled loop is exactly a discrete-time loop (the rest is
+continuous between a hold and a sampler):
+
+    L(e^(jwT)) = e^(-jwdT) / (m_v sigma + b_v) * K_d(e^(jwT)),
+    K_d(e^(jwT)) = (1/T) sum_k H_f(jw_k) K(jw_k) (1 - e^(-jw_k T)) / (jw_k),   w_k = w + 2 pi k / T
+
+(the step-invariant transform of the continuous path K from velocity reference to sensed force, H_f
+the force filter; Astrom & Wittenmark, Computer-Controlled Systems, section 7.6). The sum is taken
+over k = -N-1 .. N, whose terms pair into complex conjugates at the Nyquist frequency, and is checked
+against python-control's ``c2d`` in the tests. What the mouse feels at the frequency it moves at (the
+fundamental; the sampler adds aliases above the Nyquist frequency) passes the held reference
+(1 - e^(-jwT)) / (jwT) e^(-jwdT) H_f(jw) / (m_v sigma + b_v).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+#: alias terms on each side of the sampled sum (k = -N-1 .. N); the tests bound the truncation
+ALIAS_TERMS = 3
+
+
+def force_filter_frd(s, frequency_hz: float | None, order: int) -> np.ndarray | float:
+    """Butterworth low-pass of ``order`` 1 or 2 at ``frequency_hz`` (1 when None) at complex ``s``."""
+    if frequency_hz is None:
+        return 1.0
+    x = np.asarray(s) / (2 * math.pi * np.asarray(frequency_hz))
+    return 1.0 / (1.0 + x) if order == 1 else 1.0 / (1.0 + math.sqrt(2.0) * x + x * x)
+
+
+def force_filter_polys(frequency_hz: float | None, order: int) -> tuple[np.ndarray, np.ndarray]:
+    """The force filter as numerator / denominator polynomials in s."""
+    if frequency_hz is None:
+        return np.array([1.0]), np.array([1.0])
+    a = 1.0 / (2 * math.pi * frequency_hz)
+    return np.array([1.0]), (np.array([a, 1.0]) if order == 1 else np.array([a * a, math.sqrt(2.0) * a, 1.0]))
+
+
+@dataclass(frozen=True)
+class RigTiming:
+    """The rig's update period (None: continuous) and computation delay, with the force filter's corner."""
+
+    period_s: float | None
+    delay_samples: int = 0
+    filter_hz: float | None = None
+    filter_order: int = 2
+
+    @classmethod
+    def of(cls, rig, *, filter_hz: float | None = None) -> RigTiming:
+        """From the spec's ``admittance.rig`` (``filter_hz`` chooses a designed filter's corner)."""
+        f = rig.force_filter
+        corner = None if f is None else (f.frequency_hz if not f.designed else filter_hz)
+        if f is not None and f.designed and corner is None:
+            corner = math.sqrt(f.frequency_hz_min * f.frequency_hz_max)
+        return cls(rig.sample_period_s, rig.computation_delay_samples, corner, 2 if f is None else f.order)
+
+    @property
+    def sampled(self) -> bool:
+        return self.period_s is not None
+
+    @property
+    def nyquist_rad_s(self) -> float:
+        return math.inf if self.period_s is None else math.pi / self.period_s
+
+    def sigma(self, w_rad_s) -> np.ndarray:
+        """The 's' of the virtual impedance m_v sigma + b_v: jw, or (1 - e^(-jwT)) / T (backward Euler)."""
+        w = np.asarray(w_rad_s, float)
+        if self.period_s is None:
+            return 1j * w
+        return -np.expm1(-1j * w * self.period_s) / self.period_s
+
+    def fundamental(self, w_rad_s) -> np.ndarray:
+        """What passes from the sensed force to the velocity reference besides 1/(m_v sigma + b_v), at the
+        input frequency: H_f, times the hold (1 - e^(-jwT)) / (jwT) and e^(-jwdT) when sampled."""
+        s = 1j * np.asarray(w_rad_s, float)
+        h = force_filter_frd(s, self.filter_hz, self.filter_order)
+        if self.period_s is None:
+            return h * np.ones_like(s)
+        T = self.period_s
+        return h * _hold(s, T) * np.exp(-s * T * self.delay_samples)
+
+    def sampled_path(self, path, w_rad_s, *, terms: int = ALIAS_TERMS) -> np.ndarray:
+        """The loop gain besides 1/(m_v sigma + b_v) for the continuous path ``path(s, weight)`` (velocity
+        reference to sensed force times ``weight``, a factor over the frequencies; arrays (..., n) for s of
+        shape (n,)): H_f path continuous, else e^(-jwdT) K_d (module docstring). Evaluated for the alias
+        terms one at a time, so memory stays that of one term."""
+        w = np.asarray(w_rad_s, float)
+        if self.period_s is None:
+            s = 1j * w
+            return path(s, force_filter_frd(s, self.filter_hz, self.filter_order) * np.ones(w.size))
+        T = self.period_s
+        total = None
+        for k in range(-terms - 1, terms + 1):
+            s = 1j * (w + 2 * math.pi * k / T)
+            term = path(s, force_filter_frd(s, self.filter_hz, self.filter_order) * _hold(s, T))
+            if total is None:
+                total = term
+            else:
+                total += term
+        return total * np.exp(-1j * w * T * self.delay_samples)
+
+    def folded_rad_s(self, w_rad_s) -> np.ndarray:
+        """Frequencies (rad/s) folded into the band below the Nyquist frequency (where a mode above it
+        appears in the sampled loop)."""
+        w = np.asarray(w_rad_s, float)
+        if self.period_s is None:
+            return w
+        ws = 2 * math.pi / self.period_s
+        r = np.mod(w, ws)
+        return np.minimum(r, ws - r)
+
+
+def _hold(s, T: float) -> np.ndarray:
+    """(1 - e^(-sT)) / (sT), the zero-order hold's response normalised to 1 at s = 0."""
+    x = s * T
+    out = np.ones_like(x)
+    nz = x != 0
+    out[nz] = -np.expm1(-x[nz]) / x[nz]
+    return out
+
+
+@dataclass(frozen=True)
+class DiscreteAdmittance:
+    """The admittance law per update: v[k] = alpha v[k-1] + beta F[k] (backward Euler of 1/(m_v s + b_v))."""
+
+    update_rate_hz: float
+    m_v: float
+    b_v: float
+    alpha: float
+    beta_m_per_s_per_n: float
+    computation_delay_samples: int
+
+    @classmethod
+    def of(cls, m_v: float, b_v: float, update_rate_hz: float, computation_delay_samples: int = 0):
+        T = 1.0 / update_rate_hz
+        return cls(update_rate_hz, m_v, b_v, m_v / (m_v + b_v * T), T / (m_v + b_v * T), computation_delay_samples)

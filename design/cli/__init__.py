@@ -16,6 +16,7 @@ def _register() -> None:
         diagnose,
         excite,
         fit,
+        mouse_run,
         report,
         reproduce,
         simulate,
@@ -25,8 +26,9 @@ def _register() -> None:
     from design.cli.common import app
 
     for module, name in ((reproduce, "reproduce"), (simulate, "simulate"), (fit, "fit"), (diagnose, "diagnose"),
-                         (excite, "excite"), (synth, "synth"), (sweep, "sweep"), (report, "report")):
-        app.command(name=name)(getattr(module, name))
+                         (excite, "excite"), (synth, "synth"), (sweep, "sweep"), (report, "report"),
+                         (mouse_run, "mouse-run")):
+        app.command(name=name)(getattr(module, name.replace("-", "_")))
 
 
 def main() -> None:

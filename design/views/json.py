@@ -576,3 +576,46 @@ def simulation_to_dict(rec: Recording, out, sidecar, *, amplitude_a: float, simu
             "current_amplitude_a": amplitude_a, "duration_s": md["duration_s"],
             "sample_rate_hz": md["sample_rate_hz"], "noise_fraction": md["noise_fraction"], "seed": md["seed"],
             "method": md["method"], "simulation_s": simulation_s}
+
+
+def mouse_run_to_dict(run, source: str) -> dict:
+    """``gantry mouse-run --json``: the run's figures and a summary in words."""
+    s = run.settings
+    keeps_up = bool(run.peak_force_n <= s.mouse_peak_force_n * 1.001 and run.speed_shortfall_m_per_s
+                    <= 0.05 * float(np.max(run.path.v_m_per_s)))
+    summary = [
+        f"force felt {run.peak_force_n:.3g} N peak, {run.rms_force_n:.3g} N RMS (the mouse pushes at most "
+        f"{s.mouse_peak_force_n:g} N)",
+        f"speed {float(np.max(run.trace.v_m_per_s)):.3g} m/s of the intended {float(np.max(run.path.v_m_per_s)):.3g} "
+        f"m/s (shortfall {run.speed_shortfall_m_per_s:.3g} m/s); largest lag behind the path "
+        f"{1e3 * run.max_lag_m:.3g} mm",
+        f"motor at its force limit {100 * run.saturated_fraction:.2g} % of the time",
+        f"at rest: the free gantry drifts {run.drift_mm_per_s:.3g} mm/s; with the mouse standing it moves "
+        f"{run.limit_cycle_um:.3g} um peak to peak (limit cycle)",
+        "the mouse keeps up" if keeps_up else "the mouse CANNOT keep up with this path"]
+    return {"design": source, "path": run.path.source, "payload_kg": s.gantry_mass_kg,
+            "drive_rate_hz": s.drive_rate_hz, "admittance_rate_hz": s.admittance_rate_hz,
+            "gains": {"kp": s.kp, "ki": s.ki, "m_v": s.m_v, "b_v": s.b_v},
+            "mouse": {"head_mass_kg": s.head_mass_kg, "body_mass_kg": s.body_mass_kg,
+                      "neck_stiffness_n_per_m": s.neck_stiffness_n_per_m,
+                      "neck_damping_n_s_per_m": s.neck_damping_n_s_per_m,
+                      "leg_stiffness_n_per_m": s.leg_stiffness_n_per_m,
+                      "leg_damping_n_s_per_m": s.leg_damping_n_s_per_m, "peak_force_n": s.mouse_peak_force_n},
+            "friction_n": s.friction_n, "peak_force_n": run.peak_force_n, "rms_force_n": run.rms_force_n,
+            "speed_shortfall_m_per_s": run.speed_shortfall_m_per_s, "max_lag_m": run.max_lag_m,
+            "saturated_fraction": run.saturated_fraction, "drift_mm_per_s": run.drift_mm_per_s,
+            "limit_cycle_um": run.limit_cycle_um, "mouse_keeps_up": keeps_up, "summary": summary}
+
+
+def mouse_run_csv(run) -> str:
+    """The run, one row per drive tick, units in the column names."""
+    import io
+
+    t = run.trace
+    cols = {"time_s": t.time_s, "intended_x_m": t.intended_x_m, "intended_v_m_per_s": t.intended_v_m_per_s,
+            "x_m": t.x_m, "v_m_per_s": t.v_m_per_s, "body_x_m": t.body_x_m, "sensed_force_n": t.sensed_force_n,
+            "leg_force_n": t.leg_force_n, "current_a": t.current_a, "reference_m_per_s": t.reference_m_per_s}
+    buf = io.StringIO()
+    buf.write(",".join(cols) + "\n")
+    np.savetxt(buf, np.column_stack(list(cols.values())), delimiter=",", fmt="%.9g")
+    return buf.getvalue()

@@ -1,0 +1,89 @@
+"""``gantry mouse-run``: a force-limited mouse walking the spec's profile (or a recorded path) through the
+sampled, nonlinear admittance loop of a design; what it feels, how far it falls short, drift and limit cycles.
+
+Exit status: 0 when the mouse keeps up (peak force within its budget: the run never holds it at its limit
+for long), 3 when it cannot (the profile asks more than the mouse's peak force), 2 for bad input."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Annotated, Optional
+
+import typer
+
+from design.cli.common import console, finite_non_negative, finite_positive, keep_inputs
+from plant.errors import ParameterError, SpecError
+
+#: the lab's hand-tuned X-axis setting (bsbrl/exoskeleton, mousetrack tuning files "newsys_m0p04_c4")
+LAB_M_V_KG, LAB_B_V_N_S_PER_M = 0.04, 4.0
+
+
+def mouse_run(
+    spec_file: Annotated[Path, typer.Argument(metavar="SPEC", help="Spec file (TOML) with an [admittance] section "
+                                              "and admittance.rig.update_rate_hz.")],
+    design_file: Annotated[Optional[Path], typer.Option("--design", help="The design: the JSON of gantry synth "
+                                                        "--json (its gains kp, ki, m_v, b_v).")] = None,
+    lab: Annotated[bool, typer.Option("--lab", help="The lab's hand-tuned setting m_v = 0.04 kg, b_v = 4 N*s/m "
+                                      "with the spec's controller gains, instead of --design.")] = False,
+    path: Annotated[Optional[Path], typer.Option("--path", help="A recorded path to walk (CSV: time_s,position_m); "
+                                                 "default the spec's trapezoidal locomotion profile.")] = None,
+    payload_kg: Annotated[Optional[float], typer.Option("--payload-kg", callback=finite_positive,
+                                                        help="Payload (default the heaviest of the spec).")] = None,
+    friction_n: Annotated[float, typer.Option("--friction-n", callback=finite_non_negative,
+                                              help="Coulomb friction of the rails (N).")] = 0.0,
+    legs: Annotated[Optional[float], typer.Option("--legs-n-per-m", callback=finite_non_negative,
+                                                  help="The walking mouse's stance stiffness (default the least of "
+                                                  "admittance.mouse.leg_stiffness_n_per_m).")] = None,
+    out: Annotated[Optional[Path], typer.Option("--out", help="Write the run (one row per drive tick) to this "
+                                                "CSV.")] = None,
+    as_json: Annotated[bool, typer.Option("--json", help="Print JSON.")] = False,
+) -> None:
+    """Simulate a force-limited mouse walking through the sampled admittance loop of a design."""
+    from design.admittance.mouse_run import mouse_run as run
+    from design.admittance.mouse_run import path_from_csv, run_settings, trapezoid_path
+    from design.views.json import mouse_run_csv, mouse_run_to_dict, print_json
+    from design.workflows import load_problem
+    from plant.recording import atomic_write_text
+    from plant.text_io import read_text
+
+    keep_inputs({"--out": out}, [spec_file, design_file, path])
+    if lab == (design_file is not None):
+        raise ParameterError("give exactly one of --design FILE (the JSON of gantry synth --json) or --lab")
+    problem = load_problem(spec_file).loop
+    if lab:
+        kp, ki = problem.controller.kp.value, problem.controller.ki.value
+        if kp is None or ki is None:
+            raise SpecError(f"{spec_file}: --lab uses controller.kp.value and controller.ki.value; set them")
+        m_v, b_v, source = LAB_M_V_KG, LAB_B_V_N_S_PER_M, "the lab's hand-tuned setting (bsbrl/exoskeleton)"
+    else:
+        try:
+            gains = json.loads(read_text(design_file, what="design file"))["gains"]
+            kp, ki, m_v, b_v = (float(gains[k]) for k in ("kp", "ki", "m_v", "b_v"))
+        except (json.JSONDecodeError, KeyError, TypeError, ValueError):
+            raise ParameterError(f"{design_file}: not the JSON of gantry synth --json with gains kp, ki, m_v and b_v "
+                                 "(a design the admittance stage produced)") from None
+        source = str(design_file)
+    try:
+        settings = run_settings(problem, kp=kp, ki=ki, m_v=m_v, b_v=b_v, payload_kg=payload_kg, friction_n=friction_n,
+                                leg_stiffness_n_per_m=legs)
+    except ValueError as exc:
+        raise SpecError(f"{spec_file}: {exc}") from None
+    adm = problem.admittance
+    intended = (path_from_csv(path, settings.drive_rate_hz) if path is not None
+                else trapezoid_path(adm.locomotion, settings.drive_rate_hz))
+    result = run(settings, intended)
+    if out is not None:
+        atomic_write_text(out, mouse_run_csv(result))
+    d = mouse_run_to_dict(result, source)
+    if as_json:
+        print_json(d)
+    else:
+        console.print(f"[bold]mouse run[/] ({intended.source}; {source}: m_v = {m_v:.4g} kg, b_v = {b_v:.4g} N*s/m, "
+                      f"Kp = {kp:.4g}, Ki = {ki:.4g}) at {settings.gantry_mass_kg:g} kg", soft_wrap=True)
+        for line in d["summary"]:
+            console.print(f"  {line}", soft_wrap=True)
+        if out is not None:
+            console.print(f"run written to {out}")
+    if not d["mouse_keeps_up"]:
+        raise typer.Exit(3)

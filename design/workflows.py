@@ -205,11 +205,11 @@ def report_content(problem: DesignProblem, *, outcome: DesignOutcome | None = No
 
         mc = monte_carlo_sweep(loop, payload_kg=ev.payload_kg, samples=samples, seed=seed, kp=kp, ki=ki)
     adm_curves = None
-    if outcome is not None and outcome.admittance is not None and outcome.admittance.status == "optimal":
+    if outcome is not None and outcome.admittance is not None and outcome.admittance.status in (
+            "optimal", "mouse_cannot_drive"):
         from design.admittance.curves import admittance_curves
 
-        a = outcome.admittance
-        adm_curves = admittance_curves(loop, kp=a.kp, ki=a.ki, m_v=a.m_v, b_v=a.b_v)
+        adm_curves = admittance_curves(loop, outcome.admittance)
     recordings = []
     for path, response in zip(data, measured):
         from plant.diagnosis import diagnose
@@ -233,8 +233,9 @@ def _admittance_robustness(loop, robust):
 
     nominal = synthesise_admittance(loop, kp=robust.kp, ki=robust.ki, nominal=True)
     mc = None
-    if nominal.status == "optimal":
-        mc = admittance_monte_carlo(loop, kp=robust.kp, ki=robust.ki, m_v=nominal.m_v, b_v=nominal.b_v)
+    if nominal.status in ("optimal", "mouse_cannot_drive"):
+        mc = admittance_monte_carlo(loop, kp=robust.kp, ki=robust.ki, m_v=nominal.m_v, b_v=nominal.b_v,
+                                    timing=robust.timing)
     return AdmittanceComparison(nominal, mc)
 
 

@@ -1,6 +1,7 @@
-"""The curves the admittance section of a design report plots: the rendered admittance against the
-virtual dynamics at the light, nominal and heavy payloads, and the resistance over the locomotion
-profile."""
+"""What the admittance section of a design report draws, computed before it is drawn: the rendered
+admittance against the virtual dynamics at the light, nominal and heavy payloads, a simulated mouse run
+through the sampled loop, and the mouse lab's hand-tuned setting evaluated on the same plant beside the
+design (with the numbers of the lab's own bandwidth model, reproduced)."""
 
 from __future__ import annotations
 
@@ -8,12 +9,40 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from design.admittance.model import admittance_problem, gantry_loop, rendered_admittance, virtual_impedance_frd
+from design.admittance.feel import FeltForce, feel_scenarios
+from design.admittance.model import (
+    AdmittanceEvaluator,
+    admittance_problem,
+    gantry_loop,
+    mice,
+    rendered_admittance,
+    virtual_impedance_frd,
+)
+from design.admittance.mouse_run import MouseRun, mouse_run, run_settings, trapezoid_path
 from design.loop.curves import report_payloads
 from design.problem import LoopProblem
 from plant.grid import log_grid_rad_s
 
 W_RENDERED = log_grid_rad_s(0.1, 1000.0, 800)
+#: the lab's hand-tuned X-axis setting: bsbrl/exoskeleton, "2. Admittance Controller Tuning/Admittance - 2.
+#: X axis mousetrack/Tuning Data and Figures/M4xx_analysis_newsys_m0p04_c4.fig" (m = 0.04 kg, c = 4 N*s/m)
+LAB_M_V_KG, LAB_B_V_N_S_PER_M = 0.04, 4.0
+
+
+@dataclass(frozen=True)
+class LabComparison:
+    """The lab's setting on the spec's plant, loop and rig, beside the design (same PI gains): worst
+    interaction margins (floating and grounded mice, over the dense check), stability, the force felt on
+    the profile and the passive band; and the apparent-admittance bandwidth of the lab's own model of its
+    robot (``design.admittance.lab_model``, published parameters, axis 1)."""
+
+    m_v: float
+    b_v: float
+    margins: dict[str, tuple[float, float]]
+    stable: bool
+    force_felt_n: float
+    passive_up_to_hz: float
+    lab_model_bandwidth_hz: float
 
 
 @dataclass(frozen=True)
@@ -22,27 +51,37 @@ class AdmittanceCurves:
     w_rad_s: np.ndarray
     #: 1/(m_v s + b_v), (m/s)/N
     virtual: np.ndarray
-    #: velocity per sensed force at each payload, (n_payload, n_freq)
+    #: velocity per sensed force at each payload (the fundamental when sampled), (n_payload, n_freq)
     rendered: np.ndarray
-    profile_time_s: np.ndarray
-    #: m_v a + b_v v and b_v v over the trapezoidal locomotion profile (N)
-    resistance_n: np.ndarray
-    damping_part_n: np.ndarray
+    run: MouseRun | None
+    lab: LabComparison | None
 
 
-def locomotion_profile(v_pk: float, a_pk: float, points: int = 800) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Accelerate at a_pk to v_pk, run, decelerate: time (s), acceleration (m/s^2), speed (m/s)."""
-    t_acc = v_pk / a_pk
-    t = np.linspace(0.0, 4 * t_acc, points)
-    acc = np.where(t < t_acc, a_pk, np.where(t < 3 * t_acc, 0.0, -a_pk))
-    v = np.clip(np.where(t < 3 * t_acc, a_pk * t, v_pk - a_pk * (t - 3 * t_acc)), 0.0, v_pk)
-    return t, acc, v
+def lab_comparison(problem: LoopProblem, result) -> LabComparison:
+    """``LabComparison`` of the lab's setting with ``result``'s PI gains and rig timing."""
+    from design.admittance.lab_model import LabBandwidthModel, admittance_bandwidth_hz
+    from design.admittance.synthesis import check_scenarios
+
+    corners = mice(problem)
+    ev = AdmittanceEvaluator(problem, check_scenarios(problem), kp=result.kp, ki=result.ki, timing=result.timing,
+                             corners=corners)
+    c = ev.evaluate(LAB_M_V_KG, LAB_B_V_N_S_PER_M, bandwidth=False)
+    felt = FeltForce(problem, feel_scenarios(problem), corners, kp=result.kp, ki=result.ki, timing=result.timing)
+    return LabComparison(LAB_M_V_KG, LAB_B_V_N_S_PER_M, c.worst_by_legs(), bool(np.all(c.stable)),
+                         felt(LAB_M_V_KG, LAB_B_V_N_S_PER_M), float(np.min(c.passive_up_to_hz)),
+                         admittance_bandwidth_hz(LabBandwidthModel.published(1)))
 
 
-def admittance_curves(problem: LoopProblem, *, kp: float, ki: float, m_v: float, b_v: float) -> AdmittanceCurves:
+def admittance_curves(problem: LoopProblem, result, *, lab: bool = True) -> AdmittanceCurves:
+    """The curves of ``result`` (an ``AdmittanceResult``), its mouse run on the spec's profile at the heaviest
+    payload when the rig is sampled, and the lab's setting beside it."""
     masses = report_payloads(problem)
-    loop = gantry_loop(problem, W_RENDERED, list(masses), kp=kp, ki=ki)
-    loc = admittance_problem(problem).locomotion
-    t, acc, v = locomotion_profile(loc.peak_speed_m_per_s, loc.peak_acceleration_m_per_s2)
-    return AdmittanceCurves(masses, W_RENDERED, 1.0 / virtual_impedance_frd(W_RENDERED, m_v, b_v),
-                            rendered_admittance(loop, m_v, b_v), t, m_v * acc + b_v * v, b_v * v)
+    loop = gantry_loop(problem, W_RENDERED, list(masses), kp=result.kp, ki=result.ki)
+    run = None
+    if result.timing.sampled:
+        settings = run_settings(problem, kp=result.kp, ki=result.ki, m_v=result.m_v, b_v=result.b_v,
+                                timing=result.timing)
+        run = mouse_run(settings, trapezoid_path(admittance_problem(problem).locomotion, settings.drive_rate_hz))
+    return AdmittanceCurves(masses, W_RENDERED, 1.0 / virtual_impedance_frd(W_RENDERED, result.m_v, result.b_v),
+                            rendered_admittance(loop, result.m_v, result.b_v, result.timing), run,
+                            lab_comparison(problem, result) if lab else None)

@@ -1,7 +1,11 @@
-"""Admittance section of the design report: what the mouse feels, the interaction-loop margins
-against payload, the hardware limits and the resistance over the locomotion profile."""
+"""Admittance section of the design report: first whether the mouse can drive the design, then what it
+feels (force on the profile, apparent mass and damping, a simulated run), the interaction-loop margins for
+floating and braced mice against payload, the passive band and the stiffest contact, the lab's setting
+beside the design, and, for a design that is not optimal, the trade-off front and the hardware changes."""
 
 from __future__ import annotations
+
+import math
 
 import matplotlib.pyplot as plt
 import numpy as np
@@ -22,95 +26,182 @@ def add_admittance_section(report: Report, problem: LoopProblem, outcome: Design
         report.text("Admittance synthesis: skipped: no PI gains (PI synthesis failed and no controller values in "
                     "the spec)", cls="summary")
         return
-    if r.status != "optimal" or curves is None:
+    if r.status not in ("optimal", "mouse_cannot_drive") or curves is None:
         report.text(f"Admittance synthesis: {r.status}: {r.message}", cls="summary")
+        if r.tradeoff is not None:
+            _tradeoff(report, r.tradeoff)
         return
     a = admittance_problem(problem)
-    loc, hw, c = a.locomotion, a.hardware, r.check
-    bw = np.nanmin(c.rendered_bandwidth_hz) if np.any(np.isfinite(c.rendered_bandwidth_hz)) else None
-    payloads, worst = c.per_payload()
-    worst_pm, worst_gm = worst["phase_margin_deg"], worst["gain_margin_db"]
-    scenarios = (f"{len(c.scenarios)} scenarios (payload × corners of plant.uncertainty)" if c.scenarios.parameters
-                 else f"{c.payload_kg.size} payloads")
-    mc = r.monte_carlo
-    mc_text = "" if mc is None else (
-        f" Monte Carlo: {mc.violations} of {mc.samples} independent draws over payload, uncertainty and mouse "
-        f"violate (95 % upper bound {100 * mc.rate_upper_bound:.2g} %).")
-    report.text(f"m_v = {r.m_v:.4g} kg, b_v = {r.b_v:.4g} N·s/m with the PI gains Kp = {r.kp:.4g} A/(m/s), "
-                f"Ki = {r.ki:.4g} A/m. Peak resistance on the locomotion profile ({loc.peak_acceleration_m_per_s2:g} "
-                f"m/s², {loc.peak_speed_m_per_s:g} m/s): {r.peak_resistance_n:.3g} N (the mouse's peak force: "
-                f"{a.mouse.peak_force_n:g} N). The rendered admittance follows 1/(m_v s + b_v) within 3 dB / 30° up "
-                f"to {'—' if bw is None else f'{bw:.1f}'} Hz. Interaction loop (broken at the force-sensor signal): "
-                f"worst PM {_num(np.min(worst_pm))}°, worst GM {_num(np.min(worst_gm))} dB over "
-                f"{scenarios} × {len(r.corners)} mouse corners. Binding: "
-                f"{r.binding['detail']}. Verified: {r.verified}.{mc_text}", cls="summary")
+    loc, hw, c, feel = a.locomotion, a.hardware, r.check, r.feel
+    verdict = ("<span class=ok>The mouse can drive this design</span>" if r.status == "optimal" else
+               "<span class=bad>The mouse CANNOT drive this design</span>")
+    legs = c.worst_by_legs()
+    margins = "; ".join(f"{k} mice: PM {_num(v[0])}°, GM {_num(v[1])} dB" for k, v in legs.items())
+    bw = np.nanmin(c.rendered_bandwidth_hz) if np.any(np.isfinite(c.rendered_bandwidth_hz)) else math.nan
+    rig = "continuous" if not r.timing.sampled else f"sampled at {1 / r.timing.period_s:g} Hz"
+    report.raw(f"<div class='summary'>{verdict}: it feels {feel.peak_force_n:.3g} N peak ({feel.rms_force_n:.3g} N "
+               f"RMS) on the locomotion profile ({loc.travel_m:g} m at {loc.peak_speed_m_per_s:g} m/s, "
+               f"{loc.peak_acceleration_m_per_s2:g} m/s²) and can push {a.mouse.peak_force_n:g} N. "
+               f"m_v = {r.m_v:.4g} kg, b_v = {r.b_v:.4g} N·s/m with Kp = {r.kp:.4g} A/(m/s), Ki = {r.ki:.4g} A/m "
+               f"(admittance law {rig}). Interaction loop (broken at the force-sensor signal), worst over "
+               f"{len(c.scenarios)} scenarios: {margins}. Binding: {r.binding['detail']}. Passive up to "
+               f"{_num(float(np.min(c.passive_up_to_hz)), '.3g')} Hz; stable on a grounded spring up to "
+               f"{_num(r.contact.worst_n_per_m, '.4g')} N/m. Rendered admittance within 3 dB / 30° of "
+               f"1/(m_v s + b_v) up to {_num(bw)} Hz. Verified: {r.verified}.{_mc(r)}</div>")
+    report.raw(table(["what the mouse meets", "value", "requirement / budget"], [
+        ["force felt on the profile, peak / RMS", f"{feel.peak_force_n:.3g} / {feel.rms_force_n:.3g} N",
+         f"{a.mouse.peak_force_n:g} N"],
+        ["force the virtual dynamics ask, m_v a + b_v v", f"{feel.ideal_peak_force_n:.3g} N", "—"],
+        ["speed / acceleration reached with its peak force", f"{feel.reachable_speed_m_per_s:.3g} m/s / "
+         f"{feel.reachable_acceleration_m_per_s2:.3g} m/s²", f"{loc.peak_speed_m_per_s:g} m/s / "
+         f"{loc.peak_acceleration_m_per_s2:g} m/s²"],
+        ["push to start the gantry at rest (deadband + offset)", f"{1e3 * feel.breakaway_force_n:.3g} mN", "—"],
+        ["drift at rest", f"{feel.drift_mm_per_s:.3g} mm/s",
+         "—" if a.sensor.max_drift_mm_per_s is None else f"{a.sensor.max_drift_mm_per_s:g} mm/s"],
+        ["motor force for the peak mouse force", f"{np.max(c.motor_force_n):.3g} N", f"{hw.motor_peak_force_n:g} N"],
+        ["current per force-sensor step", f"{1e3 * np.max(c.sensor_current_a):.3g} mA",
+         "—" if hw.max_current_per_sensor_step_a is None else f"{1e3 * hw.max_current_per_sensor_step_a:g} mA"],
+    ]))
+    fig, axes = plt.subplots(1, 2, figsize=(12, 3.4), layout="tight")
+    t = feel.profile.time_s
+    axes[0].plot(t, feel.force_n, label="felt (neck force, real loop)")
+    axes[0].plot(t, feel.ideal_force_n, "--", label="m_v a + b_v v")
+    axes[0].axhline(a.mouse.peak_force_n, color="k", ls=":", lw=1, label="the mouse's peak force")
+    axes[0].set(xlabel="time (s)", ylabel="force (N)")
+    axes[0].set_title(f"Force felt on the profile ({feel.worst})", fontsize=9)
+    for k, m in enumerate(feel.payload_kg):
+        axes[1].semilogx(feel.frequency_hz, feel.apparent_mass_kg[k], label=f"apparent mass, {m:g} kg")
+    axes[1].axhline(r.m_v, color="k", ls="--", lw=1, label="m_v")
+    axes[1].set(xlabel="frequency (Hz)", ylabel="mass (kg)", xlim=(0.1, feel.frequency_hz[-1]))
+    axes[1].set_yscale("symlog", linthresh=max(r.m_v, 1e-3))
+    axes[1].set_title("Apparent mass Im(1/Y_r)/ω over frequency", fontsize=9)
+    for ax in axes:
+        ax.grid(True, alpha=0.3)
+        ax.legend(fontsize=7)
+    report.figure(fig, "What the mouse feels: the neck force when its body follows the profile, and the mass the "
+                       "gantry seems to have at each frequency (the virtual mass where the loop renders it, the "
+                       "gantry's own above).")
     fig = bode(curves.w_rad_s, [curves.virtual, *curves.rendered],
                ["virtual 1/(m_v s + b_v)"] + [f"rendered, {m:g} kg" for m in curves.payload_kg],
                styles=["k--", "-", "-", "-"], title="Rendered admittance v/F against the virtual dynamics")
-    report.figure(fig, "Velocity per sensed force: what the mouse feels, against what was asked for.")
-    report.figure(_per_payload_figure(payloads, worst_pm, worst["sensor_current_a"], worst["motor_force_n"], a),
-                  "Worst case over the mouse corners" + (" and the uncertainty corners" if c.scenarios.parameters
-                                                         else "") + " at each dense payload, with the limits (dashed).")
+    report.figure(fig, "Velocity per sensed force: what the mouse feels, against what was asked for"
+                       + (" (the sampled law at the input frequency)." if r.timing.sampled else "."))
+    report.figure(_per_payload_figure(c, a), "Worst interaction-loop margins over the uncertainty corners at each "
+                  "payload, for the floating and the braced (grounded) mice, with the requirement (dashed).")
+    if curves.run is not None:
+        _run_figure(report, curves.run)
+    if curves.lab is not None:
+        _lab_table(report, r, curves.lab, feel)
     if comparison is not None:
-        _comparison_table(report, r, comparison, a)
-    report.raw(table(["quantity (worst over the check scenarios)", "value", "limit"], [
-        ["motor force for the peak mouse force", f"{np.max(c.motor_force_n):.3g} N", f"{hw.motor_peak_force_n:g} N"],
-        ["current per force-sensor step", f"{1e3 * np.max(c.sensor_current_a):.3g} mA",
-         f"{1e3 * hw.max_current_per_sensor_step_a:g} mA"],
-        ["interaction phase margin", f"{_num(np.min(worst_pm), '.2f')} deg", f"{a.phase_margin_deg:g} deg"],
-        ["interaction gain margin", f"{_num(np.min(worst_gm), '.2f')} dB", f"{a.gain_margin_db:g} dB"],
-    ]))
-    fig, ax = plt.subplots(figsize=(7, 3.2), layout="tight")
-    ax.plot(curves.profile_time_s, curves.resistance_n, label="m_v a + b_v v")
-    ax.plot(curves.profile_time_s, curves.damping_part_n, "--", label="b_v v")
-    ax.set_xlabel("time (s)")
-    ax.set_ylabel("resistance (N)")
-    ax.set_title("Resistance felt over the locomotion profile", fontsize=10)
-    ax.grid(True, alpha=0.3)
-    ax.legend(fontsize=8)
-    report.figure(fig, "Resistance m_v·a + b_v·v over the trapezoidal locomotion profile of the spec.")
+        _comparison_table(report, r, comparison)
+    if r.tradeoff is not None:
+        _tradeoff(report, r.tradeoff)
+    if r.discrete is not None:
+        d = r.discrete
+        report.text(f"The admittance law as the rig runs it at {d.update_rate_hz:g} Hz: v[k] = {d.alpha:.10g} "
+                    f"v[k−1] + {d.beta_m_per_s_per_n:.10g} F[k] (backward Euler of 1/(m_v s + b_v); F in N, v in m/s), "
+                    f"held until the next update, {d.computation_delay_samples} sample(s) of computation delay.")
 
 
-def _comparison_table(report: Report, robust, comparison: AdmittanceComparison, a) -> None:
+def _mc(r) -> str:
+    mc = r.monte_carlo
+    return "" if mc is None else (f" Monte Carlo: {mc.violations} of {mc.samples} independent draws over payload, "
+                                  f"uncertainty and mouse violate (95 % upper bound {100 * mc.rate_upper_bound:.2g} %).")
+
+
+def _run_figure(report: Report, run) -> None:
+    tr, s = run.trace, run.settings
+    fig, axes = plt.subplots(1, 2, figsize=(12, 3.4), layout="tight")
+    axes[0].plot(tr.time_s, tr.intended_v_m_per_s, "k--", label="intended")
+    axes[0].plot(tr.time_s, tr.v_m_per_s, label="gantry")
+    axes[0].set(xlabel="time (s)", ylabel="speed (m/s)")
+    axes[1].plot(tr.time_s, tr.sensed_force_n, label="sensed force")
+    axes[1].plot(tr.time_s, tr.leg_force_n, alpha=0.7, label="the legs' push")
+    axes[1].axhline(s.mouse_peak_force_n, color="k", ls=":", lw=1)
+    axes[1].set(xlabel="time (s)", ylabel="force (N)")
+    for ax in axes:
+        ax.grid(True, alpha=0.3)
+        ax.legend(fontsize=7)
+    report.figure(fig, f"A simulated run through the sampled loop at {s.gantry_mass_kg:g} kg ({run.path.source}; drive "
+                       f"{s.drive_rate_hz:g} Hz, admittance {s.admittance_rate_hz:g} Hz, force quantised, offset and "
+                       f"deadband applied, motor force limited): force felt {run.peak_force_n:.3g} N peak, speed "
+                       f"shortfall {run.speed_shortfall_m_per_s:.3g} m/s, largest lag {1e3 * run.max_lag_m:.3g} mm, "
+                       f"drift at rest {run.drift_mm_per_s:.3g} mm/s, limit cycle {run.limit_cycle_um:.3g} µm.")
+
+
+def _lab_table(report: Report, r, lab, feel) -> None:
+    def row(name, m_v, b_v, legs, force, passive, stable):
+        cells = [f"{legs[k][0]:.1f}° / {legs[k][1]:.1f} dB" if k in legs else "—" for k in ("floating", "grounded")]
+        return [name, f"{m_v:.4g}", f"{b_v:.4g}", *cells, f"{force:.3g} N", f"{_num(passive, '.3g')} Hz",
+                "yes" if stable else "NO"]
+
+    report.raw(table(["virtual dynamics (same plant, loop and rig)", "m_v (kg)", "b_v (N·s/m)",
+                      "floating PM / GM", "braced PM / GM", "force felt", "passive up to", "stable"],
+                     [row("this design", r.m_v, r.b_v, r.check.worst_by_legs(), feel.peak_force_n,
+                          float(np.min(r.check.passive_up_to_hz)), bool(np.all(r.check.stable))),
+                      row("the lab's hand-tuned setting", lab.m_v, lab.b_v, lab.margins, lab.force_felt_n,
+                          lab.passive_up_to_hz, lab.stable)]))
+    report.text(f"The lab's setting is m = 0.04 kg, c = 4 N·s/m (bsbrl/exoskeleton, X-axis mousetrack tuning). Their "
+                f"bandwidth model of their own robot (post-sensor mass 0.01 kg, 10 ms holds; reproduced from the "
+                f"published live script, design.admittance.lab_model) puts the apparent admittance within 3 dB / 30° "
+                f"of its virtual one up to {lab.lab_model_bandwidth_hz:.3g} Hz on axis 1.")
+
+
+def _comparison_table(report: Report, robust, comparison: AdmittanceComparison) -> None:
     """The robust admittance design beside the design for the nominal parameters, on the same draws."""
     def row(name, res, mc):
-        if res.status != "optimal":
+        if res.status not in ("optimal", "mouse_cannot_drive"):
             return [name, "—", "—", "—", f"{res.status}: {res.message}"]
         rate = "—" if mc is None else f"{mc.violations} of {mc.samples} ({100 * mc.rate:.2g} %, bound " \
                                       f"{100 * mc.rate_upper_bound:.2g} %)"
-        return [name, f"{res.m_v:.4g}", f"{res.b_v:.4g}", f"{res.peak_resistance_n:.3g}", rate]
+        return [name, f"{res.m_v:.4g}", f"{res.b_v:.4g}", f"{res.feel.peak_force_n:.3g}", rate]
 
     n = comparison.nominal
-    report.raw(table(["admittance design", "m_v (kg)", "b_v (N·s/m)", "peak resistance (N)",
+    report.raw(table(["admittance design", "m_v (kg)", "b_v (N·s/m)", "force felt (N)",
                       "Monte Carlo draws over the uncertainty that violate"],
                      [row("robust (this design)", robust, robust.monte_carlo),
                       row("nominal parameters only", n, comparison.monte_carlo)]))
-    if n.status == "optimal" and comparison.monte_carlo is not None:
-        report.text(f"Robustness costs {100 * (robust.peak_resistance_n / n.peak_resistance_n - 1):.0f} % more peak "
-                    f"resistance; with the design for the nominal plant alone, "
-                    f"{100 * comparison.monte_carlo.rate:.2g} % of the plants the spec declares plausible would "
-                    f"miss a requirement (worst current per sensor step "
-                    f"{1e3 * comparison.monte_carlo.worst_sensor_current_a:.3g} mA, limit "
-                    f"{1e3 * a.hardware.max_current_per_sensor_step_a:g} mA; worst motor force "
-                    f"{comparison.monte_carlo.worst_motor_force_n:.3g} N, limit {a.hardware.motor_peak_force_n:g} N).")
+
+
+def _tradeoff(report: Report, t) -> None:
+    fig, axes = plt.subplots(1, 2, figsize=(12, 3.4), layout="tight")
+    for ax, front, label in ((axes[0], t.margin_front, "interaction phase margin required (deg)"),
+                             (axes[1], t.passivity_front, "passive up to (Hz)")):
+        x = [p.requirement for p in front]
+        y = [p.force_n if p.feasible else np.nan for p in front]
+        ax.plot(x, y, "o-")
+        ax.axhline(t.mouse_peak_force_n, color="k", ls=":", lw=1, label="the mouse's peak force")
+        ax.set(xlabel=label, ylabel="m_v a + b_v v (N)")
+        ax.grid(True, alpha=0.3)
+        ax.legend(fontsize=7)
+    report.figure(fig, "The trade-off: the least force the virtual dynamics ask on the profile for each requirement "
+                       "(every other requirement held). Gaps: no design within the bounds.")
+    report.raw(table(["hardware change", "least force (N)", "now (N)"],
+                     [[h.change, _num(h.force_n, ".3g"), _num(h.baseline_n, ".3g")] for h in t.changes]))
 
 
 def _num(x, fmt: str = ".1f") -> str:
-    """A margin for text; ∞ for an infinite one."""
+    """A number for text; ∞ for an infinite one, — for none."""
+    if x is None or (isinstance(x, float) and math.isnan(x)):
+        return "—"
     return "∞" if not np.isfinite(x) else format(x, fmt)
 
 
-def _per_payload_figure(payload_kg, pm_deg, current_a, force_n, a):
-    fig, axes = plt.subplots(1, 3, figsize=(12, 3.4), layout="tight")
-    series = ((pm_deg, "interaction PM (deg)", a.phase_margin_deg),
-              (current_a, "current per sensor step (A)", a.hardware.max_current_per_sensor_step_a),
-              (force_n, "motor force for peak mouse force (N)", a.hardware.motor_peak_force_n))
-    for ax, (values, label, limit) in zip(axes, series):
-        values = np.where(np.isfinite(values), values, np.nan)
-        ax.plot(payload_kg, values, "o-", ms=3)
+def _per_payload_figure(c, a):
+    fig, axes = plt.subplots(1, 2, figsize=(12, 3.4), layout="tight")
+    payloads = np.unique(c.payload_kg)
+    for name, keep in (("floating", [not m.grounded for m in c.mice]), ("braced", [m.grounded for m in c.mice])):
+        k = np.asarray(keep)
+        if not k.any():
+            continue
+        pm = np.nanmin(np.where(k[:, None], c.phase_margin_deg, np.nan), axis=0)
+        gm = np.nanmin(np.where(k[:, None], c.gain_margin_db, np.nan), axis=0)
+        axes[0].plot(payloads, [np.nanmin(pm[c.payload_kg == m]) for m in payloads], "o-", ms=3, label=name)
+        axes[1].plot(payloads, [np.nanmin(gm[c.payload_kg == m]) for m in payloads], "o-", ms=3, label=name)
+    for ax, limit, label in ((axes[0], a.phase_margin_deg, "interaction PM (deg)"),
+                             (axes[1], a.gain_margin_db, "interaction GM (dB)")):
         ax.axhline(limit, color="k", ls="--", lw=1)
-        ax.set_ylim(bottom=0.0, top=1.1 * max(limit, np.nanmax(values) if np.any(np.isfinite(values)) else limit))
-        ax.set_xlabel("payload (kg)")
-        ax.set_title(label + ("; gaps: ∞" if np.any(np.isnan(values)) else ""), fontsize=10)
+        ax.set(xlabel="payload (kg)", title=label)
         ax.grid(True, alpha=0.3)
+        ax.legend(fontsize=7)
     return fig

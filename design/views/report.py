@@ -155,11 +155,16 @@ def design_report(content: ReportContent) -> Report:
         lines.append(f"<b>Synthesis:</b> status {d.status}, independently verified: "
                      f"{'<span class=ok>yes</span>' if d.verified else '<span class=bad>no</span>'}.")
         a = d.admittance
-        if a is not None and a.status == "optimal":
-            pm = float(np.min(a.check.phase_margin_deg))
-            lines.append(f"<b>Admittance:</b> m_v = {a.m_v:.4g} kg, b_v = {a.b_v:.4g} N·s/m; peak resistance "
-                         f"{a.peak_resistance_n:.3g} N; interaction PM {'∞' if not np.isfinite(pm) else f'{pm:.1f}'} "
-                         "deg (see below).")
+        if a is not None and a.status in ("optimal", "mouse_cannot_drive"):
+            pm = float(np.nanmin(a.check.phase_margin_deg))
+            can = "can" if a.status == "optimal" else "<span class=bad>CANNOT</span>"
+            budget = d.problem.loop.admittance.mouse.peak_force_n
+            lines.insert(0, f"<b>Admittance:</b> the mouse {can} drive it: it feels {a.feel.peak_force_n:.3g} N of its "
+                            f"{budget:g} N on the locomotion profile; "
+                            f"m_v = {a.m_v:.4g} kg, b_v = {a.b_v:.4g} N·s/m; interaction PM "
+                            f"{'∞' if not np.isfinite(pm) else f'{pm:.1f}'} deg (see below).")
+        elif a is not None:
+            lines.insert(0, f"<b>Admittance:</b> <span class=bad>{a.status}</span>: {a.message}")
     report.raw("<div class='summary'>" + "<br>".join(lines) + "</div>")
 
     report.heading("Plant")

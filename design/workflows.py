@@ -139,6 +139,7 @@ def _codesigned(problem: DesignProblem, progress) -> DesignOutcome:
     import time
 
     from design.admittance.synthesis import synthesise_admittance
+    from design.synth.monte_carlo import monte_carlo_check
     from design.synth.pi import SynthesisResult, evaluate
     from design.synth.verify import verify
 
@@ -147,13 +148,14 @@ def _codesigned(problem: DesignProblem, progress) -> DesignOutcome:
     t0 = time.perf_counter()
     ev = evaluate(loop, adm.kp, adm.ki)
     ver = verify(loop, adm.kp, adm.ki)
-    ok = ev.meets and ver.verified
+    mc = monte_carlo_check(loop, adm.kp, adm.ki) if loop.plant.uncertainty else None
+    ok = ev.meets and ver.verified and (mc is None or mc.violations == 0)
     message = (f"PI gains chosen with the admittance (co-design from Kp = {loop.controller.kp.value:g}, Ki = "
                f"{loop.controller.ki.value:g}); the velocity loop alone "
                + ("meets requirements at every check scenario" if ok else "MISSES its requirements: "
                   + "; ".join(ver.failures[:2]) if ver.failures else "misses its requirements"))
     pi = SynthesisResult("optimal" if ok else "infeasible", message, ev, ver, "co-design (design.admittance.codesign)",
-                         time.perf_counter() - t0)
+                         time.perf_counter() - t0, monte_carlo=mc)
     return DesignOutcome(problem, synthesis=pi, admittance=adm)
 
 

@@ -142,6 +142,13 @@ _HINTS = {"sensor_current": "allow a larger m_v / b_v, a larger admittance.hardw
           "b_v_max": "raise admittance.b_v.max", "m_v_max": "raise admittance.m_v.max"}
 
 
+_NAMES = {"margins": "the interaction-loop margins (admittance.phase_margin_deg, admittance.gain_margin_db)",
+          "motor_force": "the motor's peak force (admittance.hardware.motor_peak_force_n)",
+          "sensor_current": "the current per force-sensor step (admittance.hardware.max_current_per_sensor_step_a)",
+          "passivity": "passivity (admittance.passivity.up_to_hz)", "b_v_min": "admittance.b_v.min",
+          "m_v_min": "admittance.m_v.min"}
+
+
 def ray_binding(problem: LoopProblem, rp, ray: RayBound, resp) -> dict:
     """The requirement that sets the design's scale, with the scenario and mouse where it binds."""
     adm = admittance_problem(problem)
@@ -302,8 +309,8 @@ def _infeasible(problem, ray: RayBound, rp, resp, kp, ki, timing, corners, t0, r
     need = ray.binding
     msg = (f"infeasible: no (m_v, b_v) within admittance.m_v.max = {hi[0]:g} kg and admittance.b_v.max = "
            f"{hi[1]:g} N*s/m holds every requirement: the least scale along the best ray (m_v / b_v = "
-           f"{ray.tau_s:.3g} s) is set by {need} at b_v = {ray.b_v:.4g} N*s/m, above what the upper bounds "
-           f"{'and passivity ' if adm.passivity is not None else ''}allow; {_HINTS.get(need, '')}")
+           f"{ray.tau_s:.3g} s) is set by {_NAMES.get(need, need)} at b_v = {ray.b_v:.4g} N*s/m, above what the "
+           f"upper bounds {'and passivity ' if adm.passivity is not None else ''}allow; {_HINTS.get(need, '')}")
     ev = AdmittanceEvaluator(problem, resp.scenarios, kp=kp, ki=ki, timing=timing, corners=corners)
     x = np.minimum(np.array([ray.m_v, ray.b_v]), hi) if math.isfinite(ray.b_v) else hi
     check = ev.evaluate(*x)

@@ -462,6 +462,16 @@ def _check_limits(spec: Spec) -> None:
 BOOLEAN_KEYS = ("admittance.codesign", "admittance.mouse.floating")
 
 
+def _booleans(data) -> None:
+    """The ``BOOLEAN_KEYS`` take true or false only (pydantic would read "yes" or 1 as true)."""
+    for key in BOOLEAN_KEYS:
+        node = data
+        for part in key.split("."):
+            node = node.get(part) if isinstance(node, dict) else None
+        if node is not None and not isinstance(node, bool):
+            raise SpecError(f"{key}: must be true or false, got {node!r}")
+
+
 def _no_booleans(data, path: str = "") -> None:
     """Only ``BOOLEAN_KEYS`` take true/false: a boolean where a number belongs is an error, not 1 or 0."""
     if isinstance(data, bool) and path not in BOOLEAN_KEYS:
@@ -479,6 +489,7 @@ def parse_spec(data: dict, *, source: str = "spec") -> Spec:
     the closest known one) and, for a value out of bounds, the value as written."""
     try:
         _no_booleans(data)
+        _booleans(data)
         unknown = _unknown_key(data, Spec)
         if unknown:
             raise SpecError(unknown)

@@ -121,7 +121,7 @@ def print_time_diagnosis(console: Console, diag: TimeDiagnosis) -> None:
 
 def print_synthesis(console: Console, out: dict) -> None:
     """The text of ``gantry synth``: status, gains, per-payload table, check, schedule, admittance, baselines."""
-    console.print(f"[bold]status[/]: {out['status']} ({out['message']}); verified: {out['verified']}")
+    console.print(f"[bold]status[/]: {out['status']} ({out['message']}); verified: {out['verified']}", soft_wrap=True)
     g = out["gains"]
     wc = out["worst_case"]
     if g["kp"] is not None and wc is not None:

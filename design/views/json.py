@@ -456,6 +456,7 @@ def admittance_to_dict(result: AdmittanceResult, problem: LoopProblem) -> dict:
                             f"next update, applied {timing.delay_samples} sample(s) after F[k] is read"}},
         "evaluated_at": {"m_v": result.m_v, "b_v": result.b_v},
         "mice": [m.as_dict() for m in result.corners],
+        "mouse_corners": [m.as_dict() for m in result.corners],
         "per_payload": [{"payload_kg": float(m), "phase_margin_deg": finite_or_none(w["phase_margin_deg"][j]),
                          "gain_margin_db": finite_or_none(w["gain_margin_db"][j]),
                          "rendered_bandwidth_hz": finite_or_none(w["rendered_bandwidth_hz"][j]),

@@ -417,8 +417,9 @@ class AdmittanceEvaluator:
 
         With ``screen`` the margins are computed exactly (``loop_margins``, Nyquist) for the curves (mouse x
         scenario) nearest their limits: at each scenario the ``SCREEN_TOP`` floating and grounded mice with the
-        largest phase- and the largest gain-margin ray bound (``design.admittance.ray.curve_bounds``: the least b_v along the ray
-        m_v / b_v that keeps the margin; the gain margin's orders the curves exactly as their gain margins)
+        largest phase- and the largest gain-margin ray bound (``design.admittance.ray.curve_bounds``: the least
+        b_v along the ray m_v / b_v that keeps the margin; the gain margin's orders the curves exactly as their
+        gain margins)
         and every curve whose bound is within ``SCREEN_RATIO`` of b_v; the others are certified by their
         bound (margins and stability hold all along the ray down to it) and their entries are nan."""
         from design.admittance.ray import curve_bounds, polar
@@ -461,7 +462,8 @@ class AdmittanceEvaluator:
             yr = rendered_admittance(loop, m_v, b_v, self.timing)
             passive[rows] = passive_up_to_hz(loop.w_rad_s, yr)
             if bandwidth:
-                bw[rows] = admittance_bandwidth_hz(loop.w_rad_s, yr, 1.0 / virtual_impedance_frd(loop.w_rad_s, m_v, b_v))
+                virtual = 1.0 / virtual_impedance_frd(loop.w_rad_s, m_v, b_v)
+                bw[rows] = admittance_bandwidth_hz(loop.w_rad_s, yr, virtual)
         check = AdmittanceCheck(float(m_v), float(b_v), self.scenarios, self.corners, pm, gm, stable, ratio, cur, force,
                                 bw,
                                 passive, cur_hz, force_hz, float(drift_mm_per_s(adm, b_v)), ())

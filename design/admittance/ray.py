@@ -123,7 +123,8 @@ def ray_problem(resp: InteractionResponses, adm: AdmittanceProblem, *, phase_mar
     if sensor.max_drift_mm_per_s is not None and sensor.bias_after_tare_n > sensor.deadband_n:
         t_min = max(t_min, 1e3 * sensor.bias_after_tare_n / (sensor.max_drift_mm_per_s * (1 - HAIR_HARDWARE)))
     return RayProblem(resp.sigma, resp.w_rad_s, *polar(resp.gain.reshape(-1, resp.w_rad_s.size)),
-                      pm + HAIR_PM_DEG, 10 ** ((gm + HAIR_GM_DB) / 20), resp.timing.sampled, current, resp.sensitivity_mobility / resp.mobility - 1.0,
+                      pm + HAIR_PM_DEG, 10 ** ((gm + HAIR_GM_DB) / 20), resp.timing.sampled, current,
+                      resp.sensitivity_mobility / resp.mobility - 1.0,
                       resp.reference_path / resp.mobility,
                       hw.motor_peak_force_n * (1 - HAIR_HARDWARE) / adm.mouse.peak_force_n, re_sg, rw, band,
                       t_min, adm.b_v.max, adm.m_v.min, adm.m_v.max, adm.locomotion.peak_acceleration_m_per_s2,

@@ -142,6 +142,7 @@ _HINTS = {"sensor_current": "allow a larger m_v / b_v, a larger admittance.hardw
           "b_v_max": "raise admittance.b_v.max", "m_v_max": "raise admittance.m_v.max"}
 
 
+_HINT_OF = {"phase_margin": "margins", "gain_margin": "margins"}
 _NAMES = {"margins": "the interaction-loop margins (admittance.phase_margin_deg, admittance.gain_margin_db)",
           "motor_force": "the motor's peak force (admittance.hardware.motor_peak_force_n)",
           "sensor_current": "the current per force-sensor step (admittance.hardware.max_current_per_sensor_step_a)",
@@ -255,7 +256,7 @@ def synthesise_admittance(problem: LoopProblem, *, kp: float | None = None, ki: 
                f"({loc.peak_speed_m_per_s:g} m/s, {loc.peak_acceleration_m_per_s2:g} m/s^2; m_v a + b_v v = {r:.3g} "
                f"N) against the mouse's {adm.mouse.peak_force_n:g} N (admittance.mouse.peak_force_n), "
                f"{feel.peak_force_n / adm.mouse.peak_force_n:.2f} times; it binds: {binding['detail']}; "
-               f"{_HINTS.get(binding['constraint'].replace('phase_margin', 'margins').replace('gain_margin', 'margins'), '')}")
+               f"{_HINTS.get(_HINT_OF.get(binding['constraint'], binding['constraint']), '')}")
     else:
         status = "optimal"
         msg = (f"verified on {len(scenarios)} design scenarios x {len(corners)} mice; 0 of {mc.samples} Monte Carlo "

@@ -77,8 +77,8 @@ def trade_off(problem: LoopProblem, result, rp) -> TradeOff:
         sc = design_scenarios(variant, [variant.plant.payload_kg.max])
         wv = with_mode_points(check_grid_for(timing), result.corners, timing)
         r = interaction_responses(variant, sc, wv, kp=result.kp, ki=result.ki, timing=timing, corners=result.corners)
-        changes.append(HardwareChange(label, best_ray(ray_problem(r, adm), points=30, refine=1).cost_n(rp.a_pk, rp.v_pk),
-                                      baseline))
+        best = best_ray(ray_problem(r, adm), points=30, refine=1)
+        changes.append(HardwareChange(label, best.cost_n(rp.a_pk, rp.v_pk), baseline))
     return TradeOff(adm.mouse.peak_force_n, margin_front, tuple(passivity_front), tuple(changes))
 
 

@@ -105,8 +105,10 @@ def add_admittance_section(report: Report, problem: LoopProblem, outcome: Design
 
 def _mc(r) -> str:
     mc = r.monte_carlo
-    return "" if mc is None else (f" Monte Carlo: {mc.violations} of {mc.samples} independent draws over payload, "
-                                  f"uncertainty and mouse violate (95 % upper bound {100 * mc.rate_upper_bound:.2g} %).")
+    if mc is None:
+        return ""
+    return (f" Monte Carlo: {mc.violations} of {mc.samples} independent draws over payload, uncertainty and mouse "
+            f"violate (95 % upper bound {100 * mc.rate_upper_bound:.2g} %).")
 
 
 def _run_figure(report: Report, run) -> None:

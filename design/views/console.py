@@ -208,16 +208,17 @@ def print_synthesis(console: Console, out: dict) -> None:
 def _print_admittance(console: Console, adm: dict) -> None:
     """The admittance stage: the virtual dynamics, what the mouse feels, the margins by mouse, the rig."""
     bw, m = adm["rendered_bandwidth_hz"], adm.get("mouse") or {}
-    console.print(f"[bold]admittance[/]: m_v = {adm['m_v']:.4g} kg, b_v = {adm['b_v']:.4g} N*s/m with Kp = {adm['kp']:.4g}, "
-                  f"Ki = {adm['ki']:.4g}; rendered bandwidth {_num(bw, '.1f')} Hz; binding: {adm['binding']['detail']}",
-                  soft_wrap=True)
+    console.print(f"[bold]admittance[/]: m_v = {adm['m_v']:.4g} kg, b_v = {adm['b_v']:.4g} N*s/m with Kp = "
+                  f"{adm['kp']:.4g}, Ki = {adm['ki']:.4g}; rendered bandwidth {_num(bw, '.1f')} Hz; binding: "
+                  f"{adm['binding']['detail']}", soft_wrap=True)
     if m:
-        console.print(f"  the mouse feels {m['force_felt_peak_n']:.3g} N peak, {m['force_felt_rms_n']:.3g} N RMS on the "
-                      f"profile (m_v a + b_v v = {m['virtual_dynamics_force_n']:.3g} N; it can push "
+        console.print(f"  the mouse feels {m['force_felt_peak_n']:.3g} N peak, {m['force_felt_rms_n']:.3g} N RMS on "
+                      f"the profile (m_v a + b_v v = {m['virtual_dynamics_force_n']:.3g} N; it can push "
                       f"{adm['limits']['mouse_peak_force_n']:g} N: {'can' if m['can_drive'] else 'CANNOT'} drive it); "
                       f"with its peak force it reaches {m['reachable_speed_m_per_s']:.3g} m/s and "
-                      f"{m['reachable_acceleration_m_per_s2']:.3g} m/s^2; it must push {1e3 * m['breakaway_force_n']:.3g} "
-                      f"mN to start the gantry, which drifts {m['drift_mm_per_s']:.3g} mm/s at rest", soft_wrap=True)
+                      f"{m['reachable_acceleration_m_per_s2']:.3g} m/s^2; it must push "
+                      f"{1e3 * m['breakaway_force_n']:.3g} mN to start the gantry, which drifts "
+                      f"{m['drift_mm_per_s']:.3g} mm/s at rest", soft_wrap=True)
     for name, v in adm["margins_by_mouse"].items():
         console.print(f"  interaction loop, {name} mice: worst PM {_num(v['phase_margin_deg'], '.1f')} deg, "
                       f"GM {_num(v['gain_margin_db'], '.1f')} dB")

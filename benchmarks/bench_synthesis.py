@@ -1,7 +1,7 @@
 """Synthesis benchmark: solve time per spec, worst-case bandwidth against a dense brute-force
 search over (Kp, Ki) on the same spec, and the bandwidth gained over the baselines.
 
-Run:  python benchmarks/bench_synthesis.py [--quick] [--admittance (the admittance part alone)]
+Run:  python benchmarks/bench_synthesis.py [--quick]   (admittance: benchmarks/bench_admittance.py)
 
 * Solve time: ``synthesise_pi`` (scan, ccp, exact multi-start, dense robustness check),
   wall and CPU, warm (imports and first-call set-up done by a previous run) and cold
@@ -18,14 +18,6 @@ Run:  python benchmarks/bench_synthesis.py [--quick] [--admittance (the admittan
 * Robustness (specs with ``plant.uncertainty``): the Monte Carlo check of the design (10,000
   independent draws over payload x uncertainty, violations with their 95 % upper bound) beside the
   design for the nominal parameters alone on the same draws.
-* Admittance (``specs/stage_x_admittance.toml``, PI gains from its PI stage): solve time of
-  ``synthesise_admittance`` and its peak resistance against a brute-force search over
-  (m_v, b_v): a 60 x 60 log grid over the spec's bounds, then two 40 x 40 zooms around the best
-  (+-2 cells), each point checked exactly (grid margins, hardware peaks) on the synthesis' design
-  scenarios (the 8 payloads x the corners of the spec's uncertainty); the brute-force best is then
-  re-checked on the synthesis' dense check scenarios. The Monte Carlo check of the design (10,000
-  draws over payload x uncertainty x mouse) is printed beside that of the design for the nominal
-  parameters alone on the same draws.
 """
 
 import sys
@@ -34,14 +26,10 @@ from pathlib import Path
 
 import numpy as np
 
-from design.admittance.model import W_DENSE, AdmittanceEvaluator
-from design.admittance.monte_carlo import admittance_monte_carlo
-from design.admittance.synthesis import W_DESIGN, synthesise_admittance
-from design.admittance.synthesis import check_scenarios as admittance_check_scenarios
 from design.loop.fast import fast_analyse_loop
 from design.spec.schema import load_spec
 from design.synth.pi import evaluate, synthesise_pi
-from design.synth.scenarios import check_scenarios, design_scenarios
+from design.synth.scenarios import check_scenarios
 from design.views.json import synthesis_to_dict
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -123,59 +111,5 @@ def main():
                       f"{b['worst_phase_margin_deg']:.1f} deg, worst GM {b['worst_gain_margin_db']:.1f} dB)")
 
 
-def admittance_brute_force(spec, kp, ki, cost, n0, zooms):
-    a = spec.admittance
-    ev = AdmittanceEvaluator(spec, design_scenarios(spec), W_DESIGN, kp=kp, ki=ki)
-    m_grid, b_grid = np.geomspace(a.m_v.min, a.m_v.max, n0), np.geomspace(a.b_v.min, a.b_v.max, n0)
-    best, evaluations = (np.inf, None, None), 0
-    for zoom in range(zooms + 1):
-        for m in m_grid:
-            for b in b_grid:
-                evaluations += 1
-                if cost(m, b) < best[0] and ev.evaluate(m, b, bandwidth=False).meets:
-                    best = (cost(m, b), m, b)
-        dm, db = (m_grid[1] / m_grid[0]) ** 2, (b_grid[1] / b_grid[0]) ** 2
-        m_grid = np.geomspace(max(best[1] / dm, a.m_v.min), min(best[1] * dm, a.m_v.max), 40)
-        b_grid = np.geomspace(max(best[2] / db, a.b_v.min), min(best[2] * db, a.b_v.max), 40)
-    return best, evaluations
-
-
-def admittance_benchmark():
-    spec = load_spec(ROOT / "specs" / "stage_x_admittance.toml").problem()
-    pi = synthesis_to_dict(synthesise_pi(spec))
-    kp, ki = pi["gains"]["kp"], pi["gains"]["ki"]
-    runs = [synthesise_admittance(spec, kp=kp, ki=ki) for _ in range(2)]
-    res = runs[-1]
-    loc = spec.admittance.locomotion
-    cost = lambda m, b: m * loc.peak_acceleration_m_per_s2 + b * loc.peak_speed_m_per_s  # noqa: E731
-    t0 = time.perf_counter()
-    (brute, m, b), evaluations = admittance_brute_force(spec, kp, ki, cost, 30 if QUICK else 60, 1 if QUICK else 2)
-    brute_s = time.perf_counter() - t0
-    dense = AdmittanceEvaluator(spec, admittance_check_scenarios(spec), W_DENSE, kp=kp, ki=ki).evaluate(m, b).meets
-    nominal = synthesise_admittance(spec, kp=kp, ki=ki, nominal=True)
-    nominal_mc = admittance_monte_carlo(spec, kp=kp, ki=ki, m_v=nominal.m_v, b_v=nominal.b_v)
-    s = res.solver
-    print("== stage_x_admittance.toml")
-    print(f"  PI stage: kp {kp:.2f}, ki {ki:.1f}")
-    print(f"  synthesis: {res.status}, verified {res.verified}, m_v {res.m_v:.4f} kg, b_v {res.b_v:.4f} N*s/m, "
-          f"peak resistance {res.peak_resistance_n:.4f} N, binding {res.binding['constraint']}")
-    print(f"  solve time {np.median([r.seconds for r in runs]):.1f} s wall (median of 2, verification included); "
-          f"rounds {s['rounds']}, SOCP solves {s['socp_solves']}, exact polish evaluations "
-          f"{s['exact_polish_evaluations']}")
-    print("  circle designs (N): " + ", ".join(f"{k} {v:.4f}" for k, v in s["circle_cost_n"].items())
-          + f"; best {s['best_formulation']}, exact polish gains "
-            f"x{min(s['circle_cost_n'].values()) / res.peak_resistance_n:.3f}")
-    print(f"  brute force ({evaluations} points, {brute_s:.0f} s): m_v {m:.4f}, b_v {b:.4f}, peak resistance "
-          f"{brute:.4f} N (on the {len(admittance_check_scenarios(spec))} dense check scenarios: "
-          f"{'meets' if dense else 'FAILS'})")
-    print(f"  ratio synthesis / brute force: {res.peak_resistance_n / brute:.4f} (lower is better)")
-    for name, r, mc in (("robust design", res, res.monte_carlo), ("nominal design", nominal, nominal_mc)):
-        print(f"  {name}: peak resistance {r.peak_resistance_n:.4f} N; Monte Carlo {mc.violations} of {mc.samples} "
-              f"violate (95 % upper bound {100 * mc.rate_upper_bound:.3g} %), worst sensor-step current "
-              f"{1e3 * mc.worst_sensor_current_a:.2f} mA, worst PM {mc.worst_phase_margin_deg:.1f} deg")
-
-
 if __name__ == "__main__":
-    if "--admittance" not in sys.argv:
-        main()
-    admittance_benchmark()
+    main()

@@ -233,15 +233,12 @@ class Range(Uncertainty):
 
 
 @dataclass(frozen=True)
-class StanceRange(Uncertainty):
+class StanceRange(Range):
     """A range that may start at 0 (a leg stiffness or damping: 0 is a mouse whose body is not on the
     ground); one number for min = max."""
 
     min: _NonNegative
     max: _NonNegative
-
-    def corners(self) -> tuple[float, ...]:
-        return (self.min,) if self.min == self.max else (self.min, self.max)
 
     def points(self, inner: int) -> tuple[float, ...]:
         """The ends and ``inner`` log-spaced points between them (a stiffness between its ends can be

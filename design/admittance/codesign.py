@@ -53,18 +53,45 @@ class CodesignRecord:
     pi_gain_margin_db: float
 
 
-def codesign(problem: LoopProblem, *, kp: float, ki: float, timing: RigTiming) -> CodesignRecord:
-    """``CodesignRecord`` of the best (Kp, Ki[, f_c]) from (kp, ki) (module docstring)."""
-    from scipy.optimize import minimize
+def codesign_score(problem: LoopProblem, *, kp: float, ki: float) -> float:
+    """The co-design's score of the gains (kp, ki) with the spec's rig (the force filter at its middle when
+    designed): the force felt at the best ray on the reduced set, inf when the velocity loop misses its
+    requirements."""
+    adm = admittance_problem(problem)
+    return _scorer(problem, RigTiming.of(adm.rig))(kp, ki, None)
 
+
+def _scorer(problem: LoopProblem, timing: RigTiming):
+    """score(kp, ki, filter_hz) -> (force felt N, worst velocity-loop PM deg, GM dB) on the reduced set."""
     adm = admittance_problem(problem)
     pr = problem.plant.payload_kg
     scenarios = design_scenarios(problem, pr.grid(4) if pr.max > pr.min else None)
     feel = feel_scenarios(problem)
     corners = mouse_set(adm.mouse, leg_points=1)
-    plants = scenarios.plants(problem.plant.plant())
-    P = plants.frd(W_PI)
+    P = scenarios.plants(problem.plant.plant()).frd(W_PI)
     req = problem.requirements
+
+    def score(k_p: float, k_i: float, filter_hz: float | None):
+        t = timing if filter_hz is None else replace(timing, filter_hz=filter_hz)
+        mg = loop_margins(W_PI, P * pi_frd(W_PI, k_p, k_i))
+        pm, gm = float(np.min(mg.phase_margin_deg)), float(np.min(mg.gain_margin_db))
+        if not (np.all(mg.closed_loop_stable) and pm >= req.phase_margin_deg and gm >= req.gain_margin_db):
+            return math.inf, pm, gm
+        w = with_mode_points(_coarse(t), corners, t, points=12)
+        resp = interaction_responses(problem, scenarios, w, kp=k_p, ki=k_i, timing=t, corners=corners)
+        felt = FeltForce(problem, feel, corners, kp=k_p, ki=k_i, timing=t)
+        ray = best_ray(ray_problem(resp, adm), objective=lambda r: felt(r.m_v, r.b_v), points=16, refine=1)
+        return (felt(ray.m_v, ray.b_v) if ray.feasible else math.inf), pm, gm
+
+    return score
+
+
+def codesign(problem: LoopProblem, *, kp: float, ki: float, timing: RigTiming) -> CodesignRecord:
+    """``CodesignRecord`` of the best (Kp, Ki[, f_c]) from (kp, ki) (module docstring)."""
+    from scipy.optimize import minimize
+
+    adm = admittance_problem(problem)
+    score = _scorer(problem, timing)
     filt = adm.rig.force_filter
     designed = filt is not None and filt.designed
     bounds = [(problem.controller.kp.min, problem.controller.kp.max),
@@ -83,16 +110,7 @@ def codesign(problem: LoopProblem, *, kp: float, ki: float, timing: RigTiming) -
         key = tuple(np.round(v, 6))
         if key not in cache:
             k_p, k_i, t = unpack(v)
-            mg = loop_margins(W_PI, P * pi_frd(W_PI, k_p, k_i))
-            pm, gm = float(np.min(mg.phase_margin_deg)), float(np.min(mg.gain_margin_db))
-            if not (np.all(mg.closed_loop_stable) and pm >= req.phase_margin_deg and gm >= req.gain_margin_db):
-                cache[key] = (math.inf, pm, gm)
-            else:
-                w = with_mode_points(_coarse(t), corners, t, points=12)
-                resp = interaction_responses(problem, scenarios, w, kp=k_p, ki=k_i, timing=t, corners=corners)
-                felt = FeltForce(problem, feel, corners, kp=k_p, ki=k_i, timing=t)
-                ray = best_ray(ray_problem(resp, adm), objective=lambda r: felt(r.m_v, r.b_v), points=16, refine=1)
-                cache[key] = (felt(ray.m_v, ray.b_v) if ray.feasible else math.inf, pm, gm)
+            cache[key] = score(k_p, k_i, t.filter_hz if designed else None)
         return cache[key][0]
 
     start = [math.log(kp), math.log(max(ki, 1e-9))] + ([math.log(math.sqrt(filt.frequency_hz_min *

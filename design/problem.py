@@ -332,12 +332,16 @@ class ForceFilter:
 class Rig:
     """The admittance law as the rig runs it: sampled at ``update_rate_hz`` (None: continuous) with a
     zero-order hold on its velocity output and ``computation_delay_samples`` whole samples between the
-    force sample and the output it causes, after an optional force filter."""
+    force sample and the output it causes, after an optional force filter; ``law`` is its integration rule."""
 
     __pydantic_config__ = FORBID
     update_rate_hz: Annotated[float, Gt(0), Le(1e6)] | None = None
     computation_delay_samples: Annotated[int, Ge(0), Le(100)] = 0
     force_filter: ForceFilter | None = None
+    #: how the law integrates 1/(m_v s + b_v) per update: "backward_euler" v[k] = (m_v v[k-1] + T F[k]) /
+    #: (m_v + b_v T), stable for any gains; "forward_euler" v[k] = v[k-1] + T (F[k] - b_v v[k-1]) / m_v, stable
+    #: only for m_v > b_v T / 2
+    law: Literal["backward_euler", "forward_euler"] = "backward_euler"
 
     @property
     def sample_period_s(self) -> float | None:

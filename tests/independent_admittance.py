@@ -83,14 +83,18 @@ def response(ss, x) -> np.ndarray:
     return np.array([(C @ np.linalg.solve(xi * np.eye(n) - A, B))[0, 0] + D[0, 0] for xi in np.asarray(x)])
 
 
-def sampled_loop(path, *, m_v, b_v, period_s):
+def sampled_loop(path, *, m_v, b_v, period_s, forward_euler=False):
     """(Ad, Bd, Cd, Dd) of the discrete interaction loop: the path sampled with a zero-order hold (scipy
-    ``cont2discrete``) after the backward-Euler law T z / ((m_v + b_v T) z - m_v)."""
+    ``cont2discrete``) after the law: backward Euler y[k] = (m_v y[k-1] + T F[k]) / (m_v + b_v T), or forward
+    Euler y[k] = y[k-1] + T (F[k] - b_v y[k-1]) / m_v."""
     from scipy.signal import cont2discrete
 
     Ad, Bd, Cd, Dd, _ = cont2discrete(path, period_s, method="zoh")
-    # law: y[k] = a y[k-1] + c F[k] with a = m/(m + bT), c = T/(m + bT); as a state space in series before Kd
-    a, c = m_v / (m_v + b_v * period_s), period_s / (m_v + b_v * period_s)
+    # law: y[k] = a y[k-1] + c F[k]; as a state space in series before Kd
+    if forward_euler:
+        a, c = 1.0 - b_v * period_s / m_v, period_s / m_v
+    else:
+        a, c = m_v / (m_v + b_v * period_s), period_s / (m_v + b_v * period_s)
     n = Ad.shape[0]
     A = np.zeros((n + 1, n + 1))
     A[0, 0] = a                  # law state s[k+1] = y[k] = a s[k] + c F[k]  (s = y[k-1])

@@ -183,7 +183,8 @@ def _newton_margins(adm, payload, params, mouse, w):
     plant = {**PLANT, "mass_kg": payload, "damping": params["damping_n_s_per_m"],
              "delay_s": params["delay.seconds"], "current_hz": params["current_loop.bandwidth_hz"]}
     path = ref.coupled_path(kp=adm["kp"], ki=adm["ki"], **plant, **mouse)
-    loop = ref.sampled_loop(path, m_v=adm["m_v"], b_v=adm["b_v"], period_s=0.01)
+    loop = ref.sampled_loop(path, m_v=adm["m_v"], b_v=adm["b_v"], period_s=0.01,
+                            forward_euler=load_spec(SPEC).admittance.rig.law == "forward_euler")
     pm, gm = ref.margins_from_response(w, ref.response(loop, np.exp(1j * w * 0.01)))
     return pm, gm, ref.closed_loop_stable(loop, discrete=True)
 
@@ -216,14 +217,17 @@ def test_bundled_design_holds_its_margins_for_floating_and_braced_mice_by_newton
 
 
 def test_exported_admittance_law_rebuilds_the_virtual_dynamics(bundled):
-    # v[k] = alpha v[k-1] + beta F[k] from the JSON: its transfer function is 1 / (m_v (1 - z^-1) / T + b_v)
-    # (backward Euler), it settles to F / b_v, and it approaches the continuous step response as T -> 0
+    # v[k] = alpha v[k-1] + beta F[k] from the JSON: its transfer function is 1 / (m_v (1 - z^-1) / T + b_v rho)
+    # with rho = 1 (backward Euler) or z^-1 (forward Euler, the spec's rule), and it settles to F / b_v
     _, doc = bundled
     adm = doc["admittance"]
     d, T, m, b = adm["rig"]["discrete"], 1.0 / adm["rig"]["update_rate_hz"], adm["m_v"], adm["b_v"]
+    forward = load_spec(SPEC).admittance.rig.law == "forward_euler"
+    assert d["rule"].startswith("forward" if forward else "backward")
     for z in (np.exp(1j * 0.3), np.exp(1j * 2.0), 1.5):
-        assert d["beta_m_per_s_per_n"] / (1 - d["alpha"] / z) == pytest.approx(1 / (m * (1 - 1 / z) / T + b),
-                                                                                 rel=1e-12)
+        assert d["beta_m_per_s_per_n"] / (1 - d["alpha"] / z) == pytest.approx(
+            1 / (m * (1 - 1 / z) / T + b * (1 / z if forward else 1.0)), rel=1e-12)
+    assert abs(d["alpha"]) < 1          # the law alone is stable
     v = 0.0
     for _ in range(2000):
         v = d["alpha"] * v + d["beta_m_per_s_per_n"] * 1.0

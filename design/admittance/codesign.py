@@ -58,7 +58,7 @@ def codesign_score(problem: LoopProblem, *, kp: float, ki: float) -> float:
     designed): the force felt at the best ray on the reduced set, inf when the velocity loop misses its
     requirements."""
     adm = admittance_problem(problem)
-    return _scorer(problem, RigTiming.of(adm.rig))(kp, ki, None)
+    return _scorer(problem, RigTiming.of(adm.rig))(kp, ki, None)[0]
 
 
 def _scorer(problem: LoopProblem, timing: RigTiming):

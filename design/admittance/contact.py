@@ -58,8 +58,8 @@ def _stable(problem: LoopProblem, scenarios: Scenarios, k_e: np.ndarray, *, kp, 
         return loop.reference * weight / (loop.s / k_e[:, None] + loop.sensitivity * loop.mobility)
 
     gain = timing.sampled_path(path, w)
-    resp = InteractionResponses(w, timing, scenarios, (), gain, timing.sigma(w), *(np.empty(0),) * 4)
-    _, _, stable = interaction_margins(resp, gain / virtual_impedance(resp.sigma, m_v, b_v))
+    resp = InteractionResponses(w, timing, scenarios, (), gain, timing.sigma(w), timing.rho(w), *(np.empty(0),) * 4)
+    _, _, stable = interaction_margins(resp, gain / virtual_impedance(resp.sigma, m_v, b_v, resp.rho))
     return stable
 
 

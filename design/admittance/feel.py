@@ -123,7 +123,7 @@ class FeltForce:
         self.scenarios, self.timing = scenarios, timing
         self.sg = loop.sensitivity * loop.mobility                          # (n_s, n_f)
         self.rw = loop.reference * timing.fundamental_at(s)
-        self.sigma = timing.sigma_at(s)
+        self.sigma, self.rho = timing.sigma_at(s), timing.rho_at(s)
         self.necks = list({(m.head_mass_kg, m.neck_stiffness_n_per_m, m.neck_damping_n_s_per_m): m
                            for m in corners}.values())
         batch = stack(self.necks)
@@ -138,15 +138,15 @@ class FeltForce:
         free = gantry_loop_at(plants, 1j * self.w, scenarios, kp=kp, ki=ki)
         self._sg_jw = free.sensitivity * free.mobility
         self._rw_jw = free.reference * timing.fundamental(self.w)
-        self._sigma_jw = timing.sigma(self.w)
+        self._sigma_jw, self._rho_jw = timing.sigma(self.w), timing.rho(self.w)
 
     def rendered(self, m_v: float, b_v: float) -> np.ndarray:
         """Y_r at the FFT frequencies (on the imaginary axis, without DC), (n_s, n_f)."""
-        return self._sg_jw + self._rw_jw / (m_v * self._sigma_jw + b_v)
+        return self._sg_jw + self._rw_jw / (m_v * self._sigma_jw + b_v * self._rho_jw)
 
     def forces(self, m_v: float, b_v: float) -> np.ndarray:
         """The neck force over the profile at every neck and scenario, (n_neck, n_s, n_t)."""
-        yr = self.sg + self.rw / (m_v * self.sigma + b_v)
+        yr = self.sg + self.rw / (m_v * self.sigma + b_v * self.rho)
         h = self.zn * (1 + self.mh * yr) / (1 + (self.zn + self.mh) * yr)
         return np.fft.irfft(h * self.vb, self.n) / self.window
 

@@ -177,9 +177,9 @@ def attached_loop(loop: GantryLoop, mouse: MouseModel) -> np.ndarray:
     return loop.sensitivity * loop.mobility * zm
 
 
-def virtual_impedance(sigma, m_v, b_v) -> np.ndarray:
-    """z = m_v sigma + b_v, the inverse of the virtual dynamics (N*s/m)."""
-    return np.asarray(m_v) * sigma + np.asarray(b_v)
+def virtual_impedance(sigma, m_v, b_v, rho=1.0) -> np.ndarray:
+    """z = m_v sigma + b_v rho, the inverse of the virtual dynamics (N*s/m; rho: ``RigTiming.rho``)."""
+    return np.asarray(m_v) * sigma + np.asarray(b_v) * rho
 
 
 def virtual_impedance_frd(w_rad_s, m_v, b_v) -> np.ndarray:
@@ -191,8 +191,7 @@ def rendered_admittance(loop: GantryLoop, m_v: float, b_v: float, timing: RigTim
     """Y_r = v / F_s = S G + R W / (m_v sigma + b_v) (m/s per N): at the input frequency when sampled."""
     timing = timing or RigTiming(None)
     w = loop.w_rad_s
-    return loop.sensitivity * loop.mobility + loop.reference * timing.fundamental(w) / virtual_impedance(
-        timing.sigma(w), m_v, b_v)
+    return loop.sensitivity * loop.mobility + loop.reference * timing.fundamental(w) / timing.impedance(w, m_v, b_v)
 
 
 def admittance_bandwidth_hz(w_rad_s, rendered, virtual) -> np.ndarray:
@@ -245,6 +244,7 @@ class InteractionResponses:
     mice: tuple[MouseModel, ...]
     gain: np.ndarray            # K_eff, (n_m, n_s, n_f)
     sigma: np.ndarray           # (n_f,)
+    rho: np.ndarray | float     # the factor beside b_v (``RigTiming.rho``)
     #: |C S W|, current per force-reading error times m_v sigma + b_v, (n_s, n_f)
     current_path: np.ndarray
     #: R W and G at the grid (for the motor force Y_r / G - 1), (n_s, n_f)
@@ -270,14 +270,14 @@ def interaction_responses(problem: LoopProblem, scenarios, w_rad_s, *, kp: float
     gain = timing.sampled_path(path, w)
     loop = gantry_loop_at(plants, 1j * w, sc, kp=kp, ki=ki)
     W = timing.fundamental(w)
-    return InteractionResponses(w, timing, sc, corners, gain, timing.sigma(w),
+    return InteractionResponses(w, timing, sc, corners, gain, timing.sigma(w), timing.rho(w),
                                 np.abs(loop.controller * loop.sensitivity * W), loop.reference * W, loop.mobility,
                                 loop.sensitivity * loop.mobility)
 
 
 def interaction_loop(resp: InteractionResponses, m_v, b_v) -> np.ndarray:
-    """L = K_eff / (m_v sigma + b_v), (n_m, n_s, n_f)."""
-    return resp.gain / virtual_impedance(resp.sigma, m_v, b_v)
+    """L = K_eff / (m_v sigma + b_v rho), (n_m, n_s, n_f)."""
+    return resp.gain / virtual_impedance(resp.sigma, m_v, b_v, resp.rho)
 
 
 def sampled_nyquist_stable(loop: np.ndarray) -> np.ndarray:
@@ -434,9 +434,9 @@ class AdmittanceEvaluator:
         tau = m_v / b_v
         g = 10 ** (adm.gain_margin_db / 20)
         for rows, r in self.responses():
-            z = virtual_impedance(r.sigma, m_v, b_v)
+            z = virtual_impedance(r.sigma, m_v, b_v, r.rho)
             gain = r.gain.reshape(-1, self.w.size)
-            parts = curve_bounds(*polar(gain), 1.0 + tau * r.sigma, adm.phase_margin_deg, g, self.timing.sampled,
+            parts = curve_bounds(*polar(gain), r.rho + tau * r.sigma, adm.phase_margin_deg, g, self.timing.sampled,
                                  parts=True)
             ratio[:, rows] = np.maximum(*parts).reshape(n_m, len(rows)) / b_v
             if screen:

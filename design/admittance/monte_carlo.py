@@ -95,8 +95,8 @@ def admittance_monte_carlo(problem: LoopProblem, *, kp: float, ki: float, m_v: f
     corners = mice(problem)
     w = with_mode_points(check_grid_for(timing), corners, timing)
     wc = with_mode_points(W_CHECK, corners, RigTiming(None))
-    sigma = timing.sigma(w)
-    z = virtual_impedance(sigma, m_v, b_v)
+    sigma, rho = timing.sigma(w), timing.rho(w)
+    z = virtual_impedance(sigma, m_v, b_v, rho)
     g = 10 ** (adm.gain_margin_db / 20)
     bound, cur, force = (np.empty(samples) for _ in range(3))
     stable = np.empty(samples, bool)
@@ -108,7 +108,7 @@ def admittance_monte_carlo(problem: LoopProblem, *, kp: float, ki: float, m_v: f
         plants = sc.plants(base)
         mouse = MouseModel(*(np.asarray(getattr(drawn, f))[rows] for f in FIELDS))
         gain = timing.sampled_path(lambda s, weight: paired_gain(plants, sc, mouse, s, weight, kp=kp, ki=ki), w)
-        bound[rows] = curve_bounds(*polar(gain), 1.0 + (m_v / b_v) * sigma, adm.phase_margin_deg, g,
+        bound[rows] = curve_bounds(*polar(gain), rho + (m_v / b_v) * sigma, adm.phase_margin_deg, g,
                                    timing.sampled)
         near = np.flatnonzero(bound[rows] >= SCREEN_RATIO * b_v)
         gains.update({int(rows[i]): gain[i] for i in near})
@@ -127,7 +127,7 @@ def admittance_monte_carlo(problem: LoopProblem, *, kp: float, ki: float, m_v: f
     pm, gm = np.full(samples, np.inf), np.full(samples, np.inf)
     if keep:
         idx = np.array(keep)
-        resp = InteractionResponses(w, timing, draws.take(idx), (), np.stack([gains[i] for i in keep]), sigma,
+        resp = InteractionResponses(w, timing, draws.take(idx), (), np.stack([gains[i] for i in keep]), sigma, rho,
                                     np.empty(0), np.empty(0), np.empty(0), np.empty(0))
         p_, g_, st = interaction_margins(resp, resp.gain / z)
         pm[idx], gm[idx] = p_, g_

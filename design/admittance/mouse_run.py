@@ -22,7 +22,8 @@ the current loop ``delay_ticks`` ticks later and is held.
 
 Admittance law at rate f_a, tick j at the drive ticks k = j f_d / f_a: the reading
 r[j] = res round((F_sf(t) + bias) / res); a deadband zeroes |r| <= d; v_a[j] = alpha v_a[j-1] + beta r_db[j]
-(``design.admittance.rig.DiscreteAdmittance``); v_ref = v_a[j - computation_delay] from that tick on (held).
+(``design.admittance.rig.DiscreteAdmittance``, backward or forward Euler); v_ref = v_a[j - computation_delay]
+from that tick on (held).
 
 Order within a tick: the continuous states are sampled, the admittance law updates (on its ticks), then
 the drive, then the continuous part is integrated to the next tick with the held commands.
@@ -34,6 +35,8 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+
+from design.admittance.rig import DiscreteAdmittance
 
 #: RK4 steps per drive period
 SUBSTEPS = 2
@@ -71,6 +74,8 @@ class RunSettings:
     leg_damping_n_s_per_m: float
     mouse_peak_force_n: float
     feedforward: bool = True
+    #: the law's rule (``design.admittance.rig.DiscreteAdmittance``)
+    forward_euler: bool = False
 
 
 @dataclass(frozen=True)
@@ -110,8 +115,8 @@ def simulate_mouse_run(settings: RunSettings, time_s, x_d, v_d, a_d) -> RunTrace
     wf = None if s.force_filter_hz is None else 2 * math.pi * s.force_filter_hz
     order = s.force_filter_order
     imax = s.motor_peak_force_n / kt
-    Ta = 1.0 / s.admittance_rate_hz
-    alpha, beta = s.m_v / (s.m_v + s.b_v * Ta), Ta / (s.m_v + s.b_v * Ta)
+    law = DiscreteAdmittance.of(s.m_v, s.b_v, s.admittance_rate_hz, forward_euler=s.forward_euler)
+    alpha, beta = law.alpha, law.beta_m_per_s_per_n
 
     def forces(z, ic, xd, vd, ad):
         x, v, xb, vb, i = z[0], z[1], z[2], z[3], z[4]
@@ -300,7 +305,8 @@ def run_settings(problem, *, kp: float, ki: float, m_v: float, b_v: float, timin
                        mid(mouse.head_mass_kg), mid(mouse.body_mass_kg), mid(mouse.neck_stiffness_n_per_m),
                        mid(mouse.neck_damping_n_s_per_m),
                        mouse.leg_stiffness_n_per_m.min if leg_stiffness_n_per_m is None else leg_stiffness_n_per_m,
-                       mid(mouse.leg_damping_n_s_per_m), mouse.peak_force_n)
+                       mid(mouse.leg_damping_n_s_per_m), mouse.peak_force_n,
+                       forward_euler=timing.forward_euler)
 
 
 def mouse_run(settings: RunSettings, path: IntendedPath) -> MouseRun:

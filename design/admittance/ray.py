@@ -1,6 +1,7 @@
 """The lightest admittance that holds every requirement, along rays of the virtual dynamics.
 
-Write m_v sigma + b_v = t q(sigma), q = 1 + tau sigma, with tau = m_v / b_v (s) fixing the ray and
+Write m_v sigma + b_v rho = t q, q = rho + tau sigma (``design.admittance.rig``: rho = 1, or e^(-jwT) for a
+forward-Euler law), with tau = m_v / b_v (s) fixing the ray and
 t = b_v its scale. Along a ray every requirement of ``design.admittance.model`` is a bound on t alone,
 at each frequency, scenario and mouse, in closed form:
 
@@ -82,6 +83,7 @@ class RayProblem:
     """Everything a ray needs, tabulated once from ``InteractionResponses`` and the spec."""
 
     sigma: np.ndarray
+    rho: np.ndarray | float
     w_rad_s: np.ndarray
     log_mag: np.ndarray                    # log |K_eff| per curve (mouse x scenario), (n_c, n_f), float32
     psi: np.ndarray                        # phase of K_eff relative to -180 deg (deg)
@@ -99,6 +101,7 @@ class RayProblem:
     t_max: float
     m_min: float
     m_max: float
+    tau_min: float                         # the least m_v / b_v the law is stable with (s)
     a_pk: float
     v_pk: float
 
@@ -122,12 +125,13 @@ def ray_problem(resp: InteractionResponses, adm: AdmittanceProblem, *, phase_mar
     t_min = adm.b_v.min
     if sensor.max_drift_mm_per_s is not None and sensor.bias_after_tare_n > sensor.deadband_n:
         t_min = max(t_min, 1e3 * sensor.bias_after_tare_n / (sensor.max_drift_mm_per_s * (1 - HAIR_HARDWARE)))
-    return RayProblem(resp.sigma, resp.w_rad_s, *polar(resp.gain.reshape(-1, resp.w_rad_s.size)),
+    return RayProblem(resp.sigma, resp.rho, resp.w_rad_s, *polar(resp.gain.reshape(-1, resp.w_rad_s.size)),
                       pm + HAIR_PM_DEG, 10 ** ((gm + HAIR_GM_DB) / 20), resp.timing.sampled, current,
                       resp.sensitivity_mobility / resp.mobility - 1.0,
                       resp.reference_path / resp.mobility,
                       hw.motor_peak_force_n * (1 - HAIR_HARDWARE) / adm.mouse.peak_force_n, re_sg, rw, band,
-                      t_min, adm.b_v.max, adm.m_v.min, adm.m_v.max, adm.locomotion.peak_acceleration_m_per_s2,
+                      t_min, adm.b_v.max, adm.m_v.min, adm.m_v.max, resp.timing.min_tau_s,
+                      adm.locomotion.peak_acceleration_m_per_s2,
                       adm.locomotion.peak_speed_m_per_s)
 
 
@@ -152,13 +156,13 @@ class RayBound:
 def margin_bounds(rp: RayProblem, tau_s: float, curves=None) -> np.ndarray:
     """``curve_bounds`` of the curves ``curves`` (indices; default all) on the ray ``tau_s``."""
     rows = slice(None) if curves is None else curves
-    q = 1.0 + tau_s * rp.sigma
+    q = rp.rho + tau_s * rp.sigma
     return curve_bounds(rp.log_mag[rows], rp.psi[rows], q, rp.phase_margin_deg, rp.gain_margin, rp.sampled)
 
 
 def ray_bound(rp: RayProblem, tau_s: float, curves=None) -> RayBound:
     """``RayBound`` of the ray ``tau_s`` (module docstring), the margins on ``curves`` (default all)."""
-    q = 1.0 + tau_s * rp.sigma
+    q = rp.rho + tau_s * rp.sigma
     aq = np.abs(q)
     lower = {"margins": float(np.max(margin_bounds(rp, tau_s, curves), initial=0.0)), "b_v_min": rp.t_min,
              "m_v_min": rp.m_min / tau_s}
@@ -188,7 +192,7 @@ def ray_bound(rp: RayProblem, tau_s: float, curves=None) -> RayBound:
 def _scan(rp: RayProblem, curves, objective, *, points: int, refine: int) -> tuple[RayBound, float]:
     """The ray of least ``objective`` with the margins on ``curves``: a log grid of tau over the bounds'
     range, then ``refine`` rounds of a finer grid between the best point's neighbours."""
-    lo = max(rp.m_min / rp.t_max, 1e-7)
+    lo = max(rp.m_min / rp.t_max, rp.tau_min, 1e-7)
     hi = max(rp.m_max / rp.t_min, lo * 1.0001)
     taus = np.geomspace(lo, hi, points)
     best, best_cost = None, math.inf

@@ -2,13 +2,16 @@
 dynamics as a difference equation, a computation delay and a zero-order hold on the velocity
 reference it hands to the drive's velocity loop.
 
-The virtual dynamics 1/(m_v s + b_v) are run by backward (implicit) Euler, stable for any m_v, b_v > 0
-and sample period T::
+The virtual dynamics 1/(m_v s + b_v) are run per update of period T by one of two rules::
 
-    v[k] = alpha v[k-1] + beta F[k],   alpha = m_v / (m_v + b_v T),   beta = T / (m_v + b_v T)
+    backward Euler:  v[k] = alpha v[k-1] + beta F[k],  alpha = m_v / (m_v + b_v T),  beta = T / (m_v + b_v T)
+    forward Euler:   v[k] = v[k-1] + T (F[k] - b_v v[k-1]) / m_v   (the mouse lab's LabVIEW law,
+                     ``a = inv(m)*(F' - c*v_1)``: alpha = 1 - b_v T / m_v, beta = T / m_v)
 
-i.e. 1/Y_v(z) = m_v (1 - z^-1) / T + b_v: affine in (m_v, b_v) as the continuous m_v s + b_v is, with
-``sigma`` = (1 - e^(-jwT)) / T in place of s = jw. The velocity output is held (zero-order hold) and
+i.e. 1/Y_v(z) = m_v (1 - z^-1) / T + b_v rho, rho = 1 (backward) or z^-1 (forward): affine in (m_v, b_v)
+as the continuous m_v s + b_v is, with ``sigma`` = (1 - e^(-jwT)) / T in place of s = jw and ``rho`` = 1
+or e^(-jwT) beside b_v. Backward Euler is stable for any gains; forward Euler only for m_v > b_v T / 2
+(|alpha| < 1), which the synthesis keeps. The velocity output is held (zero-order hold) and
 reaches the drive ``computation_delay_samples`` samples after the force sample that caused it.
 
 Broken at the sampled force signal the coupled loop is exactly a discrete-time loop (the rest is
@@ -64,6 +67,7 @@ class RigTiming:
     delay_samples: int = 0
     filter_hz: float | None = None
     filter_order: int = 2
+    forward_euler: bool = False
 
     @classmethod
     def of(cls, rig, *, filter_hz: float | None = None) -> RigTiming:
@@ -72,7 +76,13 @@ class RigTiming:
         corner = None if f is None else (f.frequency_hz if not f.designed else filter_hz)
         if f is not None and f.designed and corner is None:
             corner = math.sqrt(f.frequency_hz_min * f.frequency_hz_max)
-        return cls(rig.sample_period_s, rig.computation_delay_samples, corner, 2 if f is None else f.order)
+        return cls(rig.sample_period_s, rig.computation_delay_samples, corner, 2 if f is None else f.order,
+                   rig.law == "forward_euler" and rig.sample_period_s is not None)
+
+    @property
+    def min_tau_s(self) -> float:
+        """The least m_v / b_v the law is stable with: T / 2 for forward Euler (a hair above), else 0."""
+        return 0.5 * self.period_s * 1.01 if self.forward_euler else 0.0
 
     @property
     def sampled(self) -> bool:
@@ -90,6 +100,17 @@ class RigTiming:
         """``sigma`` at complex frequencies s."""
         s = np.asarray(s, complex)
         return s if self.period_s is None else -np.expm1(-s * self.period_s) / self.period_s
+
+    def rho(self, w_rad_s) -> np.ndarray | float:
+        """The factor beside b_v in 1/Y_v: 1, or e^(-jwT) for forward Euler."""
+        return self.rho_at(1j * np.asarray(w_rad_s, float))
+
+    def rho_at(self, s) -> np.ndarray | float:
+        return np.exp(-np.asarray(s, complex) * self.period_s) if self.forward_euler else 1.0
+
+    def impedance(self, w_rad_s, m_v, b_v) -> np.ndarray:
+        """1/Y_v = m_v sigma + b_v rho on a grid (N*s/m)."""
+        return np.asarray(m_v) * self.sigma(w_rad_s) + np.asarray(b_v) * self.rho(w_rad_s)
 
     def fundamental(self, w_rad_s) -> np.ndarray:
         """What passes from the sensed force to the velocity reference besides 1/(m_v sigma + b_v), at the
@@ -148,7 +169,7 @@ def _hold(s, T: float) -> np.ndarray:
 
 @dataclass(frozen=True)
 class DiscreteAdmittance:
-    """The admittance law per update: v[k] = alpha v[k-1] + beta F[k] (backward Euler of 1/(m_v s + b_v))."""
+    """The admittance law per update: v[k] = alpha v[k-1] + beta F[k] (module docstring)."""
 
     update_rate_hz: float
     m_v: float
@@ -156,8 +177,14 @@ class DiscreteAdmittance:
     alpha: float
     beta_m_per_s_per_n: float
     computation_delay_samples: int
+    rule: str
 
     @classmethod
-    def of(cls, m_v: float, b_v: float, update_rate_hz: float, computation_delay_samples: int = 0):
+    def of(cls, m_v: float, b_v: float, update_rate_hz: float, computation_delay_samples: int = 0, *,
+           forward_euler: bool = False):
         T = 1.0 / update_rate_hz
-        return cls(update_rate_hz, m_v, b_v, m_v / (m_v + b_v * T), T / (m_v + b_v * T), computation_delay_samples)
+        if forward_euler:
+            return cls(update_rate_hz, m_v, b_v, 1.0 - b_v * T / m_v, T / m_v, computation_delay_samples,
+                       "forward Euler: v[k] = v[k-1] + T (F[k] - b_v v[k-1]) / m_v")
+        return cls(update_rate_hz, m_v, b_v, m_v / (m_v + b_v * T), T / (m_v + b_v * T), computation_delay_samples,
+                   "backward Euler: v[k] = (m_v v[k-1] + T F[k]) / (m_v + b_v T)")

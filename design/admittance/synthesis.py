@@ -164,7 +164,7 @@ def ray_binding(problem: LoopProblem, rp, ray: RayBound, resp) -> dict:
                    "passivity": "passivity (admittance.passivity) sets the scale of (m_v, b_v)"}
         name = "drift" if ray.binding == "b_v_min" and rp.t_min > adm.b_v.min else ray.binding
         return {"constraint": name, **base, "detail": details.get(name, name)}
-    t_pm, t_gm = curve_bounds(rp.log_mag, rp.psi, 1.0 + ray.tau_s * rp.sigma, rp.phase_margin_deg, rp.gain_margin,
+    t_pm, t_gm = curve_bounds(rp.log_mag, rp.psi, rp.rho + ray.tau_s * rp.sigma, rp.phase_margin_deg, rp.gain_margin,
                               rp.sampled, parts=True)
     gm_binds = t_gm.max() >= t_pm.max()
     c = int(np.argmax(t_gm if gm_binds else t_pm))
@@ -270,7 +270,8 @@ def synthesise_admittance(problem: LoopProblem, *, kp: float | None = None, ki: 
         {**notes, "design_scenarios": len(scenarios), "monte_carlo_rounds": mc_round, "tau_s": ray.tau_s,
          "payload_points": sorted({float(p) for p in scenarios.payload_kg})},
         mc, feel, contact,
-        DiscreteAdmittance.of(float(x[0]), float(x[1]), 1.0 / timing.period_s, timing.delay_samples)
+        DiscreteAdmittance.of(float(x[0]), float(x[1]), 1.0 / timing.period_s, timing.delay_samples,
+                              forward_euler=timing.forward_euler)
         if timing.sampled else None, None, nominal, record)
     if status != "optimal" and tradeoff and not nominal:
         from design.admittance.tradeoff import trade_off

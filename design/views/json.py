@@ -452,8 +452,9 @@ def admittance_to_dict(result: AdmittanceResult, problem: LoopProblem) -> dict:
                 "force_filter_order": timing.filter_order if timing.filter_hz is not None else None,
                 "discrete": None if result.discrete is None else {
                     "alpha": result.discrete.alpha, "beta_m_per_s_per_n": result.discrete.beta_m_per_s_per_n,
-                    "form": "v[k] = alpha v[k-1] + beta F[k] (backward Euler of 1/(m_v s + b_v)); v held until the "
-                            f"next update, applied {timing.delay_samples} sample(s) after F[k] is read"}},
+                    "rule": result.discrete.rule,
+                    "form": "v[k] = alpha v[k-1] + beta F[k]; v held until the next update, applied "
+                            f"{timing.delay_samples} sample(s) after F[k] is read"}},
         "evaluated_at": {"m_v": result.m_v, "b_v": result.b_v},
         "mice": [m.as_dict() for m in result.corners],
         "mouse_corners": [m.as_dict() for m in result.corners],

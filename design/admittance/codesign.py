@@ -35,6 +35,8 @@ KP_FACTORS = (0.6, 1.0, 1.5)
 KI_FACTORS = (1.0, 0.1, 0.01, 0.001)
 NELDER_MEAD_EVALUATIONS = 24
 W_PI = log_grid_rad_s(0.01, 3000.0, 500)
+#: alias terms of the sampled sum during the search (the design at the chosen gains takes them all)
+SEARCH_TERMS = 1
 
 
 @dataclass(frozen=True)
@@ -78,7 +80,8 @@ def _scorer(problem: LoopProblem, timing: RigTiming):
         if not (np.all(mg.closed_loop_stable) and pm >= req.phase_margin_deg and gm >= req.gain_margin_db):
             return math.inf, pm, gm
         w = with_mode_points(_coarse(t), corners, t, points=12)
-        resp = interaction_responses(problem, scenarios, w, kp=k_p, ki=k_i, timing=t, corners=corners)
+        resp = interaction_responses(problem, scenarios, w, kp=k_p, ki=k_i, timing=t, corners=corners,
+                                     terms=SEARCH_TERMS)
         felt = FeltForce(problem, feel, corners, kp=k_p, ki=k_i, timing=t)
         ray = best_ray(ray_problem(resp, adm), objective=lambda r: felt(r.m_v, r.b_v), points=16, refine=1)
         return (felt(ray.m_v, ray.b_v) if ray.feasible else math.inf), pm, gm

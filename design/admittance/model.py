@@ -57,6 +57,8 @@ from plant.models import Plant
 
 #: the continuous loop's check grid: 1 mHz - 3 kHz, 1200 points (plus points around the mouse's modes)
 W_CHECK = log_grid_rad_s(1e-3, 3000.0, 1200)
+#: the grid of the attached velocity loop's Nyquist test and of the passive band (plus the mouse's modes)
+W_ATTACHED = log_grid_rad_s(1e-3, 3000.0, 500)
 #: the rendered admittance departs from the virtual dynamics by this much at its bandwidth
 BANDWIDTH_GAIN_DB = 3.0
 BANDWIDTH_PHASE_DEG = 30.0
@@ -106,12 +108,13 @@ def with_mode_points(w_rad_s, corners, timing: RigTiming, *, points: int = 16) -
     return np.unique(np.concatenate([w, local]))
 
 
-def check_grid_for(timing: RigTiming) -> np.ndarray:
-    """The interaction loop's grid: ``W_CHECK`` (continuous), or 1 mHz up to the Nyquist frequency."""
+def check_grid_for(timing: RigTiming, *, per_decade: int = SAMPLED_POINTS_PER_DECADE) -> np.ndarray:
+    """The interaction loop's grid: ``W_CHECK`` (continuous), or 1 mHz up to the Nyquist frequency with
+    ``per_decade`` points per decade."""
     if not timing.sampled:
         return W_CHECK
     top = timing.nyquist_rad_s
-    n = int(SAMPLED_POINTS_PER_DECADE * math.log10(top / 2e-3 / math.pi)) + 2
+    n = int(per_decade * math.log10(top / 2e-3 / math.pi)) + 2
     return np.geomspace(2e-3 * math.pi, top, n)
 
 
@@ -254,10 +257,10 @@ class InteractionResponses:
 
 
 def interaction_responses(problem: LoopProblem, scenarios, w_rad_s, *, kp: float, ki: float,
-                          timing: RigTiming, corners=None) -> InteractionResponses:
+                          timing: RigTiming, corners=None, terms: int | None = None) -> InteractionResponses:
     """K_eff for every mouse of ``corners`` (default: the spec's mouse set) and scenario on ``w_rad_s`` (which
     must end at or below the Nyquist frequency when sampled): the continuous K times the force filter, or
-    the sampled sum (``RigTiming.sampled_path``)."""
+    the sampled sum (``RigTiming.sampled_path``, ``terms`` alias terms: default ``ALIAS_TERMS``)."""
     sc = as_scenarios(scenarios)
     corners = mice(problem) if corners is None else tuple(corners)
     w = check_grid(w_rad_s)
@@ -267,7 +270,7 @@ def interaction_responses(problem: LoopProblem, scenarios, w_rad_s, *, kp: float
     def path(s, weight):
         return interaction_gain(gantry_loop_at(plants, s, sc, kp=kp, ki=ki), batch, weight=weight)
 
-    gain = timing.sampled_path(path, w)
+    gain = timing.sampled_path(path, w, terms=terms)
     loop = gantry_loop_at(plants, 1j * w, sc, kp=kp, ki=ki)
     W = timing.fundamental(w)
     return InteractionResponses(w, timing, sc, corners, gain, timing.sigma(w), timing.rho(w),
@@ -393,7 +396,7 @@ class AdmittanceEvaluator:
             self._kept = interaction_responses(problem, self.scenarios, self.w, kp=kp, ki=ki, timing=self.timing,
                                                corners=self.corners)
         # the velocity loop with the mouse attached, on a continuous grid (it is a continuous loop)
-        wc = with_mode_points(W_CHECK, self.corners, RigTiming(None))
+        wc = with_mode_points(W_ATTACHED, self.corners, RigTiming(None))
         self.attached_stable = np.ones((len(self.corners), len(self.scenarios)), bool)
         self.passive_w = wc
         self._free = []

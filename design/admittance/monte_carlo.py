@@ -4,10 +4,11 @@ of them a design scenario, and the violation rate with its exact one-sided 95 % 
 (Clopper-Pearson, ``design.synth.monte_carlo``).
 
 Each draw is one curve (scenario and mouse) evaluated as the screened dense check evaluates one
-(``design.admittance.model.AdmittanceEvaluator.evaluate``): its ray bound certifies it, or, when the
-bound comes within ``SCREEN_RATIO`` of b_v (and for the ``WORST_EXACT`` draws with the largest bounds),
-the interaction loop's grid margins and Nyquist stability are computed; the hardware peaks and the
-stability of the velocity loop with the mouse attached are computed for every draw. A draw violates
+(``design.admittance.model.AdmittanceEvaluator.evaluate``): its ray bound, on a coarse grid and with the
+sampled sum cut to ``SCREEN_TERMS`` alias terms, certifies it, or, when the bound comes within
+``SCREEN_RATIO`` of b_v (and for the ``WORST_EXACT`` draws with the largest bounds), its loop is computed
+anew on the check grid with every term and its grid margins and Nyquist stability are read; the hardware
+peaks and the stability of the velocity loop with the mouse attached are computed for every draw. A draw violates
 when a margin falls short by more than ``MARGIN_TOLERANCE`` (grid rounding, as in the python-control
 verification), a hardware peak exceeds its limit by more than ``HARDWARE_TOLERANCE``, or a loop is
 unstable.
@@ -21,7 +22,6 @@ import numpy as np
 
 from design.admittance.model import (
     SCREEN_RATIO,
-    W_CHECK,
     InteractionResponses,
     admittance_problem,
     check_grid_for,
@@ -38,6 +38,7 @@ from design.loop.margins import nyquist_stable
 from design.problem import LoopProblem
 from design.synth.monte_carlo import clopper_pearson_upper, draw_settings
 from design.synth.scenarios import random_scenarios
+from plant.grid import log_grid_rad_s
 
 #: python-control margins may fall short of the requirement by this much (deg, dB): grid rounding
 MARGIN_TOLERANCE = (0.1, 0.05)
@@ -45,6 +46,10 @@ MARGIN_TOLERANCE = (0.1, 0.05)
 HARDWARE_TOLERANCE = 1e-3
 #: draws per chunk, and the draws with the largest ray bounds whose margins are always computed
 CHUNK = 512
+#: the screen of every draw: its grid (a drawn mouse's modes are not refined anyway) and alias terms (the screen
+#: keeps a fifth of slack; the draws it keeps are computed anew on the check grid with every term)
+MC_POINTS_PER_DECADE = 60
+SCREEN_TERMS = 1
 WORST_EXACT = 8
 
 
@@ -93,27 +98,26 @@ def admittance_monte_carlo(problem: LoopProblem, *, kp: float, ki: float, m_v: f
     draws = random_scenarios(problem, samples, seed=seed)
     drawn = random_mice(adm.mouse, samples, seed=seed)
     corners = mice(problem)
-    w = with_mode_points(check_grid_for(timing), corners, timing)
-    wc = with_mode_points(W_CHECK, corners, RigTiming(None))
+    w = with_mode_points(check_grid_for(timing, per_decade=MC_POINTS_PER_DECADE), corners, timing)
+    wc = with_mode_points(log_grid_rad_s(1e-3, 3000.0, 500), corners, RigTiming(None))
     sigma, rho = timing.sigma(w), timing.rho(w)
     z = virtual_impedance(sigma, m_v, b_v, rho)
     g = 10 ** (adm.gain_margin_db / 20)
     bound, cur, force = (np.empty(samples) for _ in range(3))
     stable = np.empty(samples, bool)
-    gains: dict[int, np.ndarray] = {}
     base = problem.plant.plant()
+
+    def batch(rows):
+        sc = draws.take(rows)
+        return sc, sc.plants(base), MouseModel(*(np.asarray(getattr(drawn, f))[rows] for f in FIELDS))
+
     for start in range(0, samples, CHUNK):
         rows = np.arange(start, min(start + CHUNK, samples))
-        sc = draws.take(rows)
-        plants = sc.plants(base)
-        mouse = MouseModel(*(np.asarray(getattr(drawn, f))[rows] for f in FIELDS))
-        gain = timing.sampled_path(lambda s, weight: paired_gain(plants, sc, mouse, s, weight, kp=kp, ki=ki), w)
+        sc, plants, mouse = batch(rows)
+        gain = timing.sampled_path(lambda s, weight: paired_gain(plants, sc, mouse, s, weight, kp=kp, ki=ki), w,
+                                   terms=SCREEN_TERMS)
         bound[rows] = curve_bounds(*polar(gain), rho + (m_v / b_v) * sigma, adm.phase_margin_deg, g,
                                    timing.sampled)
-        near = np.flatnonzero(bound[rows] >= SCREEN_RATIO * b_v)
-        gains.update({int(rows[i]): gain[i] for i in near})
-        top = np.argsort(-bound[rows])[:WORST_EXACT]
-        gains.update({int(rows[i]): gain[i] for i in top})
         loop = gantry_loop_at(plants, 1j * w, sc, kp=kp, ki=ki)
         W = timing.fundamental(w)
         cur[rows] = np.max(np.abs(loop.controller * loop.sensitivity * W / z), axis=-1) * hw.force_sensor_resolution_n
@@ -121,17 +125,20 @@ def admittance_monte_carlo(problem: LoopProblem, *, kp: float, ki: float, m_v: f
         force[rows] = np.max(np.abs(yr / loop.mobility - 1.0), axis=-1) * adm.mouse.peak_force_n
         free = gantry_loop_at(plants, 1j * wc, sc, kp=kp, ki=ki)
         stable[rows] = nyquist_stable(_attached(free, mouse))
-    # every draw near its bound and the WORST_EXACT largest bounds overall (each chunk kept its own)
-    keep = sorted({i for i in gains if bound[i] >= SCREEN_RATIO * b_v}
-                  | set(np.argsort(-bound)[:WORST_EXACT].tolist()))
+    # every draw near its bound and the WORST_EXACT largest bounds: their loops anew on the check grid with every
+    # alias term, and their grid margins
+    keep = np.union1d(np.flatnonzero(bound >= SCREEN_RATIO * b_v), np.argsort(-bound)[:WORST_EXACT])
     pm, gm = np.full(samples, np.inf), np.full(samples, np.inf)
-    if keep:
-        idx = np.array(keep)
-        resp = InteractionResponses(w, timing, draws.take(idx), (), np.stack([gains[i] for i in keep]), sigma, rho,
-                                    np.empty(0), np.empty(0), np.empty(0), np.empty(0))
-        p_, g_, st = interaction_margins(resp, resp.gain / z)
-        pm[idx], gm[idx] = p_, g_
-        stable[idx] &= st
+    wk = with_mode_points(check_grid_for(timing), corners, timing)
+    sk, rk = timing.sigma(wk), timing.rho(wk)
+    for start in range(0, keep.size, CHUNK):
+        rows = keep[start:start + CHUNK]
+        sc, plants, mouse = batch(rows)
+        gain = timing.sampled_path(lambda s, weight: paired_gain(plants, sc, mouse, s, weight, kp=kp, ki=ki), wk)
+        resp = InteractionResponses(wk, timing, sc, (), gain, sk, rk, *(np.empty(0),) * 4)
+        p_, g_, st = interaction_margins(resp, gain / virtual_impedance(sk, m_v, b_v, rk))
+        pm[rows], gm[rows] = p_, g_
+        stable[rows] &= st
     d_pm, d_gm = MARGIN_TOLERANCE
     limit_i = hw.max_current_per_sensor_step_a
     bad = ((pm < adm.phase_margin_deg - d_pm) | (gm < adm.gain_margin_db - d_gm) | ~stable
@@ -149,7 +156,7 @@ def admittance_monte_carlo(problem: LoopProblem, *, kp: float, ki: float, m_v: f
                                 float(np.min(pm[computed])) if computed.any() else float("inf"),
                                 float(np.min(gm[computed])) if computed.any() else float("inf"),
                                 float(np.max(cur)), float(np.max(force)), int(np.sum(~stable)), draws.row(i),
-                                {n: float(np.asarray(getattr(drawn, n))[i, 0]) for n in FIELDS}, len(keep))
+                                {n: float(np.asarray(getattr(drawn, n))[i, 0]) for n in FIELDS}, int(keep.size))
 
 
 def _attached(free, mouse: MouseModel) -> np.ndarray:

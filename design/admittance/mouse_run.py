@@ -2,7 +2,8 @@
 
 Model (SI units; every rate an integer multiple of the admittance rate is required):
 
-Continuous part (integrated by fixed-step RK4 with ``SUBSTEPS`` steps per drive period):
+Continuous part (integrated by fixed-step RK4, at least ``SUBSTEPS`` steps per drive period and as many
+more as keep w h <= ``MAX_W_H`` for the fastest rate w of the continuous part):
 
 * gantry with the head on its clamp: (M + m_h) dv/dt = F_m + F_n - b v - F_f,  dx/dt = v;
   Coulomb friction regularised F_f = F_c tanh(v / v_s);
@@ -38,8 +39,10 @@ import numpy as np
 
 from design.admittance.rig import DiscreteAdmittance
 
-#: RK4 steps per drive period
+#: RK4 steps per drive period at least, and the largest w h (w the fastest rate of the continuous part: the
+#: current loop, the force filter, the body on neck and legs) a step may take (RK4 is stable to 2.79)
 SUBSTEPS = 2
+MAX_W_H = 0.5
 
 
 @dataclass(frozen=True)
@@ -104,7 +107,11 @@ def simulate_mouse_run(settings: RunSettings, time_s, x_d, v_d, a_d) -> RunTrace
     t = np.asarray(time_s, float)
     xd_, vd_, ad_ = (np.asarray(a, float) for a in (x_d, v_d, a_d))
     T = 1.0 / s.drive_rate_hz
-    h = T / SUBSTEPS
+    fastest = max(2 * math.pi * (s.current_loop_hz or 0.0), 2 * math.pi * (s.force_filter_hz or 0.0),
+                  math.sqrt((s.neck_stiffness_n_per_m + s.leg_stiffness_n_per_m) / s.body_mass_kg),
+                  (s.neck_damping_n_s_per_m + s.leg_damping_n_s_per_m) / s.body_mass_kg)
+    substeps = max(SUBSTEPS, math.ceil(fastest * T / MAX_W_H))
+    h = T / substeps
     m_total = s.gantry_mass_kg + s.head_mass_kg
     mh, mb = s.head_mass_kg, s.body_mass_kg
     kn, cn = s.neck_stiffness_n_per_m, s.neck_damping_n_s_per_m
@@ -162,7 +169,7 @@ def simulate_mouse_run(settings: RunSettings, time_s, x_d, v_d, a_d) -> RunTrace
         commands = commands[1:] + [min(max(u, -imax), imax)]
         rec[:, k] = (z[0], z[1], z[2], z[3], fs, fleg, z[4] if wc is not None else ic, v_ref, 0.0)
         ic = commands[0]
-        for _ in range(SUBSTEPS):
+        for _ in range(substeps):
             k1 = deriv(z, ic, xd, vd, ad)
             k2 = deriv([a + 0.5 * h * d for a, d in zip(z, k1)], ic, xd, vd, ad)
             k3 = deriv([a + 0.5 * h * d for a, d in zip(z, k2)], ic, xd, vd, ad)

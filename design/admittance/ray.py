@@ -204,11 +204,11 @@ def _scan(rp: RayProblem, curves, objective, *, points: int, refine: int) -> tup
             best, best_cost = bounds[i], float(costs[i])
         if not math.isfinite(costs[i]):
             break
-        taus = np.geomspace(taus[max(i - 1, 0)], taus[min(i + 1, taus.size - 1)], 11)
+        taus = np.geomspace(taus[max(i - 1, 0)], taus[min(i + 1, taus.size - 1)], 9)
     return best, best_cost
 
 
-def best_ray(rp: RayProblem, *, objective=None, points: int = 40, refine: int = 2) -> RayBound:
+def best_ray(rp: RayProblem, *, objective=None, points: int = 28, refine: int = 2) -> RayBound:
     """The ray of least ``objective(ray)`` (default: the force the virtual dynamics ask on the profile's
     corner, ``RayBound.cost_n``) over every curve, by an active set of curves: seeded with the curves
     that bind most on a few rays (``SEED_TAUS_S``), the scan runs on the active curves, every curve is

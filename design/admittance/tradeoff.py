@@ -15,14 +15,15 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, replace
 
+from design.admittance.codesign import SEARCH_TERMS
 from design.admittance.model import admittance_problem, check_grid_for, interaction_responses, with_mode_points
 from design.admittance.ray import HAIR_PM_DEG, best_ray, ray_problem
 from design.admittance.rig import RigTiming
 from design.problem import LoopProblem, Passivity
 from design.synth.scenarios import design_scenarios
 
-MARGINS_DEG = (20.0, 25.0, 30.0, 35.0, 40.0, 45.0, 50.0, 55.0, 60.0)
-PASSIVE_UP_TO_HZ = (0.5, 1.0, 2.0, 3.0, 5.0, 8.0, 12.0, 20.0)
+MARGINS_DEG = (20.0, 30.0, 40.0, 45.0, 50.0, 60.0)
+PASSIVE_UP_TO_HZ = (1.0, 3.0, 6.0, 10.0, 20.0)
 
 
 @dataclass(frozen=True)
@@ -54,7 +55,7 @@ class TradeOff:
 
 
 def _point(rp, requirement: float) -> FrontPoint:
-    ray = best_ray(rp, points=30, refine=1)
+    ray = best_ray(rp, points=20, refine=1)
     return FrontPoint(requirement, ray.cost_n(rp.a_pk, rp.v_pk), ray.m_v if ray.feasible else math.nan,
                       ray.b_v if ray.feasible else math.nan)
 
@@ -67,17 +68,18 @@ def trade_off(problem: LoopProblem, result, rp) -> TradeOff:
     heavy = design_scenarios(problem, [problem.plant.payload_kg.max])
     w = with_mode_points(check_grid_for(result.timing), result.corners, result.timing)
     resp = interaction_responses(problem, heavy, w, kp=result.kp, ki=result.ki, timing=result.timing,
-                                 corners=result.corners)
+                                 corners=result.corners, terms=SEARCH_TERMS)
     for f in PASSIVE_UP_TO_HZ:
         passive = replace(adm, passivity=Passivity(up_to_hz=f))
         passivity_front.append(_point(ray_problem(resp, passive), f))
-    baseline = best_ray(ray_problem(resp, adm), points=30, refine=1).cost_n(rp.a_pk, rp.v_pk)
+    baseline = best_ray(ray_problem(resp, adm), points=20, refine=1).cost_n(rp.a_pk, rp.v_pk)
     changes = []
     for label, variant, timing in _variants(problem, result.timing):
         sc = design_scenarios(variant, [variant.plant.payload_kg.max])
         wv = with_mode_points(check_grid_for(timing), result.corners, timing)
-        r = interaction_responses(variant, sc, wv, kp=result.kp, ki=result.ki, timing=timing, corners=result.corners)
-        best = best_ray(ray_problem(r, adm), points=30, refine=1)
+        r = interaction_responses(variant, sc, wv, kp=result.kp, ki=result.ki, timing=timing, corners=result.corners,
+                                  terms=SEARCH_TERMS)
+        best = best_ray(ray_problem(r, adm), points=20, refine=1)
         changes.append(HardwareChange(label, best.cost_n(rp.a_pk, rp.v_pk), baseline))
     return TradeOff(adm.mouse.peak_force_n, margin_front, tuple(passivity_front), tuple(changes))
 

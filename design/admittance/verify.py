@@ -32,8 +32,10 @@ PADE_ORDER = 6
 ORIGIN = 1e-7
 #: the (scenario, mouse) pairs whose poles are computed: the tightest by their ray bound
 VERIFY_PAIRS = 48
-#: points of the grid python-control's margins are read on
+#: points of the grid python-control's margins are read on, and the worst pairs per margin and kind of mouse
+#: they are computed at
 MARGIN_POINTS = 1500
+MARGIN_PAIRS = 3
 
 
 @dataclass(frozen=True)
@@ -183,13 +185,18 @@ def _margins(L, timing: RigTiming) -> tuple[float, float]:
     return (float(pm) if np.isfinite(pm) else math.inf), gm_db
 
 
-def worst_pairs(check: AdmittanceCheck) -> set[tuple[int, int]]:
-    """For every mouse, the (mouse, scenario) index pairs of its worst computed phase and gain margins."""
+def worst_pairs(check: AdmittanceCheck, n: int = MARGIN_PAIRS) -> set[tuple[int, int]]:
+    """The (mouse, scenario) index pairs of the ``n`` worst computed phase and the ``n`` worst gain margins of
+    the floating and of the grounded mice."""
     pairs = set()
-    for k in range(len(check.mice)):
-        for arr in (check.phase_margin_deg[k], check.gain_margin_db[k]):
-            if np.any(np.isfinite(arr)):
-                pairs.add((k, int(np.argmin(np.where(np.isfinite(arr), arr, np.inf)))))
+    for grounded in (False, True):
+        rows = np.array([m.grounded == grounded for m in check.mice])
+        for arr in (check.phase_margin_deg, check.gain_margin_db):
+            a = np.where(rows[:, None] & np.isfinite(arr), arr, np.inf)
+            for flat in np.argsort(a, axis=None)[:n]:
+                k, j = np.unravel_index(flat, a.shape)
+                if np.isfinite(a[k, j]):
+                    pairs.add((int(k), int(j)))
     return pairs
 
 

@@ -1,0 +1,325 @@
+"""The mouse run (``design.admittance.mouse_run.simulate_mouse_run``) against an independent reference simulator
+(``independent_mouse_run``: solve_ivp between drive ticks, imports nothing from the tool): the traces at the
+drive ticks on the lab's trapezoid, closed-form steady states, the sampled law and the PI rebuilt from a trace,
+the mouse's force limit."""
+
+import math
+from dataclasses import asdict
+
+import independent_mouse_run as ref
+import numpy as np
+import pytest
+
+from design.admittance.mouse_run import RunSettings, simulate_mouse_run
+
+#: realistic rig and mouse (SI units): 40 kg payload, the lab's PI, the bundled virtual dynamics
+BASE = dict(gantry_mass_kg=40.0, damping_n_s_per_m=440.0, force_constant_n_per_a=20.0, current_loop_hz=None,
+            delay_ticks=0, drive_rate_hz=1000.0, kp=140.0, ki=15.3, motor_peak_force_n=1e4, friction_n=0.0,
+            friction_velocity_m_per_s=1e-3, admittance_rate_hz=100.0, computation_delay_samples=0, m_v=0.0057,
+            b_v=9.07, force_filter_hz=None, force_filter_order=2, resolution_n=1e-9, bias_n=0.0, deadband_n=0.0,
+            head_mass_kg=0.005, body_mass_kg=0.03, neck_stiffness_n_per_m=100.0, neck_damping_n_s_per_m=0.5,
+            leg_stiffness_n_per_m=300.0, leg_damping_n_s_per_m=0.5, mouse_peak_force_n=1.2, feedforward=True,
+            forward_euler=False)
+#: case (b): the rig as it is (current loop, delays, filter, quantised and offset sensor, deadband, friction) with
+#: a motor too weak for the payload, so the drive saturates and the integrator's anti-windup acts
+RIG = dict(BASE, current_loop_hz=1000.0, drive_rate_hz=2000.0, delay_ticks=1, computation_delay_samples=1,
+           force_filter_hz=30.0, force_filter_order=2, resolution_n=6.25e-3, bias_n=6.25e-3, deadband_n=0.01,
+           friction_n=3.0, motor_peak_force_n=50.0, kp=140.0, ki=15.0)
+#: an ideal current loop with delays, quantiser and deadband, no filter, a weak motor: the law and PI rebuild exactly
+CONSISTENCY = dict(BASE, drive_rate_hz=2000.0, admittance_rate_hz=500.0, delay_ticks=3, computation_delay_samples=2,
+                   resolution_n=6.25e-3, bias_n=6.25e-3, deadband_n=0.025, friction_n=3.0, motor_peak_force_n=50.0)
+#: a floating mouse: no legs on the ground, no push
+FLOATING = dict(leg_stiffness_n_per_m=0.0, leg_damping_n_s_per_m=0.0, feedforward=False, mouse_peak_force_n=1e6)
+
+
+def _path(rate_hz, rest_s=0.3, rest_after_s=1.5, t_max_s=None):
+    """The lab's trapezoid: 0.4 m at 0.2 m/s peak, 1 m/s^2, with rest before and after."""
+    t, x, v, a = ref.trapezoid_path(0.4, 0.2, 1.0, rate_hz, rest_s, rest_after_s)
+    if t_max_s is not None:
+        keep = t <= t_max_s + 1e-12
+        t, x, v, a = t[keep], x[keep], v[keep], a[keep]
+    return t, x, v, a
+
+
+def _tool(settings, t, x, v, a):
+    return simulate_mouse_run(RunSettings(**settings), t, x, v, a)
+
+
+def _close(name, tool, reference, rtol, atol):
+    tool, reference = np.asarray(tool), np.asarray(reference)
+    assert tool.shape == reference.shape, name
+    err = np.max(np.abs(tool - reference))
+    bound = rtol * np.max(np.abs(reference)) + atol
+    k = int(np.argmax(np.abs(tool - reference)))
+    assert err <= bound, f"{name}: max |tool - reference| = {err:.3g} at tick {k} > {bound:.3g}"
+
+
+def _compare(settings, path, *, current_rtol=1e-3):
+    """Both simulators on the same settings and path; every trace within 1e-3 of its peak (plus a small floor)."""
+    t, x, v, a = path
+    tool = _tool(settings, t, x, v, a)
+    r = ref.simulate(t, x, v, a, **settings)
+    np.testing.assert_array_equal(tool.time_s, t)
+    _close("sensed force", tool.sensed_force_n, r.F_s, 1e-3, 1e-6)
+    _close("velocity", tool.v_m_per_s, r.v, 1e-3, 1e-7)
+    _close("position", tool.x_m, r.x, 1e-3, 1e-7)
+    _close("body velocity", tool.body_v_m_per_s, r.v_b, 1e-3, 1e-7)
+    _close("body position", tool.body_x_m, r.x_b, 1e-3, 1e-7)
+    _close("leg force", tool.leg_force_n, r.F_leg, 1e-3, 1e-6)
+    _close("velocity reference", tool.reference_m_per_s, r.v_ref, 1e-3, 1e-7)
+    _close("current", tool.current_a, r.i, current_rtol, 1e-6)
+    np.testing.assert_array_equal(tool.intended_x_m, x)
+    np.testing.assert_array_equal(tool.intended_v_m_per_s, v)
+    return tool, r
+
+
+def _rebuild(settings, F_read, v, v_ref):
+    """The sampled law and the PI as stated, rerun on a trace's own samples: the velocity reference at every tick
+    and the current command in force over the interval ending at every tick (ideal current loop), with counts of
+    the quantiser rounding, the deadband zeroing and the anti-windup holding the integrator."""
+    s = settings
+    n = len(v)
+    n_a = int(round(s["drive_rate_hz"] / s["admittance_rate_hz"]))
+    alpha, beta = ref.law_coefficients(s["m_v"], s["b_v"], s["admittance_rate_hz"], s["forward_euler"])
+    res, bias, band = s["resolution_n"], s["bias_n"], s["deadband_n"]
+    imax = s["motor_peak_force_n"] / s["force_constant_n_per_a"]
+    T = 1.0 / s["drive_rate_hz"]
+    hist = [0.0] * (s["computation_delay_samples"] + 1)
+    v_a = vr = integ = e_prev = 0.0
+    want_vref, cmd = np.zeros(n), np.zeros(n)
+    counts = dict(rounded=0, deadband=0, held=0)
+    for k in range(n):
+        if k % n_a == 0:
+            q = res * np.round((F_read[k] + bias) / res)
+            counts["rounded"] += abs(q - F_read[k]) > 1e-3 * res
+            if abs(q) <= band:
+                counts["deadband"] += q != 0.0
+                q = 0.0
+            v_a = alpha * v_a + beta * q
+            hist = hist[1:] + [v_a]
+            vr = hist[0]
+        want_vref[k] = vr
+        e = vr - v[k]
+        trial = integ + s["ki"] * T * (e + e_prev) / 2
+        u = s["kp"] * e + trial
+        if (u > imax and e > 0) or (u < -imax and e < 0):
+            counts["held"] += 1
+            trial = integ
+            u = s["kp"] * e + integ
+        integ, e_prev = trial, e
+        cmd[k] = min(max(u, -imax), imax)
+    lag = 1 + s["delay_ticks"]
+    want_current = np.concatenate([np.zeros(lag), cmd[:-lag]])
+    return want_vref, want_current, counts
+
+
+# --- the reference on its own ----------------------------------------------------------------------------------
+def test_reference_reading_rounds_as_numpy_and_deadband_is_inclusive():
+    # half to even: 0.5 -> 0, 1.5 -> 2, 2.5 -> 2; the deadband zeroes |r| <= d, keeps |r| > d
+    np.testing.assert_array_equal(ref.reading([0.5, 1.5, 2.5, -1.5], 1.0, 0.0, 0.0), [0.0, 2.0, 2.0, -2.0])
+    # offset 6.25e-3 on a 6.25e-3 step, deadband two steps: 1 and 2 steps zeroed (inclusive), 3 and 4 kept
+    np.testing.assert_allclose(ref.reading([0.0, 0.004, 0.01, 0.02], 6.25e-3, 6.25e-3, 0.0125),
+                               [0.0, 0.0, 0.01875, 0.025], rtol=0, atol=1e-15)
+    np.testing.assert_array_equal(ref.reading([0.0], 1.0, 0.0, 0.0), [0.0])
+
+
+def test_reference_law_coefficients():
+    a, b = ref.law_coefficients(0.0057, 9.07, 100.0)
+    assert a == pytest.approx(0.0057 / (0.0057 + 0.0907)) and b == pytest.approx(0.01 / (0.0057 + 0.0907))
+    a, b = ref.law_coefficients(0.05, 8.0, 100.0, forward_euler=True)
+    assert a == pytest.approx(1 - 8.0 * 0.01 / 0.05) and b == pytest.approx(0.01 / 0.05)
+
+
+def _steady_push(force_n, **changes):
+    """A mouse pushing a constant force F (legs slack, the feed-forward m_v a_d with a constant a_d, body mass
+    included) from rest, with a stiff integrator so the steady state arrives within the run."""
+    s = dict(BASE, ki=1500.0, leg_stiffness_n_per_m=0.0, leg_damping_n_s_per_m=0.0)
+    s.update(changes)
+    n = int(round(3.0 * s["drive_rate_hz"]))
+    t = np.arange(n) / s["drive_rate_hz"]
+    a = np.full(n, force_n / (s["body_mass_kg"] + s["m_v"]))
+    return s, t, np.zeros(n), np.zeros(n), a
+
+
+PUSHES = [
+    # force, changes, expected reading (what the law integrates; v -> r / b_v)
+    (0.1, dict(), 0.1),
+    (0.1, dict(friction_n=3.0, resolution_n=6.25e-3, bias_n=0.0), 0.1),                    # 16 steps
+    (0.1, dict(friction_n=3.0, resolution_n=6.25e-3, bias_n=0.004), 0.10625),               # 16.64 -> 17
+    (0.02, dict(resolution_n=6.25e-3, bias_n=0.0, deadband_n=0.025), 0.0),                  # inside the deadband
+    (0.03, dict(resolution_n=6.25e-3, bias_n=0.0, deadband_n=0.025, force_filter_hz=30.0), 0.03125),
+    (0.1, dict(force_filter_hz=20.0, force_filter_order=1, forward_euler=True, admittance_rate_hz=1000.0,
+               computation_delay_samples=2, delay_ticks=3, current_loop_hz=1000.0), 0.1),
+]
+
+
+@pytest.mark.parametrize("force, changes, reading", PUSHES)
+def test_reference_steady_push_reaches_reading_over_b_v(force, changes, reading):
+    """At rest in the end every acceleration is zero: the neck carries the whole push (F_s = F), the law settles
+    at v_a = beta r / (1 - alpha) = r / b_v, and the integrator takes the velocity error to zero; the motor
+    carries the rail's damping and friction."""
+    s, t, x, v, a = _steady_push(force, **changes)
+    r = ref.simulate(t, x, v, a, **s)
+    v_end = reading / s["b_v"]
+    assert r.F_leg[-1] == pytest.approx(force, rel=1e-12)
+    assert r.F_s[-1] == pytest.approx(force, rel=1e-6)
+    assert r.v_ref[-1] == pytest.approx(v_end, rel=1e-9, abs=1e-15)
+    assert r.v[-1] == pytest.approx(v_end, rel=1e-6, abs=1e-10)
+    i_end = (s["damping_n_s_per_m"] * v_end + s["friction_n"] * math.tanh(v_end / s["friction_velocity_m_per_s"])
+             - force) / s["force_constant_n_per_a"]
+    assert r.i[-1] == pytest.approx(i_end, rel=1e-5, abs=1e-7)
+
+
+def test_reference_at_rest_stays_exactly_at_rest():
+    n = 500
+    t = np.arange(n) / 1000.0
+    z = np.zeros(n)
+    for changes in (dict(), dict(RIG, drive_rate_hz=1000.0, bias_n=0.0, deadband_n=0.0), FLOATING):
+        r = ref.simulate(t, z, z, z, **dict(BASE, **changes))
+        for name in ("x", "v", "x_b", "v_b", "F_s", "F_leg", "i", "v_ref"):
+            assert np.all(getattr(r, name) == 0.0), name
+
+
+def test_reference_sampled_law_and_pi_as_stated():
+    """The law's input quantised, deadbanded and delayed, and the PI's command delayed and clipped, exactly as the
+    reference's docstring states (rebuilt from the trace's own samples)."""
+    s = dict(CONSISTENCY)
+    r = ref.simulate(*_path(s["drive_rate_hz"], t_max_s=1.2), **s)
+    want_vref, want_current, counts = _rebuild(s, r.F_s, r.v, r.v_ref)
+    np.testing.assert_allclose(r.v_ref, want_vref, rtol=0, atol=1e-14)
+    np.testing.assert_allclose(r.i, want_current, rtol=0, atol=1e-12)
+    assert counts["rounded"] > 10 and counts["deadband"] > 0 and counts["held"] > 10, counts
+
+
+def test_reference_integrator_agrees_with_another():
+    """DOP853 against LSODA (Adams / BDF) on the rig case's start: the reference's integration error is far below
+    the tolerances the tool is held to."""
+    path = _path(RIG["drive_rate_hz"], rest_s=0.05, t_max_s=0.3)
+    a = ref.simulate(*path, **RIG)
+    b = ref.simulate(*path, **RIG, method="LSODA")
+    for name, scale in (("F_s", 1e-7), ("v", 1e-9), ("x", 1e-10), ("i", 1e-7)):
+        assert np.max(np.abs(getattr(a, name) - getattr(b, name))) < scale, name
+
+
+# --- the tool against the reference ----------------------------------------------------------------------------
+@pytest.mark.parametrize("changes", [dict(), dict(gantry_mass_kg=5.0, m_v=0.05, b_v=8.0, forward_euler=True)],
+                         ids=["backward-40kg", "forward-5kg"])
+def test_continuous_like_run_matches_reference(changes):
+    """(a) No friction, ideal current loop, no filter, a fine quantiser without offset or deadband; 1 kHz drive,
+    100 Hz law."""
+    s = dict(BASE, **changes)
+    tool, r = _compare(s, _path(s["drive_rate_hz"]))
+    assert np.max(np.abs(r.F_leg)) == pytest.approx(s["mouse_peak_force_n"])     # the mouse runs at its limit
+
+
+@pytest.fixture(scope="module")
+def rig_run():
+    path = _path(RIG["drive_rate_hz"], rest_after_s=2.0)
+    return path, _compare(RIG, path, current_rtol=4e-2)
+
+
+def test_rig_run_matches_reference(rig_run):
+    """(b) Current loop 1 kHz, command delay 0.5 ms, law at 100 Hz one sample late, 30 Hz Butterworth filter, the
+    real sensor's step, offset and deadband, 3 N friction, the motor's 50 N limit. At 2 kHz the drive's period is
+    pi / w_c: the tool's RK4 (two steps per period) follows the current loop's response to a command step to ~3 %
+    of the step (exp(-pi) = 0.043 against RK4's 0.073; the law's 100 Hz updates step the command by up to ~2 A), so
+    the current is compared to 4 % of its peak; the integrated signals to 1e-3."""
+    (t, _, _, _), (tool, r) = rig_run
+    imax = RIG["motor_peak_force_n"] / RIG["force_constant_n_per_a"]
+    saturated = np.abs(r.i) >= imax * (1 - 1e-9)
+    assert 0.3 < np.mean(saturated) < 0.95                                     # the limit acts, and lets go
+    # cruising with both the motor and the mouse at their limits: b v + F_c tanh(v / v_s) = F_mot + F_max
+    v = 0.11
+    for _ in range(50):
+        v = (RIG["motor_peak_force_n"] + RIG["mouse_peak_force_n"]
+             - RIG["friction_n"] * math.tanh(v / RIG["friction_velocity_m_per_s"])) / RIG["damping_n_s_per_m"]
+    cruise = (t > 2.0) & (t < 2.5)                                            # the body's neck mode has died out
+    np.testing.assert_allclose(r.v[cruise], v, rtol=1e-6)
+    np.testing.assert_allclose(r.F_s[cruise], RIG["mouse_peak_force_n"], rtol=1e-5)
+    assert abs(r.v[-1]) < 2e-3 and abs(r.x[-1] - 0.4) < 1e-3 and abs(r.i[-1]) < 0.1 * imax   # stopping at the end
+
+
+def test_rig_run_leg_force_never_exceeds_mouse_limit(rig_run):
+    """(d) The tool's leg force stays within the mouse's peak force, and reaches it."""
+    _, (tool, _) = rig_run
+    f_max = RIG["mouse_peak_force_n"]
+    assert np.max(np.abs(tool.leg_force_n)) <= f_max
+    assert np.max(np.abs(tool.leg_force_n)) == pytest.approx(f_max)
+    tool_a = _tool(BASE, *_path(BASE["drive_rate_hz"]))
+    assert np.max(np.abs(tool_a.leg_force_n)) <= BASE["mouse_peak_force_n"]
+
+
+def test_rig_run_at_10khz_matches_reference():
+    """(b) at the drive's real 10 kHz with the 0.5 ms delay as 5 ticks, over the start and the run into the limit."""
+    s = dict(RIG, drive_rate_hz=10000.0, delay_ticks=5)
+    _compare(s, _path(s["drive_rate_hz"], t_max_s=0.8))
+
+
+@pytest.mark.slow
+def test_rig_run_at_10khz_whole_path_matches_reference():
+    s = dict(RIG, drive_rate_hz=10000.0, delay_ticks=5)
+    _compare(s, _path(s["drive_rate_hz"], rest_after_s=2.0))
+
+
+def test_fast_current_loop_at_a_slow_drive_rate():
+    """A 1 kHz current loop under a 1 kHz drive (w_c T = 2 pi): the continuous part must stay accurate (and finite)
+    however fast the current loop is against the drive's period. (Fixed-step RK4 with two steps per period
+    diverges here: its stability ends at h w_c = 2.79.)"""
+    s = dict(BASE, current_loop_hz=1000.0)
+    _compare(s, _path(s["drive_rate_hz"], rest_after_s=0.5), current_rtol=4e-2)
+
+
+def test_at_rest_everything_stays_exactly_zero():
+    """(c) No push, no offset: nothing moves, exactly, for a standing and for a floating mouse, with the rig's
+    current loop, filter, delays and friction."""
+    n = 2000
+    t = np.arange(n) / 1000.0
+    z = np.zeros(n)
+    for changes in (dict(), dict(RIG, drive_rate_hz=1000.0, bias_n=0.0, deadband_n=0.0), FLOATING):
+        tool = _tool(dict(BASE, **changes), t, z, z, z)
+        for name in ("x_m", "v_m_per_s", "body_x_m", "body_v_m_per_s", "sensed_force_n", "leg_force_n",
+                     "current_a", "reference_m_per_s"):
+            assert np.all(getattr(tool, name) == 0.0), name
+
+
+@pytest.mark.parametrize("changes", [dict(), dict(friction_n=3.0, force_filter_hz=30.0, force_filter_order=1,
+                                                  forward_euler=True, m_v=0.05, b_v=8.0, current_loop_hz=400.0)],
+                         ids=["plain", "friction-filter-forward"])
+def test_floating_mouse_drifts_at_offset_over_b_v(changes):
+    """(c) A floating mouse (nothing on the ground) under the sensor's offset: the free gantry drifts at exactly
+    bias / b_v with no force sensed, the motor carrying the rail's damping and friction; the tool and the
+    reference both reach it (a stiff integrator so it arrives within the run)."""
+    s = dict(BASE, ki=1500.0, bias_n=0.025, **FLOATING)
+    s.update(changes)
+    n = 3000
+    t = np.arange(n) / s["drive_rate_hz"]
+    z = np.zeros(n)
+    tool = _tool(s, t, z, z, z)
+    r = ref.simulate(t, z, z, z, **s)
+    v_end = 0.025 / s["b_v"]
+    i_end = (s["damping_n_s_per_m"] * v_end + s["friction_n"] * math.tanh(v_end / s["friction_velocity_m_per_s"])
+             ) / s["force_constant_n_per_a"]
+    for v, i, f in ((tool.v_m_per_s, tool.current_a, tool.sensed_force_n), (r.v, r.i, r.F_s)):
+        assert v[-1] == pytest.approx(v_end, rel=1e-9)
+        assert i[-1] == pytest.approx(i_end, rel=1e-9)
+        assert abs(f[-1]) < 1e-9
+    _close("velocity", tool.v_m_per_s, r.v, 1e-3, 1e-9)
+
+
+def test_tool_sampled_law_and_pi_as_stated():
+    """The tool's own trace obeys the stated law and PI: the reference it records at each tick is the law run on
+    the sensed forces it records (quantised with numpy's rounding, deadband, computation delay), and the current
+    (ideal loop) is the PI's clipped command with the conditional-integration anti-windup, ``delay_ticks`` late;
+    and the trace matches the reference's."""
+    s = dict(CONSISTENCY)
+    path = _path(s["drive_rate_hz"], t_max_s=1.2)
+    tool, _ = _compare(s, path)
+    want_vref, want_current, counts = _rebuild(s, tool.sensed_force_n, tool.v_m_per_s, tool.reference_m_per_s)
+    np.testing.assert_allclose(tool.reference_m_per_s, want_vref, rtol=0, atol=1e-14)
+    np.testing.assert_allclose(tool.current_a, want_current, rtol=0, atol=1e-12)
+    assert counts["rounded"] > 10 and counts["deadband"] > 0 and counts["held"] > 10, counts
+
+
+def test_settings_are_the_reference_keywords():
+    """The reference takes exactly the tool's settings (so every test runs both on the same numbers)."""
+    assert set(asdict(RunSettings(**BASE))) == set(BASE)

@@ -66,8 +66,7 @@ def virtual_grid(doc: dict) -> None:
 
     adm = doc["admittance"]
     spec = load_spec(SPEC).problem()
-    timing = RigTiming(1.0 / adm["rig"]["update_rate_hz"], adm["rig"]["computation_delay_samples"],
-                       adm["rig"]["force_filter_hz"], adm["rig"]["force_filter_order"] or 2)
+    timing = RigTiming.of(spec.admittance.rig, filter_hz=adm["rig"]["force_filter_hz"])
     corners = mice(spec)
     ev = AdmittanceEvaluator(spec, design_scenarios(spec), kp=adm["kp"], ki=adm["ki"], timing=timing, corners=corners)
     felt = FeltForce(spec, feel_scenarios(spec), corners, kp=adm["kp"], ki=adm["ki"], timing=timing)

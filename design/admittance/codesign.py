@@ -33,7 +33,7 @@ from plant.grid import log_grid_rad_s
 #: the factors of the given gains the coarse grid tries (within the spec's bounds)
 KP_FACTORS = (0.6, 1.0, 1.5)
 KI_FACTORS = (1.0, 0.1, 0.01, 0.001)
-NELDER_MEAD_EVALUATIONS = 24
+NELDER_MEAD_EVALUATIONS = 16
 W_PI = log_grid_rad_s(0.01, 3000.0, 500)
 #: alias terms of the sampled sum during the search (the design at the chosen gains takes them all)
 SEARCH_TERMS = 1

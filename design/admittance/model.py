@@ -65,10 +65,12 @@ BANDWIDTH_PHASE_DEG = 30.0
 #: points per decade of the sampled loop's grid, which ends at the Nyquist frequency
 SAMPLED_POINTS_PER_DECADE = 120
 #: scenarios are evaluated in blocks of at most this many mice x scenarios x frequencies (memory)
-CHUNK_ELEMENTS = 4_000_000
+CHUNK_ELEMENTS = 2_000_000
 #: the screened check computes exact margins for the SCREEN_TOP mice with the largest ray bound at each
-#: scenario and for every curve whose bound is within SCREEN_RATIO of the design's b_v
+#: scenario and for every curve whose bound is within SCREEN_RATIO of the design's b_v; the screen's grid and
+#: alias terms (its fifth of slack covers their error)
 SCREEN_TOP, SCREEN_RATIO = 2, 0.8
+SCREEN_POINTS_PER_DECADE, SCREEN_TERMS = 60, 1
 
 
 def admittance_problem(problem: LoopProblem) -> AdmittanceProblem:
@@ -374,12 +376,22 @@ class AdmittanceCheck:
         return out
 
 
+def paired_gain(plants, scenarios, mouse: MouseModel, s, weight, *, kp: float, ki: float) -> np.ndarray:
+    """K of each scenario with its own mouse (row k with mouse k) times ``weight``, (n, len(s))."""
+    loop = gantry_loop_at(plants, s, scenarios, kp=kp, ki=ki)
+    return loop.reference * weight / (1.0 / mouse.impedance(loop.s) + loop.sensitivity * loop.mobility)
+
+
 class AdmittanceEvaluator:
-    """Exact evaluation of any (m_v, b_v) for fixed PI gains and rig timing: K_eff and the paths that do not
-    depend on (m_v, b_v) are computed once (in scenario blocks of bounded memory when ``keep`` is False)."""
+    """Evaluation of any (m_v, b_v) for fixed PI gains and rig timing on scenarios x mice: what does not depend
+    on (m_v, b_v) is computed once. Every curve (scenario, mouse) is screened by its ray bound on a coarse grid
+    (``SCREEN_POINTS_PER_DECADE``, the sampled sum cut to ``SCREEN_TERMS`` alias terms); the curves a check
+    must compute exactly are computed anew on the check grid with every term (``evaluate``)."""
 
     def __init__(self, problem: LoopProblem, scenarios, *, kp: float, ki: float, timing: RigTiming | None = None,
                  corners=None, w_rad_s=None):
+        from design.admittance.ray import polar
+
         self.problem = problem
         self.adm = admittance_problem(problem)
         self.timing = timing or RigTiming.of(self.adm.rig)
@@ -391,14 +403,25 @@ class AdmittanceEvaluator:
         base = check_grid_for(self.timing) if w_rad_s is None else np.asarray(w_rad_s, float)
         self.w = with_mode_points(base, self.corners, self.timing)
         self.blocks = _blocks(len(self.scenarios), len(self.corners) * self.w.size)
-        self._kept = None
-        if len(self.blocks) == 1:
-            self._kept = interaction_responses(problem, self.scenarios, self.w, kp=kp, ki=ki, timing=self.timing,
-                                               corners=self.corners)
+        self._plants = self.scenarios.plants(problem.plant.plant())
+        # the screen: polar K on a coarse grid, every curve
+        coarse = with_mode_points(check_grid_for(self.timing, per_decade=SCREEN_POINTS_PER_DECADE), self.corners,
+                                  self.timing, points=8)
+        self._screen_w = coarse
+        self._screen = []
+        for rows in _blocks(len(self.scenarios), len(self.corners) * coarse.size):
+            r = interaction_responses(problem, self.scenarios.take(rows), coarse, kp=kp, ki=ki, timing=self.timing,
+                                      corners=self.corners, terms=SCREEN_TERMS)
+            self._screen.append((rows, *polar(r.gain.reshape(-1, coarse.size))))
+        # the free gantry's hardware paths on the check grid (one per scenario)
+        loop = gantry_loop_at(self._plants, 1j * self.w, self.scenarios, kp=kp, ki=ki)
+        W = self.timing.fundamental(self.w)
+        self._current_path = np.abs(loop.controller * loop.sensitivity * W)
+        self._reference_path, self._mobility = loop.reference * W, loop.mobility
+        self._sensitivity_mobility = loop.sensitivity * loop.mobility
         # the velocity loop with the mouse attached, on a continuous grid (it is a continuous loop)
         wc = with_mode_points(W_ATTACHED, self.corners, RigTiming(None))
         self.attached_stable = np.ones((len(self.corners), len(self.scenarios)), bool)
-        self.passive_w = wc
         self._free = []
         batch = stack(self.corners)
         for rows in self.blocks:
@@ -406,59 +429,65 @@ class AdmittanceEvaluator:
             self.attached_stable[:, rows] = nyquist_stable(attached_loop(loop, batch))
             self._free.append(loop)
 
-    def responses(self):
-        """``InteractionResponses`` per scenario block (computed anew unless they fit in memory at once)."""
-        if self._kept is not None:
-            yield np.arange(len(self.scenarios)), self._kept
-            return
-        for rows in self.blocks:
-            yield rows, interaction_responses(self.problem, self.scenarios.take(rows), self.w, kp=self.kp,
-                                              ki=self.ki, timing=self.timing, corners=self.corners)
+    def exact_margins(self, m_v: float, b_v: float, k_idx: np.ndarray, j_idx: np.ndarray):
+        """(PM deg, GM dB, stable) of the curves (mouse k_idx[i], scenario j_idx[i]) on the check grid with every
+        alias term."""
+        n = k_idx.size
+        pm, gm, st = np.empty(n), np.empty(n), np.empty(n, bool)
+        sigma, rho = self.timing.sigma(self.w), self.timing.rho(self.w)
+        z = virtual_impedance(sigma, m_v, b_v, rho)
+        batch = stack(self.corners)
+        step = max(1, CHUNK_ELEMENTS // (self.w.size * 2))
+        for start in range(0, n, step):
+            part = slice(start, min(start + step, n))
+            rows = j_idx[part]
+            sc = self.scenarios.take(rows)
+            plants = sc.plants(self.problem.plant.plant())
+            mouse = MouseModel(*(np.asarray(getattr(batch, f))[k_idx[part]] for f in MouseModel.__dataclass_fields__))
+            gain = self.timing.sampled_path(lambda s, weight: paired_gain(plants, sc, mouse, s, weight, kp=self.kp,
+                                                                           ki=self.ki), self.w)
+            resp = InteractionResponses(self.w, self.timing, sc, (), gain, sigma, rho, *(np.empty(0),) * 4)
+            pm[part], gm[part], st[part] = interaction_margins(resp, gain / z)
+        return pm, gm, st
 
     def evaluate(self, m_v: float, b_v: float, *, bandwidth: bool = True, screen: bool = True) -> AdmittanceCheck:
         """Margins, stability, hardware peaks, passivity band, rendered bandwidth and drift of (m_v, b_v).
 
-        With ``screen`` the margins are computed exactly (``loop_margins``, Nyquist) for the curves (mouse x
-        scenario) nearest their limits: at each scenario the ``SCREEN_TOP`` floating and grounded mice with the
-        largest phase- and the largest gain-margin ray bound (``design.admittance.ray.curve_bounds``: the least
-        b_v along the ray m_v / b_v that keeps the margin; the gain margin's orders the curves exactly as their
-        gain margins)
-        and every curve whose bound is within ``SCREEN_RATIO`` of b_v; the others are certified by their
-        bound (margins and stability hold all along the ray down to it) and their entries are nan."""
-        from design.admittance.ray import curve_bounds, polar
+        The margins are computed exactly (``loop_margins``, Nyquist; ``exact_margins``) for every curve without
+        ``screen``, and with it for the curves (mouse x scenario) nearest their limits: at each scenario the
+        ``SCREEN_TOP`` floating and grounded mice with the largest phase- and the largest gain-margin ray bound
+        (``design.admittance.ray.curve_bounds``: the least b_v along the ray m_v / b_v that keeps the margin;
+        the gain margin's orders the curves exactly as their gain margins) and every curve whose bound is within
+        ``SCREEN_RATIO`` of b_v; the others are certified by their bound (margins and stability hold all along
+        the ray down to it) and their entries are nan."""
+        from design.admittance.ray import curve_bounds
 
         adm = self.adm
         n_m, n_s = len(self.corners), len(self.scenarios)
         pm, gm, ratio = (np.full((n_m, n_s), np.nan) for _ in range(3))
         stable = np.ones((n_m, n_s), bool)
-        cur, force, cur_hz, force_hz = (np.empty(n_s) for _ in range(4))
+        g = 10 ** (adm.gain_margin_db / 20)
+        q = self.timing.rho(self._screen_w) + (m_v / b_v) * self.timing.sigma(self._screen_w)
+        pick = np.zeros((n_m, n_s), bool)
+        for rows, log_mag, psi in self._screen:
+            parts = [b.reshape(n_m, len(rows)) for b in curve_bounds(log_mag, psi, q, adm.phase_margin_deg, g,
+                                                                     self.timing.sampled, parts=True)]
+            ratio[:, rows] = np.maximum(*parts) / b_v
+            if not screen:
+                pick[:, rows] = True
+                continue
+            pick[:, rows] = ratio[:, rows] >= SCREEN_RATIO
+            for bound in parts:
+                for group in self._leg_groups:
+                    top = group[np.argsort(-bound[group], axis=0)[:SCREEN_TOP]]
+                    pick[top, rows[None, :]] = True
+        k_idx, j_idx = np.nonzero(pick)
+        pm[k_idx, j_idx], gm[k_idx, j_idx], stable[k_idx, j_idx] = self.exact_margins(m_v, b_v, k_idx, j_idx)
         hw, fpk = adm.hardware, adm.mouse.peak_force_n
         fhz = self.w / (2 * np.pi)
-        tau = m_v / b_v
-        g = 10 ** (adm.gain_margin_db / 20)
-        for rows, r in self.responses():
-            z = virtual_impedance(r.sigma, m_v, b_v, r.rho)
-            gain = r.gain.reshape(-1, self.w.size)
-            parts = curve_bounds(*polar(gain), r.rho + tau * r.sigma, adm.phase_margin_deg, g, self.timing.sampled,
-                                 parts=True)
-            ratio[:, rows] = np.maximum(*parts).reshape(n_m, len(rows)) / b_v
-            if screen:
-                pick = ratio[:, rows] >= SCREEN_RATIO
-                for bound in parts:
-                    for group in self._leg_groups:
-                        b = bound.reshape(n_m, len(rows))[group]
-                        top = group[np.argsort(-b, axis=0)[:SCREEN_TOP]]
-                        pick[top, np.arange(len(rows))[None, :]] = True
-            else:
-                pick = np.ones((n_m, len(rows)), bool)
-            k_idx, j_idx = np.nonzero(pick)
-            L = r.gain[k_idx, j_idx] / z
-            p_, g_, st_ = interaction_margins(r, L)
-            pm[k_idx, rows[j_idx]], gm[k_idx, rows[j_idx]], stable[k_idx, rows[j_idx]] = p_, g_, st_
-            i_resp = r.current_path / np.abs(z) * hw.force_sensor_resolution_n
-            f_resp = np.abs((r.sensitivity_mobility + r.reference_path / z) / r.mobility - 1.0) * fpk
-            cur[rows], force[rows] = i_resp.max(-1), f_resp.max(-1)
-            cur_hz[rows], force_hz[rows] = fhz[i_resp.argmax(-1)], fhz[f_resp.argmax(-1)]
+        z = self.timing.impedance(self.w, m_v, b_v)
+        i_resp = self._current_path / np.abs(z) * hw.force_sensor_resolution_n
+        f_resp = np.abs((self._sensitivity_mobility + self._reference_path / z) / self._mobility - 1.0) * fpk
         stable &= self.attached_stable
         bw, passive = np.full(n_s, np.nan), np.empty(n_s)
         for rows, loop in zip(self.blocks, self._free):
@@ -467,9 +496,9 @@ class AdmittanceEvaluator:
             if bandwidth:
                 virtual = 1.0 / virtual_impedance_frd(loop.w_rad_s, m_v, b_v)
                 bw[rows] = admittance_bandwidth_hz(loop.w_rad_s, yr, virtual)
-        check = AdmittanceCheck(float(m_v), float(b_v), self.scenarios, self.corners, pm, gm, stable, ratio, cur, force,
-                                bw,
-                                passive, cur_hz, force_hz, float(drift_mm_per_s(adm, b_v)), ())
+        check = AdmittanceCheck(float(m_v), float(b_v), self.scenarios, self.corners, pm, gm, stable, ratio,
+                                i_resp.max(-1), f_resp.max(-1), bw, passive, fhz[i_resp.argmax(-1)],
+                                fhz[f_resp.argmax(-1)], float(drift_mm_per_s(adm, b_v)), ())
         return replace(check, violations=violations(adm, check))
 
 

@@ -21,13 +21,16 @@ from dataclasses import dataclass
 import numpy as np
 
 from design.admittance.model import (
+    SCREEN_POINTS_PER_DECADE,
     SCREEN_RATIO,
+    SCREEN_TERMS,
     InteractionResponses,
     admittance_problem,
     check_grid_for,
     gantry_loop_at,
     interaction_margins,
     mice,
+    paired_gain,
     virtual_impedance,
     with_mode_points,
 )
@@ -46,10 +49,7 @@ MARGIN_TOLERANCE = (0.1, 0.05)
 HARDWARE_TOLERANCE = 1e-3
 #: draws per chunk, and the draws with the largest ray bounds whose margins are always computed
 CHUNK = 512
-#: the screen of every draw: its grid (a drawn mouse's modes are not refined anyway) and alias terms (the screen
-#: keeps a fifth of slack; the draws it keeps are computed anew on the check grid with every term)
-MC_POINTS_PER_DECADE = 60
-SCREEN_TERMS = 1
+
 WORST_EXACT = 8
 
 
@@ -80,12 +80,6 @@ class AdmittanceMonteCarlo:
         return self.violations / self.samples
 
 
-def paired_gain(plants, scenarios, mouse: MouseModel, s, weight, *, kp: float, ki: float) -> np.ndarray:
-    """K of each scenario with its own mouse (row k with mouse k) times ``weight``, (n, len(s))."""
-    loop = gantry_loop_at(plants, s, scenarios, kp=kp, ki=ki)
-    return loop.reference * weight / (1.0 / mouse.impedance(loop.s) + loop.sensitivity * loop.mobility)
-
-
 def admittance_monte_carlo(problem: LoopProblem, *, kp: float, ki: float, m_v: float, b_v: float,
                            timing: RigTiming | None = None, samples: int | None = None,
                            seed: int | None = None) -> AdmittanceMonteCarlo:
@@ -98,7 +92,7 @@ def admittance_monte_carlo(problem: LoopProblem, *, kp: float, ki: float, m_v: f
     draws = random_scenarios(problem, samples, seed=seed)
     drawn = random_mice(adm.mouse, samples, seed=seed)
     corners = mice(problem)
-    w = with_mode_points(check_grid_for(timing, per_decade=MC_POINTS_PER_DECADE), corners, timing)
+    w = with_mode_points(check_grid_for(timing, per_decade=SCREEN_POINTS_PER_DECADE), corners, timing)
     wc = with_mode_points(log_grid_rad_s(1e-3, 3000.0, 500), corners, RigTiming(None))
     sigma, rho = timing.sigma(w), timing.rho(w)
     z = virtual_impedance(sigma, m_v, b_v, rho)

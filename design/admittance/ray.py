@@ -208,17 +208,17 @@ def _scan(rp: RayProblem, curves, objective, *, points: int, refine: int) -> tup
     return best, best_cost
 
 
-def best_ray(rp: RayProblem, *, objective=None, points: int = 28, refine: int = 2) -> RayBound:
+def best_ray(rp: RayProblem, *, objective=None, points: int = 28, refine: int = 2, seed=None) -> RayBound:
     """The ray of least ``objective(ray)`` (default: the force the virtual dynamics ask on the profile's
     corner, ``RayBound.cost_n``) over every curve, by an active set of curves: seeded with the curves
     that bind most on a few rays (``SEED_TAUS_S``), the scan runs on the active curves, every curve is
     checked on the ray found, and those it violates join, until none does. For an objective that grows
     with the scale, the scan on a subset is a relaxation, so a ray that holds on every curve is the
-    optimum of the full scan."""
+    optimum of the full scan. ``seed``: curves to start the active set from instead (indices)."""
     objective = objective or (lambda r: r.cost_n(rp.a_pk, rp.v_pk))
     n = len(rp.log_mag)
-    active = set()
-    for tau in SEED_TAUS_S:
+    active = set() if seed is None else {int(i) for i in seed}
+    for tau in SEED_TAUS_S if seed is None else ():
         active |= set(np.argsort(-margin_bounds(rp, tau))[:ACTIVE_ADD].tolist())
     while True:
         curves = np.array(sorted(active))

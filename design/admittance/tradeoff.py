@@ -15,9 +15,11 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, replace
 
+import numpy as np
+
 from design.admittance.codesign import SEARCH_TERMS
 from design.admittance.model import admittance_problem, check_grid_for, interaction_responses, with_mode_points
-from design.admittance.ray import HAIR_PM_DEG, best_ray, ray_problem
+from design.admittance.ray import ACTIVE_ADD, HAIR_PM_DEG, best_ray, margin_bounds, ray_problem
 from design.admittance.rig import RigTiming
 from design.problem import LoopProblem, Passivity
 from design.synth.scenarios import design_scenarios
@@ -54,8 +56,8 @@ class TradeOff:
     changes: tuple[HardwareChange, ...]
 
 
-def _point(rp, requirement: float) -> FrontPoint:
-    ray = best_ray(rp, points=20, refine=1)
+def _point(rp, requirement: float, seed=None) -> FrontPoint:
+    ray = best_ray(rp, points=20, refine=1, seed=seed)
     return FrontPoint(requirement, ray.cost_n(rp.a_pk, rp.v_pk), ray.m_v if ray.feasible else math.nan,
                       ray.b_v if ray.feasible else math.nan)
 
@@ -63,7 +65,9 @@ def _point(rp, requirement: float) -> FrontPoint:
 def trade_off(problem: LoopProblem, result, rp) -> TradeOff:
     """``TradeOff`` around ``result`` (an ``AdmittanceResult``) whose last ray problem was ``rp``."""
     adm = admittance_problem(problem)
-    margin_front = tuple(_point(replace(rp, phase_margin_deg=m + HAIR_PM_DEG), m) for m in MARGINS_DEG)
+    # the curves that bind near the design seed every point of the front (they bind near it too)
+    seed = np.argsort(-margin_bounds(rp, result.m_v / result.b_v))[:2 * ACTIVE_ADD]
+    margin_front = tuple(_point(replace(rp, phase_margin_deg=m + HAIR_PM_DEG), m, seed) for m in MARGINS_DEG)
     passivity_front = []
     heavy = design_scenarios(problem, [problem.plant.payload_kg.max])
     w = with_mode_points(check_grid_for(result.timing), result.corners, result.timing)

@@ -410,3 +410,21 @@ def test_mouse_run_with_the_lab_setting_reports_and_exits_by_the_mouse(tmp_path)
     assert rows[0].startswith("time_s,intended_x_m") and len(rows) > 1000
     bad = subprocess.run([sys.executable, "-m", "design", "mouse-run", str(SPEC)], capture_output=True, text=True)
     assert bad.returncode == 2 and "--design" in bad.stderr and "Traceback" not in bad.stderr
+
+
+@pytest.mark.parametrize("option, name, content, message", [
+    ("--path", "empty.csv", b"", "empty; expected a header time_s,position_m"),
+    ("--path", "nocol.csv", b"time_s,pos\n0,1\n", "missing column 'position_m'"),
+    ("--path", "cell.csv", b"time_s,position_m\n0,0\n1,abc\n2,1\n", "row 3: expected numbers"),
+    ("--path", "bin.csv", b"\x00\x01\x02binary", "not a text file"),
+    ("--design", "d.json", b'{"gains": {"kp": 1}}', "not the JSON of gantry synth --json"),
+])
+def test_mouse_run_bad_input_is_one_line_naming_the_file(tmp_path, option, name, content, message):
+    bad = tmp_path / name
+    bad.write_bytes(content)
+    args = [option, str(bad)] + (["--lab"] if option == "--path" else [])
+    out = subprocess.run([sys.executable, "-m", "design", "mouse-run", str(SPEC), *args, "--out",
+                          str(tmp_path / "run.csv")], capture_output=True, text=True)
+    assert out.returncode == 2 and name in out.stderr and message in out.stderr
+    assert len(out.stderr.strip().splitlines()) == 1 and "Traceback" not in out.stderr
+    assert not (tmp_path / "run.csv").exists()

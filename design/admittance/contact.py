@@ -15,12 +15,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from design.admittance.model import (
-    InteractionResponses,
     admittance_problem,
     check_grid_for,
     gantry_loop_at,
     interaction_margins,
-    virtual_impedance,
 )
 from design.admittance.rig import RigTiming
 from design.problem import LoopProblem
@@ -58,8 +56,7 @@ def _stable(problem: LoopProblem, scenarios: Scenarios, k_e: np.ndarray, *, kp, 
         return loop.reference * weight / (loop.s / k_e[:, None] + loop.sensitivity * loop.mobility)
 
     gain = timing.sampled_path(path, w)
-    resp = InteractionResponses(w, timing, scenarios, (), gain, timing.sigma(w), timing.rho(w), *(np.empty(0),) * 4)
-    _, _, stable = interaction_margins(resp, gain / virtual_impedance(resp.sigma, m_v, b_v, resp.rho))
+    _, _, stable = interaction_margins(w, timing, gain / timing.impedance(w, m_v, b_v))
     return stable
 
 

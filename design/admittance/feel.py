@@ -34,7 +34,7 @@ from design.admittance.model import (
     drift_mm_per_s,
     gantry_loop_at,
 )
-from design.admittance.mouse import MouseModel, stack
+from design.admittance.mouse import stack
 from design.admittance.rig import RigTiming
 from design.problem import Locomotion, LoopProblem
 from design.synth.scenarios import Scenarios
@@ -190,11 +190,3 @@ def mouse_feel(problem: LoopProblem, *, kp: float, ki: float, m_v: float, b_v: f
                      F / b_v, float(np.max(acc[: felt.n // 2])), bool(peak[k, j] <= F),
                      float(drift_mm_per_s(adm, b_v)), breakaway_force_n(adm), felt.f_hz, payloads, z.imag / felt.w,
                      z.real, prof, force[k, j], ideal)
-
-
-def neck_force_response(mouse: MouseModel, w_rad_s, rendered) -> np.ndarray:
-    """F_n / v_b = Z_n (1 + m_h s Y_r) / (1 + (Z_n + m_h s) Y_r) at ``w_rad_s`` (N*s/m)."""
-    s = 1j * np.asarray(w_rad_s, float)
-    zn = mouse.neck_damping_n_s_per_m + mouse.neck_stiffness_n_per_m / s
-    mh = mouse.head_mass_kg * s
-    return zn * (1 + mh * rendered) / (1 + (zn + mh) * rendered)

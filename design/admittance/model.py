@@ -163,23 +163,25 @@ def gantry_loop(problem: LoopProblem, w_rad_s, scenarios, *, kp: float, ki: floa
     return gantry_loop_at(sc.plants(problem.plant.plant()), 1j * w, sc, kp=kp, ki=ki)
 
 
-def interaction_gain(loop: GantryLoop, mouse: MouseModel, *, weight=1.0) -> np.ndarray:
+def _mouse_impedance(loop: GantryLoop, mouse: MouseModel, paired: bool) -> np.ndarray:
+    """Z_m at the loop's frequencies: a batch of mice ((n_m, 1) fields) on a new leading axis (every mouse at
+    every scenario), or ``paired``, row k the mouse of scenario k."""
+    zm = mouse.impedance(loop.s)
+    return zm[:, None, :] if zm.ndim == 2 and not paired else zm
+
+
+def interaction_gain(loop: GantryLoop, mouse: MouseModel, *, weight=1.0, paired: bool = False) -> np.ndarray:
     """K = Z_m R / (1 + S G Z_m) = R / (1/Z_m + S G): sensed force per velocity reference with the mouse
     attached (times ``weight``, an array over the frequencies); a batch of mice ((n_m, 1) fields) gives
-    (n_m, n_scenario, n)."""
-    ym = 1.0 / mouse.impedance(loop.s)
-    if ym.ndim == 2:
-        ym = ym[:, None, :]
-    return (loop.reference * weight) / (ym + loop.sensitivity * loop.mobility)
+    (n_m, n_scenario, n), or with ``paired`` (n_scenario, n), scenario k with mouse k."""
+    return (loop.reference * weight) / (1.0 / _mouse_impedance(loop, mouse, paired)
+                                        + loop.sensitivity * loop.mobility)
 
 
-def attached_loop(loop: GantryLoop, mouse: MouseModel) -> np.ndarray:
+def attached_loop(loop: GantryLoop, mouse: MouseModel, *, paired: bool = False) -> np.ndarray:
     """S G Z_m: the loop whose Nyquist test says whether the velocity loop with the mouse attached,
-    (1 + P C)(1 + S G Z_m), is stable (given the free velocity loop is)."""
-    zm = mouse.impedance(loop.s)
-    if zm.ndim == 2:
-        zm = zm[:, None, :]
-    return loop.sensitivity * loop.mobility * zm
+    (1 + P C)(1 + S G Z_m), is stable (given the free velocity loop is); shapes as ``interaction_gain``."""
+    return loop.sensitivity * loop.mobility * _mouse_impedance(loop, mouse, paired)
 
 
 def virtual_impedance(sigma, m_v, b_v, rho=1.0) -> np.ndarray:
@@ -280,11 +282,6 @@ def interaction_responses(problem: LoopProblem, scenarios, w_rad_s, *, kp: float
                                 loop.sensitivity * loop.mobility)
 
 
-def interaction_loop(resp: InteractionResponses, m_v, b_v) -> np.ndarray:
-    """L = K_eff / (m_v sigma + b_v rho), (n_m, n_s, n_f)."""
-    return resp.gain / virtual_impedance(resp.sigma, m_v, b_v, resp.rho)
-
-
 def sampled_nyquist_stable(loop: np.ndarray) -> np.ndarray:
     """Stability of a discrete-time loop sampled from low frequency up to the Nyquist frequency, where it
     is real (open loop without poles outside the unit circle): the phase of 1 + L changes by -90 to
@@ -294,13 +291,13 @@ def sampled_nyquist_stable(loop: np.ndarray) -> np.ndarray:
     return (turn > -math.pi / 4) & (a[..., -1].real > 0)
 
 
-def interaction_margins(resp: InteractionResponses, L: np.ndarray):
-    """(phase margin deg, gain margin dB, stable) of loops L on ``resp``'s grid, (n_m, n_s): grid margins
-    with refined crossings (``loop_margins``); sampled, the gain margin also at the Nyquist frequency,
+def interaction_margins(w_rad_s, timing: RigTiming, L: np.ndarray):
+    """(phase margin deg, gain margin dB, stable) of loops L on the grid ``w_rad_s`` (batch shape): grid
+    margins with refined crossings (``loop_margins``); sampled, the gain margin also at the Nyquist frequency,
     where a real L below -1 / g is a phase crossover the grid's end holds."""
-    mg = loop_margins(resp.w_rad_s, L)
+    mg = loop_margins(w_rad_s, L)
     pm, gm = mg.phase_margin_deg, mg.gain_margin_db
-    if resp.timing.sampled:
+    if timing.sampled:
         end = L[..., -1].real
         at_nyquist = np.where(end < 0, -20 * np.log10(np.maximum(-end, 1e-300)), np.inf)
         gm = np.where(np.abs(at_nyquist) < np.abs(gm), at_nyquist, gm)
@@ -378,8 +375,7 @@ class AdmittanceCheck:
 
 def paired_gain(plants, scenarios, mouse: MouseModel, s, weight, *, kp: float, ki: float) -> np.ndarray:
     """K of each scenario with its own mouse (row k with mouse k) times ``weight``, (n, len(s))."""
-    loop = gantry_loop_at(plants, s, scenarios, kp=kp, ki=ki)
-    return loop.reference * weight / (1.0 / mouse.impedance(loop.s) + loop.sensitivity * loop.mobility)
+    return interaction_gain(gantry_loop_at(plants, s, scenarios, kp=kp, ki=ki), mouse, weight=weight, paired=True)
 
 
 class AdmittanceEvaluator:
@@ -434,8 +430,7 @@ class AdmittanceEvaluator:
         alias term."""
         n = k_idx.size
         pm, gm, st = np.empty(n), np.empty(n), np.empty(n, bool)
-        sigma, rho = self.timing.sigma(self.w), self.timing.rho(self.w)
-        z = virtual_impedance(sigma, m_v, b_v, rho)
+        z = self.timing.impedance(self.w, m_v, b_v)
         batch = stack(self.corners)
         step = max(1, CHUNK_ELEMENTS // (self.w.size * 2))
         for start in range(0, n, step):
@@ -446,8 +441,7 @@ class AdmittanceEvaluator:
             mouse = MouseModel(*(np.asarray(getattr(batch, f))[k_idx[part]] for f in MouseModel.__dataclass_fields__))
             gain = self.timing.sampled_path(lambda s, weight: paired_gain(plants, sc, mouse, s, weight, kp=self.kp,
                                                                            ki=self.ki), self.w)
-            resp = InteractionResponses(self.w, self.timing, sc, (), gain, sigma, rho, *(np.empty(0),) * 4)
-            pm[part], gm[part], st[part] = interaction_margins(resp, gain / z)
+            pm[part], gm[part], st[part] = interaction_margins(self.w, self.timing, gain / z)
         return pm, gm, st
 
     def evaluate(self, m_v: float, b_v: float, *, bandwidth: bool = True, screen: bool = True) -> AdmittanceCheck:

@@ -24,8 +24,8 @@ from design.admittance.model import (
     SCREEN_POINTS_PER_DECADE,
     SCREEN_RATIO,
     SCREEN_TERMS,
-    InteractionResponses,
     admittance_problem,
+    attached_loop,
     check_grid_for,
     gantry_loop_at,
     interaction_margins,
@@ -118,19 +118,17 @@ def admittance_monte_carlo(problem: LoopProblem, *, kp: float, ki: float, m_v: f
         yr = loop.sensitivity * loop.mobility + loop.reference * W / z
         force[rows] = np.max(np.abs(yr / loop.mobility - 1.0), axis=-1) * adm.mouse.peak_force_n
         free = gantry_loop_at(plants, 1j * wc, sc, kp=kp, ki=ki)
-        stable[rows] = nyquist_stable(_attached(free, mouse))
+        stable[rows] = nyquist_stable(attached_loop(free, mouse, paired=True))
     # every draw near its bound and the WORST_EXACT largest bounds: their loops anew on the check grid with every
     # alias term, and their grid margins
     keep = np.union1d(np.flatnonzero(bound >= SCREEN_RATIO * b_v), np.argsort(-bound)[:WORST_EXACT])
     pm, gm = np.full(samples, np.inf), np.full(samples, np.inf)
     wk = with_mode_points(check_grid_for(timing), corners, timing)
-    sk, rk = timing.sigma(wk), timing.rho(wk)
     for start in range(0, keep.size, CHUNK):
         rows = keep[start:start + CHUNK]
         sc, plants, mouse = batch(rows)
         gain = timing.sampled_path(lambda s, weight: paired_gain(plants, sc, mouse, s, weight, kp=kp, ki=ki), wk)
-        resp = InteractionResponses(wk, timing, sc, (), gain, sk, rk, *(np.empty(0),) * 4)
-        p_, g_, st = interaction_margins(resp, gain / virtual_impedance(sk, m_v, b_v, rk))
+        p_, g_, st = interaction_margins(wk, timing, gain / timing.impedance(wk, m_v, b_v))
         pm[rows], gm[rows] = p_, g_
         stable[rows] &= st
     d_pm, d_gm = MARGIN_TOLERANCE
@@ -152,7 +150,3 @@ def admittance_monte_carlo(problem: LoopProblem, *, kp: float, ki: float, m_v: f
                                 float(np.max(cur)), float(np.max(force)), int(np.sum(~stable)), draws.row(i),
                                 {n: float(np.asarray(getattr(drawn, n))[i, 0]) for n in FIELDS}, int(keep.size))
 
-
-def _attached(free, mouse: MouseModel) -> np.ndarray:
-    """S G Z_m of each draw with its own mouse."""
-    return free.sensitivity * free.mobility * mouse.impedance(free.s)

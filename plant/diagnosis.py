@@ -29,7 +29,7 @@ import itertools
 from dataclasses import dataclass, replace
 
 import numpy as np
-from scipy import stats
+from scipy import special
 
 from plant.chain import EncoderVelocity
 from plant.effects import EFFECTS, make_effect
@@ -177,7 +177,7 @@ def chi2_is_noise(fit: FitResult) -> bool:
     draws = _reference_draws(tuple(np.asarray(fit.variance_dof, float)), fit.residuals.shape[0])
     draws = draws * (1 - fit.n_params / fit.n_data)
     per_freq = fit.chi2_per_frequency
-    alpha = float(stats.norm.sf(NOISE_Z))
+    alpha = float(special.ndtr(-NOISE_Z))
     groups = [np.arange(per_freq.size)] + (
         np.array_split(np.arange(per_freq.size), ADEQUACY_BANDS) if per_freq.size >= 2 * ADEQUACY_BANDS else [])
     for g, idx in enumerate(groups):

@@ -33,7 +33,7 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import stats
+from scipy import special
 from scipy.optimize import least_squares
 
 from plant.errors import DataError, EffectError, ParameterError
@@ -685,7 +685,7 @@ def _result(problem: _Problem, params, sol, s0, data, nu, *, n_starts, n_eval, e
                 flags.append(f"parameters {free[i]} and {free[j]} cannot be told apart (correlation {c:+.3f})")
     if dof > 0:
         # chi^2 with each residual divided by its expectation nu/(nu-2) against chi^2(dof)
-        p = float(stats.chi2.sf(float(np.sum(_split_abs2(residuals) / mean_chi2)), dof))
+        p = float(special.chdtrc(dof, float(np.sum(_split_abs2(residuals) / mean_chi2))))
         if p < CHI2_P_FLAG:
             flags.append(f"reduced chi-square {reduced:.3g}, expected {expected:.3g} (P = {p:.1e} for {dof} "
                          "degrees of freedom): the model "

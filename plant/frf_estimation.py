@@ -46,7 +46,7 @@ import inspect
 import math
 
 import numpy as np
-import scipy.stats
+import scipy.special
 
 from plant.errors import DataError
 from plant.frequency_response import MeasuredResponse
@@ -228,7 +228,7 @@ def _distortion(core: _Periodic, names, n_period: int, fs: float) -> tuple[dict,
                 ratio = float(np.sum(np.abs(core.z_bar_all[i, sel]) ** 2) / np.sum(core.z_var_all[i, sel]))
                 bands.append({"f_lo_hz": a * fs / n_period, "f_hi_hz": (b - 1) * fs / n_period, "lines": m,
                               "level_db": 10 * math.log10(ratio) if ratio > 0 else -math.inf,
-                              "p_value": float(scipy.stats.f.sf(ratio, 2 * m, m * dof))})
+                              "p_value": float(scipy.special.fdtrc(2 * m, m * dof, ratio))})
             levels[name][kind] = bands
             hit = [band for band in bands if band["p_value"] < DISTORTION_P / len(bands)]
             significant[name][kind] = bool(hit)

@@ -47,7 +47,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-import scipy.stats
+import scipy.special
 
 from plant.errors import DataError
 from plant.frequency_response import MeasuredResponse
@@ -346,7 +346,7 @@ def _detection_limit(k: int) -> float:
     broadband excitation concentrated near the block frequency is far above the residual's
     average level there, but it is no more consistent from sub-block to sub-block than noise.
     """
-    return float(scipy.stats.f.isf(TEST_P, 2, 2 * (k - 1)))
+    return float(scipy.special.fdtri(2, 2 * (k - 1), 1 - TEST_P))
 
 
 def _settled(block: Block, settle_s: float, fs: float) -> tuple[np.ndarray, float]:
@@ -474,7 +474,7 @@ def _with_transient(t: np.ndarray, B: np.ndarray, sig: np.ndarray) -> tuple[np.n
                            options={"xatol": 1e-4})
     drop = drops(best.x)[:, 0]
     s2 = np.maximum(ss - drop, 1e-15 * ss) / (n - p - 2)
-    if not np.sum(drop / s2) > scipy.stats.chi2.isf(TEST_P, n_out + 1):
+    if not np.sum(drop / s2) > scipy.special.chdtri(n_out + 1, TEST_P):
         return B, None
     tau = float(np.exp(best.x))
     decay = np.exp(-(t - t[0]) / tau)

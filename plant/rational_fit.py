@@ -42,7 +42,7 @@ from dataclasses import dataclass
 
 import control
 import numpy as np
-from scipy import stats
+from scipy import special
 from scipy.optimize import least_squares
 from scipy.signal import find_peaks
 
@@ -388,7 +388,7 @@ def _chi2(g: np.ndarray, fit: np.ndarray, wt: np.ndarray, var: np.ndarray | None
     if var is None or dof <= 0:
         return float("nan"), dof, float("nan"), []
     chi2 = float(np.sum(np.abs(g - fit)[use] ** 2 / (var[use] / 2)))
-    upper, lower = float(stats.chi2.sf(chi2, dof)), float(stats.chi2.cdf(chi2, dof))
+    upper, lower = float(special.chdtrc(dof, chi2)), float(special.chdtr(dof, chi2))
     flags = []
     if upper < CHI2_P_FLAG:
         flags.append(f"residual larger than the noise: chi-square {chi2:.4g} for {dof} degrees of freedom "

@@ -52,7 +52,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.optimize
 import scipy.signal
-import scipy.stats
+import scipy.special
 
 from plant.errors import DataError, EffectError, ParameterError
 from plant.fit_report import correlation_lines, variable_lines
@@ -288,7 +288,7 @@ def _regimes(v: np.ndarray, t: np.ndarray, e: np.ndarray, noise_rms: float,
         rms = float(np.sqrt(np.mean(e[mask] ** 2)))
         ratio = rms / noise_rms if noise_rms > 0 else math.inf
         dof = max(mask.sum() * n_eff_per_sample, 1.0)
-        limit = scipy.stats.chi2.isf(TEST_P, dof) / dof
+        limit = scipy.special.chdtri(dof, TEST_P) / dof
         out.append(Regime(name, float(mask.mean()), rms, ratio, bool(ratio**2 > limit)))
     return tuple(out)
 
@@ -311,7 +311,7 @@ def _structure(e: np.ndarray, variables: dict[str, np.ndarray], unit: str) -> tu
         se = np.sqrt(np.maximum(np.diag(cov), 1e-300))
         chi2 = float(means @ np.linalg.pinv(cov) @ means)
         dof = int(means.size)
-        p = float(scipy.stats.chi2.sf(chi2, dof))
+        p = float(scipy.special.chdtrc(dof, chi2))
         j = int(np.argmax(np.abs(means) / se))
         lo, hi = edges_used[j]
         worst = f"{name} {lo:.3g} to {hi:.3g}: mean {means[j]:+.3g} {unit} ({means[j] / se[j]:+.1f} se)"

@@ -174,8 +174,8 @@ def interaction_gain(loop: GantryLoop, mouse: MouseModel, *, weight=1.0, paired:
     """K = Z_m R / (1 + S G Z_m) = R / (1/Z_m + S G): sensed force per velocity reference with the mouse
     attached (times ``weight``, an array over the frequencies); a batch of mice ((n_m, 1) fields) gives
     (n_m, n_scenario, n), or with ``paired`` (n_scenario, n), scenario k with mouse k."""
-    return (loop.reference * weight) / (1.0 / _mouse_impedance(loop, mouse, paired)
-                                        + loop.sensitivity * loop.mobility)
+    den = 1.0 / _mouse_impedance(loop, mouse, paired) + loop.sensitivity * loop.mobility
+    return np.divide(loop.reference * weight, den, out=den)
 
 
 def attached_loop(loop: GantryLoop, mouse: MouseModel, *, paired: bool = False) -> np.ndarray:

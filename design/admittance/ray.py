@@ -53,28 +53,36 @@ def curve_bounds(log_mag: np.ndarray, psi: np.ndarray, q: np.ndarray, phase_marg
     the window's edges (interpolated in log |p| between grid points), and t >= g |p| at the -180 deg
     crossings (and at the Nyquist frequency when sampled and p is real negative there). With ``parts``, the
     phase-margin and gain-margin bounds separately."""
-    a = log_mag - np.log(np.abs(q)).astype(np.float32)
-    d = psi - np.degrees(np.angle(q)).astype(np.float32)
-    d = np.where(d > 180, d - 360, np.where(d <= -180, d + 360, d))
+    shape, n_f = np.broadcast_shapes(np.shape(log_mag), np.shape(q))[:-1], np.shape(q)[-1]
+    a = (log_mag - np.log(np.abs(q)).astype(np.float32)).reshape(-1, n_f)
+    d = (psi - np.degrees(np.angle(q)).astype(np.float32)).reshape(-1, n_f)
+    d[d > 180] -= 360
+    d[d <= -180] += 360
     t_pm = np.where(np.abs(d) < phase_margin_deg, a, -np.inf).max(axis=-1)
     t_gm = np.full(t_pm.shape, -np.inf, np.float32)
-    d0, d1, a0, a1 = d[..., :-1], d[..., 1:], a[..., :-1], a[..., 1:]
-    step = d1 - d0
-    smooth = np.abs(step) < 180.0             # no wrap through +-180 deg (p near the positive real axis)
-    for edge in (-phase_margin_deg, phase_margin_deg, 0.0):
-        cross = smooth & ((d0 - edge) * (d1 - edge) <= 0) & (step != 0)
-        if not cross.any():
-            continue
-        x = (edge - d0) / np.where(cross, step, 1.0)
-        at = np.where(cross, a0 + x * (a1 - a0), -np.inf).max(axis=-1)
-        if edge == 0.0:
-            t_gm = np.maximum(t_gm, at + math.log(gain_margin))
-        else:
-            t_pm = np.maximum(t_pm, at)
+    # the pairs of neighbouring grid points whose phase segment meets the window, without wrapping through
+    # +-180 deg (p near the positive real axis): a small part of the table, where the edges are interpolated
+    d0, d1 = d[:, :-1], d[:, 1:]
+    lo, hi = np.minimum(d0, d1), np.maximum(d0, d1)
+    rows, cols = np.nonzero((lo <= phase_margin_deg) & (hi >= -phase_margin_deg) & (hi - lo < 180.0))
+    if rows.size:
+        d0, d1, a0, a1 = d[rows, cols], d[rows, cols + 1], a[rows, cols], a[rows, cols + 1]
+        step = d1 - d0
+        starts = np.flatnonzero(np.r_[True, rows[1:] != rows[:-1]])
+        for edge in (-phase_margin_deg, phase_margin_deg, 0.0):
+            cross = ((d0 - edge) * (d1 - edge) <= 0) & (step != 0)
+            x = (edge - d0) / np.where(cross, step, 1.0)
+            at = np.full(t_pm.shape, -np.inf, np.float32)
+            at[rows[starts]] = np.maximum.reduceat(np.where(cross, a0 + x * (a1 - a0), -np.inf), starts)
+            if edge == 0.0:
+                t_gm = np.maximum(t_gm, at + math.log(gain_margin))
+            else:
+                t_pm = np.maximum(t_pm, at)
     if sampled:
-        end = np.abs(d[..., -1]) < 1e-4
-        t_gm = np.maximum(t_gm, np.where(end, a[..., -1] + math.log(gain_margin), -np.inf))
-    t_pm, t_gm = HAIR_SCALE * np.exp(t_pm.astype(float)), HAIR_SCALE * np.exp(t_gm.astype(float))
+        end = np.abs(d[:, -1]) < 1e-4
+        t_gm = np.maximum(t_gm, np.where(end, a[:, -1] + math.log(gain_margin), -np.inf))
+    t_pm = HAIR_SCALE * np.exp(t_pm.astype(float)).reshape(shape)
+    t_gm = HAIR_SCALE * np.exp(t_gm.astype(float)).reshape(shape)
     return (t_pm, t_gm) if parts else np.maximum(t_pm, t_gm)
 
 
@@ -160,6 +168,40 @@ def margin_bounds(rp: RayProblem, tau_s: float, curves=None) -> np.ndarray:
     return curve_bounds(rp.log_mag[rows], rp.psi[rows], q, rp.phase_margin_deg, rp.gain_margin, rp.sampled)
 
 
+def _upper_bounds(rp: RayProblem, tau_s: float) -> np.ndarray:
+    """An upper bound of each curve's ``curve_bounds`` on the ray ``tau_s``: max |p| times max(g, 1) (the
+    interpolated points lie between grid points), for one pass over the table instead of ``curve_bounds``'s."""
+    lq = np.log(np.abs(rp.rho + tau_s * rp.sigma)).astype(np.float32)
+    top = np.max(rp.log_mag - lq, axis=-1).astype(float)
+    return HAIR_SCALE * np.exp(top) * max(rp.gain_margin, 1.0)
+
+
+def curves_over(rp: RayProblem, tau_s: float, scale: float) -> tuple[np.ndarray, np.ndarray]:
+    """(indices, bounds) of the curves whose ``curve_bounds`` on the ray ``tau_s`` exceed ``scale``; only the
+    curves whose ``_upper_bounds`` do are computed exactly."""
+    maybe = np.flatnonzero(_upper_bounds(rp, tau_s) > scale)
+    t = margin_bounds(rp, tau_s, maybe) if maybe.size else np.zeros(0)
+    return maybe[t > scale], t[t > scale]
+
+
+def top_curves(rp: RayProblem, tau_s: float, k: int) -> np.ndarray:
+    """The ``k`` curves of largest ``curve_bounds`` on the ray ``tau_s``, largest first: exact bounds are
+    computed in order of ``_upper_bounds`` until no remaining curve's upper bound can reach the k-th."""
+    ub = _upper_bounds(rp, tau_s)
+    order = np.argsort(-ub)
+    done = np.zeros(0, int)
+    exact = np.zeros(0)
+    chunk = 4 * k
+    while done.size < order.size:
+        nxt = order[done.size:done.size + chunk]
+        done, exact = np.concatenate([done, nxt]), np.concatenate([exact, margin_bounds(rp, tau_s, nxt)])
+        kth = np.sort(exact)[-k] if exact.size >= k else -math.inf
+        if done.size == order.size or ub[order[done.size]] <= kth:
+            break
+        chunk *= 2
+    return done[np.argsort(-exact, kind="stable")][:k]
+
+
 def ray_bound(rp: RayProblem, tau_s: float, curves=None) -> RayBound:
     """``RayBound`` of the ray ``tau_s`` (module docstring), the margins on ``curves`` (default all)."""
     q = rp.rho + tau_s * rp.sigma
@@ -219,17 +261,16 @@ def best_ray(rp: RayProblem, *, objective=None, points: int = 28, refine: int = 
     n = len(rp.log_mag)
     active = set() if seed is None else {int(i) for i in seed}
     for tau in SEED_TAUS_S if seed is None else ():
-        active |= set(np.argsort(-margin_bounds(rp, tau))[:ACTIVE_ADD].tolist())
+        active |= set(top_curves(rp, tau, ACTIVE_ADD).tolist())
     while True:
         curves = np.array(sorted(active))
         best, _ = _scan(rp, curves, objective, points=points, refine=refine)
         if not best.feasible or len(active) == n:
             return ray_bound(rp, best.tau_s) if len(active) < n else best
-        t_all = margin_bounds(rp, best.tau_s)
-        over = np.flatnonzero(t_all > best.b_v * (1 + 1e-9))
+        over, t_over = curves_over(rp, best.tau_s, best.b_v * (1 + 1e-9))
         if not over.size:
             return best
-        active |= set(over[np.argsort(-t_all[over])][:ACTIVE_ADD].tolist())
+        active |= set(over[np.argsort(-t_over)][:ACTIVE_ADD].tolist())
 
 
 def front(rp_of_margin, margins_deg, *, points: int = 40) -> list[tuple[float, RayBound]]:

@@ -150,8 +150,9 @@ _NAMES = {"margins": "the interaction-loop margins (admittance.phase_margin_deg,
           "m_v_min": "admittance.m_v.min"}
 
 
-def ray_binding(problem: LoopProblem, rp, ray: RayBound, resp) -> dict:
-    """The requirement that sets the design's scale, with the scenario and mouse where it binds."""
+def ray_binding(problem: LoopProblem, rp, ray: RayBound, corners, scenarios: Scenarios) -> dict:
+    """The requirement that sets the design's scale, with the scenario and mouse where it binds (``rp`` built on
+    the mice ``corners`` x ``scenarios``)."""
     adm = admittance_problem(problem)
     base = {"payload_kg": None, "scenario": None, "mouse": None, "value": ray.b_v, "limit": ray.b_v}
     if ray.binding != "margins":
@@ -168,14 +169,14 @@ def ray_binding(problem: LoopProblem, rp, ray: RayBound, resp) -> dict:
                               rp.sampled, parts=True)
     gm_binds = t_gm.max() >= t_pm.max()
     c = int(np.argmax(t_gm if gm_binds else t_pm))
-    k, j = np.unravel_index(c, (len(resp.mice), len(resp.scenarios)))
-    mouse = resp.mice[k]
+    k, j = np.unravel_index(c, (len(corners), len(scenarios)))
+    mouse = corners[k]
     name = "gain_margin" if gm_binds else "phase_margin"
     limit = adm.gain_margin_db if gm_binds else adm.phase_margin_deg
-    return {"constraint": name, "payload_kg": float(resp.scenarios.payload_kg[j]), "scenario": resp.scenarios.row(j),
+    return {"constraint": name, "payload_kg": float(scenarios.payload_kg[j]), "scenario": scenarios.row(j),
             "mouse": mouse.as_dict(), "value": limit, "limit": limit,
             "detail": f"interaction-loop {name.replace('_', ' ')} (admittance.{name}_"
-                      f"{'db' if gm_binds else 'deg'} = {limit:g}) at {resp.scenarios.describe(j)} with mouse "
+                      f"{'db' if gm_binds else 'deg'} = {limit:g}) at {scenarios.describe(j)} with mouse "
                       f"({mouse.label()})"}
 
 
@@ -213,11 +214,12 @@ def synthesise_admittance(problem: LoopProblem, *, kp: float | None = None, ki: 
         for _ in range(MAX_ROUNDS):
             notes["rounds"] += 1
             say(f"rays on {len(scenarios)} scenarios x {len(corners)} mice")
-            resp = interaction_responses(problem, scenarios, w_design, kp=kp, ki=ki, timing=timing, corners=corners)
-            rp = ray_problem(resp, adm)
+            rp_scenarios = scenarios
+            rp = ray_problem(interaction_responses(problem, scenarios, w_design, kp=kp, ki=ki, timing=timing,
+                                                   corners=corners), adm)
             ray = best_ray(rp, objective=lambda r: felt(r.m_v, r.b_v))
             if not ray.feasible:
-                return _infeasible(problem, ray, rp, resp, kp, ki, timing, corners, t0, record)
+                return _infeasible(problem, ray, rp, scenarios, kp, ki, timing, corners, t0, record)
             x = np.array([ray.m_v, ray.b_v])
             say(f"dense check ({len(dense.scenarios)} scenarios)")
             check = dense.evaluate(*x)
@@ -235,12 +237,14 @@ def synthesise_admittance(problem: LoopProblem, *, kp: float | None = None, ki: 
         if mc.violations == 0 or mc_round == MONTE_CARLO_ROUNDS or scenarios.contains(mc.worst_scenario):
             break
         scenarios = scenarios.with_row(mc.worst_scenario)
+    del dense
     say("verification on the rational model (python-control)")
     verification = verify_admittance(problem, check, kp=kp, ki=ki, timing=timing)
-    binding = ray_binding(problem, rp, ray, resp)
+    binding = ray_binding(problem, rp, ray, corners, rp_scenarios)
     say("what the mouse feels")
     feel = mouse_feel(problem, kp=kp, ki=ki, m_v=x[0], b_v=x[1], scenarios=feel_set, corners=corners, timing=timing,
                       felt=felt)
+    del felt
     contact = stiffest_contact(problem, design_scenarios(problem), kp=kp, ki=ki, m_v=x[0], b_v=x[1], timing=timing)
     r = x[0] * loc.peak_acceleration_m_per_s2 + x[1] * loc.peak_speed_m_per_s
     if not verification.verified:
@@ -304,7 +308,7 @@ def _back_off(dense: AdmittanceEvaluator, x: np.ndarray, adm) -> tuple[np.ndarra
     return x, dense.evaluate(*x)
 
 
-def _infeasible(problem, ray: RayBound, rp, resp, kp, ki, timing, corners, t0, record) -> AdmittanceResult:
+def _infeasible(problem, ray: RayBound, rp, scenarios, kp, ki, timing, corners, t0, record) -> AdmittanceResult:
     """No ray holds every requirement within the bounds: name the requirement and the bound that conflict."""
     adm = admittance_problem(problem)
     hi = np.array([adm.m_v.max, adm.b_v.max])
@@ -313,7 +317,7 @@ def _infeasible(problem, ray: RayBound, rp, resp, kp, ki, timing, corners, t0, r
            f"{hi[1]:g} N*s/m holds every requirement: the least scale along the best ray (m_v / b_v = "
            f"{ray.tau_s:.3g} s) is set by {_NAMES.get(need, need)} at b_v = {ray.b_v:.4g} N*s/m, above what the "
            f"upper bounds {'and passivity ' if adm.passivity is not None else ''}allow; {_HINTS.get(need, '')}")
-    ev = AdmittanceEvaluator(problem, resp.scenarios, kp=kp, ki=ki, timing=timing, corners=corners)
+    ev = AdmittanceEvaluator(problem, scenarios, kp=kp, ki=ki, timing=timing, corners=corners)
     x = np.minimum(np.array([ray.m_v, ray.b_v]), hi) if math.isfinite(ray.b_v) else hi
     check = ev.evaluate(*x)
     binding = {"constraint": need, "payload_kg": None, "scenario": None, "mouse": None, "value": ray.b_v,

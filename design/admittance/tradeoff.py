@@ -19,7 +19,7 @@ import numpy as np
 
 from design.admittance.codesign import SEARCH_TERMS
 from design.admittance.model import admittance_problem, check_grid_for, interaction_responses, with_mode_points
-from design.admittance.ray import ACTIVE_ADD, HAIR_PM_DEG, best_ray, margin_bounds, ray_problem
+from design.admittance.ray import ACTIVE_ADD, HAIR_PM_DEG, best_ray, ray_problem, top_curves
 from design.admittance.rig import RigTiming
 from design.problem import LoopProblem, Passivity
 from design.synth.scenarios import design_scenarios
@@ -66,7 +66,7 @@ def trade_off(problem: LoopProblem, result, rp) -> TradeOff:
     """``TradeOff`` around ``result`` (an ``AdmittanceResult``) whose last ray problem was ``rp``."""
     adm = admittance_problem(problem)
     # the curves that bind near the design seed every point of the front (they bind near it too)
-    seed = np.argsort(-margin_bounds(rp, result.m_v / result.b_v))[:2 * ACTIVE_ADD]
+    seed = top_curves(rp, result.m_v / result.b_v, 2 * ACTIVE_ADD)
     margin_front = tuple(_point(replace(rp, phase_margin_deg=m + HAIR_PM_DEG), m, seed) for m in MARGINS_DEG)
     passivity_front = []
     heavy = design_scenarios(problem, [problem.plant.payload_kg.max])

@@ -148,6 +148,50 @@ def test_ray_bound_is_the_exact_margin_boundary():
             assert (pm >= 45.0 - 0.05 and gm >= 6.0 - 0.02) == holds, (tau, scale, pm, gm)
 
 
+def _bounds_by_definition(K, q, pm_deg, g, sampled):
+    """The ray bound of one curve read off its definition point by point (float64): |p| at the grid points
+    within pm_deg of -180 deg, |p| at the window's edges and g |p| at -180 deg, interpolated in log |p| between
+    neighbours whose phase does not wrap through +-180 deg, and g |p| at the Nyquist end when p is real
+    negative there."""
+    a = np.log(np.abs(K)) - np.log(np.abs(q))
+    d = (np.degrees(np.angle(-K)) - np.degrees(np.angle(q)) + 180.0) % 360.0 - 180.0
+    t_pm = t_gm = -np.inf
+    for i in range(K.size):
+        if abs(d[i]) < pm_deg:
+            t_pm = max(t_pm, a[i])
+        if i + 1 < K.size and 0 < abs(d[i + 1] - d[i]) < 180:
+            for edge in (-pm_deg, pm_deg, 0.0):
+                if (d[i] - edge) * (d[i + 1] - edge) <= 0:
+                    at = a[i] + (edge - d[i]) / (d[i + 1] - d[i]) * (a[i + 1] - a[i])
+                    if edge == 0.0:
+                        t_gm = max(t_gm, at + math.log(g))
+                    else:
+                        t_pm = max(t_pm, at)
+    if sampled and abs(d[-1]) < 1e-4:
+        t_gm = max(t_gm, a[-1] + math.log(g))
+    return math.exp(t_pm), math.exp(t_gm)
+
+
+def test_ray_bounds_of_a_batch_follow_their_definition():
+    # curves with resonances, wraps through +-180 deg and phase jumps of tens of degrees between neighbours,
+    # in batches of several shapes, against the bound read off point by point
+    from design.admittance.ray import HAIR_SCALE
+
+    rng = np.random.default_rng(7)
+    w = np.geomspace(1.0, 300.0, 160)
+    for shape in ((5,), (3, 4), (2, 2, 3)):
+        n = int(np.prod(shape))
+        lag = np.cumsum(rng.uniform(0.0, rng.uniform(1.0, 40.0, (n, 1)), (n, w.size)), axis=1)
+        K = rng.uniform(0.5, 50.0, (n, 1)) * np.exp(rng.normal(0.0, 0.5, (n, w.size)) - 1j * np.radians(lag))
+        for sampled in (False, True):
+            q = np.exp(-1j * w * 0.01) + rng.uniform(0.001, 0.5) * 1j * w
+            t_pm, t_gm = curve_bounds(*polar(K.reshape(*shape, w.size)), q, 45.0, 2.0, sampled, parts=True)
+            ref_pm, ref_gm = np.array([_bounds_by_definition(k, q, 45.0, 2.0, sampled) for k in K]).T
+            assert t_pm.shape == shape
+            assert np.allclose(t_pm.ravel(), HAIR_SCALE * ref_pm, rtol=1e-4)
+            assert np.allclose(t_gm.ravel(), HAIR_SCALE * ref_gm, rtol=1e-4)
+
+
 # --- the bundled design ------------------------------------------------------------------------------------------
 @pytest.fixture(scope="module")
 def bundled():

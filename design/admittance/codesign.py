@@ -26,6 +26,7 @@ from design.admittance.ray import best_ray, ray_problem
 from design.admittance.rig import RigTiming
 from design.loop.loops import pi_frd
 from design.loop.margins import loop_margins
+from design.parallel import thread_map
 from design.problem import LoopProblem
 from design.synth.scenarios import design_scenarios
 from plant.grid import log_grid_rad_s
@@ -119,16 +120,17 @@ def codesign(problem: LoopProblem, *, kp: float, ki: float, timing: RigTiming) -
     start = [math.log(kp), math.log(max(ki, 1e-9))] + ([math.log(math.sqrt(filt.frequency_hz_min *
                                                                              filt.frequency_hz_max))]
                                                           if designed else [])
-    given = force(np.array(start))
-    candidates = []
     filters = list(np.linspace(log_bounds[2, 0], log_bounds[2, 1], 3)) if designed else [None]
+    grid = [np.array(start)]
     for fk in KP_FACTORS:
         for fi in KI_FACTORS:
             for lf in filters:
                 v = np.array([math.log(kp * fk), math.log(max(ki * fi, 1e-9))] + ([lf] if designed else []))
                 if np.all((v >= log_bounds[:, 0] - 1e-12) & (v <= log_bounds[:, 1] + 1e-12)):
-                    candidates.append((force(v), tuple(v)))
-    candidates.sort()
+                    grid.append(v)
+    scores = thread_map(force, grid)
+    given = scores[0]
+    candidates = sorted((f, tuple(v)) for f, v in zip(scores[1:], grid[1:]))
     best_v, best_f = np.array(start), given
     for f0, v0 in candidates[:1]:
         if not math.isfinite(f0):

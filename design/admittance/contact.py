@@ -21,6 +21,7 @@ from design.admittance.model import (
     interaction_margins,
 )
 from design.admittance.rig import RigTiming
+from design.parallel import thread_map
 from design.problem import LoopProblem
 from design.synth.scenarios import Scenarios
 
@@ -67,8 +68,8 @@ def stiffest_contact(problem: LoopProblem, scenarios: Scenarios, *, kp: float, k
     w = check_grid_for(timing)
     n = len(scenarios)
     grid = np.geomspace(K_MIN, K_MAX, GRID)
-    ok = np.stack([_stable(problem, scenarios, np.full(n, k), kp=kp, ki=ki, m_v=m_v, b_v=b_v, timing=timing, w=w)
-                   for k in grid])                                    # (GRID, n)
+    ok = np.stack(thread_map(lambda k: _stable(problem, scenarios, np.full(n, k), kp=kp, ki=ki, m_v=m_v, b_v=b_v,
+                                               timing=timing, w=w), grid))    # (GRID, n)
     first_bad = np.where(ok.all(axis=0), GRID, np.argmin(ok, axis=0))
     lo = np.where(first_bad > 0, grid[np.maximum(first_bad - 1, 0)], 0.0)
     hi = np.where(first_bad < GRID, grid[np.minimum(first_bad, GRID - 1)], np.inf)

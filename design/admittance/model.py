@@ -48,6 +48,7 @@ import numpy as np
 from design.admittance.mouse import MouseModel, mouse_set, stack
 from design.admittance.rig import RigTiming
 from design.loop.margins import loop_margins, nyquist_stable, unwrapped_phase_deg
+from design.parallel import thread_map, workers
 from design.problem import AdmittanceProblem, LoopProblem
 from design.synth.scenarios import Scenarios
 from plant.effects import EFFECTS
@@ -64,7 +65,8 @@ BANDWIDTH_GAIN_DB = 3.0
 BANDWIDTH_PHASE_DEG = 30.0
 #: points per decade of the sampled loop's grid, which ends at the Nyquist frequency
 SAMPLED_POINTS_PER_DECADE = 120
-#: scenarios are evaluated in blocks of at most this many mice x scenarios x frequencies (memory)
+#: scenarios are evaluated in blocks of at most this many mice x scenarios x frequencies over all threads
+#: working at once (memory)
 CHUNK_ELEMENTS = 2_000_000
 #: the screened check computes exact margins for the SCREEN_TOP mice with the largest ray bound at each
 #: scenario and for every curve whose bound is within SCREEN_RATIO of the design's b_v; the screen's grid and
@@ -269,12 +271,16 @@ def interaction_responses(problem: LoopProblem, scenarios, w_rad_s, *, kp: float
     corners = mice(problem) if corners is None else tuple(corners)
     w = check_grid(w_rad_s)
     plants = sc.plants(problem.plant.plant())
-    batch = stack(corners)
+    gain = np.empty((len(corners), len(sc), w.size), complex)
+    step = max(1, CHUNK_ELEMENTS // (len(sc) * w.size * workers()))
 
-    def path(s, weight):
-        return interaction_gain(gantry_loop_at(plants, s, sc, kp=kp, ki=ki), batch, weight=weight)
+    def block(i: int) -> None:
+        batch = stack(corners[i:i + step])
+        gain[i:i + step] = timing.sampled_path(
+            lambda s, weight: interaction_gain(gantry_loop_at(plants, s, sc, kp=kp, ki=ki), batch, weight=weight),
+            w, terms=terms)
 
-    gain = timing.sampled_path(path, w, terms=terms)
+    thread_map(block, range(0, len(corners), step))
     loop = gantry_loop_at(plants, 1j * w, sc, kp=kp, ki=ki)
     W = timing.fundamental(w)
     return InteractionResponses(w, timing, sc, corners, gain, timing.sigma(w), timing.rho(w),
@@ -404,11 +410,13 @@ class AdmittanceEvaluator:
         coarse = with_mode_points(check_grid_for(self.timing, per_decade=SCREEN_POINTS_PER_DECADE), self.corners,
                                   self.timing, points=8)
         self._screen_w = coarse
-        self._screen = []
-        for rows in _blocks(len(self.scenarios), len(self.corners) * coarse.size):
+
+        def screen(rows):
             r = interaction_responses(problem, self.scenarios.take(rows), coarse, kp=kp, ki=ki, timing=self.timing,
                                       corners=self.corners, terms=SCREEN_TERMS)
-            self._screen.append((rows, *polar(r.gain.reshape(-1, coarse.size))))
+            return rows, *polar(r.gain.reshape(-1, coarse.size))
+
+        self._screen = thread_map(screen, _blocks(len(self.scenarios), len(self.corners) * coarse.size))
         # the free gantry's hardware paths on the check grid (one per scenario)
         loop = gantry_loop_at(self._plants, 1j * self.w, self.scenarios, kp=kp, ki=ki)
         W = self.timing.fundamental(self.w)
@@ -418,12 +426,14 @@ class AdmittanceEvaluator:
         # the velocity loop with the mouse attached, on a continuous grid (it is a continuous loop)
         wc = with_mode_points(W_ATTACHED, self.corners, RigTiming(None))
         self.attached_stable = np.ones((len(self.corners), len(self.scenarios)), bool)
-        self._free = []
         batch = stack(self.corners)
-        for rows in self.blocks:
+
+        def attached(rows):
             loop = gantry_loop(problem, wc, self.scenarios.take(rows), kp=kp, ki=ki)
             self.attached_stable[:, rows] = nyquist_stable(attached_loop(loop, batch))
-            self._free.append(loop)
+            return loop
+
+        self._free = thread_map(attached, self.blocks)
 
     def exact_margins(self, m_v: float, b_v: float, k_idx: np.ndarray, j_idx: np.ndarray):
         """(PM deg, GM dB, stable) of the curves (mouse k_idx[i], scenario j_idx[i]) on the check grid with every
@@ -432,8 +442,9 @@ class AdmittanceEvaluator:
         pm, gm, st = np.empty(n), np.empty(n), np.empty(n, bool)
         z = self.timing.impedance(self.w, m_v, b_v)
         batch = stack(self.corners)
-        step = max(1, CHUNK_ELEMENTS // (self.w.size * 2))
-        for start in range(0, n, step):
+        step = max(1, CHUNK_ELEMENTS // (self.w.size * 2 * workers()))
+
+        def chunk(start: int) -> None:
             part = slice(start, min(start + step, n))
             rows = j_idx[part]
             sc = self.scenarios.take(rows)
@@ -442,6 +453,8 @@ class AdmittanceEvaluator:
             gain = self.timing.sampled_path(lambda s, weight: paired_gain(plants, sc, mouse, s, weight, kp=self.kp,
                                                                            ki=self.ki), self.w)
             pm[part], gm[part], st[part] = interaction_margins(self.w, self.timing, gain / z)
+
+        thread_map(chunk, range(0, n, step))
         return pm, gm, st
 
     def evaluate(self, m_v: float, b_v: float, *, bandwidth: bool = True, screen: bool = True) -> AdmittanceCheck:
@@ -507,7 +520,7 @@ def passive_up_to_hz(w_rad_s, rendered) -> np.ndarray:
 
 
 def _blocks(n_scenarios: int, per_scenario: int) -> list[np.ndarray]:
-    size = max(1, CHUNK_ELEMENTS // max(per_scenario, 1))
+    size = max(1, CHUNK_ELEMENTS // max(per_scenario * workers(), 1))
     return [np.arange(i, min(i + size, n_scenarios)) for i in range(0, n_scenarios, size)]
 
 

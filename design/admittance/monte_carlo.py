@@ -38,6 +38,7 @@ from design.admittance.mouse import FIELDS, MouseModel, random_mice
 from design.admittance.ray import curve_bounds, polar
 from design.admittance.rig import RigTiming
 from design.loop.margins import nyquist_stable
+from design.parallel import thread_map
 from design.problem import LoopProblem
 from design.synth.monte_carlo import clopper_pearson_upper, draw_settings
 from design.synth.scenarios import random_scenarios
@@ -105,7 +106,7 @@ def admittance_monte_carlo(problem: LoopProblem, *, kp: float, ki: float, m_v: f
         sc = draws.take(rows)
         return sc, sc.plants(base), MouseModel(*(np.asarray(getattr(drawn, f))[rows] for f in FIELDS))
 
-    for start in range(0, samples, CHUNK):
+    def screen(start: int) -> None:
         rows = np.arange(start, min(start + CHUNK, samples))
         sc, plants, mouse = batch(rows)
         gain = timing.sampled_path(lambda s, weight: paired_gain(plants, sc, mouse, s, weight, kp=kp, ki=ki), w,
@@ -119,18 +120,22 @@ def admittance_monte_carlo(problem: LoopProblem, *, kp: float, ki: float, m_v: f
         force[rows] = np.max(np.abs(yr / loop.mobility - 1.0), axis=-1) * adm.mouse.peak_force_n
         free = gantry_loop_at(plants, 1j * wc, sc, kp=kp, ki=ki)
         stable[rows] = nyquist_stable(attached_loop(free, mouse, paired=True))
+
+    thread_map(screen, range(0, samples, CHUNK))
     # every draw near its bound and the WORST_EXACT largest bounds: their loops anew on the check grid with every
     # alias term, and their grid margins
     keep = np.union1d(np.flatnonzero(bound >= SCREEN_RATIO * b_v), np.argsort(-bound)[:WORST_EXACT])
     pm, gm = np.full(samples, np.inf), np.full(samples, np.inf)
     wk = with_mode_points(check_grid_for(timing), corners, timing)
-    for start in range(0, keep.size, CHUNK):
+    def exact(start: int) -> None:
         rows = keep[start:start + CHUNK]
         sc, plants, mouse = batch(rows)
         gain = timing.sampled_path(lambda s, weight: paired_gain(plants, sc, mouse, s, weight, kp=kp, ki=ki), wk)
         p_, g_, st = interaction_margins(wk, timing, gain / timing.impedance(wk, m_v, b_v))
         pm[rows], gm[rows] = p_, g_
         stable[rows] &= st
+
+    thread_map(exact, range(0, keep.size, CHUNK))
     d_pm, d_gm = MARGIN_TOLERANCE
     limit_i = hw.max_current_per_sensor_step_a
     bad = ((pm < adm.phase_margin_deg - d_pm) | (gm < adm.gain_margin_db - d_gm) | ~stable

@@ -38,12 +38,22 @@ HAIR_SCALE = 1.002
 #: curves (scenario x mouse) joining the active set per round, and the rays that seed it
 ACTIVE_ADD = 24
 SEED_TAUS_S = (0.003, 0.03, 0.3)
+#: values per block in ``polar``
+POLAR_BLOCK = 262_144
 
 
 def polar(gain: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(log |K|, phase of K relative to -180 deg in degrees) as float32: what ``curve_bounds`` reads."""
-    return (np.log(np.maximum(np.abs(gain), 1e-300)).astype(np.float32),
-            np.degrees(np.angle(-gain)).astype(np.float32))
+    """(log |K|, phase of K relative to -180 deg in degrees) as float32: what ``curve_bounds`` reads (computed
+    in blocks of rows, so the temporaries stay small beside a large ``gain``)."""
+    gain = np.asarray(gain)
+    log_mag, psi = np.empty(gain.shape, np.float32), np.empty(gain.shape, np.float32)
+    flat, lm, ps = (a.reshape(-1, gain.shape[-1]) if gain.ndim else a.reshape(1, 1) for a in (gain, log_mag, psi))
+    step = max(1, POLAR_BLOCK // max(flat.shape[-1], 1))
+    for i in range(0, len(flat), step):
+        g = flat[i:i + step]
+        lm[i:i + step] = np.log(np.maximum(np.abs(g), 1e-300))
+        ps[i:i + step] = np.degrees(np.angle(-g))
+    return log_mag, psi
 
 
 def curve_bounds(log_mag: np.ndarray, psi: np.ndarray, q: np.ndarray, phase_margin_deg: float, gain_margin: float,
@@ -163,16 +173,25 @@ class RayBound:
 
 def margin_bounds(rp: RayProblem, tau_s: float, curves=None) -> np.ndarray:
     """``curve_bounds`` of the curves ``curves`` (indices; default all) on the ray ``tau_s``."""
-    rows = slice(None) if curves is None else curves
+    rows = np.arange(len(rp.log_mag)) if curves is None else np.asarray(curves, int)
     q = rp.rho + tau_s * rp.sigma
-    return curve_bounds(rp.log_mag[rows], rp.psi[rows], q, rp.phase_margin_deg, rp.gain_margin, rp.sampled)
+    return np.concatenate([np.zeros(0)] + [
+        curve_bounds(rp.log_mag[block], rp.psi[block], q, rp.phase_margin_deg, rp.gain_margin, rp.sampled)
+        for block in _row_blocks(rows, q.size)])
+
+
+def _row_blocks(rows: np.ndarray, n_f: int) -> list[np.ndarray]:
+    """``rows`` in blocks of ``POLAR_BLOCK`` table values (the temporaries of a pass stay small)."""
+    step = max(1, POLAR_BLOCK // max(n_f, 1))
+    return [rows[i:i + step] for i in range(0, rows.size, step)]
 
 
 def _upper_bounds(rp: RayProblem, tau_s: float) -> np.ndarray:
     """An upper bound of each curve's ``curve_bounds`` on the ray ``tau_s``: max |p| times max(g, 1) (the
     interpolated points lie between grid points), for one pass over the table instead of ``curve_bounds``'s."""
     lq = np.log(np.abs(rp.rho + tau_s * rp.sigma)).astype(np.float32)
-    top = np.max(rp.log_mag - lq, axis=-1).astype(float)
+    top = np.concatenate([np.max(rp.log_mag[block] - lq, axis=-1).astype(float)
+                          for block in _row_blocks(np.arange(len(rp.log_mag)), lq.size)])
     return HAIR_SCALE * np.exp(top) * max(rp.gain_margin, 1.0)
 
 
@@ -202,33 +221,63 @@ def top_curves(rp: RayProblem, tau_s: float, k: int) -> np.ndarray:
     return done[np.argsort(-exact, kind="stable")][:k]
 
 
+#: grid values (taus x curves or scenarios x frequencies) of one vectorised batch of rays
+RAY_BATCH_VALUES = 1_000_000
+
+
+def ray_bounds(rp: RayProblem, taus, curves=None) -> list[RayBound]:
+    """``RayBound`` of each ray of ``taus`` (module docstring), the margins on ``curves`` (default all),
+    vectorised over the rays in batches of ``RAY_BATCH_VALUES`` grid values."""
+    taus = np.asarray(taus, float)
+    rows = max(len(rp.log_mag) if curves is None else len(curves), len(rp.sensitivity_m1))
+    step = max(1, RAY_BATCH_VALUES // max(rows * rp.sigma.size, 1))
+    out = []
+    for i in range(0, taus.size, step):
+        out += _ray_bounds(rp, taus[i:i + step], curves)
+    return out
+
+
 def ray_bound(rp: RayProblem, tau_s: float, curves=None) -> RayBound:
-    """``RayBound`` of the ray ``tau_s`` (module docstring), the margins on ``curves`` (default all)."""
-    q = rp.rho + tau_s * rp.sigma
+    """``RayBound`` of the ray ``tau_s``."""
+    return _ray_bounds(rp, np.array([tau_s]), curves)[0]
+
+
+def _ray_bounds(rp: RayProblem, taus: np.ndarray, curves) -> list[RayBound]:
+    rows = slice(None) if curves is None else curves
+    q = rp.rho + taus[:, None] * rp.sigma                                   # (n_tau, n_f)
     aq = np.abs(q)
-    lower = {"margins": float(np.max(margin_bounds(rp, tau_s, curves), initial=0.0)), "b_v_min": rp.t_min,
-             "m_v_min": rp.m_min / tau_s}
+    t_margin = curve_bounds(rp.log_mag[rows], rp.psi[rows], q[:, None, :], rp.phase_margin_deg, rp.gain_margin,
+                            rp.sampled)
+    lower = {"margins": np.max(t_margin, axis=-1, initial=0.0), "b_v_min": np.full(taus.size, rp.t_min),
+             "m_v_min": rp.m_min / taus}
     if rp.current_peak is not None:
-        lower["sensor_current"] = float(np.max(rp.current_peak / aq))
+        lower["sensor_current"] = np.max(rp.current_peak / aq, axis=-1)
     # motor force: |a + b u| <= c with u = 1/t; u = 0 holds when |a| <= c, and the admissible u reach u2
-    a, b, c = rp.sensitivity_m1, rp.reference_over_g / q, rp.force_ratio
+    a, b, c = rp.sensitivity_m1, rp.reference_over_g / q[:, None, :], rp.force_ratio
     bb, ab = np.abs(b) ** 2, (a * np.conj(b)).real
     disc = ab**2 - bb * (np.abs(a) ** 2 - c * c)
     u2 = np.where(disc > 0, (-ab + np.sqrt(np.maximum(disc, 0))) / np.maximum(bb, 1e-300), np.inf)
-    lower["motor_force"] = float(1.0 / np.min(u2)) if np.all(u2 > 0) else math.inf
-    upper = {"b_v_max": rp.t_max, "m_v_max": rp.m_max / tau_s}
+    u2 = u2.reshape(taus.size, -1)
+    with np.errstate(divide="ignore"):
+        lower["motor_force"] = np.where(np.all(u2 > 0, axis=-1), 1.0 / np.min(u2, axis=-1), np.inf)
+    upper = {"b_v_max": np.full(taus.size, rp.t_max), "m_v_max": rp.m_max / taus}
     if rp.passive_band is not None:
-        rw = (rp.passive_rw / q[rp.passive_band]).real
+        rw = (rp.passive_rw / q[:, None, rp.passive_band]).real
         re = rp.passive_re_sg
         # re + rw / t >= 0: a lower bound on t where re >= 0 > rw, an upper one where re < 0 < rw
         need_low = (re >= 0) & (rw < 0)
-        lower["passivity"] = float(np.max(np.where(need_low, -rw / np.maximum(re, 1e-300), 0.0)))
+        lower["passivity"] = np.max(np.where(need_low, -rw / np.maximum(re, 1e-300), 0.0).reshape(taus.size, -1),
+                                    axis=-1)
         need_high = re < 0
         ub = np.where(need_high & (rw > 0), rw / -re, np.where(need_high, 0.0, np.inf))
-        upper["passivity"] = float(np.min(ub))
-    name = max(lower, key=lower.get)
-    t = lower[name]
-    return RayBound(tau_s, t, name, bool(math.isfinite(t) and t <= min(upper.values()) * (1 + 1e-12)))
+        upper["passivity"] = np.min(ub.reshape(taus.size, -1), axis=-1)
+    names = list(lower)
+    low = np.stack([lower[k] for k in names])
+    pick = np.argmax(low, axis=0)                  # the first of equal bounds, as ``max`` over the names
+    t = low[pick, np.arange(taus.size)]
+    top = np.min(np.stack(list(upper.values())), axis=0)
+    return [RayBound(float(tau), float(ti), names[k], bool(math.isfinite(ti) and ti <= hi * (1 + 1e-12)))
+            for tau, ti, k, hi in zip(taus, t, pick, top)]
 
 
 def _scan(rp: RayProblem, curves, objective, *, points: int, refine: int) -> tuple[RayBound, float]:
@@ -239,7 +288,7 @@ def _scan(rp: RayProblem, curves, objective, *, points: int, refine: int) -> tup
     taus = np.geomspace(lo, hi, points)
     best, best_cost = None, math.inf
     for _ in range(refine + 1):
-        bounds = [ray_bound(rp, float(t), curves) for t in taus]
+        bounds = ray_bounds(rp, taus, curves)
         costs = np.array([objective(r) if r.feasible else math.inf for r in bounds])
         i = int(np.argmin(costs))
         if best is None or costs[i] < best_cost:

@@ -145,7 +145,8 @@ class RigTiming:
                 total = term
             else:
                 total += term
-        return total * np.exp(-1j * w * T * self.delay_samples)
+        total *= np.exp(-1j * w * T * self.delay_samples)
+        return total
 
     def folded_rad_s(self, w_rad_s) -> np.ndarray:
         """Frequencies (rad/s) folded into the band below the Nyquist frequency (where a mode above it

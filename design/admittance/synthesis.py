@@ -244,7 +244,6 @@ def synthesise_admittance(problem: LoopProblem, *, kp: float | None = None, ki: 
     say("what the mouse feels")
     feel = mouse_feel(problem, kp=kp, ki=ki, m_v=x[0], b_v=x[1], scenarios=feel_set, corners=corners, timing=timing,
                       felt=felt)
-    del felt
     contact = stiffest_contact(problem, design_scenarios(problem), kp=kp, ki=ki, m_v=x[0], b_v=x[1], timing=timing)
     r = x[0] * loc.peak_acceleration_m_per_s2 + x[1] * loc.peak_speed_m_per_s
     if not verification.verified:

@@ -15,12 +15,11 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, replace
 
-import numpy as np
-
 from design.admittance.codesign import SEARCH_TERMS
 from design.admittance.model import admittance_problem, check_grid_for, interaction_responses, with_mode_points
 from design.admittance.ray import ACTIVE_ADD, HAIR_PM_DEG, best_ray, ray_problem, top_curves
 from design.admittance.rig import RigTiming
+from design.parallel import thread_map
 from design.problem import LoopProblem, Passivity
 from design.synth.scenarios import design_scenarios
 
@@ -67,24 +66,26 @@ def trade_off(problem: LoopProblem, result, rp) -> TradeOff:
     adm = admittance_problem(problem)
     # the curves that bind near the design seed every point of the front (they bind near it too)
     seed = top_curves(rp, result.m_v / result.b_v, 2 * ACTIVE_ADD)
-    margin_front = tuple(_point(replace(rp, phase_margin_deg=m + HAIR_PM_DEG), m, seed) for m in MARGINS_DEG)
-    passivity_front = []
+    margin_front = tuple(thread_map(lambda m: _point(replace(rp, phase_margin_deg=m + HAIR_PM_DEG), m, seed),
+                                    MARGINS_DEG))
     heavy = design_scenarios(problem, [problem.plant.payload_kg.max])
     w = with_mode_points(check_grid_for(result.timing), result.corners, result.timing)
     resp = interaction_responses(problem, heavy, w, kp=result.kp, ki=result.ki, timing=result.timing,
                                  corners=result.corners, terms=SEARCH_TERMS)
-    for f in PASSIVE_UP_TO_HZ:
-        passive = replace(adm, passivity=Passivity(up_to_hz=f))
-        passivity_front.append(_point(ray_problem(resp, passive), f))
+    passivity_front = thread_map(
+        lambda f: _point(ray_problem(resp, replace(adm, passivity=Passivity(up_to_hz=f))), f), PASSIVE_UP_TO_HZ)
     baseline = best_ray(ray_problem(resp, adm), points=20, refine=1).cost_n(rp.a_pk, rp.v_pk)
-    changes = []
-    for label, variant, timing in _variants(problem, result.timing):
+
+    def change(case) -> HardwareChange:
+        label, variant, timing = case
         sc = design_scenarios(variant, [variant.plant.payload_kg.max])
         wv = with_mode_points(check_grid_for(timing), result.corners, timing)
         r = interaction_responses(variant, sc, wv, kp=result.kp, ki=result.ki, timing=timing, corners=result.corners,
                                   terms=SEARCH_TERMS)
-        best = best_ray(ray_problem(r, adm), points=20, refine=1)
-        changes.append(HardwareChange(label, best.cost_n(rp.a_pk, rp.v_pk), baseline))
+        return HardwareChange(label, best_ray(ray_problem(r, adm), points=20, refine=1).cost_n(rp.a_pk, rp.v_pk),
+                              baseline)
+
+    changes = thread_map(change, _variants(problem, result.timing))
     return TradeOff(adm.mouse.peak_force_n, margin_front, tuple(passivity_front), tuple(changes))
 
 

@@ -21,6 +21,7 @@ import numpy as np
 from design.admittance.model import AdmittanceCheck, admittance_problem
 from design.admittance.mouse import MouseModel
 from design.admittance.rig import RigTiming, force_filter_polys
+from design.parallel import thread_map
 from design.problem import LoopProblem
 from plant.chain import ChainEffect
 from plant.models import Plant
@@ -220,33 +221,39 @@ def verify_admittance(problem: LoopProblem, check: AdmittanceCheck, *, kp: float
     base = problem.plant.plant()
     pairs = tightest_pairs(check) if pairs is None else pairs
     measure = worst_pairs(check)
-    failures = [v["detail"] for v in check.violations]
-    max_cl = max_ol = -math.inf
-    pms, gms = [], []
-    parts: dict[int, GantryParts] = {}
-    for k, j in pairs:
+    parts = {j: gantry_parts(check.scenarios.plant(base, j)) for j in sorted({j for _, j in pairs})}
+
+    def pair(kj) -> tuple[float, float, float | None, float | None, list[str]]:
+        """(closed-loop pole measure, attached-loop max real part, PM, GM, failures) of one pair."""
+        k, j = kj
         mouse, scenarios = check.mice[k], check.scenarios
-        g = parts.setdefault(j, gantry_parts(scenarios.plant(base, j)))
-        L, attached = interaction_loop_model(g, mouse, kp=kp, ki=ki, m_v=check.m_v, b_v=check.b_v, timing=timing)
+        L, attached = interaction_loop_model(parts[j], mouse, kp=kp, ki=ki, m_v=check.m_v, b_v=check.b_v,
+                                             timing=timing)
         roots = np.linalg.eigvals(np.asarray(attached.A, float))
         roots = roots[np.abs(roots) > ORIGIN] if mouse.grounded else roots
         ol = float(np.max(roots.real))
         poles = np.linalg.eigvals(np.asarray(control.feedback(L, 1).A, float))
         cl = float(np.max(np.abs(poles))) if timing.sampled else float(np.max(poles.real))
-        max_cl, max_ol = max(max_cl, cl), max(max_ol, ol)
         where = f"{scenarios.describe(j)} with mouse ({mouse.label()})"
+        out = []
         if ol >= 0:
-            failures.append(f"velocity loop with the mouse attached unstable at {where}")
+            out.append(f"velocity loop with the mouse attached unstable at {where}")
         if cl >= (1.0 if timing.sampled else 0.0):
-            failures.append(f"unstable coupled loop at {where}: pole {'modulus' if timing.sampled else 'real part'} "
-                            f"{cl:.4g}")
-            continue
+            out.append(f"unstable coupled loop at {where}: pole {'modulus' if timing.sampled else 'real part'} "
+                       f"{cl:.4g}")
+            return cl, ol, None, None, out
         if (k, j) not in measure:
-            continue
+            return cl, ol, None, None, out
         pm, gm_db = _margins(L, timing)
-        pms.append(pm)
-        gms.append(gm_db)
         if pm < adm.phase_margin_deg - MARGIN_TOLERANCE[0] or gm_db < adm.gain_margin_db - MARGIN_TOLERANCE[1]:
-            failures.append(f"python-control margins PM {pm:.2f} deg, GM {gm_db:.2f} dB at {where}")
+            out.append(f"python-control margins PM {pm:.2f} deg, GM {gm_db:.2f} dB at {where}")
+        return cl, ol, pm, gm_db, out
+
+    results = thread_map(pair, pairs)
+    failures = [v["detail"] for v in check.violations] + [f for r in results for f in r[4]]
+    max_cl = max((r[0] for r in results), default=-math.inf)
+    max_ol = max((r[1] for r in results), default=-math.inf)
+    pms = [r[2] for r in results if r[2] is not None]
+    gms = [r[3] for r in results if r[3] is not None]
     return AdmittanceVerification(not failures, max_cl, max_ol, float(np.min(pms, initial=math.inf)),
                                   float(np.min(gms, initial=math.inf)), len(pairs), timing.sampled, tuple(failures))

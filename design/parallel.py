@@ -1,0 +1,36 @@
+"""Chunks of array work side by side on threads.
+
+NumPy lets go of the interpreter lock inside its array loops, so chunks of large complex-array work (a
+batch of scenarios on a frequency grid) run on both cores of a small machine; Python-heavy work gains
+nothing from this and stays serial. ``GANTRY_THREADS`` (an environment variable) sets the number of
+threads; 1 runs everything in the calling thread.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Callable, Iterable
+from concurrent.futures import ThreadPoolExecutor
+from typing import TypeVar
+
+T = TypeVar("T")
+R = TypeVar("R")
+
+
+def workers() -> int:
+    """Threads for array chunks: ``GANTRY_THREADS``, else the cores this process may use, at most 4."""
+    env = os.environ.get("GANTRY_THREADS", "").strip()
+    if env.isdigit() and int(env) >= 1:
+        return int(env)
+    return max(1, min(4, len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1))
+
+
+def thread_map(fn: Callable[[T], R], items: Iterable[T]) -> list[R]:
+    """``[fn(x) for x in items]``, the calls spread over ``workers()`` threads (results in order; the first
+    exception is raised)."""
+    items = list(items)
+    n = min(workers(), len(items))
+    if n <= 1:
+        return [fn(x) for x in items]
+    with ThreadPoolExecutor(n) as pool:
+        return list(pool.map(fn, items))

@@ -1,0 +1,40 @@
+"""Array work spread over threads gives the answer of the calling thread alone, in order."""
+
+import dataclasses
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from design.admittance.model import admittance_problem
+from design.admittance.monte_carlo import admittance_monte_carlo
+from design.admittance.rig import RigTiming
+from design.parallel import thread_map, workers
+from design.spec.schema import load_spec
+
+SPEC = Path(__file__).resolve().parents[1] / "specs" / "stage_x_admittance.toml"
+
+
+def test_thread_map_keeps_order_and_raises(monkeypatch):
+    monkeypatch.setenv("GANTRY_THREADS", "3")
+    assert workers() == 3
+    assert thread_map(lambda x: x * x, range(20)) == [x * x for x in range(20)]
+
+    def boom(x):
+        if x == 5:
+            raise ValueError("five")
+        return x
+
+    with pytest.raises(ValueError, match="five"):
+        thread_map(boom, range(10))
+
+
+def test_monte_carlo_on_two_threads_equals_one(monkeypatch):
+    spec = load_spec(SPEC).problem()
+    timing = RigTiming.of(admittance_problem(spec).rig)
+    kw = dict(kp=210.0, ki=14.0, m_v=0.33, b_v=7.6, timing=timing, samples=1200, seed=3)
+    runs = []
+    for n in ("1", "2"):
+        monkeypatch.setenv("GANTRY_THREADS", n)
+        runs.append(dataclasses.astuple(admittance_monte_carlo(spec, **kw)))
+    assert all(np.array_equal(a, b) if isinstance(a, np.ndarray) else a == b for a, b in zip(*runs))

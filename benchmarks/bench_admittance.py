@@ -5,7 +5,8 @@ Run:  python benchmarks/bench_admittance.py [--quick]
 
 * The command: ``gantry synth specs/stage_x_admittance.toml --json`` as a user runs it, in a fresh process
   under ``/usr/bin/time``: wall seconds, CPU seconds (user + system) and peak memory (max RSS), the median of
-  ``RUNS`` runs (1 with ``--quick``); the same for the synthesis of the PI loop alone
+  ``RUNS`` runs (1 with ``--quick``); the same on one thread (``GANTRY_THREADS=1``: the array chunks of
+  ``design.parallel`` in the calling thread) and for the synthesis of the PI loop alone
   (``specs/stage_x_synth.toml``) beside it.
 * (m_v, b_v) at the design's PI gains against brute force: a log grid over a decade each way around the design
   (16 x 16, 10 x 10 with ``--quick``), every point checked exactly on the design scenarios (payload points x
@@ -19,6 +20,7 @@ Run:  python benchmarks/bench_admittance.py [--quick]
 
 import json
 import math
+import os
 import subprocess
 import sys
 import tempfile
@@ -33,12 +35,13 @@ QUICK = "--quick" in sys.argv
 RUNS = 1 if QUICK else 3
 
 
-def timed(args: list[str]) -> tuple[float, float, float, int, str]:
-    """(wall s, CPU s, peak MB, exit status, stdout) of ``gantry ARGS`` in a fresh process."""
+def timed(args: list[str], env: dict | None = None) -> tuple[float, float, float, int, str]:
+    """(wall s, CPU s, peak MB, exit status, stdout) of ``gantry ARGS`` in a fresh process (``env``: variables
+    added to the environment)."""
     with tempfile.NamedTemporaryFile(suffix=".time") as f:
         t0 = time.perf_counter()
         out = subprocess.run(["/usr/bin/time", "-f", "%U %S %M", "-o", f.name, sys.executable, "-m", "design", *args],
-                             capture_output=True, text=True, cwd=ROOT)
+                             capture_output=True, text=True, cwd=ROOT, env={**os.environ, **(env or {})})
         wall = time.perf_counter() - t0
         user, system, rss_kb = Path(f.name).read_text().split()[-3:]
     return wall, float(user) + float(system), int(rss_kb) / 1024, out.returncode, out.stdout
@@ -46,10 +49,12 @@ def timed(args: list[str]) -> tuple[float, float, float, int, str]:
 
 def command_figures() -> dict:
     rows = {}
-    for name, args in (("admittance (walking mouse, 100 Hz law, co-design)", ["synth", str(SPEC), "--json"]),
-                       ("PI loop alone (stage_x_synth.toml)", ["synth", str(ROOT / "specs" / "stage_x_synth.toml"),
-                                                               "--json"])):
-        runs = [timed(args) for _ in range(RUNS)]
+    for name, args, env in (
+            ("admittance (walking mouse, 100 Hz law, co-design)", ["synth", str(SPEC), "--json"], None),
+            ("the same on one thread (GANTRY_THREADS=1)", ["synth", str(SPEC), "--json"], {"GANTRY_THREADS": "1"}),
+            ("PI loop alone (stage_x_synth.toml)", ["synth", str(ROOT / "specs" / "stage_x_synth.toml"), "--json"],
+             None)):
+        runs = [timed(args, env) for _ in range(RUNS)]
         wall, cpu, mb = (float(np.median([r[k] for r in runs])) for k in range(3))
         rows[name] = runs[-1]
         print(f"  {name}: {wall:.1f} s wall, {cpu:.1f} s CPU, {mb:.0f} MB peak (median of {RUNS}; exit "

@@ -139,6 +139,7 @@ def _codesigned(problem: DesignProblem, progress) -> DesignOutcome:
     import time
 
     from design.admittance.synthesis import synthesise_admittance
+    from design.parallel import thread_map
     from design.synth.monte_carlo import monte_carlo_check
     from design.synth.pi import SynthesisResult, evaluate
     from design.synth.verify import verify
@@ -146,9 +147,9 @@ def _codesigned(problem: DesignProblem, progress) -> DesignOutcome:
     loop = problem.loop
     adm = synthesise_admittance(loop, progress=progress)
     t0 = time.perf_counter()
-    ev = evaluate(loop, adm.kp, adm.ki)
-    ver = verify(loop, adm.kp, adm.ki)
-    mc = monte_carlo_check(loop, adm.kp, adm.ki) if loop.plant.uncertainty else None
+    ev, ver, mc = thread_map(lambda check: check(), (
+        lambda: evaluate(loop, adm.kp, adm.ki), lambda: verify(loop, adm.kp, adm.ki),
+        lambda: monte_carlo_check(loop, adm.kp, adm.ki) if loop.plant.uncertainty else None))
     ok = ev.meets and ver.verified and (mc is None or mc.violations == 0)
     message = (f"PI gains chosen with the admittance (co-design from Kp = {loop.controller.kp.value:g}, Ki = "
                f"{loop.controller.ki.value:g}); the velocity loop alone "

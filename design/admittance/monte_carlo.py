@@ -49,7 +49,7 @@ MARGIN_TOLERANCE = (0.1, 0.05)
 #: relative excess of a hardware peak over its limit that counts as a violation
 HARDWARE_TOLERANCE = 1e-3
 #: draws per chunk, and the draws with the largest ray bounds whose margins are always computed
-CHUNK = 512
+CHUNK = 128
 
 WORST_EXACT = 8
 

@@ -37,8 +37,9 @@ class MouseModel:
     def impedance(self, s) -> np.ndarray:
         """Z_m at complex frequencies ``s`` (rad/s), force per velocity (N*s/m)."""
         s = np.asarray(s, complex)
-        zn = self.neck_damping_n_s_per_m + self.neck_stiffness_n_per_m / s
-        zb = self.body_mass_kg * s + self.leg_damping_n_s_per_m + self.leg_stiffness_n_per_m / s
+        inv_s = 1.0 / s                  # on the grid once, not per mouse
+        zn = self.neck_damping_n_s_per_m + self.neck_stiffness_n_per_m * inv_s
+        zb = self.body_mass_kg * s + self.leg_damping_n_s_per_m + self.leg_stiffness_n_per_m * inv_s
         return self.head_mass_kg * s + zn * zb / (zn + zb)
 
     def impedance_frd(self, w_rad_s) -> np.ndarray:

@@ -28,8 +28,9 @@ def sweep(
 ) -> None:
     """Margins and bandwidth across payloads, with Monte Carlo over the spec's uncertainty ranges."""
     from design.loop.sweep import monte_carlo_sweep
-    from design.views.console import LazyProgress, print_sweep
+    from design.views.console import print_sweep
     from design.views.json import print_json, sweep_csv, sweep_to_dict
+    from design.views.progress import LazyProgress
     from design.workflows import load_problem
     from plant.recording import atomic_write_text
 

@@ -31,8 +31,7 @@ def synth(
     plant_from: PlantFromOption = None,
 ) -> None:
     """Synthesise PI gains maximising worst-case bandwidth under margin constraints over the payload range."""
-    from design.views.console import StageProgress, print_synthesis
-    from design.views.json import design_to_dict, print_json
+    from design.views.progress import StageProgress
     from design.workflows import design, load_problem
 
     keep_inputs({"--report": report}, [spec_file, plant_from])
@@ -42,6 +41,9 @@ def synth(
         outcome = design(problem, method=method, schedule=schedule, progress=progress)
     finally:
         progress.close()
+    from design.views.console import print_synthesis
+    from design.views.json import design_to_dict, print_json
+
     out = design_to_dict(outcome)
     reportable = out["status"] in ("optimal", "mouse_cannot_drive")
     if report is not None and reportable and not problem.spec.plant.measured:

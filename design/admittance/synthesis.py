@@ -57,7 +57,6 @@ from design.admittance.mouse import MouseModel
 from design.admittance.ray import RayBound, best_ray, curve_bounds, ray_problem
 from design.admittance.rig import DiscreteAdmittance, RigTiming
 from design.admittance.verify import AdmittanceVerification, verify_admittance
-from design.parallel import thread_map
 from design.problem import LoopProblem
 from design.synth.scenarios import Scenarios, design_scenarios, grid, parameter_sets, uncertainty_ranges
 from plant.errors import SpecError
@@ -239,15 +238,13 @@ def synthesise_admittance(problem: LoopProblem, *, kp: float | None = None, ki: 
             break
         scenarios = scenarios.with_row(mc.worst_scenario)
     del dense
-    say("verification on the rational model (python-control), what the mouse feels, the stiffest contact")
-    # python-control's work holds the interpreter lock, the other two are array work: side by side
-    verification, feel, contact = thread_map(lambda job: job(), (
-        lambda: verify_admittance(problem, check, kp=kp, ki=ki, timing=timing),
-        lambda: mouse_feel(problem, kp=kp, ki=ki, m_v=x[0], b_v=x[1], scenarios=feel_set, corners=corners,
-                           timing=timing, felt=felt),
-        lambda: stiffest_contact(problem, design_scenarios(problem), kp=kp, ki=ki, m_v=x[0], b_v=x[1],
-                                 timing=timing)))
+    say("verification on the rational model (python-control)")
+    verification = verify_admittance(problem, check, kp=kp, ki=ki, timing=timing)
     binding = ray_binding(problem, rp, ray, corners, rp_scenarios)
+    say("what the mouse feels")
+    feel = mouse_feel(problem, kp=kp, ki=ki, m_v=x[0], b_v=x[1], scenarios=feel_set, corners=corners, timing=timing,
+                      felt=felt)
+    contact = stiffest_contact(problem, design_scenarios(problem), kp=kp, ki=ki, m_v=x[0], b_v=x[1], timing=timing)
     r = x[0] * loc.peak_acceleration_m_per_s2 + x[1] * loc.peak_speed_m_per_s
     if not verification.verified:
         status, msg = "infeasible", "NOT verified: " + "; ".join(verification.failures[:3])

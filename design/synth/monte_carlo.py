@@ -47,11 +47,11 @@ class MonteCarloCheck:
 
 def clopper_pearson_upper(violations: int, samples: int, confidence: float = CONFIDENCE) -> float:
     """Exact one-sided upper confidence bound on a binomial rate; 1 - (1 - confidence)^(1/n) for 0 of n."""
-    from scipy.stats import beta
+    from scipy.special import betaincinv
 
     if violations >= samples:
         return 1.0
-    return float(beta.ppf(confidence, violations + 1, samples - violations))
+    return float(betaincinv(violations + 1, samples - violations, confidence))    # the Beta(k+1, n-k) quantile
 
 
 def draw_settings(problem: LoopProblem, samples: int | None, seed: int | None) -> tuple[int, int]:

@@ -34,16 +34,12 @@ from scipy import special
 from plant.chain import EncoderVelocity
 from plant.effects import EFFECTS, make_effect
 from plant.errors import DataError
+from plant.evidence import ACCEPT_DELTA_BIC, TIE_DELTA_BIC, addition_delta_bic, verdict
 from plant.fitting import FitResult, fit_plant
 from plant.frequency_response import MeasuredResponse
 from plant.models import Plant
 from plant.residuals import ResidualSummary, merge_failing, residual_summary
 
-#: an effect is kept only when it lowers BIC by more than this ("very strong" evidence,
-#: Kass & Raftery 1995); models within it of the selected one are reported as alternatives
-ACCEPT_DELTA_BIC = 10.0
-#: models whose BIC differ by less than this are not told apart: the simpler is reported
-TIE_DELTA_BIC = 2.0
 #: chi^2 is consistent with noise unless a correct model exceeds it with probability below the
 #: one-sided normal tail at NOISE_Z (1.35e-3)
 NOISE_Z = 3.0
@@ -73,7 +69,8 @@ class Nonlinearity:
 
 @dataclass(frozen=True)
 class Candidate:
-    """One effect tried as an addition to a model."""
+    """One effect tried as an addition to a model (``delta_bic`` as ``plant.evidence`` has it: positive favours
+    the effect)."""
 
     effect: str
     delta_bic: float
@@ -393,7 +390,7 @@ def diagnose(plant: Plant, data: MeasuredResponse, *, candidates: tuple[str, ...
         if "cannot be told apart" in flag:
             notes.append(flag)
     return Diagnosis(tuple(steps), final, nonlinear, tuple(dict.fromkeys(notes)),
-                     "explained" if explained else "not_explained", explanation, alternatives, fits)
+                     verdict(explained), explanation, alternatives, fits)
 
 
 def _residual_peak(res: ResidualSummary) -> str:
@@ -446,7 +443,7 @@ def _path(fits, base, selected, data, skipped, unidentifiable, pool) -> list[Ste
         ranking = []
         for k, fit in children.items():
             (name,) = set(k) - set(current)
-            ranking.append(Candidate(name, fits[current].bic - fit.bic, fit.reduced_chi2, fit))
+            ranking.append(Candidate(name, addition_delta_bic(fits[current].bic, fit.bic), fit.reduced_chi2, fit))
         ranking.sort(key=lambda c: -c.delta_bic)
         tried = {c.effect for c in ranking}
         for name in pool:

@@ -25,9 +25,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from plant.diagnosis import ACCEPT_DELTA_BIC
 from plant.effects import EFFECTS, make_effect
 from plant.errors import EffectError
+from plant.evidence import ACCEPT_DELTA_BIC, addition_delta_bic, verdict
 from plant.inverse_model import InverseModelData, Preprocessing, inverse_model_data
 from plant.models import Plant
 from plant.time_fit import TimeFitResult, bic, fit_inverse_model
@@ -39,7 +39,7 @@ DIRECTION_FRACTION = 0.05
 
 @dataclass(frozen=True)
 class TimeCandidate:
-    """One effect tried on the base model."""
+    """One effect tried on the base model (``delta_bic`` as ``plant.evidence`` has it: positive favours it)."""
 
     effect: str
     delta_bic: float
@@ -175,15 +175,14 @@ def diagnose_time(plant: Plant, rec: TimeRecording, *, candidates: tuple[str, ..
     bics = {c: bic(f, n_eff) for c, f in models.items()}
     selected = _select(models, bics)
     base = models[()]
-    ranking = tuple(sorted((TimeCandidate(n, bics[(n,)] - bics[()], models[(n,)].rms_residual) for n in names),
-                           key=lambda c: c.delta_bic))
+    ranking = tuple(sorted((TimeCandidate(n, addition_delta_bic(bics[()], bics[(n,)]), models[(n,)].rms_residual)
+                            for n in names), key=lambda c: -c.delta_bic))
     steps = _path(models, bics, selected)
     final = models[selected]
     peak_hz, peak_share = _residual_peak(final)
-    verdict = "explained" if final.explained else "not explained"
     explanation = _explanation(final, selected, peak_hz, peak_share)
-    return TimeDiagnosis(steps, ranking, models, selected, verdict, explanation, _where(base), _direction(base),
-                         n_eff, peak_hz, peak_share, tuple(notes))
+    return TimeDiagnosis(steps, ranking, models, selected, verdict(final.explained), explanation, _where(base),
+                         _direction(base), n_eff, peak_hz, peak_share, tuple(notes))
 
 
 def _explanation(final: TimeFitResult, selected: tuple[str, ...], peak_hz: float, peak_share: float) -> str:
@@ -225,7 +224,7 @@ def _path(models, bics, selected) -> tuple[TimeStep, ...]:
         fit = models[nxt]
         before = models[current]
         steps.append(TimeStep(nxt, fit, bics[nxt],
-                              f"add {added}: dBIC {bics[nxt] - bics[current]:+.1f}, rms residual "
+                              f"add {added}: dBIC {addition_delta_bic(bics[current], bics[nxt]):+.1f}, rms residual "
                               f"{before.rms_residual:.3g} -> {fit.rms_residual:.3g} N"))
         current = nxt
     return tuple(steps)

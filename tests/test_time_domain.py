@@ -147,7 +147,7 @@ def test_diagnosis_finds_exactly_the_simulated_force_effects(axis, expected, see
 def test_diagnosis_says_not_explained_for_a_position_dependent_force(seed):
     axis = Axis(ripple_n=4.0)
     diag = diagnose_time(Plant("x", force_constant_n_per_a=axis.gain_n_per_v), _recording(axis, seed), prep=HOLD)
-    assert diag.verdict == "not explained"
+    assert diag.verdict == "not_explained"
     assert "position" in diag.explanation
 
 

@@ -22,7 +22,8 @@ from design.synth.monte_carlo import MonteCarloCheck
 from design.synth.pi import Evaluation, SynthesisResult
 from design.synth.schedule import SchedulePoint
 from design.synth.verify import Verification
-from plant.diagnosis import ACCEPT_DELTA_BIC, Diagnosis, failing_bands
+from plant.diagnosis import Diagnosis, failing_bands
+from plant.evidence import ACCEPT_DELTA_BIC
 from plant.excitation import THESIS_BLOCK_S, Multisine, VariancePrediction
 from plant.fitting import FitResult
 from plant.rational_fit import RationalFit
@@ -126,6 +127,7 @@ def diagnosis_to_dict(diag: Diagnosis) -> dict:
     first = diag.steps[0]
     final = diag.final
     return {
+        "domain": "frequency",
         "steps": [{"effects": list(s.effects), "reduced_chi2": finite_or_none(s.fit.reduced_chi2),
                    "rms_magnitude_error_db": s.rms_magnitude_error_db, "rms_phase_error_deg": s.rms_phase_error_deg,
                    "bic": s.fit.bic, "decision": s.decision} for s in diag.steps],

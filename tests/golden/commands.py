@@ -5,7 +5,9 @@
 written by the code before ``design/`` was split into sub-packages; the ``synth_*`` files again when
 synthesis became robust to the specs' ``plant.uncertainty`` (a deliberate change of the designs), and
 ``synth_admittance`` when the bundled admittance spec took the walking mouse, the rig's 100 Hz law and the
-co-design of the PI gains (a new spec and a new design).
+co-design of the PI gains (a new spec and a new design); ``diagnose_*`` when the diagnosis contract became one
+across kinds of data (``docs/formats.md``: the time-domain verdict ``not_explained`` and its dBIC of an added
+effect positive, the key ``domain`` on frequency data).
 """
 
 from __future__ import annotations

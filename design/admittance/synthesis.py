@@ -58,7 +58,14 @@ from design.admittance.ray import RayBound, best_ray, curve_bounds, ray_problem
 from design.admittance.rig import DiscreteAdmittance, RigTiming
 from design.admittance.verify import AdmittanceVerification, verify_admittance
 from design.problem import LoopProblem
-from design.synth.scenarios import Scenarios, design_scenarios, grid, parameter_sets, uncertainty_ranges
+from design.synth.scenarios import (
+    Scenarios,
+    describe_row,
+    design_scenarios,
+    grid,
+    parameter_sets,
+    uncertainty_ranges,
+)
 from plant.errors import SpecError
 
 #: rounds of the dense check adding its worst violator, and of the Monte Carlo check
@@ -252,7 +259,7 @@ def synthesise_admittance(problem: LoopProblem, *, kp: float | None = None, ki: 
         status = "infeasible"
         msg = (f"verified on the {len(scenarios)} design scenarios, but {mc.violations} of {mc.samples} Monte Carlo "
                f"draws over payload, uncertainty and mouse violate the requirements (worst at "
-               f"{_describe(mc.worst_scenario)}, mouse {MouseModel(**mc.worst_mouse).label()})")
+               f"{describe_row(mc.worst_scenario)}, mouse {MouseModel(**mc.worst_mouse).label()})")
     elif not feel.can_drive:
         status = "mouse_cannot_drive"
         msg = (f"the mouse cannot drive this design: it asks {feel.peak_force_n:.3g} N on the locomotion profile "
@@ -327,7 +334,3 @@ def _infeasible(problem, ray: RayBound, rp, scenarios, kp, ki, timing, corners, 
     from design.admittance.tradeoff import trade_off
 
     return replace(result, tradeoff=trade_off(problem, result, rp))
-
-
-def _describe(row: dict) -> str:
-    return ", ".join(f"{k} = {v:.4g}" for k, v in row.items())

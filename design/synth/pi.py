@@ -47,7 +47,7 @@ from design.loop.margins import closed_loop_bandwidth_hz, loop_margins, nyquist_
 from design.problem import LoopProblem
 from design.synth.filter_scan import scan_filters
 from design.synth.monte_carlo import MonteCarloCheck, monte_carlo_check
-from design.synth.scenarios import Scenarios, check_scenarios, design_scenarios
+from design.synth.scenarios import Scenarios, check_scenarios, describe_row, design_scenarios
 from design.synth.solvers import raise_if_interrupted
 from design.synth.verify import Verification, verify
 from plant.algebra import CASADI, Pair
@@ -1050,8 +1050,8 @@ def _synthesise(problem: LoopProblem, method: str, max_rounds: int, extra: list[
     if mc.violations:
         return SynthesisResult("infeasible", f"verified on the {len(points)} design scenarios ({label}), but "
                                f"{mc.violations} of {mc.samples} Monte Carlo draws over the uncertainty violate the "
-                               f"requirements (worst at {_describe(mc.worst_scenario)})", ev, v, method, seconds, base,
-                               names, pts, details, monte_carlo=mc, discrete=discrete)
+                               f"requirements (worst at {describe_row(mc.worst_scenario)})", ev, v, method, seconds,
+                               base, names, pts, details, monte_carlo=mc, discrete=discrete)
     return SynthesisResult("optimal", f"verified ({label}) on {len(points)} design scenarios; 0 of {mc.samples} "
                            f"Monte Carlo draws violate (95 % upper bound {100 * mc.rate_upper_bound:.2g} %)", ev, v,
                            method, seconds, base, names, pts, details, monte_carlo=mc, discrete=discrete)
@@ -1073,7 +1073,3 @@ def _discrete(problem: LoopProblem, ev: Evaluation, points: Scenarios, dense: Sc
     check = check_discrete([(rows.describe(k), rows.plant(base, k)) for k in range(len(rows))], design,
                            phase_margin_deg=req.phase_margin_deg, gain_margin_db=req.gain_margin_db)
     return design, check
-
-
-def _describe(row: dict) -> str:
-    return ", ".join(f"{k} = {v:.4g}" for k, v in row.items())

@@ -122,3 +122,8 @@ def random_scenarios(problem: LoopProblem, samples: int, *, seed: int) -> Scenar
     rp = problem.plant.payload_kg
     m = rng.uniform(rp.min, rp.max, samples) if rp.max > rp.min else np.full(samples, rp.min)
     return Scenarios(m, {n: rng.uniform(lo, hi, samples) for n, (lo, hi) in uncertainty_ranges(problem).items()})
+
+
+def describe_row(row: dict[str, float]) -> str:
+    """A scenario's row (``Scenarios.row``) as 'payload_kg = 40, damping_n_s_per_m = 330, ...'."""
+    return ", ".join(f"{k} = {v:.4g}" for k, v in row.items())

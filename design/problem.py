@@ -52,6 +52,7 @@ from typing import Annotated, Literal
 import numpy as np
 from annotated_types import Ge, Gt, Le, Lt
 
+from plant.drive_filters import FILTERS, KINDS
 from plant.models import BASE_BOUNDS, Plant
 
 #: the payloads (kg) every command accepts: the bounds of the plant's ``mass_kg``, which fits, simulations
@@ -134,7 +135,7 @@ class GainBounds:
 
 @dataclass(frozen=True)
 class DriveFilter:
-    """A biquad after the PI controller (``design.loop.filters``): ``kind`` low_pass or notch, its
+    """A biquad after the PI controller (``plant.drive_filters``): ``kind`` low_pass or notch, its
     fixed parameters and the ranges of those the synthesis chooses (empty: a filter the drive already
     has, kept as it is)."""
 
@@ -402,8 +403,6 @@ def with_filters(family: PlantFamily, filters: tuple[DriveFilter, ...],
                  values: list[dict] | None = None) -> PlantFamily:
     """The family with the drive's filters in the loop (as effects at the drive, replacing any there):
     at ``values`` (one dict per filter; None leaves a designed filter out), else at their start values."""
-    from design.loop.filters import FILTERS, KINDS
-
     nominal = family.nominal
     kept = tuple(e for e in nominal.effects if e.name not in FILTERS)
     chosen = values if values is not None else [f.start() for f in filters]

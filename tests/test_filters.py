@@ -15,12 +15,12 @@ import numpy as np
 import pytest
 
 from design.loop.fast import fast_analyse_loop
-from design.loop.filters import LowPassFilter, NotchFilter
 from design.problem import with_filter_values
 from design.spec.schema import parse_spec
 from design.synth.filter_scan import filter_settings
 from design.synth.pi import _casadi_frd
 from plant import CurrentLoop, Delay, stage_x
+from plant.drive_filters import LowPassFilter, NotchFilter
 from plant.errors import SpecError
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -58,6 +58,7 @@ from design.problem import (
     Verification,
     with_filters,
 )
+from plant.drive_filters import KINDS
 from plant.effects import EFFECTS, make_effect
 from plant.errors import GantryError, SpecError
 from plant.models import BASE_BOUNDS, Plant
@@ -166,7 +167,6 @@ class FilterSpec(_Strict):
 
     @model_validator(mode="after")
     def _valid(self):
-        from design.loop.filters import KINDS
 
         if self.kind == "low_pass" and self.depth is not None:
             raise ValueError("depth is a notch parameter; a low-pass filter has none")
@@ -426,7 +426,6 @@ def _check_limits(spec: Spec) -> None:
     """Every plant parameter a spec gives, within the bounds of ``Plant.parameters`` (``BASE_BOUNDS`` and
     the effects' ``bounds``: what fits, simulations and every design command check): effect parameters,
     the drive filters, the loop rate's sampling and the uncertainty ranges, named by their keys."""
-    from design.loop.filters import KINDS
 
     plant = spec.plant
     problems = [_outside(f"plant.effects.{name}.{param}", value, EFFECTS[name].bounds[param])

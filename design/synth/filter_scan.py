@@ -17,11 +17,11 @@ import itertools
 
 import numpy as np
 
-from design.loop.filters import FILTERS, KINDS
 from design.loop.loops import pi_frd
 from design.loop.margins import closed_loop_bandwidth_hz, loop_margins
 from design.problem import LoopProblem
 from design.synth.scenarios import Scenarios
+from plant.drive_filters import FILTERS, KINDS
 from plant.grid import log_grid_rad_s
 
 #: points of each designed notch parameter's range (frequency and damping log-spaced, depth linear); a

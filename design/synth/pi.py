@@ -51,6 +51,7 @@ from design.synth.scenarios import Scenarios, check_scenarios, describe_row, des
 from design.synth.solvers import raise_if_interrupted
 from design.synth.verify import Verification, verify
 from plant.algebra import CASADI, Pair
+from plant.drive_filters import FILTERS, KINDS
 from plant.effects import EFFECTS
 from plant.errors import SpecError
 from plant.grid import log_grid_rad_s
@@ -220,7 +221,6 @@ def high_frequency_rows(problem: LoopProblem) -> tuple[np.ndarray, np.ndarray, n
     """(w, a, b) with the controller's response kp a + ki b = (kp + ki/jw) F(jw) at ``HF_POINTS`` frequencies
     from ``requirements.high_frequency_hz`` to ``HF_TOP_HZ`` (or just below the loop rate's Nyquist
     frequency), F the drive filters the plant carries; None without a noise limit."""
-    from design.loop.filters import FILTERS
 
     req = problem.requirements
     if req.max_high_frequency_gain is None:
@@ -516,7 +516,6 @@ def exact_design(problem: LoopProblem, scenarios: Scenarios, kp0: float, ki0: fl
     the problem's plant carries."""
     import casadi as ca
 
-    from design.loop.filters import FILTERS, KINDS
     from plant.effect_base import replace_unchecked
 
     req, c = problem.requirements, problem.controller

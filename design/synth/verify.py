@@ -21,6 +21,7 @@ import numpy as np
 
 from design.problem import LoopProblem
 from design.synth.scenarios import Scenarios
+from plant.drive_filters import FILTERS
 
 #: margins may fall short of the requirement by this much (deg, dB) and still pass (rounding)
 MARGIN_TOLERANCE = 0.05
@@ -98,7 +99,6 @@ def verify(problem: LoopProblem, kp: float, ki: float, scenarios: Scenarios | No
             if req.disk_margin is not None and alpha < req.disk_margin * 0.999:
                 failures.append(f"disk margin {alpha:.3f} < {req.disk_margin:g} at {m}")
     if req.max_high_frequency_gain is not None:   # the noise limit on python-control's C(s) F(s)
-        from design.loop.filters import FILTERS
 
         w = 2 * math.pi * np.geomspace(req.high_frequency_hz, 20 * req.high_frequency_hz, 2000)
         CF = C

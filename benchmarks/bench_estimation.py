@@ -21,8 +21,8 @@ import time
 
 import numpy as np
 
-from plant.lockin import estimate_response
-from plant.recording import Block, Recording
+from plant.data.recording import Block, Recording
+from plant.estimate.lockin import estimate_response
 
 AMP_I = 0.5
 G = 0.04 * np.exp(-0.7j)

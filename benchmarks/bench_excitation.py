@@ -3,22 +3,22 @@
 Run:  python benchmarks/bench_excitation.py [--repeats 100] [--noise-m-per-s 1e-3] [--seed 0]
 
 Plant: Stage X as a mass-damper, v' = (k_t i - c v) / m with m = 20 kg, c = 400 N s/m and the
-force constant k_t of ``plant.models.Plant`` (20 N/A), driven by a zero-order-held current and
+force constant k_t of ``plant.physics.models.Plant`` (20 N/A), driven by a zero-order-held current and
 sampled at 2 kHz: exactly v[n+1] = a v[n] + b i[n], a = exp(-c Ts / m), b = k_t (1 - a) / c,
 so the truth every estimate is compared with is G(f) = b z^-1 / (1 - a z^-1), z = exp(j 2 pi f Ts).
 White velocity noise of the same standard deviation in both experiments; both start from rest.
 
 * Stepped sine (thesis section 4.1): 50 log-spaced frequencies 1-75 Hz, one 5 s block each
   (250 s of machine time), amplitude = the multisine's peak current; estimated with the tool's
-  lock-in, ``plant.lockin.estimate_response``.
-* Multisine (``plant.excitation.design_multisine``): repeated periods for the same 250 s, the
+  lock-in, ``plant.estimate.lockin.estimate_response``.
+* Multisine (``plant.experiment.excitation.design_multisine``): repeated periods for the same 250 s, the
   first period dropped; estimated with the tool's periodic estimator,
-  ``plant.frf_estimation.periodic_response``.
+  ``plant.estimate.frf_estimation.periodic_response``.
 
 Printed per method: the mean over lines and repeats of the actual error |G_hat - G|^2 (the
 figure that matters) and of the reported variance, each times the machine time; the ratio
 stepped / multisine (> 1: the multisine is better); and measured / predicted
-(``plant.excitation.predicted_variance``). The sampling scatter of a mean over L lines and R
+(``plant.experiment.excitation.predicted_variance``). The sampling scatter of a mean over L lines and R
 repeats is about 1 / sqrt(L R).
 """
 
@@ -28,18 +28,18 @@ import time
 import numpy as np
 from scipy.signal import lfilter
 
-from plant.excitation import (
+from plant.data.recording import Block, Recording
+from plant.data.time_recording import TimeRecording
+from plant.estimate.frf_estimation import periodic_response
+from plant.estimate.lockin import estimate_response
+from plant.experiment.excitation import (
     STEPPED_SETTLE_S,
     THESIS_BLOCK_S,
     design_multisine,
     predicted_variance,
     thesis_frequencies,
 )
-from plant.frf_estimation import periodic_response
-from plant.lockin import estimate_response
-from plant.models import Plant
-from plant.recording import Block, Recording
-from plant.time_recording import TimeRecording
+from plant.physics.models import Plant
 
 MASS_KG = 20.0
 DAMPING_N_S_PER_M = 400.0

@@ -26,9 +26,9 @@ sys.path.insert(0, str(ROOT / "tests"))
 from independent_stick_slip import write_recording  # noqa: E402
 
 from plant import stage_x  # noqa: E402
-from plant.diagnosis import diagnose  # noqa: E402
-from plant.lockin import estimate_response  # noqa: E402
-from plant.recording_io import read_recording  # noqa: E402
+from plant.data.recording_io import read_recording  # noqa: E402
+from plant.diagnose.diagnosis import diagnose  # noqa: E402
+from plant.estimate.lockin import estimate_response  # noqa: E402
 
 FORCE_N = 10.0
 TOLERANCE = 0.05

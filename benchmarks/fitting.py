@@ -13,9 +13,9 @@ import time
 import numpy as np
 
 from plant import CoulombFriction, CurrentLoop, Delay, Resonance, stage_x, stage_y
-from plant.fitting import fit_plant
-from plant.frequency_response import MeasuredResponse
-from plant.rational_fit import fit_rational
+from plant.data.frequency_response import MeasuredResponse
+from plant.identify.fitting import fit_plant
+from plant.identify.rational_fit import fit_rational
 
 F_HZ = np.linspace(1.0, 75.0, 50)
 W = 2 * np.pi * F_HZ

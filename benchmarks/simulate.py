@@ -21,8 +21,8 @@ from plant import (
     stage_x,
     stage_y,
 )
-from plant.recording import write_recording_csv
-from plant.simulate import simulate_stepped_sine
+from plant.data.recording import write_recording_csv
+from plant.experiment.simulate import simulate_stepped_sine
 
 F_HZ = np.geomspace(1.0, 75.0, 50)
 CASES = {

@@ -52,8 +52,8 @@ from typing import Annotated, Literal
 import numpy as np
 from annotated_types import Ge, Gt, Le, Lt
 
-from plant.drive_filters import FILTERS, KINDS
-from plant.models import BASE_BOUNDS, Plant
+from plant.physics.drive_filters import FILTERS, KINDS
+from plant.physics.models import BASE_BOUNDS, Plant
 
 #: the payloads (kg) every command accepts: the bounds of the plant's ``mass_kg``, which fits, simulations
 #: and the loop analyses check too (the moving mass of the thesis gantry is 5-40 kg)
@@ -135,7 +135,7 @@ class GainBounds:
 
 @dataclass(frozen=True)
 class DriveFilter:
-    """A biquad after the PI controller (``plant.drive_filters``): ``kind`` low_pass or notch, its
+    """A biquad after the PI controller (``plant.physics.drive_filters``): ``kind`` low_pass or notch, its
     fixed parameters and the ranges of those the synthesis chooses (empty: a filter the drive already
     has, kept as it is)."""
 

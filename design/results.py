@@ -18,12 +18,12 @@ if TYPE_CHECKING:
     from design.synth.monte_carlo import MonteCarloCheck
     from design.synth.pi import Evaluation, SynthesisResult
     from design.synth.schedule import SchedulePoint
-    from plant.diagnosis import Diagnosis
-    from plant.fitting import FitResult
-    from plant.frequency_response import MeasuredResponse
-    from plant.rational_fit import RationalFit
-    from plant.time_diagnosis import TimeDiagnosis
-    from plant.time_fit import TimeFitResult
+    from plant.data.frequency_response import MeasuredResponse
+    from plant.diagnose.diagnosis import Diagnosis
+    from plant.diagnose.time_diagnosis import TimeDiagnosis
+    from plant.identify.fitting import FitResult
+    from plant.identify.rational_fit import RationalFit
+    from plant.identify.time_fit import TimeFitResult
 
 
 @dataclass(frozen=True)

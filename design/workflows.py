@@ -25,13 +25,13 @@ from design.results import (
     ReportContent,
 )
 from design.spec.schema import parse_spec
-from plant.effects import EFFECTS
 from plant.errors import GantryError, ParameterError, SpecError
+from plant.physics.effects import EFFECTS
 
 if TYPE_CHECKING:
-    from plant.frequency_response import MeasuredResponse
-    from plant.inverse_model import Preprocessing
-    from plant.rational_fit import RationalFit
+    from plant.data.frequency_response import MeasuredResponse
+    from plant.identify.inverse_model import Preprocessing
+    from plant.identify.rational_fit import RationalFit
 
 #: thesis section 4.1: 0.5 A sine for Stage X, 1.75 A for Stage Y
 THESIS_AMPLITUDE_A = {"x": 0.5, "y": 1.75}
@@ -44,7 +44,7 @@ def load_problem(spec_path: str | Path, *, plant_from: str | Path | None = None)
     (the ``gantry fit --json`` output) when ``plant_from`` is given. The payload range, uncertainty,
     requirements and controller bounds stay the spec's; effects a synthesis cannot design for
     (``coulomb_friction``, ``offset``: no linear response) are left out and listed."""
-    from plant.text_io import read_text
+    from plant.host.text_io import read_text
 
     spec_path = Path(spec_path)
     try:
@@ -66,7 +66,7 @@ def load_problem(spec_path: str | Path, *, plant_from: str | Path | None = None)
 
 def _plant_from_fit(path: Path) -> tuple[dict, list[str]]:
     """The ``[plant]`` keys a fit result sets, and the effects left out."""
-    from plant.text_io import read_text
+    from plant.host.text_io import read_text
 
     try:
         fit = json.loads(read_text(path, what="the fit result"))
@@ -215,7 +215,7 @@ def report_content(problem: DesignProblem, *, outcome: DesignOutcome | None = No
         adm_curves = admittance_curves(loop, outcome.admittance)
     recordings = []
     for path, response in zip(data, measured):
-        from plant.diagnosis import diagnose
+        from plant.diagnose.diagnosis import diagnose
 
         recordings.append(Recording(Path(path), response, diagnose(loop.plant.plant(), response)))
     check, comparison, adm_comparison = None, (), None
@@ -269,12 +269,12 @@ def _robustness(loop, kp: float, ki: float, outcome: DesignOutcome | None):
 def measure(path: str | Path, *, columns: str | None = None, sample_rate_hz: float | None = None,
             frf: str = "auto") -> MeasuredResponse:
     """The frequency response of any recording: a stepped sine by the lock-in, a time-domain recording
-    by ``plant.frf_estimation.estimate_frf`` (``frf``: auto, periodic, lpm or closed-loop)."""
-    from plant.frf_estimation import estimate_frf
-    from plant.lockin import estimate_response
-    from plant.recording_io import parse_column_map
-    from plant.time_recording import TimeRecording
-    from plant.time_recording_io import read_measurement
+    by ``plant.estimate.frf_estimation.estimate_frf`` (``frf``: auto, periodic, lpm or closed-loop)."""
+    from plant.data.recording_io import parse_column_map
+    from plant.data.time_recording import TimeRecording
+    from plant.data.time_recording_io import read_measurement
+    from plant.estimate.frf_estimation import estimate_frf
+    from plant.estimate.lockin import estimate_response
 
     rec = read_measurement(path, columns=parse_column_map(columns) if columns else None,
                            sample_rate_hz=sample_rate_hz)
@@ -286,7 +286,7 @@ def simulation_plant(*, spec: Path | None, stage: str | None, values: dict[str, 
     """The plant a simulation runs (the spec's at its nominal payload, or the thesis's, then ``values`` and
     ``effects_added``) and the excitation amplitude (A; default the thesis's for the stage)."""
     from design.spec.schema import load_spec
-    from plant.models import Plant, build_plant
+    from plant.physics.models import Plant, build_plant
 
     if (spec is None) == (stage is None):
         raise ParameterError("give exactly one of --spec FILE or --stage x|y")
@@ -333,16 +333,16 @@ def fit_recording(path: str | Path, *, stage: str, effects: tuple[str, ...] = ()
     time-domain recording by the inverse model or output error (``method``), or its frequency response
     (``frf``: auto, periodic, lpm or closed-loop) as a stepped sine's. ``rational`` ("POLES,ZEROS") adds
     a tfest-like rational fit of the frequency response."""
-    from plant.effects import make_effect
-    from plant.fitting import fit_plant
-    from plant.frf_estimation import estimate_frf
-    from plant.inverse_model import Preprocessing
-    from plant.lockin import estimate_response
-    from plant.models import Plant
-    from plant.recording_io import parse_column_map
-    from plant.time_fit import fit_inverse_model, fit_output_error
-    from plant.time_recording import TimeRecording
-    from plant.time_recording_io import read_measurement
+    from plant.data.recording_io import parse_column_map
+    from plant.data.time_recording import TimeRecording
+    from plant.data.time_recording_io import read_measurement
+    from plant.estimate.frf_estimation import estimate_frf
+    from plant.estimate.lockin import estimate_response
+    from plant.identify.fitting import fit_plant
+    from plant.identify.inverse_model import Preprocessing
+    from plant.identify.time_fit import fit_inverse_model, fit_output_error
+    from plant.physics.effects import make_effect
+    from plant.physics.models import Plant
 
     prep = prep or Preprocessing()
     if stage not in ("x", "y"):
@@ -369,7 +369,7 @@ def fit_recording(path: str | Path, *, stage: str, effects: tuple[str, ...] = ()
 
 def _rational(measured: MeasuredResponse, rational: str, weighting: str) -> RationalFit:
     """The rational fit of the output-averaged response (variance: the mean variance / number of outputs)."""
-    from plant.rational_fit import WEIGHTINGS, fit_rational
+    from plant.identify.rational_fit import WEIGHTINGS, fit_rational
 
     try:
         n_poles, n_zeros = (int(v) for v in rational.split(","))
@@ -394,15 +394,15 @@ def diagnose_recording(path: str | Path, *, stage: str, candidates: tuple[str, .
     """Start from the thesis model and find what the recording needs: a stepped sine (or a time-domain
     recording's frequency response, ``frf``) by the frequency-domain diagnosis with recordings at
     other amplitudes as evidence of nonlinearity; a time-domain recording by its force balance."""
-    from plant.diagnosis import diagnose
-    from plant.frf_estimation import estimate_frf
-    from plant.inverse_model import Preprocessing
-    from plant.lockin import amplitude_dependence, estimate_response
-    from plant.models import Plant
-    from plant.recording_io import parse_column_map
-    from plant.time_diagnosis import diagnose_time
-    from plant.time_recording import TimeRecording
-    from plant.time_recording_io import read_measurement
+    from plant.data.recording_io import parse_column_map
+    from plant.data.time_recording import TimeRecording
+    from plant.data.time_recording_io import read_measurement
+    from plant.diagnose.diagnosis import diagnose
+    from plant.diagnose.time_diagnosis import diagnose_time
+    from plant.estimate.frf_estimation import estimate_frf
+    from plant.estimate.lockin import amplitude_dependence, estimate_response
+    from plant.identify.inverse_model import Preprocessing
+    from plant.physics.models import Plant
 
     prep = prep or Preprocessing()
     if stage not in ("x", "y"):

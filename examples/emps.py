@@ -14,13 +14,13 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from plant.effects import make_effect
-from plant.inverse_model import Preprocessing
-from plant.models import Plant
-from plant.recording_io import parse_column_map
-from plant.time_diagnosis import diagnose_time
-from plant.time_fit import fit_inverse_model, fit_output_error
-from plant.time_recording_io import read_measurement
+from plant.data.recording_io import parse_column_map
+from plant.data.time_recording_io import read_measurement
+from plant.diagnose.time_diagnosis import diagnose_time
+from plant.identify.inverse_model import Preprocessing
+from plant.identify.time_fit import fit_inverse_model, fit_output_error
+from plant.physics.effects import make_effect
+from plant.physics.models import Plant
 
 DATA = Path(__file__).resolve().parent / "data" / "emps" / "DATA_EMPS.mat"
 #: the command is in V; its gain gtau (N/V) plays the force constant

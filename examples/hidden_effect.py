@@ -19,10 +19,10 @@ from pathlib import Path
 import numpy as np
 
 from plant import CoulombFriction, CurrentLoop, Delay, Resonance, stage_x
-from plant.diagnosis import diagnose
-from plant.lockin import estimate_response
-from plant.recording_io import read_recording
-from plant.simulate import simulate_stepped_sine
+from plant.data.recording_io import read_recording
+from plant.diagnose.diagnosis import diagnose
+from plant.estimate.lockin import estimate_response
+from plant.experiment.simulate import simulate_stepped_sine
 
 KINDS = ["delay", "current_loop", "resonance", "coulomb_friction", "none", "delay+resonance", "outside_library"]
 argv = sys.argv[1:]

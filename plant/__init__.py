@@ -1,7 +1,7 @@
 """Physics of the exoskeleton gantry: parameters, thesis models, effects, data, fitting.
 
 The names below are imported on first use (PEP 562), so that importing a light submodule such as
-``plant.interrupts`` or ``plant.errors`` does not load numpy and the models first: the command line
+``plant.host.interrupts`` or ``plant.errors`` does not load numpy and the models first: the command line
 installs its signal handlers before anything heavy is imported.
 """
 
@@ -12,12 +12,12 @@ import importlib
 __version__ = "0.1.0"
 
 _EXPORTS = {
-    "plant.effects": ("EFFECTS", "CoulombFriction", "CurrentLoop", "Delay", "Effect", "EncoderVelocity",
+    "plant.physics.effects": ("EFFECTS", "CoulombFriction", "CurrentLoop", "Delay", "Effect", "EncoderVelocity",
                       "PayloadResonance", "Resonance", "Sampling", "SecondResonance", "SensorFilter", "TiltCoupling",
                       "make_effect"),
     "plant.errors": ("DataError", "EffectError", "GantryError", "GridError", "ParameterError", "SpecError"),
-    "plant.models": ("Plant", "build_plant", "corner_frequency_hz", "stage_x", "stage_y"),
-    "plant.parameters": ("THESIS", "Parameter"),
+    "plant.physics.models": ("Plant", "build_plant", "corner_frequency_hz", "stage_x", "stage_y"),
+    "plant.physics.parameters": ("THESIS", "Parameter"),
 }
 _WHERE = {name: module for module, names in _EXPORTS.items() for name in names}
 

@@ -37,7 +37,7 @@ import numpy as np
 from hypothesis import HealthCheck, Phase, given, seed, settings
 from hypothesis import strategies as st
 
-from plant.interrupts import Terminated
+from plant.host.interrupts import Terminated
 
 ROOT = Path(__file__).resolve().parents[1]
 SEED = int(os.environ.get("GANTRY_FUZZ_SEED", "1414"))
@@ -430,8 +430,8 @@ def bases() -> Bases:
     from nptdms import ChannelObject, TdmsWriter
 
     from plant import Delay, stage_x
-    from plant.recording import recording_csv_text
-    from plant.simulate import simulate_stepped_sine
+    from plant.data.recording import recording_csv_text
+    from plant.experiment.simulate import simulate_stepped_sine
 
     rec = simulate_stepped_sine(stage_x(mass_kg=30.0) * Delay(0.001), f_hz=np.geomspace(4, 60, 5),
                                 current_amplitude_a=0.5, duration_s=0.4, sample_rate_hz=500.0,
@@ -666,7 +666,7 @@ SPEC_VALUES = [-1.0, 0, 0.0, -0.0, Raw("1e999"), Raw("-1e999"), Raw("nan"), Raw(
 spec_value = st.one_of(st.sampled_from(SPEC_VALUES), st.floats(), st.integers(), st.text(max_size=10))
 SPEC_EDITS = ["set", "set", "set", "scale", "scale", "effect", "effect", "delete", "misspell", "add", "drop_section",
               "measured"]
-#: effects and their default parameters (``plant.effects``)
+#: effects and their default parameters (``plant.physics.effects``)
 EFFECT_DEFAULTS = {"delay": {"seconds": 0.001}, "current_loop": {"bandwidth_hz": 1000.0}, "sampling": {"rate_hz": 1e4},
                    "sensor_filter": {"frequency_hz": 200.0, "damping_ratio": 0.707},
                    "encoder_velocity": {"rate_hz": 2000.0},

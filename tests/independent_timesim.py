@@ -1,7 +1,7 @@
 """Independent time-domain simulator of a linear-motor axis (numpy/scipy only).
 
 Shares no code with ``plant`` or ``design``: the recordings it makes are an independent truth
-for ``plant.frf_estimation``.
+for ``plant.estimate.frf_estimation``.
 
 Plant
     A motor mass m1 (kg) on rails with viscous damping b (N s/m), driven by the force Kt i

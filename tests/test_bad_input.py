@@ -19,11 +19,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from plant import Delay, stage_x, text_io
+from plant import Delay, stage_x
+from plant.data.recording import recording_csv_text, write_recording_csv
 from plant.errors import DataError
-from plant.recording import recording_csv_text, write_recording_csv
-from plant.simulate import simulate_stepped_sine
-from plant.text_io import decode
+from plant.experiment.simulate import simulate_stepped_sine
+from plant.host import text_io
+from plant.host.text_io import decode
 
 ROOT = Path(__file__).resolve().parents[1]
 THESIS_X = ROOT / "specs" / "thesis_stage_x.toml"

@@ -9,9 +9,9 @@ each point comes from the estimator's sub-blocks, so this checks estimator and f
 import numpy as np
 
 from plant import CurrentLoop, Delay, stage_x
-from plant.fitting import fit_plant
-from plant.lockin import estimate_response
-from plant.simulate import simulate_stepped_sine
+from plant.estimate.lockin import estimate_response
+from plant.experiment.simulate import simulate_stepped_sine
+from plant.identify.fitting import fit_plant
 
 TRUTH = {"mass_kg": 40.0, "damping_n_s_per_m": 440.0, "delay.seconds": 1e-3, "current_loop.bandwidth_hz": 300.0}
 

@@ -17,10 +17,10 @@ import pytest
 import scipy.signal
 
 from design.views.json import print_json
+from plant.data.recording import Block, Recording, write_recording_csv
+from plant.data.recording_io import read_recording
 from plant.errors import DataError
-from plant.lockin import estimate_response
-from plant.recording import Block, Recording, write_recording_csv
-from plant.recording_io import read_recording
+from plant.estimate.lockin import estimate_response
 
 FS = 2000.0
 K, TAU = 20.0 / 440.0, 35.0 / 440.0

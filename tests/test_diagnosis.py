@@ -24,13 +24,13 @@ from plant import (
     stage_x,
     stage_y,
 )
-from plant.diagnosis import detect_nonlinearity, diagnose
-from plant.effects import EFFECTS
+from plant.data.frequency_response import MeasuredResponse
+from plant.data.recording import write_recording_csv
+from plant.diagnose.diagnosis import detect_nonlinearity, diagnose
 from plant.errors import DataError
-from plant.frequency_response import MeasuredResponse
-from plant.lockin import amplitude_dependence, estimate_response
-from plant.recording import write_recording_csv
-from plant.simulate import simulate_stepped_sine
+from plant.estimate.lockin import amplitude_dependence, estimate_response
+from plant.experiment.simulate import simulate_stepped_sine
+from plant.physics.effects import EFFECTS
 
 F_HZ = np.geomspace(1, 75, 30)       # thesis section 4.1: 1-75 Hz
 AMPLITUDE_A = 0.5                    # thesis section 4.1: 0.5 A on Stage X
@@ -182,7 +182,7 @@ def test_nan_harmonics_never_switch_off_nonlinearity_detection():
 def test_a_model_that_holds_the_stage_still_is_compared_without_a_ratio():
     # a friction model the drive cannot overcome at the top frequencies predicts no motion there: G / M has no
     # value, the band means leave those points out, and the chi^2 still counts them (no warning: they are errors)
-    from plant.residuals import residual_summary
+    from plant.identify.residuals import residual_summary
 
     g = stage_x().frd(2 * np.pi * F_HZ)[None]
     model = g.copy()

@@ -13,11 +13,11 @@ import numpy as np
 import pytest
 
 from plant import stage_x, stage_y
-from plant.diagnosis import diagnose
-from plant.effects import Delay, Resonance
-from plant.fitting import fit_plant
-from plant.lockin import estimate_response
-from plant.recording_io import read_recording
+from plant.data.recording_io import read_recording
+from plant.diagnose.diagnosis import diagnose
+from plant.estimate.lockin import estimate_response
+from plant.identify.fitting import fit_plant
+from plant.physics.effects import Delay, Resonance
 
 PROTOCOL = sim.Protocol(f_hz=tuple(np.geomspace(1.0, 75.0, 30)), block_s=3.0, sample_rate_hz=1000.0)
 

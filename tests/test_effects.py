@@ -23,9 +23,9 @@ from plant import (
     stage_x,
     stage_y,
 )
-from plant.effects import SensorFilter
 from plant.errors import EffectError, GridError, ParameterError
 from plant.grid import check_grid
+from plant.physics.effects import SensorFilter
 
 W = np.geomspace(0.05, 2.0e4, 600)
 S = 1j * W
@@ -123,7 +123,7 @@ def test_describing_function_is_the_first_harmonic_of_the_exact_force():
 def _first_harmonic_by_integration(m, b, fc, force_n, w) -> complex:
     """Velocity per force of the fundamental of m v' + b v + F_c sgn(v) = F sin(w t) from rest, integrated
     by ``independent_stick_slip`` (SciPy, event-located stops) until periodic, then Fourier-integrated over
-    the last period. Shares no code with plant.coulomb_response."""
+    the last period. Shares no code with plant.physics.coulomb_response."""
     period = 2 * math.pi / w
     t_end = period * (3 + math.ceil(12 * (m / b) / period))
     grid = np.linspace(t_end - period, t_end, 40001)[:-1]

@@ -1,4 +1,4 @@
-"""Multisine design (plant.excitation) and ``gantry excite``: checked against independent numpy."""
+"""Multisine design (plant.experiment.excitation) and ``gantry excite``: checked against independent numpy."""
 
 import json
 import math
@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from plant.errors import ParameterError
-from plant.excitation import (
+from plant.experiment.excitation import (
     design_multisine,
     multisine_variance,
     predicted_variance,
@@ -180,8 +180,8 @@ def test_cli_bad_arguments_exit_2_with_one_line(tmp_path, args, name):
 def test_periodic_response_on_the_played_multisine_meets_the_prediction():
     from scipy.signal import lfilter
 
-    from plant.frf_estimation import periodic_response
-    from plant.time_recording import TimeRecording
+    from plant.data.time_recording import TimeRecording
+    from plant.estimate.frf_estimation import periodic_response
 
     ms = design_multisine(f_min_hz=1.0, f_max_hz=75.0, peak_a=0.5, period_s=1.0, sample_rate_hz=2000.0,
                           periods=12, phases="optimised")

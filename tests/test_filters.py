@@ -20,8 +20,8 @@ from design.spec.schema import parse_spec
 from design.synth.filter_scan import filter_settings
 from design.synth.pi import _casadi_frd
 from plant import CurrentLoop, Delay, stage_x
-from plant.drive_filters import LowPassFilter, NotchFilter
 from plant.errors import SpecError
+from plant.physics.drive_filters import LowPassFilter, NotchFilter
 
 ROOT = Path(__file__).resolve().parents[1]
 RESONANT = ROOT / "specs" / "stage_x_resonant_payload.toml"

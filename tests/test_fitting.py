@@ -1,4 +1,4 @@
-"""Plant fitting (plant/fitting.py) and the tfest-like rational fit (plant/rational_fit.py).
+"""Plant fitting (plant/identify/fitting.py) and the tfest-like rational fit (plant/identify/rational_fit.py).
 
 Truth comes from models evaluated in closed form (``Plant.frd_outputs``, python-control
 transfer functions) plus seeded circular complex Gaussian noise of known variance, the
@@ -15,10 +15,10 @@ import numpy as np
 import pytest
 
 from plant import CoulombFriction, CurrentLoop, Delay, Resonance, stage_x, stage_y
+from plant.data.frequency_response import MeasuredResponse
 from plant.errors import DataError, EffectError, ParameterError
-from plant.fitting import FitResult, default_free, fit_plant, output_map
-from plant.frequency_response import MeasuredResponse
-from plant.rational_fit import fit_rational, thesis_weights
+from plant.identify.fitting import FitResult, default_free, fit_plant, output_map
+from plant.identify.rational_fit import fit_rational, thesis_weights
 
 # thesis section 4.1: stepped sine 1..75 Hz
 F_HZ = np.linspace(1.0, 75.0, 50)
@@ -300,8 +300,8 @@ def test_calibration_two_sigma_coverage_fast(truth, model):
 
 # --- calibration through the whole pipeline: simulate_stepped_sine -> estimate_response -> fit_plant ----
 def _pipeline_coverage(truth, model, *, seeds, f_hz, duration_s, sample_rate_hz, current_amplitude_a):
-    from plant.lockin import estimate_response
-    from plant.simulate import simulate_stepped_sine
+    from plant.estimate.lockin import estimate_response
+    from plant.experiment.simulate import simulate_stepped_sine
 
     true = truth.parameters()
     inside, reduced = {}, []
@@ -353,8 +353,8 @@ def _gantry(*args):
 
 @pytest.fixture(scope="module")
 def small_recording(tmp_path_factory):
-    from plant.recording import write_recording_csv
-    from plant.simulate import simulate_stepped_sine
+    from plant.data.recording import write_recording_csv
+    from plant.experiment.simulate import simulate_stepped_sine
 
     path = tmp_path_factory.mktemp("fit") / "rec.csv"
     rec = simulate_stepped_sine(stage_x(mass_kg=40.0) * Delay(1e-3), f_hz=np.linspace(2.0, 75.0, 8),
@@ -389,7 +389,7 @@ def test_likelihood_of_residuals_with_estimated_variances_is_the_f_density():
     model's normalised residual is F(2, nu); -2 ln L is -2 sum ln f(|r|^2 / 2), and chi^2 for nu = inf."""
     from scipy import stats
 
-    from plant.fitting import minus_two_log_likelihood
+    from plant.identify.fitting import minus_two_log_likelihood
 
     rng = np.random.default_rng(3)
     r = rng.normal(size=(2, 9)) + 1j * rng.normal(size=(2, 9))

@@ -9,15 +9,15 @@ of a known-frequency sinusoid in white Gaussian noise, E|a_hat - a|^2 = 4 sigma^
 import numpy as np
 import pytest
 
+from plant.data.frequency_response import MeasuredResponse
+from plant.data.recording import Block, Recording
 from plant.errors import DataError
-from plant.frequency_response import MeasuredResponse
-from plant.lockin import (
+from plant.estimate.lockin import (
     _basis,
     _white_noise_factor,
     amplitude_dependence,
     estimate_response,
 )
-from plant.recording import Block, Recording
 
 FS = 1000.0
 G = 0.04 * np.exp(-0.7j)

@@ -1,4 +1,4 @@
-"""plant.frf_estimation against the independent simulator ``tests/independent_timesim.py``.
+"""plant.estimate.frf_estimation against the independent simulator ``tests/independent_timesim.py``.
 
 The truth is the simulator's own response: continuous-time C (jwI - A)^-1 B for multisines
 simulated exactly in continuous time, the zero-order-hold discrete response at e^{jwT} for
@@ -17,17 +17,17 @@ import independent_timesim as sim
 import numpy as np
 import pytest
 
+from plant.data.time_recording import TimeRecording
 from plant.errors import DataError
-from plant.fitting import fit_plant
-from plant.frf_estimation import (
+from plant.estimate.frf_estimation import (
     closed_loop_response,
     detect_period,
     estimate_frf,
     lpm_response,
     periodic_response,
 )
-from plant.models import Plant
-from plant.time_recording import TimeRecording
+from plant.identify.fitting import fit_plant
+from plant.physics.models import Plant
 
 FS = 1000.0
 PERIOD = 1000

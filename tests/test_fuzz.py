@@ -332,13 +332,13 @@ def test_a_read_only_directory(command):
 #: functions on the way of each command where an interrupt may land (module:attribute)
 TARGETS = {
     "sweep": ["design.loop.sweep:monte_carlo_sweep", "design.views.json:sweep_csv"],
-    "simulate": ["plant.simulate:simulate_stepped_sine", "plant.recording:recording_csv_text"],
-    "excite": ["plant.excitation:design_multisine", "plant.excitation:predicted_variance"],
+    "simulate": ["plant.experiment.simulate:simulate_stepped_sine", "plant.data.recording:recording_csv_text"],
+    "excite": ["plant.experiment.excitation:design_multisine", "plant.experiment.excitation:predicted_variance"],
     "diagnose": ["design.workflows:diagnose_recording", "matplotlib.figure:Figure.savefig"],
     "report": ["design.workflows:report_content", "matplotlib.figure:Figure.savefig"],
     "synth": ["cvxpy:Problem.solve", "design.workflows:design", "matplotlib.figure:Figure.savefig"],
 }
-COMMON_TARGETS = ["os:replace", "tempfile:mkstemp", "os:fdopen", "plant.text_io:decode", "json:dumps"]
+COMMON_TARGETS = ["os:replace", "tempfile:mkstemp", "os:fdopen", "plant.host.text_io:decode", "json:dumps"]
 
 
 @cache

@@ -1,7 +1,7 @@
 """Lock-in estimation: exact on clean sinusoids, harmonics, settling, the thesis's RMS
 method, amplitude dependence, and the uncertainty against the Cramer-Rao bound.
 
-Signals are synthesised here with known truth (closed form); ``plant.simulate`` is used once,
+Signals are synthesised here with known truth (closed form); ``plant.experiment.simulate`` is used once,
 for the end-to-end check.
 """
 
@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 import scipy.stats
 
+from plant.data.recording import Block, Recording
 from plant.errors import DataError
-from plant.lockin import amplitude_dependence, estimate_response
-from plant.recording import Block, Recording
+from plant.estimate.lockin import amplitude_dependence, estimate_response
 
 FS = 1000.0
 G1 = 0.04 * np.exp(-0.7j)          # velocity per current of the synthetic "plant", output 1
@@ -311,14 +311,14 @@ def test_bad_estimation_input():
 # --- end to end -----------------------------------------------------------------------------
 
 def test_simulated_recording_through_csv_matches_the_model(tmp_path):
-    """plant.simulate -> CSV -> read_recording -> estimate_response agrees with Plant.frd within the reported
+    """plant.experiment.simulate -> CSV -> read_recording -> estimate_response agrees with Plant.frd within the reported
     variance: sum 2|G - frd|^2 / var is chi-square with 2 n_freq dof (the sub-block variances have 18 dof
     each, which widens the tails a little: the 1e-3 quantiles are used)."""
-    from plant.effects import Delay
-    from plant.models import stage_x
-    from plant.recording import write_recording_csv
-    from plant.recording_io import read_recording
-    from plant.simulate import simulate_stepped_sine
+    from plant.data.recording import write_recording_csv
+    from plant.data.recording_io import read_recording
+    from plant.experiment.simulate import simulate_stepped_sine
+    from plant.physics.effects import Delay
+    from plant.physics.models import stage_x
 
     plant = stage_x() * Delay(0.001)
     f = np.array([1.0, 2.0, 3.5, 7.0, 15.0, 30.0, 75.0])

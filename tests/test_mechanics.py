@@ -12,8 +12,8 @@ import numpy as np
 import pytest
 
 from plant import stage_x
-from plant.effects import PayloadResonance, Resonance, SecondResonance
 from plant.errors import EffectError
+from plant.physics.effects import PayloadResonance, Resonance, SecondResonance
 
 W = 2 * np.pi * np.geomspace(0.5, 500, 300)
 S = 1j * W

@@ -21,14 +21,14 @@ from plant import (
     stage_y,
 )
 from plant.errors import ParameterError
-from plant.gantry_models import (
+from plant.physics.gantry_models import (
     qin_linearised_ss,
     thesis_state_space,
     xie_wang_frd,
     xie_wang_ss,
 )
-from plant.models import corner_frequency_hz
-from plant.motor import (
+from plant.physics.models import corner_frequency_hz
+from plant.physics.motor import (
     back_emf_constant_v_s_per_m,
     current_loop_bandwidth_hz,
     current_loop_tf,
@@ -201,7 +201,7 @@ def test_xie_wang_rigid_limit_with_an_off_centre_load():
 def test_centred_symmetric_load_does_not_tilt():
     # symmetry: l1 = l2 and b1 = b2, equal thrusts -> no torque, no tilt, y1 = y2 exactly for any K_a
     # (the coupling term printed by Xie & Wang, +(b1 l1 + b2 l2), would tilt it; the derived one is
-    # b2 l2 - b1 l1 = 0, see plant.gantry_models)
+    # b2 l2 - b1 l1 = 0, see plant.physics.gantry_models)
     h = xie_wang_frd(W, mass_kg=M, inertia_kg_m2=1.5, damping1_n_s_per_m=B, damping2_n_s_per_m=B,
                      l1_m=0.4, l2_m=0.4, joint_stiffness_n_m_per_rad=2e4)
     v = h[:, 0] + h[:, 1]

@@ -1,4 +1,4 @@
-"""Reliability and flags of the tfest-like rational fit (plant/rational_fit.py).
+"""Reliability and flags of the tfest-like rational fit (plant/identify/rational_fit.py).
 
 Data are closed forms evaluated on the grid plus seeded circular complex Gaussian noise of 5 %
 relative standard deviation: G(s) = 20/(35 s + 440) (s^2/wa^2 + 2 za s/wa + 1) /
@@ -17,9 +17,9 @@ import pytest
 from typer.testing import CliRunner
 
 import design.cli.common
-from plant import rational_fit
 from plant.errors import DataError, ParameterError
-from plant.rational_fit import fit_rational, thesis_weights
+from plant.identify import rational_fit
+from plant.identify.rational_fit import fit_rational, thesis_weights
 
 F_HZ = np.logspace(0.0, np.log10(75.0), 40)
 W = 2 * np.pi * F_HZ

@@ -11,9 +11,9 @@ import warnings
 import numpy as np
 import pytest
 
+from plant.data.recording_io import parse_column_map, parse_scale, read_recording
 from plant.errors import DataError
-from plant.lockin import estimate_response
-from plant.recording_io import parse_column_map, parse_scale, read_recording
+from plant.estimate.lockin import estimate_response
 
 FS = 1000.0
 GAIN, PHASE = 0.04, -0.3          # synthetic plant: v = GAIN * i shifted by PHASE (closed form)

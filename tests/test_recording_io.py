@@ -13,10 +13,10 @@ import warnings
 import numpy as np
 import pytest
 
+from plant.data.recording import Block, Recording, atomic_write_text, atomic_write_texts, write_recording_csv
+from plant.data.recording_io import parse_column_map, read_recording
 from plant.errors import DataError
-from plant.lockin import estimate_response
-from plant.recording import Block, Recording, atomic_write_text, atomic_write_texts, write_recording_csv
-from plant.recording_io import parse_column_map, read_recording
+from plant.estimate.lockin import estimate_response
 
 FS = 1000.0
 GAIN, PHASE = 0.04, -0.3        # synthetic plant: v = GAIN * i shifted by PHASE (closed form)
@@ -66,7 +66,7 @@ def test_csv_round_trip_two_outputs_unsorted_blocks(tmp_path):
     assert back.output_names == rec.output_names
     assert back.f_hz.tolist() == [2.5, 7.25]
     for got, sent in zip(back.blocks, rec.blocks[::-1]):
-        # written with 9 significant digits (plant.recording.write_recording_csv)
+        # written with 9 significant digits (plant.data.recording.write_recording_csv)
         assert np.allclose(got.time_s, sent.time_s, rtol=0, atol=1e-9)
         assert np.allclose(got.current_a, sent.current_a, rtol=1e-8, atol=1e-15)
         assert np.allclose(got.velocity_m_per_s, sent.velocity_m_per_s, rtol=1e-8, atol=1e-15)

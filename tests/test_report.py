@@ -10,8 +10,8 @@ import pytest
 
 from design.views.browser import chromium, dom, screenshot
 from plant import Delay, stage_x
-from plant.recording import write_recording_csv
-from plant.simulate import simulate_stepped_sine
+from plant.data.recording import write_recording_csv
+from plant.experiment.simulate import simulate_stepped_sine
 
 ROOT = Path(__file__).resolve().parents[1]
 SPEC = ROOT / "specs" / "thesis_stage_x.toml"

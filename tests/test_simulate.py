@@ -1,4 +1,4 @@
-"""Stepped-sine simulator (plant/simulate.py) and ``gantry simulate``.
+"""Stepped-sine simulator (plant/experiment/simulate.py) and ``gantry simulate``.
 
 References are independent of the simulator: ``Plant.frd`` / ``frd_outputs`` (closed forms of thesis
 Eq. 3.15/3.16, Xie-Wang Eq. 2.14-2.15 and the effects), a plain least-squares sine fit written here,
@@ -26,7 +26,7 @@ from plant import (
     stage_x,
     stage_y,
 )
-from plant.simulate import simulate_stepped_sine
+from plant.experiment.simulate import simulate_stepped_sine
 
 GANTRY = [sys.executable, "-c", "from design.cli import main; main()"]
 

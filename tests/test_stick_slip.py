@@ -17,10 +17,10 @@ import pytest
 from independent_stick_slip import velocity, write_recording
 
 from plant import CoulombFriction, stage_x
-from plant.diagnosis import diagnose
-from plant.lockin import estimate_response
-from plant.recording_io import read_recording
-from plant.simulate import simulate_stepped_sine
+from plant.data.recording_io import read_recording
+from plant.diagnose.diagnosis import diagnose
+from plant.estimate.lockin import estimate_response
+from plant.experiment.simulate import simulate_stepped_sine
 
 MASS_KG, DAMPING_N_S_PER_M, KT, AMPLITUDE_A = 40.0, 440.0, 20.0, 0.5
 

@@ -21,9 +21,9 @@ from design.loop.sweep import batch_plant, monte_carlo_sweep, percentiles_inf
 from design.spec.schema import load_spec
 from design.views.json import sweep_rows, sweep_to_dict
 from plant import CurrentLoop, Delay, Resonance, stage_x, stage_y
-from plant.effects import Sampling, TiltCoupling
 from plant.errors import ParameterError, SpecError
 from plant.grid import log_grid_rad_s
+from plant.physics.effects import Sampling, TiltCoupling
 
 ROOT = Path(__file__).resolve().parents[1]
 THESIS_X = ROOT / "specs" / "thesis_stage_x.toml"

@@ -22,7 +22,7 @@ from design.synth.schedule import gain_schedule
 from design.synth.verify import verify
 from design.views.json import synthesis_to_dict
 from plant import Resonance, SpecError
-from plant.effects import Sampling
+from plant.physics.effects import Sampling
 
 ROOT = Path(__file__).resolve().parents[1]
 SPEC_X = ROOT / "specs" / "stage_x_synth.toml"
@@ -132,8 +132,8 @@ def test_data_driven_synthesis_matches_the_model_based_circle_design(tmp_path):
     # measured responses at three payloads (the project's simulator as the "gantry") give the
     # same gains as the model-based convex-concave design on that model (both use the circles)
     from plant import CurrentLoop, Delay, stage_x
-    from plant.recording import write_recording_csv
-    from plant.simulate import simulate_stepped_sine
+    from plant.data.recording import write_recording_csv
+    from plant.experiment.simulate import simulate_stepped_sine
 
     rows = []
     for m in (5.0, 20.0, 40.0):

@@ -18,15 +18,15 @@ import pytest
 import scipy.io
 from independent_friction_sim import Axis, simulate
 
-from plant.effects import make_effect
+from plant.data.recording_io import parse_column_map, read_recording
+from plant.data.time_recording import TimeRecording
+from plant.data.time_recording_io import read_measurement, read_time_recording
+from plant.diagnose.time_diagnosis import diagnose_time
 from plant.errors import DataError, EffectError, ParameterError
-from plant.inverse_model import Preprocessing
-from plant.models import Plant
-from plant.recording_io import parse_column_map, read_recording
-from plant.time_diagnosis import diagnose_time
-from plant.time_fit import fit_inverse_model, fit_output_error
-from plant.time_recording import TimeRecording
-from plant.time_recording_io import read_measurement, read_time_recording
+from plant.identify.inverse_model import Preprocessing
+from plant.identify.time_fit import fit_inverse_model, fit_output_error
+from plant.physics.effects import make_effect
+from plant.physics.models import Plant
 
 EMPS = Path(__file__).resolve().parents[1] / "examples" / "data" / "emps" / "DATA_EMPS.mat"
 EMPS_COLUMNS = "time=t,current=vir,position=qm,reference=qg"

@@ -51,10 +51,10 @@ from design.loop.margins import loop_margins, nyquist_stable, unwrapped_phase_de
 from design.parallel import thread_map, workers
 from design.problem import AdmittanceProblem, LoopProblem
 from design.synth.scenarios import Scenarios
-from plant.effects import EFFECTS
 from plant.errors import SpecError
 from plant.grid import check_grid, log_grid_rad_s
-from plant.models import Plant
+from plant.physics.effects import EFFECTS
+from plant.physics.models import Plant
 
 #: the continuous loop's check grid: 1 mHz - 3 kHz, 1200 points (plus points around the mouse's modes)
 W_CHECK = log_grid_rad_s(1e-3, 3000.0, 1200)

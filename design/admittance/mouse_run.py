@@ -224,7 +224,7 @@ def path_from_csv(path, rate_hz: float, *, rest_s: float = REST_S) -> IntendedPa
     from pathlib import Path
 
     from plant.errors import DataError
-    from plant.text_io import read_text
+    from plant.host.text_io import read_text
 
     p = Path(path)
     lines = [ln for ln in read_text(p, what="path file").splitlines() if ln.strip()]

@@ -23,8 +23,8 @@ from design.admittance.mouse import MouseModel
 from design.admittance.rig import RigTiming, force_filter_polys
 from design.parallel import thread_map
 from design.problem import LoopProblem
-from plant.chain import ChainEffect
-from plant.models import Plant
+from plant.physics.chain import ChainEffect
+from plant.physics.models import Plant
 
 #: python-control margins may fall short of the requirement by this much (deg, dB): grid rounding
 MARGIN_TOLERANCE = (0.1, 0.05)

@@ -35,11 +35,10 @@ def main() -> None:
     """Console entry point, the one error boundary: bad input (``GantryError``, usage errors, files that
     cannot be read or written, not enough memory) is one line on stderr and exit status 2; Ctrl-C is
     exit status 130 and SIGTERM 143, wherever they land (imports included, and also when a library
-    swallowed the exception: ``plant.interrupts``); anything else is a bug, shown with its traceback and
+    swallowed the exception: ``plant.host.interrupts``); anything else is a bug, shown with its traceback and
     a request to report it."""
     try:
-        from plant import interrupts
-
+        from plant.host import interrupts
         previous = interrupts.install()
     except KeyboardInterrupt:      # before the handlers (SIGTERM's default action ends the process quietly)
         _fail("interrupted", 130)
@@ -103,7 +102,7 @@ def _run():
 
 def _stop_if_requested() -> None:
     """Exit 130 (Ctrl-C) or 143 (SIGTERM) when one was received, even if a library swallowed it."""
-    from plant.interrupts import requested
+    from plant.host.interrupts import requested
 
     kind = requested()
     if kind is not None:

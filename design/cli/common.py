@@ -138,8 +138,8 @@ def _number(option: str, item: str, text: str) -> float:
 def parse_effects(items: list[str]) -> dict[str, dict[str, float]]:
     """``["delay.seconds=0.001,current_loop", ...]`` -> ``{"delay": {"seconds": 0.001}, "current_loop": {}}``.
 
-    An effect named without parameters gets its defaults (``plant.effects.make_effect``)."""
-    from plant.effects import make_effect
+    An effect named without parameters gets its defaults (``plant.physics.effects.make_effect``)."""
+    from plant.physics.effects import make_effect
 
     effects: dict[str, dict[str, float]] = {}
     for item in (part.strip() for chunk in items for part in chunk.split(",")):

@@ -60,7 +60,7 @@ def diagnose(
     from design.views.diagnosis import diagnosis_html
     from design.views.json import diagnosis_outcome_to_dict, print_json
     from design.workflows import diagnose_recording
-    from plant.inverse_model import Preprocessing
+    from plant.identify.inverse_model import Preprocessing
 
     keep_inputs({"--report": report}, [data, *(amplitude_files or [])])
     outcome = diagnose_recording(

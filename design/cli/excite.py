@@ -48,7 +48,7 @@ def excite(
     machine time with the thesis stepped sine (one 5 s block per frequency, same band, same peak current)."""
     from design.views.console import print_excitation
     from design.views.json import excitation_to_dict, print_json
-    from plant.excitation import design_multisine, periods_for, predicted_variance, write_excitation_csv
+    from plant.experiment.excitation import design_multisine, periods_for, predicted_variance, write_excitation_csv
 
     if out.suffix.lower() != ".csv":
         raise ParameterError(f"--out {out}: the excitation is written as CSV; give a FILE.csv")

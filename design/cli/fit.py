@@ -56,7 +56,7 @@ def fit(
     from design.views.console import print_fit
     from design.views.json import fit_outcome_to_dict, print_json
     from design.workflows import fit_recording
-    from plant.inverse_model import Preprocessing
+    from plant.identify.inverse_model import Preprocessing
 
     outcome = fit_recording(
         data, stage=stage, effects=tuple(e.strip() for e in (effects or "").split(",") if e.strip()),

@@ -65,8 +65,8 @@ def simulate(
     from design.views.console import print_simulation
     from design.views.json import print_json, simulation_to_dict
     from design.workflows import simulation_plant
-    from plant.recording import write_simulation
-    from plant.simulate import simulate_stepped_sine
+    from plant.data.recording import write_simulation
+    from plant.experiment.simulate import simulate_stepped_sine
 
     if out.suffix.lower() != ".csv":
         raise ParameterError(f"--out {out}: the recording is written as CSV; give a FILE.csv")
@@ -102,9 +102,9 @@ def simulate(
 
 
 def _blocks_long_enough(f_hz, duration_s: float, sample_rate_hz: float) -> None:
-    """Refuse blocks too short for the estimate of ``gantry fit`` and ``diagnose`` (``plant.lockin``): it
+    """Refuse blocks too short for the estimate of ``gantry fit`` and ``diagnose`` (``plant.estimate.lockin``): it
     drops a block's start-up transient (every simulated block starts from rest) and needs a period after it."""
-    from plant.lockin import MIN_PERIODS, shortest_block_s
+    from plant.estimate.lockin import MIN_PERIODS, shortest_block_s
 
     short = [f for f in f_hz if duration_s < shortest_block_s(f, sample_rate_hz) * (1 - 1e-9)]
     if short:

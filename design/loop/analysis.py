@@ -9,7 +9,7 @@ import numpy as np
 from design.loop.loops import open_loop_frd, plant_frd
 from design.loop.margins import Margins, first_drop_hz, loop_margins
 from plant.grid import check_grid, log_grid_rad_s
-from plant.models import Plant
+from plant.physics.models import Plant
 
 #: default analysis grid: 1 mHz to 10 kHz, 3000 log-spaced points (~430 per decade)
 ANALYSIS_GRID_RAD_S = log_grid_rad_s(1e-3, 1e4, 3000)

@@ -24,7 +24,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from plant.errors import SpecError
-from plant.models import Plant
+from plant.physics.models import Plant
 
 #: continuous effects realised in the drive's discrete controller (coefficients exported)
 DRIVE_FILTERS = ("sensor_filter", "low_pass_filter", "notch_filter")

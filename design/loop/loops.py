@@ -12,8 +12,8 @@ import numpy as np
 
 from plant.errors import ParameterError
 from plant.grid import check_grid
-from plant.models import Plant
-from plant.parameters import check_positive
+from plant.physics.models import Plant
+from plant.physics.parameters import check_positive
 
 if TYPE_CHECKING:
     import control

@@ -20,7 +20,7 @@ from design.loop.fast import fast_analyse_loop
 from design.loop.margins import BANDWIDTH_LEVELS2
 from design.problem import LoopProblem, Uncertainty
 from plant.errors import ParameterError, SpecError
-from plant.models import Plant
+from plant.physics.models import Plant
 
 DEFAULT_PERCENTILES = (5.0, 50.0, 95.0)
 #: plants evaluated per chunk of the fast path (x 281 grid points: ~18 MB per complex array)

@@ -58,12 +58,12 @@ from design.problem import (
     Verification,
     with_filters,
 )
-from plant.drive_filters import KINDS
-from plant.effects import EFFECTS, make_effect
 from plant.errors import GantryError, SpecError
-from plant.models import BASE_BOUNDS, Plant
-from plant.parameters import THESIS
-from plant.text_io import read_text
+from plant.host.text_io import read_text
+from plant.physics.drive_filters import KINDS
+from plant.physics.effects import EFFECTS, make_effect
+from plant.physics.models import BASE_BOUNDS, Plant
+from plant.physics.parameters import THESIS
 
 RANGE_KEYS_OF_MOUSE = tuple(k for k, f in Mouse.__dataclass_fields__.items()
                             if f.type in (Range, "Range", StanceRange, "StanceRange"))

@@ -21,8 +21,8 @@ from design.loop.loops import pi_frd
 from design.loop.margins import closed_loop_bandwidth_hz, loop_margins
 from design.problem import LoopProblem
 from design.synth.scenarios import Scenarios
-from plant.drive_filters import FILTERS, KINDS
 from plant.grid import log_grid_rad_s
+from plant.physics.drive_filters import FILTERS, KINDS
 
 #: points of each designed notch parameter's range (frequency and damping log-spaced, depth linear); a
 #: low-pass gets 3 per parameter

@@ -18,8 +18,8 @@ import numpy as np
 
 from design.loop.margins import closed_loop_bandwidth_hz, loop_margins
 from design.problem import LoopProblem
+from plant.data.frequency_response import MeasuredResponse
 from plant.errors import DataError
-from plant.frequency_response import MeasuredResponse
 
 
 @dataclass(frozen=True)

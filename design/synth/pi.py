@@ -50,12 +50,12 @@ from design.synth.monte_carlo import MonteCarloCheck, monte_carlo_check
 from design.synth.scenarios import Scenarios, check_scenarios, describe_row, design_scenarios
 from design.synth.solvers import raise_if_interrupted
 from design.synth.verify import Verification, verify
-from plant.algebra import CASADI, Pair
-from plant.drive_filters import FILTERS, KINDS
-from plant.effects import EFFECTS
 from plant.errors import SpecError
 from plant.grid import log_grid_rad_s
-from plant.models import Plant
+from plant.physics.algebra import CASADI, Pair
+from plant.physics.drive_filters import FILTERS, KINDS
+from plant.physics.effects import EFFECTS
+from plant.physics.models import Plant
 
 #: effects that limit the achievable bandwidth (phase lag growing with frequency)
 PHASE_LIMITING = tuple(n for n, cls in EFFECTS.items() if cls.limits_bandwidth and cls.in_synthesis and cls.searched)
@@ -516,7 +516,7 @@ def exact_design(problem: LoopProblem, scenarios: Scenarios, kp0: float, ki0: fl
     the problem's plant carries."""
     import casadi as ca
 
-    from plant.effect_base import replace_unchecked
+    from plant.physics.effect_base import replace_unchecked
 
     req, c = problem.requirements, problem.controller
     g = 10 ** ((req.gain_margin_db + MARGIN_HAIR) / 20)

@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from design.problem import LoopProblem
-from plant.models import Plant
+from plant.physics.models import Plant
 
 #: seeded random draws of the uncertain parameters added to the corners in the check set
 CHECK_DRAWS = 24

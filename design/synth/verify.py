@@ -21,7 +21,7 @@ import numpy as np
 
 from design.problem import LoopProblem
 from design.synth.scenarios import Scenarios
-from plant.drive_filters import FILTERS
+from plant.physics.drive_filters import FILTERS
 
 #: margins may fall short of the requirement by this much (deg, dB) and still pass (rounding)
 MARGIN_TOLERANCE = 0.05

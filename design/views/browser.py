@@ -8,7 +8,7 @@ import tempfile
 from pathlib import Path
 
 from plant.errors import GantryError
-from plant.interrupts import raise_if_requested
+from plant.host.interrupts import raise_if_requested
 
 FLAGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
          "--disable-background-networking", "--disable-component-update", "--disable-sync"]

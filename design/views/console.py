@@ -13,10 +13,10 @@ from rich.table import Table
 from design.loop.analysis import PayloadSweep
 from design.loop.reproduce import TableRow
 from design.results import DiagnosisOutcome, FitOutcome
-from plant.diagnosis import Diagnosis
-from plant.excitation import THESIS_BLOCK_S, Multisine, VariancePrediction
-from plant.recording import Recording
-from plant.time_diagnosis import TimeDiagnosis
+from plant.data.recording import Recording
+from plant.diagnose.diagnosis import Diagnosis
+from plant.diagnose.time_diagnosis import TimeDiagnosis
+from plant.experiment.excitation import THESIS_BLOCK_S, Multisine, VariancePrediction
 
 #: payload rows shown in the sweep's terminal table (all of them go to --csv / --json)
 TABLE_ROWS = 15

@@ -11,10 +11,10 @@ from design.results import DiagnosisOutcome
 from design.views.html import Report, table
 from design.views.plots import bode
 from design.views.time_diagnosis import time_diagnosis_report
-from plant.diagnosis import Diagnosis
-from plant.evidence import ACCEPT_DELTA_BIC
-from plant.frequency_response import MeasuredResponse
-from plant.time_diagnosis import TimeDiagnosis
+from plant.data.frequency_response import MeasuredResponse
+from plant.diagnose.diagnosis import Diagnosis
+from plant.diagnose.evidence import ACCEPT_DELTA_BIC
+from plant.diagnose.time_diagnosis import TimeDiagnosis
 
 
 def comparison_figure(diag: Diagnosis, data: MeasuredResponse):

@@ -22,14 +22,14 @@ from design.synth.monte_carlo import MonteCarloCheck
 from design.synth.pi import Evaluation, SynthesisResult
 from design.synth.schedule import SchedulePoint
 from design.synth.verify import Verification
-from plant.diagnosis import Diagnosis, failing_bands
-from plant.evidence import ACCEPT_DELTA_BIC
-from plant.excitation import THESIS_BLOCK_S, Multisine, VariancePrediction
-from plant.fitting import FitResult
-from plant.rational_fit import RationalFit
-from plant.recording import Recording
-from plant.time_diagnosis import TimeDiagnosis
-from plant.time_fit import TimeFitResult, bic
+from plant.data.recording import Recording
+from plant.diagnose.diagnosis import Diagnosis, failing_bands
+from plant.diagnose.evidence import ACCEPT_DELTA_BIC
+from plant.diagnose.time_diagnosis import TimeDiagnosis
+from plant.experiment.excitation import THESIS_BLOCK_S, Multisine, VariancePrediction
+from plant.identify.fitting import FitResult
+from plant.identify.rational_fit import RationalFit
+from plant.identify.time_fit import TimeFitResult, bic
 
 #: the closed-loop bandwidth definitions (``requirements.bandwidth_definition``)
 BANDWIDTH_DEFINITIONS = {

@@ -21,7 +21,7 @@ from design.synth.pi import Evaluation
 from design.views.html import Report, table
 from design.views.plots import bode, fixed_margins
 from plant import __version__
-from plant.text_io import read_text
+from plant.host.text_io import read_text
 
 
 def limiting_text(ev: Evaluation, requirements) -> str:

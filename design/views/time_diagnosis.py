@@ -6,7 +6,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from design.views.html import Report, table
-from plant.time_diagnosis import TimeDiagnosis
+from plant.diagnose.time_diagnosis import TimeDiagnosis
 
 
 def force_figure(diag: TimeDiagnosis):

@@ -30,9 +30,9 @@ from typing import TYPE_CHECKING, ClassVar
 
 import numpy as np
 
-from plant.algebra import NUMPY
 from plant.errors import EffectError
-from plant.parameters import Parameter, check_positive
+from plant.physics.algebra import NUMPY
+from plant.physics.parameters import Parameter, check_positive
 
 if TYPE_CHECKING:
     import control

@@ -2,7 +2,7 @@
 
 Three nonparametric estimators turn a ``TimeRecording`` into a ``MeasuredResponse`` (velocity
 per current, m/s per A, with E|G_hat - G|^2 per point and its real degrees of freedom
-``metadata["variance_dof"]``, which ``plant.fitting.fit_plant`` uses):
+``metadata["variance_dof"]``, which ``plant.identify.fitting.fit_plant`` uses):
 
 ``periodic_response``
     Periodic excitation (multisine, repeated chirp). The record is cut into whole periods, the
@@ -48,9 +48,9 @@ import math
 import numpy as np
 import scipy.special
 
+from plant.data.frequency_response import MeasuredResponse
+from plant.data.time_recording import SAMPLING_TOLERANCE, TimeRecording
 from plant.errors import DataError
-from plant.frequency_response import MeasuredResponse
-from plant.time_recording import SAMPLING_TOLERANCE, TimeRecording
 
 #: fewest samples of a record
 MIN_SAMPLES = 64

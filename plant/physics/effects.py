@@ -1,26 +1,27 @@
 """The library of physical effects the thesis model leaves out.
 
-Where an effect sits decides how it composes (``plant.effect_base``):
+Where an effect sits decides how it composes (``plant.physics.effect_base``):
 
-* drive and sensor chain, series factors (``plant.chain``): ``delay``, ``current_loop``,
+* drive and sensor chain, series factors (``plant.physics.chain``): ``delay``, ``current_loop``,
   ``sampling``, ``sensor_filter``, ``encoder_velocity``;
-* mechanics, parts of the lumped network (``plant.mechanics``): ``resonance`` (two-mass,
+* mechanics, parts of the lumped network (``plant.physics.mechanics``): ``resonance`` (two-mass,
   recorded at the motor), ``payload_resonance`` (recorded at the payload), ``second_resonance``
   (three-mass chain), ``tilt_coupling`` (Y rails, off-centre load), ``coulomb_friction``,
   ``offset`` (a constant force, time-domain data only).
 
-Adding an effect means adding one class here. Parameter names and units follow
-``docs/formats.md``: an effect parameter is written ``effect.parameter``.
+Adding an effect means one class in ``plant.physics.chain`` or ``plant.physics.mechanics`` (by where it sits)
+and its entry in ``EFFECTS`` here. Parameter names and units follow ``docs/formats.md``: an effect parameter is
+written ``effect.parameter``.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from plant.chain import CurrentLoop, Delay, EncoderVelocity, Sampling, SensorFilter
-from plant.effect_base import PADE_ORDER, ChainEffect, Effect, MechanicalEffect
 from plant.errors import EffectError, ParameterError
-from plant.mechanics import (
+from plant.physics.chain import CurrentLoop, Delay, EncoderVelocity, Sampling, SensorFilter
+from plant.physics.effect_base import PADE_ORDER, ChainEffect, Effect, MechanicalEffect
+from plant.physics.mechanics import (
     CoulombFriction,
     ModeEffect,
     Offset,

@@ -4,7 +4,7 @@ velocities in columns 6 and 7) and LabVIEW ``.tdms`` files, into a validated ``R
 
 Every problem raises ``DataError`` naming the file, the column and the row (1-based, as a
 spreadsheet shows it) or the frequency block. Whether a block can be estimated (its length,
-its sampling, its current) is the estimator's question (``plant.lockin``): it leaves a bad
+its sampling, its current) is the estimator's question (``plant.estimate.lockin``): it leaves a bad
 block out with a note instead of refusing the whole recording.
 """
 
@@ -17,10 +17,10 @@ from typing import NamedTuple
 
 import numpy as np
 
+from plant.data.recording import Block, Recording
+from plant.data.time_recording import MAX_CURRENT_A, MAX_OUTPUT
 from plant.errors import DataError
-from plant.recording import Block, Recording
-from plant.text_io import data_suffix, read_text
-from plant.time_recording import MAX_CURRENT_A, MAX_OUTPUT
+from plant.host.text_io import data_suffix, read_text
 
 #: a time step longer than this many median steps within a block is refused (a corrupt time value;
 #: missing samples leave shorter gaps, which the lock-in handles with the actual sample times)

@@ -55,13 +55,13 @@ import control
 import numpy as np
 import scipy.linalg
 
-from plant.effect_base import ChainEffect
-from plant.effects import CurrentLoop, TiltCoupling
+from plant.data.recording import Block, Recording
 from plant.errors import EffectError, ParameterError
-from plant.gantry_models import xie_wang_ss
-from plant.models import Plant, chain_state_space
-from plant.parameters import check_finite, check_positive
-from plant.recording import Block, Recording
+from plant.physics.effect_base import ChainEffect
+from plant.physics.effects import CurrentLoop, TiltCoupling
+from plant.physics.gantry_models import xie_wang_ss
+from plant.physics.models import Plant, chain_state_space
+from plant.physics.parameters import check_finite, check_positive
 
 #: default internal integration rate when Coulomb friction is present (Hz): the fundamental then
 #: agrees with a 5x finer step to 3e-3 (Stage X, 1-75 Hz, F_c = 2 N at 0.5 A; tests/test_simulate.py)
@@ -538,7 +538,7 @@ def simulate_stepped_sine(
     names = output_column_names(plant)
     blocks = tuple(Block(float(fi), t.copy(), current[b], velocity[b]) for b, fi in enumerate(f))
     metadata = {
-        "simulator": "plant.simulate.simulate_stepped_sine",
+        "simulator": "plant.experiment.simulate.simulate_stepped_sine",
         "method": method,
         "internal_rate_hz": internal_rate_hz,
         "stage": plant.stage,

@@ -36,11 +36,11 @@ import numpy as np
 from scipy import special
 from scipy.optimize import least_squares
 
+from plant.data.frequency_response import MeasuredResponse
 from plant.errors import DataError, EffectError, ParameterError
-from plant.fit_report import correlation_lines, variable_lines
-from plant.frequency_response import MeasuredResponse
-from plant.models import BASE_BOUNDS, Plant
-from plant.parameters import Parameter
+from plant.identify.fit_report import correlation_lines, variable_lines
+from plant.physics.models import BASE_BOUNDS, Plant
+from plant.physics.parameters import Parameter
 
 #: |correlation| above which two parameters are flagged as not separable by the data
 CORRELATION_FLAG = 0.95

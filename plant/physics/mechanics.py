@@ -34,9 +34,9 @@ from typing import ClassVar
 
 import numpy as np
 
-from plant.effect_base import MechanicalEffect
 from plant.errors import ParameterError
-from plant.parameters import check_finite, check_positive
+from plant.physics.effect_base import MechanicalEffect
+from plant.physics.parameters import check_finite, check_positive
 
 #: a mode this high (Hz) is far above any recorded band: the bodies move as one
 RIGID_HZ = 1.0e7
@@ -237,7 +237,7 @@ class CoulombFriction(MechanicalEffect):
     """Coulomb friction of magnitude ``force_n`` opposing the velocity: F_f = force_n * sign(v).
 
     Frequency domain, at the plant's excitation current: on a rigid body, the exact first harmonic of
-    the periodic steady state with stick-slip (``plant.coulomb_response``); on a chain of several
+    the periodic steady state with stick-slip (``plant.physics.coulomb_response``); on a chain of several
     bodies or the tilting beam, the describing function, a real damping N(V) = 4 F_c / (pi V) at
     velocity amplitude V added to the rail damping (approximate: it assumes a sinusoidal velocity).
     Time domain: ``force(v)`` is exact.

@@ -4,7 +4,7 @@ A ``TimeRecording`` is one continuous, uniformly sampled record: the drive's inp
 A, or a command in V or counts whose force per unit is the plant's ``force_constant_n_per_a``),
 one or more outputs (velocity in m/s or encoder position in m), and optionally the reference of
 a loop that was closed (``reference``, in the outputs' unit). Stepped-sine recordings, with one
-block per frequency, are ``plant.recording.Recording``.
+block per frequency, are ``plant.data.recording.Recording``.
 """
 
 from __future__ import annotations

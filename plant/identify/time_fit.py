@@ -8,7 +8,7 @@ Eq. 3.15; Stage Y: Eq. 3.16's 2 m l_1 / L and 2 b), F_c ``coulomb_friction.force
 friction is exact.
 
 ``fit_inverse_model`` is IDIM-LS (Janot, Gautier & Brunot 2019): linear least squares of the
-filtered and decimated force on the filtered and decimated regressors (``plant.inverse_model``),
+filtered and decimated force on the filtered and decimated regressors (``plant.identify.inverse_model``),
 within the parameters' physical bounds (``scipy.optimize.lsq_linear``). ``fit_output_error``
 fits the same parameters by simulating the velocity from the measured force
 (``simulate_velocity``: exact exponential step of the linear part, stick and slip of the
@@ -54,12 +54,12 @@ import scipy.optimize
 import scipy.signal
 import scipy.special
 
+from plant.data.time_recording import TimeRecording
 from plant.errors import DataError, EffectError, ParameterError
-from plant.fit_report import correlation_lines, variable_lines
-from plant.inverse_model import EDGE_SAMPLES, FILTER_ORDER, InverseModelData, Preprocessing, inverse_model_data
-from plant.lockin import TEST_P
-from plant.models import Plant
-from plant.time_recording import TimeRecording
+from plant.estimate.lockin import TEST_P
+from plant.identify.fit_report import correlation_lines, variable_lines
+from plant.identify.inverse_model import EDGE_SAMPLES, FILTER_ORDER, InverseModelData, Preprocessing, inverse_model_data
+from plant.physics.models import Plant
 
 #: velocity below this fraction of the 99th percentile of |v| is "low velocity"
 LOW_VELOCITY_FRACTION = 0.05

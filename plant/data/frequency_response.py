@@ -1,6 +1,6 @@
 """Measured frequency responses (velocity per current) with their uncertainty.
 
-``MeasuredResponse`` is the hand-over between estimation (``plant.lockin``) and fitting,
+``MeasuredResponse`` is the hand-over between estimation (``plant.estimate.lockin``) and fitting,
 diagnosis and data-driven synthesis.
 """
 

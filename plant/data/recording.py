@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from plant.errors import DataError
-from plant.interrupts import raise_if_requested
+from plant.host.interrupts import raise_if_requested
 
 
 @dataclass(frozen=True)
@@ -106,7 +106,7 @@ def atomic_write_texts(files: dict[Path, str]) -> None:
 
     A path that is a symbolic link is written through to the file it points to (the link stays); a
     file that is replaced keeps its permission bits, a new one gets the usual ``0666`` less the umask.
-    Nothing is written once Ctrl-C or SIGTERM was requested (``plant.interrupts``)."""
+    Nothing is written once Ctrl-C or SIGTERM was requested (``plant.host.interrupts``)."""
     raise_if_requested()
     given = {Path(os.path.realpath(path)): Path(path) for path in files}
     targets = {target: files[path] for target, path in given.items()}

@@ -19,11 +19,11 @@ from pathlib import Path
 
 import numpy as np
 
+from plant.data.recording import Recording
+from plant.data.recording_io import read_recording
+from plant.data.time_recording import SAMPLING_TOLERANCE, TimeRecording
 from plant.errors import DataError
-from plant.recording import Recording
-from plant.recording_io import read_recording
-from plant.text_io import data_suffix, read_text
-from plant.time_recording import SAMPLING_TOLERANCE, TimeRecording
+from plant.host.text_io import data_suffix, read_text
 
 #: fewest samples of a time-domain recording
 MIN_SAMPLES = 64
@@ -34,7 +34,7 @@ def read_measurement(path: str | Path, *, columns: dict[str, list[str]] | None =
     """A stepped-sine ``Recording`` or a ``TimeRecording``, by what the file and the column map say.
 
     ``.mat`` files are time-domain; a CSV is a stepped sine when it has (or the map names) a
-    frequency column; spreadsheets and TDMS files are stepped sines (``plant.recording_io``)."""
+    frequency column; spreadsheets and TDMS files are stepped sines (``plant.data.recording_io``)."""
     path = Path(path)
     if not path.is_file():
         raise DataError(f"{path}: no such file")

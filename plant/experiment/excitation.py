@@ -41,8 +41,8 @@ from pathlib import Path
 
 import numpy as np
 
+from plant.data.recording import atomic_write_text
 from plant.errors import ParameterError
-from plant.recording import atomic_write_text
 
 PHASES = ("schroeder", "optimised", "random")
 #: largest number of samples a design may hold (periods x samples per period): about 400 MB of float64
@@ -57,7 +57,7 @@ CLIP_LEVELS = (0.8, 0.9)
 #: the tool simulates by default over 1-75 Hz (``gantry simulate --f-hz 1:75:50``)
 THESIS_BLOCK_S = 5.0
 THESIS_FREQUENCIES = 50
-#: seconds dropped at the start of each stepped-sine block before the lock-in; ``plant.lockin``
+#: seconds dropped at the start of each stepped-sine block before the lock-in; ``plant.estimate.lockin``
 #: never cuts less (``MIN_SETTLE_S``)
 STEPPED_SETTLE_S = 0.05
 
@@ -310,7 +310,7 @@ def multisine_variance(multisine: Multisine, noise_m_per_s: float, transient_per
     With the unnormalised DFT of one period of N samples, X_k = sum_{n<N} x[n] e^{-j 2 pi k n / N},
     a line a cos(2 pi k n / N + phi) has |U_k| = N a / 2 and white noise of variance s^2 has
     E|V_k|^2 = N s^2. G_hat_k = V_bar_k / U_bar_k, the ratio of the means over the P periods
-    kept (``plant.frf_estimation.periodic_response``); the current is the command, known without
+    kept (``plant.estimate.frf_estimation.periodic_response``); the current is the command, known without
     noise, so U_bar_k = U_k and var(G_hat_k) = N s^2 / (P |U_k|^2) = 4 s^2 / (P N a_k^2).
     """
     p = multisine.periods - _whole_count("transient_periods", transient_periods, 0)
@@ -323,7 +323,7 @@ def multisine_variance(multisine: Multisine, noise_m_per_s: float, transient_per
 
 def stepped_sine_variance(*, amplitude_a: float, block_s: float, settle_s: float, sample_rate_hz: float,
                           noise_m_per_s: float) -> float:
-    """Predicted E|G_hat - G|^2 ((m/s per A)^2) of one stepped-sine block (lock-in, ``plant.lockin``).
+    """Predicted E|G_hat - G|^2 ((m/s per A)^2) of one stepped-sine block (lock-in, ``plant.estimate.lockin``).
 
     The block is a sinusoid of amplitude A = ``amplitude_a`` (A) for ``block_s`` seconds; the
     lock-in fits it over the N = (block_s - settle_s) x fs samples after settling. The phasor

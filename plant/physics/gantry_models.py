@@ -13,7 +13,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from plant.parameters import check_positive
+from plant.physics.parameters import check_positive
 
 if TYPE_CHECKING:
     import control

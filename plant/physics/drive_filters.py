@@ -21,8 +21,8 @@ from typing import ClassVar
 
 import numpy as np
 
-from plant.algebra import NUMPY
-from plant.chain import ChainEffect
+from plant.physics.algebra import NUMPY
+from plant.physics.chain import ChainEffect
 
 
 def _value(x, ops):

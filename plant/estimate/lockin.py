@@ -49,9 +49,9 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.special
 
+from plant.data.frequency_response import MeasuredResponse
+from plant.data.recording import Block, Recording, lattice_step
 from plant.errors import DataError
-from plant.frequency_response import MeasuredResponse
-from plant.recording import Block, Recording, lattice_step
 
 #: default number of sub-blocks for the variance of each point
 SUBBLOCKS = 10

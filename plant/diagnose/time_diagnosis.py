@@ -2,10 +2,10 @@
 fails, which force effects are missing, added one at a time while the error falls.
 
 Candidates are the effects with a force model (``Effect.force_regressors``: ``coulomb_friction``,
-``offset``). Every combination is fitted by the inverse model (``plant.time_fit``; linear least
+``offset``). Every combination is fitted by the inverse model (``plant.identify.time_fit``; linear least
 squares, so each fit is global and a model containing another never fits worse). Models are
 compared by BIC with the residual's own variance and one effective sample size for all (that of
-the largest model; ``plant.time_fit`` module doc). The selected model has the lowest BIC, except
+the largest model; ``plant.identify.time_fit`` module doc). The selected model has the lowest BIC, except
 that a model with fewer effects within ``ACCEPT_DELTA_BIC`` of it is kept (Kass & Raftery 1995:
 "very strong" evidence is needed for each added effect). The verdict is "explained" only when
 the selected model's residual has no structure (``TimeFitResult.explained``); otherwise it says
@@ -25,13 +25,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from plant.effects import EFFECTS, make_effect
+from plant.data.time_recording import TimeRecording
+from plant.diagnose.evidence import ACCEPT_DELTA_BIC, addition_delta_bic, verdict
 from plant.errors import EffectError
-from plant.evidence import ACCEPT_DELTA_BIC, addition_delta_bic, verdict
-from plant.inverse_model import InverseModelData, Preprocessing, inverse_model_data
-from plant.models import Plant
-from plant.time_fit import TimeFitResult, bic, fit_inverse_model
-from plant.time_recording import TimeRecording
+from plant.identify.inverse_model import InverseModelData, Preprocessing, inverse_model_data
+from plant.identify.time_fit import TimeFitResult, bic, fit_inverse_model
+from plant.physics.effects import EFFECTS, make_effect
+from plant.physics.models import Plant
 
 #: fraction of the 99th percentile of |v| above which a sample counts as moving in one direction
 DIRECTION_FRACTION = 0.05
@@ -39,7 +39,7 @@ DIRECTION_FRACTION = 0.05
 
 @dataclass(frozen=True)
 class TimeCandidate:
-    """One effect tried on the base model (``delta_bic`` as ``plant.evidence`` has it: positive favours it)."""
+    """One effect tried on the base model (``delta_bic`` as ``plant.diagnose.evidence`` has it: positive favours it)."""
 
     effect: str
     delta_bic: float

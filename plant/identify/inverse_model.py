@@ -35,8 +35,8 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.signal
 
+from plant.data.time_recording import TimeRecording
 from plant.errors import DataError
-from plant.time_recording import TimeRecording
 
 #: Butterworth corner (Hz) and order of the reference script
 FILTER_HZ = 100.0

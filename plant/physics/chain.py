@@ -2,7 +2,7 @@
 
 Drive (current command -> motor force): ``delay``, ``current_loop``, ``sampling``.
 Sensor (moving mass -> recorded velocity): ``sensor_filter``, ``encoder_velocity``.
-Each factor is one formula of ``s`` shared by NumPy and casadi (``plant.algebra``).
+Each factor is one formula of ``s`` shared by NumPy and casadi (``plant.physics.algebra``).
 """
 
 from __future__ import annotations
@@ -13,9 +13,9 @@ from typing import TYPE_CHECKING, ClassVar
 
 import numpy as np
 
-from plant.algebra import NUMPY
-from plant.effect_base import PADE_ORDER, ChainEffect, phase_delay_s, scalar
-from plant.parameters import check_positive
+from plant.physics.algebra import NUMPY
+from plant.physics.effect_base import PADE_ORDER, ChainEffect, phase_delay_s, scalar
+from plant.physics.parameters import check_positive
 
 if TYPE_CHECKING:
     import control
@@ -77,7 +77,7 @@ class CurrentLoop(ChainEffect):
     """Inner current loop as a first-order lag w_c/(s + w_c), w_c = 2*pi*``bandwidth_hz``.
 
     ``from_motor`` derives the bandwidth from the winding (R_s, L_s, thesis Eq. 2.23-2.24)
-    and the current PI gains; see ``plant.motor.current_loop_tf`` for the exact loop.
+    and the current PI gains; see ``plant.physics.motor.current_loop_tf`` for the exact loop.
     """
 
     bandwidth_hz: float = 1000.0
@@ -97,7 +97,7 @@ class CurrentLoop(ChainEffect):
     def from_motor(cls, *, resistance_ohm: float, inductance_h: float, kp_v_per_a: float,
                    ki_v_per_a_s: float) -> CurrentLoop:
         """First-order equivalent of the PI current loop of a winding (its exact -3 dB bandwidth)."""
-        from plant.motor import current_loop_bandwidth_hz
+        from plant.physics.motor import current_loop_bandwidth_hz
 
         return cls(current_loop_bandwidth_hz(resistance_ohm=resistance_ohm, inductance_h=inductance_h,
                                              kp_v_per_a=kp_v_per_a, ki_v_per_a_s=ki_v_per_a_s))

@@ -10,7 +10,7 @@ Input is the motor current in A, output the recorded velocity in m/s:
     P(s) = K_t * D(s) * H(s) * S(s)
 
 with D the product of the drive effects, S of the sensor effects and H the mechanics, the
-velocity per force of the lumped network (``plant.mechanics``): a chain of bodies, or the
+velocity per force of the lumped network (``plant.physics.mechanics``): a chain of bodies, or the
 Xie-Wang tilting beam with ``tilt_coupling``. For Stage Y the input is the total current
 i = i1 + i2 of the two coupled motors, split equally, for which thesis Eq. 3.16 (a column of
 Figure A.1) is exact: v_y = K_t L / (2 M l s + 2 b L) * i.
@@ -25,21 +25,21 @@ from typing import TYPE_CHECKING, Literal
 
 import numpy as np
 
-from plant.algebra import NUMPY
-from plant.coulomb_response import rigid_body_first_harmonic
-from plant.effect_base import PADE_ORDER, ChainEffect, Effect, replace_unchecked
-from plant.effects import make_effect
 from plant.errors import EffectError, ParameterError
-from plant.gantry_models import xie_wang_frd
 from plant.grid import check_grid
-from plant.mechanics import (
+from plant.physics.algebra import NUMPY
+from plant.physics.coulomb_response import rigid_body_first_harmonic
+from plant.physics.effect_base import PADE_ORDER, ChainEffect, Effect, replace_unchecked
+from plant.physics.effects import make_effect
+from plant.physics.gantry_models import xie_wang_frd
+from plant.physics.mechanics import (
     BodyChain,
     CoulombFriction,
     ModeEffect,
     TiltCoupling,
     body_chain,
 )
-from plant.parameters import THESIS, Parameter, check_positive
+from plant.physics.parameters import THESIS, Parameter, check_positive
 
 if TYPE_CHECKING:
     import control
@@ -265,7 +265,7 @@ class Plant:
 
     def _chain_frd(self, w) -> np.ndarray:
         """Chain of bodies times the chain effects; with Coulomb friction, the exact first harmonic of the
-        rigid body (``plant.coulomb_response``) or, for a chain of several bodies, the describing function."""
+        rigid body (``plant.physics.coulomb_response``) or, for a chain of several bodies, the describing function."""
         s = 1j * w
         kt = np.asarray(self.force_constant_n_per_a, float)
         series = kt * self.chain_response(s, "drive") * self.chain_response(s, "sensor")
@@ -332,7 +332,7 @@ class Plant:
             num, den = (np.asarray(p[0][0], float) for p in (tf.num, tf.den))
             sys = control.tf(num / den[-1], den / den[-1])
         else:
-            from plant.gantry_models import xie_wang_ss
+            from plant.physics.gantry_models import xie_wang_ss
 
             l1, l2 = (float(v) for v in self._loads_l1_l2(tilt))
             ss = xie_wang_ss(mass_kg=float(np.asarray(self.mass_kg).reshape(())),

@@ -18,7 +18,7 @@ with the noise (``chi2_is_noise``); otherwise it is ``not_explained`` and says s
 describing the residual no effect of the library reproduces.
 
 Coulomb friction on a rigid body is modelled exactly (the stick-slip first harmonic of
-``plant.coulomb_response``); in a chain of several bodies by its describing function, whose
+``plant.physics.coulomb_response``); in a chain of several bodies by its describing function, whose
 error counts as misfit like any other, so such a model may be reported as not explaining the data.
 """
 
@@ -31,14 +31,14 @@ from dataclasses import dataclass, replace
 import numpy as np
 from scipy import special
 
-from plant.chain import EncoderVelocity
-from plant.effects import EFFECTS, make_effect
+from plant.data.frequency_response import MeasuredResponse
+from plant.diagnose.evidence import ACCEPT_DELTA_BIC, TIE_DELTA_BIC, addition_delta_bic, verdict
 from plant.errors import DataError
-from plant.evidence import ACCEPT_DELTA_BIC, TIE_DELTA_BIC, addition_delta_bic, verdict
-from plant.fitting import FitResult, fit_plant
-from plant.frequency_response import MeasuredResponse
-from plant.models import Plant
-from plant.residuals import ResidualSummary, merge_failing, residual_summary
+from plant.identify.fitting import FitResult, fit_plant
+from plant.identify.residuals import ResidualSummary, merge_failing, residual_summary
+from plant.physics.chain import EncoderVelocity
+from plant.physics.effects import EFFECTS, make_effect
+from plant.physics.models import Plant
 
 #: chi^2 is consistent with noise unless a correct model exceeds it with probability below the
 #: one-sided normal tail at NOISE_Z (1.35e-3)
@@ -69,7 +69,7 @@ class Nonlinearity:
 
 @dataclass(frozen=True)
 class Candidate:
-    """One effect tried as an addition to a model (``delta_bic`` as ``plant.evidence`` has it: positive favours
+    """One effect tried as an addition to a model (``delta_bic`` as ``plant.diagnose.evidence`` has it: positive favours
     the effect)."""
 
     effect: str
@@ -313,7 +313,7 @@ def diagnose(plant: Plant, data: MeasuredResponse, *, candidates: tuple[str, ...
     ``plant`` sets the stage, geometry and starting values (its effects, if any, are kept and
     refitted); ``free_base`` are the base parameters fitted in every model (add
     ``force_constant_n_per_a`` when asked). ``amplitude_dependent`` comes from comparing
-    recordings at several amplitudes (``plant.lockin.amplitude_dependence``). A recording whose
+    recordings at several amplitudes (``plant.estimate.lockin.amplitude_dependence``). A recording whose
     velocity is an encoder position differenced at its sample rate (``data.metadata``) gets that
     sensor in every model.
     """

@@ -1,4 +1,4 @@
-"""Diagnosis benchmark on recordings from the independent simulator (tests/independent_sim.py).
+"""Diagnosis benchmark on recordings from the independent simulator (tests/reference/independent_sim.py).
 
 Run:  python benchmarks/bench_diagnosis.py [--n 72] [--seed 2024] [--only CLASS] [--keep DIR] [--jobs 1]
 

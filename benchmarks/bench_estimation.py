@@ -13,7 +13,7 @@ noise sigma_v on the velocity and sigma_i on the current, has the bound
                        (efficiency of the fit itself; 1 for an efficient estimator)
   reported/scatter     mean reported variance over the scatter (calibration; 1 is calibrated)
 Sampling scatter of the ratios with R realisations: about 1 / sqrt(R) (5 % for R = 400).
-The noise-free transient case is not here: see tests/test_lockin.py.
+The noise-free transient case is not here: see tests/plant/estimate/test_lockin.py.
 """
 
 import argparse

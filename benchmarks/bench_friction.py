@@ -1,5 +1,5 @@
 """Friction benchmark: ``diagnose`` on stepped-sine recordings of a stage with Coulomb friction, simulated by
-the independent stick-slip simulator (tests/independent_stick_slip.py: SciPy event-located integration from
+the independent stick-slip simulator (tests/reference/independent_stick_slip.py: SciPy event-located integration from
 rest, no code of the tool).
 
 Run:  python benchmarks/bench_friction.py [--n 16] [--seed 5]

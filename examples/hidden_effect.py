@@ -9,7 +9,7 @@ recording (thesis section 4.1: 1-75 Hz, 5 s per frequency, 0.5 A) goes through t
 as a real one: frequency-response estimation, then the diagnosis, which must name the
 hidden effects and their values without being told, or say "not explained" when no model of
 its library reproduces the data. The four-mass stage is recorded by the independent
-simulator of the tests (tests/independent_sim.py), which shares no code with the tool.
+simulator of the tests (tests/reference/independent_sim.py), which shares no code with the tool.
 """
 
 import sys

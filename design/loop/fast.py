@@ -16,7 +16,7 @@ points per decade, 281 points) and
    instead of the linear interpolation's O(h^2)).
 
 Against a 100 000-point grid the result is as accurate as the default grid or better
-(``benchmarks/bench_sweep.py`` and ``tests/test_sweep.py``). The conventions are those of
+(``benchmarks/bench_sweep.py`` and ``tests/design/loop/test_sweep.py``). The conventions are those of
 ``design.loop.margins`` (python-control 0.10 ``stability_margins``): of several crossings the
 gain margin closest to 0 dB and the phase margin smallest in magnitude are kept; the
 bandwidth is the first -3 dB point of T = L/(1 + L); no crossing gives an infinite margin

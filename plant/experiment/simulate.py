@@ -64,7 +64,7 @@ from plant.physics.models import Plant, chain_state_space
 from plant.physics.parameters import check_finite, check_positive
 
 #: default internal integration rate when Coulomb friction is present (Hz): the fundamental then
-#: agrees with a 5x finer step to 3e-3 (Stage X, 1-75 Hz, F_c = 2 N at 0.5 A; tests/test_simulate.py)
+#: agrees with a 5x finer step to 3e-3 (Stage X, 1-75 Hz, F_c = 2 N at 0.5 A; tests/plant/experiment/test_simulate.py)
 FRICTION_RATE_HZ = 20000.0
 #: highest internal rate accepted (Hz): incommensurate controller and recording rates need more
 MAX_INTERNAL_RATE_HZ = 2.0e6

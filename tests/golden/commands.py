@@ -1,7 +1,7 @@
 """The commands whose ``--json`` output is the stable contract, and how their outputs are compared.
 
 ``python tests/golden/commands.py [NAME ...]`` (from the repository root) writes ``tests/golden/*.json``;
-``tests/test_json_contract.py`` checks that the commands still print the same JSON. The files were
+``tests/cli/test_json_contract.py`` checks that the commands still print the same JSON. The files were
 written by the code before ``design/`` was split into sub-packages; the ``synth_*`` files again when
 synthesis became robust to the specs' ``plant.uncertainty`` (a deliberate change of the designs), and
 ``synth_admittance`` when the bundled admittance spec took the walking mouse, the rig's 100 Hz law and the

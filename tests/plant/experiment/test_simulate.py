@@ -284,7 +284,7 @@ def test_cli_spec_stage_y_json(tmp_path):
 def _repo_root():
     from pathlib import Path
 
-    return Path(__file__).resolve().parents[1]
+    return Path(__file__).resolve().parents[3]
 
 
 @pytest.mark.parametrize("args, message", [

@@ -12,7 +12,7 @@ from design.admittance.rig import RigTiming
 from design.parallel import thread_map, workers
 from design.spec.schema import load_spec
 
-SPEC = Path(__file__).resolve().parents[1] / "specs" / "stage_x_admittance.toml"
+SPEC = Path(__file__).resolve().parents[3] / "specs" / "stage_x_admittance.toml"
 
 
 def test_thread_map_keeps_order_and_raises(monkeypatch):

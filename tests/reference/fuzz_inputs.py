@@ -39,7 +39,7 @@ from hypothesis import strategies as st
 
 from plant.host.interrupts import Terminated
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 SEED = int(os.environ.get("GANTRY_FUZZ_SEED", "1414"))
 LOG = os.environ.get("GANTRY_FUZZ_LOG")
 #: address space a command may use (bytes): a runaway allocation fails with MemoryError instead of the machine

@@ -1,7 +1,7 @@
 """Fuzzing the command line in-process: generated recordings, spreadsheets and specs, mutated bytes, output paths
 and interrupts. Every case must end with exit status 0 or 2 (130/143 when interrupted), one line on stderr
 for an error, no traceback, no hang, and outputs that are all there after a success and untouched otherwise
-(``tests/fuzz_inputs.py``). The fast part runs by default; ``-m slow`` runs the long one."""
+(``tests/reference/fuzz_inputs.py``). The fast part runs by default; ``-m slow`` runs the long one."""
 
 from __future__ import annotations
 

@@ -24,7 +24,7 @@ from design.views.json import synthesis_to_dict
 from plant import Resonance, SpecError
 from plant.physics.effects import Sampling
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[3]
 SPEC_X = ROOT / "specs" / "stage_x_synth.toml"
 
 

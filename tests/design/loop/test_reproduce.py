@@ -18,7 +18,7 @@ from typer.testing import CliRunner
 import design.cli.common
 from plant import __version__
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[3]
 THESIS = {  # (stage, quantity): value
     ("x", "closed_loop_bandwidth"): 19.2, ("y", "closed_loop_bandwidth"): 16.4,   # Table 3.1, Hz
     ("x", "phase_margin"): 95.3, ("y", "phase_margin"): 101.0,                     # section 3.1 text, deg

@@ -1,4 +1,4 @@
-"""Diagnosis on recordings from the independent simulator (tests/independent_sim.py: state space of
+"""Diagnosis on recordings from the independent simulator (tests/reference/independent_sim.py: state space of
 the physical networks, exact sine responses from rest; it imports nothing of the tool).
 
 One recording per failure class that users met on recordings the tool had never seen: a flexible

@@ -14,7 +14,7 @@ import pytest
 from design.workflows import load_problem, measure
 from plant.errors import SpecError
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 SPEC_X = ROOT / "specs" / "stage_x_synth.toml"
 EMPS = ROOT / "examples" / "data" / "emps" / "DATA_EMPS.mat"
 

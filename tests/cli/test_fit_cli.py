@@ -36,7 +36,7 @@ def test_fit_names_a_bad_parameter(tmp_path):
 
 
 def test_short_blocks_of_an_independent_recording_fit_as_long_ones_do(tmp_path):
-    # 0.5 s blocks from rest (tests/independent_sim.py, exact responses) of a stage whose start-up transient
+    # 0.5 s blocks from rest (tests/reference/independent_sim.py, exact responses) of a stage whose start-up transient
     # decays with m / b = 91 ms, a delay and a current loop: the lock-in cannot settle past the transient in
     # the low-frequency blocks and fits it; before, the damping came back 5 % low with reduced chi^2 19
     import independent_sim as sim

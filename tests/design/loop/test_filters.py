@@ -23,7 +23,7 @@ from plant import CurrentLoop, Delay, stage_x
 from plant.errors import SpecError
 from plant.physics.drive_filters import LowPassFilter, NotchFilter
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[3]
 RESONANT = ROOT / "specs" / "stage_x_resonant_payload.toml"
 
 

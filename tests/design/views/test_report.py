@@ -13,7 +13,7 @@ from plant import Delay, stage_x
 from plant.data.recording import write_recording_csv
 from plant.experiment.simulate import simulate_stepped_sine
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[3]
 SPEC = ROOT / "specs" / "thesis_stage_x.toml"
 
 

@@ -1,4 +1,4 @@
-"""plant.estimate.frf_estimation against the independent simulator ``tests/independent_timesim.py``.
+"""plant.estimate.frf_estimation against the independent simulator ``tests/reference/independent_timesim.py``.
 
 The truth is the simulator's own response: continuous-time C (jwI - A)^-1 B for multisines
 simulated exactly in continuous time, the zero-order-hold discrete response at e^{jwT} for

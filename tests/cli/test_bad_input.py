@@ -26,7 +26,7 @@ from plant.experiment.simulate import simulate_stepped_sine
 from plant.host import text_io
 from plant.host.text_io import decode
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 THESIS_X = ROOT / "specs" / "thesis_stage_x.toml"
 
 

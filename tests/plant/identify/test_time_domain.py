@@ -28,7 +28,9 @@ from plant.identify.time_fit import fit_inverse_model, fit_output_error
 from plant.physics.effects import make_effect
 from plant.physics.models import Plant
 
-EMPS = Path(__file__).resolve().parents[1] / "examples" / "data" / "emps" / "DATA_EMPS.mat"
+TESTS = Path(__file__).resolve().parents[2]
+
+EMPS = Path(__file__).resolve().parents[3] / "examples" / "data" / "emps" / "DATA_EMPS.mat"
 EMPS_COLUMNS = "time=t,current=vir,position=qm,reference=qg"
 PUBLISHED = {"mass_kg": 95.1089, "damping_n_s_per_m": 203.5034, "coulomb_friction.force_n": 20.3935,
              "offset.force_n": -3.1648}
@@ -52,7 +54,7 @@ def _plant(axis: Axis, *names: str) -> Plant:
 
 
 def test_simulator_is_independent_of_the_tool():
-    source = (Path(__file__).parent / "independent_friction_sim.py").read_text()
+    source = (TESTS / "reference" / "independent_friction_sim.py").read_text()
     imported = {a.name.split(".")[0] for node in ast.walk(ast.parse(source)) if isinstance(node, ast.Import)
                 for a in node.names}
     imported |= {node.module.split(".")[0] for node in ast.walk(ast.parse(source))
@@ -239,7 +241,7 @@ def test_stepped_sine_reader_refuses_a_map_without_frequency(tmp_path):
 
 
 def test_emps_example_runs_from_the_checkout(tmp_path):
-    example = Path(__file__).resolve().parents[1] / "examples" / "emps.py"
+    example = Path(__file__).resolve().parents[3] / "examples" / "emps.py"
     out = subprocess.run([sys.executable, str(example), "--report", str(tmp_path / "emps.html")], capture_output=True,
                          text=True, timeout=120)
     assert out.returncode == 0, out.stderr

@@ -31,7 +31,7 @@ from design.spec.schema import load_spec, parse_spec
 from design.synth.scenarios import Scenarios
 from plant import stage_x
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[3]
 SPEC = ROOT / "specs" / "stage_x_admittance.toml"
 W = np.geomspace(0.5, 500, 200)
 

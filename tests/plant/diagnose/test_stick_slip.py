@@ -22,11 +22,13 @@ from plant.diagnose.diagnosis import diagnose
 from plant.estimate.lockin import estimate_response
 from plant.experiment.simulate import simulate_stepped_sine
 
+TESTS = Path(__file__).resolve().parents[2]
+
 MASS_KG, DAMPING_N_S_PER_M, KT, AMPLITUDE_A = 40.0, 440.0, 20.0, 0.5
 
 
 def test_simulator_is_independent_of_the_tool():
-    tree = ast.parse((Path(__file__).parent / "independent_stick_slip.py").read_text())
+    tree = ast.parse((TESTS / "reference" / "independent_stick_slip.py").read_text())
     imported = {a.name.split(".")[0] for node in ast.walk(tree) if isinstance(node, ast.Import) for a in node.names}
     imported |= {node.module.split(".")[0] for node in ast.walk(tree) if isinstance(node, ast.ImportFrom)
                  and node.module}

@@ -25,7 +25,7 @@ from plant.errors import ParameterError, SpecError
 from plant.grid import log_grid_rad_s
 from plant.physics.effects import Sampling, TiltCoupling
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[3]
 THESIS_X = ROOT / "specs" / "thesis_stage_x.toml"
 KP, KI = 236.0, 47.0  # thesis PI gains (Appendix A plotting code)
 #: reference grid: the default analysis on 20 000 points (linear-interpolation error ~1e-7)

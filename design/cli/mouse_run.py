@@ -44,7 +44,7 @@ def mouse_run(
     from design.admittance.mouse_run import path_from_csv, run_settings, trapezoid_path
     from design.views.json import mouse_run_csv, mouse_run_to_dict, print_json
     from design.workflows import load_problem
-    from plant.data.recording import atomic_write_text
+    from plant.host.files import atomic_write_text
     from plant.host.text_io import read_text
 
     keep_inputs({"--out": out}, [spec_file, design_file, path])

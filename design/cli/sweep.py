@@ -32,7 +32,7 @@ def sweep(
     from design.views.json import print_json, sweep_csv, sweep_to_dict
     from design.views.progress import LazyProgress
     from design.workflows import load_problem
-    from plant.data.recording import atomic_write_text
+    from plant.host.files import atomic_write_text
 
     keep_inputs({"--csv": csv}, [spec])
     problem = load_problem(spec).loop

@@ -8,7 +8,7 @@ from dataclasses import dataclass, field
 
 import matplotlib.pyplot as plt
 
-from plant.data.recording import atomic_write_text
+from plant.host.files import atomic_write_text
 
 STYLE = """
 body { font-family: system-ui, -apple-system, Segoe UI, Roboto, sans-serif; max-width: 1100px; margin: 2em auto;

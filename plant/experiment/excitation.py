@@ -41,8 +41,8 @@ from pathlib import Path
 
 import numpy as np
 
-from plant.data.recording import atomic_write_text
 from plant.errors import ParameterError
+from plant.host.files import atomic_write_text
 
 PHASES = ("schroeder", "optimised", "random")
 #: largest number of samples a design may hold (periods x samples per period): about 400 MB of float64

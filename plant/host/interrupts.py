@@ -1,7 +1,7 @@
 """Ctrl-C and SIGTERM as the command line receives them. The signal handlers record the request here as
 well as raising, because a library may swallow the exception raised in its callbacks (casadi's SWIG
 wrappers clear it, IPOPT returns "User_Requested_Stop", Clarabel turns it into a solver failure):
-outputs are not committed once a stop was requested (``plant.data.recording.atomic_write_texts``), and the
+outputs are not committed once a stop was requested (``plant.host.files.atomic_write_texts``), and the
 command line ends with the status of the request whatever the exception that reached it."""
 
 from __future__ import annotations

@@ -13,10 +13,11 @@ import warnings
 import numpy as np
 import pytest
 
-from plant.data.recording import Block, Recording, atomic_write_text, atomic_write_texts, write_recording_csv
+from plant.data.recording import Block, Recording, write_recording_csv
 from plant.data.recording_io import parse_column_map, read_recording
 from plant.errors import DataError
 from plant.estimate.lockin import estimate_response
+from plant.host.files import atomic_write_text, atomic_write_texts
 
 FS = 1000.0
 GAIN, PHASE = 0.04, -0.3        # synthetic plant: v = GAIN * i shifted by PHASE (closed form)

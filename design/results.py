@@ -4,12 +4,16 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, NamedTuple
+
+from plant.errors import ParameterError
+from plant.physics.effect_base import PADE_ORDER
 
 if TYPE_CHECKING:
     from design.admittance.curves import AdmittanceCurves
     from design.admittance.monte_carlo import AdmittanceMonteCarlo
     from design.admittance.synthesis import AdmittanceResult
+    from design.loop.control_models import LoopModels
     from design.loop.curves import LoopCurves
     from design.loop.sweep import SweepResult
     from design.problem import LoopProblem
@@ -69,6 +73,13 @@ class DiagnosisOutcome:
     measured: MeasuredResponse | None = None
 
 
+class Gains(NamedTuple):
+    """PI gains of the velocity loop: ``kp`` in A per (m/s), ``ki`` in A per m (unpacks as ``kp, ki``)."""
+
+    kp: float
+    ki: float
+
+
 @dataclass(frozen=True)
 class DesignOutcome:
     """What ``design.workflows.design`` found: the PI synthesis on the plant family (or the design from
@@ -115,12 +126,24 @@ class DesignOutcome:
         return pi and (self.admittance is None or self.admittance.verified)
 
     @property
-    def gains(self) -> tuple[float, float] | None:
-        """The designed (kp, ki) when the PI design succeeded."""
+    def gains(self) -> Gains | None:
+        """The designed gains when the PI design succeeded."""
         if self.measured is not None:
-            return None if self.measured.kp is None else (self.measured.kp, self.measured.ki)
+            return None if self.measured.kp is None else Gains(self.measured.kp, self.measured.ki)
         e = self.synthesis.evaluation
-        return (e.kp, e.ki) if self.synthesis.status == "optimal" and e is not None else None
+        return Gains(e.kp, e.ki) if self.synthesis.status == "optimal" and e is not None else None
+
+    def loop_models(self, payload_kg: float | None = None, *, pade_order: int = PADE_ORDER) -> LoopModels:
+        """P, C, L, S, T as python-control models (``design.loop.control_models``) at the designed gains, on
+        the spec's plant at ``payload_kg`` (default: its nominal payload)."""
+        from design.loop.control_models import loop_models
+
+        g = self.gains
+        if g is None:
+            raise ParameterError(f"no designed gains to build the loop from (status {self.status})")
+        family = self.problem.loop.plant
+        m = family.payload_kg.nominal_kg if payload_kg is None else payload_kg
+        return loop_models(family.plant(m), g.kp, g.ki, pade_order=pade_order)
 
 
 @dataclass(frozen=True)

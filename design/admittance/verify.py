@@ -21,6 +21,7 @@ import numpy as np
 from design.admittance.model import AdmittanceCheck, admittance_problem
 from design.admittance.mouse import MouseModel
 from design.admittance.rig import RigTiming, force_filter_polys
+from design.loop.loops import balanced
 from design.parallel import thread_map
 from design.problem import LoopProblem
 from plant.physics.chain import ChainEffect
@@ -70,20 +71,6 @@ class GantryParts:
     drive: object
     sensor: object
     kt: float
-
-
-def balanced(sys):
-    """``sys`` under the diagonal similarity that balances its state matrix (``scipy.linalg.matrix_balance``):
-    a Pade factor's companion form has entries up to 1e24, which ``c2d``'s matrix exponential cannot take."""
-    import control
-    from scipy.linalg import matrix_balance
-
-    if sys.nstates == 0:
-        return sys
-    A, B, C, D = (np.asarray(x, float) for x in (sys.A, sys.B, sys.C, sys.D))
-    _, (scale, _) = matrix_balance(A, permute=False, separate=True)
-    return control.ss(A * (1 / scale)[:, None] * scale[None, :], B / scale[:, None], C * scale[None, :], D,
-                      sys.dt, inputs=sys.input_labels, outputs=sys.output_labels)
 
 
 def gantry_parts(plant: Plant) -> GantryParts:

@@ -8,7 +8,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from design.loop.loops import closed_loop_tf, open_loop_frd
+from design.loop.loops import balanced, closed_loop_tf, open_loop_frd
 from design.problem import LoopProblem
 from plant.grid import log_grid_rad_s
 
@@ -41,18 +41,6 @@ def report_payloads(problem: LoopProblem) -> tuple[float, ...]:
     return tuple(sorted({rng.min, rng.nominal_kg, rng.max}))
 
 
-def balanced_ss(tf):
-    """A state-space realisation of ``tf`` balanced by a diagonal similarity (``scipy.linalg.matrix_balance``):
-    the companion form of a high-order loop (Pade delay, resonances, filters) can have a condition number
-    of 1e67, and its simulated step response then diverges although every pole is stable."""
-    import control
-    from scipy.linalg import matrix_balance
-
-    s = control.ss(tf)
-    _, (scale, _) = matrix_balance(s.A, permute=False, separate=True)
-    return control.ss(s.A / scale[:, None] * scale[None, :], s.B / scale[:, None], s.C * scale[None, :], s.D)
-
-
 def loop_curves(problem: LoopProblem, kp: float, ki: float) -> LoopCurves:
     import control
 
@@ -60,7 +48,7 @@ def loop_curves(problem: LoopProblem, kp: float, ki: float) -> LoopCurves:
     plants = problem.plant.plant(np.array(masses))
     P = plants.frd(W_BODE)
     with np.errstate(over="ignore", invalid="ignore"):        # an unstable loop's response diverges
-        steps = [np.squeeze(control.step_response(balanced_ss(closed_loop_tf(problem.plant.plant(m), kp, ki)),
+        steps = [np.squeeze(control.step_response(balanced(closed_loop_tf(problem.plant.plant(m), kp, ki)),
                                                   STEP_TIME_S).outputs) for m in masses]
     return LoopCurves(masses, W_BODE, P, open_loop_frd(P, W_BODE, kp, ki), W_NYQUIST,
                       open_loop_frd(plants, W_NYQUIST, kp, ki), STEP_TIME_S, np.array(steps))

@@ -1,0 +1,97 @@
+"""The velocity loop as python-control models, for a notebook or for MATLAB: the plant P (current in, measured
+velocity out), the PI controller C = Kp + Ki/s, the loop L = P C, the sensitivity S = 1/(1 + L) and the
+complementary sensitivity T = L/(1 + L) (thesis Eq. 3.17-3.20), each a balanced state-space model.
+
+The plant is built as a series of state-space blocks, the mechanics and then each effect of the drive and
+sensor chain, every block balanced by a diagonal similarity (``design.loop.loops.balanced``): multiplying the
+transfer functions instead gives a Pade delay's product polynomials with coefficients near 1e28. A delay is
+a Pade approximant of order ``pade_order`` (python-control's ``pade``, as ``Delay.to_tf`` builds it).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from design.loop.loops import balanced, pi_tf
+from plant.physics.effect_base import PADE_ORDER, ChainEffect
+from plant.physics.models import Plant
+
+if TYPE_CHECKING:
+    import control
+    from matplotlib.figure import Figure
+
+
+@dataclass(frozen=True)
+class LoopModels:
+    """P, C, L, S, T of one plant (SI units: A, m/s) under the gains (``kp`` A per (m/s), ``ki`` A per m)."""
+
+    payload_kg: float
+    kp: float
+    ki: float
+    pade_order: int
+    P: control.StateSpace
+    C: control.StateSpace
+    L: control.StateSpace
+    S: control.StateSpace
+    T: control.StateSpace
+
+    def margins(self) -> tuple[float, float]:
+        """python-control's (gain margin dB, phase margin deg) of L (inf when L never crosses)."""
+        import control
+
+        gm, pm, *_ = control.stability_margins(self.L)
+        return (20 * np.log10(gm) if np.isfinite(gm) and gm > 0 else np.inf), (float(pm) if np.isfinite(pm)
+                                                                                 else np.inf)
+
+    def plot(self, f_hz=None) -> Figure:
+        """Bode magnitude of L, S and T and the phase of L (a ``matplotlib.figure.Figure``: no pyplot, so an
+        interactive session's backend is left as it is; show it in a notebook by leaving it as the cell's
+        value, or save it with ``savefig``)."""
+        from matplotlib.figure import Figure
+
+        f = np.geomspace(0.1, 1000.0, 600) if f_hz is None else np.asarray(f_hz, float)
+        s = 2j * np.pi * f
+        fig = Figure(figsize=(7.0, 5.0), layout="constrained")
+        mag, ph = fig.subplots(2, 1, sharex=True)
+        for name in ("L", "S", "T"):
+            mag.semilogx(f, 20 * np.log10(np.abs(_response(getattr(self, name), s))), label=name)
+        mag.axhline(0.0, color="0.6", lw=0.8)
+        mag.set_ylabel("magnitude (dB)")
+        mag.legend()
+        mag.set_title(f"{self.payload_kg:g} kg, Kp = {self.kp:.4g} A/(m/s), Ki = {self.ki:.4g} A/m")
+        ph.semilogx(f, np.degrees(np.unwrap(np.angle(_response(self.L, s)))), label="L")
+        ph.axhline(-180.0, color="0.6", lw=0.8)
+        ph.set_ylabel("phase of L (deg)")
+        ph.set_xlabel("frequency (Hz)")
+        return fig
+
+
+def _response(sys, s: np.ndarray) -> np.ndarray:
+    return np.asarray(sys(s)).reshape(-1)
+
+
+def plant_ss(plant: Plant, *, pade_order: int = PADE_ORDER) -> control.StateSpace:
+    """The plant (one payload, linear effects) as balanced state-space blocks in series (module docstring)."""
+    import control
+
+    mech = replace(plant, effects=tuple(e for e in plant.effects if not isinstance(e, ChainEffect)))
+    out = balanced(mech.to_control())
+    for e in plant.effects:
+        if isinstance(e, ChainEffect):
+            out = balanced(control.ss(e.to_tf(pade_order=pade_order))) * out
+    return balanced(out)
+
+
+def loop_models(plant: Plant, kp: float, ki: float, *, pade_order: int = PADE_ORDER) -> LoopModels:
+    """``LoopModels`` of one plant under (kp, ki)."""
+    import control
+
+    P = plant_ss(plant, pade_order=pade_order)
+    C = control.ss(pi_tf(kp, ki))
+    L = balanced(P * C)
+    S = balanced(control.feedback(control.ss([], [], [], [[1.0]]), L))
+    T = balanced(control.feedback(L, 1))
+    return LoopModels(float(np.asarray(plant.mass_kg).reshape(())), float(kp), float(ki), pade_order, P, C, L, S, T)

@@ -10,7 +10,6 @@ block out with a note instead of refusing the whole recording.
 
 from __future__ import annotations
 
-import csv
 import math
 from pathlib import Path
 from typing import NamedTuple
@@ -18,9 +17,10 @@ from typing import NamedTuple
 import numpy as np
 
 from plant.data.recording import Block, Recording
+from plant.data.table import CsvTable
 from plant.data.time_recording import MAX_CURRENT_A, MAX_OUTPUT
 from plant.errors import DataError
-from plant.host.text_io import data_suffix, read_text
+from plant.host.text_io import data_suffix
 
 #: a time step longer than this many median steps within a block is refused (a corrupt time value;
 #: missing samples leave shorter gaps, which the lock-in handles with the actual sample times)
@@ -151,13 +151,9 @@ def _need_map(path: Path, columns):
 
 
 def _read_csv(path: Path, columns):
-    """Columns by header name: frequency_hz, time_s, current_a, velocity* (or a column map of names).
-    A UTF-8 byte-order mark (spreadsheet exports) is ignored."""
-    text = read_text(path)
-    try:
-        header = [h.strip() for h in next(csv.reader(text.splitlines()))]
-    except StopIteration:
-        raise DataError(f"{path}: the file is empty") from None
+    """Columns by header name: frequency_hz, time_s, current_a, velocity* (or a column map of names)."""
+    table = CsvTable.read(path)
+    header = table.header
     if columns:
         wanted = {"frequency_hz": columns["frequency"][0], "current_a": columns["current"][0]}
         if "time" in columns:
@@ -169,36 +165,10 @@ def _read_csv(path: Path, columns):
         if not outs:
             raise DataError(f"{path}: no output column: expected one or more columns whose names start with "
                             f"'velocity' (header: {', '.join(header)})")
-    for col in [*wanted.values(), *outs]:
-        if col not in header:
-            raise DataError(f"{path}: missing column {col!r} (header: {', '.join(header)})")
     keys = [*wanted.items(), *((o, o) for o in outs)]
-    cols = [header.index(col) for _, col in keys]
-    labels = {key: f"column {col!r}" for key, col in keys}
-    ids = {key: col for key, col in keys}
-    lines = text.splitlines()[1:]
-    kept = [k for k, line in enumerate(lines) if line.strip()]      # blank lines are skipped
-    rows = np.asarray(kept, dtype=int) + 2                            # file row numbers (header = row 1)
-    if not kept:
-        raise DataError(f"{path}: no data rows below the header")
-    lines = [lines[k] for k in kept]
-    try:  # fast path; on failure the slow path below names the bad cell
-        data = np.loadtxt(lines, delimiter=",", usecols=cols, ndmin=2, comments=None)
-        return _Columns({key: data[:, k] for k, (key, _) in enumerate(keys)}, tuple(outs), rows, labels, ids)
-    except ValueError:
-        pass
-    raw = list(csv.reader(lines))
-    table = {}
-    for (key, col), j in zip(keys, cols):
-        values = np.empty(len(raw))
-        for i, row in enumerate(raw):
-            try:
-                values[i] = float(row[j])
-            except (IndexError, ValueError):
-                cell = row[j] if j < len(row) else "<missing>"
-                raise DataError(f"{path}: row {rows[i]}, column {col!r}: {cell!r} is not a number") from None
-        table[key] = values
-    return _Columns(table, tuple(outs), rows, labels, ids)
+    values = table.numbers([col for _, col in keys])
+    return _Columns({key: values[col] for key, col in keys}, tuple(outs), table.rows,
+                    {key: f"column {col!r}" for key, col in keys}, {key: col for key, col in keys})
 
 
 def _read_xlsx(path: Path, columns):

@@ -14,16 +14,16 @@ Every problem raises ``DataError`` naming the file, the column or variable and t
 
 from __future__ import annotations
 
-import csv
 from pathlib import Path
 
 import numpy as np
 
 from plant.data.recording import Recording
 from plant.data.recording_io import read_recording
+from plant.data.table import CsvTable, csv_header
 from plant.data.time_recording import SAMPLING_TOLERANCE, TimeRecording
 from plant.errors import DataError
-from plant.host.text_io import data_suffix, read_text
+from plant.host.text_io import data_suffix
 
 #: fewest samples of a time-domain recording
 MIN_SAMPLES = 64
@@ -42,7 +42,7 @@ def read_measurement(path: str | Path, *, columns: dict[str, list[str]] | None =
     if suffix == ".mat":
         return read_time_recording(path, columns=columns)
     if suffix == ".csv":
-        stepped = "frequency" in columns if columns else "frequency_hz" in _csv_header(path)
+        stepped = "frequency" in columns if columns else "frequency_hz" in csv_header(path)
         if not stepped:
             return read_time_recording(path, columns=columns)
     return read_recording(path, columns=columns, sample_rate_hz=sample_rate_hz)
@@ -65,13 +65,6 @@ def read_time_recording(path: str | Path, *, columns: dict[str, list[str]] | Non
     if suffix == ".csv":
         return _validated(path, *_read_csv(path, columns))
     raise DataError(f"{path}: unknown file type {suffix!r} for a time-domain recording; expected .csv or .mat")
-
-
-def _csv_header(path: Path) -> list[str]:
-    try:
-        return [h.strip() for h in next(csv.reader(read_text(path).splitlines()))]
-    except StopIteration:
-        raise DataError(f"{path}: the file is empty") from None
 
 
 def _default_map(path: Path, header: list[str]) -> dict[str, list[str]]:
@@ -100,48 +93,12 @@ def _default_map(path: Path, header: list[str]) -> dict[str, list[str]]:
 
 
 def _read_csv(path: Path, columns):
-    header = _csv_header(path)
-    columns = columns or _default_map(path, header)
-    for cols in columns.values():
-        for col in cols:
-            if col not in header:
-                raise DataError(f"{path}: missing column {col!r} (header: {', '.join(header)})")
-    lines = read_text(path).splitlines()[1:]
-    kept = [k for k, line in enumerate(lines) if line.strip()]
-    if not kept:
-        raise DataError(f"{path}: no data rows below the header")
-    rows = np.asarray(kept, dtype=int) + 2
-    lines = [lines[k] for k in kept]
-    try:
-        data = np.loadtxt(lines, delimiter=",", ndmin=2, comments=None)
-        if data.shape[1] != len(header):
-            raise ValueError
-        values = {h: data[:, j] for j, h in enumerate(header)}
-    except ValueError:
-        values = _slow_csv(path, header, lines, rows, [c for cols in columns.values() for c in cols])
-    labels = {h: f"row {{row}}, column {h!r}" for h in header}
-    return columns, values, rows, labels, {}
-
-
-def _slow_csv(path, header, lines, rows, wanted):
-    """Cell by cell, naming the first cell that is not a number; unmapped columns that are not
-    numeric are dropped."""
-    raw = list(csv.reader(lines))
-    out = {}
-    for j, name in enumerate(header):
-        col = np.empty(len(raw))
-        for i, row in enumerate(raw):
-            try:
-                col[i] = float(row[j])
-            except (IndexError, ValueError):
-                if name in wanted:
-                    cell = row[j] if j < len(row) else "<missing>"
-                    raise DataError(f"{path}: row {rows[i]}, column {name!r}: {cell!r} is not a number") from None
-                col = None
-                break
-        if col is not None:
-            out[name] = col
-    return out
+    table = CsvTable.read(path)
+    columns = columns or _default_map(path, table.header)
+    mapped = [c for cols in columns.values() for c in cols]
+    values = table.numbers(mapped, optional=table.header)          # unmapped numeric columns ride along
+    labels = {h: f"row {{row}}, column {h!r}" for h in table.header}
+    return columns, values, table.rows, labels, {}
 
 
 def _read_mat(path: Path, columns):

@@ -271,14 +271,12 @@ def measure(path: str | Path, *, columns: str | None = None, sample_rate_hz: flo
     """The frequency response of any recording: a stepped sine by the lock-in, a time-domain recording
     by ``plant.estimate.frf_estimation.estimate_frf`` (``frf``: auto, periodic, lpm or closed-loop)."""
     from plant.data.recording_io import parse_column_map
-    from plant.data.time_recording import TimeRecording
     from plant.data.time_recording_io import read_measurement
-    from plant.estimate.frf_estimation import estimate_frf
-    from plant.estimate.lockin import estimate_response
+    from plant.estimate.response import estimate
 
     rec = read_measurement(path, columns=parse_column_map(columns) if columns else None,
                            sample_rate_hz=sample_rate_hz)
-    return estimate_frf(rec, method=frf) if isinstance(rec, TimeRecording) else estimate_response(rec)
+    return estimate(rec, method=frf)
 
 
 def simulation_plant(*, spec: Path | None, stage: str | None, values: dict[str, float],
@@ -336,8 +334,6 @@ def fit_recording(path: str | Path, *, stage: str, effects: tuple[str, ...] = ()
     from plant.data.recording_io import parse_column_map
     from plant.data.time_recording import TimeRecording
     from plant.data.time_recording_io import read_measurement
-    from plant.estimate.frf_estimation import estimate_frf
-    from plant.estimate.lockin import estimate_response
     from plant.identify.fitting import fit_plant
     from plant.identify.inverse_model import Preprocessing
     from plant.identify.time_fit import fit_inverse_model, fit_output_error
@@ -359,8 +355,7 @@ def fit_recording(path: str | Path, *, stage: str, effects: tuple[str, ...] = ()
         if method == "output-error":
             result = fit_output_error(plant, recording, start=result, prep=prep)
         return FitOutcome(result)
-    measured = estimate_frf(recording, method=frf, **(band or {})) if isinstance(recording, TimeRecording) \
-        else estimate_response(recording)
+    measured = _estimate(recording, frf, band)
     plant = Plant(stage, effects=fx, excitation_current_a=float(measured.current_amplitude_a.mean()),
                   **geometry).with_values(values or {})
     result = fit_plant(plant, measured, free=free)
@@ -399,8 +394,7 @@ def diagnose_recording(path: str | Path, *, stage: str, candidates: tuple[str, .
     from plant.data.time_recording_io import read_measurement
     from plant.diagnose.diagnosis import diagnose
     from plant.diagnose.time_diagnosis import diagnose_time
-    from plant.estimate.frf_estimation import estimate_frf
-    from plant.estimate.lockin import amplitude_dependence, estimate_response
+    from plant.estimate.lockin import amplitude_dependence
     from plant.identify.inverse_model import Preprocessing
     from plant.physics.models import Plant
 
@@ -420,8 +414,7 @@ def diagnose_recording(path: str | Path, *, stage: str, candidates: tuple[str, .
             raise ParameterError("--amplitude-files and --fit-force-constant apply to stepped sines; a time-domain "
                                  "fit needs the force constant set (--set force_constant_n_per_a=...)")
         return DiagnosisOutcome(diagnose_time(base, recording, candidates=candidates, prep=prep))
-    measured = estimate_frf(recording, method=frf, **(band or {})) if isinstance(recording, TimeRecording) \
-        else estimate_response(recording)
+    measured = _estimate(recording, frf, band)
     dependent = None
     if amplitude_files:
         others = []
@@ -429,8 +422,18 @@ def diagnose_recording(path: str | Path, *, stage: str, candidates: tuple[str, .
             rec = read_measurement(other, columns=column_map, sample_rate_hz=sample_rate_hz)
             if isinstance(rec, TimeRecording):
                 raise ParameterError(f"{other}: a time-domain recording; --amplitude-files takes stepped sines")
-            others.append(estimate_response(rec))
+            others.append(_estimate(rec, None, None))
         dependent = bool(amplitude_dependence([measured, *others]).significant)
     free = BASE_FREE + (("force_constant_n_per_a",) if fit_force_constant else ())
     return DiagnosisOutcome(diagnose(base, measured, candidates=candidates, free_base=free,
                                      amplitude_dependent=dependent), measured)
+
+
+def _estimate(recording, frf: str | None, band: dict | None) -> MeasuredResponse:
+    """``plant.estimate.response.estimate`` of a recording, the band (``fit``/``diagnose --band``) for a
+    time-domain one's FRF."""
+    from plant.data.time_recording import TimeRecording
+    from plant.estimate.response import estimate
+
+    return estimate(recording, method=frf or "auto", **((band or {}) if isinstance(recording, TimeRecording) else {}))
+

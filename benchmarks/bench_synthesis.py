@@ -28,7 +28,8 @@ import numpy as np
 
 from design.loop.fast import fast_analyse_loop
 from design.spec.schema import load_spec
-from design.synth.pi import evaluate, synthesise_pi
+from design.synth.evaluation import evaluate
+from design.synth.pi import synthesise_pi
 from design.synth.scenarios import check_scenarios
 from design.views.json import synthesis_to_dict
 

@@ -18,9 +18,10 @@ if TYPE_CHECKING:
     from design.loop.sweep import SweepResult
     from design.problem import LoopProblem
     from design.spec.schema import Spec
+    from design.synth.evaluation import Evaluation
     from design.synth.measured import MeasuredDesign
     from design.synth.monte_carlo import MonteCarloCheck
-    from design.synth.pi import Evaluation, SynthesisResult
+    from design.synth.pi import SynthesisResult
     from design.synth.schedule import SchedulePoint
     from plant.data.frequency_response import MeasuredResponse
     from plant.diagnose.diagnosis import Diagnosis

@@ -140,8 +140,9 @@ def _codesigned(problem: DesignProblem, progress) -> DesignOutcome:
 
     from design.admittance.synthesis import synthesise_admittance
     from design.parallel import thread_map
+    from design.synth.evaluation import evaluate
     from design.synth.monte_carlo import monte_carlo_check
-    from design.synth.pi import SynthesisResult, evaluate
+    from design.synth.pi import SynthesisResult
     from design.synth.verify import verify
 
     loop = problem.loop
@@ -179,7 +180,8 @@ def report_content(problem: DesignProblem, *, outcome: DesignOutcome | None = No
     the spec's uncertainty (``samples``; default 200 when it has ranges), and the diagnoses of ``data``
     (recordings read with the column map ``columns`` and ``sample_rate_hz`` in Hz, as ``measure``)."""
     from design.loop.curves import loop_curves
-    from design.synth.pi import PHASE_LIMITING, THESIS_GAINS, as_designed, evaluate
+    from design.synth.evaluation import evaluate
+    from design.synth.pi import PHASE_LIMITING, THESIS_GAINS, as_designed
 
     loop = problem.loop
     if samples is None:
@@ -248,8 +250,9 @@ def _robustness(loop, kp: float, ki: float, outcome: DesignOutcome | None):
     from dataclasses import replace
 
     from design.results import DesignOnPlants
+    from design.synth.evaluation import evaluate
     from design.synth.monte_carlo import monte_carlo_check
-    from design.synth.pi import evaluate, synthesise_pi
+    from design.synth.pi import synthesise_pi
 
     s = outcome.synthesis if outcome is not None else None
     robust_synthesised = s is not None and s.status == "optimal" and s.monte_carlo is not None

@@ -103,7 +103,7 @@ def _independent_failures(payload, w, G, kp, ki, problem: LoopProblem) -> list[s
 def synthesise_from_data(problem: LoopProblem, data: MeasuredPlants) -> MeasuredDesign:
     """Largest bandwidth target the convex-concave procedure meets on every measured response
     (bisection on its log), then an independent check of the design on the data."""
-    from design.synth.pi import _CCP
+    from design.synth.ccp import _CCP
 
     payload, w, G = data.payload_kg, data.w_rad_s, data.response
     t0 = time.perf_counter()

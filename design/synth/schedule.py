@@ -13,7 +13,10 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from design.problem import LoopProblem
-from design.synth.pi import W_OPT, evaluate, exact_design, scan_gains, verification_scenarios
+from design.synth.evaluation import evaluate
+from design.synth.exact import exact_design
+from design.synth.pi import verification_scenarios
+from design.synth.scan import W_OPT, scan_gains
 from design.synth.scenarios import check_scenarios, design_scenarios
 from design.synth.verify import verify
 

@@ -17,9 +17,10 @@ from design.loop.discrete import DiscreteCheck, DiscreteDesign
 from design.loop.sweep import SweepResult
 from design.problem import LoopProblem
 from design.results import DesignOutcome, DiagnosisOutcome, FitOutcome
+from design.synth.evaluation import Evaluation
 from design.synth.measured import MeasuredDesign
 from design.synth.monte_carlo import MonteCarloCheck
-from design.synth.pi import Evaluation, SynthesisResult
+from design.synth.pi import SynthesisResult
 from design.synth.schedule import SchedulePoint
 from design.synth.verify import Verification
 from plant.data.recording import Recording

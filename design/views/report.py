@@ -4,7 +4,7 @@ Summary first (gains, worst-case bandwidth and margins, verified or not, what li
 design), then the plant, Bode / Nyquist / step plots over the payload range, margins and
 bandwidth against payload (thesis Figure 4.31 extended), admittance, measured data with the
 diagnosis, and reproducibility. Every number in the summary comes from the gains evaluated on the
-dense payload grid (``design.synth.pi.evaluate``), never from an optimiser's claim; the view only
+dense payload grid (``design.synth.evaluation.evaluate``), never from an optimiser's claim; the view only
 draws what ``design.workflows.report_content`` computed.
 """
 
@@ -17,7 +17,7 @@ import numpy as np
 
 from design.loop.curves import LoopCurves
 from design.results import ReportContent
-from design.synth.pi import Evaluation
+from design.synth.evaluation import Evaluation
 from design.views.html import Report, table
 from design.views.plots import bode, fixed_margins
 from plant import __version__

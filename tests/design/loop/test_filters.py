@@ -17,8 +17,8 @@ import pytest
 from design.loop.fast import fast_analyse_loop
 from design.problem import with_filter_values
 from design.spec.schema import parse_spec
+from design.synth.exact import _casadi_frd
 from design.synth.filter_scan import filter_settings
-from design.synth.pi import _casadi_frd
 from plant import CurrentLoop, Delay, stage_x
 from plant.errors import SpecError
 from plant.physics.drive_filters import LowPassFilter, NotchFilter

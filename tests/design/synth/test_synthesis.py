@@ -16,7 +16,10 @@ import pytest
 
 from design.loop.fast import fast_analyse_loop
 from design.spec.schema import parse_spec
-from design.synth.pi import W_OPT, _casadi_frd, margin_circle, scan_gains, synthesise_pi
+from design.synth.evaluation import margin_circle
+from design.synth.exact import _casadi_frd
+from design.synth.pi import synthesise_pi
+from design.synth.scan import W_OPT, scan_gains
 from design.synth.scenarios import Scenarios
 from design.synth.schedule import gain_schedule
 from design.synth.verify import verify

@@ -1,0 +1,188 @@
+"""The exact stage of ``design.synth.pi`` (casadi + IPOPT): margins and bandwidth through crossing variables
+per scenario, the plant written symbolically from its parameters (``_casadi_frd``), multi-start."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from design.problem import LoopProblem
+from design.synth.evaluation import MARGIN_HAIR, high_frequency_rows, requirement_circles
+from design.synth.scan import W_OPT
+from design.synth.scenarios import Scenarios
+from design.synth.solvers import raise_if_interrupted
+from plant.physics.algebra import CASADI, Pair
+from plant.physics.drive_filters import FILTERS, KINDS
+from plant.physics.models import Plant
+
+
+def _casadi_frd(plant: Plant, w):
+    """(Re, Im) of P(jw) as casadi expressions of w: the plant's own response formula
+    (``Plant.response``) built with casadi arithmetic."""
+    out = plant.response(Pair(0.0, w), CASADI)
+    return out.re, out.im
+
+
+def _first_crossing(w, f):
+    """w where f changes sign first (linear interpolation in log w), or None."""
+    ok = np.isfinite(f[:-1]) & np.isfinite(f[1:])
+    s = np.flatnonzero(ok & (np.sign(f[:-1]) != np.sign(f[1:])))
+    if s.size == 0:
+        return None
+    i = s[0]
+    lw = np.log(w)
+    return float(np.exp(lw[i] + (lw[i + 1] - lw[i]) * f[i] / (f[i] - f[i + 1])))
+
+
+@dataclass(frozen=True)
+
+
+class ExactDesign:
+    kp: float
+    ki: float
+    success: bool
+    note: str
+    #: the designed filters' parameters, one dict per filter of ``problem.controller.filters`` (None: left out)
+    filter_values: tuple[dict | None, ...] = ()
+
+
+def exact_design(problem: LoopProblem, scenarios: Scenarios, kp0: float, ki0: float, *,
+                 high_circle: bool = False, design_filters: bool = False) -> ExactDesign:
+    """IPOPT on the exact crossings from the start (kp0, ki0); ``high_circle`` also keeps the Nyquist curve
+    outside the margin circle above twice the first crossover (see the module doc). ``design_filters``:
+    the parameters with ranges of ``problem.controller.filters`` are variables too, started from the values
+    the problem's plant carries."""
+    import casadi as ca
+
+    from plant.physics.effect_base import replace_unchecked
+
+    req, c = problem.requirements, problem.controller
+    g = 10 ** ((req.gain_margin_db + MARGIN_HAIR) / 20)
+    cos_phi = math.cos(math.radians(req.phase_margin_deg + MARGIN_HAIR))
+    base = problem.plant.plant()
+    kps, kis = max(kp0, 1e-9 * c.kp.max, 1e-12), max(ki0, 1e-9 * c.ki.max, 1e-12)
+    u = ca.SX.sym("u", 2)           # gains relative to the start
+    kp, ki = u[0] * kps, u[1] * kis
+    t = ca.SX.sym("t")              # log of the worst-case bandwidth (rad/s)
+    xs, x0, lbx, ubx = [u, t], [kp0 / kps, ki0 / kis], [c.kp.min / kps, c.ki.min / kis], [c.kp.max / kps,
+                                                                                          c.ki.max / kis]
+    # designed filter parameters: x = value / start (depth: the value itself)
+    symbolic: dict[str, dict[str, object]] = {}
+    variables: list[tuple[int, str, float]] = []
+    if design_filters:
+        for i, f in enumerate(c.filters):
+            name = KINDS[f.kind].name
+            start = base.effect(name)
+            if start is None:       # left out of this design
+                continue
+            for field, (lo, hi) in f.ranges.items():
+                s0 = float(getattr(start, field))
+                scale = 1.0 if field == "depth" or s0 <= 0 else s0
+                v = ca.SX.sym(f"{name}_{field}")
+                xs.append(v)
+                x0.append(s0 / scale)
+                lbx.append(lo / scale)
+                ubx.append(hi / scale)
+                symbolic.setdefault(name, {})[field] = v * scale
+                variables.append((i, field, scale))
+    gs, lbg, ubg, t_start = [], [], [], []
+    P = scenarios.plants(base).frd(W_OPT)
+    for k in range(len(scenarios)):
+        numeric = scenarios.plant(base, k)
+        plant = numeric if not symbolic else replace(numeric, effects=tuple(
+            replace_unchecked(e, symbolic[e.name]) if e.name in symbolic else e for e in numeric.effects))
+        L0 = P[k] * (kp0 + ki0 / (1j * W_OPT))
+        starts = {"c": _first_crossing(W_OPT, np.abs(L0) ** 2 - 1),
+                  "p": _first_crossing(W_OPT, np.where(np.real(L0) < 0, np.imag(L0), np.nan)),
+                  "b": _first_crossing(W_OPT, np.abs(L0) ** 2 - req.level2 * np.abs(1 + L0) ** 2)}
+        for kind, w0 in starts.items():
+            if w0 is None:
+                continue
+            lw = ca.SX.sym(f"lw_{kind}{k}")
+            xs.append(lw)
+            x0.append(math.log(w0))
+            lbx.append(max(math.log(w0) - 1.5, math.log(W_OPT[0])))
+            ubx.append(min(math.log(w0) + 1.5, math.log(W_OPT[-1])))
+            w = ca.exp(lw)
+            pr, pi_ = _casadi_frd(plant, w)
+            lr = pr * kp + pi_ * ki / w         # L = P (kp - j ki / w)
+            li = pi_ * kp - pr * ki / w
+            if kind == "c":
+                gs += [lr**2 + li**2 - 1, lr + cos_phi]
+                lbg += [0.0, 0.0]
+                ubg += [0.0, math.inf]
+            elif kind == "p":
+                gs += [li, lr + 1 / g]
+                lbg += [0.0, 0.0]
+                ubg += [0.0, math.inf]
+            else:
+                g2 = req.level2     # |L|^2 = g2 |1 + L|^2
+                gs += [(1 - g2) * (lr**2 + li**2) - 2 * g2 * lr - g2, lw - t]
+                lbg += [0.0, 0.0]
+                ubg += [0.0, math.inf]
+                t_start.append(math.log(w0))
+        # sampled circles |L - centre|^2 >= radius^2: Ms and disk margin on W_OPT; the margin circle
+        # from twice the first crossover on (resonances can cross again up there: the exact crossings
+        # above track only the first ones)
+        circles = [(c_, r_, W_OPT) for c_, r_ in requirement_circles(problem)[1:]]
+        if high_circle and starts["c"] is not None and 2 * starts["c"] < W_OPT[-1]:
+            high = np.geomspace(2 * starts["c"], W_OPT[-1], max(int(100 * np.log10(W_OPT[-1] / starts["c"] / 2)), 2))
+            circles.append((*requirement_circles(problem)[0], high))
+        rest = replace(numeric, effects=tuple(e for e in numeric.effects if e.name not in symbolic)) \
+            if symbolic else None
+        for centre, radius, wg in circles:
+            if symbolic:    # P = P_0 F(theta): the numeric response without the designed filters, times theirs
+                p0 = rest.frd(wg)
+                pf = Pair(ca.DM(p0.real), ca.DM(p0.imag))
+                for e in plant.effects:
+                    if e.name in symbolic:
+                        pf = pf * e.response(Pair(0.0, ca.DM(wg)), CASADI)
+                cre, cim = kp, -ki / ca.DM(wg)          # kp + ki/(jw) = kp - j ki/w
+                re = pf.re * cre - pf.im * cim - centre
+                im = pf.re * cim + pf.im * cre
+            else:
+                a = numeric.frd(wg) if wg is not W_OPT else P[k]
+                b = a / (1j * wg)
+                re = ca.DM(a.real) * kp + ca.DM(b.real) * ki - centre
+                im = ca.DM(a.imag) * kp + ca.DM(b.imag) * ki
+            gs.append(re**2 + im**2 - radius**2 * 1.003**2)
+            lbg += [0.0] * wg.size
+            ubg += [math.inf] * wg.size
+    hf = high_frequency_rows(problem)
+    if hf is not None:      # the noise limit |(kp + ki/jw) F(jw)|^2 <= limit^2, F symbolic where designed
+        w_hf, a, _ = hf
+        fixed = np.ones(w_hf.size, complex)
+        f_sym = Pair(ca.DM(np.ones(w_hf.size)), ca.DM(np.zeros(w_hf.size)))
+        for e in base.effects:
+            if e.name in symbolic:
+                f_sym = f_sym * replace_unchecked(e, symbolic[e.name]).response(Pair(0.0, ca.DM(w_hf)), CASADI)
+            elif e.name in FILTERS:
+                fixed = fixed * e.response(1j * w_hf)
+        f = f_sym * Pair(ca.DM(fixed.real), ca.DM(fixed.imag))
+        cre, cim = kp, -ki / ca.DM(w_hf)
+        gs.append((f.re * cre - f.im * cim) ** 2 + (f.re * cim + f.im * cre) ** 2)
+        lbg += [0.0] * w_hf.size
+        ubg += [(req.max_high_frequency_gain * (1 - MARGIN_HAIR / 100)) ** 2] * w_hf.size
+    if not t_start:
+        return ExactDesign(kp0, ki0, False, "no bandwidth crossing at the start")
+    x0.insert(2, min(t_start))
+    lbx.insert(2, math.log(W_OPT[0]))
+    ubx.insert(2, math.log(W_OPT[-1]))
+    # the vector: the gains, t, the filter variables, then the crossings
+    nlp = {"x": ca.vertcat(*xs), "f": -t, "g": ca.vertcat(*gs)}
+    solver = ca.nlpsol("exact_pi", "ipopt", nlp, {"print_time": False, "ipopt": {
+        "print_level": 0, "sb": "yes", "max_iter": 200, "tol": 1e-9}})
+    sol = solver(x0=x0, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg)
+    stats = raise_if_interrupted(solver)
+    x = np.asarray(sol["x"]).ravel()
+    # IPOPT may leave a bound by its relaxation (1e-8 relative): clip onto the box
+    present = [base.effect(KINDS[f.kind].name) for f in c.filters] if design_filters else []
+    values = [None if e is None else {k: float(getattr(e, k)) for k in KINDS[f.kind].bounds}
+              for e, f in zip(present, c.filters)]
+    for j, (i, field, scale) in enumerate(variables):
+        lo, hi = c.filters[i].ranges[field]
+        values[i][field] = float(np.clip(x[3 + j] * scale, lo, hi))
+    return ExactDesign(float(np.clip(x[0] * kps, c.kp.min, c.kp.max)), float(np.clip(x[1] * kis, c.ki.min, c.ki.max)),
+                       bool(stats["success"]), stats["return_status"], tuple(values))

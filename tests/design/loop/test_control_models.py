@@ -56,3 +56,29 @@ def test_mat_file_rebuilds_the_same_models(tmp_path):
         rebuilt = control.ss(*(d[f"{name}_{part}"] for part in "ABCD"))
         assert np.allclose(_resp(rebuilt), _resp(getattr(m, name)), rtol=1e-12)
     assert d["phase_margin_deg"].item() == pytest.approx(m.margins()[1])
+
+
+def test_figures_leave_the_session_backend_alone(tmp_path):
+    # a notebook's figures are pyplot's business: these are made without it, so no pyplot figure is opened and
+    # the backend an interactive session chose stays (python-control itself imports pyplot, which is fine)
+    import subprocess
+    import sys
+
+    code = ("import sys, matplotlib\n"
+            "matplotlib.use('svg')\n"
+            "from design.loop.control_models import loop_models\n"
+            "from plant import stage_x\n"
+            "from plant.experiment.simulate import simulate_stepped_sine\n"
+            "from plant.estimate.response import estimate\n"
+            "p = stage_x(mass_kg=20.0)\n"
+            "loop_models(p, 236.0, 47.0).plot().savefig(sys.argv[1] + '/l.png')\n"
+            "rec = simulate_stepped_sine(p, f_hz=[2.0, 10.0, 50.0], current_amplitude_a=0.5, duration_s=1.5,\n"
+            "                            noise_fraction=0.01)\n"
+            "fig = estimate(rec).plot(); fig.savefig(sys.argv[1] + '/r.png')\n"
+            "assert len(fig.axes) == 2 and len(fig.axes[0].lines) == 1\n"
+            "assert matplotlib.get_backend() == 'svg', matplotlib.get_backend()\n"
+            "plt = sys.modules.get('matplotlib.pyplot')\n"
+            "assert plt is None or plt.get_fignums() == [], plt.get_fignums()\n")
+    out = subprocess.run([sys.executable, "-c", code, str(tmp_path)], capture_output=True, text=True)
+    assert out.returncode == 0, out.stderr[-2000:]
+    assert (tmp_path / "l.png").stat().st_size > 0 and (tmp_path / "r.png").stat().st_size > 0

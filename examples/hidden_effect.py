@@ -54,7 +54,7 @@ else:
     hidden = None
 noise = rng.uniform(0.01, 0.05)
 if kind == "outside_library":
-    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests" / "reference"))
     import independent_sim as sim
 
     chain = sim.tuned_chain(np.full(4, mass_kg / 4), modes_hz=np.sort(rng.uniform(20, 70, 3)), damping_ratio=0.03)

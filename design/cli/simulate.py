@@ -20,9 +20,8 @@ from design.cli.common import (
 )
 from plant.errors import ParameterError
 
+#: the noise of a simulated recording when none is given: this fraction of each block's fundamental
 DEFAULT_NOISE_FRACTION = 0.01
-#: most samples a simulated recording may have (all blocks; about 48 bytes each to simulate and write)
-MAX_SAMPLES = 2e7
 
 
 def simulate(
@@ -66,7 +65,7 @@ def simulate(
     from design.views.json import print_json, simulation_to_dict
     from design.workflows import simulation_plant
     from plant.data.recording import write_simulation
-    from plant.experiment.simulate import simulate_stepped_sine
+    from plant.experiment.simulate import check_stepped_sine_plan, simulate_stepped_sine
 
     if out.suffix.lower() != ".csv":
         raise ParameterError(f"--out {out}: the recording is written as CSV; give a FILE.csv")
@@ -76,18 +75,13 @@ def simulate(
     plant, amplitude_a = simulation_plant(spec=spec, stage=stage, values=parse_set_items(set_items or []),
                                           effects_added=parse_effects(effects or []), amplitude_a=amplitude_a)
     f = parse_f_hz(f_hz, f_spacing)
-    _blocks_long_enough(f, duration_s, sample_rate_hz)
-    samples = f.size * duration_s * sample_rate_hz
-    if samples > MAX_SAMPLES:
-        raise ParameterError(f"--f-hz, --duration-s, --sample-rate-hz: {f.size} blocks x {duration_s:g} s x "
-                             f"{sample_rate_hz:g} Hz is {samples:.3g} samples (about {samples * 48 / 1e9:.2g} GB to "
-                             f"simulate and write), more than the {MAX_SAMPLES:.0e} allowed")
     if noise_fraction is None and not (current_noise_a or velocity_noise):
         noise_fraction = DEFAULT_NOISE_FRACTION
     t0 = time.perf_counter()
     with options_named("duration_s", "sample_rate_hz", "noise_fraction", "current_noise_a", "current_quantum_a",
                        "seed", "velocity_noise_m_per_s", "velocity_quantum_m_per_s", f_hz="--f-hz",
                        current_amplitude_a="--amplitude-a"):
+        check_stepped_sine_plan(f, duration_s, sample_rate_hz)
         rec = simulate_stepped_sine(plant, f_hz=f, current_amplitude_a=amplitude_a,
                                     duration_s=duration_s, sample_rate_hz=sample_rate_hz,
                                     current_noise_a=current_noise_a, velocity_noise_m_per_s=velocity_noise,
@@ -99,18 +93,3 @@ def simulate(
         print_json(simulation_to_dict(rec, out, sidecar, amplitude_a=amplitude_a, simulation_s=elapsed_s))
     else:
         print_simulation(console, rec, out, sidecar, amplitude_a=amplitude_a)
-
-
-def _blocks_long_enough(f_hz, duration_s: float, sample_rate_hz: float) -> None:
-    """Refuse blocks too short for the estimate of ``gantry fit`` and ``diagnose`` (``plant.estimate.lockin``): it
-    drops a block's start-up transient (every simulated block starts from rest) and needs a period after it."""
-    from plant.estimate.lockin import MIN_PERIODS, shortest_block_s
-
-    short = [f for f in f_hz if duration_s < shortest_block_s(f, sample_rate_hz) * (1 - 1e-9)]
-    if short:
-        need = shortest_block_s(short[0], sample_rate_hz)
-        raise ParameterError(
-            f"--duration-s {duration_s:g}: the {short[0]:g} Hz block would hold {duration_s * short[0]:.3g} periods; "
-            f"gantry fit and diagnose use a block from {MIN_PERIODS:g} period after its start-up transient "
-            f"({need - MIN_PERIODS / short[0]:.3g} s at least), so it needs {need:.3g} s: give --duration-s {need:.3g} "
-            f"or more, or --f-hz without the {len(short)} block(s) at and below {short[-1]:g} Hz")

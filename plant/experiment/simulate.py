@@ -66,6 +66,8 @@ from plant.physics.parameters import check_finite, check_positive
 #: default internal integration rate when Coulomb friction is present (Hz): the fundamental then
 #: agrees with a 5x finer step to 3e-3 (Stage X, 1-75 Hz, F_c = 2 N at 0.5 A; tests/plant/experiment/test_simulate.py)
 FRICTION_RATE_HZ = 20000.0
+#: most samples a simulated recording may have (all blocks; about 48 bytes each to simulate and write)
+MAX_SAMPLES = 2e7
 #: highest internal rate accepted (Hz): incommensurate controller and recording rates need more
 MAX_INTERNAL_RATE_HZ = 2.0e6
 _CHUNK = 2048
@@ -436,6 +438,29 @@ def _refuse_stuck_blocks(plant: Plant, f_hz: np.ndarray, amp_a: np.ndarray, velo
                          f"friction ({friction_n:g} N) in {where}: the velocity stays zero, so {holds} no dynamics "
                          f"to estimate; raise current_amplitude_a above {np.max(breakaway_a[stuck]):.3g} A (the drive "
                          "force then exceeds the friction) or lower coulomb_friction.force_n")
+
+
+def check_stepped_sine_plan(f_hz, duration_s: float, sample_rate_hz: float) -> None:
+    """Refuse a stepped sine the estimate cannot use or the machine cannot hold (``ParameterError`` naming the
+    parameters): a block too short for the lock-in of ``fit`` and ``diagnose`` (``plant.estimate.lockin``: it
+    drops the block's start-up transient, every simulated block starting from rest, and needs a period after
+    it), or more than ``MAX_SAMPLES`` samples in all."""
+    from plant.estimate.lockin import MIN_PERIODS, shortest_block_s
+
+    f = np.asarray(f_hz, dtype=float).ravel()
+    short = [x for x in f if duration_s < shortest_block_s(x, sample_rate_hz) * (1 - 1e-9)]
+    if short:
+        need = shortest_block_s(short[0], sample_rate_hz)
+        raise ParameterError(
+            f"duration_s {duration_s:g}: the {short[0]:g} Hz block would hold {duration_s * short[0]:.3g} periods; "
+            f"gantry fit and diagnose use a block from {MIN_PERIODS:g} period after its start-up transient "
+            f"({need - MIN_PERIODS / short[0]:.3g} s at least), so it needs {need:.3g} s: give duration_s {need:.3g} "
+            f"or more, or f_hz without the {len(short)} block(s) at and below {short[-1]:g} Hz")
+    samples = f.size * duration_s * sample_rate_hz
+    if samples > MAX_SAMPLES:
+        raise ParameterError(f"f_hz, duration_s, sample_rate_hz: {f.size} blocks x {duration_s:g} s x "
+                             f"{sample_rate_hz:g} Hz is {samples:.3g} samples (about {samples * 48 / 1e9:.2g} GB to "
+                             f"simulate and write), more than the {MAX_SAMPLES:.0e} allowed")
 
 
 def simulate_stepped_sine(

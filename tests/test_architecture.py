@@ -9,7 +9,7 @@ from pathlib import Path
 
 PLANT = Path(__file__).resolve().parents[1] / "plant"
 #: the floors from the bottom up; the base modules (errors, grid) sit under every floor
-FLOORS = ("host", "physics", "data", "experiment", "estimate", "identify", "diagnose")
+FLOORS = ("host", "physics", "data", "estimate", "experiment", "identify", "diagnose")
 
 
 def _floor(module: str) -> int:

@@ -1,2 +1,2 @@
-"""Experiments: excitation design and the simulator that records a plant.
-May import: ``plant.data``, ``plant.physics``, ``plant.host`` and the base modules."""
+"""Experiments: excitation design and the simulator that records a plant, planned for what the estimators need.
+May import: ``plant.estimate``, ``plant.data``, ``plant.physics``, ``plant.host`` and the base modules."""

@@ -21,7 +21,7 @@ import time
 
 import numpy as np
 
-from plant.data.recording import Block, Recording
+from plant.data.recordings import Block, Recording
 from plant.estimate.lockin import estimate_response
 
 AMP_I = 0.5

@@ -28,8 +28,7 @@ import time
 import numpy as np
 from scipy.signal import lfilter
 
-from plant.data.recording import Block, Recording
-from plant.data.time_recording import TimeRecording
+from plant.data.recordings import Block, Recording, TimeRecording
 from plant.estimate.frf_estimation import periodic_response
 from plant.estimate.lockin import estimate_response
 from plant.experiment.excitation import (

@@ -26,7 +26,7 @@ sys.path.insert(0, str(ROOT / "tests" / "reference"))
 from independent_stick_slip import write_recording  # noqa: E402
 
 from plant import stage_x  # noqa: E402
-from plant.data.recording_io import read_recording  # noqa: E402
+from plant.data.read_stepped_sine import read_recording  # noqa: E402
 from plant.diagnose.diagnosis import diagnose  # noqa: E402
 from plant.estimate.lockin import estimate_response  # noqa: E402
 

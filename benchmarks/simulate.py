@@ -21,7 +21,7 @@ from plant import (
     stage_x,
     stage_y,
 )
-from plant.data.recording import write_recording_csv
+from plant.data.writers import write_recording_csv
 from plant.experiment.simulate import simulate_stepped_sine
 
 F_HZ = np.geomspace(1.0, 75.0, 50)

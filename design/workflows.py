@@ -273,8 +273,7 @@ def measure(path: str | Path, *, columns: str | None = None, sample_rate_hz: flo
             frf: str = "auto") -> MeasuredResponse:
     """The frequency response of any recording: a stepped sine by the lock-in, a time-domain recording
     by ``plant.estimate.frf_estimation.estimate_frf`` (``frf``: auto, periodic, lpm or closed-loop)."""
-    from plant.data.recording_io import parse_column_map
-    from plant.data.time_recording_io import read_measurement
+    from plant.data.read import parse_column_map, read_measurement
     from plant.estimate.response import estimate
 
     rec = read_measurement(path, columns=parse_column_map(columns) if columns else None,
@@ -334,9 +333,8 @@ def fit_recording(path: str | Path, *, stage: str, effects: tuple[str, ...] = ()
     time-domain recording by the inverse model or output error (``method``), or its frequency response
     (``frf``: auto, periodic, lpm or closed-loop) as a stepped sine's. ``rational`` ("POLES,ZEROS") adds
     a tfest-like rational fit of the frequency response."""
-    from plant.data.recording_io import parse_column_map
-    from plant.data.time_recording import TimeRecording
-    from plant.data.time_recording_io import read_measurement
+    from plant.data.read import parse_column_map, read_measurement
+    from plant.data.recordings import TimeRecording
     from plant.identify.fitting import fit_plant
     from plant.identify.inverse_model import Preprocessing
     from plant.identify.time_fit import fit_inverse_model, fit_output_error
@@ -392,9 +390,8 @@ def diagnose_recording(path: str | Path, *, stage: str, candidates: tuple[str, .
     """Start from the thesis model and find what the recording needs: a stepped sine (or a time-domain
     recording's frequency response, ``frf``) by the frequency-domain diagnosis with recordings at
     other amplitudes as evidence of nonlinearity; a time-domain recording by its force balance."""
-    from plant.data.recording_io import parse_column_map
-    from plant.data.time_recording import TimeRecording
-    from plant.data.time_recording_io import read_measurement
+    from plant.data.read import parse_column_map, read_measurement
+    from plant.data.recordings import TimeRecording
     from plant.diagnose.diagnosis import diagnose
     from plant.diagnose.time_diagnosis import diagnose_time
     from plant.estimate.lockin import amplitude_dependence
@@ -435,7 +432,7 @@ def diagnose_recording(path: str | Path, *, stage: str, candidates: tuple[str, .
 def _estimate(recording, frf: str | None, band: dict | None) -> MeasuredResponse:
     """``plant.estimate.response.estimate`` of a recording, the band (``fit``/``diagnose --band``) for a
     time-domain one's FRF."""
-    from plant.data.time_recording import TimeRecording
+    from plant.data.recordings import TimeRecording
     from plant.estimate.response import estimate
 
     return estimate(recording, method=frf or "auto", **((band or {}) if isinstance(recording, TimeRecording) else {}))

@@ -14,8 +14,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from plant.data.recording_io import parse_column_map
-from plant.data.time_recording_io import read_measurement
+from plant.data.read import parse_column_map, read_measurement
 from plant.diagnose.time_diagnosis import diagnose_time
 from plant.identify.inverse_model import Preprocessing
 from plant.identify.time_fit import fit_inverse_model, fit_output_error

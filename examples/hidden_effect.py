@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from plant import CoulombFriction, CurrentLoop, Delay, Resonance, stage_x
-from plant.data.recording_io import read_recording
+from plant.data.read_stepped_sine import read_recording
 from plant.diagnose.diagnosis import diagnose
 from plant.estimate.lockin import estimate_response
 from plant.experiment.simulate import simulate_stepped_sine

@@ -16,7 +16,7 @@ from design.views.mat import write_design_mat, write_response_mat
 from design.views.report import design_report
 from design.workflows import design, diagnose_recording, fit_recording, load_problem, measure, report_content
 from plant import Delay, stage_x
-from plant.data.recording import write_recording_csv
+from plant.data.writers import write_recording_csv
 from plant.experiment.simulate import simulate_stepped_sine
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -64,7 +64,7 @@ def simulate(
     from design.views.console import print_simulation
     from design.views.json import print_json, simulation_to_dict
     from design.workflows import simulation_plant
-    from plant.data.recording import write_simulation
+    from plant.data.writers import write_simulation
     from plant.experiment.simulate import check_stepped_sine_plan, simulate_stepped_sine
 
     if out.suffix.lower() != ".csv":

@@ -13,7 +13,7 @@ from rich.table import Table
 from design.loop.analysis import PayloadSweep
 from design.loop.reproduce import TableRow
 from design.results import DiagnosisOutcome, FitOutcome
-from plant.data.recording import Recording
+from plant.data.recordings import Recording
 from plant.diagnose.diagnosis import Diagnosis
 from plant.diagnose.time_diagnosis import TimeDiagnosis
 from plant.experiment.excitation import THESIS_BLOCK_S, Multisine, VariancePrediction

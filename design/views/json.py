@@ -23,7 +23,7 @@ from design.synth.monte_carlo import MonteCarloCheck
 from design.synth.pi import SynthesisResult
 from design.synth.schedule import SchedulePoint
 from design.synth.verify import Verification
-from plant.data.recording import Recording
+from plant.data.recordings import Recording
 from plant.diagnose.diagnosis import Diagnosis, failing_bands
 from plant.diagnose.evidence import ACCEPT_DELTA_BIC
 from plant.diagnose.time_diagnosis import TimeDiagnosis

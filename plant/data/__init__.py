@@ -1,2 +1,3 @@
-"""Measurements: recording types (stepped sine, time domain, frequency response), their readers and writers.
+"""Measurements: the recording types (``recordings``), ``read_measurement`` (``read``) over the stepped-sine and
+time-domain readers and their one CSV table reader, the writers, and the estimated ``MeasuredResponse``.
 May import: ``plant.host`` and the base modules (``plant.errors``, ``plant.grid``)."""

@@ -25,7 +25,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from plant.data.time_recording import TimeRecording
+from plant.data.recordings import TimeRecording
 from plant.diagnose.evidence import ACCEPT_DELTA_BIC, addition_delta_bic, verdict
 from plant.errors import EffectError
 from plant.identify.inverse_model import InverseModelData, Preprocessing, inverse_model_data

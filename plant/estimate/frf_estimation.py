@@ -49,7 +49,7 @@ import numpy as np
 import scipy.special
 
 from plant.data.frequency_response import MeasuredResponse
-from plant.data.time_recording import SAMPLING_TOLERANCE, TimeRecording
+from plant.data.recordings import SAMPLING_TOLERANCE, TimeRecording
 from plant.errors import DataError
 
 #: fewest samples of a record

@@ -50,7 +50,8 @@ import numpy as np
 import scipy.special
 
 from plant.data.frequency_response import MeasuredResponse
-from plant.data.recording import Block, Recording, lattice_step
+from plant.data.lattice import lattice_step
+from plant.data.recordings import Block, Recording
 from plant.errors import DataError
 
 #: default number of sub-blocks for the variance of each point

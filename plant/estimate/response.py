@@ -1,13 +1,12 @@
 """The frequency response of any measurement, by the estimator its kind calls for: a stepped sine
-(``plant.data.recording.Recording``) by the lock-in per block (``plant.estimate.lockin``), any other
-excitation (``plant.data.time_recording.TimeRecording``) by the FRF estimators (``plant.estimate.frf_estimation``:
+(``plant.data.recordings.Recording``) by the lock-in per block (``plant.estimate.lockin``), any other
+excitation (``plant.data.recordings.TimeRecording``) by the FRF estimators (``plant.estimate.frf_estimation``:
 periodic, local polynomial or closed loop, ``method="auto"`` choosing)."""
 
 from __future__ import annotations
 
 from plant.data.frequency_response import MeasuredResponse
-from plant.data.recording import Recording
-from plant.data.time_recording import TimeRecording
+from plant.data.recordings import Recording, TimeRecording
 from plant.errors import DataError
 from plant.estimate.frf_estimation import estimate_frf
 from plant.estimate.lockin import estimate_response

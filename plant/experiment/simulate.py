@@ -55,7 +55,7 @@ import control
 import numpy as np
 import scipy.linalg
 
-from plant.data.recording import Block, Recording
+from plant.data.recordings import Block, Recording
 from plant.errors import EffectError, ParameterError
 from plant.physics.effect_base import ChainEffect
 from plant.physics.effects import CurrentLoop, TiltCoupling

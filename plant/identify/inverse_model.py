@@ -35,7 +35,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.signal
 
-from plant.data.time_recording import TimeRecording
+from plant.data.recordings import TimeRecording
 from plant.errors import DataError
 
 #: Butterworth corner (Hz) and order of the reference script

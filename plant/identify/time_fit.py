@@ -54,7 +54,7 @@ import scipy.optimize
 import scipy.signal
 import scipy.special
 
-from plant.data.time_recording import TimeRecording
+from plant.data.recordings import TimeRecording
 from plant.errors import DataError, EffectError, ParameterError
 from plant.estimate.lockin import TEST_P
 from plant.identify.fit_report import correlation_lines, variable_lines

@@ -20,7 +20,7 @@ import numpy as np
 import pytest
 
 from plant import Delay, stage_x
-from plant.data.recording import recording_csv_text, write_recording_csv
+from plant.data.writers import recording_csv_text, write_recording_csv
 from plant.errors import DataError
 from plant.experiment.simulate import simulate_stepped_sine
 from plant.host import text_io

@@ -332,7 +332,7 @@ def test_a_read_only_directory(command):
 #: functions on the way of each command where an interrupt may land (module:attribute)
 TARGETS = {
     "sweep": ["design.loop.sweep:monte_carlo_sweep", "design.views.json:sweep_csv"],
-    "simulate": ["plant.experiment.simulate:simulate_stepped_sine", "plant.data.recording:recording_csv_text"],
+    "simulate": ["plant.experiment.simulate:simulate_stepped_sine", "plant.data.writers:recording_csv_text"],
     "excite": ["plant.experiment.excitation:design_multisine", "plant.experiment.excitation:predicted_variance"],
     "diagnose": ["design.workflows:diagnose_recording", "matplotlib.figure:Figure.savefig"],
     "report": ["design.workflows:report_content", "matplotlib.figure:Figure.savefig"],

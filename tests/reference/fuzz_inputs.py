@@ -430,7 +430,7 @@ def bases() -> Bases:
     from nptdms import ChannelObject, TdmsWriter
 
     from plant import Delay, stage_x
-    from plant.data.recording import recording_csv_text
+    from plant.data.writers import recording_csv_text
     from plant.experiment.simulate import simulate_stepped_sine
 
     rec = simulate_stepped_sine(stage_x(mass_kg=30.0) * Delay(0.001), f_hz=np.geomspace(4, 60, 5),

@@ -135,7 +135,7 @@ def test_data_driven_synthesis_matches_the_model_based_circle_design(tmp_path):
     # measured responses at three payloads (the project's simulator as the "gantry") give the
     # same gains as the model-based convex-concave design on that model (both use the circles)
     from plant import CurrentLoop, Delay, stage_x
-    from plant.data.recording import write_recording_csv
+    from plant.data.writers import write_recording_csv
     from plant.experiment.simulate import simulate_stepped_sine
 
     rows = []

@@ -10,7 +10,7 @@ import pytest
 
 from design.views.browser import chromium, dom, screenshot
 from plant import Delay, stage_x
-from plant.data.recording import write_recording_csv
+from plant.data.writers import write_recording_csv
 from plant.experiment.simulate import simulate_stepped_sine
 
 ROOT = Path(__file__).resolve().parents[3]

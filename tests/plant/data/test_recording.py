@@ -11,7 +11,8 @@ import warnings
 import numpy as np
 import pytest
 
-from plant.data.recording_io import parse_column_map, parse_scale, read_recording
+from plant.data.read import parse_column_map, parse_scale
+from plant.data.read_stepped_sine import read_recording
 from plant.errors import DataError
 from plant.estimate.lockin import estimate_response
 

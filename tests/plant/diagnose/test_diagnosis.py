@@ -25,7 +25,7 @@ from plant import (
     stage_y,
 )
 from plant.data.frequency_response import MeasuredResponse
-from plant.data.recording import write_recording_csv
+from plant.data.writers import write_recording_csv
 from plant.diagnose.diagnosis import detect_nonlinearity, diagnose
 from plant.errors import DataError
 from plant.estimate.lockin import amplitude_dependence, estimate_response

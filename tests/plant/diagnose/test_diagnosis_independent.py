@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from plant import stage_x, stage_y
-from plant.data.recording_io import read_recording
+from plant.data.read_stepped_sine import read_recording
 from plant.diagnose.diagnosis import diagnose
 from plant.estimate.lockin import estimate_response
 from plant.identify.fitting import fit_plant

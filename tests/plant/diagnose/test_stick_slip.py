@@ -17,7 +17,7 @@ import pytest
 from independent_stick_slip import velocity, write_recording
 
 from plant import CoulombFriction, stage_x
-from plant.data.recording_io import read_recording
+from plant.data.read_stepped_sine import read_recording
 from plant.diagnose.diagnosis import diagnose
 from plant.estimate.lockin import estimate_response
 from plant.experiment.simulate import simulate_stepped_sine

@@ -17,8 +17,9 @@ import pytest
 import scipy.signal
 
 from design.views.json import print_json
-from plant.data.recording import Block, Recording, write_recording_csv
-from plant.data.recording_io import read_recording
+from plant.data.read_stepped_sine import read_recording
+from plant.data.recordings import Block, Recording
+from plant.data.writers import write_recording_csv
 from plant.errors import DataError
 from plant.estimate.lockin import estimate_response
 

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from plant.data.frequency_response import MeasuredResponse
-from plant.data.recording import Block, Recording
+from plant.data.recordings import Block, Recording
 from plant.errors import DataError
 from plant.estimate.lockin import (
     _basis,

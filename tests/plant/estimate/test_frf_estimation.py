@@ -17,7 +17,7 @@ import independent_timesim as sim
 import numpy as np
 import pytest
 
-from plant.data.time_recording import TimeRecording
+from plant.data.recordings import TimeRecording
 from plant.errors import DataError
 from plant.estimate.frf_estimation import (
     closed_loop_response,

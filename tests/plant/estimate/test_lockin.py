@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 import scipy.stats
 
-from plant.data.recording import Block, Recording
+from plant.data.recordings import Block, Recording
 from plant.errors import DataError
 from plant.estimate.lockin import amplitude_dependence, estimate_response
 
@@ -314,8 +314,8 @@ def test_simulated_recording_through_csv_matches_the_model(tmp_path):
     """plant.experiment.simulate -> CSV -> read_recording -> estimate_response agrees with Plant.frd within the reported
     variance: sum 2|G - frd|^2 / var is chi-square with 2 n_freq dof (the sub-block variances have 18 dof
     each, which widens the tails a little: the 1e-3 quantiles are used)."""
-    from plant.data.recording import write_recording_csv
-    from plant.data.recording_io import read_recording
+    from plant.data.read_stepped_sine import read_recording
+    from plant.data.writers import write_recording_csv
     from plant.experiment.simulate import simulate_stepped_sine
     from plant.physics.effects import Delay
     from plant.physics.models import stage_x

@@ -180,7 +180,7 @@ def test_cli_bad_arguments_exit_2_with_one_line(tmp_path, args, name):
 def test_periodic_response_on_the_played_multisine_meets_the_prediction():
     from scipy.signal import lfilter
 
-    from plant.data.time_recording import TimeRecording
+    from plant.data.recordings import TimeRecording
     from plant.estimate.frf_estimation import periodic_response
 
     ms = design_multisine(f_min_hz=1.0, f_max_hz=75.0, peak_a=0.5, period_s=1.0, sample_rate_hz=2000.0,

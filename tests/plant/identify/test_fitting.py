@@ -353,7 +353,7 @@ def _gantry(*args):
 
 @pytest.fixture(scope="module")
 def small_recording(tmp_path_factory):
-    from plant.data.recording import write_recording_csv
+    from plant.data.writers import write_recording_csv
     from plant.experiment.simulate import simulate_stepped_sine
 
     path = tmp_path_factory.mktemp("fit") / "rec.csv"

@@ -18,9 +18,10 @@ import pytest
 import scipy.io
 from independent_friction_sim import Axis, simulate
 
-from plant.data.recording_io import parse_column_map, read_recording
-from plant.data.time_recording import TimeRecording
-from plant.data.time_recording_io import read_measurement, read_time_recording
+from plant.data.read import parse_column_map, read_measurement
+from plant.data.read_stepped_sine import read_recording
+from plant.data.read_time_domain import read_time_recording
+from plant.data.recordings import TimeRecording
 from plant.diagnose.time_diagnosis import diagnose_time
 from plant.errors import DataError, EffectError, ParameterError
 from plant.identify.inverse_model import Preprocessing

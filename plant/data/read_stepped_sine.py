@@ -16,9 +16,8 @@ from typing import NamedTuple
 
 import numpy as np
 
-from plant.data.recording import Block, Recording
+from plant.data.recordings import MAX_CURRENT_A, MAX_OUTPUT, Block, Recording
 from plant.data.table import CsvTable
-from plant.data.time_recording import MAX_CURRENT_A, MAX_OUTPUT
 from plant.errors import DataError
 from plant.host.text_io import data_suffix
 
@@ -26,7 +25,6 @@ from plant.host.text_io import data_suffix
 #: missing samples leave shorter gaps, which the lock-in handles with the actual sample times)
 MAX_GAP_STEPS = 1000
 
-ROLES = ("frequency", "time", "current", "velocity", "position", "reference")
 #: roles a stepped-sine recording may map
 STEPPED_ROLES = ("frequency", "time", "current", "velocity")
 
@@ -42,37 +40,6 @@ class _Columns(NamedTuple):
     labels: dict[str, str]
     ids: dict[str, str]
     sample_rate_hz: float | None = None
-
-
-def parse_column_map(text: str) -> dict[str, list[str]]:
-    """``"frequency=2,current=3,velocity=6,velocity=7"`` -> ``{"frequency": ["2"], ..., "velocity": ["6", "7"]}``.
-
-    Values are 1-based column numbers (spreadsheets), header names (CSV), channel names (TDMS) or
-    variable names (MATLAB). A map needs a current and velocity or position outputs; a stepped sine
-    also names its frequency column, a time-domain recording its time (and may name a reference)."""
-    out: dict[str, list[str]] = {}
-    for item in (p.strip() for p in text.split(",") if p.strip()):
-        role, eq, col = item.partition("=")
-        role = role.strip()
-        if not eq or not col.strip():
-            raise DataError(f"column map item {item!r}: expected ROLE=COLUMN, e.g. current=3")
-        if role not in ROLES:
-            raise DataError(f"column map item {item!r}: unknown role {role!r}; roles are {', '.join(ROLES)}")
-        out.setdefault(role, []).append(col.strip())
-    if "current" not in out:
-        raise DataError(f"column map {text!r} names no current column")
-    if "velocity" not in out and "position" not in out:
-        raise DataError(f"column map {text!r} names no output: give velocity=... or position=...")
-    if "velocity" in out and "position" in out:
-        raise DataError(f"column map {text!r} names both velocity and position outputs; give one kind")
-    for role in ("frequency", "time", "current", "reference"):
-        if len(out.get(role, [])) > 1:
-            raise DataError(f"column map {text!r} names {len(out[role])} {role} columns; give one")
-    named = [c for cols in out.values() for c in cols]
-    twice = sorted({c for c in named if named.count(c) > 1})
-    if twice:
-        raise DataError(f"column map {text!r} names column {twice[0]!r} twice")
-    return out
 
 
 def read_recording(path: str | Path, *, columns: dict[str, list[str]] | None = None,
@@ -124,23 +91,6 @@ def read_recording(path: str | Path, *, columns: dict[str, list[str]] | None = N
             table[key] = table[key] * factor
     rate = sample_rate_hz if sample_rate_hz is not None else found.sample_rate_hz
     return _blocks(path, table, found.outputs, found.rows, rate, found.labels)
-
-
-def parse_scale(text: str) -> dict[str, float]:
-    """``"velocity=1e-3,velocity:7=0.01"`` -> ``{"velocity": 0.001, "velocity:7": 0.01}``: unit factors
-    into SI per role, or per column (``ROLE:COLUMN``, the column as the column map names it);
-    both apply where they overlap."""
-    out: dict[str, float] = {}
-    for item in (p.strip() for p in text.split(",") if p.strip()):
-        name, eq, value = item.rpartition("=")
-        try:
-            out[name.strip()] = float(value)
-        except ValueError:
-            raise DataError(f"scale item {item!r}: expected ROLE=FACTOR or ROLE:COLUMN=FACTOR, e.g. velocity=1e-3") \
-                from None
-        if not eq or not name.strip():
-            raise DataError(f"scale item {item!r}: expected ROLE=FACTOR or ROLE:COLUMN=FACTOR, e.g. velocity=1e-3")
-    return out
 
 
 def _need_map(path: Path, columns):

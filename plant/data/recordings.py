@@ -1,10 +1,12 @@
-"""Time-domain recordings of any excitation: multisine, chirp, PRBS, operating data, closed loop.
+"""The recording types: a stepped sine (``Recording``: one ``Block`` per excitation frequency,
+thesis section 4.1) and a time-domain record of any excitation (``TimeRecording``: multisine, chirp,
+PRBS, operating data, closed loop).
 
 A ``TimeRecording`` is one continuous, uniformly sampled record: the drive's input (current in
 A, or a command in V or counts whose force per unit is the plant's ``force_constant_n_per_a``),
 one or more outputs (velocity in m/s or encoder position in m), and optionally the reference of
-a loop that was closed (``reference``, in the outputs' unit). Stepped-sine recordings, with one
-block per frequency, are ``plant.data.recording.Recording``.
+a loop that was closed (``reference``, in the outputs' unit). Readers (``plant.data.read``) return
+either; the simulator produces stepped sines; ``plant.data.writers`` writes them.
 """
 
 from __future__ import annotations
@@ -14,6 +16,39 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from plant.errors import DataError
+
+
+@dataclass(frozen=True)
+class Block:
+    """Samples of one excitation frequency; ``time_s`` restarts at 0 in every block."""
+
+    f_hz: float
+    time_s: np.ndarray
+    current_a: np.ndarray
+    #: shape (n_outputs, n_samples), m/s
+    velocity_m_per_s: np.ndarray
+
+    @property
+    def sample_rate_hz(self) -> float:
+        return float(1.0 / np.median(np.diff(self.time_s)))
+
+
+@dataclass(frozen=True)
+class Recording:
+    """A stepped-sine recording: blocks in increasing frequency and the output column names."""
+
+    blocks: tuple[Block, ...]
+    #: CSV column names of the outputs, e.g. ("velocity_m_per_s",) or
+    #: ("velocity_y1_m_per_s", "velocity_y2_m_per_s")
+    output_names: tuple[str, ...]
+    source: str = "<memory>"
+    #: free-form provenance (simulator settings, seed, ...), written as CSV comment-free sidecar by callers
+    metadata: dict = field(default_factory=dict)
+
+    @property
+    def f_hz(self) -> np.ndarray:
+        return np.array([b.f_hz for b in self.blocks])
+
 
 OUTPUT_KINDS = ("velocity", "position")
 #: largest relative deviation of a sample interval from the median one (uniform sampling)

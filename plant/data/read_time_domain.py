@@ -1,5 +1,4 @@
-"""Read time-domain recordings (CSV, MATLAB ``.mat``) into a validated ``TimeRecording``, and
-tell them apart from stepped sines (``read_measurement``).
+"""Read time-domain recordings (CSV, MATLAB ``.mat``) into a validated ``TimeRecording``.
 
 CSV (``docs/formats.md``): a header with ``time_s``, ``current_a`` and outputs whose
 names start with ``velocity`` (m/s) or ``position`` (m); a column whose name starts with
@@ -18,34 +17,13 @@ from pathlib import Path
 
 import numpy as np
 
-from plant.data.recording import Recording
-from plant.data.recording_io import read_recording
-from plant.data.table import CsvTable, csv_header
-from plant.data.time_recording import SAMPLING_TOLERANCE, TimeRecording
+from plant.data.recordings import SAMPLING_TOLERANCE, TimeRecording
+from plant.data.table import CsvTable
 from plant.errors import DataError
 from plant.host.text_io import data_suffix
 
 #: fewest samples of a time-domain recording
 MIN_SAMPLES = 64
-
-
-def read_measurement(path: str | Path, *, columns: dict[str, list[str]] | None = None,
-                     sample_rate_hz: float | None = None) -> Recording | TimeRecording:
-    """A stepped-sine ``Recording`` or a ``TimeRecording``, by what the file and the column map say.
-
-    ``.mat`` files are time-domain; a CSV is a stepped sine when it has (or the map names) a
-    frequency column; spreadsheets and TDMS files are stepped sines (``plant.data.recording_io``)."""
-    path = Path(path)
-    if not path.is_file():
-        raise DataError(f"{path}: no such file")
-    suffix = data_suffix(path)
-    if suffix == ".mat":
-        return read_time_recording(path, columns=columns)
-    if suffix == ".csv":
-        stepped = "frequency" in columns if columns else "frequency_hz" in csv_header(path)
-        if not stepped:
-            return read_time_recording(path, columns=columns)
-    return read_recording(path, columns=columns, sample_rate_hz=sample_rate_hz)
 
 
 def read_time_recording(path: str | Path, *, columns: dict[str, list[str]] | None = None) -> TimeRecording:

@@ -13,8 +13,10 @@ import warnings
 import numpy as np
 import pytest
 
-from plant.data.recording import Block, Recording, write_recording_csv
-from plant.data.recording_io import parse_column_map, read_recording
+from plant.data.read import parse_column_map
+from plant.data.read_stepped_sine import read_recording
+from plant.data.recordings import Block, Recording
+from plant.data.writers import write_recording_csv
 from plant.errors import DataError
 from plant.estimate.lockin import estimate_response
 from plant.host.files import atomic_write_text, atomic_write_texts
@@ -67,7 +69,7 @@ def test_csv_round_trip_two_outputs_unsorted_blocks(tmp_path):
     assert back.output_names == rec.output_names
     assert back.f_hz.tolist() == [2.5, 7.25]
     for got, sent in zip(back.blocks, rec.blocks[::-1]):
-        # written with 9 significant digits (plant.data.recording.write_recording_csv)
+        # written with 9 significant digits (plant.data.recordings.write_recording_csv)
         assert np.allclose(got.time_s, sent.time_s, rtol=0, atol=1e-9)
         assert np.allclose(got.current_a, sent.current_a, rtol=1e-8, atol=1e-15)
         assert np.allclose(got.velocity_m_per_s, sent.velocity_m_per_s, rtol=1e-8, atol=1e-15)

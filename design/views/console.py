@@ -31,11 +31,7 @@ def print_fit(console: Console, outcome: FitOutcome) -> None:
                       highlight=False, soft_wrap=True)
     rat = outcome.rational
     if rat is not None:
-        console.print(f"\nRational fit ({rat.n_poles} poles, {rat.n_zeros} zeros, {rat.weighting} weighting): "
-                      f"fit {rat.fit_percent:.1f} %, chi-square {rat.chi2:.4g} for {rat.dof} degrees of freedom"
-                      f"\n{rat.tf}", markup=False, highlight=False)
-        if rat.flags:
-            console.print("Flags:\n" + "\n".join(f"    {f}" for f in rat.flags), markup=False, highlight=False)
+        console.print("\n" + rat.report(), markup=False, highlight=False, soft_wrap=True)
 
 
 def print_diagnosis_outcome(console: Console, outcome: DiagnosisOutcome) -> None:

@@ -38,7 +38,7 @@ from scipy.optimize import least_squares
 
 from plant.data.frequency_response import MeasuredResponse
 from plant.errors import DataError, EffectError, ParameterError
-from plant.identify.fit_report import correlation_lines, variable_lines
+from plant.identify.fit_result import PlantFit
 from plant.physics.models import BASE_BOUNDS, Plant
 from plant.physics.parameters import Parameter
 
@@ -54,23 +54,13 @@ N_POLISH = 3
 MAX_CANDIDATES = 4096
 
 
-@dataclass(frozen=True)
-class FitResult:
-    """Immutable result of ``fit_plant``. Arrays of responses are shaped (n_outputs, n_freq)."""
+@dataclass(frozen=True, kw_only=True)
+class FitResult(PlantFit):
+    """Immutable result of ``fit_plant``. Arrays of responses are shaped (n_outputs, n_freq); ``stderr`` is
+    (J^T J)^-1 corrected for the variances' degrees of freedom (module doc); inf: not determined by the data."""
 
-    plant: Plant
-    #: every parameter of the fitted plant (free and fixed), SI units
-    values: dict[str, float]
-    #: names of the free parameters, in the order of ``correlation``
-    free: tuple[str, ...]
-    #: standard errors of the free parameters, (J^T J)^-1 corrected for the variances' degrees of
-    #: freedom (module doc); inf: not determined by the data
-    stderr: dict[str, float]
     #: sqrt(diag((J^T J)^-1) * reduced_chi2) (lmfit's scale_covar)
     stderr_scaled: dict[str, float]
-    #: covariance and correlation of the free parameters (rows/columns in ``free`` order)
-    covariance: np.ndarray
-    correlation: np.ndarray
     #: starting values of the winning start
     initial: dict[str, float]
     f_hz: np.ndarray
@@ -90,12 +80,8 @@ class FitResult:
     #: -2 ln L + 2 k and -2 ln L + k ln n (``minus_two_log_likelihood``)
     aic: float
     bic: float
-    n_data: int
-    n_params: int
-    flags: tuple[str, ...]
     success: bool
     message: str
-    n_starts: int
     n_evaluations: int
     elapsed_s: float
 
@@ -104,18 +90,12 @@ class FitResult:
         """Contribution of each frequency to chi^2 (summed over outputs), shape (n_freq,)."""
         return np.sum(np.abs(self.residuals) ** 2, axis=0)
 
-    def correlation_of(self, a: str, b: str) -> float:
-        i, j = self.free.index(a), self.free.index(b)
-        return float(self.correlation[i, j])
+    def _model_lines(self) -> list[str]:
+        return [f"    stage {self.plant.stage.upper()}, effects: {', '.join(self.effect_names) or 'none'}"]
 
-    def report(self, *, min_correlation: float = 0.1) -> str:
-        """Text report in the spirit of lmfit's ``fit_report``."""
-        params = self.plant.parameters()
+    def _statistics_lines(self) -> list[str]:
         n_out, n_f = self.residuals.shape
-        lines = [
-            "[[Model]]",
-            f"    stage {self.plant.stage.upper()}, effects: {', '.join(self.plant.effect_names) or 'none'}",
-            "[[Fit Statistics]]",
+        return [
             f"    # data points      = {self.n_data} ({n_f} frequencies x {n_out} output(s) x re/im)",
             f"    # variables        = {self.n_params}",
             f"    chi-square         = {self.chi2:.6g}",
@@ -125,16 +105,10 @@ class FitResult:
             f"    Bayesian info crit = {self.bic:.6g}",
             f"    starts, evaluations = {self.n_starts}, {self.n_evaluations}",
             f"    success            = {self.success} ({self.message})",
-            "[[Variables]]",
         ]
-        units = {n: p.unit for n, p in params.items()}
-        lines += variable_lines(self.values, units, self.stderr,
-                                {n: f" (init = {self.initial[n]:.6g})" for n in self.stderr})
-        lines += correlation_lines(self.free, self.correlation, min_correlation)
-        if self.flags:
-            lines.append("[[Flags]]")
-            lines += [f"    {f}" for f in self.flags]
-        return "\n".join(lines)
+
+    def _variable_notes(self) -> dict[str, str]:
+        return {n: f" (init = {self.initial[n]:.6g})" for n in self.stderr}
 
 
 # --- data <-> model outputs -----------------------------------------------------------------

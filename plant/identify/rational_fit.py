@@ -48,6 +48,7 @@ from scipy.signal import find_peaks
 
 from plant.errors import DataError, ParameterError
 from plant.grid import check_grid
+from plant.identify.fit_result import Fit
 
 #: SK iterations stop when the relative change of the denominator is below this
 _SK_TOL = 1e-10
@@ -74,16 +75,19 @@ _BOUND_REL = 1e-4
 WEIGHTINGS = ("uniform", "thesis", "inverse_sigma")
 
 
-@dataclass(frozen=True)
-class RationalFit:
+@dataclass(frozen=True, kw_only=True)
+class RationalFit(Fit):
     """Result of ``fit_rational``: the rational part as a python-control ``TransferFunction``
-    (monic denominator, rad/s) and the delay ``delay_s`` (not part of ``tf``)."""
+    (monic denominator, rad/s) and the delay ``delay_s`` (not part of ``tf``). ``n_data`` counts the
+    real and imaginary parts of the weighted frequencies; ``n_params`` the coefficients and the delay."""
 
     tf: control.TransferFunction
     #: numerator and denominator coefficients, highest power first (den[0] == 1)
     num: np.ndarray
     den: np.ndarray
     delay_s: float
+    #: the delay was estimated (else fixed at 0)
+    delay: bool
     n_poles: int
     n_zeros: int
     #: weight per frequency (multiplies the error, as tfest's WeightingFilter vector)
@@ -99,8 +103,6 @@ class RationalFit:
     #: converged and no flag raised
     success: bool
     message: str
-    #: what makes the fit doubtful, one sentence each; empty for a clean fit
-    flags: tuple[str, ...]
     #: "uniform", "thesis", "inverse_sigma" or "array"
     weighting: str
     #: sum over weighted frequencies of |G - G_fit|^2 / (variance / 2) (real and imaginary parts
@@ -110,9 +112,8 @@ class RationalFit:
     dof: int
     #: upper-tail probability P(chi^2_dof >= chi2); NaN without a variance
     chi2_p: float
-    #: name of the start the kept fit was refined from, and how many starts were refined
+    #: name of the start the kept fit was refined from
     start: str
-    n_starts: int
 
     @property
     def poles(self) -> np.ndarray:
@@ -127,6 +128,34 @@ class RationalFit:
         w = np.asarray(w_rad_s, dtype=float)
         s = 1j * w
         return np.polyval(self.num, s) / np.polyval(self.den, s) * np.exp(-s * self.delay_s)
+
+    def _model_lines(self) -> list[str]:
+        delay = f", delay {1e3 * self.delay_s:.4g} ms" if self.delay else ""
+        return [f"    rational: {self.n_poles} poles, {self.n_zeros} zeros{delay}; {self.weighting} weighting"]
+
+    def _statistics_lines(self) -> list[str]:
+        chi2 = (f"{self.chi2:.6g} for {self.dof} degrees of freedom (P = {self.chi2_p:.2g})"
+                if np.isfinite(self.chi2) else "not computed (no variance)")
+        return [
+            f"    # data points      = {self.n_data} ({self.n_data // 2} weighted frequencies x re/im)",
+            f"    # variables        = {self.n_params}",
+            f"    fit                = {self.fit_percent:.2f} % (100 (1 - |G - G_fit| / |G - mean G|), unweighted)",
+            f"    weighted cost      = {self.cost:.6g}",
+            f"    chi-square         = {chi2}",
+            f"    starts             = {self.n_starts} (kept: {self.start}; {self.sk_iterations} SK iterations)",
+            f"    success            = {self.success} ({self.message})",
+        ]
+
+    def _sections(self) -> list[str]:
+        lines = ["[[Poles and zeros]] (rad/s; Hz and damping ratio)"]
+        for kind, roots in (("pole", self.poles), ("zero", self.zeros)):
+            for r in sorted(roots[roots.imag >= 0], key=abs):
+                zeta = -r.real / abs(r) if abs(r) > 0 else float("nan")
+                lines.append(f"    {kind} {r:.5g}: {abs(r) / (2 * np.pi):.4g} Hz, damping {zeta:.3g}")
+        lines.append(f"[[Transfer function]]{'' if not self.delay else ' (times the delay)'}")
+        lines += [f"    {line}" for line in str(self.tf).splitlines()
+                  if line.strip() and not line.startswith(("<", "Inputs", "Outputs"))]
+        return lines
 
 
 @dataclass(frozen=True)
@@ -464,4 +493,5 @@ def fit_rational(w_rad_s, response, *, n_poles: int, n_zeros: int, delay: bool =
                        sk_iterations=iterations, stable=bool(np.all(np.roots(den).real < 0)),
                        success=best.converged and not flags, message=best.message, flags=tuple(flags),
                        weighting=weighting, chi2=chi2, dof=dof, chi2_p=chi2_p, start=best.start,
-                       n_starts=len(starts))
+                       n_starts=len(starts), delay=delay, n_data=2 * int(np.count_nonzero(wt > 0)),
+                       n_params=n_unknown)

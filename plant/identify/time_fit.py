@@ -57,7 +57,7 @@ import scipy.special
 from plant.data.recordings import TimeRecording
 from plant.errors import DataError, EffectError, ParameterError
 from plant.estimate.lockin import TEST_P
-from plant.identify.fit_report import correlation_lines, variable_lines
+from plant.identify.fit_result import PlantFit
 from plant.identify.inverse_model import EDGE_SAMPLES, FILTER_ORDER, InverseModelData, Preprocessing, inverse_model_data
 from plant.physics.models import Plant
 
@@ -107,20 +107,15 @@ class Structure:
     share: float
 
 
-@dataclass(frozen=True)
-class TimeFitResult:
+@dataclass(frozen=True, kw_only=True)
+class TimeFitResult(PlantFit):
     """Result of ``fit_inverse_model`` or ``fit_output_error``. Residuals are in the unit of
-    ``quantity``: force in N (inverse model) or velocity in m/s (output error)."""
+    ``quantity``: force in N (inverse model) or velocity in m/s (output error); ``stderr`` are the
+    Newey-West standard errors (module doc)."""
 
-    plant: Plant
     method: str
-    values: dict[str, float]
-    free: tuple[str, ...]
-    #: Newey-West standard errors (module doc), and the ordinary least-squares ones
-    stderr: dict[str, float]
+    #: the ordinary least-squares standard errors
     stderr_ols: dict[str, float]
-    covariance: np.ndarray
-    correlation: np.ndarray
     quantity: str
     time_s: np.ndarray
     #: the (filtered) velocity at each residual's sample, m/s
@@ -129,8 +124,6 @@ class TimeFitResult:
     model: np.ndarray
     residual: np.ndarray
     rss: float
-    n_data: int
-    n_params: int
     #: effective sample size of the autocorrelated residual
     n_effective: float
     lag1_autocorrelation: float
@@ -146,27 +139,23 @@ class TimeFitResult:
     #: samples left out because the axis was at rest
     n_at_rest: int
     condition_number: float
-    flags: tuple[str, ...]
-    n_starts: int
     elapsed_s: float
-
-    @property
-    def effect_names(self) -> tuple[str, ...]:
-        return self.plant.effect_names
 
     @property
     def rms_residual(self) -> float:
         return float(np.sqrt(self.rss / self.n_data))
 
-    def report(self) -> str:
-        """Text report in the spirit of lmfit's ``fit_report``."""
-        params = self.plant.parameters()
-        unit = "N" if self.quantity == "force_n" else "m/s"
-        lines = [
-            "[[Model]]",
-            f"    stage {self.plant.stage.upper()}, effects: {', '.join(self.effect_names) or 'none'}, "
-            f"{self.method} fit of the {'force' if unit == 'N' else 'velocity'}",
-            "[[Fit Statistics]]",
+    @property
+    def _unit(self) -> str:
+        return "N" if self.quantity == "force_n" else "m/s"
+
+    def _model_lines(self) -> list[str]:
+        return [f"    stage {self.plant.stage.upper()}, effects: {', '.join(self.effect_names) or 'none'}, "
+                f"{self.method} fit of the {'force' if self._unit == 'N' else 'velocity'}"]
+
+    def _statistics_lines(self) -> list[str]:
+        unit = self._unit
+        return [
             f"    # data points      = {self.n_data} (effective {self.n_effective:.0f}: residual lag-1 "
             f"autocorrelation {self.lag1_autocorrelation:.3f}; {self.n_at_rest} at rest left out)",
             f"    # variables        = {self.n_params}",
@@ -174,12 +163,17 @@ class TimeFitResult:
             "measured signal)",
             f"    noise alone        = {self.noise_rms:.4g} {unit} rms (residual / noise {self.noise_ratio:.3g})",
             f"    condition number   = {self.condition_number:.3g}",
-            "[[Variables]] (+/- Newey-West standard error; ordinary least squares in brackets)",
         ]
-        units = {n: p.unit for n, p in params.items()}
-        lines += variable_lines(self.values, units, self.stderr,
-                                {n: f" [{self.stderr_ols[n]:.3g}]" for n in self.stderr})
-        lines += correlation_lines(self.free, self.correlation)
+
+    def _variables_title(self) -> str:
+        return "[[Variables]] (+/- Newey-West standard error; ordinary least squares in brackets)"
+
+    def _variable_notes(self) -> dict[str, str]:
+        return {n: f" [{self.stderr_ols[n]:.3g}]" for n in self.stderr}
+
+    def _sections(self) -> list[str]:
+        unit = self._unit
+        lines = super()._sections()
         lines.append("[[Structure of the residual]] (mean in quantile bins, chi-square against Newey-West errors)")
         for st in self.structure:
             lines.append(f"    {st.variable:14s} chi2 {st.chi2:.4g} for {st.dof} bins, p = {st.p_value:.2g}"
@@ -188,10 +182,7 @@ class TimeFitResult:
         for r in self.regimes:
             lines.append(f"    {r.name:14s} {100 * r.share:5.1f} % of samples: rms {r.rms_residual:.4g} {unit}, "
                          f"{r.noise_ratio:.3g} x noise{' (significant)' if r.significant else ''}")
-        if self.flags:
-            lines.append("[[Flags]]")
-            lines += [f"    {f}" for f in self.flags]
-        return "\n".join(lines)
+        return lines
 
 
 def time_domain_effects(plant: Plant) -> None:

@@ -167,3 +167,17 @@ def test_cli_rational_json_has_flags(tmp_path):
     assert {"num", "den", "fit_percent", "flags", "success", "weighting", "chi2", "dof", "chi2_p"} <= set(rat)
     # a first-order plant fitted with 2 poles: the extra pole is flagged
     assert rat["weighting"] == "inverse_sigma" and rat["flags"] and rat["success"] is False
+
+
+def test_report_gives_the_truths_mode_and_antiresonance_in_hz_and_damping():
+    """The report's [[Poles and zeros]] on noise-free data name the closed form's 55 Hz mode (damping 0.03), its
+    38 Hz antiresonance (0.02) and the rigid body's real pole 440/35 rad/s = 2.0 Hz."""
+    fit = fit_rational(W, G0, n_poles=3, n_zeros=2)
+    text = fit.report()
+    assert "[[Model]]\n    rational: 3 poles, 2 zeros; uniform weighting" in text
+    assert f"# data points      = {2 * W.size} ({W.size} weighted frequencies x re/im)" in text
+    assert "# variables        = 6" in text
+    rows = [line.split(":")[1] for line in text.splitlines() if line.startswith(("    pole", "    zero"))]
+    found = sorted((float(r.split()[0]), float(r.split()[-1])) for r in rows)
+    expected = sorted([(440 / 35 / (2 * np.pi), 1.0), (38.0, ZA), (55.0, ZR)])
+    np.testing.assert_allclose(found, expected, rtol=2e-3)

@@ -1,19 +1,12 @@
 """Compare model and measurement, find the missing physical effects, add them, watch the error fall.
 
 ``diagnose`` fits the base model (thesis Eq. 3.15 / 3.16 with free mass and damping) and then
-every combination of up to ``MAX_EFFECTS`` effects of the library (a model search, not a
-greedy path): each model starts from the optimum of every model it contains with the new
-effect at its neutral values, and from the effect's guesses on that model's residual, so a
-nested model never fits worse than its parent and a wrong first step is never locked in.
-
-Selection: the model of lowest BIC (among those consistent with the noise, when any is), replaced
-by a simpler one while that one is within
-``ACCEPT_DELTA_BIC``: a model it contains, or one with fewer parameters (or as many with simpler
-physics: a pure delay before a lag or hold before a filter or mode) that is itself consistent
-with the noise (an effect is kept only on very strong evidence, Kass & Raftery 1995); among
-models within ``TIE_DELTA_BIC`` the one with fewer parameters and simpler physics. Every model within
-``ACCEPT_DELTA_BIC`` of the selected one is reported beside it, with what makes it
-equivalent. The verdict is ``explained`` only when the selected model's chi^2 is consistent
+every combination of up to ``MAX_EFFECTS`` effects of the library by the model search of
+``plant.diagnose.search``, which also selects: each model starts from the optimum of every model
+it contains with the new effect at its neutral values, and from the effect's guesses on that
+model's residual, so a nested model never fits worse than its parent and a wrong first step is
+never locked in. Every model within ``ACCEPT_DELTA_BIC`` of the selected one is reported beside
+it, with what makes it equivalent. The verdict is ``explained`` only when the selected model's chi^2 is consistent
 with the noise (``chi2_is_noise``); otherwise it is ``not_explained`` and says so first,
 describing the residual no effect of the library reproduces.
 
@@ -25,14 +18,14 @@ error counts as misfit like any other, so such a model may be reported as not ex
 from __future__ import annotations
 
 import functools
-import itertools
 from dataclasses import dataclass, replace
 
 import numpy as np
 from scipy import special
 
 from plant.data.frequency_response import MeasuredResponse
-from plant.diagnose.evidence import ACCEPT_DELTA_BIC, TIE_DELTA_BIC, addition_delta_bic, verdict
+from plant.diagnose.evidence import ACCEPT_DELTA_BIC, addition_delta_bic, verdict
+from plant.diagnose.search import children, fit_models, path_to, select_model
 from plant.errors import DataError
 from plant.identify.fitting import FitResult, fit_plant
 from plant.identify.residuals import ResidualSummary, merge_failing, residual_summary
@@ -340,30 +333,24 @@ def diagnose(plant: Plant, data: MeasuredResponse, *, candidates: tuple[str, ...
     own = tuple(p for p in plant.parameters() if "." in p and p not in fixed)
     base_fit = fit_plant(plant, data, free=free_base + own)
     base = plant.effect_names
-    fits: dict[tuple[str, ...], FitResult] = {base: base_fit}
-    unidentifiable = {}
-    for size in range(1, max_effects + 1):
-        for combo in itertools.combinations(pool, size):
-            if not _valid(combo, base):
-                continue
-            effects = base + combo
-            parents = [fits[p] for p in (base + tuple(c for c in combo if c != n) for n in combo) if p in fits]
-            if not parents:
-                continue
-            n_new = sum(len(EFFECTS[n].bounds) - len(EFFECTS[n].search_fixed) for n in combo)
-            if n_values - len(free_base) - len(own) - n_new < 1:
-                unidentifiable[combo] = (f"not identifiable: {n_freq} frequencies give {n_values} real values for "
-                                         f"{len(free_base) + len(own) + n_new} parameters")
-                continue
-            best = min(parents, key=lambda r: r.chi2)
-            (name,) = [n for n in combo if n not in best.plant.effect_names]
-            effect = make_effect(name)
-            host = best.plant if effect.linear else replace(
-                best.plant, excitation_current_a=np.asarray(data.current_amplitude_a, dtype=float))
-            child = host * effect
-            fits[effects] = _fit_child(parents, name, child, data, free_base, fixed)
+
+    def fit(combo: tuple[str, ...], parents: list[FitResult]) -> FitResult | str:
+        n_new = sum(len(EFFECTS[n].bounds) - len(EFFECTS[n].search_fixed) for n in combo)
+        if n_values - len(free_base) - len(own) - n_new < 1:
+            return (f"not identifiable: {n_freq} frequencies give {n_values} real values for "
+                    f"{len(free_base) + len(own) + n_new} parameters")
+        best = min(parents, key=lambda r: r.chi2)
+        (name,) = [n for n in combo if n not in best.plant.effect_names]
+        effect = make_effect(name)
+        host = best.plant if effect.linear else replace(
+            best.plant, excitation_current_a=np.asarray(data.current_amplitude_a, dtype=float))
+        return _fit_child(parents, name, host * effect, data, free_base, fixed)
+
+    fits, unidentifiable = fit_models(base, base_fit, pool, fit, max_effects=max_effects,
+                                      valid=lambda combo: _valid(combo, base))
     adequate = {k: chi2_is_noise(f) for k, f in fits.items()}
-    selected = _select(fits, adequate)
+    selected = select_model({k: f.bic for k, f in fits.items()}, adequate,
+                            {k: f.n_params for k, f in fits.items()})
     final = fits[selected]
     explained = adequate[selected]
     alternatives = tuple(
@@ -403,47 +390,17 @@ def _residual_peak(res: ResidualSummary) -> str:
            f"{res.phase_error_deg[:, k].mean():+.1f} deg), which "
 
 
-def _select(fits: dict[tuple[str, ...], FitResult], adequate: dict[tuple[str, ...], bool]) -> tuple[str, ...]:
-    """Lowest BIC among the models consistent with the noise (among all when none is); then, while
-    one exists within ``ACCEPT_DELTA_BIC`` of it, a simpler model: one it contains, or one with fewer
-    parameters or as many with simpler physics (``Effect.complexity``) that is itself consistent with
-    the noise (an effect, or a more elaborate one, is kept only on very strong evidence); then among
-    the models within ``TIE_DELTA_BIC`` the one with fewest
-    effects, parameters and the simplest physics (``Effect.complexity``). A model consistent with
-    the noise is never traded for one that is not."""
-    chosen = min((k for k in fits if adequate[k]) if any(adequate.values()) else fits, key=lambda k: fits[k].bic)
-    while True:
-        simpler = [k for k in fits if fits[k].bic < fits[chosen].bic + ACCEPT_DELTA_BIC
-                   and (adequate[k] or not adequate[chosen])
-                   and (set(k) < set(chosen) or (_simpler(k, chosen, fits) and adequate[k]))]
-        if not simpler:
-            break
-        chosen = min(simpler, key=lambda k: (fits[k].n_params, _complexity(k), len(k), fits[k].bic))
-    ties = [k for k in fits if abs(fits[k].bic - fits[chosen].bic) < TIE_DELTA_BIC
-            and (adequate[k] or not adequate[chosen])]
-    return min(ties, key=lambda k: (len(k), fits[k].n_params, _complexity(k), fits[k].bic))
-
-
-def _complexity(effects: tuple[str, ...]) -> int:
-    return sum(EFFECTS[n].complexity for n in effects)
-
-
-def _simpler(a: tuple[str, ...], b: tuple[str, ...], fits) -> bool:
-    """Model ``a`` assumes less than ``b``: fewer parameters, or as many with simpler physics."""
-    pa, pb = fits[a].n_params, fits[b].n_params
-    return pa < pb or (pa == pb and _complexity(a) < _complexity(b))
-
-
 def _path(fits, base, selected, data, skipped, unidentifiable, pool) -> list[Step]:
-    """Steps from the base model to ``selected``, each adding the effect that lowers BIC most."""
+    """Steps from the base model to ``selected`` (``plant.diagnose.search.path_to``), each with the effects
+    tried as additions to it, ranked."""
+    models = path_to({k: f.bic for k, f in fits.items()}, base, selected)
     steps = []
-    current = base
-    while True:
-        children = {k: v for k, v in fits.items() if len(k) == len(current) + 1 and set(current) < set(k)}
+    for current, nxt in zip(models, models[1:] + [None]):
         ranking = []
-        for k, fit in children.items():
+        for k in children(fits, current):
             (name,) = set(k) - set(current)
-            ranking.append(Candidate(name, addition_delta_bic(fits[current].bic, fit.bic), fit.reduced_chi2, fit))
+            ranking.append(Candidate(name, addition_delta_bic(fits[current].bic, fits[k].bic), fits[k].reduced_chi2,
+                                     fits[k]))
         ranking.sort(key=lambda c: -c.delta_bic)
         tried = {c.effect for c in ranking}
         for name in pool:
@@ -455,17 +412,14 @@ def _path(fits, base, selected, data, skipped, unidentifiable, pool) -> list[Ste
                     ranking.append(Candidate(name, float("nan"), float("nan"), None, reason))
         ranking += [Candidate(n, float("nan"), float("nan"), None, why) for n, why in skipped.items()
                     if current == base]
-        if current == selected:
+        if nxt is None:
             steps.append(_step(fits[current], data, ranking, ""))
-            return steps
-        options = [k for k in children if set(k) <= set(selected)]
-        nxt = min(options, key=lambda k: fits[k].bic)
+            break
         (name,) = set(nxt) - set(current)
-        effect = EFFECTS[name]
         steps.append(_step(fits[current], data, ranking,
                            f"add {name} (dBIC {fits[current].bic - fits[nxt].bic:+.1f}; signature: "
-                           f"{effect.signature})"))
-        current = nxt
+                           f"{EFFECTS[name].signature})"))
+    return steps
 
 
 def failing_bands(step: Step) -> list[dict]:

@@ -3,13 +3,12 @@ fails, which force effects are missing, added one at a time while the error fall
 
 Candidates are the effects with a force model (``Effect.force_regressors``: ``coulomb_friction``,
 ``offset``). Every combination is fitted by the inverse model (``plant.identify.time_fit``; linear least
-squares, so each fit is global and a model containing another never fits worse). Models are
-compared by BIC with the residual's own variance and one effective sample size for all (that of
-the largest model; ``plant.identify.time_fit`` module doc). The selected model has the lowest BIC, except
-that a model with fewer effects within ``ACCEPT_DELTA_BIC`` of it is kept (Kass & Raftery 1995:
-"very strong" evidence is needed for each added effect). The verdict is "explained" only when
-the selected model's residual has no structure (``TimeFitResult.explained``); otherwise it says
-what is left and where.
+squares, so each fit is global and a model containing another never fits worse) in the model search of
+``plant.diagnose.search``, which selects among them as for a frequency response: by BIC, with the
+residual's own variance and one effective sample size for all (that of the largest model;
+``plant.identify.time_fit`` module doc), and with "consistent with the noise" meaning a residual without
+structure (``TimeFitResult.explained``). The verdict is "explained" only when the selected model's is;
+otherwise it says what is left and where.
 
 The base model's residual is described by regime of motion and by direction: a force that
 changes sign with the direction of motion is the signature of Coulomb friction; one of the same
@@ -19,14 +18,14 @@ sign both ways, of a constant force.
 from __future__ import annotations
 
 import dataclasses
-import itertools
 import math
 from dataclasses import dataclass
 
 import numpy as np
 
 from plant.data.recordings import TimeRecording
-from plant.diagnose.evidence import ACCEPT_DELTA_BIC, addition_delta_bic, verdict
+from plant.diagnose.evidence import addition_delta_bic, verdict
+from plant.diagnose.search import fit_models, path_to, select_model
 from plant.errors import EffectError
 from plant.identify.inverse_model import InverseModelData, Preprocessing, inverse_model_data
 from plant.identify.time_fit import TimeFitResult, bic, fit_inverse_model
@@ -167,13 +166,13 @@ def diagnose_time(plant: Plant, rec: TimeRecording, *, candidates: tuple[str, ..
                      f"{', '.join(skipped)}")
     names = tuple(n for n in names if n in usable)
     data: InverseModelData = inverse_model_data(rec, float(plant.force_constant_n_per_a), prep)
-    models: dict[tuple[str, ...], TimeFitResult] = {}
-    for k in range(len(names) + 1):
-        for combo in itertools.combinations(names, k):
-            models[combo] = fit_inverse_model(_plant(plant, combo), data)
+    models, _ = fit_models((), fit_inverse_model(_plant(plant, ()), data), names,
+                           lambda combo, parents: fit_inverse_model(_plant(plant, combo), data),
+                           max_effects=len(names))
     n_eff = models[names].n_effective
     bics = {c: bic(f, n_eff) for c, f in models.items()}
-    selected = _select(models, bics)
+    selected = select_model(bics, {c: f.explained for c, f in models.items()},
+                            {c: f.n_params for c, f in models.items()})
     base = models[()]
     ranking = tuple(sorted((TimeCandidate(n, addition_delta_bic(bics[()], bics[(n,)]), models[(n,)].rms_residual)
                             for n in names), key=lambda c: -c.delta_bic))
@@ -207,24 +206,14 @@ def _explanation(final: TimeFitResult, selected: tuple[str, ...], peak_hz: float
             "the decimation band)")
 
 
-def _select(models, bics) -> tuple[str, ...]:
-    best = min(bics, key=bics.get)
-    simpler = [c for c in models if set(c) < set(best) and bics[c] - bics[best] < ACCEPT_DELTA_BIC]
-    return min(simpler, key=lambda c: (len(c), bics[c])) if simpler else best
-
-
 def _path(models, bics, selected) -> tuple[TimeStep, ...]:
-    """From the base to ``selected``, adding at each step the effect that lowers BIC most."""
-    current: tuple[str, ...] = ()
+    """From the base to ``selected`` (``plant.diagnose.search.path_to``), one effect added per step."""
+    path = path_to(bics, (), selected)
     steps = [TimeStep((), models[()], bics[()], "base model: mass and rail damping (thesis Eq. 3.15 / 3.16)")]
-    while set(current) != set(selected):
-        options = [tuple(n for n in selected if n in current or n == add) for add in selected if add not in current]
-        nxt = min(options, key=lambda c: bics[c])
-        added = next(n for n in nxt if n not in current)
-        fit = models[nxt]
-        before = models[current]
+    for current, nxt in zip(path, path[1:]):
+        (added,) = set(nxt) - set(current)
+        fit, before = models[nxt], models[current]
         steps.append(TimeStep(nxt, fit, bics[nxt],
                               f"add {added}: dBIC {addition_delta_bic(bics[current], bics[nxt]):+.1f}, rms residual "
                               f"{before.rms_residual:.3g} -> {fit.rms_residual:.3g} N"))
-        current = nxt
     return tuple(steps)

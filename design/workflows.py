@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import json
 import math
-import tomllib
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -24,7 +23,7 @@ from design.results import (
     Recording,
     ReportContent,
 )
-from design.spec.schema import parse_spec
+from design.spec.schema import load_spec
 from plant.errors import GantryError, ParameterError, SpecError
 from plant.physics.effects import EFFECTS
 
@@ -44,18 +43,9 @@ def load_problem(spec_path: str | Path, *, plant_from: str | Path | None = None)
     (the ``gantry fit --json`` output) when ``plant_from`` is given. The payload range, uncertainty,
     requirements and controller bounds stay the spec's; effects a synthesis cannot design for
     (``coulomb_friction``, ``offset``: no linear response) are left out and listed."""
-    from plant.host.text_io import read_text
-
     spec_path = Path(spec_path)
-    try:
-        data = tomllib.loads(read_text(spec_path, what="spec file"))
-    except tomllib.TOMLDecodeError as exc:
-        raise SpecError(f"{spec_path}: not valid TOML: {exc}") from None
-    left_out: list[str] = []
-    if plant_from is not None:
-        plant, left_out = _plant_from_fit(Path(plant_from))
-        data.setdefault("plant", {}).update(plant)
-    spec = parse_spec(data, source=str(spec_path))
+    plant, left_out = _plant_from_fit(Path(plant_from)) if plant_from is not None else (None, [])
+    spec = load_spec(spec_path, plant=plant)
     try:
         loop = spec.problem()
     except SpecError as exc:
@@ -285,7 +275,6 @@ def simulation_plant(*, spec: Path | None, stage: str | None, values: dict[str, 
                      effects_added: dict[str, dict[str, float]], amplitude_a: float | None):
     """The plant a simulation runs (the spec's at its nominal payload, or the thesis's, then ``values`` and
     ``effects_added``) and the excitation amplitude (A; default the thesis's for the stage)."""
-    from design.spec.schema import load_spec
     from plant.physics.models import Plant, build_plant
 
     if (spec is None) == (stage is None):
@@ -296,9 +285,7 @@ def simulation_plant(*, spec: Path | None, stage: str | None, values: dict[str, 
         p = load_spec(spec).plant
         stage = p.stage
         effects = {name: dict(params) for name, params in p.effects.items()}
-        base = {"mass_kg": p.payload_kg.nominal_kg, "damping_n_s_per_m": p.damping_n_s_per_m,
-                "force_constant_n_per_a": p.force_constant_n_per_a, "motor_length_m": p.motor_length_m,
-                "load_position_m": p.load_position_m}
+        base = p.base_values()
     elif stage not in ("x", "y"):
         raise ParameterError(f"--stage must be x or y, got {stage!r}")
     for name, params in effects_added.items():

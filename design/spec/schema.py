@@ -27,9 +27,10 @@ import difflib
 import tomllib
 import types
 import typing
+from collections.abc import Mapping
 from dataclasses import replace
 from pathlib import Path
-from typing import Annotated, Literal
+from typing import Annotated, Any, Literal
 
 from pydantic import (
     BaseModel,
@@ -136,10 +137,14 @@ class PlantSpec(_Strict):
                             f"{nonlinear[0]} is nonlinear; design on the linear model and check the effect with "
                             "gantry simulate")
         effects = tuple(make_effect(name, **params) for name, params in self.effects.items())
-        nominal = Plant(self.stage, mass_kg=self.payload_kg.nominal_kg, damping_n_s_per_m=self.damping_n_s_per_m,
-                        force_constant_n_per_a=self.force_constant_n_per_a, motor_length_m=self.motor_length_m,
-                        load_position_m=self.load_position_m, effects=effects)
+        nominal = Plant(self.stage, effects=effects, **self.base_values())
         return PlantFamily(nominal, self.payload_kg, dict(self.uncertainty))
+
+    def base_values(self) -> dict[str, float]:
+        """The base parameters of the plant at the nominal payload, as ``Plant`` takes them (SI)."""
+        return {"mass_kg": self.payload_kg.nominal_kg, "damping_n_s_per_m": self.damping_n_s_per_m,
+                "force_constant_n_per_a": self.force_constant_n_per_a, "motor_length_m": self.motor_length_m,
+                "load_position_m": self.load_position_m}
 
 
 class FilterRange(_Strict):
@@ -502,12 +507,17 @@ def parse_spec(data: dict, *, source: str = "spec") -> Spec:
     return spec
 
 
-def load_spec(path: str | Path) -> Spec:
-    """Read and validate a TOML spec file."""
+def load_spec(path: str | Path, *, plant: Mapping[str, Any] | None = None) -> Spec:
+    """Read and validate a TOML spec file; ``plant`` updates its ``[plant]`` table first (keys as the file
+    writes them: the plant a fit found)."""
     path = Path(path)
     text = read_text(path, what="spec file")
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise SpecError(f"{path}: not valid TOML: {exc}") from None
+    if plant:
+        if not isinstance(data.get("plant", {}), dict):
+            raise SpecError(f"{path}: plant: must be a table")
+        data.setdefault("plant", {}).update(plant)
     return parse_spec(data, source=str(path))

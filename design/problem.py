@@ -378,7 +378,7 @@ class AdmittanceProblem:
 
 
 @dataclass(frozen=True)
-class Verification:
+class VerificationPlan:
     """How a design is verified beyond its scenarios: ``monte_carlo_samples`` independent draws over
     payload x the uncertainty (seeded with ``seed``)."""
 
@@ -396,7 +396,7 @@ class LoopProblem:
     controller: ControllerBounds
     requirements: Requirements = Requirements()
     admittance: AdmittanceProblem | None = None
-    verification: Verification = Verification()
+    verification: VerificationPlan = VerificationPlan()
 
 
 def with_filters(family: PlantFamily, filters: tuple[DriveFilter, ...],

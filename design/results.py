@@ -148,7 +148,7 @@ class DesignOutcome:
 
 
 @dataclass(frozen=True)
-class Recording:
+class ComparedRecording:
     """A recording compared with the model in a report: its path, response and diagnosis."""
 
     path: Path
@@ -193,7 +193,7 @@ class ReportContent:
     seed: int = 0
     design: DesignOutcome | None = None
     admittance_curves: AdmittanceCurves | None = None
-    recordings: tuple[Recording, ...] = ()
+    recordings: tuple[ComparedRecording, ...] = ()
     command: str = ""
     #: the reported gains on the Monte Carlo draws over the uncertainty (problems with uncertainty)
     monte_carlo_check: MonteCarloCheck | None = None

@@ -15,12 +15,12 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from design.results import (
+    ComparedRecording,
     DesignOutcome,
     DesignProblem,
     DiagnosisOutcome,
     FitOutcome,
     PlantFromFit,
-    Recording,
     ReportContent,
 )
 from design.spec.schema import load_spec
@@ -209,7 +209,7 @@ def report_content(problem: DesignProblem, *, outcome: DesignOutcome | None = No
     for path, response in zip(data, measured):
         from plant.diagnose.diagnosis import diagnose
 
-        recordings.append(Recording(Path(path), response, diagnose(loop.plant.plant(), response)))
+        recordings.append(ComparedRecording(Path(path), response, diagnose(loop.plant.plant(), response)))
     check, comparison, adm_comparison = None, (), None
     if loop.plant.uncertainty:
         check, comparison = _robustness(loop, kp, ki, outcome)

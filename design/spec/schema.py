@@ -56,7 +56,7 @@ from design.problem import (
     Requirements,
     StanceRange,
     Uncertainty,
-    Verification,
+    VerificationPlan,
     with_filters,
 )
 from plant.errors import GantryError, SpecError
@@ -225,7 +225,7 @@ class Spec(_Strict):
     requirements: Requirements = Requirements()
     objective: ObjectiveSpec = ObjectiveSpec()
     admittance: AdmittanceProblem | None = None
-    verification: Verification = Verification()
+    verification: VerificationPlan = VerificationPlan()
 
     @field_validator("admittance", mode="before")
     @classmethod

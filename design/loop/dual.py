@@ -1,0 +1,209 @@
+"""Velocity loops of the two-motor Stage Y (``plant.physics.dual_drive``): the controller structures a
+drive offers for a gantry, and what the closed loop does, from 2 x 2 frequency responses.
+
+Signals: rail velocities y = (v1, v2) (m/s), motor currents u = (i1, i2) (A), u = C (r [1, 1] - y) with
+the translation command r on both rails. Structures (gains as python-control's PI, kp + ki / s):
+
+* ``PerMotor``: the same PI on each motor from its own rail, C = c I; the yaw is left to the mechanics'
+  and the two loops' agreement.
+* ``CommonDifferential``: translation on the mean v_c = (v1 + v2) / 2 with the total current
+  i_c = i1 + i2, yaw on the half difference v_d = (v2 - v1) / 2 with i_d = i2 - i1:
+  C = T_in diag(c_c, c_d) T_out, T_out = [[1/2, 1/2], [-1/2, 1/2]], T_in = [[1/2, -1/2], [1/2, 1/2]].
+  Its common loop is the one-loop Stage Y of the thesis (Eq. 3.16 on the total current); equal gains
+  c_c = c_d = 2 c are ``PerMotor`` with c.
+* ``MasterSlave``: one PI on the master rail's velocity v1 commands the total current, shared equally
+  (the slave drive copies the master's current): C = [[c/2, 0], [c/2, 0]].
+
+Each structure is C = T_in diag(PI_1, .., PI_n) T_out. It is judged by the loop-at-a-time margins of
+each of its n channels with the other closed (l_j = L_jj - L_jk L_kj / (1 + L_kk) of
+L = diag(PI) T_out P T_in: the loops a drive engineer tunes); at the plant inputs, where the motors are,
+by the simultaneous (balanced, skew 0) disk margin alpha = 1 / max_w mu(S - I / 2), S = (I + C P)^-1, mu
+for a diagonal complex perturbation (Seiler, Packard & Gahinet 2020; ``mu_diagonal``); and by MIMO
+Nyquist stability from the winding of det(I + P C) (``mimo_unstable_poles``). Translation bandwidth:
+the -3 dB frequency of r -> v_c; yaw coupling: the peak of |r -> v_d|.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import ClassVar
+
+import numpy as np
+
+from design.loop.loops import pi_frd
+from design.loop.margins import closed_loop_bandwidth_hz, loop_margins
+
+#: T_out: rail velocities -> (mean, half difference); T_in: (total, differential current) -> motor currents
+T_OUT = np.array([[0.5, 0.5], [-0.5, 0.5]])
+T_IN = np.array([[0.5, -0.5], [0.5, 0.5]])
+STRUCTURES = ("per_motor", "common_differential", "master_slave")
+
+
+@dataclass(frozen=True)
+class _Structure:
+    """C = T_in diag(PI_1, ..., PI_n) T_out: n PI channels between the rails and the motors."""
+
+    t_in: ClassVar[np.ndarray]
+    t_out: ClassVar[np.ndarray]
+
+    def channel_gains(self) -> tuple[tuple[float, float], ...]:
+        """(kp, ki) of each channel, A/(m/s) and A/m."""
+        raise NotImplementedError
+
+    def channel_frd(self, w_rad_s) -> np.ndarray:
+        """diag(PI_j(jw)) as (n, n, n_freq)."""
+        k = [pi_frd(w_rad_s, kp, ki) for kp, ki in self.channel_gains()]
+        out = np.zeros((len(k), len(k), np.size(w_rad_s)), dtype=complex)
+        for j, c in enumerate(k):
+            out[j, j] = c
+        return out
+
+    def frd(self, w_rad_s) -> np.ndarray:
+        """C(jw), shape (2, 2, n_freq): motor currents per rail velocity error."""
+        return np.einsum("ij,jkf,kl->ilf", self.t_in, self.channel_frd(w_rad_s), self.t_out)
+
+
+@dataclass(frozen=True)
+class PerMotor(_Structure):
+    """The same PI on each motor from its own rail: kp in A/(m/s), ki in A/m."""
+
+    kp: float
+    ki: float
+    name: ClassVar[str] = "per_motor"
+    t_in: ClassVar[np.ndarray] = np.eye(2)
+    t_out: ClassVar[np.ndarray] = np.eye(2)
+
+    def channel_gains(self):
+        return ((self.kp, self.ki), (self.kp, self.ki))
+
+
+@dataclass(frozen=True)
+class CommonDifferential(_Structure):
+    """A PI on the translation (total current per mean velocity) and one on the yaw (differential current per
+    half difference of the rail velocities); A/(m/s) and A/m."""
+
+    kp_common: float
+    ki_common: float
+    kp_differential: float
+    ki_differential: float
+    name: ClassVar[str] = "common_differential"
+    t_in: ClassVar[np.ndarray] = T_IN
+    t_out: ClassVar[np.ndarray] = T_OUT
+
+    def channel_gains(self):
+        return ((self.kp_common, self.ki_common), (self.kp_differential, self.ki_differential))
+
+
+@dataclass(frozen=True)
+class MasterSlave(_Structure):
+    """One PI on the master rail Y1's velocity; the total current shared equally by both motors."""
+
+    kp: float
+    ki: float
+    name: ClassVar[str] = "master_slave"
+    t_in: ClassVar[np.ndarray] = np.array([[0.5], [0.5]])
+    t_out: ClassVar[np.ndarray] = np.array([[1.0, 0.0]])
+
+    def channel_gains(self):
+        return ((self.kp, self.ki),)
+
+
+Controller = PerMotor | CommonDifferential | MasterSlave
+
+
+@dataclass(frozen=True)
+class DualLoopFigures:
+    """What a structure's loop does on a batch of plants (arrays of the batch shape)."""
+
+    #: closed-loop poles in the right half-plane (0: stable), from the winding of det(I + P C)
+    unstable_poles: np.ndarray
+    #: loop-at-a-time margins at the motor inputs, the other loop closed: the worse of the two inputs
+    gain_margin_db: np.ndarray
+    phase_margin_deg: np.ndarray
+    #: simultaneous balanced disk margin at both motor inputs, and its gain/phase forms
+    disk_margin: np.ndarray
+    disk_gain_margin_db: np.ndarray
+    disk_phase_margin_deg: np.ndarray
+    #: -3 dB bandwidth of the translation command to the mean rail velocity (Hz)
+    bandwidth_hz: np.ndarray
+    #: peak over frequency of |v_d / r|: rail disagreement per unit translation command
+    yaw_coupling: np.ndarray
+
+
+def _inv2(a: np.ndarray) -> np.ndarray:
+    """Inverse of 2 x 2 matrices stored as (..., 2, 2, n_freq)."""
+    det = a[..., 0, 0, :] * a[..., 1, 1, :] - a[..., 0, 1, :] * a[..., 1, 0, :]
+    inv = np.empty_like(a)
+    inv[..., 0, 0, :] = a[..., 1, 1, :]
+    inv[..., 1, 1, :] = a[..., 0, 0, :]
+    inv[..., 0, 1, :] = -a[..., 0, 1, :]
+    inv[..., 1, 0, :] = -a[..., 1, 0, :]
+    return inv / det[..., None, None, :]
+
+
+def mu_diagonal(m: np.ndarray) -> np.ndarray:
+    """Structured singular value of 2 x 2 matrices (..., 2, 2, n_freq) for a diagonal complex perturbation,
+    exactly: for two complex blocks the D-scaled bound min_d sigma_max(D M D^-1) is mu (Doyle 1982), and
+    with D = diag(d, 1) the Frobenius norm is least at d^2 = |m21| / |m12| while det M does not change, so
+    mu^2 = (F + sqrt(F^2 - 4 |det M|^2)) / 2 with F = |m11|^2 + |m22|^2 + 2 |m12 m21|."""
+    a, b, c, d = m[..., 0, 0, :], m[..., 0, 1, :], m[..., 1, 0, :], m[..., 1, 1, :]
+    f = np.abs(a) ** 2 + np.abs(d) ** 2 + 2 * np.abs(b * c)
+    det2 = np.abs(a * d - b * c) ** 2
+    return np.sqrt((f + np.sqrt(np.maximum(f**2 - 4 * det2, 0.0))) / 2)
+
+
+def mimo_unstable_poles(w_rad_s: np.ndarray, det: np.ndarray) -> np.ndarray:
+    """Closed-loop poles in the right half-plane from det(I + L(jw)) (``(..., n_freq)``) on a rising grid
+    that starts where the open loop's integrators dominate and ends where |det - 1| < 1, for open
+    loops whose poles are in the left half-plane or at the origin.
+
+    On the D-contour indented to the right of the origin, det ~ K s^-n near 0 (n: the integrators it
+    shows, from the slope of |det| at the bottom of the grid) adds -180 n deg, positive and negative
+    frequencies each the phase change D over the grid, and the large arc nothing; the argument
+    principle gives Z = n / 2 - D / 180 deg. A count that is not close to an integer (a grid too coarse
+    for the winding) or a grid that ends with |det - 1| >= 1 counts as one unstable pole."""
+    w = np.asarray(w_rad_s, float)
+    d = np.asarray(det)
+    turn = np.angle(d[..., 1:] / d[..., :-1]).sum(axis=-1)
+    slope = -np.log(np.abs(d[..., 1] / d[..., 0])) / np.log(w[1] / w[0])
+    n = np.round(np.clip(slope, 0, None))
+    z = n / 2 - turn / math.pi
+    poles = np.round(z)
+    bad = (np.abs(z - poles) > 0.25) | ~(np.abs(d[..., -1] - 1) < 1) | ~np.isfinite(z)
+    return np.where(bad, np.maximum(poles, 1), np.maximum(poles, 0)).astype(int)
+
+
+def loop_figures(w_rad_s, plant_frd: np.ndarray, controller: Controller) -> DualLoopFigures:
+    """``DualLoopFigures`` of ``controller`` on plants ``plant_frd`` (..., 2, 2, n_freq), both on ``w_rad_s``."""
+    w = np.asarray(w_rad_s, float)
+    P = np.asarray(plant_frd)
+    C = controller.frd(w)
+    L_in = np.einsum("ijf,...jkf->...ikf", C, P)                 # C P: loop broken at the motor inputs
+    L_out = np.einsum("...ijf,jkf->...ikf", P, C)                # P C: at the rail sensors
+    eye = np.eye(2)[:, :, None]
+    det = ((1 + L_out[..., 0, 0, :]) * (1 + L_out[..., 1, 1, :]) - L_out[..., 0, 1, :] * L_out[..., 1, 0, :])
+    unstable = mimo_unstable_poles(w, det)
+    # the structure's own channels, each broken with the others closed
+    L_ch = np.einsum("jkf,kl,...lmf,mn->...jnf", controller.channel_frd(w), controller.t_out, P, controller.t_in)
+    n = L_ch.shape[-2]
+    gm, pm = [], []
+    for j in range(n):
+        lj = L_ch[..., j, j, :]
+        if n == 2:
+            k = 1 - j
+            lj = lj - L_ch[..., j, k, :] * L_ch[..., k, j, :] / (1 + L_ch[..., k, k, :])
+        m = loop_margins(w, lj)
+        gm.append(m.gain_margin_db)
+        pm.append(m.phase_margin_deg)
+    alpha = 1.0 / mu_diagonal(_inv2(eye + L_in) - eye / 2).max(axis=-1)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        disk_gm = np.where(alpha < 2, 20 * np.log10((2 + alpha) / (2 - alpha)), np.inf)
+        disk_pm = np.degrees(2 * np.arctan(alpha / 2))
+    T_out = np.einsum("...ijf,...jkf->...ikf", _inv2(eye + L_out), L_out)
+    to_rails = T_out.sum(axis=-2)                                # r on both rails: (..., 2 outputs, n_freq)
+    common = 0.5 * (to_rails[..., 0, :] + to_rails[..., 1, :])
+    half_difference = 0.5 * (to_rails[..., 1, :] - to_rails[..., 0, :])
+    bandwidth = closed_loop_bandwidth_hz(w, common, dc_gain=1.0)
+    return DualLoopFigures(unstable, np.minimum.reduce(gm), np.minimum.reduce(pm), alpha, disk_gm, disk_pm, bandwidth,
+                           np.abs(half_difference).max(axis=-1))

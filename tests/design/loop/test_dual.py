@@ -1,0 +1,186 @@
+"""The two-motor Stage Y and its loops (plant/physics/dual_drive.py, design/loop/dual.py) against the
+reference built from Lagrange's equations in rail coordinates with python-control
+(tests/reference/independent_dual_drive.py), thesis Eq. 3.16, and python-control's margins, bandwidth and
+disk margins (slycot's mu bound for the MIMO disk margin)."""
+
+from __future__ import annotations
+
+import ast
+from pathlib import Path
+
+import control
+import numpy as np
+import pytest
+from independent_dual_drive import Rig, closed_loop, input_loop, mechanics, unstable_poles
+from scipy.optimize import brentq
+
+from design.loop.dual import CommonDifferential, MasterSlave, PerMotor, loop_figures
+from plant.physics.dual_drive import DualDriveStageY
+from plant.physics.effects import make_effect
+
+W = 2 * np.pi * np.logspace(-2, 3.7, 4000)
+STRUCTURES = {"per_motor": PerMotor, "common_differential": CommonDifferential, "master_slave": MasterSlave}
+#: a rig unlike the thesis's symmetric one: rails that differ, an off-centre carriage with its own inertia
+SKEWED = Rig(beam_mass_kg=14.0, beam_inertia_kg_m2=0.9, carriage_mass_kg=42.0, carriage_inertia_kg_m2=0.3,
+             carriage_position_m=0.17, b1=380.0, b2=520.0, k1=19.0, k2=21.5, yaw_stiffness=8.0e4,
+             current_loop_hz=900.0)
+
+
+def tool_plant(rig: Rig) -> DualDriveStageY:
+    effects = ()
+    if rig.delay_s > 0:
+        effects += (make_effect("delay", seconds=rig.delay_s),)
+    if rig.current_loop_hz is not None:
+        effects += (make_effect("current_loop", bandwidth_hz=rig.current_loop_hz),)
+    return DualDriveStageY(beam_mass_kg=rig.beam_mass_kg, beam_inertia_kg_m2=rig.beam_inertia_kg_m2,
+                           carriage_mass_kg=rig.carriage_mass_kg, carriage_inertia_kg_m2=rig.carriage_inertia_kg_m2,
+                           rail_separation_m=rig.rail_separation_m, carriage_position_m=rig.carriage_position_m,
+                           damping1_n_s_per_m=rig.b1, damping2_n_s_per_m=rig.b2, force_constant1_n_per_a=rig.k1,
+                           force_constant2_n_per_a=rig.k2, yaw_stiffness_n_m_per_rad=rig.yaw_stiffness,
+                           effects=effects)
+
+
+def reference_frd(sys: control.StateSpace, w: np.ndarray) -> np.ndarray:
+    r = sys.frequency_response(w)
+    return r.magnitude * np.exp(1j * r.phase)
+
+
+def test_reference_is_independent_of_the_tool():
+    source = (Path(__file__).parents[2] / "reference" / "independent_dual_drive.py").read_text()
+    tree = ast.parse(source)
+    names = {a.name.split(".")[0] for n in ast.walk(tree) if isinstance(n, ast.Import) for a in n.names}
+    names |= {n.module.split(".")[0] for n in ast.walk(tree) if isinstance(n, ast.ImportFrom) and n.module}
+    assert not names & {"plant", "design"}
+
+
+@pytest.mark.parametrize("rig", [Rig(), SKEWED, Rig(carriage_position_m=0.72, yaw_stiffness=3e4, delay_s=6e-4,
+                                                     current_loop_hz=1200.0)])
+def test_plant_is_newtons_law_in_rail_coordinates(rig):
+    """Centre-of-mass and yaw coordinates (the tool) and rail coordinates (the reference) are one body."""
+    s = 1j * W
+    drive = np.exp(-s * rig.delay_s) * (1.0 if rig.current_loop_hz is None
+                                        else 2 * np.pi * rig.current_loop_hz / (s + 2 * np.pi * rig.current_loop_hz))
+    expected = reference_frd(mechanics(rig), W) * drive
+    np.testing.assert_allclose(tool_plant(rig).frd(W), expected, rtol=1e-8, atol=1e-14)
+
+
+def test_state_space_is_the_reference_mechanics():
+    np.testing.assert_allclose(reference_frd(tool_plant(SKEWED).state_space(), W),
+                               reference_frd(mechanics(SKEWED), W), rtol=1e-9, atol=1e-14)
+
+
+def test_centred_rig_on_equal_currents_is_thesis_eq_3_16():
+    """K_t L / (2 M l s + 2 b L) with l = L / 2 and the total current I = i1 + i2 shared equally."""
+    rig = Rig(carriage_position_m=0.4)
+    g = tool_plant(rig).frd(W)
+    M, b, kt, L, l = 16.0 + 35.0, 440.0, 20.0, 0.8, 0.4
+    thesis = kt * L / (2 * M * l * 1j * W + 2 * b * L)
+    for rail in (0, 1):
+        np.testing.assert_allclose(0.5 * (g[rail, 0] + g[rail, 1]), thesis, rtol=1e-12)
+
+
+def test_a_batch_of_carriage_positions_and_payloads_is_the_plants_one_by_one():
+    p = np.linspace(0.05, 0.75, 4)[:, None]
+    m = np.array([20.0, 45.0, 75.0])[None, :]
+    batch = DualDriveStageY(carriage_position_m=p, carriage_mass_kg=m).frd(W[::40])
+    for i in range(4):
+        for j in range(3):
+            one = DualDriveStageY(carriage_position_m=float(p[i, 0]), carriage_mass_kg=float(m[0, j])).frd(W[::40])
+            np.testing.assert_allclose(batch[i, j], one, rtol=1e-12)
+
+
+CASES = [
+    (Rig(current_loop_hz=1000.0), "per_motor", (118.0, 23.5)),
+    (SKEWED, "per_motor", (300.0, 4000.0)),
+    (SKEWED, "common_differential", (500.0, 6000.0, 150.0, 900.0)),
+    (Rig(carriage_position_m=0.1, current_loop_hz=1000.0), "common_differential", (236.0, 47.0, 400.0, 20.0)),
+    (Rig(carriage_position_m=0.4, current_loop_hz=1000.0), "master_slave", (236.0, 47.0)),
+    (Rig(carriage_position_m=0.1, current_loop_hz=1000.0), "master_slave", (236.0, 47.0)),
+    (SKEWED, "master_slave", (150.0, 800.0)),
+    (Rig(current_loop_hz=300.0), "per_motor", (2500.0, 1e5)),
+]
+
+
+@pytest.mark.parametrize(("rig", "structure", "gains"), CASES)
+def test_stability_from_the_winding_of_det_is_the_closed_loops_poles(rig, structure, gains):
+    fig = loop_figures(W, tool_plant(rig).frd(W), STRUCTURES[structure](*gains))
+    assert int(fig.unstable_poles) == unstable_poles(rig, structure, gains)
+
+
+def test_stability_with_a_delay_agrees_with_pade():
+    """The tool keeps the exact delay; python-control a Pade approximant of order 8 (agreement away from the
+    stability boundary)."""
+    for gains in ((200.0, 3000.0), (1400.0, 3000.0), (2600.0, 3000.0)):
+        rig = Rig(carriage_position_m=0.2, delay_s=8e-4, current_loop_hz=1000.0)
+        fig = loop_figures(W, tool_plant(rig).frd(W), PerMotor(*gains))
+        assert int(fig.unstable_poles) == unstable_poles(rig, "per_motor", gains)
+    assert int(loop_figures(W, tool_plant(rig).frd(W), PerMotor(2600.0, 3000.0)).unstable_poles) > 0
+
+
+def _channel_loop(structure: str, gains, rig: Rig, j: int):
+    """python-control's loop of channel j with the other channel closed: the structure's PI channels around
+    T_out P T_in, channel k closed by ``control.feedback`` on that channel only."""
+    from independent_dual_drive import pi, plant
+
+    P = plant(rig)
+    if structure == "per_motor":
+        kp, ki = gains
+        core = control.append(control.ss(pi(kp, ki)), control.ss(pi(kp, ki)))
+        t_in, t_out = np.eye(2), np.eye(2)
+    else:
+        kpc, kic, kpd, kid = gains
+        core = control.append(control.ss(pi(kpc, kic)), control.ss(pi(kpd, kid)))
+        t_in, t_out = np.array([[0.5, -0.5], [0.5, 0.5]]), np.array([[0.5, 0.5], [-0.5, 0.5]])
+    L = core * control.ss([], [], [], t_out) * P * control.ss([], [], [], t_in)
+    closed_other = np.diag([1.0 if i != j else 0.0 for i in range(2)])
+    return control.feedback(L, closed_other)[j, j]
+
+
+@pytest.mark.parametrize(("rig", "structure", "gains"), [c for c in CASES[:4]])
+def test_loop_at_a_time_margins_are_python_controls(rig, structure, gains):
+    fig = loop_figures(W, tool_plant(rig).frd(W), STRUCTURES[structure](*gains))
+    gms, pms = [], []
+    for j in range(2):    # on the tool's grid: a loop near |l| = 1 towards DC crosses 1 below any grid
+        gm, pm, *_ = control.stability_margins(control.frd(_channel_loop(structure, gains, rig, j), W))
+        gms.append(20 * np.log10(gm) if gm > 0 else np.inf)
+        pms.append(pm)
+    np.testing.assert_allclose(float(fig.gain_margin_db), min(gms), atol=0.05)
+    np.testing.assert_allclose(float(fig.phase_margin_deg), min(pms), atol=0.1)
+
+
+def test_master_slaves_loop_is_the_one_pi_on_the_master_rail():
+    rig = Rig(carriage_position_m=0.3, current_loop_hz=1000.0)
+    from independent_dual_drive import pi, plant
+
+    loop = pi(236.0, 47.0) * (plant(rig)[0, 0] + plant(rig)[0, 1]) * 0.5
+    gm, pm, *_ = control.stability_margins(loop)
+    fig = loop_figures(W, tool_plant(rig).frd(W), MasterSlave(236.0, 47.0))
+    np.testing.assert_allclose(float(fig.gain_margin_db), 20 * np.log10(gm), atol=0.05)
+    np.testing.assert_allclose(float(fig.phase_margin_deg), pm, atol=0.1)
+
+
+@pytest.mark.parametrize(("rig", "structure", "gains"), [CASES[0], CASES[2], CASES[4]])
+def test_simultaneous_disk_margin_is_python_controls_mu_bound(rig, structure, gains):
+    pytest.importorskip("slycot")
+    fig = loop_figures(W, tool_plant(rig).frd(W), STRUCTURES[structure](*gains))
+    omega = W[::8]
+    dm, _, _ = control.disk_margins(input_loop(rig, structure, gains), omega, skew=0.0)
+    # the tool's grid is 8 times denser: its worst case is at most slycot's on the coarser grid
+    assert float(fig.disk_margin) <= dm * (1 + 1e-6)
+    assert float(fig.disk_margin) == pytest.approx(dm, rel=0.02)
+
+
+@pytest.mark.parametrize(("rig", "structure", "gains"), [CASES[1], CASES[3], CASES[4]])
+def test_bandwidth_and_yaw_coupling_are_the_closed_loops(rig, structure, gains):
+    T = closed_loop(rig, structure, gains)
+    mean = 0.5 * (T[0, 0] + T[1, 0])
+    half_difference = 0.5 * (T[1, 0] - T[0, 0])
+    fig = loop_figures(W, tool_plant(rig).frd(W), STRUCTURES[structure](*gains))
+    # python-control's bandwidth divides by dcgain, which the free rigid-body position (a pole at 0, unobservable
+    # in velocity) leaves undefined; integral action makes |T(0)| = 1 exactly, so the -3 dB point is |T| = 1/sqrt 2
+    mag = np.abs(reference_frd(mean, W))
+    k = int(np.argmax(mag < 2**-0.5))
+    w3 = brentq(lambda w: abs(mean(1j * w)) - 2**-0.5, W[k - 1], W[k], xtol=1e-10)
+    assert float(fig.bandwidth_hz) == pytest.approx(w3 / (2 * np.pi), rel=1e-4)
+    assert float(fig.yaw_coupling) == pytest.approx(np.abs(reference_frd(half_difference, W)).max(), rel=1e-6,
+                                                    abs=1e-9)

@@ -1,0 +1,114 @@
+"""The two-motor Stage Y and its velocity loops built from Lagrange's equations in rail coordinates, with
+python-control only (nothing from ``plant`` or ``design``): a reference for ``plant.physics.dual_drive``
+and ``design.loop.dual``.
+
+Generalised coordinates q = (y1, y2), the beam's positions at the rails (L apart); a point at s from
+Y1 moves with y(s) = (1 - s/L) y1 + (s/L) y2 and the yaw is (y2 - y1) / L. Kinetic energy of the beam
+(mass m_b at L/2, yaw inertia J_b) and the carriage (m_c at p, J_c), the joints' yaw spring K_a and
+the rails' dampers b1, b2 give
+
+    M_q q'' + diag(b1, b2) q' + K_a / L^2 [[1, -1], [-1, 1]] q = diag(k1, k2) (i1, i2)
+    M_q = m_b a(L/2) a(L/2)^T + m_c a(p) a(p)^T + (J_b + J_c) / L^2 [[1, -1], [-1, 1]],  a(s) = (1 - s/L, s/L)
+
+Outputs: the rail velocities q'. Each motor's current passes its own delay (Pade) and first-order
+current loop; the controllers are python-control transfer functions wired by ``control.interconnect``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import control
+import numpy as np
+
+
+@dataclass(frozen=True)
+class Rig:
+    beam_mass_kg: float = 16.0
+    beam_inertia_kg_m2: float = 16.0 * 0.8**2 / 12
+    carriage_mass_kg: float = 35.0
+    carriage_inertia_kg_m2: float = 0.0
+    rail_separation_m: float = 0.8
+    carriage_position_m: float = 0.4
+    b1: float = 440.0
+    b2: float = 440.0
+    k1: float = 20.0
+    k2: float = 20.0
+    yaw_stiffness: float = 2.0e5
+    delay_s: float = 0.0
+    current_loop_hz: float | None = None
+
+
+def mechanics(rig: Rig) -> control.StateSpace:
+    """Currents (i1, i2) -> rail velocities (v1, v2): states (y1, y2, v1, v2)."""
+    L, p = rig.rail_separation_m, rig.carriage_position_m
+
+    def a(s):
+        return np.array([1 - s / L, s / L])
+
+    twist = np.array([[1.0, -1.0], [-1.0, 1.0]]) / L**2
+    M = (rig.beam_mass_kg * np.outer(a(L / 2), a(L / 2)) + rig.carriage_mass_kg * np.outer(a(p), a(p))
+         + (rig.beam_inertia_kg_m2 + rig.carriage_inertia_kg_m2) * twist)
+    D = np.diag([rig.b1, rig.b2])
+    K = rig.yaw_stiffness * twist
+    Mi = np.linalg.inv(M)
+    A = np.block([[np.zeros((2, 2)), np.eye(2)], [-Mi @ K, -Mi @ D]])
+    B = np.vstack([np.zeros((2, 2)), Mi @ np.diag([rig.k1, rig.k2])])
+    C = np.hstack([np.zeros((2, 2)), np.eye(2)])
+    return control.ss(A, B, C, np.zeros((2, 2)))
+
+
+def drive(rig: Rig, pade_order: int = 8) -> control.TransferFunction:
+    """One motor's current command -> current: the delay (Pade) and the current loop."""
+    g = control.tf([1.0], [1.0])
+    if rig.delay_s > 0:
+        g = g * control.tf(*control.pade(rig.delay_s, pade_order))
+    if rig.current_loop_hz is not None:
+        wc = 2 * np.pi * rig.current_loop_hz
+        g = g * control.tf([wc], [1.0, wc])
+    return g
+
+
+def plant(rig: Rig, pade_order: int = 8) -> control.StateSpace:
+    """Commanded currents -> rail velocities, drives included."""
+    d = control.ss(drive(rig, pade_order))
+    return mechanics(rig) * control.append(d, d)
+
+
+def pi(kp: float, ki: float) -> control.TransferFunction:
+    return control.tf([kp, ki], [1.0, 0.0])
+
+
+def controller(structure: str, gains: tuple[float, ...]) -> control.StateSpace:
+    """Rail velocity errors (e1, e2) -> motor current commands (i1, i2)."""
+    if structure == "per_motor":
+        kp, ki = gains
+        return control.append(control.ss(pi(kp, ki)), control.ss(pi(kp, ki)))
+    if structure == "common_differential":
+        kpc, kic, kpd, kid = gains
+        t_out = np.array([[0.5, 0.5], [-0.5, 0.5]])       # errors -> (mean, half difference)
+        t_in = np.array([[0.5, -0.5], [0.5, 0.5]])        # (total, differential) current -> motors
+        core = control.append(control.ss(pi(kpc, kic)), control.ss(pi(kpd, kid)))
+        return control.ss([], [], [], t_in) * core * control.ss([], [], [], t_out)
+    if structure == "master_slave":
+        kp, ki = gains
+        core = control.ss(pi(kp, ki))
+        return control.ss([], [], [], np.array([[0.5], [0.5]])) * core * control.ss([], [], [], np.array([[1.0, 0.0]]))
+    raise ValueError(structure)
+
+
+def closed_loop(rig: Rig, structure: str, gains, pade_order: int = 8) -> control.StateSpace:
+    """Translation command r (on both rails) -> rail velocities (v1, v2), by negative feedback."""
+    P = plant(rig, pade_order)
+    K = controller(structure, gains)
+    T = control.feedback(P * K, np.eye(2))
+    return T * control.ss([], [], [], np.array([[1.0], [1.0]]))
+
+
+def unstable_poles(rig: Rig, structure: str, gains, pade_order: int = 8) -> int:
+    return int(np.sum(closed_loop(rig, structure, gains, pade_order).poles().real > 1e-9))
+
+
+def input_loop(rig: Rig, structure: str, gains, pade_order: int = 8) -> control.StateSpace:
+    """The loop broken at the motor inputs, K P (currents in, currents out)."""
+    return controller(structure, gains) * plant(rig, pade_order)

@@ -18,6 +18,7 @@ if TYPE_CHECKING:
     from design.loop.sweep import SweepResult
     from design.problem import LoopProblem
     from design.spec.schema import Spec
+    from design.synth.dual import DualDesign
     from design.synth.evaluation import Evaluation
     from design.synth.measured import MeasuredDesign
     from design.synth.monte_carlo import MonteCarloCheck
@@ -95,6 +96,8 @@ class DesignOutcome:
     admittance: AdmittanceResult | None = None
     #: the spec asks for an admittance stage but there were no PI gains to design it on
     admittance_skipped: bool = False
+    #: the two-motor Stage Y's structures (``[dual_drive]``), designed instead of the one loop
+    dual: DualDesign | None = None
 
     @property
     def status(self) -> str:
@@ -103,6 +106,8 @@ class DesignOutcome:
         infeasible."""
         if self.measured is not None:
             return self.measured.status
+        if self.dual is not None:
+            return self.dual.status
         if self.synthesis.status != "optimal":
             return self.synthesis.status
         if self.admittance is not None and self.admittance.status != "optimal":
@@ -113,6 +118,8 @@ class DesignOutcome:
     def message(self) -> str:
         if self.measured is not None:
             return self.measured.message
+        if self.dual is not None:
+            return self.dual.message
         if self.synthesis.status == "optimal" and self.admittance is not None and self.admittance.status != "optimal":
             return f"admittance: {self.admittance.message}"
         return self.synthesis.message
@@ -122,6 +129,8 @@ class DesignOutcome:
         """Every stage's result confirmed by its independent check."""
         if self.measured is not None:
             return self.measured.verified
+        if self.dual is not None:
+            return self.dual.recommended is not None
         s = self.synthesis
         pi = bool(s.status == "optimal" and s.verification is not None and s.verification.verified)
         return pi and (self.admittance is None or self.admittance.verified)
@@ -131,6 +140,8 @@ class DesignOutcome:
         """The designed gains when the PI design succeeded."""
         if self.measured is not None:
             return None if self.measured.kp is None else Gains(self.measured.kp, self.measured.ki)
+        if self.dual is not None:
+            return None
         e = self.synthesis.evaluation
         return Gains(e.kp, e.ki) if self.synthesis.status == "optimal" and e is not None else None
 

@@ -93,6 +93,8 @@ def design(problem: DesignProblem, *, method: str = "ccp+exact", schedule: bool 
     admittance stages. ``design.views.json.design_to_dict`` turns the outcome into the ``gantry synth --json``
     contract."""
     spec, loop = problem.spec, problem.loop
+    if spec.dual_drive is not None:
+        return DesignOutcome(problem, dual=_dual(problem, progress))
     if spec.plant.measured:
         from design.synth.measured import synthesise_from_data
 
@@ -257,6 +259,28 @@ def _robustness(loop, kp: float, ki: float, outcome: DesignOutcome | None):
         rows.append(DesignOnPlants("nominal parameters only", evaluate(nominal_problem, n.kp, n.ki),
                                    evaluate(loop, n.kp, n.ki), monte_carlo_check(loop, n.kp, n.ki)))
     return check, tuple(rows)
+
+
+def _dual(problem: DesignProblem, progress=None):
+    """The two-motor Stage Y's structures on the spec's carriage travel, payloads, uncertainty and requirements."""
+    import numpy as np
+
+    from design.synth.dual import DualRequirements, design_dual
+
+    spec = problem.spec
+    d, p, c, r = spec.dual_drive, spec.plant, spec.controller, spec.requirements
+    travel = d.carriage_position_m
+
+    def box(g):            # a log scan: a lower bound of 0 starts 6 decades below the upper
+        return max(g.min, g.max * 1e-6), g.max
+
+    return design_dual(spec.dual_model(), positions_m=np.linspace(travel.min, travel.max, travel.points),
+                       payloads_kg=p.payload_kg.design_points(), stage_x_mass_kg=d.stage_x_mass_kg,
+                       ranges={k: (v.min, v.max) for k, v in d.uncertainty.items()},
+                       requirements=DualRequirements(r.phase_margin_deg, r.gain_margin_db, r.disk_margin or 0.0),
+                       structures=tuple(d.structures), kp_box=box(c.kp), ki_box=box(c.ki),
+                       monte_carlo_samples=spec.verification.monte_carlo_samples, seed=spec.verification.seed,
+                       progress=progress)
 
 
 def measure(path: str | Path, *, columns: str | None = None, sample_rate_hz: float | None = None,

@@ -36,6 +36,11 @@ def synth(
 
     keep_inputs({"--report": report}, [spec_file, plant_from])
     problem = load_problem(spec_file, plant_from=plant_from)
+    if problem.spec.dual_drive is not None and (report is not None or schedule):
+        from plant.errors import ParameterError
+
+        raise ParameterError(f"{spec_file}: a [dual_drive] design has no {'--report' if report else '--schedule'} "
+                             "yet; its figures are in the text and in --json")
     progress = StageProgress(enabled=not as_json and sys.stderr.isatty())
     try:
         outcome = design(problem, method=method, schedule=schedule, progress=progress)

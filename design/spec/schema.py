@@ -59,6 +59,7 @@ from design.problem import (
     VerificationPlan,
     with_filters,
 )
+from design.spec.dual_drive import DualDriveSpec
 from plant.errors import GantryError, SpecError
 from plant.host.text_io import read_text
 from plant.physics.drive_filters import KINDS
@@ -226,6 +227,8 @@ class Spec(_Strict):
     objective: ObjectiveSpec = ObjectiveSpec()
     admittance: AdmittanceProblem | None = None
     verification: VerificationPlan = VerificationPlan()
+    #: Stage Y as two motors, and the loop structures to design (``design.spec.dual_drive``)
+    dual_drive: DualDriveSpec | None = None
 
     @field_validator("admittance", mode="before")
     @classmethod
@@ -240,6 +243,29 @@ class Spec(_Strict):
         if isinstance(v.get("mouse"), dict):
             v["mouse"] = expand(v["mouse"], RANGE_KEYS_OF_MOUSE)
         return v
+
+    @model_validator(mode="after")
+    def _dual_drive_is_stage_y(self):
+        d = self.dual_drive
+        if d is None:
+            return self
+        if self.plant.stage != "y":
+            raise ValueError("dual_drive: the two-motor model is Stage Y's; set plant.stage = \"y\"")
+        if self.plant.measured or self.admittance is not None:
+            raise ValueError("dual_drive: designs on the model (no plant.measured) without an admittance stage")
+        try:
+            self.dual_model()
+        except (GantryError, ValueError) as exc:
+            raise ValueError(f"dual_drive: {exc}") from None
+        return self
+
+    def dual_model(self):
+        """The two-motor model of ``[dual_drive]`` with the plant's rail damping, force constant and drive
+        effects (``design.spec.dual_drive``)."""
+        p = self.plant
+        effects = tuple(make_effect(name, **params) for name, params in p.effects.items())
+        return self.dual_drive.model(rail_separation_m=p.motor_length_m, damping_n_s_per_m=p.damping_n_s_per_m,
+                                     force_constant_n_per_a=p.force_constant_n_per_a, effects=effects)
 
     @model_validator(mode="after")
     def _admittance_needs_a_model(self):

@@ -114,9 +114,38 @@ def print_time_diagnosis(console: Console, diag: TimeDiagnosis) -> None:
         console.print(f"[yellow]Note:[/] {note}", soft_wrap=True)
 
 
+def print_dual_design(console: Console, out: dict) -> None:
+    """The two-motor Stage Y's structures side by side: gains, worst case on the design plants, Monte Carlo."""
+    t = Table(title=f"Structures on {out['design_plants']} design plants (carriage positions x payloads x "
+                    f"uncertainty corners); Monte Carlo: {out['monte_carlo_draws']} draws")
+    for col in ("structure", "gains", "bandwidth Hz", "PM deg", "GM dB", "disk margin", "yaw coupling",
+                "Monte Carlo"):
+        t.add_column(col, justify="left" if col in ("structure", "gains") else "right")
+    for row in out["structures"]:
+        d, mc = row["design_plants"], row["monte_carlo"]
+        if d is None:
+            t.add_row(row["structure"], "no gains hold the requirements", *[""] * 6)
+            continue
+        gains = ", ".join(f"{k} {v:.4g}" for k, v in row["gains"].items())
+        check = "not run" if mc is None else (f"{mc['n_failing']} of {mc['n_plants']} fail" if mc["n_failing"]
+                                              else f"all {mc['n_plants']} hold")
+        mark = " (recommended)" if row["structure"] == out["recommended"] else ""
+        t.add_row(row["structure"] + mark, gains, _val(d["bandwidth_hz"]), _val(d["phase_margin_deg"]),
+                  _num(d["gain_margin_db"]), f"{d['disk_margin']:.3g} ({_num(d['disk_gain_margin_db'])} dB, "
+                  f"{_val(d['disk_phase_margin_deg'])} deg)", f"{d['yaw_coupling']:.3g}", check)
+    console.print(t)
+    for row in out["structures"]:
+        if row["design_plants"] is not None:
+            console.print(f"  {row['structure']}: lowest bandwidth at {row['design_plants']['worst_bandwidth_at']}; "
+                          f"smallest PM at {row['design_plants']['worst_phase_margin_at']}", soft_wrap=True)
+
+
 def print_synthesis(console: Console, out: dict) -> None:
     """The text of ``gantry synth``: status, gains, per-payload table, check, schedule, admittance, baselines."""
     console.print(f"[bold]status[/]: {out['status']} ({out['message']}); verified: {out['verified']}", soft_wrap=True)
+    if out.get("kind") == "dual_drive":
+        print_dual_design(console, out)
+        return
     g = out["gains"]
     wc = out["worst_case"]
     if g["kp"] is not None and wc is not None:

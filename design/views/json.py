@@ -3,6 +3,7 @@ results, the ``--json`` contract of the commands (``docs/formats.md``)."""
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 
@@ -17,6 +18,7 @@ from design.loop.discrete import DiscreteCheck, DiscreteDesign
 from design.loop.sweep import SweepResult
 from design.problem import LoopProblem
 from design.results import DesignOutcome, DiagnosisOutcome, FitOutcome
+from design.synth.dual import DualDesign
 from design.synth.evaluation import Evaluation
 from design.synth.measured import MeasuredDesign
 from design.synth.monte_carlo import MonteCarloCheck
@@ -537,7 +539,9 @@ def design_to_dict(outcome: DesignOutcome) -> dict:
     """``gantry synth --json``: the PI stage, its schedule, the admittance stage (whose failure makes the
     whole design infeasible) and the fit the plant came from."""
     problem, spec = outcome.problem, outcome.problem.spec
-    if outcome.measured is not None:
+    if outcome.dual is not None:
+        out = dual_design_to_dict(outcome.dual)
+    elif outcome.measured is not None:
         out = measured_design_to_dict(outcome.measured)
     else:
         out = synthesis_to_dict(outcome.synthesis)
@@ -556,6 +560,21 @@ def design_to_dict(outcome: DesignOutcome) -> dict:
                              "force_constant_n_per_a": spec.plant.force_constant_n_per_a,
                              "effects": spec.plant.effects}
     return out
+
+
+def dual_design_to_dict(dual: DualDesign) -> dict:
+    """The two-motor Stage Y's designs: per structure its gains (A/(m/s), A/m) and its worst case on the design
+    plants and on the Monte Carlo draws; the recommended structure."""
+    def worst(w) -> dict | None:
+        return None if w is None else dataclasses.asdict(w)
+
+    rows = [{"structure": d.structure, "gains": None if d.controller is None else d.controller.gains(),
+             "design_plants": worst(d.design), "monte_carlo": worst(d.monte_carlo)} for d in dual.structures]
+    return {"status": dual.status, "message": dual.message, "verified": dual.recommended is not None,
+            "kind": "dual_drive", "recommended": dual.recommended,
+            "requirements": dataclasses.asdict(dual.requirements),
+            "design_plants": dual.n_design_plants, "monte_carlo_draws": dual.n_monte_carlo, "structures": rows,
+            "seconds": dual.seconds}
 
 
 def excitation_to_dict(ms: Multisine, pred: VariancePrediction) -> dict:

@@ -92,11 +92,13 @@ class DualDriveStageY:
         return np.sqrt(np.asarray(self.yaw_stiffness_n_m_per_rad, float) / J) / (2 * np.pi)
 
     def _chain(self, s: np.ndarray, place: str) -> np.ndarray | float:
+        """The product of the effects at ``place``, shaped to multiply (..., 2, 2, n_freq); effect parameters
+        given as arrays shaped (..., 1) make a batch."""
         out: np.ndarray | float = 1.0
         for e in self.effects:
             if e.place == place:
                 out = out * e.response(s)
-        return out
+        return out[..., None, None, :] if np.ndim(out) > 1 else out
 
     def frd(self, w_rad_s) -> np.ndarray:
         """Rail velocity per motor current, shape (..., 2, 2, n_freq): [v1, v2] per [i1, i2] (m/s per A)."""

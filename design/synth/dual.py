@@ -1,0 +1,366 @@
+"""Robust gains for each loop structure of the two-motor Stage Y (``design.loop.dual``), and the structures
+compared on the same plants.
+
+The plants are every carriage position x payload x corner of the uncertainty box (``DualScenarios``);
+a structure's gains must keep every one stable with its channels' loop-at-a-time margins (and, when
+asked, the simultaneous disk margin at the motor inputs), and among those the gains with the highest
+worst-case translation bandwidth are chosen. The search is a scan: a log grid over the gain box, then a
+finer grids around the best point, screened on the plants that bound earlier candidates (exact: a candidate
+is dropped only when those plants alone rule it out). Two gains are scanned at a time: kp and ki of the
+structure's channel; the common/differential pair first scans both channels with equal gains (the
+per-motor design), then its differential channel for the least yaw coupling (rail disagreement per
+translation command) with the common one held, then the common channel again for bandwidth with the
+yaw coupling held within ``YAW_SLACK`` of what the differential step reached; the last step is kept when
+its worst bandwidth is at least the first's, else the first (equal gains) stands. A design is then checked
+on Monte Carlo draws it was not chosen on (``monte_carlo_scenarios``: positions, payloads and parameters
+drawn uniformly in their ranges).
+"""
+
+from __future__ import annotations
+
+import functools
+import itertools
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from design.loop.dual import CommonDifferential, Controller, DualLoopFigures, MasterSlave, PerMotor, loop_figures
+from plant.errors import SpecError
+from plant.physics.dual_drive import DualDriveStageY
+from plant.physics.effects import make_effect
+
+#: frequency grid of the evaluation (rad/s): from where the integrators dominate to beyond the drives
+W_RAD_S = 2 * np.pi * np.logspace(-2, 3.3, 500)
+#: scan: points per gain on the coarse grid; then, from each of its STARTS best points, a FINE x FINE grid
+#: spanning one step on either side: it moves to its best point when that lies on its edge and zooms in
+#: (its spacing the new step) when inside, until the step is below REFINED_DECADES (at most MAX_MOVES grids)
+COARSE, FINE, REFINED_DECADES, STARTS, MAX_MOVES = 21, 7, 0.003, 3, 40
+#: the common/differential pair's last step may raise the yaw coupling its differential step reached by this factor
+YAW_SLACK = 1.25
+#: plants evaluated together when a design is judged (memory: MC_CHUNK x 2 x 2 x frequencies)
+MC_CHUNK = 500
+#: controllers evaluated together (memory: CHUNK x plants x 2 x 2 x frequencies complex values)
+CHUNK = 6
+
+
+@dataclass(frozen=True)
+class DualRequirements:
+    phase_margin_deg: float = 45.0
+    gain_margin_db: float = 6.0
+    #: simultaneous balanced disk margin at the motor inputs (0: not required)
+    disk_margin: float = 0.0
+
+
+@dataclass(frozen=True)
+class DualScenarios:
+    """A set of plants: ``base`` with, per plant, its carriage position (m), carriage mass (kg) and uncertain
+    parameters (a field of ``DualDriveStageY`` or ``effect.parameter`` of its drive effects)."""
+
+    base: DualDriveStageY
+    carriage_position_m: np.ndarray
+    carriage_mass_kg: np.ndarray
+    parameters: dict[str, np.ndarray] = field(default_factory=dict)
+
+    def __len__(self) -> int:
+        return int(self.carriage_position_m.size)
+
+    def frd_of(self, start: int, stop: int) -> np.ndarray:
+        """Responses of plants start..stop-1, (n, 2, 2, n_freq) on ``W_RAD_S``."""
+        return _plants(self.base, self.carriage_position_m[start:stop], self.carriage_mass_kg[start:stop],
+                       {k: v[start:stop] for k, v in self.parameters.items()}).frd(W_RAD_S)
+
+    @functools.cached_property
+    def frd(self) -> np.ndarray:
+        """Every plant's response (n, 2, 2, n_freq): for the design plants, which the scan revisits."""
+        return self.frd_of(0, len(self))
+
+    def describe(self, k: int) -> str:
+        extra = ", ".join(f"{n} {v[k]:.4g}" for n, v in self.parameters.items())
+        return (f"carriage at {self.carriage_position_m[k]:.3g} m, {self.carriage_mass_kg[k]:.4g} kg"
+                + (f", {extra}" if extra else ""))
+
+
+#: uncertain parameters: a field of ``DualDriveStageY`` or ``effect.parameter`` of its drive effects
+def _plants(base: DualDriveStageY, positions: np.ndarray, masses: np.ndarray,
+            values: Mapping[str, np.ndarray]) -> DualDriveStageY:
+    """``base`` with per-plant positions, masses and values (arrays of one length n) as one batch."""
+    fields = {k: np.asarray(v, float) for k, v in values.items() if "." not in k}
+    effects = []
+    for e in base.effects:
+        mine = {k.split(".", 1)[1]: np.asarray(v, float)[:, None] for k, v in values.items()
+                if k.split(".", 1)[0] == e.name}
+        effects.append(e.with_values(**mine) if mine else e)
+    named = {e.split(".", 1)[0] for e in values if "." in e}
+    missing = named - {e.name for e in base.effects}
+    if missing:
+        raise SpecError(f"uncertainty names {sorted(missing)[0]}, which the plant does not have")
+    return replace(base, carriage_position_m=np.asarray(positions, float), carriage_mass_kg=np.asarray(masses, float),
+                   effects=tuple(effects), **fields)
+
+
+def dual_scenarios(base: DualDriveStageY, positions_m, carriage_masses_kg,
+                   ranges: Mapping[str, tuple[float, float]]) -> DualScenarios:
+    """Every position x mass x corner of ``ranges`` (parameter -> (min, max))."""
+    corners = list(itertools.product(*ranges.values())) or [()]
+    grid = list(itertools.product(np.asarray(positions_m, float), np.asarray(carriage_masses_kg, float), corners))
+    pos = np.array([g[0] for g in grid])
+    mass = np.array([g[1] for g in grid])
+    values = {name: np.array([g[2][i] for g in grid]) for i, name in enumerate(ranges)}
+    _plants(base, pos[:1], mass[:1], {k: v[:1] for k, v in values.items()})       # names and values checked now
+    return DualScenarios(base, pos, mass, values)
+
+
+def monte_carlo_scenarios(base: DualDriveStageY, position_range_m: tuple[float, float],
+                          mass_range_kg: tuple[float, float], ranges: Mapping[str, tuple[float, float]],
+                          n: int, seed: int) -> DualScenarios:
+    """``n`` plants drawn uniformly in the position, mass and parameter ranges (seeded)."""
+    rng = np.random.default_rng(seed)
+    pos = rng.uniform(*position_range_m, n)
+    mass = rng.uniform(*mass_range_kg, n)
+    values = {name: rng.uniform(lo, hi, n) for name, (lo, hi) in ranges.items()}
+    return DualScenarios(base, pos, mass, values)
+
+
+@dataclass(frozen=True)
+class Worst:
+    """The worst case of a design over a set of plants."""
+
+    feasible: bool
+    n_plants: int
+    n_failing: int
+    unstable: int
+    bandwidth_hz: float
+    phase_margin_deg: float
+    gain_margin_db: float
+    disk_margin: float
+    disk_gain_margin_db: float
+    disk_phase_margin_deg: float
+    yaw_coupling: float
+    #: the plant of the lowest bandwidth and the plant of the smallest phase margin, in words
+    worst_bandwidth_at: str
+    worst_phase_margin_at: str
+
+
+def _passes(f: DualLoopFigures, req: DualRequirements) -> np.ndarray:
+    return ((f.unstable_poles == 0) & (f.phase_margin_deg >= req.phase_margin_deg)
+            & (f.gain_margin_db >= req.gain_margin_db) & (f.disk_margin >= req.disk_margin)
+            & np.isfinite(f.bandwidth_hz))
+
+
+def worst_cases(controllers: list[Controller], scenarios: DualScenarios, req: DualRequirements) -> list[Worst]:
+    """``Worst`` of each controller on every plant of ``scenarios`` (plants computed once, in chunks)."""
+    figures: list[list[DualLoopFigures]] = [[] for _ in controllers]
+    for i in range(0, len(scenarios), MC_CHUNK):
+        frd = scenarios.frd_of(i, i + MC_CHUNK)
+        for k, c in enumerate(controllers):
+            figures[k].append(loop_figures(W_RAD_S, frd, c))
+    out = []
+    for parts in figures:
+        f = DualLoopFigures(*(np.concatenate([getattr(p, n) for p in parts])
+                              for n in DualLoopFigures.__dataclass_fields__))
+        ok = _passes(f, req)
+        bw = np.where(np.isfinite(f.bandwidth_hz), f.bandwidth_hz, 0.0)
+        kb, kp = int(np.argmin(bw)), int(np.argmin(f.phase_margin_deg))
+        out.append(Worst(bool(ok.all()), int(ok.size), int((~ok).sum()), int((f.unstable_poles > 0).sum()),
+                         float(bw.min()), float(f.phase_margin_deg.min()), float(f.gain_margin_db.min()),
+                         float(f.disk_margin.min()), float(f.disk_gain_margin_db.min()),
+                         float(f.disk_phase_margin_deg.min()), float(f.yaw_coupling.max()), scenarios.describe(kb),
+                         scenarios.describe(kp)))
+    return out
+
+
+@dataclass(frozen=True)
+class _Objective:
+    """What a scan maximises: the worst translation bandwidth (Hz), or minus the worst yaw coupling; with a
+    bound on the yaw coupling when ``max_yaw_coupling`` is finite."""
+
+    yaw: bool = False
+    max_yaw_coupling: float = np.inf
+
+    def score(self, f: DualLoopFigures, req: DualRequirements) -> np.ndarray:
+        """Per controller (the last axis runs over the plants): the objective, -inf where a plant fails."""
+        ok = (_passes(f, req) & (f.yaw_coupling <= self.max_yaw_coupling)).all(axis=-1)
+        value = -f.yaw_coupling.max(axis=-1) if self.yaw else np.where(np.isfinite(f.bandwidth_hz),
+                                                                         f.bandwidth_hz, 0.0).min(axis=-1)
+        return np.where(ok, value, -np.inf)
+
+
+def _score(make: Callable[[np.ndarray, np.ndarray], Controller], kp: np.ndarray, ki: np.ndarray,
+           scenarios: DualScenarios, req: DualRequirements, objective: _Objective, active: set[int],
+           best: float) -> np.ndarray:
+    """The objective of each candidate (kp, ki) (flat arrays) over every plant, -inf where one fails.
+
+    Candidates are screened on the ``active`` plants first (those that bound or failed earlier candidates):
+    the screen's score is an upper bound of the true one, so a candidate that fails there, or does not
+    beat ``best``, is out; the rest are evaluated on every plant and their binding plants join ``active``.
+    The result is the exhaustive scan's."""
+    out = np.full(kp.size, -np.inf)
+    idx = np.array(sorted(active), dtype=int)
+    for i in range(0, kp.size, CHUNK):
+        c = make(kp[i:i + CHUNK, None], ki[i:i + CHUNK, None])
+        screen = objective.score(loop_figures(W_RAD_S, scenarios.frd[idx], c), req) if idx.size else \
+            np.full(min(CHUNK, kp.size - i), np.inf)
+        for j in np.flatnonzero(screen > best):
+            one = make(kp[i + j], ki[i + j])
+            f = loop_figures(W_RAD_S, scenarios.frd, one)
+            s = float(objective.score(f, req))
+            out[i + j] = s
+            failing = ~(_passes(f, req) & (f.yaw_coupling <= objective.max_yaw_coupling))
+            bound = np.flatnonzero(failing)[:4].tolist() or [
+                int(np.argmax(f.yaw_coupling)) if objective.yaw else int(np.nanargmin(f.bandwidth_hz))]
+            active.update(bound)
+            idx = np.array(sorted(active), dtype=int)
+            best = max(best, s)
+    return out
+
+
+def _grid(make, scenarios, req, objective, active, best, a: np.ndarray, b: np.ndarray):
+    """Scores of the log10 grid a x b, as (scores, kp, ki) flat."""
+    A, B = np.meshgrid(10**a, 10**b, indexing="ij")
+    return _score(make, A.ravel(), B.ravel(), scenarios, req, objective, active, best), A.ravel(), B.ravel()
+
+
+def _scan(make, scenarios, req, kp_box, ki_box, objective: _Objective = _Objective(),
+          progress=None) -> tuple[float, float, float]:
+    """Best (kp, ki, objective): a coarse log grid over the box, then finer grids (module doc) around each of
+    its ``STARTS`` best points; objective -inf: none feasible."""
+    lk, li = np.log10(kp_box), np.log10(ki_box)
+    active: set[int] = set()
+    a, b = np.linspace(*lk, COARSE), np.linspace(*li, COARSE)
+    s, kp, ki = _grid(make, scenarios, req, objective, active, -np.inf, a, b)
+    if progress is not None:
+        progress()
+    order = [k for k in np.argsort(-s) if np.isfinite(s[k])][:STARTS]
+    if not order:
+        return float("nan"), float("nan"), -np.inf
+    best = (float(kp[order[0]]), float(ki[order[0]]), float(s[order[0]]))
+    for k in order:
+        centre, step = (np.log10(kp[k]), np.log10(ki[k])), (a[1] - a[0], b[1] - b[0])
+        for _ in range(MAX_MOVES):
+            if max(step) < REFINED_DECADES:
+                break
+            fa = np.clip(np.linspace(centre[0] - step[0], centre[0] + step[0], FINE), *lk)
+            fb = np.clip(np.linspace(centre[1] - step[1], centre[1] + step[1], FINE), *li)
+            s2, kp2, ki2 = _grid(make, scenarios, req, objective, active, best[2], fa, fb)
+            j = int(np.argmax(s2))
+            if s2[j] > best[2]:
+                best = (float(kp2[j]), float(ki2[j]), float(s2[j]))
+            ia, ib = divmod(j, FINE)
+            edge = np.isfinite(s2[j]) and (ia in (0, FINE - 1) and lk[0] < fa[ia] < lk[1]
+                                           or ib in (0, FINE - 1) and li[0] < fb[ib] < li[1])
+            if np.isfinite(s2[j]):
+                centre = (np.log10(kp2[j]), np.log10(ki2[j]))
+            if not edge:            # the best point inside the grid: zoom in; on its edge: move there
+                step = (2 * step[0] / (FINE - 1), 2 * step[1] / (FINE - 1))
+    return best
+
+
+@dataclass(frozen=True)
+class StructureDesign:
+    """One structure's robust design: its controller (None when no gains in the box hold the requirements),
+    its worst case on the design plants and on the Monte Carlo draws."""
+
+    structure: str
+    controller: Controller | None
+    design: Worst | None
+    monte_carlo: Worst | None
+
+
+def synthesise_structure(structure: str, scenarios: DualScenarios, req: DualRequirements, *,
+                         kp_box=(1.0, 1e4), ki_box=(1.0, 1e6), progress=None) -> StructureDesign:
+    """Gains of ``structure`` (``design.loop.dual.STRUCTURES``) maximising the worst-case translation bandwidth
+    on ``scenarios`` under ``req`` (not yet judged on a Monte Carlo: ``monte_carlo`` None)."""
+    found = np.isfinite
+    if structure == "per_motor":
+        kp, ki, bw = _scan(PerMotor, scenarios, req, kp_box, ki_box, progress=progress)
+        ctrl = PerMotor(kp, ki) if found(bw) else None
+    elif structure == "master_slave":
+        kp, ki, bw = _scan(MasterSlave, scenarios, req, kp_box, ki_box, progress=progress)
+        ctrl = MasterSlave(kp, ki) if found(bw) else None
+    elif structure == "common_differential":
+        kp, ki, bw = _scan(lambda a, b: CommonDifferential(a, b, a, b), scenarios, req, kp_box, ki_box,
+                           progress=progress)
+        ctrl = None
+        if found(bw):
+            dp, di, yaw = _scan(lambda a, b: CommonDifferential(kp, ki, a, b), scenarios, req, kp_box, ki_box,
+                                _Objective(yaw=True), progress)
+            bound = _Objective(max_yaw_coupling=YAW_SLACK * -yaw)
+            cp, ci, bw2 = _scan(lambda a, b: CommonDifferential(a, b, dp, di), scenarios, req, kp_box, ki_box,
+                                bound, progress)
+            ctrl = CommonDifferential(cp, ci, dp, di) if found(bw2) and bw2 >= bw else \
+                CommonDifferential(kp, ki, kp, ki)
+    else:
+        raise SpecError(f"unknown structure {structure!r}; known: per_motor, common_differential, master_slave")
+    if ctrl is None:
+        return StructureDesign(structure, None, None, None)
+    return StructureDesign(structure, ctrl, worst_cases([ctrl], scenarios, req)[0], None)
+
+
+def recommend(designs: list[StructureDesign]) -> StructureDesign | None:
+    """The structure with the highest worst-case translation bandwidth among those that hold every requirement
+    on the design plants and on the Monte Carlo draws."""
+    ok = [d for d in designs if d.controller is not None and d.design.feasible
+          and (d.monte_carlo is None or d.monte_carlo.feasible)]
+    return max(ok, key=lambda d: d.design.bandwidth_hz) if ok else None
+
+
+def default_drive_effects(delay_s: float = 5e-4, current_loop_hz: float = 1000.0):
+    """The drive chain of the bundled Stage Y specs: a delay and a first-order current loop."""
+    return (make_effect("delay", seconds=delay_s), make_effect("current_loop", bandwidth_hz=current_loop_hz))
+
+
+@dataclass(frozen=True)
+class DualDesign:
+    """Every structure's robust design on the same plants, and the one recommended (``recommend``)."""
+
+    structures: tuple[StructureDesign, ...]
+    recommended: str | None
+    requirements: DualRequirements
+    n_design_plants: int
+    n_monte_carlo: int
+    seconds: float
+
+    @property
+    def status(self) -> str:
+        """"optimal" when a structure holds every requirement on the design plants and the Monte Carlo draws,
+        else "infeasible"."""
+        return "optimal" if self.recommended is not None else "infeasible"
+
+    @property
+    def message(self) -> str:
+        if self.recommended is None:
+            return ("no structure's gains within the [controller] bounds hold the requirements on every design plant "
+                    "and Monte Carlo draw")
+        best = next(d for d in self.structures if d.structure == self.recommended)
+        return (f"{self.recommended} recommended: worst-case translation bandwidth {best.design.bandwidth_hz:.3g} Hz "
+                f"(at {best.design.worst_bandwidth_at}), every requirement held on {self.n_design_plants} design "
+                f"plants and {self.n_monte_carlo} Monte Carlo draws")
+
+
+def design_dual(model: DualDriveStageY, *, positions_m, payloads_kg, stage_x_mass_kg: float,
+                ranges: Mapping[str, tuple[float, float]], requirements: DualRequirements, structures,
+                kp_box, ki_box, monte_carlo_samples: int, seed: int, progress=None) -> DualDesign:
+    """Each structure designed on positions x payloads x corners of ``ranges``, checked on
+    ``monte_carlo_samples`` draws, compared (``recommend``)."""
+    import time
+
+    start = time.perf_counter()
+    masses = stage_x_mass_kg + np.asarray(payloads_kg, float)
+    scenarios = dual_scenarios(model, positions_m, masses, ranges)
+    check = monte_carlo_scenarios(model, (float(np.min(positions_m)), float(np.max(positions_m))),
+                                  (float(masses.min()), float(masses.max())), ranges, monte_carlo_samples, seed)
+    designs = []
+    for name in structures:
+        if progress is not None:
+            progress(f"designing {name}")
+        designs.append(synthesise_structure(name, scenarios, requirements, kp_box=kp_box, ki_box=ki_box))
+    if progress is not None:
+        progress(f"Monte Carlo check ({len(check)} draws)")
+    found = [d for d in designs if d.controller is not None]
+    checked = dict(zip((d.structure for d in found),
+                       worst_cases([d.controller for d in found], check, requirements)))
+    designs = [replace(d, monte_carlo=checked.get(d.structure)) for d in designs]
+    best = recommend(designs)
+    return DualDesign(tuple(designs), None if best is None else best.structure, requirements, len(scenarios),
+                      len(check), time.perf_counter() - start)

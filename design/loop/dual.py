@@ -143,16 +143,15 @@ def matmul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     a = a[..., None] if a.ndim == 2 else a
     b = b[..., None] if b.ndim == 2 else b
     m, k, n = a.shape[-3], a.shape[-2], b.shape[-2]
-    rows = []
+    batch = np.broadcast_shapes(a.shape[:-3], b.shape[:-3])
+    out = np.empty(batch + (m, n, max(a.shape[-1], b.shape[-1])), dtype=np.result_type(a, b))
     for i in range(m):
-        row = []
         for j in range(n):
             s = a[..., i, 0, :] * b[..., 0, j, :]
             for q in range(1, k):
                 s = s + a[..., i, q, :] * b[..., q, j, :]
-            row.append(s)
-        rows.append(np.stack(np.broadcast_arrays(*row), axis=-2))
-    return np.stack(np.broadcast_arrays(*rows), axis=-3)
+            out[..., i, j, :] = s
+    return out
 
 
 def _inv2(a: np.ndarray) -> np.ndarray:
@@ -205,9 +204,9 @@ def loop_figures(w_rad_s, plant_frd: np.ndarray, controller: Controller) -> Dual
     P = np.asarray(plant_frd)
     C = controller.frd(w)
     L_in = matmul(C, P)                                         # C P: loop broken at the motor inputs
-    L_out = matmul(P, C)                                        # P C: at the rail sensors
     eye = np.eye(2)[:, :, None]
-    det = ((1 + L_out[..., 0, 0, :]) * (1 + L_out[..., 1, 1, :]) - L_out[..., 0, 1, :] * L_out[..., 1, 0, :])
+    # det(I + P C) = det(I + C P)
+    det = ((1 + L_in[..., 0, 0, :]) * (1 + L_in[..., 1, 1, :]) - L_in[..., 0, 1, :] * L_in[..., 1, 0, :])
     unstable = mimo_unstable_poles(w, det)
     # the structure's own channels, each broken with the others closed
     L_ch = matmul(controller.channel_frd(w), matmul(matmul(controller.t_out, P), controller.t_in))
@@ -221,12 +220,13 @@ def loop_figures(w_rad_s, plant_frd: np.ndarray, controller: Controller) -> Dual
         m = loop_margins(w, lj)
         gm.append(m.gain_margin_db)
         pm.append(m.phase_margin_deg)
-    alpha = 1.0 / mu_diagonal(_inv2(eye + L_in) - eye / 2).max(axis=-1)
+    S_in = _inv2(eye + L_in)
+    alpha = 1.0 / mu_diagonal(S_in - eye / 2).max(axis=-1)
     with np.errstate(divide="ignore", invalid="ignore"):
         disk_gm = np.where(alpha < 2, 20 * np.log10((2 + alpha) / (2 - alpha)), np.inf)
         disk_pm = np.degrees(2 * np.arctan(alpha / 2))
-    T_out = matmul(_inv2(eye + L_out), L_out)
-    to_rails = T_out.sum(axis=-2)                                # r on both rails: (..., 2 outputs, n_freq)
+    # r on both rails: the rails' velocities P (I + C P)^-1 C [1, 1]^T, (..., 2 outputs, n_freq)
+    to_rails = matmul(P, matmul(S_in, C.sum(axis=-2)[..., None, :]))[..., 0, :]
     common = 0.5 * (to_rails[..., 0, :] + to_rails[..., 1, :])
     half_difference = 0.5 * (to_rails[..., 1, :] - to_rails[..., 0, :])
     bandwidth = closed_loop_bandwidth_hz(w, common, dc_gain=1.0)

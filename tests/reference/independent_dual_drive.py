@@ -112,3 +112,24 @@ def unstable_poles(rig: Rig, structure: str, gains, pade_order: int = 8) -> int:
 def input_loop(rig: Rig, structure: str, gains, pade_order: int = 8) -> control.StateSpace:
     """The loop broken at the motor inputs, K P (currents in, currents out)."""
     return controller(structure, gains) * plant(rig, pade_order)
+
+
+def channel_loop(rig: Rig, structure: str, gains, j: int, pade_order: int = 8) -> control.StateSpace:
+    """The loop of the structure's channel j (its PI channels around T_out P T_in) with the other channel
+    closed by ``control.feedback`` on that channel only; master-slave has one channel."""
+    P = plant(rig, pade_order)
+    if structure == "master_slave":
+        kp, ki = gains
+        return control.ss(pi(kp, ki)) * control.ss([], [], [], np.array([[1.0, 0.0]])) * P * \
+            control.ss([], [], [], np.array([[0.5], [0.5]]))
+    if structure == "per_motor":
+        kp, ki = gains
+        core = control.append(control.ss(pi(kp, ki)), control.ss(pi(kp, ki)))
+        t_in, t_out = np.eye(2), np.eye(2)
+    else:
+        kpc, kic, kpd, kid = gains
+        core = control.append(control.ss(pi(kpc, kic)), control.ss(pi(kpd, kid)))
+        t_in, t_out = np.array([[0.5, -0.5], [0.5, 0.5]]), np.array([[0.5, 0.5], [-0.5, 0.5]])
+    L = core * control.ss([], [], [], t_out) * P * control.ss([], [], [], t_in)
+    closed_other = np.diag([1.0 if i != j else 0.0 for i in range(2)])
+    return control.feedback(L, closed_other)[j, j]

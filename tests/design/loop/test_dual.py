@@ -11,7 +11,7 @@ from pathlib import Path
 import control
 import numpy as np
 import pytest
-from independent_dual_drive import Rig, closed_loop, input_loop, mechanics, unstable_poles
+from independent_dual_drive import Rig, channel_loop, closed_loop, input_loop, mechanics, unstable_poles
 from scipy.optimize import brentq
 
 from design.loop.dual import CommonDifferential, MasterSlave, PerMotor, loop_figures
@@ -117,31 +117,12 @@ def test_stability_with_a_delay_agrees_with_pade():
     assert int(loop_figures(W, tool_plant(rig).frd(W), PerMotor(2600.0, 3000.0)).unstable_poles) > 0
 
 
-def _channel_loop(structure: str, gains, rig: Rig, j: int):
-    """python-control's loop of channel j with the other channel closed: the structure's PI channels around
-    T_out P T_in, channel k closed by ``control.feedback`` on that channel only."""
-    from independent_dual_drive import pi, plant
-
-    P = plant(rig)
-    if structure == "per_motor":
-        kp, ki = gains
-        core = control.append(control.ss(pi(kp, ki)), control.ss(pi(kp, ki)))
-        t_in, t_out = np.eye(2), np.eye(2)
-    else:
-        kpc, kic, kpd, kid = gains
-        core = control.append(control.ss(pi(kpc, kic)), control.ss(pi(kpd, kid)))
-        t_in, t_out = np.array([[0.5, -0.5], [0.5, 0.5]]), np.array([[0.5, 0.5], [-0.5, 0.5]])
-    L = core * control.ss([], [], [], t_out) * P * control.ss([], [], [], t_in)
-    closed_other = np.diag([1.0 if i != j else 0.0 for i in range(2)])
-    return control.feedback(L, closed_other)[j, j]
-
-
 @pytest.mark.parametrize(("rig", "structure", "gains"), [c for c in CASES[:4]])
 def test_loop_at_a_time_margins_are_python_controls(rig, structure, gains):
     fig = loop_figures(W, tool_plant(rig).frd(W), STRUCTURES[structure](*gains))
     gms, pms = [], []
     for j in range(2):    # on the tool's grid: a loop near |l| = 1 towards DC crosses 1 below any grid
-        gm, pm, *_ = control.stability_margins(control.frd(_channel_loop(structure, gains, rig, j), W))
+        gm, pm, *_ = control.stability_margins(control.frd(channel_loop(rig, structure, gains, j), W))
         gms.append(20 * np.log10(gm) if gm > 0 else np.inf)
         pms.append(pm)
     np.testing.assert_allclose(float(fig.gain_margin_db), min(gms), atol=0.05)

@@ -1,0 +1,134 @@
+"""Robust gains for the two-motor Stage Y's structures (design/synth/dual.py): the screened scan is the
+exhaustive one, and the bundled spec's designs hold on plants drawn at random and built independently
+(Lagrange's equations in rail coordinates, python-control, a Pade delay: tests/reference/independent_dual_drive.py)."""
+
+from __future__ import annotations
+
+import dataclasses
+import subprocess
+import sys
+from pathlib import Path
+
+import control
+import numpy as np
+import pytest
+from independent_dual_drive import Rig, channel_loop, unstable_poles
+
+from design.loop.dual import PerMotor, loop_figures
+from design.synth import dual
+from design.workflows import design, load_problem
+
+SPEC = Path(__file__).parents[3] / "specs" / "stage_y_dual.toml"
+
+
+@pytest.fixture(scope="module")
+def bundled():
+    """The bundled spec's design, with 500 Monte Carlo draws of its own (the command runs 10,000)."""
+    problem = load_problem(SPEC)
+    plan = dataclasses.replace(problem.spec.verification, monte_carlo_samples=500)
+    spec = problem.spec.model_copy(update={"verification": plan})
+    return problem.spec, design(dataclasses.replace(problem, spec=spec)).dual
+
+
+def _draws(spec, n: int, seed: int):
+    """Plants drawn in the spec's ranges (positions, payloads, uncertainty), as reference rigs."""
+    rng = np.random.default_rng(seed)
+    d, p = spec.dual_drive, spec.plant
+    for _ in range(n):
+        u = {k: rng.uniform(v.min, v.max) for k, v in d.uncertainty.items()}
+        yield Rig(beam_mass_kg=d.beam_mass_kg, beam_inertia_kg_m2=d.beam_mass_kg * p.motor_length_m**2 / 12,
+                  carriage_mass_kg=d.stage_x_mass_kg + rng.uniform(p.payload_kg.min, p.payload_kg.max),
+                  rail_separation_m=p.motor_length_m,
+                  carriage_position_m=rng.uniform(d.carriage_position_m.min, d.carriage_position_m.max),
+                  b1=u["damping1_n_s_per_m"], b2=u["damping2_n_s_per_m"], k1=p.force_constant_n_per_a,
+                  k2=p.force_constant_n_per_a, yaw_stiffness=d.yaw_stiffness_n_m_per_rad,
+                  delay_s=u["delay.seconds"], current_loop_hz=u["current_loop.bandwidth_hz"])
+
+
+def _gains(design_):
+    return tuple(design_.controller.gains().values())
+
+
+def test_the_screened_scan_finds_the_exhaustive_scans_best():
+    problem = load_problem(SPEC)
+    model = problem.spec.dual_model()
+    scenarios = dual.dual_scenarios(model, [0.1, 0.4, 0.7], [21.0, 56.0], {"delay.seconds": (3e-4, 8e-4)})
+    req = dual.DualRequirements()
+    a, b = np.linspace(1.0, 3.0, 9), np.linspace(2.0, 5.0, 9)
+    screened, kp, ki = dual._grid(PerMotor, scenarios, req, dual._Objective(), set(), -np.inf, a, b)
+    full = []
+    for p_, i_ in zip(kp, ki):
+        f = loop_figures(dual.W_RAD_S, scenarios.frd, PerMotor(p_, i_))
+        ok = dual._passes(f, req).all()
+        full.append(float(np.nanmin(f.bandwidth_hz)) if ok else -np.inf)
+    full = np.array(full)
+    assert np.isfinite(full).sum() >= 3                       # a box with a feasible region to find
+    assert int(np.argmax(screened)) == int(np.argmax(full))
+    assert screened.max() == pytest.approx(full.max(), rel=1e-12)
+    evaluated = np.isfinite(screened)
+    np.testing.assert_allclose(screened[evaluated], full[evaluated], rtol=1e-12)
+
+
+def test_the_bundled_spec_designs_every_structure_and_recommends_the_fastest_that_holds(bundled):
+    spec, result = bundled
+    assert result.status == "optimal"
+    assert [d.structure for d in result.structures] == ["per_motor", "common_differential", "master_slave"]
+    held = [d for d in result.structures if d.design.feasible and d.monte_carlo.feasible]
+    assert len(held) >= 2
+    assert result.recommended == max(held, key=lambda d: d.design.bandwidth_hz).structure
+    for d in held:
+        assert d.design.phase_margin_deg >= 45.0 - 1e-9 and d.design.gain_margin_db >= 6.0 - 1e-9
+        assert d.design.n_plants == 5 * 3 * 16
+
+
+@pytest.mark.parametrize("which", [0, 1, 2])
+def test_each_design_holds_on_independently_built_plants_drawn_at_random(bundled, which):
+    """40 draws per structure: the closed loop (python-control, Pade 8 delay) has no right-half-plane pole and
+    every channel keeps its margins (python-control's, within 1 deg and 0.2 dB of the requirement: the Pade
+    approximant's phase at crossover)."""
+    spec, result = bundled
+    d = result.structures[which]
+    n_channels = 1 if d.structure == "master_slave" else 2
+    w = dual.W_RAD_S
+    for rig in _draws(spec, 40, seed=100 + which):
+        assert unstable_poles(rig, d.structure, _gains(d)) == 0, rig
+        for j in range(n_channels):
+            gm, pm, *_ = control.stability_margins(control.frd(channel_loop(rig, d.structure, _gains(d), j), w))
+            assert pm >= 45.0 - 1.0, (rig, j)
+            assert 20 * np.log10(gm) >= 6.0 - 0.2, (rig, j)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("which", [0, 1, 2])
+def test_each_design_is_stable_on_2000_independent_draws(bundled, which):
+    spec, result = bundled
+    d = result.structures[which]
+    bad = [rig for rig in _draws(spec, 2000, seed=200 + which) if unstable_poles(rig, d.structure, _gains(d))]
+    assert not bad, f"{len(bad)} unstable, e.g. {bad[0]}"
+
+
+def _gantry(*args: str) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "design", *args], capture_output=True, text=True, timeout=600)
+
+
+def test_the_command_refuses_a_report_for_a_two_motor_design_in_one_line(tmp_path):
+    r = _gantry("synth", str(SPEC), "--report", str(tmp_path / "r.html"))
+    assert r.returncode == 2
+    assert r.stderr.strip().count("\n") == 0 and "--report" in r.stderr and "[dual_drive]" in r.stderr
+    assert not (tmp_path / "r.html").exists()
+
+
+def test_a_dual_drive_section_on_stage_x_is_refused_naming_the_key(tmp_path):
+    text = SPEC.read_text().replace('stage = "y"', 'stage = "x"')
+    path = tmp_path / "x.toml"
+    path.write_text(text)
+    r = _gantry("synth", str(path), "--json")
+    assert r.returncode == 2
+    assert "dual_drive" in r.stderr and "stage" in r.stderr and "Traceback" not in r.stderr
+
+
+def test_a_carriage_beyond_the_rails_is_refused(tmp_path):
+    path = tmp_path / "far.toml"
+    path.write_text(SPEC.read_text().replace("max = 0.72, points = 5", "max = 0.95, points = 5"))
+    r = _gantry("synth", str(path), "--json")
+    assert r.returncode == 2 and "carriage_position_m" in r.stderr

@@ -20,20 +20,6 @@ class _Strict(BaseModel):
     model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
 
 
-class PositionRange(_Strict):
-    """The carriage's travel along the beam, from rail Y1 (m): the design points span it evenly."""
-
-    min: float = Field(gt=0)
-    max: float = Field(gt=0)
-    points: int = Field(5, ge=1, le=50)
-
-    @model_validator(mode="after")
-    def _ordered(self):
-        if self.max < self.min:
-            raise ValueError(f"max ({self.max}) must be >= min ({self.min})")
-        return self
-
-
 class ParameterRange(_Strict):
     min: float
     max: float
@@ -43,6 +29,14 @@ class ParameterRange(_Strict):
         if self.max < self.min:
             raise ValueError(f"max ({self.max}) must be >= min ({self.min})")
         return self
+
+
+class PositionRange(ParameterRange):
+    """The carriage's travel along the beam, from rail Y1 (m): the design points span it evenly."""
+
+    min: float = Field(gt=0)
+    max: float = Field(gt=0)
+    points: int = Field(5, ge=1, le=50)
 
 
 class DualDriveSpec(_Strict):

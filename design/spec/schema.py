@@ -254,9 +254,21 @@ class Spec(_Strict):
         if self.plant.measured or self.admittance is not None:
             raise ValueError("dual_drive: designs on the model (no plant.measured) without an admittance stage")
         try:
-            self.dual_model()
+            model = self.dual_model()
         except (GantryError, ValueError) as exc:
             raise ValueError(f"dual_drive: {exc}") from None
+        for name, r in d.uncertainty.items():
+            effect, dot, param = name.partition(".")
+            if dot and effect not in self.plant.effects:
+                raise ValueError(f"dual_drive.uncertainty.{name}: the plant has no effect {effect} (plant.effects)")
+            for value in (r.min, r.max):
+                try:
+                    if dot:
+                        make_effect(effect, **{**self.plant.effects[effect], param: value})
+                    else:
+                        model.with_values(**{name: value})
+                except (GantryError, TypeError, ValueError) as exc:
+                    raise ValueError(f"dual_drive.uncertainty.{name}: {exc}") from None
         return self
 
     def dual_model(self):

@@ -132,3 +132,22 @@ def test_a_carriage_beyond_the_rails_is_refused(tmp_path):
     path.write_text(SPEC.read_text().replace("max = 0.72, points = 5", "max = 0.95, points = 5"))
     r = _gantry("synth", str(path), "--json")
     assert r.returncode == 2 and "carriage_position_m" in r.stderr
+
+
+@pytest.mark.parametrize(("uncertainty", "says"), [
+    ({"notch.depth": {"min": 0.1, "max": 0.2}}, "dual_drive.uncertainty.notch.depth: the plant has no effect notch"),
+    ({"delay.bogus": {"min": 1.0, "max": 2.0}}, "dual_drive.uncertainty.delay.bogus: effect delay has no parameter"),
+    ({"damping1_n_s_per_m": {"min": -1.0, "max": 2.0}}, "dual_drive.uncertainty.damping1_n_s_per_m: parameter"),
+    ({"bogus": {"min": 1.0, "max": 2.0}}, "dual_drive.uncertainty: unknown parameter 'bogus'"),
+    ({"damping2_n_s_per_m": {"min": 400.0, "max": 300.0}}, "max (300.0) must be >= min (400.0)"),
+])
+def test_a_bad_uncertainty_range_is_refused_naming_its_key(uncertainty, says):
+    from design.spec.schema import parse_spec
+    from plant.errors import SpecError
+
+    data = {"plant": {"stage": "y", "effects": {"delay": {"seconds": 5e-4}}},
+            "dual_drive": {"beam_mass_kg": 16.0, "stage_x_mass_kg": 16.0, "yaw_stiffness_n_m_per_rad": 2e5,
+                           "carriage_position_m": {"min": 0.1, "max": 0.7}, "uncertainty": uncertainty}}
+    with pytest.raises(SpecError, match=None) as err:
+        parse_spec(data, source="s.toml")
+    assert str(err.value).startswith("s.toml: ") and says in str(err.value)

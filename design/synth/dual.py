@@ -26,6 +26,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from design.loop.dual import CommonDifferential, Controller, DualLoopFigures, MasterSlave, PerMotor, loop_figures
+from design.parallel import thread_map
 from plant.errors import SpecError
 from plant.physics.dual_drive import DualDriveStageY
 from plant.physics.effects import make_effect
@@ -150,13 +151,13 @@ def _passes(f: DualLoopFigures, req: DualRequirements) -> np.ndarray:
 
 def worst_cases(controllers: list[Controller], scenarios: DualScenarios, req: DualRequirements) -> list[Worst]:
     """``Worst`` of each controller on every plant of ``scenarios`` (plants computed once, in chunks)."""
-    figures: list[list[DualLoopFigures]] = [[] for _ in controllers]
-    for i in range(0, len(scenarios), MC_CHUNK):
+    def chunk(i: int) -> list[DualLoopFigures]:
         frd = scenarios.frd_of(i, i + MC_CHUNK)
-        for k, c in enumerate(controllers):
-            figures[k].append(loop_figures(W_RAD_S, frd, c))
+        return [loop_figures(W_RAD_S, frd, c) for c in controllers]
+
+    chunks = thread_map(chunk, range(0, len(scenarios), MC_CHUNK))
     out = []
-    for parts in figures:
+    for parts in zip(*chunks):
         f = DualLoopFigures(*(np.concatenate([getattr(p, n) for p in parts])
                               for n in DualLoopFigures.__dataclass_fields__))
         ok = _passes(f, req)
@@ -350,11 +351,11 @@ def design_dual(model: DualDriveStageY, *, positions_m, payloads_kg, stage_x_mas
     scenarios = dual_scenarios(model, positions_m, masses, ranges)
     check = monte_carlo_scenarios(model, (float(np.min(positions_m)), float(np.max(positions_m))),
                                   (float(masses.min()), float(masses.max())), ranges, monte_carlo_samples, seed)
-    designs = []
-    for name in structures:
-        if progress is not None:
-            progress(f"designing {name}")
-        designs.append(synthesise_structure(name, scenarios, requirements, kp_box=kp_box, ki_box=ki_box))
+    if progress is not None:
+        progress(f"designing {', '.join(structures)}")
+    scenarios.frd                                   # computed once, before the threads share it
+    designs = thread_map(lambda name: synthesise_structure(name, scenarios, requirements, kp_box=kp_box,
+                                                           ki_box=ki_box), structures)
     if progress is not None:
         progress(f"Monte Carlo check ({len(check)} draws)")
     found = [d for d in designs if d.controller is not None]

@@ -36,6 +36,28 @@ def report(
     keep_inputs({"--out": out, "--pdf": out.with_suffix(".pdf") if pdf else None},
                 [spec_file, plant_from, *(data or [])])
     problem = load_problem(spec_file, plant_from=plant_from)
+    if problem.spec.dual_drive is not None:
+        from design.views.dual_report import dual_report
+        from design.views.progress import StageProgress
+        from design.workflows import design
+
+        if data:
+            from plant.errors import ParameterError
+
+            raise ParameterError("--data: a [dual_drive] report compares no recordings yet")
+        progress = StageProgress(enabled=sys.stderr.isatty())
+        try:
+            outcome = design(problem, progress=progress)
+        finally:
+            progress.close()
+        dual_report(outcome, command="gantry " + shlex.join(sys.argv[1:])).write(out)
+        console.print(f"report written to {out}")
+        if pdf:
+            from design.views.browser import html_to_pdf
+
+            html_to_pdf(out, out.with_suffix(".pdf"))
+            console.print(f"PDF written to {out.with_suffix('.pdf')}")
+        return
     content = report_content(problem, synthesise=synthesise, data=data or (), columns=columns,
                              sample_rate_hz=sample_rate_hz, samples=samples, seed=seed,
                              command="gantry " + shlex.join(sys.argv[1:]))

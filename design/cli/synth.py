@@ -36,11 +36,11 @@ def synth(
 
     keep_inputs({"--report": report}, [spec_file, plant_from])
     problem = load_problem(spec_file, plant_from=plant_from)
-    if problem.spec.dual_drive is not None and (report is not None or schedule):
+    if problem.spec.dual_drive is not None and schedule:
         from plant.errors import ParameterError
 
-        raise ParameterError(f"{spec_file}: a [dual_drive] design has no {'--report' if report else '--schedule'} "
-                             "yet; its figures are in the text and in --json")
+        raise ParameterError(f"{spec_file}: a [dual_drive] design has no --schedule (one set of gains per "
+                             "structure over the carriage travel)")
     progress = StageProgress(enabled=not as_json and sys.stderr.isatty())
     try:
         outcome = design(problem, method=method, schedule=schedule, progress=progress)
@@ -51,7 +51,11 @@ def synth(
 
     out = design_to_dict(outcome)
     reportable = out["status"] in ("optimal", "mouse_cannot_drive")
-    if report is not None and reportable and not problem.spec.plant.measured:
+    if report is not None and reportable and outcome.dual is not None:
+        from design.views.dual_report import dual_report
+
+        dual_report(outcome, command="gantry " + shlex.join(sys.argv[1:])).write(report)
+    elif report is not None and reportable and not problem.spec.plant.measured:
         from design.views.report import design_report
         from design.workflows import report_content
 

@@ -232,3 +232,23 @@ def loop_figures(w_rad_s, plant_frd: np.ndarray, controller: Controller) -> Dual
     bandwidth = closed_loop_bandwidth_hz(w, common, dc_gain=1.0)
     return DualLoopFigures(unstable, np.minimum.reduce(gm), np.minimum.reduce(pm), alpha, disk_gm, disk_pm, bandwidth,
                            np.abs(half_difference).max(axis=-1))
+
+
+def translation_step(plant, controller: Controller, t_s: np.ndarray, *, pade_order: int = 6):
+    """Rail velocities (2, n) after a unit step of the translation command (m/s per m/s), by python-control on
+    one plant (``plant.physics.dual_drive.DualDriveStageY``; its delays as Pade approximants of
+    ``pade_order``); the yaw error is their difference."""
+    import control
+
+    from design.loop.loops import balanced, pi_tf
+
+    chain = control.tf([1.0], [1.0])
+    for e in plant.effects:
+        chain = chain * e.to_tf(pade_order=pade_order)
+    drive = control.ss(chain)
+    P = plant.state_space() * control.append(drive, drive)
+    channels = [control.ss(pi_tf(kp, ki)) for kp, ki in controller.channel_gains()]
+    core = channels[0] if len(channels) == 1 else control.append(*channels)
+    C = control.ss([], [], [], controller.t_in) * core * control.ss([], [], [], controller.t_out)
+    loop = balanced(control.feedback(P * C, np.eye(2)) * control.ss([], [], [], np.ones((2, 1))))
+    return control.forced_response(loop, t_s, np.ones_like(t_s)).outputs

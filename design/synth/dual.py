@@ -354,8 +354,9 @@ def design_dual(model: DualDriveStageY, *, positions_m, payloads_kg, stage_x_mas
     if progress is not None:
         progress(f"designing {', '.join(structures)}")
     scenarios.frd                                   # computed once, before the threads share it
+    tick = None if progress is None else (lambda: progress(f"designing {', '.join(structures)}"))
     designs = thread_map(lambda name: synthesise_structure(name, scenarios, requirements, kp_box=kp_box,
-                                                           ki_box=ki_box), structures)
+                                                           ki_box=ki_box, progress=tick), structures)
     if progress is not None:
         progress(f"Monte Carlo check ({len(check)} draws)")
     found = [d for d in designs if d.controller is not None]
@@ -365,3 +366,37 @@ def design_dual(model: DualDriveStageY, *, positions_m, payloads_kg, stage_x_mas
     best = recommend(designs)
     return DualDesign(tuple(designs), None if best is None else best.structure, requirements, len(scenarios),
                       len(check), time.perf_counter() - start)
+
+
+@dataclass(frozen=True)
+class DesignMap:
+    """A design over carriage position x payload, each the worst over the uncertainty corners: arrays
+    (n_positions, n_payloads)."""
+
+    carriage_position_m: np.ndarray
+    payload_kg: np.ndarray
+    bandwidth_hz: np.ndarray
+    phase_margin_deg: np.ndarray
+    gain_margin_db: np.ndarray
+    disk_margin: np.ndarray
+    #: every corner stable and within the requirements
+    holds: np.ndarray
+
+
+def design_map(controller: Controller, model: DualDriveStageY, positions_m, payloads_kg, stage_x_mass_kg: float,
+               ranges: Mapping[str, tuple[float, float]], req: DualRequirements) -> DesignMap:
+    """``DesignMap`` of ``controller`` (positions on threads)."""
+    positions, payloads = np.asarray(positions_m, float), np.asarray(payloads_kg, float)
+    corners = max(1, int(np.prod([2 for _ in ranges])))
+
+    def row(p: float):
+        s = dual_scenarios(model, [p], stage_x_mass_kg + payloads, ranges)
+        f = loop_figures(W_RAD_S, s.frd, controller)
+        shape = (payloads.size, corners)
+        bw = np.where(np.isfinite(f.bandwidth_hz), f.bandwidth_hz, 0.0).reshape(shape)
+        return (bw.min(axis=1), f.phase_margin_deg.reshape(shape).min(axis=1),
+                f.gain_margin_db.reshape(shape).min(axis=1), f.disk_margin.reshape(shape).min(axis=1),
+                _passes(f, req).reshape(shape).all(axis=1))
+
+    rows = thread_map(row, positions)
+    return DesignMap(positions, payloads, *(np.array([r[k] for r in rows]) for k in range(5)))

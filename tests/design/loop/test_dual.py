@@ -165,3 +165,13 @@ def test_bandwidth_and_yaw_coupling_are_the_closed_loops(rig, structure, gains):
     assert float(fig.bandwidth_hz) == pytest.approx(w3 / (2 * np.pi), rel=1e-4)
     assert float(fig.yaw_coupling) == pytest.approx(np.abs(reference_frd(half_difference, W)).max(), rel=1e-6,
                                                     abs=1e-9)
+
+
+@pytest.mark.parametrize(("rig", "structure", "gains"), [CASES[1], CASES[2], CASES[6]])
+def test_translation_step_is_the_reference_closed_loops_step(rig, structure, gains):
+    from design.loop.dual import translation_step
+
+    t = np.linspace(0.0, 0.2, 2001)
+    tool = translation_step(tool_plant(rig), STRUCTURES[structure](*gains), t)
+    reference = control.forced_response(closed_loop(rig, structure, gains), t, np.ones_like(t)).outputs
+    np.testing.assert_allclose(tool, reference, atol=1e-6 * max(1.0, np.abs(reference).max()))

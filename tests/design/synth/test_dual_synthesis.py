@@ -5,6 +5,7 @@ exhaustive one, and the bundled spec's designs hold on plants drawn at random an
 from __future__ import annotations
 
 import dataclasses
+import json
 import subprocess
 import sys
 from pathlib import Path
@@ -111,11 +112,25 @@ def _gantry(*args: str) -> subprocess.CompletedProcess:
     return subprocess.run([sys.executable, "-m", "design", *args], capture_output=True, text=True, timeout=600)
 
 
-def test_the_command_refuses_a_report_for_a_two_motor_design_in_one_line(tmp_path):
-    r = _gantry("synth", str(SPEC), "--report", str(tmp_path / "r.html"))
+def test_the_report_shows_each_structure_over_the_travel_and_its_step(tmp_path):
+    out = tmp_path / "dual.html"
+    r = _gantry("synth", str(SPEC), "--json", "--report", str(out))
+    assert r.returncode == 0, r.stderr
+    result = json.loads(r.stdout)
+    text = out.read_text()
+    assert text.count("<svg") == 2 * len(result["structures"])
+    assert f"{result['recommended']} (recommended)" in text
+    for row in result["structures"]:
+        # the map spans the design's travel and payload ends, where the worst case lies
+        assert f"{row['structure']}: each point the worst over the uncertainty corners; lowest bandwidth " \
+               f"{row['design_plants']['bandwidth_hz']:.3g} Hz" in text
+    assert [p.name for p in tmp_path.iterdir()] == ["dual.html"]
+
+
+def test_a_schedule_of_a_two_motor_design_is_refused_in_one_line():
+    r = _gantry("synth", str(SPEC), "--schedule")
     assert r.returncode == 2
-    assert r.stderr.strip().count("\n") == 0 and "--report" in r.stderr and "[dual_drive]" in r.stderr
-    assert not (tmp_path / "r.html").exists()
+    assert r.stderr.strip().count("\n") == 0 and "--schedule" in r.stderr and "[dual_drive]" in r.stderr
 
 
 def test_a_dual_drive_section_on_stage_x_is_refused_naming_the_key(tmp_path):

@@ -1,0 +1,120 @@
+"""The HTML report of a two-motor Stage Y design (``[dual_drive]``): the structures side by side, each one's
+bandwidth and margins over carriage position x payload (worst over the uncertainty corners), and the
+yaw error a translation step leaves (python-control, the delays as Pade approximants)."""
+
+from __future__ import annotations
+
+import numpy as np
+from matplotlib.figure import Figure
+
+from design.loop.dual import translation_step
+from design.results import DesignOutcome
+from design.synth.dual import DesignMap, DualRequirements, design_map
+from design.views.html import Report, table
+from design.views.plots import fixed_margins
+
+#: the map's grid: carriage positions and payloads
+MAP_POSITIONS, MAP_PAYLOADS = 17, 11
+#: the step response: duration (s), samples
+STEP_S, STEP_SAMPLES = 0.25, 2501
+
+
+def _map_figure(name: str, m: DesignMap, req: DualRequirements) -> Figure:
+    fig = Figure(figsize=(10, 3.6))
+    axes = fig.subplots(1, 2)
+    fixed_margins(fig, wspace=0.35, right_in=0.9)
+    for ax, values, title, unit, limit in ((axes[0], m.bandwidth_hz, "translation bandwidth", "Hz", None),
+                                           (axes[1], m.phase_margin_deg, "phase margin (worst channel)", "deg",
+                                            req.phase_margin_deg)):
+        shown = np.where(np.isfinite(values), values, np.nan)
+        mesh = ax.pcolormesh(m.payload_kg, m.carriage_position_m, shown, shading="nearest", cmap="viridis")
+        fig.colorbar(mesh, ax=ax, label=unit)
+        if limit is not None and np.nanmin(shown) < limit < np.nanmax(shown):
+            ax.contour(m.payload_kg, m.carriage_position_m, shown, levels=[limit], colors="w", linewidths=1)
+        i, j = np.unravel_index(int(np.nanargmin(shown)), shown.shape)
+        ax.plot(m.payload_kg[j], m.carriage_position_m[i], "rx", ms=10, mew=2)
+        ax.set_xlabel("payload (kg)")
+        ax.set_ylabel("carriage position from rail Y1 (m)")
+        ax.set_title(f"{name}: {title} (x: worst, {shown[i, j]:.3g} {unit})", fontsize=10)
+    return fig
+
+
+def _step_figure(name: str, steps: list[tuple[float, np.ndarray]], t: np.ndarray) -> Figure:
+    fig = Figure(figsize=(10, 3.6))
+    axes = fig.subplots(1, 2)
+    fixed_margins(fig, wspace=0.3)
+    for position, y in steps:
+        line, = axes[0].plot(t * 1e3, y[0], label=f"Y1, carriage at {position:.2f} m")
+        axes[0].plot(t * 1e3, y[1], "--", color=line.get_color(), label=f"Y2, carriage at {position:.2f} m")
+        dt = t[1] - t[0]
+        gap = np.concatenate([[0.0], np.cumsum((y[1, 1:] - y[0, 1:] + y[1, :-1] - y[0, :-1]) / 2) * dt])
+        axes[1].plot(t * 1e3, gap * 1e3, color=line.get_color(), label=f"carriage at {position:.2f} m")
+    axes[0].set_ylabel("rail velocity per command (m/s per m/s)")
+    axes[1].set_ylabel("y2 - y1 per command (mm per m/s)")
+    for ax in axes:
+        ax.set_xlabel("time (ms)")
+        ax.grid(True, alpha=0.3)
+        ax.legend(fontsize=7)
+    axes[0].set_title(f"{name}: translation step", fontsize=10)
+    axes[1].set_title("yaw error: the rails' position difference", fontsize=10)
+    return fig
+
+
+def dual_report(outcome: DesignOutcome, *, command: str = "") -> Report:
+    """The report of ``outcome`` (a ``[dual_drive]`` design)."""
+    problem, dual = outcome.problem, outcome.dual
+    spec = problem.spec
+    d, payload = spec.dual_drive, spec.plant.payload_kg
+    ranges = {k: (v.min, v.max) for k, v in d.uncertainty.items()}
+    model = spec.dual_model()
+    rep = Report(f"{spec.name}: two-motor Stage Y design")
+    rep.text(f"{dual.status}: {dual.message}", cls="summary")
+    rows = []
+    for s in dual.structures:
+        if s.controller is None:
+            rows.append([s.structure, "no gains within the box hold the requirements", *[""] * 7])
+            continue
+        w, mc = s.design, s.monte_carlo
+        rows.append([s.structure + (" (recommended)" if s.structure == dual.recommended else ""),
+                     ", ".join(f"{k} {v:.4g}" for k, v in s.controller.gains().items()),
+                     f"{w.bandwidth_hz:.2f}", f"{w.phase_margin_deg:.2f}", f"{w.gain_margin_db:.2f}",
+                     f"{w.disk_margin:.3f} (±{w.disk_gain_margin_db:.2f} dB, ±{w.disk_phase_margin_deg:.1f} deg)",
+                     f"{w.yaw_coupling:.3g}", w.worst_bandwidth_at,
+                     "not run" if mc is None else f"{mc.n_failing} of {mc.n_plants} fail"])
+    rep.heading("Structures on the same plants")
+    rep.text(f"Worst case over {dual.n_design_plants} design plants (carriage positions x payloads x corners of "
+             f"the uncertainty box); Monte Carlo: {dual.n_monte_carlo} draws (seed {spec.verification.seed}). "
+             f"Requirements: every channel PM >= {dual.requirements.phase_margin_deg:g} deg and GM >= "
+             f"{dual.requirements.gain_margin_db:g} dB with the other channel closed"
+             + (f", simultaneous disk margin >= {dual.requirements.disk_margin:g}" if dual.requirements.disk_margin
+                else "; the simultaneous disk margin at both motors is reported, not required") + ".")
+    rep.raw(table(["structure", "gains (A/(m/s), A/m)", "bandwidth Hz", "PM deg", "GM dB", "disk margin",
+                   "yaw coupling", "lowest bandwidth at", "Monte Carlo"], rows, left=2))
+    positions = np.linspace(d.carriage_position_m.min, d.carriage_position_m.max, MAP_POSITIONS)
+    payloads = np.linspace(payload.min, payload.max, MAP_PAYLOADS)
+    rep.heading("Over the carriage travel")
+    t = np.linspace(0.0, STEP_S, STEP_SAMPLES)
+    for s in dual.structures:
+        if s.controller is None:
+            continue
+        m = design_map(s.controller, model, positions, payloads, d.stage_x_mass_kg, ranges, dual.requirements)
+        i, j = np.unravel_index(int(np.argmin(m.bandwidth_hz)), m.bandwidth_hz.shape)
+        rep.figure(_map_figure(s.structure, m, dual.requirements),
+                   f"{s.structure}: each point the worst over the uncertainty corners; lowest bandwidth "
+                   f"{m.bandwidth_hz[i, j]:.3g} Hz with the carriage at {positions[i]:.3g} m and {payloads[j]:.3g} kg"
+                   + ("" if m.holds.all() else f"; requirements missed at {int((~m.holds).sum())} of {m.holds.size} "
+                      "map points (between the design points)"))
+        heavy = model.with_values(carriage_mass_kg=d.stage_x_mass_kg + payload.max)
+        places = (d.carriage_position_m.min, (d.carriage_position_m.min + d.carriage_position_m.max) / 2,
+                  d.carriage_position_m.max)
+        steps = [(p, translation_step(heavy.with_values(carriage_position_m=p), s.controller, t)) for p in places]
+        gap = max(float(np.max(np.abs(np.cumsum(y[1] - y[0]) * (t[1] - t[0])))) for _, y in steps)
+        rep.figure(_step_figure(s.structure, steps, t),
+                   f"{s.structure}: a 1 m/s step of the translation command at {payload.max:g} kg and nominal "
+                   f"parameters (python-control, delays as Pade approximants of order 6); largest rail position "
+                   f"difference {gap * 1e3:.3g} mm per m/s")
+    rep.heading("Reproduce")
+    if command:
+        rep.pre(command)
+    rep.pre(problem.spec_path.read_text(encoding="utf-8"))
+    return rep

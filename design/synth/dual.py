@@ -5,8 +5,9 @@ The plants are every carriage position x payload x corner of the uncertainty box
 a structure's gains must keep every one stable with its channels' loop-at-a-time margins (and, when
 asked, the simultaneous disk margin at the motor inputs), and among those the gains with the highest
 worst-case translation bandwidth are chosen. The search is a scan: a log grid over the gain box, then a
-finer grids around the best point, screened on the plants that bound earlier candidates (exact: a candidate
-is dropped only when those plants alone rule it out). Two gains are scanned at a time: kp and ki of the
+finer grids around the best point, each scored by lazy cutting planes on the plants that bound earlier
+candidates (``_score``; exact: a candidate is dropped only when those plants alone rule it out). Two gains
+are scanned at a time: kp and ki of the
 structure's channel; the common/differential pair first scans both channels with equal gains (the
 per-motor design), then its differential channel for the least yaw coupling (rail disagreement per
 translation command) with the common one held, then the common channel again for bandwidth with the
@@ -189,37 +190,48 @@ class _Objective:
 
 def _score(make: Callable[[np.ndarray, np.ndarray], Controller], kp: np.ndarray, ki: np.ndarray,
            scenarios: DualScenarios, req: DualRequirements, objective: _Objective, active: set[int],
-           best: float) -> np.ndarray:
-    """The objective of each candidate (kp, ki) (flat arrays) over every plant, -inf where one fails.
+           best: float, want: int = 1) -> np.ndarray:
+    """The objective over every plant of the ``want`` best candidates (kp, ki) (flat arrays) that beat ``best``;
+    -inf for the others.
 
-    Candidates are screened on the ``active`` plants first (those that bound or failed earlier candidates):
-    the screen's score is an upper bound of the true one, so a candidate that fails there, or does not
-    beat ``best``, is out; the rest are evaluated on every plant and their binding plants join ``active``.
-    The result is the exhaustive scan's."""
-    out = np.full(kp.size, -np.inf)
-    idx = np.array(sorted(active), dtype=int)
-    for i in range(0, kp.size, CHUNK):
-        c = make(kp[i:i + CHUNK, None], ki[i:i + CHUNK, None])
-        screen = objective.score(loop_figures(W_RAD_S, scenarios.frd[idx], c), req) if idx.size else \
-            np.full(min(CHUNK, kp.size - i), np.inf)
-        for j in np.flatnonzero(screen > best):
-            one = make(kp[i + j], ki[i + j])
-            f = loop_figures(W_RAD_S, scenarios.frd, one)
-            s = float(objective.score(f, req))
-            out[i + j] = s
-            failing = ~(_passes(f, req) & (f.yaw_coupling <= objective.max_yaw_coupling))
-            bound = np.flatnonzero(failing)[:4].tolist() or [
-                int(np.argmax(f.yaw_coupling)) if objective.yaw else int(np.nanargmin(f.bandwidth_hz))]
-            active.update(bound)
-            idx = np.array(sorted(active), dtype=int)
-            best = max(best, s)
-    return out
+    Lazy cutting planes: every candidate is scored on the ``active`` plants (those that bound or failed
+    earlier candidates), an upper bound of its true score; the candidate of the highest bound is evaluated
+    on every plant, its binding or failing plants join ``active`` and the others' bounds are tightened on
+    them, until no bound beats the ``want``-th best true score. The result is the exhaustive scan's."""
+    n = kp.size
+    out = np.full(n, -np.inf)
+    bound = np.full(n, np.inf)
+    done = np.zeros(n, dtype=bool)
+    new = sorted(active)
+    threshold = best
+    while True:
+        if new:
+            live = np.flatnonzero(~done & (bound > threshold))
+            frd = scenarios.frd[np.array(new)]
+            for i in range(0, live.size, CHUNK):
+                k = live[i:i + CHUNK]
+                s = objective.score(loop_figures(W_RAD_S, frd, make(kp[k, None], ki[k, None])), req)
+                bound[k] = np.minimum(bound[k], s)
+        found = np.sort(out[np.isfinite(out)])
+        threshold = max(best, found[-want]) if found.size >= want else best
+        live = np.flatnonzero(~done & (bound > threshold))
+        if not live.size:
+            return out
+        k = int(live[np.argmax(bound[live])])
+        f = loop_figures(W_RAD_S, scenarios.frd, make(kp[k], ki[k]))
+        out[k] = float(objective.score(f, req))
+        done[k] = True
+        failing = ~(_passes(f, req) & (f.yaw_coupling <= objective.max_yaw_coupling))
+        binding = np.flatnonzero(failing)[:4].tolist() or [
+            int(np.argmax(f.yaw_coupling)) if objective.yaw else int(np.nanargmin(f.bandwidth_hz))]
+        new = [p for p in binding if p not in active]
+        active.update(new)
 
 
-def _grid(make, scenarios, req, objective, active, best, a: np.ndarray, b: np.ndarray):
-    """Scores of the log10 grid a x b, as (scores, kp, ki) flat."""
+def _grid(make, scenarios, req, objective, active, best, a: np.ndarray, b: np.ndarray, want: int = 1):
+    """Scores of the log10 grid a x b (``_score``), as (scores, kp, ki) flat."""
     A, B = np.meshgrid(10**a, 10**b, indexing="ij")
-    return _score(make, A.ravel(), B.ravel(), scenarios, req, objective, active, best), A.ravel(), B.ravel()
+    return _score(make, A.ravel(), B.ravel(), scenarios, req, objective, active, best, want), A.ravel(), B.ravel()
 
 
 def _scan(make, scenarios, req, kp_box, ki_box, objective: _Objective = _Objective(),
@@ -229,7 +241,7 @@ def _scan(make, scenarios, req, kp_box, ki_box, objective: _Objective = _Objecti
     lk, li = np.log10(kp_box), np.log10(ki_box)
     active: set[int] = set()
     a, b = np.linspace(*lk, COARSE), np.linspace(*li, COARSE)
-    s, kp, ki = _grid(make, scenarios, req, objective, active, -np.inf, a, b)
+    s, kp, ki = _grid(make, scenarios, req, objective, active, -np.inf, a, b, want=STARTS)
     if progress is not None:
         progress()
     order = [k for k in np.argsort(-s) if np.isfinite(s[k])][:STARTS]

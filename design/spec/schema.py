@@ -59,7 +59,7 @@ from design.problem import (
     VerificationPlan,
     with_filters,
 )
-from design.spec.dual_drive import DualDriveSpec
+from design.spec.dual_drive import DualDriveSpec, ParameterRange
 from plant.errors import GantryError, SpecError
 from plant.host.text_io import read_text
 from plant.physics.drive_filters import KINDS
@@ -148,17 +148,11 @@ class PlantSpec(_Strict):
                 "load_position_m": self.load_position_m}
 
 
-class FilterRange(_Strict):
+class FilterRange(ParameterRange):
     """A filter parameter the synthesis chooses, between ``min`` and ``max``."""
 
     min: float = Field(ge=0)
     max: float = Field(ge=0)
-
-    @model_validator(mode="after")
-    def _ordered(self):
-        if self.max < self.min:
-            raise ValueError(f"max ({self.max}) must be >= min ({self.min})")
-        return self
 
 
 class FilterSpec(_Strict):

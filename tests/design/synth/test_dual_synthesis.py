@@ -101,10 +101,11 @@ def test_each_design_holds_on_independently_built_plants_drawn_at_random(bundled
 
 @pytest.mark.slow
 @pytest.mark.parametrize("which", [0, 1, 2])
-def test_each_design_is_stable_on_2000_independent_draws(bundled, which):
+def test_each_design_is_stable_on_10000_independent_draws(bundled, which):
+    """The command's Monte Carlo size, on plants built independently (python-control closed-loop poles)."""
     spec, result = bundled
     d = result.structures[which]
-    bad = [rig for rig in _draws(spec, 2000, seed=200 + which) if unstable_poles(rig, d.structure, _gains(d))]
+    bad = [rig for rig in _draws(spec, 10000, seed=200 + which) if unstable_poles(rig, d.structure, _gains(d))]
     assert not bad, f"{len(bad)} unstable, e.g. {bad[0]}"
 
 

@@ -42,8 +42,8 @@ COARSE, FINE, REFINED_DECADES, STARTS, MAX_MOVES = 21, 7, 0.003, 3, 40
 YAW_SLACK = 1.25
 #: plants evaluated together when a design is judged (memory: MC_CHUNK x 2 x 2 x frequencies)
 MC_CHUNK = 500
-#: controllers evaluated together (memory: CHUNK x plants x 2 x 2 x frequencies complex values)
-CHUNK = 6
+#: controller x plant pairs screened together (memory: SCREEN_PLANTS x 2 x 2 x frequencies complex values)
+SCREEN_PLANTS = 256
 
 
 @dataclass(frozen=True)
@@ -208,8 +208,9 @@ def _score(make: Callable[[np.ndarray, np.ndarray], Controller], kp: np.ndarray,
         if new:
             live = np.flatnonzero(~done & (bound > threshold))
             frd = scenarios.frd[np.array(new)]
-            for i in range(0, live.size, CHUNK):
-                k = live[i:i + CHUNK]
+            chunk = max(1, SCREEN_PLANTS // len(new))
+            for i in range(0, live.size, chunk):
+                k = live[i:i + chunk]
                 s = objective.score(loop_figures(W_RAD_S, frd, make(kp[k, None], ki[k, None])), req)
                 bound[k] = np.minimum(bound[k], s)
         found = np.sort(out[np.isfinite(out)])

@@ -1,20 +1,19 @@
 """Robust gains for each loop structure of the two-motor Stage Y (``design.loop.dual``), and the structures
 compared on the same plants.
 
-The plants are every carriage position x payload x corner of the uncertainty box (``DualScenarios``);
-a structure's gains must keep every one stable with its channels' loop-at-a-time margins (and, when
-asked, the simultaneous disk margin at the motor inputs), and among those the gains with the highest
-worst-case translation bandwidth are chosen. The search is a scan: a log grid over the gain box, then a
-finer grids around the best point, each scored by lazy cutting planes on the plants that bound earlier
-candidates (``_score``; exact: a candidate is dropped only when those plants alone rule it out). Two gains
-are scanned at a time: kp and ki of the
-structure's channel; the common/differential pair first scans both channels with equal gains (the
-per-motor design), then its differential channel for the least yaw coupling (rail disagreement per
-translation command) with the common one held, then the common channel again for bandwidth with the
-yaw coupling held within ``YAW_SLACK`` of what the differential step reached; the last step is kept when
-its worst bandwidth is at least the first's, else the first (equal gains) stands. A design is then checked
-on Monte Carlo draws it was not chosen on (``monte_carlo_scenarios``: positions, payloads and parameters
-drawn uniformly in their ranges).
+The plants are every carriage position x payload x corner of the uncertainty box (``DualScenarios``); a
+structure's gains must keep every one stable with its channels' loop-at-a-time margins (and, when asked, the
+simultaneous disk margin at the motor inputs), and among those the gains with the highest worst-case
+translation bandwidth are chosen. The search is a scan: a log grid over the gain box, then finer grids
+around its best points, each grid scored by lazy cutting planes on the plants that bound earlier candidates
+(``_score``; exact: a candidate is dropped only when those plants alone rule it out). Two gains are scanned
+at a time, kp and ki of one channel; the common/differential pair first scans both channels with equal gains
+(the per-motor design), then its differential channel for the least yaw coupling (rail disagreement per
+translation command) with the common one held, then the common channel again for bandwidth with the yaw
+coupling held within ``YAW_SLACK`` of what the differential step reached; the last step is kept when its
+worst bandwidth is at least the first's, else the first (equal gains) stands. ``design_dual`` then checks
+every structure on Monte Carlo draws it was not chosen on (``monte_carlo_scenarios``: positions, payloads
+and parameters drawn uniformly in their ranges) and recommends one (``recommend``).
 """
 
 from __future__ import annotations
@@ -30,7 +29,6 @@ from design.loop.dual import CommonDifferential, Controller, DualLoopFigures, Ma
 from design.parallel import thread_map
 from plant.errors import SpecError
 from plant.physics.dual_drive import DualDriveStageY
-from plant.physics.effects import make_effect
 
 #: frequency grid of the evaluation (rad/s): from where the integrators dominate to beyond the drives
 W_RAD_S = 2 * np.pi * np.logspace(-2, 3.3, 500)
@@ -317,11 +315,6 @@ def recommend(designs: list[StructureDesign]) -> StructureDesign | None:
     ok = [d for d in designs if d.controller is not None and d.design.feasible
           and (d.monte_carlo is None or d.monte_carlo.feasible)]
     return max(ok, key=lambda d: d.design.bandwidth_hz) if ok else None
-
-
-def default_drive_effects(delay_s: float = 5e-4, current_loop_hz: float = 1000.0):
-    """The drive chain of the bundled Stage Y specs: a delay and a first-order current loop."""
-    return (make_effect("delay", seconds=delay_s), make_effect("current_loop", bandwidth_hz=current_loop_hz))
 
 
 @dataclass(frozen=True)

@@ -267,9 +267,16 @@ class Spec(_Strict):
 
     def dual_model(self):
         """The two-motor model of ``[dual_drive]`` with the plant's rail damping, force constant and drive
-        effects (``design.spec.dual_drive``)."""
+        effects (``design.spec.dual_drive``), and the drive's filters (``[[controller.filters]]``, kept as they
+        are: a filter after every channel's PI is, every channel alike, one in series with each motor)."""
         p = self.plant
         effects = tuple(make_effect(name, **params) for name, params in p.effects.items())
+        for k, f in enumerate(self.controller.filters):
+            spec = f.drive_filter()
+            if spec.designed:
+                raise ValueError(f"controller.filters.{k}: a two-motor design keeps the drive's filters as they "
+                                 "are; give numbers, not ranges")
+            effects += (KINDS[spec.kind](**spec.fixed),)
         return self.dual_drive.model(rail_separation_m=p.motor_length_m, damping_n_s_per_m=p.damping_n_s_per_m,
                                      force_constant_n_per_a=p.force_constant_n_per_a, effects=effects)
 

@@ -37,6 +37,8 @@ class Rig:
     yaw_stiffness: float = 2.0e5
     delay_s: float = 0.0
     current_loop_hz: float | None = None
+    #: a Butterworth low-pass after each channel's PI (the same on every channel: in series with each motor)
+    low_pass_hz: float | None = None
 
 
 def mechanics(rig: Rig) -> control.StateSpace:
@@ -59,13 +61,16 @@ def mechanics(rig: Rig) -> control.StateSpace:
 
 
 def drive(rig: Rig, pade_order: int = 8) -> control.TransferFunction:
-    """One motor's current command -> current: the delay (Pade) and the current loop."""
+    """One motor's current command -> current: the delay (Pade), the current loop and the drive's filter."""
     g = control.tf([1.0], [1.0])
     if rig.delay_s > 0:
         g = g * control.tf(*control.pade(rig.delay_s, pade_order))
     if rig.current_loop_hz is not None:
         wc = 2 * np.pi * rig.current_loop_hz
         g = g * control.tf([wc], [1.0, wc])
+    if rig.low_pass_hz is not None:
+        wf = 2 * np.pi * rig.low_pass_hz
+        g = g * control.tf([wf**2], [1.0, np.sqrt(2) * wf, wf**2])
     return g
 
 

@@ -15,6 +15,7 @@ from independent_dual_drive import Rig, channel_loop, closed_loop, input_loop, m
 from scipy.optimize import brentq
 
 from design.loop.dual import CommonDifferential, MasterSlave, PerMotor, loop_figures
+from plant.physics.drive_filters import LowPassFilter
 from plant.physics.dual_drive import DualDriveStageY
 from plant.physics.effects import make_effect
 
@@ -32,6 +33,8 @@ def tool_plant(rig: Rig) -> DualDriveStageY:
         effects += (make_effect("delay", seconds=rig.delay_s),)
     if rig.current_loop_hz is not None:
         effects += (make_effect("current_loop", bandwidth_hz=rig.current_loop_hz),)
+    if rig.low_pass_hz is not None:
+        effects += (LowPassFilter(frequency_hz=rig.low_pass_hz),)
     return DualDriveStageY(beam_mass_kg=rig.beam_mass_kg, beam_inertia_kg_m2=rig.beam_inertia_kg_m2,
                            carriage_mass_kg=rig.carriage_mass_kg, carriage_inertia_kg_m2=rig.carriage_inertia_kg_m2,
                            rail_separation_m=rig.rail_separation_m, carriage_position_m=rig.carriage_position_m,
@@ -175,3 +178,25 @@ def test_translation_step_is_the_reference_closed_loops_step(rig, structure, gai
     tool = translation_step(tool_plant(rig), STRUCTURES[structure](*gains), t)
     reference = control.forced_response(closed_loop(rig, structure, gains), t, np.ones_like(t)).outputs
     np.testing.assert_allclose(tool, reference, atol=1e-6 * max(1.0, np.abs(reference).max()))
+
+
+FILTERED = [(Rig(carriage_position_m=0.15, current_loop_hz=1000.0, low_pass_hz=150.0), "per_motor", (100.0, 5000.0)),
+            (Rig(carriage_position_m=0.65, current_loop_hz=1000.0, low_pass_hz=80.0), "common_differential",
+             (200.0, 10000.0, 100.0, 10.0)),
+            (Rig(carriage_position_m=0.4, current_loop_hz=1000.0, low_pass_hz=40.0), "per_motor", (900.0, 40000.0))]
+
+
+@pytest.mark.parametrize(("rig", "structure", "gains"), FILTERED)
+def test_a_drive_filter_after_every_channel_is_one_before_each_motor(rig, structure, gains):
+    """The tool puts a kept drive filter in series with each motor (``Spec.dual_model``); the reference after
+    each channel's PI: the same loop, its stability, margins and bandwidth."""
+    fig = loop_figures(W, tool_plant(rig).frd(W), STRUCTURES[structure](*gains))
+    assert int(fig.unstable_poles) == unstable_poles(rig, structure, gains)
+    if int(fig.unstable_poles) == 0:       # the first two cases (the third: four right-half-plane poles)
+        pms = [control.stability_margins(control.frd(channel_loop(rig, structure, gains, j), W))[1] for j in range(2)]
+        np.testing.assert_allclose(float(fig.phase_margin_deg), min(pms), atol=0.1)
+        T = closed_loop(rig, structure, gains)
+        mean = 0.5 * (T[0, 0] + T[1, 0])
+        k = int(np.argmax(np.abs(reference_frd(mean, W)) < 2**-0.5))
+        w3 = brentq(lambda w: abs(mean(1j * w)) - 2**-0.5, W[k - 1], W[k], xtol=1e-10)
+        assert float(fig.bandwidth_hz) == pytest.approx(w3 / (2 * np.pi), rel=1e-4)

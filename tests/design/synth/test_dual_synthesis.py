@@ -167,3 +167,17 @@ def test_a_bad_uncertainty_range_is_refused_naming_its_key(uncertainty, says):
     with pytest.raises(SpecError, match=None) as err:
         parse_spec(data, source="s.toml")
     assert str(err.value).startswith("s.toml: ") and says in str(err.value)
+
+
+def test_a_filter_the_synthesis_would_choose_is_refused_and_a_kept_one_joins_each_motor():
+    from design.spec.schema import parse_spec
+    from plant.errors import SpecError
+
+    data = {"plant": {"stage": "y"},
+            "dual_drive": {"beam_mass_kg": 16.0, "stage_x_mass_kg": 16.0, "yaw_stiffness_n_m_per_rad": 2e5,
+                           "carriage_position_m": {"min": 0.1, "max": 0.7}}}
+    kept = parse_spec({**data, "controller": {"filters": [{"kind": "notch", "frequency_hz": 77.0}]}})
+    (notch,) = kept.dual_model().effects
+    assert (notch.name, notch.frequency_hz, notch.damping_ratio, notch.depth) == ("notch_filter", 77.0, 0.3, 0.1)
+    with pytest.raises(SpecError, match=r"controller\.filters\.0: a two-motor design keeps the drive's filters"):
+        parse_spec({**data, "controller": {"filters": [{"kind": "notch", "frequency_hz": {"min": 50, "max": 90}}]}})

@@ -115,29 +115,36 @@ def print_time_diagnosis(console: Console, diag: TimeDiagnosis) -> None:
 
 
 def print_dual_design(console: Console, out: dict) -> None:
-    """The two-motor Stage Y's structures side by side: gains, worst case on the design plants, Monte Carlo."""
+    """The two-motor Stage Y's structures side by side: worst case on the design plants and the Monte Carlo, then
+    each one's gains and where it is worst."""
     t = Table(title=f"Structures on {out['design_plants']} design plants (carriage positions x payloads x "
                     f"uncertainty corners); Monte Carlo: {out['monte_carlo_draws']} draws")
-    for col in ("structure", "gains", "bandwidth Hz", "PM deg", "GM dB", "disk margin", "yaw coupling",
-                "Monte Carlo"):
-        t.add_column(col, justify="left" if col in ("structure", "gains") else "right")
+    for col in ("structure", "bandwidth Hz", "PM deg", "GM dB", "disk", "yaw", "MC fail"):
+        t.add_column(col, justify="left" if col == "structure" else "right", no_wrap=col == "structure")
     for row in out["structures"]:
         d, mc = row["design_plants"], row["monte_carlo"]
+        mark = " *" if row["structure"] == out["recommended"] else ""
         if d is None:
-            t.add_row(row["structure"], "no gains hold the requirements", *[""] * 6)
+            t.add_row(row["structure"], "none", *[""] * 5)
             continue
-        gains = ", ".join(f"{k} {v:.4g}" for k, v in row["gains"].items())
-        check = "not run" if mc is None else (f"{mc['n_failing']} of {mc['n_plants']} fail" if mc["n_failing"]
-                                              else f"all {mc['n_plants']} hold")
-        mark = " (recommended)" if row["structure"] == out["recommended"] else ""
-        t.add_row(row["structure"] + mark, gains, _val(d["bandwidth_hz"]), _val(d["phase_margin_deg"]),
-                  _num(d["gain_margin_db"]), f"{d['disk_margin']:.3g} ({_num(d['disk_gain_margin_db'])} dB, "
-                  f"{_val(d['disk_phase_margin_deg'])} deg)", f"{d['yaw_coupling']:.3g}", check)
+        t.add_row(row["structure"] + mark, _val(d["bandwidth_hz"]), _val(d["phase_margin_deg"]),
+                  _num(d["gain_margin_db"]), f"{d['disk_margin']:.3g}", f"{d['yaw_coupling']:.3g}",
+                  "not run" if mc is None else f"{mc['n_failing']}/{mc['n_plants']}")
     console.print(t)
+    console.print("disk: simultaneous disk margin at both motors; yaw: peak rail disagreement per translation "
+                  "command; MC: Monte Carlo" + (f"; * recommended: {out['recommended']}" if out["recommended"] else ""),
+                  soft_wrap=True)
     for row in out["structures"]:
-        if row["design_plants"] is not None:
-            console.print(f"  {row['structure']}: lowest bandwidth at {row['design_plants']['worst_bandwidth_at']}; "
-                          f"smallest PM at {row['design_plants']['worst_phase_margin_at']}", soft_wrap=True)
+        d = row["design_plants"]
+        if d is None:
+            console.print(f"[bold]{row['structure']}[/]: no gains within the [controller] box hold the requirements",
+                          soft_wrap=True)
+            continue
+        gains = ", ".join(f"{k} = {v:.4g}" for k, v in row["gains"].items())
+        console.print(f"[bold]{row['structure']}[/]: {gains}; disk margin {d['disk_margin']:.3g} (+-"
+                      f"{_num(d['disk_gain_margin_db'])} dB, +-{_val(d['disk_phase_margin_deg'])} deg); lowest "
+                      f"bandwidth at {d['worst_bandwidth_at']}; smallest PM at {d['worst_phase_margin_at']}",
+                      soft_wrap=True)
 
 
 def print_synthesis(console: Console, out: dict) -> None:

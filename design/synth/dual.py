@@ -277,6 +277,8 @@ class StructureDesign:
     controller: Controller | None
     design: Worst | None
     monte_carlo: Worst | None
+    #: gains within 0.01 decade of the box's bound (the box, not the plants, limits them)
+    at_bound: tuple[str, ...] = ()
 
 
 def synthesise_structure(structure: str, scenarios: DualScenarios, req: DualRequirements, *,
@@ -306,7 +308,10 @@ def synthesise_structure(structure: str, scenarios: DualScenarios, req: DualRequ
         raise SpecError(f"unknown structure {structure!r}; known: per_motor, common_differential, master_slave")
     if ctrl is None:
         return StructureDesign(structure, None, None, None)
-    return StructureDesign(structure, ctrl, worst_cases([ctrl], scenarios, req)[0], None)
+    boxes = {"kp": kp_box, "ki": ki_box}
+    at_bound = tuple(name for name, value in ctrl.gains().items()
+                     if min(abs(np.log10(value) - np.log10(end)) for end in boxes[name[:2]]) < 0.01)
+    return StructureDesign(structure, ctrl, worst_cases([ctrl], scenarios, req)[0], None, at_bound)
 
 
 def recommend(designs: list[StructureDesign]) -> StructureDesign | None:

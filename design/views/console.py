@@ -137,10 +137,11 @@ def print_dual_design(console: Console, out: dict) -> None:
     for row in out["structures"]:
         d = row["design_plants"]
         if d is None:
-            console.print(f"[bold]{row['structure']}[/]: no gains within the [controller] box hold the requirements",
+            console.print(f"[bold]{row['structure']}[/]: no gains within the \\[controller] box hold the requirements",
                           soft_wrap=True)
             continue
-        gains = ", ".join(f"{k} = {v:.4g}" for k, v in row["gains"].items())
+        gains = ", ".join(f"{k} = {v:.4g}" + (" (at the \\[controller] bound)" if k in row["at_bound"] else "")
+                          for k, v in row["gains"].items())
         console.print(f"[bold]{row['structure']}[/]: {gains}; disk margin {d['disk_margin']:.3g} (+-"
                       f"{_num(d['disk_gain_margin_db'])} dB, +-{_val(d['disk_phase_margin_deg'])} deg); lowest "
                       f"bandwidth at {d['worst_bandwidth_at']}; smallest PM at {d['worst_phase_margin_at']}",

@@ -114,8 +114,12 @@ def _gantry(*args: str) -> subprocess.CompletedProcess:
 
 
 def test_the_report_shows_each_structure_over_the_travel_and_its_step(tmp_path):
+    """On the bundled spec made small (2 positions, 2 payloads, 200 draws): the report's figures and numbers."""
+    spec = tmp_path / "small.toml"
+    spec.write_text(SPEC.read_text().replace("points = 5 }", "points = 2 }").replace("points = 3 }", "points = 2 }")
+                    .replace("monte_carlo_samples = 10000", "monte_carlo_samples = 200"))
     out = tmp_path / "dual.html"
-    r = _gantry("synth", str(SPEC), "--json", "--report", str(out))
+    r = _gantry("synth", str(spec), "--json", "--report", str(out))
     assert r.returncode == 0, r.stderr
     result = json.loads(r.stdout)
     text = out.read_text()
@@ -125,7 +129,7 @@ def test_the_report_shows_each_structure_over_the_travel_and_its_step(tmp_path):
         # the map spans the design's travel and payload ends, where the worst case lies
         assert f"{row['structure']}: each point the worst over the uncertainty corners; lowest bandwidth " \
                f"{row['design_plants']['bandwidth_hz']:.3g} Hz" in text
-    assert [p.name for p in tmp_path.iterdir()] == ["dual.html"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["dual.html", "small.toml"]
 
 
 def test_a_schedule_of_a_two_motor_design_is_refused_in_one_line():
@@ -181,3 +185,13 @@ def test_a_filter_the_synthesis_would_choose_is_refused_and_a_kept_one_joins_eac
     assert (notch.name, notch.frequency_hz, notch.damping_ratio, notch.depth) == ("notch_filter", 77.0, 0.3, 0.1)
     with pytest.raises(SpecError, match=r"controller\.filters\.0: a two-motor design keeps the drive's filters"):
         parse_spec({**data, "controller": {"filters": [{"kind": "notch", "frequency_hz": {"min": 50, "max": 90}}]}})
+
+
+def test_a_gain_the_box_stops_is_named():
+    """A kp box whose top (30 A/(m/s)) lies below the bundled per-motor design's kp (about 125): the design
+    stops there and says so."""
+    problem = load_problem(SPEC)
+    scenarios = dual.dual_scenarios(problem.spec.dual_model(), [0.1, 0.7], [21.0, 56.0], {})
+    d = dual.synthesise_structure("per_motor", scenarios, dual.DualRequirements(), kp_box=(1.0, 30.0))
+    assert d.controller.kp == pytest.approx(30.0)
+    assert d.at_bound == ("kp",)

@@ -81,7 +81,6 @@ class DualScenarios:
                 + (f", {extra}" if extra else ""))
 
 
-#: uncertain parameters: a field of ``DualDriveStageY`` or ``effect.parameter`` of its drive effects
 def _plants(base: DualDriveStageY, positions: np.ndarray, masses: np.ndarray,
             values: Mapping[str, np.ndarray]) -> DualDriveStageY:
     """``base`` with per-plant positions, masses and values (arrays of one length n) as one batch."""
@@ -148,6 +147,11 @@ def _passes(f: DualLoopFigures, req: DualRequirements) -> np.ndarray:
             & np.isfinite(f.bandwidth_hz))
 
 
+def _bandwidth(f: DualLoopFigures) -> np.ndarray:
+    """The translation bandwidth (Hz), 0 where it is not defined on the grid."""
+    return np.where(np.isfinite(f.bandwidth_hz), f.bandwidth_hz, 0.0)
+
+
 def worst_cases(controllers: list[Controller], scenarios: DualScenarios, req: DualRequirements) -> list[Worst]:
     """``Worst`` of each controller on every plant of ``scenarios`` (plants computed once, in chunks)."""
     def chunk(i: int) -> list[DualLoopFigures]:
@@ -160,7 +164,7 @@ def worst_cases(controllers: list[Controller], scenarios: DualScenarios, req: Du
         f = DualLoopFigures(*(np.concatenate([getattr(p, n) for p in parts])
                               for n in DualLoopFigures.__dataclass_fields__))
         ok = _passes(f, req)
-        bw = np.where(np.isfinite(f.bandwidth_hz), f.bandwidth_hz, 0.0)
+        bw = _bandwidth(f)
         kb, kp = int(np.argmin(bw)), int(np.argmin(f.phase_margin_deg))
         out.append(Worst(bool(ok.all()), int(ok.size), int((~ok).sum()), int((f.unstable_poles > 0).sum()),
                          float(bw.min()), float(f.phase_margin_deg.min()), float(f.gain_margin_db.min()),
@@ -178,12 +182,14 @@ class _Objective:
     yaw: bool = False
     max_yaw_coupling: float = np.inf
 
+    def passes(self, f: DualLoopFigures, req: DualRequirements) -> np.ndarray:
+        """Per plant: the requirements and the yaw-coupling bound hold."""
+        return _passes(f, req) & (f.yaw_coupling <= self.max_yaw_coupling)
+
     def score(self, f: DualLoopFigures, req: DualRequirements) -> np.ndarray:
         """Per controller (the last axis runs over the plants): the objective, -inf where a plant fails."""
-        ok = (_passes(f, req) & (f.yaw_coupling <= self.max_yaw_coupling)).all(axis=-1)
-        value = -f.yaw_coupling.max(axis=-1) if self.yaw else np.where(np.isfinite(f.bandwidth_hz),
-                                                                         f.bandwidth_hz, 0.0).min(axis=-1)
-        return np.where(ok, value, -np.inf)
+        value = -f.yaw_coupling.max(axis=-1) if self.yaw else _bandwidth(f).min(axis=-1)
+        return np.where(self.passes(f, req).all(axis=-1), value, -np.inf)
 
 
 def _score(make: Callable[[np.ndarray, np.ndarray], Controller], kp: np.ndarray, ki: np.ndarray,
@@ -220,7 +226,7 @@ def _score(make: Callable[[np.ndarray, np.ndarray], Controller], kp: np.ndarray,
         f = loop_figures(W_RAD_S, scenarios.frd, make(kp[k], ki[k]))
         out[k] = float(objective.score(f, req))
         done[k] = True
-        failing = ~(_passes(f, req) & (f.yaw_coupling <= objective.max_yaw_coupling))
+        failing = ~objective.passes(f, req)
         binding = np.flatnonzero(failing)[:4].tolist() or [
             int(np.argmax(f.yaw_coupling)) if objective.yaw else int(np.nanargmin(f.bandwidth_hz))]
         new = [p for p in binding if p not in active]
@@ -404,7 +410,7 @@ def design_map(controller: Controller, model: DualDriveStageY, positions_m, payl
         s = dual_scenarios(model, [p], stage_x_mass_kg + payloads, ranges)
         f = loop_figures(W_RAD_S, s.frd, controller)
         shape = (payloads.size, corners)
-        bw = np.where(np.isfinite(f.bandwidth_hz), f.bandwidth_hz, 0.0).reshape(shape)
+        bw = _bandwidth(f).reshape(shape)
         return (bw.min(axis=1), f.phase_margin_deg.reshape(shape).min(axis=1),
                 f.gain_margin_db.reshape(shape).min(axis=1), f.disk_margin.reshape(shape).min(axis=1),
                 _passes(f, req).reshape(shape).all(axis=1))

@@ -39,6 +39,12 @@ def _map_figure(name: str, m: DesignMap, req: DualRequirements) -> Figure:
     return fig
 
 
+def _rail_gap(y: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """y2 - y1 (m per m/s of command) over time: the rails' velocity difference integrated (trapezoids)."""
+    d = y[1] - y[0]
+    return np.concatenate([[0.0], np.cumsum((d[1:] + d[:-1]) / 2) * (t[1] - t[0])])
+
+
 def _step_figure(name: str, steps: list[tuple[float, np.ndarray]], t: np.ndarray) -> Figure:
     fig = Figure(figsize=(10, 3.6))
     axes = fig.subplots(1, 2)
@@ -46,9 +52,7 @@ def _step_figure(name: str, steps: list[tuple[float, np.ndarray]], t: np.ndarray
     for position, y in steps:
         line, = axes[0].plot(t * 1e3, y[0], label=f"Y1, carriage at {position:.2f} m")
         axes[0].plot(t * 1e3, y[1], "--", color=line.get_color(), label=f"Y2, carriage at {position:.2f} m")
-        dt = t[1] - t[0]
-        gap = np.concatenate([[0.0], np.cumsum((y[1, 1:] - y[0, 1:] + y[1, :-1] - y[0, :-1]) / 2) * dt])
-        axes[1].plot(t * 1e3, gap * 1e3, color=line.get_color(), label=f"carriage at {position:.2f} m")
+        axes[1].plot(t * 1e3, _rail_gap(y, t) * 1e3, color=line.get_color(), label=f"carriage at {position:.2f} m")
     axes[0].set_ylabel("rail velocity per command (m/s per m/s)")
     axes[1].set_ylabel("y2 - y1 per command (mm per m/s)")
     for ax in axes:
@@ -108,7 +112,7 @@ def dual_report(outcome: DesignOutcome, *, command: str = "") -> Report:
         places = (d.carriage_position_m.min, (d.carriage_position_m.min + d.carriage_position_m.max) / 2,
                   d.carriage_position_m.max)
         steps = [(p, translation_step(heavy.with_values(carriage_position_m=p), s.controller, t)) for p in places]
-        gap = max(float(np.max(np.abs(np.cumsum(y[1] - y[0]) * (t[1] - t[0])))) for _, y in steps)
+        gap = max(float(np.abs(_rail_gap(y, t)).max()) for _, y in steps)
         rep.figure(_step_figure(s.structure, steps, t),
                    f"{s.structure}: a 1 m/s step of the translation command at {payload.max:g} kg and nominal "
                    f"parameters (python-control, delays as Pade approximants of order 6); largest rail position "

@@ -64,7 +64,7 @@ def command_figures() -> dict:
 
 def virtual_grid(doc: dict) -> None:
     from design.admittance.feel import FeltForce, feel_scenarios
-    from design.admittance.model import AdmittanceEvaluator, mice
+    from design.admittance.model import AdmittanceEvaluator, PiLoops, mice
     from design.admittance.rig import RigTiming
     from design.spec.schema import load_spec
     from design.synth.scenarios import design_scenarios
@@ -73,8 +73,9 @@ def virtual_grid(doc: dict) -> None:
     spec = load_spec(SPEC).problem()
     timing = RigTiming.of(spec.admittance.rig, filter_hz=adm["rig"]["force_filter_hz"])
     corners = mice(spec)
-    ev = AdmittanceEvaluator(spec, design_scenarios(spec), kp=adm["kp"], ki=adm["ki"], timing=timing, corners=corners)
-    felt = FeltForce(spec, feel_scenarios(spec), corners, kp=adm["kp"], ki=adm["ki"], timing=timing)
+    loops = PiLoops.of(spec, adm["kp"], adm["ki"])
+    ev = AdmittanceEvaluator(spec, design_scenarios(spec), loops=loops, timing=timing, corners=corners)
+    felt = FeltForce(spec, feel_scenarios(spec), corners, loops=loops, timing=timing)
     n = 10 if QUICK else 16
     t0 = time.perf_counter()
     best = (math.inf, None, None)

@@ -11,6 +11,7 @@ from plant.physics.effect_base import PADE_ORDER
 
 if TYPE_CHECKING:
     from design.admittance.curves import AdmittanceCurves
+    from design.admittance.dual import DualAdmittanceResult
     from design.admittance.monte_carlo import AdmittanceMonteCarlo
     from design.admittance.synthesis import AdmittanceResult
     from design.loop.control_models import LoopModels
@@ -98,6 +99,8 @@ class DesignOutcome:
     admittance_skipped: bool = False
     #: the two-motor Stage Y's structures (``[dual_drive]``), designed instead of the one loop
     dual: DualDesign | None = None
+    #: the admittance on the recommended structure (``[dual_drive]`` with ``[admittance]``)
+    dual_admittance: DualAdmittanceResult | None = None
 
     @property
     def status(self) -> str:
@@ -107,6 +110,8 @@ class DesignOutcome:
         if self.measured is not None:
             return self.measured.status
         if self.dual is not None:
+            if self.dual.status == "optimal" and self.dual_admittance is not None:
+                return self.dual_admittance.status
             return self.dual.status
         if self.synthesis.status != "optimal":
             return self.synthesis.status
@@ -119,6 +124,8 @@ class DesignOutcome:
         if self.measured is not None:
             return self.measured.message
         if self.dual is not None:
+            if self.dual_admittance is not None:
+                return f"{self.dual.message}; admittance: {self.dual_admittance.message}"
             return self.dual.message
         if self.synthesis.status == "optimal" and self.admittance is not None and self.admittance.status != "optimal":
             return f"admittance: {self.admittance.message}"
@@ -130,7 +137,8 @@ class DesignOutcome:
         if self.measured is not None:
             return self.measured.verified
         if self.dual is not None:
-            return self.dual.recommended is not None
+            return self.dual.recommended is not None and (
+                self.dual_admittance is None or self.dual_admittance.status in ("optimal", "mouse_cannot_drive"))
         s = self.synthesis
         pi = bool(s.status == "optimal" and s.verification is not None and s.verification.verified)
         return pi and (self.admittance is None or self.admittance.verified)

@@ -94,7 +94,8 @@ def design(problem: DesignProblem, *, method: str = "ccp+exact", schedule: bool 
     contract."""
     spec, loop = problem.spec, problem.loop
     if spec.dual_drive is not None:
-        return DesignOutcome(problem, dual=_dual(problem, progress))
+        dual = _dual(problem, progress)
+        return DesignOutcome(problem, dual=dual, dual_admittance=_dual_admittance(problem, dual, progress))
     if spec.plant.measured:
         from design.synth.measured import synthesise_from_data
 
@@ -224,6 +225,7 @@ def report_content(problem: DesignProblem, *, outcome: DesignOutcome | None = No
 def _admittance_robustness(loop, robust):
     """The admittance design for the nominal parameters (the robust design's PI gains), with its Monte
     Carlo check over the uncertainty the robust design was made for."""
+    from design.admittance.model import PiLoops
     from design.admittance.monte_carlo import admittance_monte_carlo
     from design.admittance.synthesis import synthesise_admittance
     from design.results import AdmittanceComparison
@@ -231,8 +233,8 @@ def _admittance_robustness(loop, robust):
     nominal = synthesise_admittance(loop, kp=robust.kp, ki=robust.ki, nominal=True)
     mc = None
     if nominal.status in ("optimal", "mouse_cannot_drive"):
-        mc = admittance_monte_carlo(loop, kp=robust.kp, ki=robust.ki, m_v=nominal.m_v, b_v=nominal.b_v,
-                                    timing=robust.timing)
+        mc = admittance_monte_carlo(loop, loops=PiLoops.of(loop, robust.kp, robust.ki), m_v=nominal.m_v,
+                                    b_v=nominal.b_v, timing=robust.timing)
     return AdmittanceComparison(nominal, mc)
 
 
@@ -281,6 +283,23 @@ def _dual(problem: DesignProblem, progress=None):
                        structures=tuple(d.structures), kp_box=box(c.kp), ki_box=box(c.ki),
                        monte_carlo_samples=spec.verification.monte_carlo_samples, seed=spec.verification.seed,
                        progress=progress)
+
+
+def _dual_admittance(problem: DesignProblem, dual, progress=None):
+    """The spec's admittance on the recommended two-motor structure (None without ``[admittance]`` or when no
+    structure holds its requirements)."""
+    if problem.spec.admittance is None or dual.recommended is None:
+        return None
+    from design.admittance.dual import synthesise_dual_admittance
+
+    d = problem.spec.dual_drive
+    best = next(s for s in dual.structures if s.structure == dual.recommended)
+    travel = d.carriage_position_m
+    return synthesise_dual_admittance(problem.loop, structure=best.structure, controller=best.controller,
+                                      model=problem.spec.dual_model(), travel_m=(travel.min, travel.max),
+                                      design_positions=travel.points, stage_x_mass_kg=d.stage_x_mass_kg,
+                                      ranges={k: (v.min, v.max) for k, v in d.uncertainty.items()},
+                                      progress=progress)
 
 
 def measure(path: str | Path, *, columns: str | None = None, sample_rate_hz: float | None = None,

@@ -20,7 +20,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from design.admittance.feel import FeltForce, feel_scenarios
-from design.admittance.model import admittance_problem, interaction_responses, with_mode_points
+from design.admittance.model import PiLoops, admittance_problem, interaction_responses, with_mode_points
 from design.admittance.mouse import mouse_set
 from design.admittance.ray import best_ray, ray_problem
 from design.admittance.rig import RigTiming
@@ -81,9 +81,10 @@ def _scorer(problem: LoopProblem, timing: RigTiming):
         if not (np.all(mg.closed_loop_stable) and pm >= req.phase_margin_deg and gm >= req.gain_margin_db):
             return math.inf, pm, gm
         w = with_mode_points(_coarse(t), corners, t, points=12)
-        resp = interaction_responses(problem, scenarios, w, kp=k_p, ki=k_i, timing=t, corners=corners,
+        loops = PiLoops.of(problem, k_p, k_i)
+        resp = interaction_responses(problem, scenarios, w, loops=loops, timing=t, corners=corners,
                                      terms=SEARCH_TERMS)
-        felt = FeltForce(problem, feel, corners, kp=k_p, ki=k_i, timing=t)
+        felt = FeltForce(problem, feel, corners, loops=loops, timing=t)
         ray = best_ray(ray_problem(resp, adm), objective=lambda r: felt(r.m_v, r.b_v), points=16, refine=1)
         return (felt(ray.m_v, ray.b_v) if ray.feasible else math.inf), pm, gm
 

@@ -17,7 +17,6 @@ import numpy as np
 from design.admittance.model import (
     admittance_problem,
     check_grid_for,
-    gantry_loop_at,
     interaction_margins,
 )
 from design.admittance.rig import RigTiming
@@ -47,28 +46,26 @@ class ContactLimit:
         return self.scenarios.describe(int(np.argmin(self.stiffness_n_per_m)))
 
 
-def _stable(problem: LoopProblem, scenarios: Scenarios, k_e: np.ndarray, *, kp, ki, m_v, b_v,
-            timing: RigTiming, w: np.ndarray) -> np.ndarray:
+def _stable(scenarios, k_e: np.ndarray, *, loops, m_v, b_v, timing: RigTiming, w: np.ndarray) -> np.ndarray:
     """Is the loop closed on the spring k_e[j] stable at scenario j?"""
-    plants = scenarios.plants(problem.plant.plant())
 
     def path(s, weight):
-        loop = gantry_loop_at(plants, s, scenarios, kp=kp, ki=ki)
-        return loop.reference * weight / (loop.s / k_e[:, None] + loop.sensitivity * loop.mobility)
+        loop = loops.at(s, scenarios)
+        return loop.reference * weight / (loop.s / k_e[:, None] + loop.sensitivity_mobility)
 
     gain = timing.sampled_path(path, w)
     _, _, stable = interaction_margins(w, timing, gain / timing.impedance(w, m_v, b_v))
     return stable
 
 
-def stiffest_contact(problem: LoopProblem, scenarios: Scenarios, *, kp: float, ki: float, m_v: float, b_v: float,
+def stiffest_contact(problem: LoopProblem, scenarios, *, loops, m_v: float, b_v: float,
                      timing: RigTiming | None = None) -> ContactLimit:
     """``ContactLimit`` of (m_v, b_v) at ``scenarios``."""
     timing = timing or RigTiming.of(admittance_problem(problem).rig)
     w = check_grid_for(timing)
     n = len(scenarios)
     grid = np.geomspace(K_MIN, K_MAX, GRID)
-    ok = np.stack(thread_map(lambda k: _stable(problem, scenarios, np.full(n, k), kp=kp, ki=ki, m_v=m_v, b_v=b_v,
+    ok = np.stack(thread_map(lambda k: _stable(scenarios, np.full(n, k), loops=loops, m_v=m_v, b_v=b_v,
                                                timing=timing, w=w), grid))    # (GRID, n)
     first_bad = np.where(ok.all(axis=0), GRID, np.argmin(ok, axis=0))
     lo = np.where(first_bad > 0, grid[np.maximum(first_bad - 1, 0)], 0.0)
@@ -78,7 +75,7 @@ def stiffest_contact(problem: LoopProblem, scenarios: Scenarios, *, kp: float, k
         if not refine.any():
             break
         mid = np.where(refine, np.sqrt(np.maximum(lo, K_MIN) * np.where(np.isfinite(hi), hi, K_MAX)), K_MIN)
-        st = _stable(problem, scenarios, mid, kp=kp, ki=ki, m_v=m_v, b_v=b_v, timing=timing, w=w)
+        st = _stable(scenarios, mid, loops=loops, m_v=m_v, b_v=b_v, timing=timing, w=w)
         lo = np.where(refine & st, mid, lo)
         hi = np.where(refine & ~st, mid, hi)
     return ContactLimit(scenarios, np.where(first_bad == GRID, np.inf, lo))

@@ -12,6 +12,7 @@ import numpy as np
 from design.admittance.feel import FeltForce, feel_scenarios
 from design.admittance.model import (
     AdmittanceEvaluator,
+    PiLoops,
     admittance_problem,
     gantry_loop,
     mice,
@@ -63,10 +64,10 @@ def lab_comparison(problem: LoopProblem, result) -> LabComparison:
     from design.admittance.synthesis import check_scenarios
 
     corners = mice(problem)
-    ev = AdmittanceEvaluator(problem, check_scenarios(problem), kp=result.kp, ki=result.ki, timing=result.timing,
-                             corners=corners)
+    loops = PiLoops.of(problem, result.kp, result.ki)
+    ev = AdmittanceEvaluator(problem, check_scenarios(problem), loops=loops, timing=result.timing, corners=corners)
     c = ev.evaluate(LAB_M_V_KG, LAB_B_V_N_S_PER_M, bandwidth=False)
-    felt = FeltForce(problem, feel_scenarios(problem), corners, kp=result.kp, ki=result.ki, timing=result.timing)
+    felt = FeltForce(problem, feel_scenarios(problem), corners, loops=loops, timing=result.timing)
     return LabComparison(LAB_M_V_KG, LAB_B_V_N_S_PER_M, c.worst_by_legs(), bool(np.all(c.stable)),
                          felt(LAB_M_V_KG, LAB_B_V_N_S_PER_M), float(np.min(c.passive_up_to_hz)),
                          admittance_bandwidth_hz(LabBandwidthModel.published(1)))
@@ -76,7 +77,7 @@ def admittance_curves(problem: LoopProblem, result, *, lab: bool = True) -> Admi
     """The curves of ``result`` (an ``AdmittanceResult``), its mouse run on the spec's profile at the heaviest
     payload when the rig is sampled, and the lab's setting beside it."""
     masses = report_payloads(problem)
-    loop = gantry_loop(problem, W_RENDERED, list(masses), kp=result.kp, ki=result.ki)
+    loop = gantry_loop(PiLoops.of(problem, result.kp, result.ki), W_RENDERED, list(masses))
     run = None
     if result.timing.sampled:
         settings = run_settings(problem, kp=result.kp, ki=result.ki, m_v=result.m_v, b_v=result.b_v,

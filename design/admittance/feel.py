@@ -32,7 +32,6 @@ from design.admittance.model import (
     admittance_problem,
     breakaway_force_n,
     drift_mm_per_s,
-    gantry_loop_at,
 )
 from design.admittance.mouse import stack
 from design.admittance.rig import RigTiming
@@ -110,18 +109,16 @@ class FeltForce:
     x the distinct necks and heads of ``corners`` (module docstring): the parts that do not depend on
     (m_v, b_v) are computed once on the profile's FFT grid, so a search can call it many times."""
 
-    def __init__(self, problem: LoopProblem, scenarios: Scenarios, corners, *, kp: float, ki: float,
-                 timing: RigTiming):
+    def __init__(self, problem: LoopProblem, scenarios, corners, *, loops, timing: RigTiming):
         adm = admittance_problem(problem)
         self.profile = trapezoid(adm.locomotion)
         self.n = self.profile.time_s.size
         self.damping = 8.0 / (self.n * DT_S)
         f = np.fft.rfftfreq(self.n, DT_S)
         s = self.damping + 2j * np.pi * f
-        plants = scenarios.plants(problem.plant.plant())
-        loop = gantry_loop_at(plants, s, scenarios, kp=kp, ki=ki)
+        loop = loops.at(s, scenarios)
         self.scenarios, self.timing = scenarios, timing
-        self.sg = loop.sensitivity * loop.mobility                          # (n_s, n_f)
+        self.sg = loop.sensitivity_mobility                                 # (n_s, n_f)
         self.rw = loop.reference * timing.fundamental_at(s)
         self.sigma, self.rho = timing.sigma_at(s), timing.rho_at(s)
         self.necks = list({(m.head_mass_kg, m.neck_stiffness_n_per_m, m.neck_damping_n_s_per_m): m
@@ -135,8 +132,8 @@ class FeltForce:
         # the apparent dynamics and the reach are read on the imaginary axis
         self.f_hz = f[1:]
         self.w = 2 * np.pi * self.f_hz
-        free = gantry_loop_at(plants, 1j * self.w, scenarios, kp=kp, ki=ki)
-        self._sg_jw = free.sensitivity * free.mobility
+        free = loops.at(1j * self.w, scenarios)
+        self._sg_jw = free.sensitivity_mobility
         self._rw_jw = free.reference * timing.fundamental(self.w)
         self._sigma_jw, self._rho_jw = timing.sigma(self.w), timing.rho(self.w)
 
@@ -161,14 +158,14 @@ def feel_scenarios(problem: LoopProblem) -> Scenarios:
     return Scenarios(pr.grid(3) if pr.max > pr.min else np.array([pr.min]))
 
 
-def mouse_feel(problem: LoopProblem, *, kp: float, ki: float, m_v: float, b_v: float, scenarios: Scenarios,
-               corners, timing: RigTiming | None = None, felt: FeltForce | None = None) -> MouseFeel:
+def mouse_feel(problem: LoopProblem, *, loops, m_v: float, b_v: float, scenarios, corners,
+               timing: RigTiming | None = None, felt: FeltForce | None = None) -> MouseFeel:
     """``MouseFeel`` of (m_v, b_v) at ``scenarios`` x the mice ``corners`` (their neck and head masses
     matter; the legs do not: the body's motion is prescribed)."""
     adm = admittance_problem(problem)
     timing = timing or RigTiming.of(adm.rig)
     loc = adm.locomotion
-    felt = felt or FeltForce(problem, scenarios, corners, kp=kp, ki=ki, timing=timing)
+    felt = felt or FeltForce(problem, scenarios, corners, loops=loops, timing=timing)
     force = felt.forces(m_v, b_v)
     moving = felt.moving
     peak = np.max(np.abs(force[..., moving]), axis=-1)

@@ -73,6 +73,8 @@ CHUNK_ELEMENTS = 2_000_000
 #: alias terms (its fifth of slack covers their error)
 SCREEN_TOP, SCREEN_RATIO = 2, 0.8
 SCREEN_POINTS_PER_DECADE, SCREEN_TERMS = 60, 1
+#: curves (mouse x scenario) whose exact K_eff an evaluator keeps between evaluations (memory: each is one grid)
+KEPT_CURVES = 12_000
 
 
 def admittance_problem(problem: LoopProblem) -> AdmittanceProblem:
@@ -83,9 +85,6 @@ def admittance_problem(problem: LoopProblem) -> AdmittanceProblem:
     if nonlinear:
         raise SpecError(f"plant.effects.{nonlinear[0]}: nonlinear, not supported by admittance synthesis "
                         "(design on the linear plant; check friction with gantry mouse-run)")
-    if problem.plant.nominal.stage != "x":
-        raise SpecError("plant.stage: admittance design covers Stage X (one motor, one axis); Stage Y's two "
-                        "motors and yaw mode need a two-input plant")
     return problem.admittance
 
 
@@ -94,11 +93,11 @@ def mice(problem: LoopProblem) -> tuple[MouseModel, ...]:
     return mouse_set(admittance_problem(problem).mouse)
 
 
-def as_scenarios(scenarios) -> Scenarios:
-    """``Scenarios`` as given, or payloads (kg) with the nominal parameters."""
-    if isinstance(scenarios, Scenarios):
-        return scenarios
-    return Scenarios(np.atleast_1d(np.asarray(scenarios, float)))
+def as_scenarios(scenarios):
+    """A scenario set as given, or payloads (kg: a number, list or array) with the nominal parameters."""
+    if isinstance(scenarios, (int, float, list, tuple, np.ndarray)):
+        return Scenarios(np.atleast_1d(np.asarray(scenarios, float)))
+    return scenarios
 
 
 def with_mode_points(w_rad_s, corners, timing: RigTiming, *, points: int = 16) -> np.ndarray:
@@ -124,15 +123,22 @@ def check_grid_for(timing: RigTiming, *, per_decade: int = SAMPLED_POINTS_PER_DE
 
 @dataclass(frozen=True)
 class GantryLoop:
-    """The free gantry under the PI velocity loop at complex frequencies ``s`` (shape (n,)), batch over
-    scenarios (axis 0): payloads with the values of the uncertain parameters. Arrays (n_scenario, n)."""
+    """The free gantry under its velocity loops, seen from the head clamp, at complex frequencies ``s``
+    (shape (n,)), batch over scenarios (axis 0): arrays (n_scenario, n), and per motor (n_motor, n_scenario, n).
+    One motor (Stage X, PI C): S G, R = K_t E C G S, current C S, motor force S - 1 and K_t E C S; several
+    (``design.admittance.dual``): the same quantities of the multivariable loop."""
 
     s: np.ndarray
-    scenarios: Scenarios
-    mobility: np.ndarray       # G, physical velocity per force on the moving mass (m/s per N)
-    controller: np.ndarray     # C = Kp + Ki/s (A per m/s), (n,)
-    sensitivity: np.ndarray    # S = 1/(1 + P C)
-    reference: np.ndarray      # R = K_t E C G S, physical velocity per velocity reference
+    scenarios: object
+    #: clamp velocity per sensed force with the velocity reference held at 0 (m/s per N)
+    sensitivity_mobility: np.ndarray
+    #: clamp velocity per velocity reference
+    reference: np.ndarray
+    #: each motor's current command per velocity reference (A per m/s)
+    current: np.ndarray
+    #: each motor's force per sensed force with the reference held at 0, and per velocity reference (N per m/s)
+    motor_force: np.ndarray
+    motor_reference: np.ndarray
 
     @property
     def payload_kg(self) -> np.ndarray:
@@ -142,9 +148,15 @@ class GantryLoop:
     def w_rad_s(self) -> np.ndarray:
         return self.s.imag
 
+    def rows(self, index: np.ndarray) -> GantryLoop:
+        """The loop with its scenario axis taken at ``index`` (repeats allowed; ``scenarios`` left as it is)."""
+        return replace(self, sensitivity_mobility=self.sensitivity_mobility[index], reference=self.reference[index],
+                       current=self.current[:, index], motor_force=self.motor_force[:, index],
+                       motor_reference=self.motor_reference[:, index])
+
 
 def gantry_loop_at(plants: Plant, s, scenarios: Scenarios, *, kp: float, ki: float) -> GantryLoop:
-    """``GantryLoop`` of a (n, 1) batch of plants at complex ``s``."""
+    """``GantryLoop`` of a (n, 1) batch of plants under the PI kp + ki/s at complex ``s``."""
     s = np.asarray(s, complex)
     kt = np.asarray(plants.force_constant_n_per_a, float)
     G = plants.mechanics().velocity_per_force(s)
@@ -152,17 +164,33 @@ def gantry_loop_at(plants: Plant, s, scenarios: Scenarios, *, kp: float, ki: flo
     C = kp + ki / s
     shape = (len(scenarios), s.size)
     G = np.broadcast_to(G, shape)
-    drive = np.broadcast_to(kt * E * C * G, shape)
-    S = 1.0 / (1.0 + drive * H)
-    return GantryLoop(s, scenarios, G, C, S, drive * S)
+    force = np.broadcast_to(kt * E * C, shape)
+    S = 1.0 / (1.0 + force * G * H)
+    return GantryLoop(s, scenarios, S * G, force * G * S, (C * S)[None], (S - 1.0)[None], (force * S)[None])
 
 
-def gantry_loop(problem: LoopProblem, w_rad_s, scenarios, *, kp: float, ki: float) -> GantryLoop:
-    """The spec's plant in ``scenarios`` (``Scenarios``, or payloads in kg with the nominal parameters) on
-    the grid ``w_rad_s``."""
+@dataclass(frozen=True)
+class PiLoops:
+    """The spec's one-motor plant under the PI velocity loop kp + ki/s (A per m/s, A per m)."""
+
+    base: Plant
+    kp: float
+    ki: float
+
+    @classmethod
+    def of(cls, problem: LoopProblem, kp: float, ki: float) -> PiLoops:
+        return cls(problem.plant.plant(), float(kp), float(ki))
+
+    def at(self, s, scenarios: Scenarios) -> GantryLoop:
+        """``GantryLoop`` of ``scenarios`` at complex ``s``."""
+        return gantry_loop_at(scenarios.plants(self.base), s, scenarios, kp=self.kp, ki=self.ki)
+
+
+def gantry_loop(loops, w_rad_s, scenarios) -> GantryLoop:
+    """The loops (``PiLoops`` or ``design.admittance.dual.DualLoops``) of ``scenarios`` (for ``PiLoops`` also
+    payloads in kg with the nominal parameters) on the grid ``w_rad_s``."""
     w = check_grid(w_rad_s)
-    sc = as_scenarios(scenarios)
-    return gantry_loop_at(sc.plants(problem.plant.plant()), 1j * w, sc, kp=kp, ki=ki)
+    return loops.at(1j * w, as_scenarios(scenarios))
 
 
 def _mouse_impedance(loop: GantryLoop, mouse: MouseModel, paired: bool) -> np.ndarray:
@@ -176,14 +204,14 @@ def interaction_gain(loop: GantryLoop, mouse: MouseModel, *, weight=1.0, paired:
     """K = Z_m R / (1 + S G Z_m) = R / (1/Z_m + S G): sensed force per velocity reference with the mouse
     attached (times ``weight``, an array over the frequencies); a batch of mice ((n_m, 1) fields) gives
     (n_m, n_scenario, n), or with ``paired`` (n_scenario, n), scenario k with mouse k."""
-    den = 1.0 / _mouse_impedance(loop, mouse, paired) + loop.sensitivity * loop.mobility
+    den = 1.0 / _mouse_impedance(loop, mouse, paired) + loop.sensitivity_mobility
     return np.divide(loop.reference * weight, den, out=den)
 
 
 def attached_loop(loop: GantryLoop, mouse: MouseModel, *, paired: bool = False) -> np.ndarray:
     """S G Z_m: the loop whose Nyquist test says whether the velocity loop with the mouse attached,
     (1 + P C)(1 + S G Z_m), is stable (given the free velocity loop is); shapes as ``interaction_gain``."""
-    return loop.sensitivity * loop.mobility * _mouse_impedance(loop, mouse, paired)
+    return loop.sensitivity_mobility * _mouse_impedance(loop, mouse, paired)
 
 
 def virtual_impedance(sigma, m_v, b_v, rho=1.0) -> np.ndarray:
@@ -200,7 +228,7 @@ def rendered_admittance(loop: GantryLoop, m_v: float, b_v: float, timing: RigTim
     """Y_r = v / F_s = S G + R W / (m_v sigma + b_v) (m/s per N): at the input frequency when sampled."""
     timing = timing or RigTiming(None)
     w = loop.w_rad_s
-    return loop.sensitivity * loop.mobility + loop.reference * timing.fundamental(w) / timing.impedance(w, m_v, b_v)
+    return loop.sensitivity_mobility + loop.reference * timing.fundamental(w) / timing.impedance(w, m_v, b_v)
 
 
 def admittance_bandwidth_hz(w_rad_s, rendered, virtual) -> np.ndarray:
@@ -249,43 +277,55 @@ class InteractionResponses:
 
     w_rad_s: np.ndarray
     timing: RigTiming
-    scenarios: Scenarios
+    scenarios: object
     mice: tuple[MouseModel, ...]
     gain: np.ndarray            # K_eff, (n_m, n_s, n_f)
     sigma: np.ndarray           # (n_f,)
     rho: np.ndarray | float     # the factor beside b_v (``RigTiming.rho``)
-    #: |C S W|, current per force-reading error times m_v sigma + b_v, (n_s, n_f)
+    #: the largest motor's |current per force-reading error| times m_v sigma + b_v (|C S W| for one motor), (n_s, n_f)
     current_path: np.ndarray
-    #: R W and G at the grid (for the motor force Y_r / G - 1), (n_s, n_f)
+    #: R W and S G, (n_s, n_f)
     reference_path: np.ndarray
-    mobility: np.ndarray
     sensitivity_mobility: np.ndarray
+    #: per motor, the motor force per sensed force is motor_force + motor_reference_path / (m_v sigma + b_v),
+    #: (n_motor, n_s, n_f)
+    motor_force: np.ndarray
+    motor_reference_path: np.ndarray
 
 
-def interaction_responses(problem: LoopProblem, scenarios, w_rad_s, *, kp: float, ki: float,
-                          timing: RigTiming, corners=None, terms: int | None = None) -> InteractionResponses:
+def interaction_responses(problem: LoopProblem, scenarios, w_rad_s, *, loops, timing: RigTiming, corners=None,
+                          terms: int | None = None, dtype=complex) -> InteractionResponses:
     """K_eff for every mouse of ``corners`` (default: the spec's mouse set) and scenario on ``w_rad_s`` (which
     must end at or below the Nyquist frequency when sampled): the continuous K times the force filter, or
-    the sampled sum (``RigTiming.sampled_path``, ``terms`` alias terms: default ``ALIAS_TERMS``)."""
+    the sampled sum (``RigTiming.sampled_path``, ``terms`` alias terms: default ``ALIAS_TERMS``), stored as
+    ``dtype`` (``np.complex64`` halves the memory and keeps the precision of the rays' float32 tables)."""
     sc = as_scenarios(scenarios)
     corners = mice(problem) if corners is None else tuple(corners)
     w = check_grid(w_rad_s)
-    plants = sc.plants(problem.plant.plant())
-    gain = np.empty((len(corners), len(sc), w.size), complex)
-    step = max(1, CHUNK_ELEMENTS // (len(sc) * w.size * workers()))
+    gain = np.empty((len(corners), len(sc), w.size), dtype)
+    batch = stack(corners)
 
-    def block(i: int) -> None:
-        batch = stack(corners[i:i + step])
-        gain[i:i + step] = timing.sampled_path(
-            lambda s, weight: interaction_gain(gantry_loop_at(plants, s, sc, kp=kp, ki=ki), batch, weight=weight),
-            w, terms=terms)
+    def block(rows: np.ndarray) -> None:
+        part = sc.take(rows)
+        gain[:, rows] = timing.sampled_path(
+            lambda s, weight: interaction_gain(loops.at(s, part), batch, weight=weight), w, terms=terms)
 
-    thread_map(block, range(0, len(corners), step))
-    loop = gantry_loop_at(plants, 1j * w, sc, kp=kp, ki=ki)
+    thread_map(block, _blocks(len(sc), len(corners) * w.size))
+    loop = loops.at(1j * w, sc)
     W = timing.fundamental(w)
     return InteractionResponses(w, timing, sc, corners, gain, timing.sigma(w), timing.rho(w),
-                                np.abs(loop.controller * loop.sensitivity * W), loop.reference * W, loop.mobility,
-                                loop.sensitivity * loop.mobility)
+                                current_path(loop, W), loop.reference * W, loop.sensitivity_mobility,
+                                loop.motor_force, loop.motor_reference * W)
+
+
+def current_path(loop: GantryLoop, W) -> np.ndarray:
+    """The largest motor's |current per velocity reference| times |W|, (n_s, n_f)."""
+    return np.abs(loop.current).max(axis=0) * np.abs(W)
+
+
+def motor_force_peak(motor_force, motor_reference_path, z) -> np.ndarray:
+    """Peak over frequency and motors of |motor force per sensed force| for the virtual impedance ``z``, (n_s,)."""
+    return np.abs(motor_force + motor_reference_path / z).max(axis=(0, -1))
 
 
 def sampled_nyquist_stable(loop: np.ndarray) -> np.ndarray:
@@ -379,25 +419,26 @@ class AdmittanceCheck:
         return out
 
 
-def paired_gain(plants, scenarios, mouse: MouseModel, s, weight, *, kp: float, ki: float) -> np.ndarray:
+def paired_gain(loops, scenarios, mouse: MouseModel, s, weight) -> np.ndarray:
     """K of each scenario with its own mouse (row k with mouse k) times ``weight``, (n, len(s))."""
-    return interaction_gain(gantry_loop_at(plants, s, scenarios, kp=kp, ki=ki), mouse, weight=weight, paired=True)
+    return interaction_gain(loops.at(s, scenarios), mouse, weight=weight, paired=True)
 
 
 class AdmittanceEvaluator:
-    """Evaluation of any (m_v, b_v) for fixed PI gains and rig timing on scenarios x mice: what does not depend
+    """Evaluation of any (m_v, b_v) for fixed velocity loops and rig timing on scenarios x mice: what does not depend
     on (m_v, b_v) is computed once. Every curve (scenario, mouse) is screened by its ray bound on a coarse grid
     (``SCREEN_POINTS_PER_DECADE``, the sampled sum cut to ``SCREEN_TERMS`` alias terms); the curves a check
     must compute exactly are computed anew on the check grid with every term (``evaluate``)."""
 
-    def __init__(self, problem: LoopProblem, scenarios, *, kp: float, ki: float, timing: RigTiming | None = None,
-                 corners=None, w_rad_s=None):
+    def __init__(self, problem: LoopProblem, scenarios, *, loops, timing: RigTiming | None = None, corners=None,
+                 w_rad_s=None):
         from design.admittance.ray import polar
 
         self.problem = problem
         self.adm = admittance_problem(problem)
         self.timing = timing or RigTiming.of(self.adm.rig)
-        self.kp, self.ki = kp, ki
+        self.loops = loops
+        self._kept: dict[int, np.ndarray] = {}
         self.corners = mice(problem) if corners is None else tuple(corners)
         grounded = np.array([m.grounded for m in self.corners])
         self._leg_groups = [g for g in (np.flatnonzero(~grounded), np.flatnonzero(grounded)) if g.size]
@@ -405,31 +446,29 @@ class AdmittanceEvaluator:
         base = check_grid_for(self.timing) if w_rad_s is None else np.asarray(w_rad_s, float)
         self.w = with_mode_points(base, self.corners, self.timing)
         self.blocks = _blocks(len(self.scenarios), len(self.corners) * self.w.size)
-        self._plants = self.scenarios.plants(problem.plant.plant())
         # the screen: polar K on a coarse grid, every curve
         coarse = with_mode_points(check_grid_for(self.timing, per_decade=SCREEN_POINTS_PER_DECADE), self.corners,
                                   self.timing, points=8)
         self._screen_w = coarse
 
         def screen(rows):
-            r = interaction_responses(problem, self.scenarios.take(rows), coarse, kp=kp, ki=ki, timing=self.timing,
+            r = interaction_responses(problem, self.scenarios.take(rows), coarse, loops=loops, timing=self.timing,
                                       corners=self.corners, terms=SCREEN_TERMS)
             return rows, *polar(r.gain.reshape(-1, coarse.size))
 
         self._screen = thread_map(screen, _blocks(len(self.scenarios), len(self.corners) * coarse.size))
         # the free gantry's hardware paths on the check grid (one per scenario)
-        loop = gantry_loop_at(self._plants, 1j * self.w, self.scenarios, kp=kp, ki=ki)
+        loop = loops.at(1j * self.w, self.scenarios)
         W = self.timing.fundamental(self.w)
-        self._current_path = np.abs(loop.controller * loop.sensitivity * W)
-        self._reference_path, self._mobility = loop.reference * W, loop.mobility
-        self._sensitivity_mobility = loop.sensitivity * loop.mobility
+        self._current_path = current_path(loop, W)
+        self._motor_force, self._motor_reference_path = loop.motor_force, loop.motor_reference * W
         # the velocity loop with the mouse attached, on a continuous grid (it is a continuous loop)
         wc = with_mode_points(W_ATTACHED, self.corners, RigTiming(None))
         self.attached_stable = np.ones((len(self.corners), len(self.scenarios)), bool)
         batch = stack(self.corners)
 
         def attached(rows):
-            loop = gantry_loop(problem, wc, self.scenarios.take(rows), kp=kp, ki=ki)
+            loop = gantry_loop(loops, wc, self.scenarios.take(rows))
             self.attached_stable[:, rows] = nyquist_stable(attached_loop(loop, batch))
             return loop
 
@@ -437,24 +476,40 @@ class AdmittanceEvaluator:
 
     def exact_margins(self, m_v: float, b_v: float, k_idx: np.ndarray, j_idx: np.ndarray):
         """(PM deg, GM dB, stable) of the curves (mouse k_idx[i], scenario j_idx[i]) on the check grid with every
-        alias term."""
+        alias term. A curve's K_eff does not depend on (m_v, b_v): the curves computed are kept (up to
+        ``KEPT_CURVES``) for the next evaluations, and each chunk evaluates the loops once per scenario it holds."""
         n = k_idx.size
         pm, gm, st = np.empty(n), np.empty(n), np.empty(n, bool)
         z = self.timing.impedance(self.w, m_v, b_v)
+        key = k_idx * len(self.scenarios) + j_idx
+        new = np.setdiff1d(key, np.fromiter(self._kept, int, len(self._kept)))
         batch = stack(self.corners)
         step = max(1, CHUNK_ELEMENTS // (self.w.size * 2 * workers()))
+        kept = {}
 
         def chunk(start: int) -> None:
-            part = slice(start, min(start + step, n))
-            rows = j_idx[part]
+            keys = new[start:start + step]
+            k, j = np.divmod(keys, len(self.scenarios))
+            rows, where = np.unique(j, return_inverse=True)
             sc = self.scenarios.take(rows)
-            plants = sc.plants(self.problem.plant.plant())
-            mouse = MouseModel(*(np.asarray(getattr(batch, f))[k_idx[part]] for f in MouseModel.__dataclass_fields__))
-            gain = self.timing.sampled_path(lambda s, weight: paired_gain(plants, sc, mouse, s, weight, kp=self.kp,
-                                                                           ki=self.ki), self.w)
+            mouse = MouseModel(*(np.asarray(getattr(batch, f))[k] for f in MouseModel.__dataclass_fields__))
+            gain = self.timing.sampled_path(
+                lambda s, weight: interaction_gain(self.loops.at(s, sc).rows(where), mouse, weight=weight,
+                                                   paired=True), self.w)
+            kept.update(zip(keys.tolist(), gain))
+
+        thread_map(chunk, range(0, new.size, step))
+        lookup = {**self._kept, **kept}
+        if len(self._kept) + len(kept) > KEPT_CURVES:
+            self._kept.clear()
+        self._kept.update(kept)
+
+        def margins(start: int) -> None:
+            part = slice(start, min(start + step, n))
+            gain = np.stack([lookup[c] for c in key[part].tolist()])
             pm[part], gm[part], st[part] = interaction_margins(self.w, self.timing, gain / z)
 
-        thread_map(chunk, range(0, n, step))
+        thread_map(margins, range(0, n, step))
         return pm, gm, st
 
     def evaluate(self, m_v: float, b_v: float, *, bandwidth: bool = True, screen: bool = True) -> AdmittanceCheck:
@@ -494,7 +549,7 @@ class AdmittanceEvaluator:
         fhz = self.w / (2 * np.pi)
         z = self.timing.impedance(self.w, m_v, b_v)
         i_resp = self._current_path / np.abs(z) * hw.force_sensor_resolution_n
-        f_resp = np.abs((self._sensitivity_mobility + self._reference_path / z) / self._mobility - 1.0) * fpk
+        f_resp = np.abs(self._motor_force + self._motor_reference_path / z).max(axis=0) * fpk
         stable &= self.attached_stable
         bw, passive = np.full(n_s, np.nan), np.empty(n_s)
         for rows, loop in zip(self.blocks, self._free):

@@ -27,9 +27,10 @@ from design.admittance.model import (
     admittance_problem,
     attached_loop,
     check_grid_for,
-    gantry_loop_at,
+    current_path,
     interaction_margins,
     mice,
+    motor_force_peak,
     paired_gain,
     virtual_impedance,
     with_mode_points,
@@ -81,16 +82,18 @@ class AdmittanceMonteCarlo:
         return self.violations / self.samples
 
 
-def admittance_monte_carlo(problem: LoopProblem, *, kp: float, ki: float, m_v: float, b_v: float,
-                           timing: RigTiming | None = None, samples: int | None = None,
-                           seed: int | None = None) -> AdmittanceMonteCarlo:
-    """Margins, stability and hardware peaks of (m_v, b_v) under the PI gains (kp, ki) on ``samples``
-    draws (default: the problem's ``verification`` settings)."""
+def admittance_monte_carlo(problem: LoopProblem, *, loops, m_v: float, b_v: float, timing: RigTiming | None = None,
+                           samples: int | None = None, seed: int | None = None, draws=None) -> AdmittanceMonteCarlo:
+    """Margins, stability and hardware peaks of (m_v, b_v) under the velocity ``loops`` on ``samples`` draws
+    (default: the problem's ``verification`` settings) of the scenarios (default: payload x uncertainty,
+    ``random_scenarios``; ``draws``: a scenario set of ``samples`` rows drawn by the caller) and the mouse."""
     adm = admittance_problem(problem)
     timing = timing or RigTiming.of(adm.rig)
     hw = adm.hardware
     samples, seed = draw_settings(problem, samples, seed)
-    draws = random_scenarios(problem, samples, seed=seed)
+    draws = random_scenarios(problem, samples, seed=seed) if draws is None else draws
+    if len(draws) != samples:
+        raise ValueError(f"{len(draws)} scenario draws for {samples} samples")
     drawn = random_mice(adm.mouse, samples, seed=seed)
     corners = mice(problem)
     w = with_mode_points(check_grid_for(timing, per_decade=SCREEN_POINTS_PER_DECADE), corners, timing)
@@ -100,25 +103,21 @@ def admittance_monte_carlo(problem: LoopProblem, *, kp: float, ki: float, m_v: f
     g = 10 ** (adm.gain_margin_db / 20)
     bound, cur, force = (np.empty(samples) for _ in range(3))
     stable = np.empty(samples, bool)
-    base = problem.plant.plant()
 
     def batch(rows):
-        sc = draws.take(rows)
-        return sc, sc.plants(base), MouseModel(*(np.asarray(getattr(drawn, f))[rows] for f in FIELDS))
+        return draws.take(rows), MouseModel(*(np.asarray(getattr(drawn, f))[rows] for f in FIELDS))
 
     def screen(start: int) -> None:
         rows = np.arange(start, min(start + CHUNK, samples))
-        sc, plants, mouse = batch(rows)
-        gain = timing.sampled_path(lambda s, weight: paired_gain(plants, sc, mouse, s, weight, kp=kp, ki=ki), w,
-                                   terms=SCREEN_TERMS)
+        sc, mouse = batch(rows)
+        gain = timing.sampled_path(lambda s, weight: paired_gain(loops, sc, mouse, s, weight), w, terms=SCREEN_TERMS)
         bound[rows] = curve_bounds(*polar(gain), rho + (m_v / b_v) * sigma, adm.phase_margin_deg, g,
                                    timing.sampled)
-        loop = gantry_loop_at(plants, 1j * w, sc, kp=kp, ki=ki)
+        loop = loops.at(1j * w, sc)
         W = timing.fundamental(w)
-        cur[rows] = np.max(np.abs(loop.controller * loop.sensitivity * W / z), axis=-1) * hw.force_sensor_resolution_n
-        yr = loop.sensitivity * loop.mobility + loop.reference * W / z
-        force[rows] = np.max(np.abs(yr / loop.mobility - 1.0), axis=-1) * adm.mouse.peak_force_n
-        free = gantry_loop_at(plants, 1j * wc, sc, kp=kp, ki=ki)
+        cur[rows] = np.max(current_path(loop, W) / np.abs(z), axis=-1) * hw.force_sensor_resolution_n
+        force[rows] = motor_force_peak(loop.motor_force, loop.motor_reference * W, z) * adm.mouse.peak_force_n
+        free = loops.at(1j * wc, sc)
         stable[rows] = nyquist_stable(attached_loop(free, mouse, paired=True))
 
     thread_map(screen, range(0, samples, CHUNK))
@@ -129,8 +128,8 @@ def admittance_monte_carlo(problem: LoopProblem, *, kp: float, ki: float, m_v: f
     wk = with_mode_points(check_grid_for(timing), corners, timing)
     def exact(start: int) -> None:
         rows = keep[start:start + CHUNK]
-        sc, plants, mouse = batch(rows)
-        gain = timing.sampled_path(lambda s, weight: paired_gain(plants, sc, mouse, s, weight, kp=kp, ki=ki), wk)
+        sc, mouse = batch(rows)
+        gain = timing.sampled_path(lambda s, weight: paired_gain(loops, sc, mouse, s, weight), wk)
         p_, g_, st = interaction_margins(wk, timing, gain / timing.impedance(wk, m_v, b_v))
         pm[rows], gm[rows] = p_, g_
         stable[rows] &= st

@@ -110,8 +110,8 @@ class RayProblem:
     gain_margin: float                     # g (linear) with its hair
     sampled: bool
     current_peak: np.ndarray | None        # max over scenarios of |C S W| res / i_max, (n_f,)
-    sensitivity_m1: np.ndarray             # S - 1, (n_s, n_f)
-    reference_over_g: np.ndarray           # R W / G, (n_s, n_f)
+    motor_force: np.ndarray                # motor force per sensed force at b_v = inf (S - 1), (n_motor x n_s, n_f)
+    motor_reference: np.ndarray            # and the part over m_v sigma + b_v rho (R W / G), (n_motor x n_s, n_f)
     force_ratio: float                     # F_max / F_pk
     passive_re_sg: np.ndarray | None       # Re(S G) on the passivity band, (n_s, n_p)
     passive_rw: np.ndarray | None          # R W there
@@ -146,8 +146,8 @@ def ray_problem(resp: InteractionResponses, adm: AdmittanceProblem, *, phase_mar
         t_min = max(t_min, 1e3 * sensor.bias_after_tare_n / (sensor.max_drift_mm_per_s * (1 - HAIR_HARDWARE)))
     return RayProblem(resp.sigma, resp.rho, resp.w_rad_s, *polar(resp.gain.reshape(-1, resp.w_rad_s.size)),
                       pm + HAIR_PM_DEG, 10 ** ((gm + HAIR_GM_DB) / 20), resp.timing.sampled, current,
-                      resp.sensitivity_mobility / resp.mobility - 1.0,
-                      resp.reference_path / resp.mobility,
+                      resp.motor_force.reshape(-1, resp.w_rad_s.size),
+                      resp.motor_reference_path.reshape(-1, resp.w_rad_s.size),
                       hw.motor_peak_force_n * (1 - HAIR_HARDWARE) / adm.mouse.peak_force_n, re_sg, rw, band,
                       t_min, adm.b_v.max, adm.m_v.min, adm.m_v.max, resp.timing.min_tau_s,
                       adm.locomotion.peak_acceleration_m_per_s2,
@@ -230,7 +230,7 @@ def ray_bounds(rp: RayProblem, taus, curves=None) -> list[RayBound]:
     """``RayBound`` of each ray of ``taus`` (module docstring), the margins on ``curves`` (default all),
     vectorised over the rays in batches of ``RAY_BATCH_VALUES`` grid values."""
     taus = np.asarray(taus, float)
-    rows = max(len(rp.log_mag) if curves is None else len(curves), len(rp.sensitivity_m1))
+    rows = max(len(rp.log_mag) if curves is None else len(curves), len(rp.motor_force))
     step = max(1, RAY_BATCH_VALUES // max(rows * rp.sigma.size, 1))
     out = []
     for i in range(0, taus.size, step):
@@ -254,7 +254,7 @@ def _ray_bounds(rp: RayProblem, taus: np.ndarray, curves) -> list[RayBound]:
     if rp.current_peak is not None:
         lower["sensor_current"] = np.max(rp.current_peak / aq, axis=-1)
     # motor force: |a + b u| <= c with u = 1/t; u = 0 holds when |a| <= c, and the admissible u reach u2
-    a, b, c = rp.sensitivity_m1, rp.reference_over_g / q[:, None, :], rp.force_ratio
+    a, b, c = rp.motor_force, rp.motor_reference / q[:, None, :], rp.force_ratio
     bb, ab = np.abs(b) ** 2, (a * np.conj(b)).real
     disc = ab**2 - bb * (np.abs(a) ** 2 - c * c)
     u2 = np.where(disc > 0, (-ab + np.sqrt(np.maximum(disc, 0))) / np.maximum(bb, 1e-300), np.inf)

@@ -45,6 +45,7 @@ from design.admittance.feel import FeltForce, MouseFeel, feel_scenarios, mouse_f
 from design.admittance.model import (
     AdmittanceCheck,
     AdmittanceEvaluator,
+    PiLoops,
     admittance_problem,
     check_grid_for,
     interaction_responses,
@@ -127,6 +128,8 @@ def _gains(problem: LoopProblem, kp, ki) -> tuple[float, float]:
 
 #: payloads of the dense check
 CHECK_PAYLOADS = 25
+#: curves whose bounds ``ray_binding`` computes together (memory: a few float arrays of rows x frequencies)
+BINDING_ROWS = 2048
 
 
 def check_scenarios(problem: LoopProblem) -> Scenarios:
@@ -172,8 +175,10 @@ def ray_binding(problem: LoopProblem, rp, ray: RayBound, corners, scenarios: Sce
                    "passivity": "passivity (admittance.passivity) sets the scale of (m_v, b_v)"}
         name = "drift" if ray.binding == "b_v_min" and rp.t_min > adm.b_v.min else ray.binding
         return {"constraint": name, **base, "detail": details.get(name, name)}
-    t_pm, t_gm = curve_bounds(rp.log_mag, rp.psi, rp.rho + ray.tau_s * rp.sigma, rp.phase_margin_deg, rp.gain_margin,
-                              rp.sampled, parts=True)
+    q = rp.rho + ray.tau_s * rp.sigma
+    t_pm, t_gm = (np.concatenate(p) for p in zip(*(
+        curve_bounds(rp.log_mag[i:i + BINDING_ROWS], rp.psi[i:i + BINDING_ROWS], q, rp.phase_margin_deg,
+                     rp.gain_margin, rp.sampled, parts=True) for i in range(0, len(rp.log_mag), BINDING_ROWS))))
     gm_binds = t_gm.max() >= t_pm.max()
     c = int(np.argmax(t_gm if gm_binds else t_pm))
     k, j = np.unravel_index(c, (len(corners), len(scenarios)))
@@ -198,6 +203,9 @@ def synthesise_admittance(problem: LoopProblem, *, kp: float | None = None, ki: 
     if nominal:
         problem = replace(problem, plant=replace(problem.plant, uncertainty={}))
     adm = admittance_problem(problem)
+    if problem.plant.nominal.stage != "x":
+        raise SpecError("plant.stage: the one-motor admittance design is Stage X's; Stage Y's two motors and yaw "
+                        "mode are designed with a [dual_drive] section (specs/stage_y_admittance.toml)")
     kp, ki = _gains(problem, kp, ki)
     timing = RigTiming.of(adm.rig)
     record = None
@@ -208,12 +216,13 @@ def synthesise_admittance(problem: LoopProblem, *, kp: float | None = None, ki: 
         record = codesign(problem, kp=kp, ki=ki, timing=timing)
         kp, ki, timing = record.kp, record.ki, record.timing
     corners = mice(problem)
+    loops = PiLoops.of(problem, kp, ki)
     loc = adm.locomotion
     w_design = with_mode_points(check_grid_for(timing), corners, timing)
     say("dense check set up")
     feel_set = feel_scenarios(problem)
-    felt = FeltForce(problem, feel_set, corners, kp=kp, ki=ki, timing=timing)
-    dense = AdmittanceEvaluator(problem, check_scenarios(problem), kp=kp, ki=ki, timing=timing, corners=corners)
+    felt = FeltForce(problem, feel_set, corners, loops=loops, timing=timing)
+    dense = AdmittanceEvaluator(problem, check_scenarios(problem), loops=loops, timing=timing, corners=corners)
     scenarios = design_scenarios(problem)
     notes: dict = {"rounds": 0}
     mc = None
@@ -222,7 +231,7 @@ def synthesise_admittance(problem: LoopProblem, *, kp: float | None = None, ki: 
             notes["rounds"] += 1
             say(f"rays on {len(scenarios)} scenarios x {len(corners)} mice")
             rp_scenarios = scenarios
-            rp = ray_problem(interaction_responses(problem, scenarios, w_design, kp=kp, ki=ki, timing=timing,
+            rp = ray_problem(interaction_responses(problem, scenarios, w_design, loops=loops, timing=timing,
                                                    corners=corners), adm)
             ray = best_ray(rp, objective=lambda r: felt(r.m_v, r.b_v))
             if not ray.feasible:
@@ -237,9 +246,9 @@ def synthesise_admittance(problem: LoopProblem, *, kp: float | None = None, ki: 
                 break
             scenarios = scenarios.with_row(worst)
         if not check.meets:
-            x, check = _back_off(dense, x, adm)
+            x, check = back_off(dense, x, adm)
         say("Monte Carlo over payload, uncertainty and mouse")
-        mc = admittance_monte_carlo(problem, kp=kp, ki=ki, m_v=x[0], b_v=x[1], timing=timing,
+        mc = admittance_monte_carlo(problem, loops=loops, m_v=x[0], b_v=x[1], timing=timing,
                                     seed=problem.verification.seed + mc_round)
         if mc.violations == 0 or mc_round == MONTE_CARLO_ROUNDS or scenarios.contains(mc.worst_scenario):
             break
@@ -249,9 +258,9 @@ def synthesise_admittance(problem: LoopProblem, *, kp: float | None = None, ki: 
     verification = verify_admittance(problem, check, kp=kp, ki=ki, timing=timing)
     binding = ray_binding(problem, rp, ray, corners, rp_scenarios)
     say("what the mouse feels")
-    feel = mouse_feel(problem, kp=kp, ki=ki, m_v=x[0], b_v=x[1], scenarios=feel_set, corners=corners, timing=timing,
+    feel = mouse_feel(problem, loops=loops, m_v=x[0], b_v=x[1], scenarios=feel_set, corners=corners, timing=timing,
                       felt=felt)
-    contact = stiffest_contact(problem, design_scenarios(problem), kp=kp, ki=ki, m_v=x[0], b_v=x[1], timing=timing)
+    contact = stiffest_contact(problem, design_scenarios(problem), loops=loops, m_v=x[0], b_v=x[1], timing=timing)
     r = x[0] * loc.peak_acceleration_m_per_s2 + x[1] * loc.peak_speed_m_per_s
     if not verification.verified:
         status, msg = "infeasible", "NOT verified: " + "; ".join(verification.failures[:3])
@@ -291,7 +300,7 @@ def synthesise_admittance(problem: LoopProblem, *, kp: float | None = None, ki: 
     return result
 
 
-def _back_off(dense: AdmittanceEvaluator, x: np.ndarray, adm) -> tuple[np.ndarray, AdmittanceCheck]:
+def back_off(dense: AdmittanceEvaluator, x: np.ndarray, adm) -> tuple[np.ndarray, AdmittanceCheck]:
     """The nearest point up the ray from ``x`` that the dense check passes: the first passing scale of
     1.002, 1.006, 1.018, ... (x3 in log each step) up to the bounds, then bisection to 0.1 %."""
     top = math.log(max(min(adm.m_v.max / x[0], adm.b_v.max / x[1]), 1.0))
@@ -323,7 +332,7 @@ def _infeasible(problem, ray: RayBound, rp, scenarios, kp, ki, timing, corners, 
            f"{hi[1]:g} N*s/m holds every requirement: the least scale along the best ray (m_v / b_v = "
            f"{ray.tau_s:.3g} s) is set by {_NAMES.get(need, need)} at b_v = {ray.b_v:.4g} N*s/m, above what the "
            f"upper bounds {'and passivity ' if adm.passivity is not None else ''}allow; {_HINTS.get(need, '')}")
-    ev = AdmittanceEvaluator(problem, scenarios, kp=kp, ki=ki, timing=timing, corners=corners)
+    ev = AdmittanceEvaluator(problem, scenarios, loops=PiLoops.of(problem, kp, ki), timing=timing, corners=corners)
     x = np.minimum(np.array([ray.m_v, ray.b_v]), hi) if math.isfinite(ray.b_v) else hi
     check = ev.evaluate(*x)
     binding = {"constraint": need, "payload_kg": None, "scenario": None, "mouse": None, "value": ray.b_v,

@@ -16,7 +16,13 @@ import math
 from dataclasses import dataclass, replace
 
 from design.admittance.codesign import SEARCH_TERMS
-from design.admittance.model import admittance_problem, check_grid_for, interaction_responses, with_mode_points
+from design.admittance.model import (
+    PiLoops,
+    admittance_problem,
+    check_grid_for,
+    interaction_responses,
+    with_mode_points,
+)
 from design.admittance.ray import ACTIVE_ADD, HAIR_PM_DEG, best_ray, ray_problem, top_curves
 from design.admittance.rig import RigTiming
 from design.parallel import thread_map
@@ -70,8 +76,8 @@ def trade_off(problem: LoopProblem, result, rp) -> TradeOff:
                                     MARGINS_DEG))
     heavy = design_scenarios(problem, [problem.plant.payload_kg.max])
     w = with_mode_points(check_grid_for(result.timing), result.corners, result.timing)
-    resp = interaction_responses(problem, heavy, w, kp=result.kp, ki=result.ki, timing=result.timing,
-                                 corners=result.corners, terms=SEARCH_TERMS)
+    resp = interaction_responses(problem, heavy, w, loops=PiLoops.of(problem, result.kp, result.ki),
+                                 timing=result.timing, corners=result.corners, terms=SEARCH_TERMS)
     passivity_front = thread_map(
         lambda f: _point(ray_problem(resp, replace(adm, passivity=Passivity(up_to_hz=f))), f), PASSIVE_UP_TO_HZ)
     baseline = best_ray(ray_problem(resp, adm), points=20, refine=1).cost_n(rp.a_pk, rp.v_pk)
@@ -80,7 +86,8 @@ def trade_off(problem: LoopProblem, result, rp) -> TradeOff:
         label, variant, timing = case
         sc = design_scenarios(variant, [variant.plant.payload_kg.max])
         wv = with_mode_points(check_grid_for(timing), result.corners, timing)
-        r = interaction_responses(variant, sc, wv, kp=result.kp, ki=result.ki, timing=timing, corners=result.corners,
+        r = interaction_responses(variant, sc, wv, loops=PiLoops.of(variant, result.kp, result.ki), timing=timing,
+                                  corners=result.corners,
                                   terms=SEARCH_TERMS)
         return HardwareChange(label, best_ray(ray_problem(r, adm), points=20, refine=1).cost_n(rp.a_pk, rp.v_pk),
                               baseline)

@@ -32,7 +32,6 @@ from typing import ClassVar
 
 import numpy as np
 
-from design.loop.loops import pi_frd
 from design.loop.margins import closed_loop_bandwidth_hz, loop_margins
 
 #: T_out: rail velocities -> (mean, half difference); T_in: (total, differential current) -> motor currents
@@ -58,7 +57,12 @@ class _Structure:
 
     def channel_frd(self, w_rad_s) -> np.ndarray:
         """diag(PI_j(jw)) as (..., n, n, n_freq); gains given as arrays give a batch of controllers."""
-        k = [pi_frd(w_rad_s, kp, ki) for kp, ki in self.channel_gains()]
+        return self.channel_at(1j * np.asarray(w_rad_s, float))
+
+    def channel_at(self, s) -> np.ndarray:
+        """diag(PI_j(s)) at complex ``s`` (``channel_frd``)."""
+        s = np.asarray(s, complex)
+        k = [np.asarray(kp)[..., None] + np.asarray(ki)[..., None] / s for kp, ki in self.channel_gains()]
         shape = np.broadcast_shapes(*(c.shape for c in k))
         out = np.zeros(shape[:-1] + (len(k), len(k), shape[-1]), dtype=complex)
         for j, c in enumerate(k):
@@ -67,7 +71,11 @@ class _Structure:
 
     def frd(self, w_rad_s) -> np.ndarray:
         """C(jw), shape (..., 2, 2, n_freq): motor currents per rail velocity error."""
-        return matmul(matmul(self.t_in, self.channel_frd(w_rad_s)), self.t_out)
+        return self.at(1j * np.asarray(w_rad_s, float))
+
+    def at(self, s) -> np.ndarray:
+        """C(s) at complex ``s`` (``frd``)."""
+        return matmul(matmul(self.t_in, self.channel_at(s)), self.t_out)
 
 
 @dataclass(frozen=True)
@@ -154,7 +162,7 @@ def matmul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return out
 
 
-def _inv2(a: np.ndarray) -> np.ndarray:
+def inv2(a: np.ndarray) -> np.ndarray:
     """Inverse of 2 x 2 matrices stored as (..., 2, 2, n_freq)."""
     det = a[..., 0, 0, :] * a[..., 1, 1, :] - a[..., 0, 1, :] * a[..., 1, 0, :]
     inv = np.empty_like(a)
@@ -220,7 +228,7 @@ def loop_figures(w_rad_s, plant_frd: np.ndarray, controller: Controller) -> Dual
         m = loop_margins(w, lj)
         gm.append(m.gain_margin_db)
         pm.append(m.phase_margin_deg)
-    S_in = _inv2(eye + L_in)
+    S_in = inv2(eye + L_in)
     alpha = 1.0 / mu_diagonal(S_in - eye / 2).max(axis=-1)
     with np.errstate(divide="ignore", invalid="ignore"):
         disk_gm = np.where(alpha < 2, 20 * np.log10((2 + alpha) / (2 - alpha)), np.inf)

@@ -61,14 +61,45 @@ class DualScenarios:
     carriage_position_m: np.ndarray
     carriage_mass_kg: np.ndarray
     parameters: dict[str, np.ndarray] = field(default_factory=dict)
+    #: Stage X's carriage without the payload: carriage_mass_kg - stage_x_mass_kg is the payload
+    stage_x_mass_kg: float = 0.0
 
     def __len__(self) -> int:
         return int(self.carriage_position_m.size)
 
+    @property
+    def payload_kg(self) -> np.ndarray:
+        return self.carriage_mass_kg - self.stage_x_mass_kg
+
+    def plants(self) -> DualDriveStageY:
+        """Every plant as one batch (fields of shape (n,), effect parameters (n, 1))."""
+        return _plants(self.base, self.carriage_position_m, self.carriage_mass_kg, self.parameters)
+
+    def take(self, rows) -> DualScenarios:
+        """The plants of ``rows`` (an index array or a boolean mask)."""
+        return replace(self, carriage_position_m=self.carriage_position_m[rows],
+                       carriage_mass_kg=self.carriage_mass_kg[rows],
+                       parameters={k: v[rows] for k, v in self.parameters.items()})
+
+    def row(self, k: int) -> dict[str, float]:
+        return {"carriage_position_m": float(self.carriage_position_m[k]), "payload_kg": float(self.payload_kg[k]),
+                **{n: float(v[k]) for n, v in self.parameters.items()}}
+
+    def _rows(self) -> np.ndarray:
+        return np.column_stack([self.carriage_position_m, self.payload_kg, *self.parameters.values()])
+
+    def with_row(self, row: dict[str, float]) -> DualScenarios:
+        return replace(self, carriage_position_m=np.append(self.carriage_position_m, row["carriage_position_m"]),
+                       carriage_mass_kg=np.append(self.carriage_mass_kg, row["payload_kg"] + self.stage_x_mass_kg),
+                       parameters={n: np.append(v, row[n]) for n, v in self.parameters.items()})
+
+    def contains(self, row: dict[str, float]) -> bool:
+        target = np.array([row["carriage_position_m"], row["payload_kg"], *(row[n] for n in self.parameters)])
+        return bool(np.any(np.all(np.isclose(self._rows(), target, rtol=1e-9, atol=0), axis=1)))
+
     def frd_of(self, start: int, stop: int) -> np.ndarray:
         """Responses of plants start..stop-1, (n, 2, 2, n_freq) on ``W_RAD_S``."""
-        return _plants(self.base, self.carriage_position_m[start:stop], self.carriage_mass_kg[start:stop],
-                       {k: v[start:stop] for k, v in self.parameters.items()}).frd(W_RAD_S)
+        return self.take(slice(start, stop)).plants().frd(W_RAD_S)
 
     @functools.cached_property
     def frd(self) -> np.ndarray:
@@ -76,9 +107,12 @@ class DualScenarios:
         return self.frd_of(0, len(self))
 
     def describe(self, k: int) -> str:
+        """'carriage at 0.08 m, payload 40 kg, damping1_n_s_per_m 330, ...' (the carriage's mass when Stage X's is
+        not known)."""
         extra = ", ".join(f"{n} {v[k]:.4g}" for n, v in self.parameters.items())
-        return (f"carriage at {self.carriage_position_m[k]:.3g} m, {self.carriage_mass_kg[k]:.4g} kg"
-                + (f", {extra}" if extra else ""))
+        mass = (f"payload {self.payload_kg[k]:.4g} kg" if self.stage_x_mass_kg else
+                f"{self.carriage_mass_kg[k]:.4g} kg")
+        return f"carriage at {self.carriage_position_m[k]:.3g} m, {mass}" + (f", {extra}" if extra else "")
 
 
 def _plants(base: DualDriveStageY, positions: np.ndarray, masses: np.ndarray,
@@ -99,7 +133,7 @@ def _plants(base: DualDriveStageY, positions: np.ndarray, masses: np.ndarray,
 
 
 def dual_scenarios(base: DualDriveStageY, positions_m, carriage_masses_kg,
-                   ranges: Mapping[str, tuple[float, float]]) -> DualScenarios:
+                   ranges: Mapping[str, tuple[float, float]], stage_x_mass_kg: float = 0.0) -> DualScenarios:
     """Every position x mass x corner of ``ranges`` (parameter -> (min, max))."""
     corners = list(itertools.product(*ranges.values())) or [()]
     grid = list(itertools.product(np.asarray(positions_m, float), np.asarray(carriage_masses_kg, float), corners))
@@ -107,18 +141,18 @@ def dual_scenarios(base: DualDriveStageY, positions_m, carriage_masses_kg,
     mass = np.array([g[1] for g in grid])
     values = {name: np.array([g[2][i] for g in grid]) for i, name in enumerate(ranges)}
     _plants(base, pos[:1], mass[:1], {k: v[:1] for k, v in values.items()})       # names and values checked now
-    return DualScenarios(base, pos, mass, values)
+    return DualScenarios(base, pos, mass, values, stage_x_mass_kg)
 
 
 def monte_carlo_scenarios(base: DualDriveStageY, position_range_m: tuple[float, float],
                           mass_range_kg: tuple[float, float], ranges: Mapping[str, tuple[float, float]],
-                          n: int, seed: int) -> DualScenarios:
+                          n: int, seed: int, stage_x_mass_kg: float = 0.0) -> DualScenarios:
     """``n`` plants drawn uniformly in the position, mass and parameter ranges (seeded)."""
     rng = np.random.default_rng(seed)
     pos = rng.uniform(*position_range_m, n)
     mass = rng.uniform(*mass_range_kg, n)
     values = {name: rng.uniform(lo, hi, n) for name, (lo, hi) in ranges.items()}
-    return DualScenarios(base, pos, mass, values)
+    return DualScenarios(base, pos, mass, values, stage_x_mass_kg)
 
 
 @dataclass(frozen=True)
@@ -365,9 +399,10 @@ def design_dual(model: DualDriveStageY, *, positions_m, payloads_kg, stage_x_mas
 
     start = time.perf_counter()
     masses = stage_x_mass_kg + np.asarray(payloads_kg, float)
-    scenarios = dual_scenarios(model, positions_m, masses, ranges)
+    scenarios = dual_scenarios(model, positions_m, masses, ranges, stage_x_mass_kg)
     check = monte_carlo_scenarios(model, (float(np.min(positions_m)), float(np.max(positions_m))),
-                                  (float(masses.min()), float(masses.max())), ranges, monte_carlo_samples, seed)
+                                  (float(masses.min()), float(masses.max())), ranges, monte_carlo_samples, seed,
+                                  stage_x_mass_kg)
     if progress is not None:
         progress(f"designing {', '.join(structures)}")
     scenarios.frd                                   # computed once, before the threads share it

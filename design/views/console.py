@@ -153,6 +153,18 @@ def print_synthesis(console: Console, out: dict) -> None:
     console.print(f"[bold]status[/]: {out['status']} ({out['message']}); verified: {out['verified']}", soft_wrap=True)
     if out.get("kind") == "dual_drive":
         print_dual_design(console, out)
+        adm = out.get("admittance")
+        if adm and adm.get("m_v") is not None:
+            _print_admittance(console, adm)
+            t = Table(title="Admittance by carriage position (worst over payloads, uncertainty corners and mice)")
+            for col in ("carriage m", "PM deg", "GM dB", "rendered BW Hz", "motor force N"):
+                t.add_column(col, justify="right")
+            for r in adm["by_carriage_position"]:
+                t.add_row(f"{r['carriage_position_m']:.3g}", _val(r["phase_margin_deg"]), _num(r["gain_margin_db"]),
+                          _num(r["rendered_bandwidth_hz"], ".2f"), f"{r['motor_force_n']:.4g}")
+            console.print(t)
+        elif adm:
+            console.print(f"[bold]admittance[/]: {adm['status']}: {adm['message']}", soft_wrap=True)
         return
     g = out["gains"]
     wc = out["worst_case"]
@@ -240,9 +252,10 @@ def print_synthesis(console: Console, out: dict) -> None:
 def _print_admittance(console: Console, adm: dict) -> None:
     """The admittance stage: the virtual dynamics, what the mouse feels, the margins by mouse, the rig."""
     bw, m = adm["rendered_bandwidth_hz"], adm.get("mouse") or {}
-    console.print(f"[bold]admittance[/]: m_v = {adm['m_v']:.4g} kg, b_v = {adm['b_v']:.4g} N*s/m with Kp = "
-                  f"{adm['kp']:.4g}, Ki = {adm['ki']:.4g}; rendered bandwidth {_num(bw, '.1f')} Hz; binding: "
-                  f"{adm['binding']['detail']}", soft_wrap=True)
+    loops = (f"on the {adm['structure']} loops ({', '.join(f'{k} = {v:.4g}' for k, v in adm['gains'].items())})"
+             if "structure" in adm else f"with Kp = {adm['kp']:.4g}, Ki = {adm['ki']:.4g}")
+    console.print(f"[bold]admittance[/]: m_v = {adm['m_v']:.4g} kg, b_v = {adm['b_v']:.4g} N*s/m {loops}; rendered "
+                  f"bandwidth {_num(bw, '.1f')} Hz; binding: {adm['binding']['detail']}", soft_wrap=True)
     if m:
         console.print(f"  the mouse feels {m['force_felt_peak_n']:.3g} N peak, {m['force_felt_rms_n']:.3g} N RMS on "
                       f"the profile (m_v a + b_v v = {m['virtual_dynamics_force_n']:.3g} N; it can push "
@@ -254,8 +267,9 @@ def _print_admittance(console: Console, adm: dict) -> None:
     for name, v in adm["margins_by_mouse"].items():
         console.print(f"  interaction loop, {name} mice: worst PM {_num(v['phase_margin_deg'], '.1f')} deg, "
                       f"GM {_num(v['gain_margin_db'], '.1f')} dB")
-    console.print(f"  passive (Re Y_r >= 0) up to {_num(adm['passive_up_to_hz'], '.3g')} Hz; stable on a grounded "
-                  f"spring up to {_num(adm.get('stiffest_contact_n_per_m'), '.4g')} N/m")
+    contact = ("" if "stiffest_contact_n_per_m" not in adm else
+               f"; stable on a grounded spring up to {_num(adm['stiffest_contact_n_per_m'], '.4g')} N/m")
+    console.print(f"  passive (Re Y_r >= 0) up to {_num(adm['passive_up_to_hz'], '.3g')} Hz{contact}")
     rig = adm["rig"]
     if rig["discrete"]:
         d = rig["discrete"]

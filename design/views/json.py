@@ -9,6 +9,7 @@ import math
 
 import numpy as np
 
+from design.admittance.dual import DualAdmittanceResult
 from design.admittance.model import admittance_problem
 from design.admittance.monte_carlo import AdmittanceMonteCarlo
 from design.admittance.synthesis import AdmittanceResult
@@ -420,7 +421,6 @@ def admittance_to_dict(result: AdmittanceResult, problem: LoopProblem) -> dict:
     c = result.check
     designed = result.status in ("optimal", "mouse_cannot_drive")
     payloads, w = c.per_payload()
-    loc, hw, sensor = adm.locomotion, adm.hardware, adm.sensor
     timing, feel = result.timing, result.feel
     legs = c.worst_by_legs()
     out = {
@@ -441,25 +441,7 @@ def admittance_to_dict(result: AdmittanceResult, problem: LoopProblem) -> dict:
         "binding": result.binding, "active": list(result.active),
         "verified": result.verified,
         "mouse_can_follow_profile": None if feel is None else feel.can_drive,
-        "locomotion": {"profile": "trapezoidal (peak acceleration held until peak speed, over the travel)",
-                       "peak_speed_m_per_s": loc.peak_speed_m_per_s,
-                       "peak_acceleration_m_per_s2": loc.peak_acceleration_m_per_s2, "travel_m": loc.travel_m},
-        "limits": {"phase_margin_deg": adm.phase_margin_deg, "gain_margin_db": adm.gain_margin_db,
-                   "motor_peak_force_n": hw.motor_peak_force_n,
-                   "max_current_per_sensor_step_a": hw.max_current_per_sensor_step_a,
-                   "force_sensor_resolution_n": hw.force_sensor_resolution_n,
-                   "mouse_peak_force_n": adm.mouse.peak_force_n,
-                   "max_drift_mm_per_s": sensor.max_drift_mm_per_s,
-                   "passive_up_to_hz": None if adm.passivity is None else
-                   (adm.passivity.up_to_hz if adm.passivity.up_to_hz is not None else "everywhere")},
-        "rig": {"update_rate_hz": None if timing.period_s is None else 1.0 / timing.period_s,
-                "computation_delay_samples": timing.delay_samples, "force_filter_hz": timing.filter_hz,
-                "force_filter_order": timing.filter_order if timing.filter_hz is not None else None,
-                "discrete": None if result.discrete is None else {
-                    "alpha": result.discrete.alpha, "beta_m_per_s_per_n": result.discrete.beta_m_per_s_per_n,
-                    "rule": result.discrete.rule,
-                    "form": "v[k] = alpha v[k-1] + beta F[k]; v held until the next update, applied "
-                            f"{timing.delay_samples} sample(s) after F[k] is read"}},
+        **_admittance_setting(adm, timing, result.discrete),
         "evaluated_at": {"m_v": result.m_v, "b_v": result.b_v},
         "mice": [m.as_dict() for m in result.corners],
         "mouse_corners": [m.as_dict() for m in result.corners],
@@ -480,13 +462,7 @@ def admittance_to_dict(result: AdmittanceResult, problem: LoopProblem) -> dict:
                    **result.solver},
     }
     if feel is not None:
-        out["mouse"] = {"force_felt_peak_n": feel.peak_force_n, "force_felt_rms_n": feel.rms_force_n,
-                        "virtual_dynamics_force_n": feel.ideal_peak_force_n, "worst": feel.worst,
-                        "reachable_speed_m_per_s": feel.reachable_speed_m_per_s,
-                        "reachable_acceleration_m_per_s2": feel.reachable_acceleration_m_per_s2,
-                        "can_drive": feel.can_drive, "breakaway_force_n": feel.breakaway_force_n,
-                        "drift_mm_per_s": feel.drift_mm_per_s,
-                        "force_felt": "the neck force when the body follows the profile and the head rides the clamp"}
+        out["mouse"] = _feel(feel)
     if result.contact is not None:
         out["stiffest_contact_n_per_m"] = finite_or_none(result.contact.worst_n_per_m)
         out["stiffest_contact_at"] = result.contact.worst_scenario
@@ -506,6 +482,80 @@ def admittance_to_dict(result: AdmittanceResult, problem: LoopProblem) -> dict:
                            "passivity_front": _front(t.passivity_front),
                            "hardware_changes": [{"change": h.change, "force_n": finite_or_none(h.force_n),
                                                  "baseline_n": finite_or_none(h.baseline_n)} for h in t.changes]}
+    return out
+
+
+def _admittance_setting(adm, timing, discrete) -> dict:
+    """The locomotion profile, the limits and the rig of an admittance design."""
+    loc, hw, sensor = adm.locomotion, adm.hardware, adm.sensor
+    return {
+        "locomotion": {"profile": "trapezoidal (peak acceleration held until peak speed, over the travel)",
+                       "peak_speed_m_per_s": loc.peak_speed_m_per_s,
+                       "peak_acceleration_m_per_s2": loc.peak_acceleration_m_per_s2, "travel_m": loc.travel_m},
+        "limits": {"phase_margin_deg": adm.phase_margin_deg, "gain_margin_db": adm.gain_margin_db,
+                   "motor_peak_force_n": hw.motor_peak_force_n,
+                   "max_current_per_sensor_step_a": hw.max_current_per_sensor_step_a,
+                   "force_sensor_resolution_n": hw.force_sensor_resolution_n,
+                   "mouse_peak_force_n": adm.mouse.peak_force_n,
+                   "max_drift_mm_per_s": sensor.max_drift_mm_per_s,
+                   "passive_up_to_hz": None if adm.passivity is None else
+                   (adm.passivity.up_to_hz if adm.passivity.up_to_hz is not None else "everywhere")},
+        "rig": {"update_rate_hz": None if timing.period_s is None else 1.0 / timing.period_s,
+                "computation_delay_samples": timing.delay_samples, "force_filter_hz": timing.filter_hz,
+                "force_filter_order": timing.filter_order if timing.filter_hz is not None else None,
+                "discrete": None if discrete is None else {
+                    "alpha": discrete.alpha, "beta_m_per_s_per_n": discrete.beta_m_per_s_per_n,
+                    "rule": discrete.rule,
+                    "form": "v[k] = alpha v[k-1] + beta F[k]; v held until the next update, applied "
+                            f"{timing.delay_samples} sample(s) after F[k] is read"}}}
+
+
+def _feel(feel) -> dict:
+    return {"force_felt_peak_n": feel.peak_force_n, "force_felt_rms_n": feel.rms_force_n,
+            "virtual_dynamics_force_n": feel.ideal_peak_force_n, "worst": feel.worst,
+            "reachable_speed_m_per_s": feel.reachable_speed_m_per_s,
+            "reachable_acceleration_m_per_s2": feel.reachable_acceleration_m_per_s2,
+            "can_drive": feel.can_drive, "breakaway_force_n": feel.breakaway_force_n,
+            "drift_mm_per_s": feel.drift_mm_per_s,
+            "force_felt": "the neck force when the body follows the profile and the head rides the clamp"}
+
+
+def dual_admittance_to_dict(result: DualAdmittanceResult, problem: LoopProblem) -> dict:
+    """``admittance`` of ``gantry synth --json`` on a two-motor Stage Y: the virtual dynamics on the recommended
+    structure, worst over carriage position x payload x uncertainty x mouse, and per carriage position."""
+    c = result.check
+    designed = result.status in ("optimal", "mouse_cannot_drive")
+    worst = result.worst_position
+    out = {
+        "status": result.status, "message": result.message, "structure": result.structure, "gains": result.gains,
+        "m_v": result.m_v if designed else None, "b_v": result.b_v if designed else None,
+        "peak_resistance_n": result.peak_resistance_n if designed else None,
+        "rendered_bandwidth_hz": finite_or_none(np.nanmin(c.rendered_bandwidth_hz))
+        if np.any(np.isfinite(c.rendered_bandwidth_hz)) else None,
+        "worst_phase_margin_deg": finite_or_none(np.nanmin(c.phase_margin_deg)),
+        "worst_gain_margin_db": finite_or_none(np.nanmin(c.gain_margin_db)),
+        "margins_by_mouse": {k: {"phase_margin_deg": finite_or_none(v[0]), "gain_margin_db": finite_or_none(v[1])}
+                             for k, v in c.worst_by_legs().items()},
+        "worst_sensor_current_a": float(np.max(c.sensor_current_a)),
+        "worst_motor_force_n": float(np.max(c.motor_force_n)),
+        "passive_up_to_hz": finite_or_none(np.min(c.passive_up_to_hz)),
+        "drift_mm_per_s": c.drift_mm_per_s, "binding": result.binding,
+        "verified": result.status in ("optimal", "mouse_cannot_drive"),
+        "mouse_can_follow_profile": None if result.feel is None else result.feel.can_drive,
+        "worst_carriage_position_m": worst.carriage_position_m,
+        "by_carriage_position": [dataclasses.asdict(r) for r in result.by_position],
+        **_admittance_setting(admittance_problem(problem), result.timing, result.discrete),
+        "evaluated_at": {"m_v": result.m_v, "b_v": result.b_v},
+        "mice": [m.as_dict() for m in result.corners],
+        "check_scenarios": len(c.scenarios), "design_scenarios": result.design_scenarios,
+        "violations": [v["detail"] for v in c.violations],
+        "monte_carlo": None if result.monte_carlo is None else admittance_monte_carlo_to_dict(result.monte_carlo),
+        "solver": {"method": "rays m_v / b_v on the structure's loops seen from the head clamp "
+                             "(design.admittance.dual); dense check over carriage position x payload x uncertainty "
+                             "x mice, Monte Carlo", "seconds": result.seconds},
+    }
+    if result.feel is not None:
+        out["mouse"] = _feel(result.feel)
     return out
 
 
@@ -541,6 +591,9 @@ def design_to_dict(outcome: DesignOutcome) -> dict:
     problem, spec = outcome.problem, outcome.problem.spec
     if outcome.dual is not None:
         out = dual_design_to_dict(outcome.dual)
+        if outcome.dual_admittance is not None:
+            out = {**out, "admittance": dual_admittance_to_dict(outcome.dual_admittance, problem.loop),
+                   "status": outcome.status, "message": outcome.message, "verified": outcome.verified}
     elif outcome.measured is not None:
         out = measured_design_to_dict(outcome.measured)
     else:

@@ -11,7 +11,8 @@ l1 = s_g from Y1 and l2 = L - s_g from Y2, Newton's law gives
     J alpha'' + (b2 l2 - b1 l1) y_g' + (b1 l1^2 + b2 l2^2) alpha' + K_a alpha = l2 f2 - l1 f1
 
 with M = m_b + m_c, s_g = (m_b L / 2 + m_c p) / M, J = J_b + J_c + m_b (L/2 - s_g)^2 + m_c (p - s_g)^2, and
-v1 = y_g' - l1 alpha', v2 = y_g' + l2 alpha' (``plant.physics.gantry_models.xie_wang_frd``). With k1 = k2 =
+v1 = y_g' - l1 alpha', v2 = y_g' + l2 alpha' (``plant.physics.gantry_models.xie_wang_frd``); the carriage moves
+with y_g' + (p - l1) alpha' (``point_mobility``: the mouse pushes there). With k1 = k2 =
 K_t, b1 = b2 = b, the centre of mass midway and i1 = i2 = I / 2, v1 = v2 = K_t I / (M s + 2 b): thesis
 Eq. 3.16 at l = L / 2, the tool's one-loop Stage Y on the total current I.
 
@@ -29,7 +30,7 @@ import numpy as np
 from plant.errors import EffectError
 from plant.grid import check_grid
 from plant.physics.effect_base import ChainEffect, Effect
-from plant.physics.gantry_models import xie_wang_frd, xie_wang_ss
+from plant.physics.gantry_models import xie_wang_ss
 from plant.physics.parameters import check_positive
 
 
@@ -91,29 +92,48 @@ class DualDriveStageY:
         _, J, _, _ = self.mass_geometry()
         return np.sqrt(np.asarray(self.yaw_stiffness_n_m_per_rad, float) / J) / (2 * np.pi)
 
-    def _chain(self, s: np.ndarray, place: str) -> np.ndarray | float:
-        """The product of the effects at ``place``, shaped to multiply (..., 2, 2, n_freq); effect parameters
-        given as arrays shaped (..., 1) make a batch."""
+    def chain(self, s, place: str) -> np.ndarray | float:
+        """The product of the effects at ``place`` ("drive" or "sensor") at complex ``s``, shaped to multiply
+        (..., 2, 2, n_freq); effect parameters given as arrays shaped (..., 1) make a batch."""
         out: np.ndarray | float = 1.0
         for e in self.effects:
             if e.place == place:
-                out = out * e.response(s)
+                out = out * e.response(np.asarray(s, complex))
         return out[..., None, None, :] if np.ndim(out) > 1 else out
+
+    def point_mobility(self, s) -> np.ndarray:
+        """Velocity per force between the points rail Y1, rail Y2 and the carriage, (..., 3, 3, n_freq) at complex
+        ``s`` (m/s per N; the mechanics alone). A point at e from the centre of mass moves with y_g' + e alpha'
+        and a force there adds e times itself to the torque: H = s B (K(s))^-1 B^T with K(s) the module doc's
+        matrix polynomial and the rows of B (1, -l1), (1, l2), (1, p - l1)."""
+        s = np.asarray(s, complex)
+        M, J, l1, l2 = (np.asarray(v, float)[..., None] for v in self.mass_geometry())
+        b1 = np.asarray(self.damping1_n_s_per_m, float)[..., None]
+        b2 = np.asarray(self.damping2_n_s_per_m, float)[..., None]
+        ka = np.asarray(self.yaw_stiffness_n_m_per_rad, float)[..., None]
+        e = np.asarray(self.carriage_position_m, float)[..., None] - l1
+        a = M * s**2 + (b1 + b2) * s
+        c = (b2 * l2 - b1 * l1) * s
+        d = J * s**2 + (b1 * l1**2 + b2 * l2**2) * s + ka
+        scale = s / (a * d - c**2)
+        d, c, a = d * scale, c * scale, a * scale                 # s K(s)^-1 = [[d, -c], [-c, a]] s / det
+        arms = (-l1, l2, e)
+        out = np.empty(np.broadcast_shapes(a.shape, e.shape)[:-1] + (3, 3, s.size), complex)
+        for i in range(3):
+            for j in range(i, 3):
+                out[..., i, j, :] = out[..., j, i, :] = d - (arms[i] + arms[j]) * c + arms[i] * arms[j] * a
+        return out
+
+    def force_constants(self) -> np.ndarray:
+        """(k1, k2) in N/A, shape (..., 2)."""
+        return np.stack(np.broadcast_arrays(np.asarray(self.force_constant1_n_per_a, float),
+                                            np.asarray(self.force_constant2_n_per_a, float)), axis=-1)
 
     def frd(self, w_rad_s) -> np.ndarray:
         """Rail velocity per motor current, shape (..., 2, 2, n_freq): [v1, v2] per [i1, i2] (m/s per A)."""
-        w = check_grid(w_rad_s)
-        M, J, l1, l2 = self.mass_geometry()
-        h = xie_wang_frd(w, mass_kg=M[..., None], inertia_kg_m2=J[..., None],
-                         damping1_n_s_per_m=np.asarray(self.damping1_n_s_per_m, float)[..., None],
-                         damping2_n_s_per_m=np.asarray(self.damping2_n_s_per_m, float)[..., None],
-                         l1_m=l1[..., None], l2_m=l2[..., None],
-                         joint_stiffness_n_m_per_rad=np.asarray(self.yaw_stiffness_n_m_per_rad, float)[..., None])
-        k = np.stack(np.broadcast_arrays(np.asarray(self.force_constant1_n_per_a, float),
-                                         np.asarray(self.force_constant2_n_per_a, float)), axis=-1)
-        s = 1j * w
-        drive, sensor = self._chain(s, "drive"), self._chain(s, "sensor")
-        return h * k[..., None, :, None] * drive * sensor
+        s = 1j * check_grid(w_rad_s)
+        k = self.force_constants()[..., None, :, None]
+        return self.point_mobility(s)[..., :2, :2, :] * k * self.chain(s, "drive") * self.chain(s, "sensor")
 
     def state_space(self):
         """python-control state space of the mechanics (no chain effects): states (y_g, alpha, v_g, omega),

@@ -138,3 +138,75 @@ def channel_loop(rig: Rig, structure: str, gains, j: int, pade_order: int = 8) -
     L = core * control.ss([], [], [], t_out) * P * control.ss([], [], [], t_in)
     closed_other = np.diag([1.0 if i != j else 0.0 for i in range(2)])
     return control.feedback(L, closed_other)[j, j]
+
+
+def clamp_path(rig: Rig, structure: str, gains, *, head_kg: float, body_kg: float, neck_k: float, neck_c: float,
+               leg_k: float = 0.0, leg_c: float = 0.0, pade_order: int = 10):
+    """(A, B, C, D) from the translation command r (on both rails' loops) to -F_s, the force the head clamp on the
+    carriage reads, negated, with the mouse attached there: K = -F_s / r of the admittance loop.
+
+    Bodies: the beam and carriage in rail coordinates (``mechanics``) plus the head m_h on the clamp at p, where a
+    point moves with a(p) . q'; the mouse's body m_b tied to the head by the neck (k_n, c_n) and to the ground by
+    the legs (k_l, c_l). States: the twist d = y2 - y1, the neck's stretch e = x_b - a . q, the body's position x_b
+    (only with legs), v = q', v_b; then each motor's drive (``drive``), then the controller's states. The neck
+    pulls the clamp with f_n = k_n e + c_n (v_b - a . v); the clamp reads F_s = f_n - m_h a . v'."""
+    L, p = rig.rail_separation_m, rig.carriage_position_m
+    a = np.array([1 - p / L, p / L])
+
+    def ap(s):
+        return np.array([1 - s / L, s / L])
+
+    twist = np.array([[1.0, -1.0], [-1.0, 1.0]]) / L**2
+    Mg = (rig.beam_mass_kg * np.outer(ap(L / 2), ap(L / 2)) + rig.carriage_mass_kg * np.outer(a, a)
+          + (rig.beam_inertia_kg_m2 + rig.carriage_inertia_kg_m2) * twist + head_kg * np.outer(a, a))
+    Mi = np.linalg.inv(Mg)
+    legs = leg_k > 0
+    # states: d, e, [x_b], v1, v2, v_b
+    names = ["d", "e"] + (["xb"] if legs else []) + ["v1", "v2", "vb"]
+    n = len(names)
+    ix = {k: i for i, k in enumerate(names)}
+    V = [ix["v1"], ix["v2"]]
+    A = np.zeros((n, n))
+    B = np.zeros((n, 2))
+    A[ix["d"], V] = [-1.0, 1.0]
+    A[ix["e"], ix["vb"]] = 1.0
+    A[ix["e"], V] = -a
+    if legs:
+        A[ix["xb"], ix["vb"]] = 1.0
+    # generalised forces on the gantry: -D v - K_a twist q + diag(k) i + a f_n
+    fn = np.zeros(n)                          # f_n as a row over the states
+    fn[ix["e"]], fn[ix["vb"]] = neck_k, neck_c
+    fn[V] = -neck_c * a
+    force = np.zeros((2, n))
+    force[:, V] = -np.diag([rig.b1, rig.b2])
+    force[:, ix["d"]] = -rig.yaw_stiffness / L**2 * np.array([-1.0, 1.0])
+    force += np.outer(a, fn)
+    A[V, :] = Mi @ force
+    B[V, :] = Mi @ np.diag([rig.k1, rig.k2])
+    A[ix["vb"], :] = -fn / body_kg
+    A[ix["vb"], ix["vb"]] -= leg_c / body_kg
+    if legs:
+        A[ix["vb"], ix["xb"]] -= leg_k / body_kg
+    # outputs: v1, v2 and F_s = f_n - m_h a . v'
+    C = np.zeros((3, n))
+    D = np.zeros((3, 2))
+    C[0, V[0]], C[1, V[1]] = 1.0, 1.0
+    C[2] = fn - head_kg * a @ A[V, :]
+    D[2] = -head_kg * a @ B[V, :]
+    d = control.ss(drive(rig, pade_order))
+    G = control.ss(A, B, C, D) * control.append(d, d)
+    K = controller(structure, gains)
+    AG, BG, CG, DG = (np.asarray(m) for m in (G.A, G.B, G.C, G.D))
+    AK, BK, CK, DK = (np.asarray(m) for m in (K.A, K.B, K.C, K.D))
+    if np.any(DG[:2] != 0):
+        raise ValueError("the rail velocities must not feed through from the current commands")
+    C12, C3, D3 = CG[:2], CG[2:], DG[2:]
+    one = np.ones((2, 1))
+    Acl = np.block([[AG - BG @ DK @ C12, BG @ CK], [-BK @ C12, AK]])
+    Bcl = np.vstack([BG @ DK @ one, BK @ one])
+    Ccl = -np.hstack([C3 - D3 @ DK @ C12, D3 @ CK])
+    Dcl = -D3 @ DK @ one
+    # two integrators on the rails repeat the twist (their difference is -d plus a constant): a mode at s = 0 that
+    # neither r nor F_s sees, which python-control's minimal realisation removes
+    m = control.ss(Acl, Bcl, Ccl, Dcl).minreal(tol=1e-9)
+    return tuple(np.asarray(x) for x in (m.A, m.B, m.C, m.D))

@@ -17,6 +17,7 @@ import pytest
 from design.admittance.feel import FeltForce
 from design.admittance.model import (
     AdmittanceEvaluator,
+    PiLoops,
     gantry_loop,
     interaction_responses,
     mice,
@@ -109,7 +110,8 @@ def _tool_gain(kp, ki, w, timing, **mouse):
     m = {**MOUSE, **mouse}
     sc = Scenarios(np.array([40.0]))
     corner = MouseModel(m["head_kg"], m["body_kg"], m["neck_k"], m["neck_c"], m["leg_k"], m["leg_c"])
-    return interaction_responses(spec, sc, w, kp=kp, ki=ki, timing=timing, corners=[corner]).gain[0, 0]
+    loops = PiLoops.of(spec, kp, ki)
+    return interaction_responses(spec, sc, w, loops=loops, timing=timing, corners=[corner]).gain[0, 0]
 
 
 @pytest.mark.parametrize("legs", [{"leg_k": 0.0, "leg_c": 0.0}, {}])
@@ -286,7 +288,7 @@ def test_force_felt_equals_a_time_simulation_of_newtons_model():
     spec = parse_spec(_fast_data()).problem()
     kp, ki, m_v, b_v = 140.0, 15.0, 0.05, 8.0
     mouse = mice(spec)[0]
-    felt = FeltForce(spec, Scenarios(np.array([40.0])), [mouse], kp=kp, ki=ki, timing=RigTiming(None))
+    felt = FeltForce(spec, Scenarios(np.array([40.0])), [mouse], loops=PiLoops.of(spec, kp, ki), timing=RigTiming(None))
     tool = felt.forces(m_v, b_v)[0, 0]
     A, B, C, D = ref.felt_model(**{**PLANT, "mass_kg": 40.0}, kp=kp, ki=ki, head_kg=mouse.head_mass_kg,
                                 neck_k=mouse.neck_stiffness_n_per_m, neck_c=mouse.neck_damping_n_s_per_m, m_v=m_v,
@@ -304,7 +306,7 @@ def test_stiffest_contact_is_the_stability_boundary_of_newtons_model():
 
     spec = parse_spec(_fast_data()).problem()
     kp, ki, m_v, b_v = 140.0, 15.0, 0.01, 3.0
-    lim = stiffest_contact(spec, Scenarios(np.array([40.0])), kp=kp, ki=ki, m_v=m_v, b_v=b_v,
+    lim = stiffest_contact(spec, Scenarios(np.array([40.0])), loops=PiLoops.of(spec, kp, ki), m_v=m_v, b_v=b_v,
                            timing=RigTiming(None)).stiffness_n_per_m[0]
     assert 10 < lim < 1e7
 
@@ -329,7 +331,8 @@ def test_stiffest_contact_is_the_stability_boundary_of_newtons_model():
 
 def test_passive_band_against_the_rendered_admittance_of_newtons_model():
     spec = parse_spec(_fast_data()).problem()
-    ev = AdmittanceEvaluator(spec, Scenarios(np.array([40.0])), kp=140.0, ki=15.0, timing=RigTiming(None))
+    ev = AdmittanceEvaluator(spec, Scenarios(np.array([40.0])), loops=PiLoops.of(spec, 140.0, 15.0),
+                             timing=RigTiming(None))
     c = ev.evaluate(0.05, 8.0)
     w = np.geomspace(0.01, 3000.0, 20000) * 2 * np.pi
     s = 1j * w
@@ -405,7 +408,7 @@ def test_rendered_admittance_of_the_sampled_law_at_the_input_frequency():
     spec = parse_spec(_fast_data()).problem()
     T, m, b = 0.01, 0.05, 8.0
     timing = RigTiming(T, 1, 30.0, 2)
-    loop = gantry_loop(spec, W[W < 300], [40.0], kp=1e9, ki=1e11)
+    loop = gantry_loop(PiLoops.of(spec, 1e9, 1e11), W[W < 300], [40.0])
     w = loop.w_rad_s
     s = 1j * w
     hold = (1 - np.exp(-s * T)) / (s * T)

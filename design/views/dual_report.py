@@ -64,6 +64,55 @@ def _step_figure(name: str, steps: list[tuple[float, np.ndarray]], t: np.ndarray
     return fig
 
 
+def _admittance_section(rep: Report, r, model, spec) -> None:
+    """The virtual dynamics on the recommended structure: the design, its margins and rendered bandwidth by
+    carriage position, and the rendered admittance against the virtual one at the travel's ends and middle."""
+    from design.admittance.dual import DualLoops
+    from design.admittance.model import rendered_admittance, virtual_impedance_frd
+    from design.loop.dual import CommonDifferential, MasterSlave, PerMotor
+    from design.loop.margins import unwrapped_phase_deg
+    from design.synth.dual import dual_scenarios
+
+    rep.heading("Admittance for the mouse")
+    rep.text(f"{r.status}: {r.message}", cls="summary")
+    if r.status not in ("optimal", "mouse_cannot_drive"):
+        return
+    rep.text(f"On the {r.structure} loops: m_v = {r.m_v:.4g} kg, b_v = {r.b_v:.4g} N*s/m (m_v a + b_v v = "
+             f"{r.peak_resistance_n:.3g} N on the locomotion profile). Binding: {r.binding['detail']}.")
+    rep.raw(table(["carriage position m", "PM deg", "GM dB", "rendered bandwidth Hz", "motor force N"],
+                  [[f"{p.carriage_position_m:.3g}", f"{p.phase_margin_deg:.2f}", f"{p.gain_margin_db:.2f}",
+                    f"{p.rendered_bandwidth_hz:.2f}", f"{p.motor_force_n:.4g}"] for p in r.by_position]))
+    make = {"per_motor": PerMotor, "common_differential": CommonDifferential, "master_slave": MasterSlave}
+    loops = DualLoops(make[r.structure](**r.gains))
+    d = spec.dual_drive
+    travel = d.carriage_position_m
+    places = [travel.min, (travel.min + travel.max) / 2, travel.max]
+    heavy = dual_scenarios(model, places, [d.stage_x_mass_kg + spec.plant.payload_kg.max], {}, d.stage_x_mass_kg)
+    top = 0.49 / r.timing.period_s if r.timing.sampled else 300.0
+    w = 2 * np.pi * np.geomspace(0.1, top, 600)
+    yr = rendered_admittance(loops.at(1j * w, heavy), r.m_v, r.b_v, r.timing)
+    yv = 1.0 / virtual_impedance_frd(w, r.m_v, r.b_v)
+    fig = Figure(figsize=(10, 3.6))
+    axes = fig.subplots(1, 2)
+    fixed_margins(fig, wspace=0.3)
+    f = w / (2 * np.pi)
+    axes[0].loglog(f, np.abs(yv), "k--", label="virtual 1/(m_v s + b_v)")
+    axes[1].semilogx(f, unwrapped_phase_deg(yv), "k--")
+    for k, p in enumerate(places):
+        axes[0].loglog(f, np.abs(yr[k]), label=f"rendered, carriage at {p:.2f} m")
+        axes[1].semilogx(f, unwrapped_phase_deg(yr[k]))
+    axes[0].set_ylabel("|velocity / force| (m/s per N)")
+    axes[1].set_ylabel("phase (deg)")
+    for ax in axes:
+        ax.set_xlabel("frequency (Hz)")
+        ax.grid(True, which="both", alpha=0.3)
+    axes[0].legend(fontsize=7)
+    axes[0].set_title("admittance the mouse meets, heaviest payload", fontsize=10)
+    rep.figure(fig, f"the rendered admittance (its fundamental under the {1 / r.timing.period_s:g} Hz law) against "
+                    f"the virtual one at {spec.plant.payload_kg.max:g} kg and nominal parameters"
+               if r.timing.sampled else "the rendered admittance against the virtual one at the heaviest payload")
+
+
 def dual_report(outcome: DesignOutcome, *, command: str = "") -> Report:
     """The report of ``outcome`` (a ``[dual_drive]`` design)."""
     problem, dual = outcome.problem, outcome.dual
@@ -117,6 +166,8 @@ def dual_report(outcome: DesignOutcome, *, command: str = "") -> Report:
                    f"{s.structure}: a 1 m/s step of the translation command at {payload.max:g} kg and nominal "
                    f"parameters (python-control, delays as Pade approximants of order 6); largest rail position "
                    f"difference {gap * 1e3:.3g} mm per m/s")
+    if outcome.dual_admittance is not None:
+        _admittance_section(rep, outcome.dual_admittance, model, spec)
     rep.heading("Reproduce")
     if command:
         rep.pre(command)

@@ -150,3 +150,35 @@ def test_bundled_stage_y_admittance_spec_holds_on_newtons_model(tmp_path):
             pm, gm = adm_ref.margins_from_response(w, adm_ref.response(loop, np.exp(1j * w * timing.period_s)))
             assert adm_ref.closed_loop_stable(loop, discrete=True)
             assert pm >= a.phase_margin_deg - 0.1 and gm >= a.gain_margin_db - 0.05
+
+
+def _gantry(*args: str) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "design", *args], capture_output=True, text=True, timeout=900)
+
+
+def test_codesign_on_two_motors_is_refused_naming_the_key(tmp_path):
+    path = tmp_path / "codesign.toml"
+    path.write_text(SPEC.read_text().replace("codesign = false", "codesign = true"))
+    r = _gantry("synth", str(path), "--json")
+    assert r.returncode == 2 and r.stderr.strip().count("\n") == 0
+    assert "admittance.codesign" in r.stderr and "Traceback" not in r.stderr
+
+
+@pytest.mark.slow
+def test_the_report_shows_the_admittance_by_carriage_position(tmp_path):
+    """On the bundled spec made small (3 positions, 2 payloads, one structure, 500 draws): the admittance section
+    of the report carries the JSON's design, its table by carriage position and the rendered-admittance figure."""
+    spec = tmp_path / "small.toml"
+    spec.write_text(SPEC.read_text().replace("points = 3 }", "points = 2 }").replace("points = 5 }", "points = 3 }")
+                    .replace('structures = ["per_motor", "common_differential"]', 'structures = ["per_motor"]')
+                    .replace("monte_carlo_samples = 10000", "monte_carlo_samples = 500"))
+    out = tmp_path / "y.html"
+    r = _gantry("synth", str(spec), "--json", "--report", str(out))
+    assert r.returncode in (0, 3), r.stderr
+    adm = json.loads(r.stdout)["admittance"]
+    text = out.read_text()
+    assert "Admittance for the mouse" in text
+    assert f"m_v = {adm['m_v']:.4g} kg, b_v = {adm['b_v']:.4g} N*s/m" in text
+    for row in adm["by_carriage_position"]:
+        assert f">{row['carriage_position_m']:.3g}</td>" in text
+    assert text.count("<svg") == 3

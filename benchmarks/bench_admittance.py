@@ -62,6 +62,18 @@ def command_figures() -> dict:
     return json.loads(rows["admittance (walking mouse, 100 Hz law, co-design)"][4])
 
 
+def lightest_on_grid(ev, felt, m_v: float, b_v: float, n: int) -> tuple[float, float, float]:
+    """(force felt N, m_v, b_v) of the lightest point of an n x n log grid a decade either side of (m_v, b_v) that
+    the evaluator ``ev`` passes (``AdmittanceEvaluator``; ``felt``: ``FeltForce``)."""
+    best = (math.inf, math.nan, math.nan)
+    for m in np.geomspace(m_v / 10, m_v * 10, n):
+        for b in np.geomspace(b_v / 10, b_v * 10, n):
+            f = felt(m, b)
+            if f < best[0] and ev.evaluate(m, b, bandwidth=False).meets:
+                best = (f, m, b)
+    return best
+
+
 def virtual_grid(doc: dict) -> None:
     from design.admittance.feel import FeltForce, feel_scenarios
     from design.admittance.model import AdmittanceEvaluator, PiLoops, mice
@@ -78,12 +90,7 @@ def virtual_grid(doc: dict) -> None:
     felt = FeltForce(spec, feel_scenarios(spec), corners, loops=loops, timing=timing)
     n = 10 if QUICK else 16
     t0 = time.perf_counter()
-    best = (math.inf, None, None)
-    for m in np.geomspace(adm["m_v"] / 10, adm["m_v"] * 10, n):
-        for b in np.geomspace(adm["b_v"] / 10, adm["b_v"] * 10, n):
-            f = felt(m, b)
-            if f < best[0] and ev.evaluate(m, b, bandwidth=False).meets:
-                best = (f, m, b)
+    best = lightest_on_grid(ev, felt, adm["m_v"], adm["b_v"], n)
     design = felt(adm["m_v"], adm["b_v"])
     print(f"  (m_v, b_v) brute force, {n} x {n} points on {len(ev.scenarios)} scenarios x {len(corners)} mice "
           f"({time.perf_counter() - t0:.0f} s): best meeting every requirement m_v {best[1]:.4g} kg, b_v "

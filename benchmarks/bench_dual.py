@@ -87,13 +87,13 @@ def main() -> None:
 
 
 def admittance() -> None:
-    import math
+    from bench_admittance import lightest_on_grid
 
     from design.admittance.dual import DualLoops
     from design.admittance.feel import FeltForce
     from design.admittance.model import AdmittanceEvaluator, mice
     from design.admittance.rig import RigTiming
-    from design.loop.dual import CommonDifferential, MasterSlave, PerMotor
+    from design.loop.dual import BY_NAME
     from design.synth import dual
     from design.workflows import load_problem
 
@@ -109,8 +109,7 @@ def admittance() -> None:
     spec, loop = problem.spec, problem.loop
     d = spec.dual_drive
     travel = d.carriage_position_m
-    make = {"per_motor": PerMotor, "common_differential": CommonDifferential, "master_slave": MasterSlave}
-    loops = DualLoops(make[a["structure"]](**a["gains"]))
+    loops = DualLoops(BY_NAME[a["structure"]](**a["gains"]))
     plants = dual.dual_scenarios(spec.dual_model(), np.linspace(travel.min, travel.max, travel.points),
                                  d.stage_x_mass_kg + spec.plant.payload_kg.design_points(),
                                  {k: (v.min, v.max) for k, v in d.uncertainty.items()}, d.stage_x_mass_kg)
@@ -122,12 +121,7 @@ def admittance() -> None:
     ev = AdmittanceEvaluator(loop, plants, loops=loops, timing=timing, corners=corners)
     felt = FeltForce(loop, feel, corners, loops=loops, timing=timing)
     start = time.perf_counter()
-    best = (math.inf, None, None)
-    for m in np.geomspace(a["m_v"] / 10, a["m_v"] * 10, N_ADM):
-        for b in np.geomspace(a["b_v"] / 10, a["b_v"] * 10, N_ADM):
-            f = felt(m, b)
-            if f < best[0] and ev.evaluate(m, b, bandwidth=False).meets:
-                best = (f, m, b)
+    best = lightest_on_grid(ev, felt, a["m_v"], a["b_v"], N_ADM)
     design = felt(a["m_v"], a["b_v"])
     print(f"  (m_v, b_v) brute force {N_ADM} x {N_ADM} on {len(plants)} design plants x {len(corners)} mice "
           f"({time.perf_counter() - start:.0f} s): best passing m_v {best[1]:.4g} kg, b_v {best[2]:.4g} N*s/m, force "

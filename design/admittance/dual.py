@@ -41,16 +41,13 @@ from design.admittance.model import (
     GantryLoop,
     admittance_problem,
     check_grid_for,
-    interaction_responses,
     mice,
-    relative_slack,
     with_mode_points,
 )
-from design.admittance.monte_carlo import AdmittanceMonteCarlo, admittance_monte_carlo
+from design.admittance.monte_carlo import AdmittanceMonteCarlo
 from design.admittance.mouse import MouseModel
-from design.admittance.ray import best_ray, ray_problem
 from design.admittance.rig import DiscreteAdmittance, RigTiming
-from design.admittance.synthesis import MAX_ROUNDS, MONTE_CARLO_ROUNDS, back_off, ray_binding
+from design.admittance.synthesis import design_rounds, ray_binding
 from design.loop.dual import Controller
 from design.problem import LoopProblem
 from design.synth.dual import DualScenarios, dual_scenarios, monte_carlo_scenarios
@@ -143,7 +140,7 @@ class DualAdmittanceResult:
     status: str
     message: str
     structure: str
-    gains: dict[str, float]
+    controller: Controller
     m_v: float
     b_v: float
     #: m_v a_pk + b_v v_pk (N)
@@ -158,6 +155,11 @@ class DualAdmittanceResult:
     design_scenarios: int
     seconds: float
     discrete: DiscreteAdmittance | None = None
+
+    @property
+    def gains(self) -> dict[str, float]:
+        """The structure's gains by name (A/(m/s), A/m)."""
+        return self.controller.gains()
 
     @property
     def worst_position(self) -> PositionRow:
@@ -207,38 +209,16 @@ def synthesise_dual_admittance(problem: LoopProblem, *, structure: str, controll
     felt = FeltForce(problem, feel_set, corners, loops=loops, timing=timing)
     dense = AdmittanceEvaluator(problem, dense_set, loops=loops, timing=timing, corners=corners)
     w_design = with_mode_points(check_grid_for(timing), corners, timing, points=RAY_MODE_POINTS)
-    mc = None
     samples, seed = problem.verification.monte_carlo_samples, problem.verification.seed
-    for mc_round in range(MONTE_CARLO_ROUNDS + 1):
-        for _ in range(MAX_ROUNDS):
-            say(f"rays on {len(scenarios)} plants x {len(corners)} mice")
-            rp_scenarios = scenarios
-            rp = ray_problem(interaction_responses(problem, scenarios, w_design, loops=loops, timing=timing,
-                                                   corners=corners, dtype=np.complex64), adm)
-            ray = best_ray(rp, objective=lambda r: felt(r.m_v, r.b_v))
-            if not ray.feasible:
-                return _infeasible(problem, ray, structure, controller, dense, dense_set, corners, timing,
-                                   len(scenarios), t0)
-            x = np.array([ray.m_v, ray.b_v])
-            say(f"dense check ({len(dense_set)} plants x {len(corners)} mice)")
-            check = dense.evaluate(*x)
-            if check.meets:
-                break
-            worst = min(check.violations, key=relative_slack)["scenario"]
-            if worst is None or scenarios.contains(worst):
-                break
-            scenarios = scenarios.with_row(worst)
-        if not check.meets:
-            x, check = back_off(dense, x, adm)
-        say(f"Monte Carlo over carriage position, payload, uncertainty and mouse ({samples} draws)")
-        draws = monte_carlo_scenarios(model, (lo, hi), (stage_x_mass_kg + pr.min, stage_x_mass_kg + pr.max), ranges,
-                                      samples, seed + mc_round, stage_x_mass_kg)
-        mc = admittance_monte_carlo(problem, loops=loops, m_v=x[0], b_v=x[1], timing=timing, samples=samples,
-                                    seed=seed + mc_round, draws=draws)
-        if mc.violations == 0 or mc_round == MONTE_CARLO_ROUNDS or scenarios.contains(mc.worst_scenario):
-            break
-        scenarios = scenarios.with_row(mc.worst_scenario)
-    binding = ray_binding(problem, rp, ray, corners, rp_scenarios)
+    masses = (stage_x_mass_kg + pr.min, stage_x_mass_kg + pr.max)
+    rounds = design_rounds(problem, scenarios, loops=loops, dense=dense, felt=felt, w_design=w_design, timing=timing,
+                           corners=corners, say=say, dtype=np.complex64, draws_label="carriage position, payload",
+                           draws=lambda k: monte_carlo_scenarios(model, (lo, hi), masses, ranges, samples, seed + k,
+                                                                 stage_x_mass_kg))
+    ray, x, check, mc = rounds.ray, rounds.x, rounds.check, rounds.monte_carlo
+    if not ray.feasible:
+        return _infeasible(problem, ray, structure, controller, dense, dense_set, corners, timing, len(scenarios), t0)
+    binding = ray_binding(problem, rounds.rp, ray, corners, rounds.rp_scenarios)
     say("what the mouse feels")
     feel = mouse_feel(problem, loops=loops, m_v=x[0], b_v=x[1], scenarios=feel_set, corners=corners, timing=timing,
                       felt=felt)
@@ -263,8 +243,8 @@ def synthesise_dual_admittance(problem: LoopProblem, *, structure: str, controll
                f"(95 % upper bound {100 * mc.rate_upper_bound:.2g} %); the mouse feels at most "
                f"{feel.peak_force_n:.3g} N of its {adm.mouse.peak_force_n:g} N")
     return DualAdmittanceResult(
-        status, msg, structure, controller.gains(), float(x[0]), float(x[1]), r, check, mc, feel, binding,
-        by_position(check, dense_set), corners, timing, len(scenarios), time.perf_counter() - t0,
+        status, msg, structure, controller, float(x[0]), float(x[1]), r, check, mc, feel, binding,
+        by_position(check, dense_set), corners, timing, len(rounds.scenarios), time.perf_counter() - t0,
         DiscreteAdmittance.of(float(x[0]), float(x[1]), 1.0 / timing.period_s, timing.delay_samples,
                               forward_euler=timing.forward_euler) if timing.sampled else None)
 
@@ -282,7 +262,7 @@ def _infeasible(problem, ray, structure, controller, dense, dense_set, corners, 
     binding = {"constraint": ray.binding, "payload_kg": None, "scenario": None, "mouse": None,
                "value": float(ray.b_v), "limit": float(hi[1]), "detail": msg}
     loc = adm.locomotion
-    return DualAdmittanceResult("infeasible", msg, structure, controller.gains(), float(x[0]), float(x[1]),
+    return DualAdmittanceResult("infeasible", msg, structure, controller, float(x[0]), float(x[1]),
                                 float(x[0] * loc.peak_acceleration_m_per_s2 + x[1] * loc.peak_speed_m_per_s), check,
                                 None, None, binding, by_position(check, dense_set), corners, timing, n_design,
                                 time.perf_counter() - t0)

@@ -224,39 +224,17 @@ def synthesise_admittance(problem: LoopProblem, *, kp: float | None = None, ki: 
     felt = FeltForce(problem, feel_set, corners, loops=loops, timing=timing)
     dense = AdmittanceEvaluator(problem, check_scenarios(problem), loops=loops, timing=timing, corners=corners)
     scenarios = design_scenarios(problem)
-    notes: dict = {"rounds": 0}
-    mc = None
-    for mc_round in range(MONTE_CARLO_ROUNDS + 1):
-        for _ in range(MAX_ROUNDS):
-            notes["rounds"] += 1
-            say(f"rays on {len(scenarios)} scenarios x {len(corners)} mice")
-            rp_scenarios = scenarios
-            rp = ray_problem(interaction_responses(problem, scenarios, w_design, loops=loops, timing=timing,
-                                                   corners=corners), adm)
-            ray = best_ray(rp, objective=lambda r: felt(r.m_v, r.b_v))
-            if not ray.feasible:
-                return _infeasible(problem, ray, rp, scenarios, kp, ki, timing, corners, t0, record)
-            x = np.array([ray.m_v, ray.b_v])
-            say(f"dense check ({len(dense.scenarios)} scenarios)")
-            check = dense.evaluate(*x)
-            if check.meets:
-                break
-            worst = min(check.violations, key=relative_slack)["scenario"]
-            if worst is None or scenarios.contains(worst):
-                break
-            scenarios = scenarios.with_row(worst)
-        if not check.meets:
-            x, check = back_off(dense, x, adm)
-        say("Monte Carlo over payload, uncertainty and mouse")
-        mc = admittance_monte_carlo(problem, loops=loops, m_v=x[0], b_v=x[1], timing=timing,
-                                    seed=problem.verification.seed + mc_round)
-        if mc.violations == 0 or mc_round == MONTE_CARLO_ROUNDS or scenarios.contains(mc.worst_scenario):
-            break
-        scenarios = scenarios.with_row(mc.worst_scenario)
+    rounds = design_rounds(problem, scenarios, loops=loops, dense=dense, felt=felt, w_design=w_design, timing=timing,
+                           corners=corners, say=say)
+    rp, ray, x, check, mc = rounds.rp, rounds.ray, rounds.x, rounds.check, rounds.monte_carlo
+    if not ray.feasible:
+        return _infeasible(problem, ray, rp, rounds.rp_scenarios, kp, ki, timing, corners, t0, record)
+    scenarios, mc_round = rounds.scenarios, rounds.monte_carlo_rounds
+    notes = {"rounds": rounds.rounds}
     del dense
     say("verification on the rational model (python-control)")
     verification = verify_admittance(problem, check, kp=kp, ki=ki, timing=timing)
-    binding = ray_binding(problem, rp, ray, corners, rp_scenarios)
+    binding = ray_binding(problem, rp, ray, corners, rounds.rp_scenarios)
     say("what the mouse feels")
     feel = mouse_feel(problem, loops=loops, m_v=x[0], b_v=x[1], scenarios=feel_set, corners=corners, timing=timing,
                       felt=felt)
@@ -298,6 +276,62 @@ def synthesise_admittance(problem: LoopProblem, *, kp: float | None = None, ki: 
         say("trade-off front and hardware changes")
         result = replace(result, tradeoff=trade_off(problem, result, rp), seconds=time.perf_counter() - t0)
     return result
+
+
+@dataclass(frozen=True)
+class Rounds:
+    """Steps 1-3 of the module doc: the last ray problem and ray, on the design scenarios they were made on, the
+    design x = (m_v, b_v) with its dense check and Monte Carlo; when the ray is infeasible the rounds stop there
+    (``x``, ``check`` and ``monte_carlo`` None)."""
+
+    rp: object
+    ray: RayBound
+    rp_scenarios: object
+    scenarios: object
+    x: np.ndarray | None
+    check: AdmittanceCheck | None
+    monte_carlo: AdmittanceMonteCarlo | None
+    rounds: int
+    monte_carlo_rounds: int
+
+
+def design_rounds(problem: LoopProblem, scenarios, *, loops, dense: AdmittanceEvaluator, felt: FeltForce, w_design,
+                  timing: RigTiming, corners, say, draws=None, dtype=complex, draws_label: str = "payload") -> Rounds:
+    """Rays on ``scenarios`` x ``corners`` (the force ``felt`` their objective), the ``dense`` check adding its worst
+    violator (at most ``MAX_ROUNDS`` rays), the back-off when it still fails, then the Monte Carlo (``draws(k)``: the
+    scenario draws of round k, default the problem's payload x uncertainty draws) adding its worst violator (at most
+    ``MONTE_CARLO_ROUNDS`` times). ``dtype``: the rays' responses (``interaction_responses``)."""
+    adm = admittance_problem(problem)
+    seed = problem.verification.seed
+    n = 0
+    for mc_round in range(MONTE_CARLO_ROUNDS + 1):
+        for _ in range(MAX_ROUNDS):
+            n += 1
+            say(f"rays on {len(scenarios)} scenarios x {len(corners)} mice")
+            rp_scenarios = scenarios
+            rp = ray_problem(interaction_responses(problem, scenarios, w_design, loops=loops, timing=timing,
+                                                   corners=corners, dtype=dtype), adm)
+            ray = best_ray(rp, objective=lambda r: felt(r.m_v, r.b_v))
+            if not ray.feasible:
+                return Rounds(rp, ray, rp_scenarios, scenarios, None, None, None, n, mc_round)
+            x = np.array([ray.m_v, ray.b_v])
+            say(f"dense check ({len(dense.scenarios)} scenarios x {len(corners)} mice)")
+            check = dense.evaluate(*x)
+            if check.meets:
+                break
+            worst = min(check.violations, key=relative_slack)["scenario"]
+            if worst is None or scenarios.contains(worst):
+                break
+            scenarios = scenarios.with_row(worst)
+        if not check.meets:
+            x, check = back_off(dense, x, adm)
+        say(f"Monte Carlo over {draws_label}, uncertainty and mouse")
+        mc = admittance_monte_carlo(problem, loops=loops, m_v=x[0], b_v=x[1], timing=timing, seed=seed + mc_round,
+                                    draws=None if draws is None else draws(mc_round))
+        if mc.violations == 0 or mc_round == MONTE_CARLO_ROUNDS or scenarios.contains(mc.worst_scenario):
+            break
+        scenarios = scenarios.with_row(mc.worst_scenario)
+    return Rounds(rp, ray, rp_scenarios, scenarios, x, check, mc, n, mc_round)
 
 
 def back_off(dense: AdmittanceEvaluator, x: np.ndarray, adm) -> tuple[np.ndarray, AdmittanceCheck]:

@@ -37,7 +37,6 @@ from design.loop.margins import closed_loop_bandwidth_hz, loop_margins
 #: T_out: rail velocities -> (mean, half difference); T_in: (total, differential current) -> motor currents
 T_OUT = np.array([[0.5, 0.5], [-0.5, 0.5]])
 T_IN = np.array([[0.5, -0.5], [0.5, 0.5]])
-STRUCTURES = ("per_motor", "common_differential", "master_slave")
 
 
 @dataclass(frozen=True)
@@ -124,6 +123,8 @@ class MasterSlave(_Structure):
 
 
 Controller = PerMotor | CommonDifferential | MasterSlave
+#: each structure's class by its name
+BY_NAME = {c.name: c for c in (PerMotor, CommonDifferential, MasterSlave)}
 
 
 @dataclass(frozen=True)

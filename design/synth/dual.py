@@ -323,7 +323,7 @@ class StructureDesign:
 
 def synthesise_structure(structure: str, scenarios: DualScenarios, req: DualRequirements, *,
                          kp_box=(1.0, 1e4), ki_box=(1.0, 1e6), progress=None) -> StructureDesign:
-    """Gains of ``structure`` (``design.loop.dual.STRUCTURES``) maximising the worst-case translation bandwidth
+    """Gains of ``structure`` (a name of ``design.loop.dual.BY_NAME``) maximising the worst-case translation bandwidth
     on ``scenarios`` under ``req`` (not yet judged on a Monte Carlo: ``monte_carlo`` None)."""
     found = np.isfinite
     if structure == "per_motor":

@@ -69,7 +69,6 @@ def _admittance_section(rep: Report, r, model, spec) -> None:
     carriage position, and the rendered admittance against the virtual one at the travel's ends and middle."""
     from design.admittance.dual import DualLoops
     from design.admittance.model import rendered_admittance, virtual_impedance_frd
-    from design.loop.dual import CommonDifferential, MasterSlave, PerMotor
     from design.loop.margins import unwrapped_phase_deg
     from design.synth.dual import dual_scenarios
 
@@ -82,8 +81,7 @@ def _admittance_section(rep: Report, r, model, spec) -> None:
     rep.raw(table(["carriage position m", "PM deg", "GM dB", "rendered bandwidth Hz", "motor force N"],
                   [[f"{p.carriage_position_m:.3g}", f"{p.phase_margin_deg:.2f}", f"{p.gain_margin_db:.2f}",
                     f"{p.rendered_bandwidth_hz:.2f}", f"{p.motor_force_n:.4g}"] for p in r.by_position]))
-    make = {"per_motor": PerMotor, "common_differential": CommonDifferential, "master_slave": MasterSlave}
-    loops = DualLoops(make[r.structure](**r.gains))
+    loops = DualLoops(r.controller)
     d = spec.dual_drive
     travel = d.carriage_position_m
     places = [travel.min, (travel.min + travel.max) / 2, travel.max]

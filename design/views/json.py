@@ -422,22 +422,12 @@ def admittance_to_dict(result: AdmittanceResult, problem: LoopProblem) -> dict:
     designed = result.status in ("optimal", "mouse_cannot_drive")
     payloads, w = c.per_payload()
     timing, feel = result.timing, result.feel
-    legs = c.worst_by_legs()
     out = {
         "status": result.status, "message": result.message,
         "m_v": result.m_v if designed else None, "b_v": result.b_v if designed else None,
         "kp": result.kp, "ki": result.ki,
         "peak_resistance_n": result.peak_resistance_n if designed else None,
-        "rendered_bandwidth_hz": finite_or_none(np.nanmin(c.rendered_bandwidth_hz))
-        if np.any(np.isfinite(c.rendered_bandwidth_hz)) else None,
-        "worst_phase_margin_deg": finite_or_none(np.nanmin(c.phase_margin_deg)),
-        "worst_gain_margin_db": finite_or_none(np.nanmin(c.gain_margin_db)),
-        "margins_by_mouse": {k: {"phase_margin_deg": finite_or_none(v[0]), "gain_margin_db": finite_or_none(v[1])}
-                             for k, v in legs.items()},
-        "worst_sensor_current_a": float(np.max(c.sensor_current_a)),
-        "worst_motor_force_n": float(np.max(c.motor_force_n)),
-        "passive_up_to_hz": finite_or_none(np.min(c.passive_up_to_hz)),
-        "drift_mm_per_s": c.drift_mm_per_s,
+        **_check_figures(c),
         "binding": result.binding, "active": list(result.active),
         "verified": result.verified,
         "mouse_can_follow_profile": None if feel is None else feel.can_drive,
@@ -485,6 +475,21 @@ def admittance_to_dict(result: AdmittanceResult, problem: LoopProblem) -> dict:
     return out
 
 
+def _check_figures(c) -> dict:
+    """The worst figures of an admittance design's dense check (``AdmittanceCheck``)."""
+    return {
+        "rendered_bandwidth_hz": finite_or_none(np.nanmin(c.rendered_bandwidth_hz))
+        if np.any(np.isfinite(c.rendered_bandwidth_hz)) else None,
+        "worst_phase_margin_deg": finite_or_none(np.nanmin(c.phase_margin_deg)),
+        "worst_gain_margin_db": finite_or_none(np.nanmin(c.gain_margin_db)),
+        "margins_by_mouse": {k: {"phase_margin_deg": finite_or_none(v[0]), "gain_margin_db": finite_or_none(v[1])}
+                             for k, v in c.worst_by_legs().items()},
+        "worst_sensor_current_a": float(np.max(c.sensor_current_a)),
+        "worst_motor_force_n": float(np.max(c.motor_force_n)),
+        "passive_up_to_hz": finite_or_none(np.min(c.passive_up_to_hz)),
+        "drift_mm_per_s": c.drift_mm_per_s}
+
+
 def _admittance_setting(adm, timing, discrete) -> dict:
     """The locomotion profile, the limits and the rig of an admittance design."""
     loc, hw, sensor = adm.locomotion, adm.hardware, adm.sensor
@@ -530,16 +535,7 @@ def dual_admittance_to_dict(result: DualAdmittanceResult, problem: LoopProblem) 
         "status": result.status, "message": result.message, "structure": result.structure, "gains": result.gains,
         "m_v": result.m_v if designed else None, "b_v": result.b_v if designed else None,
         "peak_resistance_n": result.peak_resistance_n if designed else None,
-        "rendered_bandwidth_hz": finite_or_none(np.nanmin(c.rendered_bandwidth_hz))
-        if np.any(np.isfinite(c.rendered_bandwidth_hz)) else None,
-        "worst_phase_margin_deg": finite_or_none(np.nanmin(c.phase_margin_deg)),
-        "worst_gain_margin_db": finite_or_none(np.nanmin(c.gain_margin_db)),
-        "margins_by_mouse": {k: {"phase_margin_deg": finite_or_none(v[0]), "gain_margin_db": finite_or_none(v[1])}
-                             for k, v in c.worst_by_legs().items()},
-        "worst_sensor_current_a": float(np.max(c.sensor_current_a)),
-        "worst_motor_force_n": float(np.max(c.motor_force_n)),
-        "passive_up_to_hz": finite_or_none(np.min(c.passive_up_to_hz)),
-        "drift_mm_per_s": c.drift_mm_per_s, "binding": result.binding,
+        **_check_figures(c), "binding": result.binding,
         "verified": result.status in ("optimal", "mouse_cannot_drive"),
         "mouse_can_follow_profile": None if result.feel is None else result.feel.can_drive,
         "worst_carriage_position_m": worst.carriage_position_m,

@@ -70,6 +70,9 @@ def _run():
 
     matplotlib.use("Agg")
     from design.cli.common import app
+    from plant.host.memory import keep_freed_memory
+
+    keep_freed_memory()
 
     _register()
     try:

@@ -32,7 +32,7 @@ from typing import ClassVar
 
 import numpy as np
 
-from design.loop.margins import closed_loop_bandwidth_hz, loop_margins
+from design.loop.margins import closed_loop_bandwidth_hz, crossover_margins
 
 #: T_out: rail velocities -> (mean, half difference); T_in: (total, differential current) -> motor currents
 T_OUT = np.array([[0.5, 0.5], [-0.5, 0.5]])
@@ -148,9 +148,10 @@ class DualLoopFigures:
 
 def matmul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """Products of small matrices stored as (..., m, k, n_freq) and (..., k, n, n_freq), a constant matrix
-    given as (m, k) (element by element over the frequencies: faster than einsum for 2 x 2)."""
-    a = a[..., None] if a.ndim == 2 else a
-    b = b[..., None] if b.ndim == 2 else b
+    given as (m, k) (element by element over the frequencies: faster than einsum for 2 x 2; a constant's
+    zeros skipped, its ones not multiplied, an identity returns the other factor)."""
+    if a.ndim == 2 or b.ndim == 2:
+        return _constant_matmul(a, b)
     m, k, n = a.shape[-3], a.shape[-2], b.shape[-2]
     batch = np.broadcast_shapes(a.shape[:-3], b.shape[:-3])
     out = np.empty(batch + (m, n, max(a.shape[-1], b.shape[-1])), dtype=np.result_type(a, b))
@@ -163,26 +164,33 @@ def matmul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return out
 
 
-def inv2(a: np.ndarray) -> np.ndarray:
-    """Inverse of 2 x 2 matrices stored as (..., 2, 2, n_freq)."""
-    det = a[..., 0, 0, :] * a[..., 1, 1, :] - a[..., 0, 1, :] * a[..., 1, 0, :]
-    inv = np.empty_like(a)
-    inv[..., 0, 0, :] = a[..., 1, 1, :]
-    inv[..., 1, 1, :] = a[..., 0, 0, :]
-    inv[..., 0, 1, :] = -a[..., 0, 1, :]
-    inv[..., 1, 0, :] = -a[..., 1, 0, :]
-    return inv / det[..., None, None, :]
+def _constant_matmul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``matmul`` with one factor a constant (m, k) matrix."""
+    left = a.ndim == 2
+    const, x = (a, b) if left else (b, a)
+    if const.shape[0] == const.shape[1] and np.array_equal(const, np.eye(const.shape[0])):
+        return x
+    m, n = (const.shape[0], x.shape[-2]) if left else (x.shape[-3], const.shape[1])
+    out = np.zeros(x.shape[:-3] + (m, n, x.shape[-1]), dtype=np.result_type(x, const))
+    for i in range(m):
+        for j in range(n):
+            for q in range(const.shape[1] if left else const.shape[0]):
+                c = const[i, q] if left else const[q, j]
+                if c == 0:
+                    continue
+                term = x[..., q, j, :] if left else x[..., i, q, :]
+                out[..., i, j, :] += term if c == 1 else c * term
+    return out
 
 
-def mu_diagonal(m: np.ndarray) -> np.ndarray:
-    """Structured singular value of 2 x 2 matrices (..., 2, 2, n_freq) for a diagonal complex perturbation,
-    exactly: for two complex blocks the D-scaled bound min_d sigma_max(D M D^-1) is mu (Doyle 1982), and
-    with D = diag(d, 1) the Frobenius norm is least at d^2 = |m21| / |m12| while det M does not change, so
-    mu^2 = (F + sqrt(F^2 - 4 |det M|^2)) / 2 with F = |m11|^2 + |m22|^2 + 2 |m12 m21|."""
-    a, b, c, d = m[..., 0, 0, :], m[..., 0, 1, :], m[..., 1, 0, :], m[..., 1, 1, :]
-    f = np.abs(a) ** 2 + np.abs(d) ** 2 + 2 * np.abs(b * c)
-    det2 = np.abs(a * d - b * c) ** 2
-    return np.sqrt((f + np.sqrt(np.maximum(f**2 - 4 * det2, 0.0))) / 2)
+def mu_diagonal(m11: np.ndarray, m22: np.ndarray, off_product: np.ndarray, det: np.ndarray) -> np.ndarray:
+    """Structured singular value of 2 x 2 matrices M for a diagonal complex perturbation, from |m11|, |m22|,
+    |m12 m21| and |det M| (arrays of one shape), exactly: for two complex blocks the D-scaled bound
+    min_d sigma_max(D M D^-1) is mu (Doyle 1982), and with D = diag(d, 1) the Frobenius norm is least at
+    d^2 = |m21| / |m12| while det M does not change, so mu^2 = (F + sqrt(F^2 - 4 |det M|^2)) / 2 with
+    F = |m11|^2 + |m22|^2 + 2 |m12 m21|."""
+    f = m11**2 + m22**2 + 2 * off_product
+    return np.sqrt((f + np.sqrt(np.maximum(f**2 - 4 * det**2, 0.0))) / 2)
 
 
 def mimo_unstable_poles(w_rad_s: np.ndarray, det: np.ndarray) -> np.ndarray:
@@ -206,41 +214,60 @@ def mimo_unstable_poles(w_rad_s: np.ndarray, det: np.ndarray) -> np.ndarray:
     return np.where(bad, np.maximum(poles, 1), np.maximum(poles, 0)).astype(int)
 
 
-def loop_figures(w_rad_s, plant_frd: np.ndarray, controller: Controller) -> DualLoopFigures:
+def loop_figures(w_rad_s, plant_frd: np.ndarray, controller: Controller, *, disk: bool = True) -> DualLoopFigures:
     """``DualLoopFigures`` of ``controller`` on plants ``plant_frd`` (..., 2, 2, n_freq), both on ``w_rad_s``; a
-    controller with gains shaped (k, 1) and plants (s, 2, 2, n_freq) give figures shaped (k, s)."""
+    controller with gains shaped (k, 1) and plants (s, 2, 2, n_freq) give figures shaped (k, s). ``disk``
+    False leaves the disk margin out (NaN), the dearest figure.
+
+    In channel form: with Q = T_out P T_in (per plant) and D = diag(PI_j), L = D Q is the channels' loop,
+    det(I + C P) = det(I + D Q) (Sylvester), the channel efforts for a translation command are
+    u = (I + D Q)^-1 D T_out [1, 1]^T and the rails move T_OUT P T_in u; the disk margin's sensitivity at the
+    motor inputs is S = I - T_in (I + D Q)^-1 D T_out P (push-through identity)."""
     w = np.asarray(w_rad_s, float)
     P = np.asarray(plant_frd)
-    C = controller.frd(w)
-    L_in = matmul(C, P)                                         # C P: loop broken at the motor inputs
-    eye = np.eye(2)[:, :, None]
-    # det(I + P C) = det(I + C P)
-    det = ((1 + L_in[..., 0, 0, :]) * (1 + L_in[..., 1, 1, :]) - L_in[..., 0, 1, :] * L_in[..., 1, 0, :])
+    t_in, t_out = controller.t_in, controller.t_out
+    B = matmul(t_out, P)
+    Q = matmul(B, t_in)
+    d = [np.asarray(kp)[..., None] + np.asarray(ki)[..., None] / (1j * w) for kp, ki in controller.channel_gains()]
+    r = t_out.sum(axis=1)                                       # T_out [1, 1]^T: the command per channel
+    move = matmul(matmul(T_OUT, P), t_in)                       # channel efforts -> (mean, half difference)
+    if len(d) == 1:
+        a = d[0] * Q[..., 0, 0, :]
+        det = 1 + a
+        channels = [a]
+        u = [d[0] * r[0] / det]
+    else:
+        a, b = d[0] * Q[..., 0, 0, :], d[0] * Q[..., 0, 1, :]
+        c, e = d[1] * Q[..., 1, 0, :], d[1] * Q[..., 1, 1, :]
+        bc = b * c
+        det = (1 + a) * (1 + e) - bc
+        channels = [a - bc / (1 + e), e - bc / (1 + a)]     # each channel broken, the other closed
+        v = [d[0] * r[0], d[1] * r[1]]
+        u = [((1 + e) * v[0] - b * v[1]) / det, ((1 + a) * v[1] - c * v[0]) / det]
     unstable = mimo_unstable_poles(w, det)
-    # the structure's own channels, each broken with the others closed
-    L_ch = matmul(controller.channel_frd(w), matmul(matmul(controller.t_out, P), controller.t_in))
-    n = L_ch.shape[-2]
-    gm, pm = [], []
-    for j in range(n):
-        lj = L_ch[..., j, j, :]
-        if n == 2:
-            k = 1 - j
-            lj = lj - L_ch[..., j, k, :] * L_ch[..., k, j, :] / (1 + L_ch[..., k, k, :])
-        m = loop_margins(w, lj)
-        gm.append(m.gain_margin_db)
-        pm.append(m.phase_margin_deg)
-    S_in = inv2(eye + L_in)
-    alpha = 1.0 / mu_diagonal(S_in - eye / 2).max(axis=-1)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        disk_gm = np.where(alpha < 2, 20 * np.log10((2 + alpha) / (2 - alpha)), np.inf)
-        disk_pm = np.degrees(2 * np.arctan(alpha / 2))
-    # r on both rails: the rails' velocities P (I + C P)^-1 C [1, 1]^T, (..., 2 outputs, n_freq)
-    to_rails = matmul(P, matmul(S_in, C.sum(axis=-2)[..., None, :]))[..., 0, :]
-    common = 0.5 * (to_rails[..., 0, :] + to_rails[..., 1, :])
-    half_difference = 0.5 * (to_rails[..., 1, :] - to_rails[..., 0, :])
+    margins = [crossover_margins(w, lj) for lj in channels]
+    common = sum(move[..., 0, j, :] * u[j] for j in range(len(u)))
+    half_difference = sum(move[..., 1, j, :] * u[j] for j in range(len(u)))
     bandwidth = closed_loop_bandwidth_hz(w, common, dc_gain=1.0)
-    return DualLoopFigures(unstable, np.minimum.reduce(gm), np.minimum.reduce(pm), alpha, disk_gm, disk_pm, bandwidth,
-                           np.abs(half_difference).max(axis=-1))
+    nan = np.full(np.shape(bandwidth), np.nan)
+    alpha, disk_gm, disk_pm = nan, nan, nan
+    if disk:
+        # L = C P = T_in D T_out P at the motor inputs; S - I / 2 = adj(I + L) / det(I + L) - I / 2 and
+        # det(S - I / 2) = det(I - L) / (4 det(I + L)), with det(I + L) = det(I + D Q) above
+        L = matmul(t_in, np.stack([dj[..., None, :] * row for dj, row in
+                                   zip(d, np.moveaxis(B, -3, 0))], axis=-3))
+        l11, l22, off = L[..., 0, 0, :], L[..., 1, 1, :], L[..., 0, 1, :] * L[..., 1, 0, :]
+        inv_det = 1 / det
+        minus = 1 - l11 - l22 + l11 * l22 - off
+        mu = mu_diagonal(np.abs((1 + l22) * inv_det - 0.5), np.abs((1 + l11) * inv_det - 0.5),
+                         np.abs(off * inv_det**2), np.abs(minus * inv_det) / 4)
+        alpha = 1.0 / mu.max(axis=-1)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            disk_gm = np.where(alpha < 2, 20 * np.log10((2 + alpha) / (2 - alpha)), np.inf)
+            disk_pm = np.degrees(2 * np.arctan(alpha / 2))
+    return DualLoopFigures(unstable, np.minimum.reduce([m[0] for m in margins]),
+                           np.minimum.reduce([m[1] for m in margins]), alpha, disk_gm, disk_pm,
+                           bandwidth, np.abs(half_difference).max(axis=-1))
 
 
 def translation_step(plant, controller: Controller, t_s: np.ndarray, *, pade_order: int = 6):

@@ -127,6 +127,42 @@ def _interpolate(x: np.ndarray, y: np.ndarray, at: np.ndarray) -> np.ndarray:
 def loop_margins(w_rad_s, loop) -> Margins:
     """Gain, phase and disk margins and peak sensitivity of loops ``loop`` = L(jw), shape (..., n).
 
+    Gain and phase margins as ``crossover_margins``. |S| and |S - 1/2| have their extremes refined
+    between grid points on the complex quadratic through L at them and their neighbours (in log w).
+    """
+    w = check_grid(w_rad_s)
+    L = np.asarray(loop, dtype=complex)
+    if L.shape[-1] != w.size:
+        raise GridError(f"loop response has {L.shape[-1]} frequencies but the grid has {w.size}")
+    batch = L.shape[:-1]
+    L2 = L.reshape(-1, w.size)
+    re, im = L2.real, L2.imag
+    mag2 = re * re + im * im
+    lw = np.log(w)
+    gm_db, pm, wpc, wc = _crossovers(lw, L2, mag2)
+    # |S| = 1/|1 + L| and |S - 1/2| = |1 - L| / (2 |1 + L|), in real arithmetic
+    plus2 = (1.0 + re) ** 2 + im * im
+    minus2 = (1.0 - re) ** 2 + im * im
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ratio = minus2 / plus2
+        fine = _near(lw, L2, np.argmin(plus2, axis=-1))
+        ms = 1.0 / np.sqrt(np.min(np.abs(1.0 + fine) ** 2, axis=-1))
+        fine = _near(lw, L2, np.argmax(np.where(np.isnan(ratio), -np.inf, ratio), axis=-1))
+        alpha = 2.0 / np.sqrt(np.max(np.abs(1.0 - fine) ** 2 / np.abs(1.0 + fine) ** 2, axis=-1))
+    half = alpha / 2
+    with np.errstate(divide="ignore", invalid="ignore"):
+        dgm = np.where(half < 1, 20 * np.log10((1 + half) / (1 - half)), np.inf)
+    dpm = np.degrees(2 * np.arctan(half))
+    stable = nyquist_stable(L2)
+    on_grid = (mag2[:, 0] > 1.0) & (mag2[:, -1] < 1.0)
+    return Margins(*(x.reshape(batch) for x in (gm_db, pm, wpc / (2 * np.pi), wc / (2 * np.pi), alpha, dgm,
+                                                  dpm, ms, stable, on_grid)))
+
+
+def crossover_margins(w_rad_s, loop) -> tuple[np.ndarray, np.ndarray]:
+    """Gain margin (dB) and phase margin (deg) of loops ``loop`` = L(jw), shape (..., n), alone (the part of
+    ``loop_margins`` a scan needs).
+
     Crossings are detected between grid points and refined on the cubic through the four
     nearest points (log|L| and the phase against log w; error O(h^4) in the grid step h,
     against O(h^2) for linear interpolation). The phase is unwrapped locally: the increment
@@ -137,12 +173,15 @@ def loop_margins(w_rad_s, loop) -> Margins:
     L = np.asarray(loop, dtype=complex)
     if L.shape[-1] != w.size:
         raise GridError(f"loop response has {L.shape[-1]} frequencies but the grid has {w.size}")
-    batch = L.shape[:-1]
     L2 = L.reshape(-1, w.size)
-    n, n_rows = w.size, L2.shape[0]
-    re, im = L2.real, L2.imag
-    mag2 = re * re + im * im
-    lw = np.log(w)
+    gm_db, pm, _, _ = _crossovers(np.log(w), L2, L2.real**2 + L2.imag**2)
+    return gm_db.reshape(L.shape[:-1]), pm.reshape(L.shape[:-1])
+
+
+def _crossovers(lw: np.ndarray, L2: np.ndarray, mag2: np.ndarray):
+    """(gain margin dB, phase margin deg, phase and gain crossover rad/s) of rows L2 (n_rows, n) on log
+    frequencies ``lw``, |L|^2 ``mag2`` (``crossover_margins``)."""
+    n, n_rows = lw.size, L2.shape[0]
 
     def stencil(r, i):
         """Log-frequency, log-magnitude and locally unwrapped phase (rad) at the stencil of [i, i+1],
@@ -169,7 +208,7 @@ def loop_margins(w_rad_s, loop) -> Margins:
 
     # phase crossovers: the phase passes -180 + 360 j (Im L changes sign with Re L < 0) -> gain
     # margin; keep the one closest to 0 dB
-    upper = im > 0
+    upper = L2.imag > 0
     r, i = np.nonzero(upper[:, :-1] != upper[:, 1:])
     x, logmag, phase, ia = stencil(r, i)
     q = (np.degrees(phase) + 180.0) / 360.0
@@ -185,25 +224,7 @@ def loop_margins(w_rad_s, loop) -> Margins:
     wpc = np.full(n_rows, np.nan)
     gm_db[found_g] = gm_log_all[j[found_g]] * 20 / np.log(10)
     wpc[found_g] = np.exp(x_p[j[found_g]])
-
-    # |S| = 1/|1 + L| and |S - 1/2| = |1 - L| / (2 |1 + L|), in real arithmetic; each extreme refined
-    # between grid points on the complex quadratic through L at it and its neighbours (in log w)
-    plus2 = (1.0 + re) ** 2 + im * im
-    minus2 = (1.0 - re) ** 2 + im * im
-    with np.errstate(divide="ignore", invalid="ignore"):
-        ratio = minus2 / plus2
-        fine = _near(lw, L2, np.argmin(plus2, axis=-1))
-        ms = 1.0 / np.sqrt(np.min(np.abs(1.0 + fine) ** 2, axis=-1))
-        fine = _near(lw, L2, np.argmax(np.where(np.isnan(ratio), -np.inf, ratio), axis=-1))
-        alpha = 2.0 / np.sqrt(np.max(np.abs(1.0 - fine) ** 2 / np.abs(1.0 + fine) ** 2, axis=-1))
-    half = alpha / 2
-    with np.errstate(divide="ignore", invalid="ignore"):
-        dgm = np.where(half < 1, 20 * np.log10((1 + half) / (1 - half)), np.inf)
-    dpm = np.degrees(2 * np.arctan(half))
-    stable = nyquist_stable(L2)
-    on_grid = (mag2[:, 0] > 1.0) & (mag2[:, -1] < 1.0)
-    return Margins(*(x.reshape(batch) for x in (gm_db, pm, wpc / (2 * np.pi), wc / (2 * np.pi), alpha, dgm,
-                                                  dpm, ms, stable, on_grid)))
+    return gm_db, pm, wpc, wc
 
 
 def _near(x: np.ndarray, L: np.ndarray, i: np.ndarray, points: int = 65) -> np.ndarray:

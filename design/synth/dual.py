@@ -39,7 +39,7 @@ COARSE, FINE, REFINED_DECADES, STARTS, MAX_MOVES = 21, 7, 0.003, 3, 40
 #: the common/differential pair's last step may raise the yaw coupling its differential step reached by this factor
 YAW_SLACK = 1.25
 #: plants evaluated together when a design is judged (memory: MC_CHUNK x 2 x 2 x frequencies)
-MC_CHUNK = 500
+MC_CHUNK = 200
 #: controller x plant pairs screened together (memory: SCREEN_PLANTS x 2 x 2 x frequencies complex values)
 SCREEN_PLANTS = 256
 
@@ -176,9 +176,9 @@ class Worst:
 
 
 def _passes(f: DualLoopFigures, req: DualRequirements) -> np.ndarray:
+    disk = f.disk_margin >= req.disk_margin if req.disk_margin > 0 else True
     return ((f.unstable_poles == 0) & (f.phase_margin_deg >= req.phase_margin_deg)
-            & (f.gain_margin_db >= req.gain_margin_db) & (f.disk_margin >= req.disk_margin)
-            & np.isfinite(f.bandwidth_hz))
+            & (f.gain_margin_db >= req.gain_margin_db) & disk & np.isfinite(f.bandwidth_hz))
 
 
 def _bandwidth(f: DualLoopFigures) -> np.ndarray:
@@ -242,6 +242,7 @@ def _score(make: Callable[[np.ndarray, np.ndarray], Controller], kp: np.ndarray,
     done = np.zeros(n, dtype=bool)
     new = sorted(active)
     threshold = best
+    disk = req.disk_margin > 0
     while True:
         if new:
             live = np.flatnonzero(~done & (bound > threshold))
@@ -249,7 +250,7 @@ def _score(make: Callable[[np.ndarray, np.ndarray], Controller], kp: np.ndarray,
             chunk = max(1, SCREEN_PLANTS // len(new))
             for i in range(0, live.size, chunk):
                 k = live[i:i + chunk]
-                s = objective.score(loop_figures(W_RAD_S, frd, make(kp[k, None], ki[k, None])), req)
+                s = objective.score(loop_figures(W_RAD_S, frd, make(kp[k, None], ki[k, None]), disk=disk), req)
                 bound[k] = np.minimum(bound[k], s)
         found = np.sort(out[np.isfinite(out)])
         threshold = max(best, found[-want]) if found.size >= want else best
@@ -257,7 +258,7 @@ def _score(make: Callable[[np.ndarray, np.ndarray], Controller], kp: np.ndarray,
         if not live.size:
             return out
         k = int(live[np.argmax(bound[live])])
-        f = loop_figures(W_RAD_S, scenarios.frd, make(kp[k], ki[k]))
+        f = loop_figures(W_RAD_S, scenarios.frd, make(kp[k], ki[k]), disk=disk)
         out[k] = float(objective.score(f, req))
         done[k] = True
         failing = ~objective.passes(f, req)
@@ -404,17 +405,19 @@ def design_dual(model: DualDriveStageY, *, positions_m, payloads_kg, stage_x_mas
                                   (float(masses.min()), float(masses.max())), ranges, monte_carlo_samples, seed,
                                   stage_x_mass_kg)
     if progress is not None:
-        progress(f"designing {', '.join(structures)}")
+        progress(f"designing {', '.join(structures)}, each then checked on {len(check)} Monte Carlo draws")
     scenarios.frd                                   # computed once, before the threads share it
-    tick = None if progress is None else (lambda: progress(f"designing {', '.join(structures)}"))
-    designs = thread_map(lambda name: synthesise_structure(name, scenarios, requirements, kp_box=kp_box,
-                                                           ki_box=ki_box, progress=tick), structures)
-    if progress is not None:
-        progress(f"Monte Carlo check ({len(check)} draws)")
-    found = [d for d in designs if d.controller is not None]
-    checked = dict(zip((d.structure for d in found),
-                       worst_cases([d.controller for d in found], check, requirements)))
-    designs = [replace(d, monte_carlo=checked.get(d.structure)) for d in designs]
+    tick = None if progress is None else (lambda: progress(f"designing and checking {', '.join(structures)}"))
+
+    def designed_and_checked(name: str) -> StructureDesign:
+        """The structure's design, then its Monte Carlo check (each structure's thread goes on to its check
+        while the others still design)."""
+        d = synthesise_structure(name, scenarios, requirements, kp_box=kp_box, ki_box=ki_box, progress=tick)
+        if d.controller is None:
+            return d
+        return replace(d, monte_carlo=worst_cases([d.controller], check, requirements)[0])
+
+    designs = thread_map(designed_and_checked, structures)
     best = recommend(designs)
     return DualDesign(tuple(designs), None if best is None else best.structure, requirements, len(scenarios),
                       len(check), time.perf_counter() - start)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
 
 import numpy as np
 from rich import box
@@ -10,13 +11,14 @@ from rich.console import Console
 from rich.markup import escape
 from rich.table import Table
 
-from design.loop.analysis import PayloadSweep
-from design.loop.reproduce import TableRow
-from design.results import DiagnosisOutcome, FitOutcome
-from plant.data.recordings import Recording
-from plant.diagnose.diagnosis import Diagnosis
-from plant.diagnose.time_diagnosis import TimeDiagnosis
-from plant.experiment.excitation import THESIS_BLOCK_S, Multisine, VariancePrediction
+if TYPE_CHECKING:
+    from design.loop.analysis import PayloadSweep
+    from design.loop.reproduce import TableRow
+    from design.results import DiagnosisOutcome, FitOutcome
+    from plant.data.recordings import Recording
+    from plant.diagnose.diagnosis import Diagnosis
+    from plant.diagnose.time_diagnosis import TimeDiagnosis
+    from plant.experiment.excitation import Multisine, VariancePrediction
 
 #: payload rows shown in the sweep's terminal table (all of them go to --csv / --json)
 TABLE_ROWS = 15
@@ -36,6 +38,8 @@ def print_fit(console: Console, outcome: FitOutcome) -> None:
 
 def print_diagnosis_outcome(console: Console, outcome: DiagnosisOutcome) -> None:
     """The text of ``gantry diagnose``."""
+    from plant.diagnose.time_diagnosis import TimeDiagnosis
+
     if isinstance(outcome.diagnosis, TimeDiagnosis):
         print_time_diagnosis(console, outcome.diagnosis)
     else:
@@ -387,6 +391,8 @@ def print_reproduction(console: Console, rows: list[TableRow], sweeps: list[Payl
 
 def print_excitation(console: Console, out, ms: Multisine, pred: VariancePrediction) -> None:
     """``gantry excite``: what was written, the lines, crest factor, and the predicted variance per second."""
+    from plant.experiment.excitation import THESIS_BLOCK_S
+
     lines = [
         f"wrote {out}: {ms.current_a.size} samples at {ms.sample_rate_hz:g} Hz, {ms.periods} periods of "
         f"{ms.period_s:g} s = {ms.duration_s:g} s of machine time",

@@ -6,34 +6,36 @@ from __future__ import annotations
 import dataclasses
 import json
 import math
+from typing import TYPE_CHECKING
 
 import numpy as np
 
-from design.admittance.dual import DualAdmittanceResult
-from design.admittance.model import admittance_problem
-from design.admittance.monte_carlo import AdmittanceMonteCarlo
-from design.admittance.synthesis import AdmittanceResult
-from design.admittance.verify import PADE_ORDER, AdmittanceVerification
-from design.loop.analysis import PayloadSweep
-from design.loop.discrete import DiscreteCheck, DiscreteDesign
-from design.loop.sweep import SweepResult
-from design.problem import LoopProblem
-from design.results import DesignOutcome, DiagnosisOutcome, FitOutcome
-from design.synth.dual import DualDesign
-from design.synth.evaluation import Evaluation
-from design.synth.measured import MeasuredDesign
-from design.synth.monte_carlo import MonteCarloCheck
-from design.synth.pi import SynthesisResult
-from design.synth.schedule import SchedulePoint
-from design.synth.verify import Verification
-from plant.data.recordings import Recording
-from plant.diagnose.diagnosis import Diagnosis, failing_bands
-from plant.diagnose.evidence import ACCEPT_DELTA_BIC
-from plant.diagnose.time_diagnosis import TimeDiagnosis
-from plant.experiment.excitation import THESIS_BLOCK_S, Multisine, VariancePrediction
-from plant.identify.fitting import FitResult
-from plant.identify.rational_fit import RationalFit
-from plant.identify.time_fit import TimeFitResult, bic
+from design.admittance.verify import PADE_ORDER
+
+if TYPE_CHECKING:
+    from design.admittance.dual import DualAdmittanceResult
+    from design.admittance.monte_carlo import AdmittanceMonteCarlo
+    from design.admittance.synthesis import AdmittanceResult
+    from design.admittance.verify import AdmittanceVerification
+    from design.loop.analysis import PayloadSweep
+    from design.loop.discrete import DiscreteCheck, DiscreteDesign
+    from design.loop.sweep import SweepResult
+    from design.problem import LoopProblem
+    from design.results import DesignOutcome, DiagnosisOutcome, FitOutcome
+    from design.synth.dual import DualDesign
+    from design.synth.evaluation import Evaluation
+    from design.synth.measured import MeasuredDesign
+    from design.synth.monte_carlo import MonteCarloCheck
+    from design.synth.pi import SynthesisResult
+    from design.synth.schedule import SchedulePoint
+    from design.synth.verify import Verification
+    from plant.data.recordings import Recording
+    from plant.diagnose.diagnosis import Diagnosis
+    from plant.diagnose.time_diagnosis import TimeDiagnosis
+    from plant.experiment.excitation import Multisine, VariancePrediction
+    from plant.identify.fitting import FitResult
+    from plant.identify.rational_fit import RationalFit
+    from plant.identify.time_fit import TimeFitResult
 
 #: the closed-loop bandwidth definitions (``requirements.bandwidth_definition``)
 BANDWIDTH_DEFINITIONS = {
@@ -71,6 +73,8 @@ def _strict(obj):
 
 def fit_outcome_to_dict(outcome: FitOutcome) -> dict:
     """``gantry fit --json``: a frequency-domain fit (with its rational fit) or a time-domain one."""
+    from plant.identify.time_fit import TimeFitResult
+
     if isinstance(outcome.result, TimeFitResult):
         return time_fit_to_dict(outcome.result)
     out = fit_to_dict(outcome.result, outcome.rational)
@@ -81,6 +85,8 @@ def fit_outcome_to_dict(outcome: FitOutcome) -> dict:
 
 def diagnosis_outcome_to_dict(outcome: DiagnosisOutcome) -> dict:
     """``gantry diagnose --json`` on a frequency response or a time-domain recording."""
+    from plant.diagnose.time_diagnosis import TimeDiagnosis
+
     if isinstance(outcome.diagnosis, TimeDiagnosis):
         return time_diagnosis_to_dict(outcome.diagnosis)
     return diagnosis_to_dict(outcome.diagnosis)
@@ -128,6 +134,8 @@ def time_fit_to_dict(result: TimeFitResult) -> dict:
 
 def diagnosis_to_dict(diag: Diagnosis) -> dict:
     """Strict-JSON-ready dict: the ``gantry diagnose --json`` contract."""
+    from plant.diagnose.diagnosis import failing_bands
+
     first = diag.steps[0]
     final = diag.final
     return {
@@ -174,6 +182,8 @@ def diagnosis_to_dict(diag: Diagnosis) -> dict:
 
 def time_diagnosis_to_dict(diag: TimeDiagnosis) -> dict:
     """Strict-JSON-ready dict with the keys of the stepped-sine diagnosis where they mean the same."""
+    from plant.diagnose.evidence import ACCEPT_DELTA_BIC
+
     final = diag.final
     best_bic = min(s.bic for s in diag.steps)
     alternatives = [{"effects": list(c), "delta_bic": _bic(diag, c) - _bic(diag, diag.selected),
@@ -214,6 +224,8 @@ def time_diagnosis_to_dict(diag: TimeDiagnosis) -> dict:
 
 
 def _bic(diag: TimeDiagnosis, combo) -> float:
+    from plant.identify.time_fit import bic
+
     return bic(diag.models[combo], diag.n_effective)
 
 
@@ -417,6 +429,8 @@ def _front(points) -> list[dict]:
 
 def admittance_to_dict(result: AdmittanceResult, problem: LoopProblem) -> dict:
     """``admittance`` of ``gantry synth --json``."""
+    from design.admittance.model import admittance_problem
+
     adm = admittance_problem(problem)
     c = result.check
     designed = result.status in ("optimal", "mouse_cannot_drive")
@@ -528,6 +542,8 @@ def _feel(feel) -> dict:
 def dual_admittance_to_dict(result: DualAdmittanceResult, problem: LoopProblem) -> dict:
     """``admittance`` of ``gantry synth --json`` on a two-motor Stage Y: the virtual dynamics on the recommended
     structure, worst over carriage position x payload x uncertainty x mouse, and per carriage position."""
+    from design.admittance.model import admittance_problem
+
     c = result.check
     designed = result.status in ("optimal", "mouse_cannot_drive")
     worst = result.worst_position
@@ -629,6 +645,8 @@ def dual_design_to_dict(dual: DualDesign) -> dict:
 
 def excitation_to_dict(ms: Multisine, pred: VariancePrediction) -> dict:
     """``gantry excite --json`` (without ``out``): the multisine and its predicted FRF variance."""
+    from plant.experiment.excitation import THESIS_BLOCK_S
+
     return {"f_hz": ms.f_hz, "harmonics": ms.harmonics, "amplitudes_a": ms.amplitudes,
             "phases_rad": ms.phases, "phase_method": ms.phase_method, "period_s": ms.period_s,
             "periods": ms.periods, "machine_time_s": ms.duration_s, "sample_rate_hz": ms.sample_rate_hz,

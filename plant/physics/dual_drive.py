@@ -101,11 +101,12 @@ class DualDriveStageY:
                 out = out * e.response(np.asarray(s, complex))
         return out[..., None, None, :] if np.ndim(out) > 1 else out
 
-    def point_mobility(self, s) -> np.ndarray:
+    def point_mobility(self, s, *, carriage: bool = True) -> np.ndarray:
         """Velocity per force between the points rail Y1, rail Y2 and the carriage, (..., 3, 3, n_freq) at complex
-        ``s`` (m/s per N; the mechanics alone). A point at e from the centre of mass moves with y_g' + e alpha'
-        and a force there adds e times itself to the torque: H = s B (K(s))^-1 B^T with K(s) the module doc's
-        matrix polynomial and the rows of B (1, -l1), (1, l2), (1, p - l1)."""
+        ``s`` (m/s per N; the mechanics alone; ``carriage`` False: the rails alone, (..., 2, 2, n_freq)). A point
+        at e from the centre of mass moves with y_g' + e alpha' and a force there adds e times itself to the
+        torque: H = s B (K(s))^-1 B^T with K(s) the module doc's matrix polynomial and the rows of B (1, -l1),
+        (1, l2), (1, p - l1)."""
         s = np.asarray(s, complex)
         M, J, l1, l2 = (np.asarray(v, float)[..., None] for v in self.mass_geometry())
         b1 = np.asarray(self.damping1_n_s_per_m, float)[..., None]
@@ -117,10 +118,11 @@ class DualDriveStageY:
         d = J * s**2 + (b1 * l1**2 + b2 * l2**2) * s + ka
         scale = s / (a * d - c**2)
         d, c, a = d * scale, c * scale, a * scale                 # s K(s)^-1 = [[d, -c], [-c, a]] s / det
-        arms = (-l1, l2, e)
-        out = np.empty(np.broadcast_shapes(a.shape, e.shape)[:-1] + (3, 3, s.size), complex)
-        for i in range(3):
-            for j in range(i, 3):
+        arms = (-l1, l2, e) if carriage else (-l1, l2)
+        n = len(arms)
+        out = np.empty(np.broadcast_shapes(a.shape, e.shape)[:-1] + (n, n, s.size), complex)
+        for i in range(n):
+            for j in range(i, n):
                 out[..., i, j, :] = out[..., j, i, :] = d - (arms[i] + arms[j]) * c + arms[i] * arms[j] * a
         return out
 
@@ -133,7 +135,7 @@ class DualDriveStageY:
         """Rail velocity per motor current, shape (..., 2, 2, n_freq): [v1, v2] per [i1, i2] (m/s per A)."""
         s = 1j * check_grid(w_rad_s)
         k = self.force_constants()[..., None, :, None]
-        return self.point_mobility(s)[..., :2, :2, :] * k * self.chain(s, "drive") * self.chain(s, "sensor")
+        return self.point_mobility(s, carriage=False) * k * self.chain(s, "drive") * self.chain(s, "sensor")
 
     def state_space(self):
         """python-control state space of the mechanics (no chain effects): states (y_g, alpha, v_g, omega),

@@ -160,6 +160,7 @@ def diagnosis_to_dict(diag: Diagnosis) -> dict:
                          "max_third_harmonic_f_hz": diag.nonlinearity.max_third_harmonic_f_hz,
                          "threshold": diag.nonlinearity.threshold,
                          "amplitude_dependent": diag.nonlinearity.amplitude_dependent,
+                         "distortion": diag.nonlinearity.distortion,
                          "description": diag.nonlinearity.description},
         "notes": list(diag.notes),
         "flags": list(final.flags),

@@ -48,7 +48,8 @@ FRICTION_SHARES = (0.05, 0.15, 0.3)
 
 @dataclass(frozen=True)
 class Nonlinearity:
-    """Evidence of a nonlinearity: odd harmonics and amplitude dependence."""
+    """Evidence of a nonlinearity: harmonics (or output at a multisine's lines not excited) and amplitude
+    dependence."""
 
     detected: bool
     #: largest 3rd-harmonic ratio of the output, and the frequency where it occurs (NaN: none measurable)
@@ -58,6 +59,9 @@ class Nonlinearity:
     threshold: float
     amplitude_dependent: bool | None
     description: str
+    #: distortion above the noise in the data themselves: harmonics of a stepped sine, output at a multisine's
+    #: lines not excited (amplitude dependence alone is not distortion a model must reproduce)
+    distortion: bool = False
 
 
 @dataclass(frozen=True)
@@ -202,23 +206,56 @@ def detect_nonlinearity(data: MeasuredResponse, *, amplitude_dependent: bool | N
 
     Harmonics that could not be measured (NaN: at or above 0.45 x the sample rate) are left out;
     they never hide the others."""
-    hd3 = np.asarray(data.harmonic_distortion, float)[..., 1]
-    # white noise puts about as much noise in the 3rd-harmonic bin as in the fundamental's, whose
+    hd = np.asarray(data.harmonic_distortion, float)
+    hd2, hd3 = hd[..., 0], hd[..., 1]
+    # white noise puts about as much noise in a harmonic's bin as in the fundamental's, whose
     # relative standard deviation is sqrt(var)/|G|: count 4 sigma of it, and at least 0.5 %
     floor = np.maximum(4.0 * np.sqrt(np.asarray(data.variance)) / np.abs(data.response), 0.005)
     ratio = np.where(np.isfinite(hd3), hd3 / floor, -np.inf)
     extra = ("; response depends on the excitation amplitude" if amplitude_dependent else
              "; no amplitude dependence between the recordings") if amplitude_dependent is not None else ""
+    lines = _multisine_distortion(data)
     if not np.any(np.isfinite(ratio)):
-        return Nonlinearity(bool(amplitude_dependent), float("nan"), float("nan"), float("nan"), amplitude_dependent,
-                            ("detected: " if amplitude_dependent else "none: ") + "no harmonic was measurable" + extra)
+        words = lines or "no harmonic was measurable"
+        detected = bool(lines) or bool(amplitude_dependent)
+        return Nonlinearity(detected, float("nan"), float("nan"), float("nan"), amplitude_dependent,
+                            ("detected: " if detected else "none: ") + words + extra, bool(lines))
     k = np.unravel_index(int(np.argmax(ratio)), ratio.shape)
-    detected = bool(ratio[k] > 1.0) or bool(amplitude_dependent)
+    harmonics = bool(ratio[k] > 1.0)
+    detected = harmonics or bool(amplitude_dependent)
     f_at = float(np.asarray(data.f_hz)[k[-1]])
     words = (f"3rd harmonic up to {100 * hd3[k]:.2f} % of the fundamental at {f_at:.3g} Hz "
-             f"(threshold {100 * floor[k]:.2f} %)") + extra
+             f"(threshold {100 * floor[k]:.2f} %)")
+    if harmonics:
+        above = np.isfinite(hd3) & (hd3 > floor)
+        even = np.where(np.isfinite(hd2), hd2 / floor, -np.inf)
+        f = np.broadcast_to(np.asarray(data.f_hz, float), hd3.shape)
+        words += (f", above the threshold at {int(above.sum())} of {int(np.isfinite(hd3).sum())} frequencies "
+                  f"({f[above].min():.3g}..{f[above].max():.3g} Hz); 2nd harmonic up to "
+                  f"{100 * float(np.nanmax(np.where(np.isfinite(hd2), hd2, np.nan))):.2f} %: "
+                  + ("odd and even harmonics (an asymmetric nonlinearity)" if np.any(even > 1.0) else
+                     "odd harmonics only (a symmetric nonlinearity: friction, saturation)"))
     return Nonlinearity(detected, float(hd3[k]), f_at, float(floor[k]), amplitude_dependent,
-                        ("detected: " if detected else "none: ") + words)
+                        ("detected: " if detected else "none: ") + words + extra, harmonics)
+
+
+def _multisine_distortion(data: MeasuredResponse) -> str:
+    """The periodic estimator's finding of output at the lines not excited, in words ("" when none)."""
+    significant = data.metadata.get("distortion_significant") or {}
+    levels = data.metadata.get("distortion") or {}
+    found = []
+    for name, kinds in significant.items():
+        for kind, hit in kinds.items():
+            if hit:
+                worst = max(levels[name][kind], key=lambda band: band["level_db"])
+                found.append(f"output {name}: {worst['level_db']:.1f} dB above the noise at the {kind} lines not "
+                             f"excited ({worst['f_lo_hz']:g}..{worst['f_hi_hz']:g} Hz)")
+    return "; ".join(found)
+
+
+def distortion_sources() -> tuple[str, ...]:
+    """The effects of the library that make harmonics (nonlinear ones)."""
+    return tuple(n for n, cls in EFFECTS.items() if not cls.linear)
 
 
 def _pool(plant: Plant, data: MeasuredResponse, nonlinear: Nonlinearity,
@@ -353,6 +390,9 @@ def diagnose(plant: Plant, data: MeasuredResponse, *, candidates: tuple[str, ...
                             {k: f.n_params for k, f in fits.items()})
     final = fits[selected]
     explained = adequate[selected]
+    # a linear model makes no harmonics: with distortion in the data its fit is a describing function (the gain
+    # of the fundamental at this amplitude), not the stage, however well it fits
+    unexplained_distortion = nonlinear.distortion and all(EFFECTS[n].linear for n in selected)
     alternatives = tuple(
         Alternative(k, fits[k].bic - final.bic, fits[k].reduced_chi2, adequate[k],
                     ("lower BIC, but its extra parameters fall short of very strong evidence; "
@@ -361,7 +401,14 @@ def diagnose(plant: Plant, data: MeasuredResponse, *, candidates: tuple[str, ...
         if k != selected and fits[k].bic - final.bic < ACCEPT_DELTA_BIC)
     steps = _path(fits, base, selected, data, skipped, unidentifiable, pool)
     final_res = steps[-1].residuals
-    if explained:
+    if explained and unexplained_distortion:
+        explained = False
+        named = " + ".join(("base",) + selected[len(base):])
+        explanation = (f"not explained: {named} fits the fundamental within the noise (reduced chi-square "
+                       f"{final.reduced_chi2:.3g}) but makes no harmonics, and the data hold distortion above the "
+                       f"noise ({nonlinear.description.removeprefix('detected: ')}); its parameters are those of "
+                       f"a describing function at this amplitude, not of the stage. {_sources(pool, skipped)}")
+    elif explained:
         named = ", ".join(selected[len(base):]) or "no effect beyond the refitted base model"
         explanation = (f"explained by {named} (reduced chi-square {final.reduced_chi2:.3g}, expected "
                        f"{final.expected_reduced_chi2:.3g}: the residuals are consistent with the noise)")
@@ -371,6 +418,9 @@ def diagnose(plant: Plant, data: MeasuredResponse, *, candidates: tuple[str, ...
         explanation = (f"not explained: no model of the library is consistent with the noise (best: "
                        f"{' + '.join(('base',) + selected[len(base):])}, reduced chi-square {final.reduced_chi2:.3g}); "
                        f"the residual {peaks}no effect of the library reproduces: {where}")
+        if unexplained_distortion:
+            explanation += (f"; and the data hold distortion a linear model does not make "
+                            f"({nonlinear.description.removeprefix('detected: ')}). {_sources(pool, skipped)}")
     last = steps[-1]
     steps[-1] = replace(last, decision=explanation if not last.decision else f"{last.decision}; {explanation}")
     for flag in final.flags:
@@ -378,6 +428,16 @@ def diagnose(plant: Plant, data: MeasuredResponse, *, candidates: tuple[str, ...
             notes.append(flag)
     return Diagnosis(tuple(steps), final, nonlinear, tuple(dict.fromkeys(notes)),
                      verdict(explained), explanation, alternatives, fits)
+
+
+def _sources(pool: list[str], skipped: dict[str, str]) -> str:
+    """The library's effects that make harmonics, and whether the search tried them, in words."""
+    tried = [n for n in distortion_sources() if n in pool]
+    not_tried = [f"{n} ({skipped[n]})" for n in distortion_sources() if n in skipped]
+    words = "Effects of the library that make harmonics: "
+    words += f"{', '.join(tried)} tried, not selected" if tried else ""
+    words += ("; " if tried and not_tried else "") + (f"not tried: {', '.join(not_tried)}" if not_tried else "")
+    return words
 
 
 def _residual_peak(res: ResidualSummary) -> str:

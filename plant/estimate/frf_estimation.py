@@ -69,6 +69,10 @@ DISTORTION_P = 1e-3
 DISTORTION_BANDS = 8
 #: the LPM evaluates lines whose local input power is at least this fraction of the strongest
 LPM_POWER_FLOOR = 1e-4
+#: ... and whose input power per line that the transient cannot take is EXCITED_POWER_RATIO times the
+#: input's noise floor, this quantile of the local input power over the record's lines (an upper bound of the
+#: noise: a record sampled faster than its excitation has a band of floor)
+LPM_FLOOR_QUANTILE = 0.02
 #: default number of LPM points
 LPM_POINTS = 100
 #: an LPM window whose normalised regressor has a larger condition number is not evaluated
@@ -329,6 +333,7 @@ def _lpm_core(x, z, fs: float, order: int, half: int, f_range_hz, n_freq: int, s
     if not usable.any():
         where = "" if f_range_hz is None else f" in {f_range_hz[0]:g}..{f_range_hz[1]:g} Hz"
         raise DataError(f"{source}: no input energy{where} (local power below {LPM_POWER_FLOOR:g} of the strongest)")
+    floor = float(np.quantile(local[valid], LPM_FLOOR_QUANTILE))
     candidates = k_all[usable]
     targets = np.geomspace(candidates[0], candidates[-1], max(int(n_freq), 1))
     lines, last = [], -width
@@ -348,16 +353,26 @@ def _lpm_core(x, z, fs: float, order: int, half: int, f_range_hz, n_freq: int, s
     design = np.concatenate([(xw / scale[:, None])[:, :, None] * poly, transient], axis=2)  # (K, L, n_par)
     gram = np.einsum("kla,klb->kab", design.conj(), design)
     conditioned = np.linalg.cond(gram) < LPM_MAX_CONDITION
-    notes = ()
+    notes = []
     if not conditioned.all():
         if not conditioned.any():
             raise DataError(f"{source}: no LPM window of {width} lines has enough lines with input energy to "
                             f"separate G from the transient (a multisine with gaps needs the periodic method)")
-        notes = (f"{int(np.sum(~conditioned))} of {lines.size} LPM points left out: too few lines with input "
-                 f"energy in their window",)
+        notes.append(f"{int(np.sum(~conditioned))} of {lines.size} LPM points left out: too few lines with input "
+                     f"energy in their window")
         lines, xw, scale, design, gram = (a[conditioned] for a in (lines, xw, scale, design, gram))
-    zw = zf[:, lines[:, None] + r]                                       # (m, K, L)
     gram_inv = np.linalg.inv(gram)
+    # the input power per line the transient's polynomials do not explain (the Schur complement) against the
+    # noise floor: below a chirp's start the input is the smooth leakage of the record's ends, which the
+    # transient takes, plus the current's measurement noise, on which G would be regressed (errors in
+    # variables: a confident estimate biased towards 0)
+    usable_power = scale**2 / gram_inv[:, 0, 0].real / (q + 1)
+    # (no point above: the input is as broadband as the record, its floor is its excitation)
+    excited = usable_power > EXCITED_POWER_RATIO * floor
+    if excited.any() and not excited.all():
+        notes.append(_left_out(f_all[lines], excited))
+        lines, xw, scale, design, gram_inv = (a[excited] for a in (lines, xw, scale, design, gram_inv))
+    zw = zf[:, lines[:, None] + r]                                       # (m, K, L)
     theta = np.einsum("kab,klb,mkl->mka", gram_inv, design.conj(), zw)  # (m, K, n_par)
     resid = zw - np.einsum("kla,mka->mkl", design, theta)
     sigma = np.einsum("ikl,jkl->ijk", resid, resid.conj()) / q           # (m, m, K)
@@ -367,7 +382,20 @@ def _lpm_core(x, z, fs: float, order: int, half: int, f_range_hz, n_freq: int, s
     s_pow = np.mean(np.abs(signal) ** 2, axis=2)
     noise = np.einsum("iik->ik", sigma).real
     coherence = s_pow / (s_pow + noise)
-    return _Lpm(lines, f_all[lines], g, cov, coherence, 2 * scale / n, q, notes)
+    return _Lpm(lines, f_all[lines], g, cov, coherence, 2 * scale / n, q, tuple(notes))
+
+
+def _left_out(f_hz: np.ndarray, kept: np.ndarray) -> str:
+    """A note naming the points (frequencies ``f_hz``) not ``kept`` as not excited, by where they lie."""
+    inside = f_hz[kept]
+    low, high = ~kept & (f_hz < inside[0]), ~kept & (f_hz > inside[-1])
+    parts = [f"{int(low.sum())} below {inside[0]:.3g} Hz"] if low.any() else []
+    parts += [f"{int(high.sum())} above {inside[-1]:.3g} Hz"] if high.any() else []
+    between = int((~kept & ~low & ~high).sum())
+    parts += [f"{between} between {inside[0]:.3g} and {inside[-1]:.3g} Hz"] if between else []
+    return (f"{int((~kept).sum())} of {kept.size} LPM points not excited, left out ({', '.join(parts)}): input power "
+            f"that a transient does not explain within {10 * math.log10(EXCITED_POWER_RATIO):.0f} dB of the "
+            f"input's noise floor")
 
 
 def lpm_response(rec: TimeRecording, *, order: int = 2, bandwidth_lines: int | None = None,
@@ -378,8 +406,12 @@ def lpm_response(rec: TimeRecording, *, order: int = 2, bandwidth_lines: int | N
     the window is 2n + 1 DFT lines of the whole record (default 2 (order + 1), leaving
     q = 2 order + 3 complex residual degrees of freedom); ``n_freq``: number of log-spaced target
     points (default ``LPM_POINTS``), fewer where non-overlapping windows do not fit;
-    ``f_range_hz``: (low, high) Hz. Lines whose input power over the window is below
-    ``LPM_POWER_FLOOR`` of the strongest window's are not evaluated (no excitation there).
+    ``f_range_hz``: (low, high) Hz, which narrows the excited band and never widens it. Lines whose input
+    power over the window is below ``LPM_POWER_FLOOR`` of the strongest window's are not evaluated, nor
+    points whose input power per line that the transient's polynomials cannot take (the Schur complement
+    of the window's regression) is within ``EXCITED_POWER_RATIO`` of the input's noise floor (the
+    ``LPM_FLOOR_QUANTILE`` quantile of the local input power): the leakage below a chirp's start and its
+    current's measurement noise. A note counts the points left out and says where they lie.
 
     Returns G (m/s per A) with var = sigma_V^2 [(K^H K)^-1]_00 and ``metadata``:
     ``variance_dof`` (2 q per point), ``coherence`` (per output and point: power of G U over the

@@ -194,7 +194,7 @@ def _explanation(final: TimeFitResult, selected: tuple[str, ...], peak_hz: float
     structured = [st for st in final.structure if st.significant]
     worst = max(final.regimes, key=lambda r: r.noise_ratio)
     if structured:
-        what = "; ".join(f"it depends on {st.variable} (largest bin {st.worst_bin}, p = {st.p_value:.1g})"
+        what = "; ".join(f"it depends on {st.variable} ({st.summary}, p = {st.p_value:.1g})"
                          for st in structured)
         return (f"not explained: the best model ({model}) leaves {size}; {what}. Something outside the library "
                 "remains (a velocity-dependent friction law, a position-dependent force such as cogging or a "

@@ -32,7 +32,10 @@ A model explains the data when its residual has no structure: the residual's mea
 zero within its Newey-West uncertainty (a chi^2 test of the bin means at ``TEST_P``, per
 variable; ``Structure``) and large enough to matter (``STRUCTURE_SHARE``: numerical and
 preprocessing approximations leave a structure of about 0.1 % of the force that a long record
-resolves). A missing Coulomb friction leaves a step at v = 0, an offset a shift in
+resolves). With the position recorded, two dependences that bins of one variable cannot see are tested the
+same way (``_interactions``): on current x position (a force constant varying along the track) and on a
+periodic function of position (cogging, force ripple; its pitch found from the residual's spectrum over
+position). A missing Coulomb friction leaves a step at v = 0, an offset a shift in
 every bin, a Stribeck curve a bump at low velocity, a position-dependent force (cogging, a cable)
 a pattern along the travel, a wrong mass a slope in acceleration. The test needs no noise model.
 Its size must also be that of the measurement noise: the residual's rms at most
@@ -73,6 +76,10 @@ STRUCTURE_BINS = 16
 #: part of a quarter of the residual's rms (6 % of its variance); pure noise gives about
 #: sqrt(STRUCTURE_BINS / n_eff), 0.13 for 1000 effective samples
 STRUCTURE_SHARE = 0.25
+#: points of the uniform position grid on which the residual's spectrum over position is taken
+POSITION_GRID = 256
+#: trial pitches between the spectrum's neighbouring lines around its peak
+PITCH_REFINE = 41
 #: perturbations of the inverse model's mass and damping used as further output-error starts
 OE_START_FACTORS = ((1.0, 1.0), (0.7, 1.4), (1.4, 0.7))
 #: highest rate (Hz) of the output-error simulation (the force is filtered below it first)
@@ -101,10 +108,14 @@ class Structure:
     dof: int
     p_value: float
     significant: bool
-    #: the bin with the largest mean residual in standard errors: its range and mean
+    #: the bin with the largest mean residual in standard errors: its range and mean; for an interaction, the
+    #: pattern found and its size
     worst_bin: str
-    #: rms over the samples of their bin's mean residual, over the residual's rms (0: no structure)
+    #: rms over the samples of their bin's mean residual (of the fitted pattern), over the residual's rms
+    #: (0: no structure)
     share: float
+    #: what the residual does, in words
+    summary: str = ""
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -307,12 +318,72 @@ def _structure(e: np.ndarray, variables: dict[str, np.ndarray], unit: str) -> tu
         lo, hi = edges_used[j]
         worst = f"{name} {lo:.3g} to {hi:.3g}: mean {means[j]:+.3g} {unit} ({means[j] / se[j]:+.1f} se)"
         share = float(np.sqrt(np.sum(B.sum(axis=0) * means**2) / max(float(e @ e), 1e-300)))
-        out.append(Structure(name, chi2, dof, p, p < TEST_P and share >= STRUCTURE_SHARE, worst, share))
+        out.append(Structure(name, chi2, dof, p, p < TEST_P and share >= STRUCTURE_SHARE, worst, share,
+                             f"largest bin {worst}"))
+    return tuple(out)
+
+
+def _pattern(name: str, e: np.ndarray, B: np.ndarray, tests: int, words) -> Structure:
+    """Wald test (Newey-West covariance) of the residual's regression on the pattern columns ``B``, its p-value
+    times ``tests`` (Bonferroni over the patterns searched); ``words(coefficients)`` describes the fit."""
+    coef, *_ = np.linalg.lstsq(B, e, rcond=None)
+    cov, _ = _newey_west(B, e)
+    chi2 = float(coef @ np.linalg.pinv(cov) @ coef)
+    p = min(1.0, tests * float(scipy.special.chdtrc(coef.size, chi2)))
+    share = float(np.linalg.norm(B @ coef) / max(float(np.linalg.norm(e)), 1e-300))
+    text = words(coef)
+    return Structure(name, chi2, int(coef.size), p, p < TEST_P and share >= STRUCTURE_SHARE, text, share, text)
+
+
+def _interactions(e: np.ndarray, force: np.ndarray, position: np.ndarray) -> tuple[Structure, ...]:
+    """Residual dependences that bins of one variable cannot see (module doc).
+
+    * current x position: e on F x and F x^2 (x scaled to -1 .. 1 over the travel covered): a force constant
+      K(x) = K(mid) (1 + c1 x + c2 x^2) leaves exactly this residual, whose mean in any bin of position is
+      zero where the current averages out;
+    * position, periodic: e on sin and cos of 2 pi x / pitch at the pitch of the largest peak of the
+      residual's spectrum over position (bin means on a uniform grid of ``POSITION_GRID`` points), a
+      cogging or force-ripple pattern; Bonferroni over the pitches searched."""
+    lo, hi = float(position.min()), float(position.max())
+    if not hi > lo:
+        return ()
+    mid, half = (lo + hi) / 2, (hi - lo) / 2
+    x = (position - mid) / half
+
+    def kt_words(c):      # e = F - K_fit (1 + d(u)) F / K: the residual is -d(u) F to first order
+        d1, d2 = -c[0], -c[1]
+        return (f"a force constant that varies along the travel, to first order K(x) / K = 1 {d1:+.3g} u {d2:+.3g} u^2 "
+                f"with u = (x - {mid:.3g} m) / {half:.3g} m: {100 * (d1 + d2):+.2g} % at {hi:.3g} m, "
+                f"{100 * (d2 - d1):+.2g} % at {lo:.3g} m")
+
+    out = [_pattern("current x position", e, np.column_stack([force * x, force * x**2]), 1, kt_words)]
+    idx = np.clip(((position - lo) / (hi - lo) * POSITION_GRID).astype(int), 0, POSITION_GRID - 1)
+    counts = np.bincount(idx, minlength=POSITION_GRID)
+    if np.count_nonzero(counts) >= POSITION_GRID // 2:
+        means = np.bincount(idx, weights=e, minlength=POSITION_GRID) / np.maximum(counts, 1)
+        spectrum = np.abs(np.fft.rfft(means * (counts > 0)))[2:POSITION_GRID // 4]
+        k = int(np.argmax(spectrum)) + 2
+
+        def explained(cycles: float) -> float:
+            basis = np.column_stack([np.sin(2 * np.pi * cycles * (position - lo) / (hi - lo)),
+                                     np.cos(2 * np.pi * cycles * (position - lo) / (hi - lo))])
+            return float(np.linalg.norm(basis @ np.linalg.lstsq(basis, e, rcond=None)[0]))
+
+        cycles = max(np.linspace(k - 1, k + 1, PITCH_REFINE), key=explained)      # between the grid's lines
+        pitch = (hi - lo) / cycles
+        phase = 2 * np.pi * (position - lo) / pitch
+
+        def ripple_words(c, pitch=pitch):
+            return (f"a force periodic in position, pitch {1e3 * pitch:.3g} mm, amplitude {np.hypot(*c):.3g} N "
+                    "(cogging or force ripple)")
+
+        out.append(_pattern("position, periodic", e, np.column_stack([np.sin(phase), np.cos(phase)]),
+                            spectrum.size, ripple_words))
     return tuple(out)
 
 
 def _summarise(plant, method, values, free, X, e, measured, model, quantity, t, v, noise_rms, flags, n_starts,
-               elapsed, excitation_a, variables=None, n_at_rest=0) -> TimeFitResult:
+               elapsed, excitation_a, variables=None, n_at_rest=0, interactions=()) -> TimeFitResult:
     n, k = X.shape
     rss = float(e @ e)
     s2 = rss / max(n - k, 1)
@@ -327,7 +398,7 @@ def _summarise(plant, method, values, free, X, e, measured, model, quantity, t, 
     n_eff = float(np.clip(n * (1 - rho) / (1 + rho), k + 2, n)) if rho > 0 else float(n)
     ratio = math.sqrt(rss / n) / noise_rms if noise_rms > 0 else math.inf
     regimes = _regimes(v, t, e, noise_rms, n_eff / n)
-    structure = _structure(e, variables or {"velocity": v}, "N" if quantity == "force_n" else "m/s")
+    structure = _structure(e, variables or {"velocity": v}, "N" if quantity == "force_n" else "m/s") + interactions
     explained = not any(st.significant for st in structure) and ratio <= NOISE_RATIO_LIMIT
     cond = float(np.linalg.cond(X / np.maximum(np.linalg.norm(X, axis=0), 1e-300)))
     return TimeFitResult(
@@ -383,11 +454,13 @@ def fit_inverse_model(plant: Plant, rec: TimeRecording | InverseModelData, *, fr
     m_per, b_per = _effective_factors(plant)
     noise = data.residual_noise_std_n(m_per * values["mass_kg"], b_per * values["damping_n_s_per_m"])
     variables = {"velocity": data.velocity_m_per_s[moving], "acceleration": data.acceleration_m_per_s2[moving]}
+    interactions = ()
     if data.position_m is not None:
         variables["position"] = data.position_m[moving]
+        interactions = _interactions(e, force, data.position_m[moving])
     return _summarise(plant, "inverse-model", values, free, X, e, force, model, "force_n", data.time_s[moving],
                       data.velocity_m_per_s[moving], noise, flags, 1, time.perf_counter() - t0,
-                      _peak_input(plant, data), variables, int(data.at_rest.sum()))
+                      _peak_input(plant, data), variables, int(data.at_rest.sum()), interactions)
 
 
 def _peak_input(plant: Plant, data: InverseModelData) -> float:

@@ -15,10 +15,10 @@ Physics
     * force ripple (cogging): sum_k a_k sin(2 pi k x / pitch + phi_k) (N).
 
 Integration
-    Classical fourth-order Runge-Kutta on ``SUBSTEPS`` steps per sample; every force above is smooth in
-    (t, x, v) except the clip, which is continuous, so the error is below 1e-7 of the velocity amplitude
-    at the rates used here (checked in ``tests/reference/test_independent_linear_motor.py`` against the
-    exact response of the linear axis).
+    Classical fourth-order Runge-Kutta on ``SUBSTEPS`` steps per sample (fewer for slow, smooth currents);
+    every force above is smooth in (t, x, v) except the clip, which is continuous, so the error is below
+    1e-7 of the velocity amplitude at the rates used here (checked in
+    ``tests/reference/test_independent_linear_motor.py`` against the exact response of the linear axis).
 """
 
 from __future__ import annotations
@@ -54,11 +54,11 @@ class LinearMotorAxis:
             f = f + a * np.sin(2 * np.pi * k * x_m / self.ripple_pitch_m + phi)
         return f
 
-    def run(self, current, t_s: np.ndarray, n: int = 1) -> tuple[np.ndarray, np.ndarray]:
+    def run(self, current, t_s: np.ndarray, n: int = 1, substeps: int = SUBSTEPS) -> tuple[np.ndarray, np.ndarray]:
         """Positions (m) and velocities (m/s), each (t_s.size, n), at ``t_s`` (uniform, from 0) of ``n``
         experiments side by side, each from rest at x = 0 under the commanded current ``current(t)`` (a
-        function of time in s giving n currents, A)."""
-        dt = (t_s[1] - t_s[0]) / SUBSTEPS
+        function of time in s giving n currents, A); ``substeps`` Runge-Kutta steps per sample."""
+        dt = (t_s[1] - t_s[0]) / substeps
         m, b = self.mass_kg, self.damping_n_s_per_m
 
         def rate(t, x, v):
@@ -69,7 +69,7 @@ class LinearMotorAxis:
         t = 0.0
         for k in range(t_s.size):
             xs[k], vs[k] = x, v
-            for _ in range(SUBSTEPS):
+            for _ in range(substeps):
                 k1 = rate(t, x, v)
                 k2 = rate(t + dt / 2, x + dt / 2 * k1[0], v + dt / 2 * k1[1])
                 k3 = rate(t + dt / 2, x + dt / 2 * k2[0], v + dt / 2 * k2[1])
@@ -100,3 +100,20 @@ def stepped_sine(axis: LinearMotorAxis, f_hz, *, amplitude_a: float, block_s: fl
         currents.append(i)
         velocities.append(v[:, None])
     return independent_sim.Recording(f, times, currents, velocities, ("velocity_m_per_s",))
+
+
+def slow_sweep(axis: LinearMotorAxis, *, duration_s: float = 16.0, sample_rate_hz: float = 500.0, seed: int = 0,
+               current_noise_a: float = 0.005, position_noise_m: float = 1e-6, substeps: int = 4):
+    """A time recording over the travel: a 0.25 Hz, 3 A current with 0.8 A at 3.1 Hz and 0.5 A at 7.3 Hz on
+    top, from rest at x = 0 (the carriage covers about 0.17 m). Returns (t s, current A, position m), the
+    current and position with white measurement noise."""
+    t = np.arange(int(round(duration_s * sample_rate_hz))) / sample_rate_hz
+
+    def current(s):
+        return np.atleast_1d(3.0 * np.sin(2 * np.pi * 0.25 * s) + 0.8 * np.sin(2 * np.pi * 3.1 * s)
+                             + 0.5 * np.sin(2 * np.pi * 7.3 * s + 1.0))
+
+    x, _ = axis.run(current, t, 1, substeps)
+    rng = np.random.default_rng(seed)
+    return (t, current(t) + rng.normal(0.0, current_noise_a, t.size),
+            x[:, 0] + rng.normal(0.0, position_noise_m, t.size))

@@ -54,6 +54,10 @@ def diagnose(
     input_hold: InputHoldOption = False,
     as_json: Annotated[bool, typer.Option("--json", help="Print JSON.")] = False,
     report: Annotated[Optional[Path], typer.Option(help="Write an HTML diagnosis report here.")] = None,
+    compensation: Annotated[Optional[Path], typer.Option(
+        help="Time-domain recording with position: write the drive's compensation table of the selected "
+             "force_ripple / force_constant_profile here (CSV: position_m, current_scale, current_offset_a).")]
+    = None,
 ) -> None:
     """Compare a recording with the thesis model, rank the missing effects and add the justified ones."""
     from design.views.console import print_diagnosis_outcome
@@ -62,13 +66,15 @@ def diagnose(
     from design.workflows import diagnose_recording
     from plant.identify.inverse_model import Preprocessing
 
-    keep_inputs({"--report": report}, [data, *(amplitude_files or [])])
+    keep_inputs({"--report": report, "--compensation": compensation}, [data, *(amplitude_files or [])])
     outcome = diagnose_recording(
         data, stage=stage, candidates=tuple(e.strip() for e in effects.split(",") if e.strip()) if effects else None,
         values=parse_set(set_values), load_position_m=load_position_m, motor_length_m=motor_length_m,
         columns=columns, sample_rate_hz=sample_rate_hz, amplitude_files=tuple(amplitude_files or ()),
         fit_force_constant=fit_force_constant, frf=frf, band=parse_band(band_hz),
         prep=Preprocessing(filter_hz, decimate_band_hz, input_hold))
+    if compensation is not None:
+        _write_compensation(outcome, compensation)
     if report is not None:
         diagnosis_html(outcome, title=f"Diagnosis of {data.name} (Stage {stage.upper()})",
                        provenance=_provenance(data)).write(report)
@@ -76,8 +82,21 @@ def diagnose(
         print_json(diagnosis_outcome_to_dict(outcome))
         return
     print_diagnosis_outcome(console, outcome)
+    if compensation is not None:
+        console.print(f"compensation table written to {compensation}", soft_wrap=True)
     if report is not None:
         console.print(f"report written to {report}")
+
+
+def _write_compensation(outcome, path: Path) -> None:
+    """The selected time-domain model's compensation table, or a ``ParameterError`` saying why there is none."""
+    from plant.diagnose.time_diagnosis import TimeDiagnosis
+    from plant.errors import ParameterError
+
+    if not isinstance(outcome.diagnosis, TimeDiagnosis):
+        raise ParameterError("--compensation: a compensation table comes from a time-domain recording with the "
+                             "position (the frequency-domain diagnosis has no position-dependent force)")
+    outcome.diagnosis.compensation().write(path)
 
 
 def _provenance(data: Path) -> str:

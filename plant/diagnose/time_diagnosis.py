@@ -2,8 +2,10 @@
 fails, which force effects are missing, added one at a time while the error falls.
 
 Candidates are the effects with a force model (``Effect.force_regressors``: ``coulomb_friction``,
-``offset``). Every combination is fitted by the inverse model (``plant.identify.time_fit``; linear least
-squares, so each fit is global and a model containing another never fits worse) in the model search of
+``offset``, and with the position recorded ``force_ripple`` and ``force_constant_profile``, their pitch and
+span set from the recording and the base model's residual, ``Effect.configured``). Every combination of up
+to ``MAX_TIME_EFFECTS`` is fitted by the inverse model (``plant.identify.time_fit``; linear least squares,
+so each fit is global and a model containing another never fits worse) in the model search of
 ``plant.diagnose.search``, which selects among them as for a frequency response: by BIC, with the
 residual's own variance and one effective sample size for all (that of the largest model;
 ``plant.identify.time_fit`` module doc), and with "consistent with the noise" meaning a residual without
@@ -26,14 +28,18 @@ import numpy as np
 from plant.data.recordings import TimeRecording
 from plant.diagnose.evidence import addition_delta_bic, verdict
 from plant.diagnose.search import fit_models, path_to, select_model
-from plant.errors import EffectError
+from plant.errors import EffectError, ParameterError
+from plant.identify.compensation import CompensationTable, compensation_table
 from plant.identify.inverse_model import InverseModelData, Preprocessing, inverse_model_data
 from plant.identify.time_fit import TimeFitResult, bic, fit_inverse_model
+from plant.physics.effect_base import Effect
 from plant.physics.effects import EFFECTS, make_effect
 from plant.physics.models import Plant
 
 #: fraction of the 99th percentile of |v| above which a sample counts as moving in one direction
 DIRECTION_FRACTION = 0.05
+#: most effects in one model of the search
+MAX_TIME_EFFECTS = 3
 
 
 @dataclass(frozen=True)
@@ -82,10 +88,19 @@ class TimeDiagnosis:
     residual_peak_hz: float
     residual_peak_share: float
     notes: tuple[str, ...]
+    #: position (m) at the fits' samples, None when the recording has velocity only
+    position_m: np.ndarray | None = None
 
     @property
     def final(self) -> TimeFitResult:
         return self.models[self.selected]
+
+    def compensation(self) -> CompensationTable:
+        """The drive's compensation table of the selected model's position-dependent forces
+        (``plant.identify.compensation``)."""
+        if self.position_m is None:
+            raise ParameterError("the recording has no position: there is no position-dependent force to compensate")
+        return compensation_table(self.final, self.position_m)
 
     @property
     def final_effects(self) -> tuple[str, ...]:
@@ -96,16 +111,35 @@ class TimeDiagnosis:
         return self.selected
 
 
-def time_candidates() -> tuple[str, ...]:
-    """Effects of the library with a force model."""
-    return tuple(n for n, cls in EFFECTS.items() if cls.force_regressors(np.zeros(1)) is not None)
+def time_candidates(position: bool = True) -> tuple[str, ...]:
+    """Effects of the library with a force model (those that need the position only when it was recorded)."""
+    return tuple(n for n, cls in EFFECTS.items() if cls.time_domain and (position or not cls.needs_position))
 
 
-def _plant(base: Plant, effects: tuple[str, ...]) -> Plant:
-    """The base plant with ``effects`` at their neutral values (a friction needs an excitation amplitude:
-    the time domain does not use it)."""
-    fx = tuple(make_effect(n, **{k: 0.0 for k in EFFECTS[n].neutral}) for n in effects)
+def _plant(base: Plant, effects: tuple[str, ...], shaped: dict[str, Effect]) -> Plant:
+    """The base plant with ``effects`` at their neutral values, their held fields from ``shaped`` (a friction
+    needs an excitation amplitude: the time domain does not use it)."""
+    fx = tuple(shaped.get(n) or make_effect(n, **{k: 0.0 for k in EFFECTS[n].neutral}) for n in effects)
     return dataclasses.replace(base, effects=fx, excitation_current_a=base.excitation_current_a or 1.0)
+
+
+def _signatures_shown(selected: tuple[str, ...], models: dict[tuple[str, ...], TimeFitResult]) -> tuple[str, ...]:
+    """``selected`` without the effects whose residual signature (``Effect.residual_signature``: a structure
+    test of ``plant.identify.time_fit``) the model without them does not show: a position-dependent force is
+    added only where the residual shows its pattern (p below the test level and a quarter of the residual
+    or more), not for a BIC gain alone, which a long record gives any small correlation."""
+    while True:
+        for name in selected:
+            signature = EFFECTS[name].residual_signature
+            parent = tuple(n for n in selected if n != name)
+            if signature is None or parent not in models:
+                continue
+            shown = {st.variable: st.significant for st in models[parent].structure}
+            if not shown.get(signature, False):
+                selected = parent
+                break
+        else:
+            return selected
 
 
 def _direction(fit: TimeFitResult) -> DirectionalResidual:
@@ -154,25 +188,32 @@ def diagnose_time(plant: Plant, rec: TimeRecording, *, candidates: tuple[str, ..
     """Fit the base model and every combination of the candidate force effects; select and explain."""
     if plant.effects:
         raise EffectError("the diagnosis starts from the base model; give a plant without effects")
-    usable = time_candidates()
+    data: InverseModelData = inverse_model_data(rec, float(plant.force_constant_n_per_a), prep)
+    usable = time_candidates(position=data.position_m is not None)
     names = usable if candidates is None else tuple(candidates)
     notes = []
     for n in names:
         if n not in EFFECTS:
             raise EffectError(f"unknown effect {n!r}; known: {', '.join(EFFECTS)}")
     skipped = [n for n in names if n not in usable]
-    if skipped:
+    if [n for n in skipped if not EFFECTS[n].time_domain]:
         notes.append(f"not tried on time-domain data (no force model; estimate a frequency response for them): "
-                     f"{', '.join(skipped)}")
+                     f"{', '.join(n for n in skipped if not EFFECTS[n].time_domain)}")
+    if [n for n in skipped if EFFECTS[n].time_domain]:
+        notes.append(f"not tried: {', '.join(n for n in skipped if EFFECTS[n].time_domain)} depend on the position, "
+                     "and the recording has velocity only")
     names = tuple(n for n in names if n in usable)
-    data: InverseModelData = inverse_model_data(rec, float(plant.force_constant_n_per_a), prep)
-    models, _ = fit_models((), fit_inverse_model(_plant(plant, ()), data), names,
-                           lambda combo, parents: fit_inverse_model(_plant(plant, combo), data),
-                           max_effects=len(names))
-    n_eff = models[names].n_effective
+    base_fit = fit_inverse_model(_plant(plant, (), {}), data)
+    position = None if data.position_m is None else data.position_m[~data.at_rest]
+    shaped = {n: make_effect(n, **{k: 0.0 for k in EFFECTS[n].neutral}).configured(position, base_fit.residual)
+              for n in names}
+    models, _ = fit_models((), base_fit, names,
+                           lambda combo, parents: fit_inverse_model(_plant(plant, combo, shaped), data),
+                           max_effects=min(len(names), MAX_TIME_EFFECTS))
+    n_eff = models[max(models, key=len)].n_effective
     bics = {c: bic(f, n_eff) for c, f in models.items()}
-    selected = select_model(bics, {c: f.explained for c, f in models.items()},
-                            {c: f.n_params for c, f in models.items()})
+    selected = _signatures_shown(select_model(bics, {c: f.explained for c, f in models.items()},
+                                              {c: f.n_params for c, f in models.items()}), models)
     base = models[()]
     ranking = tuple(sorted((TimeCandidate(n, addition_delta_bic(bics[()], bics[(n,)]), models[(n,)].rms_residual)
                             for n in names), key=lambda c: -c.delta_bic))
@@ -181,7 +222,7 @@ def diagnose_time(plant: Plant, rec: TimeRecording, *, candidates: tuple[str, ..
     peak_hz, peak_share = _residual_peak(final)
     explanation = _explanation(final, selected, peak_hz, peak_share)
     return TimeDiagnosis(steps, ranking, models, selected, verdict(final.explained), explanation, _where(base),
-                         _direction(base), n_eff, peak_hz, peak_share, tuple(notes))
+                         _direction(base), n_eff, peak_hz, peak_share, tuple(notes), position)
 
 
 def _explanation(final: TimeFitResult, selected: tuple[str, ...], peak_hz: float, peak_share: float) -> str:
@@ -189,18 +230,19 @@ def _explanation(final: TimeFitResult, selected: tuple[str, ...], peak_hz: float
     size = (f"{final.rms_residual:.3g} N rms ({final.relative_error_percent:.2g} % of the force), "
             f"{final.noise_ratio:.3g} x the white noise of the raw signals")
     if final.explained:
-        return (f"{model} explains the recording: its residual ({size}) depends on neither velocity, acceleration "
-                "nor position" + ("" if selected else "; nothing is missing"))
+        return (f"{model} explains the recording: its residual ({size}) depends on neither velocity, acceleration, "
+                "motor force nor position" + ("" if selected else "; nothing is missing"))
     structured = [st for st in final.structure if st.significant]
     worst = max(final.regimes, key=lambda r: r.noise_ratio)
     if structured:
         what = "; ".join(f"it depends on {st.variable} ({st.summary}, p = {st.p_value:.1g})"
                          for st in structured)
         return (f"not explained: the best model ({model}) leaves {size}; {what}. Something outside the library "
-                "remains (a velocity-dependent friction law, a position-dependent force such as cogging or a "
-                "cable, dynamics above the rigid body)")
-    return (f"not explained: the best model ({model}) leaves no significant dependence on velocity, acceleration "
-            f"or position, but its residual is {size}, largest at {worst.name} ({worst.rms_residual:.3g} N rms); "
+                "remains (a velocity-dependent friction law, a position-dependent force such as a cable, an "
+                "amplifier's current limit, dynamics above the rigid body)")
+    return (f"not explained: the best model ({model}) leaves no significant dependence on velocity, acceleration, "
+            f"motor force or position, but its residual is {size}, largest at {worst.name} "
+            f"({worst.rms_residual:.3g} N rms); "
             f"{100 * peak_share:.0f} % of the residual power lies near {peak_hz:.3g} Hz. Variation that the force "
             "effects of the library do not describe remains (disturbances, the loop's own noise, dynamics above "
             "the decimation band)")

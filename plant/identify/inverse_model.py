@@ -88,6 +88,9 @@ class InverseModelData:
     full_rate_velocity_m_per_s: np.ndarray
     #: filtered position (m) at the decimated samples, None when the recording has velocity only
     position_m: np.ndarray | None
+    #: the motor force and the filtered position at the full rate, edges cut (position None as above)
+    full_rate_force_n: np.ndarray | None = None
+    full_rate_position_m: np.ndarray | None = None
 
     @property
     def at_rest(self) -> np.ndarray:
@@ -134,7 +137,8 @@ def _chain(rec_fs: float, output: np.ndarray, force: np.ndarray, kind: str, filt
     acc = np.gradient(v, h)
     cut = slice(EDGE_SAMPLES, output.size - EDGE_SAMPLES)
     position = _decimate(y[cut], r) if kind == "position" else None
-    return [_decimate(c, r) for c in (force[cut], v[cut], acc[cut])] + [v[cut], position]
+    return [_decimate(c, r) for c in (force[cut], v[cut], acc[cut])] + [v[cut], position, force[cut],
+                                                                         y[cut] if kind == "position" else None]
 
 
 def _decimate(x: np.ndarray, r: int) -> np.ndarray:
@@ -162,16 +166,16 @@ def inverse_model_data(rec: TimeRecording, force_constant_n_per_a: float,
         force = force_constant_n_per_a * rec.current_a
         if prep.input_hold:
             force = np.r_[force[0], (force[1:] + force[:-1]) / 2]
-        f, v, acc, v_full, position = _chain(fs, output, force, rec.output_kind, filter_hz, r)
+        f, v, acc, v_full, position, f_full, x_full = _chain(fs, output, force, rec.output_kind, filter_hz, r)
     if not all(np.all(np.isfinite(x)) for x in (f, v, acc)):
         raise DataError(f"{rec.source}: the filtered signals overflow: a current or {rec.output_kind} value in the "
                         "recording is far out of range")
     sigma_f = difference_noise_std(force)
     sigma_y = float(np.mean([difference_noise_std(o) for o in rec.output])) / np.sqrt(rec.output.shape[0])
     rng = np.random.default_rng(NOISE_SEED)
-    nf, nv, na, _, _ = _chain(fs, sigma_y * rng.standard_normal(rec.n_samples),
+    nf, nv, na, *_ = _chain(fs, sigma_y * rng.standard_normal(rec.n_samples),
                         sigma_f * rng.standard_normal(rec.n_samples), rec.output_kind, filter_hz, r)
     t = rec.time_s[EDGE_SAMPLES: rec.n_samples - EDGE_SAMPLES][::r][: f.size]
     return InverseModelData(t, f, v, acc, fs / r, r, filter_hz, decimate_band_hz, sigma_f, sigma_y, nf, nv, na,
                             rec.source,
-                            v_full, position)
+                            v_full, position, f_full, x_full)

@@ -28,7 +28,8 @@ Samples at rest (``InverseModelData.at_rest``) are left out of every fit: there 
 force is static, anywhere between -F_c and F_c, and no function of the velocity.
 
 A model explains the data when its residual has no structure: the residual's mean in
-``STRUCTURE_BINS`` quantile bins of velocity, of acceleration and (encoder data) of position is
+``STRUCTURE_BINS`` quantile bins of velocity, of acceleration, of the motor force (an amplifier's current
+limit bends the force at large currents) and (encoder data) of position is
 zero within its Newey-West uncertainty (a chi^2 test of the bin means at ``TEST_P``, per
 variable; ``Structure``) and large enough to matter (``STRUCTURE_SHARE``: numerical and
 preprocessing approximations leave a structure of about 0.1 % of the force that a long record
@@ -47,6 +48,7 @@ by regime of motion (``regimes``) says where it is largest.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
 from collections.abc import Sequence
@@ -62,7 +64,9 @@ from plant.errors import DataError, EffectError, ParameterError
 from plant.estimate.lockin import TEST_P
 from plant.identify.fit_result import PlantFit
 from plant.identify.inverse_model import EDGE_SAMPLES, FILTER_ORDER, InverseModelData, Preprocessing, inverse_model_data
+from plant.physics.effect_base import ForceSignals
 from plant.physics.models import Plant
+from plant.physics.motor_forces import periodic_pitch
 
 #: velocity below this fraction of the 99th percentile of |v| is "low velocity"
 LOW_VELOCITY_FRACTION = 0.05
@@ -76,10 +80,8 @@ STRUCTURE_BINS = 16
 #: part of a quarter of the residual's rms (6 % of its variance); pure noise gives about
 #: sqrt(STRUCTURE_BINS / n_eff), 0.13 for 1000 effective samples
 STRUCTURE_SHARE = 0.25
-#: points of the uniform position grid on which the residual's spectrum over position is taken
-POSITION_GRID = 256
-#: trial pitches between the spectrum's neighbouring lines around its peak
-PITCH_REFINE = 41
+#: a profiled field (``Effect.profiled``: a ripple's pitch) is searched within this fraction of its start
+PROFILE_SPAN = 0.05
 #: perturbations of the inverse model's mass and damping used as further output-error starts
 OE_START_FACTORS = ((1.0, 1.0), (0.7, 1.4), (1.4, 0.7))
 #: highest rate (Hz) of the output-error simulation (the force is filtered below it first)
@@ -199,14 +201,21 @@ class TimeFitResult(PlantFit):
 def time_domain_effects(plant: Plant) -> None:
     """Refuse effects the time-domain model cannot represent, naming them."""
     for e in plant.effects:
-        if e.force_regressors(np.zeros(1)) is None:
+        if not e.time_domain:
             raise EffectError(f"{e.name} has no time-domain force model (it acts on the dynamics, not on the force "
                               "balance); estimate a frequency response from the recording to fit it")
 
 
+def force_signals(data: InverseModelData) -> ForceSignals:
+    """The full-rate signals the effects' force models are formed from."""
+    return ForceSignals(data.full_rate_velocity_m_per_s, data.full_rate_force_n, data.full_rate_position_m)
+
+
 def default_free_time(plant: Plant) -> tuple[str, ...]:
-    """Mass, damping and every effect parameter of the time-domain model."""
-    return ("mass_kg", "damping_n_s_per_m") + tuple(p for p in plant.parameters() if "." in p)
+    """Mass, damping and every effect parameter of the time-domain model but those that shape its signals
+    (``search_fixed``: a ripple's pitch)."""
+    return ("mass_kg", "damping_n_s_per_m") + tuple(f"{e.name}.{k}" for e in plant.effects for k in e.bounds
+                                                    if k not in e.search_fixed)
 
 
 def _check_free(plant: Plant, free: Sequence[str]) -> tuple[str, ...]:
@@ -231,8 +240,11 @@ def _regressors(plant: Plant, data: InverseModelData) -> dict[str, np.ndarray]:
     """Force per unit of each parameter (module doc's model), at the decimated samples."""
     m_per, b_per = _effective_factors(plant)
     cols = {"mass_kg": m_per * data.acceleration_m_per_s2, "damping_n_s_per_m": b_per * data.velocity_m_per_s}
+    signals = force_signals(data)
     for e in plant.effects:
-        for field, signal in e.force_regressors(data.full_rate_velocity_m_per_s).items():
+        if e.needs_position and data.position_m is None:
+            raise DataError(f"{data.source}: {e.name} depends on the position; the recording has velocity only")
+        for field, signal in e.force_regressors(signals).items():
             cols[f"{e.name}.{field}"] = data.decimate(signal)
     return cols
 
@@ -342,8 +354,8 @@ def _interactions(e: np.ndarray, force: np.ndarray, position: np.ndarray) -> tup
       K(x) = K(mid) (1 + c1 x + c2 x^2) leaves exactly this residual, whose mean in any bin of position is
       zero where the current averages out;
     * position, periodic: e on sin and cos of 2 pi x / pitch at the pitch of the largest peak of the
-      residual's spectrum over position (bin means on a uniform grid of ``POSITION_GRID`` points), a
-      cogging or force-ripple pattern; Bonferroni over the pitches searched."""
+      residual's spectrum over position (``plant.physics.motor_forces.periodic_pitch``), a cogging or
+      force-ripple pattern; Bonferroni over the pitches searched."""
     lo, hi = float(position.min()), float(position.max())
     if not hi > lo:
         return ()
@@ -357,28 +369,16 @@ def _interactions(e: np.ndarray, force: np.ndarray, position: np.ndarray) -> tup
                 f"{100 * (d2 - d1):+.2g} % at {lo:.3g} m")
 
     out = [_pattern("current x position", e, np.column_stack([force * x, force * x**2]), 1, kt_words)]
-    idx = np.clip(((position - lo) / (hi - lo) * POSITION_GRID).astype(int), 0, POSITION_GRID - 1)
-    counts = np.bincount(idx, minlength=POSITION_GRID)
-    if np.count_nonzero(counts) >= POSITION_GRID // 2:
-        means = np.bincount(idx, weights=e, minlength=POSITION_GRID) / np.maximum(counts, 1)
-        spectrum = np.abs(np.fft.rfft(means * (counts > 0)))[2:POSITION_GRID // 4]
-        k = int(np.argmax(spectrum)) + 2
-
-        def explained(cycles: float) -> float:
-            basis = np.column_stack([np.sin(2 * np.pi * cycles * (position - lo) / (hi - lo)),
-                                     np.cos(2 * np.pi * cycles * (position - lo) / (hi - lo))])
-            return float(np.linalg.norm(basis @ np.linalg.lstsq(basis, e, rcond=None)[0]))
-
-        cycles = max(np.linspace(k - 1, k + 1, PITCH_REFINE), key=explained)      # between the grid's lines
-        pitch = (hi - lo) / cycles
+    pitch, searched = periodic_pitch(position, e)
+    if searched:
         phase = 2 * np.pi * (position - lo) / pitch
 
-        def ripple_words(c, pitch=pitch):
+        def ripple_words(c):
             return (f"a force periodic in position, pitch {1e3 * pitch:.3g} mm, amplitude {np.hypot(*c):.3g} N "
                     "(cogging or force ripple)")
 
-        out.append(_pattern("position, periodic", e, np.column_stack([np.sin(phase), np.cos(phase)]),
-                            spectrum.size, ripple_words))
+        out.append(_pattern("position, periodic", e, np.column_stack([np.sin(phase), np.cos(phase)]), searched,
+                            ripple_words))
     return tuple(out)
 
 
@@ -424,6 +424,7 @@ def fit_inverse_model(plant: Plant, rec: TimeRecording | InverseModelData, *, fr
     data = rec if isinstance(rec, InverseModelData) else \
         inverse_model_data(rec, float(plant.force_constant_n_per_a), prep)
     moving = ~data.at_rest
+    plant = _profiled(plant, data, free)
     cols = {name: col[moving] for name, col in _regressors(plant, data).items()}
     params = plant.parameters()
     force = data.force_n[moving]
@@ -453,7 +454,8 @@ def fit_inverse_model(plant: Plant, rec: TimeRecording | InverseModelData, *, fr
     e = force - model
     m_per, b_per = _effective_factors(plant)
     noise = data.residual_noise_std_n(m_per * values["mass_kg"], b_per * values["damping_n_s_per_m"])
-    variables = {"velocity": data.velocity_m_per_s[moving], "acceleration": data.acceleration_m_per_s2[moving]}
+    variables = {"velocity": data.velocity_m_per_s[moving], "acceleration": data.acceleration_m_per_s2[moving],
+                 "motor force": force}
     interactions = ()
     if data.position_m is not None:
         variables["position"] = data.position_m[moving]
@@ -461,6 +463,31 @@ def fit_inverse_model(plant: Plant, rec: TimeRecording | InverseModelData, *, fr
     return _summarise(plant, "inverse-model", values, free, X, e, force, model, "force_n", data.time_s[moving],
                       data.velocity_m_per_s[moving], noise, flags, 1, time.perf_counter() - t0,
                       _peak_input(plant, data), variables, int(data.at_rest.sum()), interactions)
+
+
+def _profiled(plant: Plant, data: InverseModelData, free: Sequence[str]) -> Plant:
+    """``plant`` with each effect's ``profiled`` field (a ripple's pitch) set to the value, within
+    ``PROFILE_SPAN`` of its own either way, that leaves the least squares of the fit of ``free`` smallest
+    (profile least squares: the other parameters enter linearly)."""
+    moving = ~data.at_rest
+    force = data.force_n[moving]
+    for effect in plant.effects:
+        for field in effect.profiled:
+            start = float(getattr(effect, field))
+
+            def rss(value, effect=effect, field=field):
+                trial = plant.with_effects(*(dataclasses.replace(effect, **{field: value}) if e is effect else e
+                                             for e in plant.effects))
+                cols = _regressors(trial, data)
+                X = np.column_stack([cols[p][moving] for p in free])
+                return float(np.sum((force - X @ np.linalg.lstsq(X, force, rcond=None)[0]) ** 2))
+
+            best = scipy.optimize.minimize_scalar(rss, bounds=(start * (1 - PROFILE_SPAN), start * (1 + PROFILE_SPAN)),
+                                                  method="bounded", options={"xatol": 1e-6 * start})
+            if best.fun < rss(start):
+                new = dataclasses.replace(effect, **{field: float(best.x)})
+                plant = plant.with_effects(*(new if e is effect else e for e in plant.effects))
+    return plant
 
 
 def _peak_input(plant: Plant, data: InverseModelData) -> float:

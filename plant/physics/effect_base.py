@@ -18,8 +18,9 @@ broadcast against the frequency axis) it owns what the rest of the tool needs to
 * ``search_fixed``: parameters held at their defaults by the model search;
 * ``complexity``: how much physics it assumes, breaking ties between equivalent models;
 * ``in_synthesis``: has a response formula of ``s`` that casadi can build (PI synthesis);
-* ``force_regressors(v)``: its force as a sum of parameters times known signals of the velocity,
-  for the time-domain inverse model (None where it has no such form).
+* ``force_regressors(signals)``: its force as a sum of parameters times known signals of the velocity,
+  position and motor force (``ForceSignals``), for the time-domain inverse model (None where it has no
+  such form); ``configured(position, residual)`` sets the fields the search holds from the recording.
 """
 
 from __future__ import annotations
@@ -98,12 +99,41 @@ class Effect(abc.ABC):
         """Pure delay with the same low-frequency phase, or None when the effect is not delay-like."""
         return None
 
-    @classmethod
-    def force_regressors(cls, velocity_m_per_s: np.ndarray) -> dict[str, np.ndarray] | None:
+    #: the effect has a time-domain force model (``force_regressors``)
+    time_domain: ClassVar[bool] = False
+    #: it needs the recorded position (a force that depends on where the carriage is)
+    needs_position: ClassVar[bool] = False
+    #: fields a time-domain fit sets by profile least squares near their configured value (a ripple's pitch)
+    profiled: ClassVar[tuple[str, ...]] = ()
+    #: the stepped-sine simulation (``plant.experiment.simulate``) models it
+    simulated: ClassVar[bool] = True
+    #: the time-domain residual test that must show the effect's pattern before the diagnosis adds it (the
+    #: ``variable`` of a ``plant.identify.time_fit.Structure``), None: BIC decides alone
+    residual_signature: ClassVar[str | None] = None
+
+    def force_regressors(self, signals: ForceSignals) -> dict[str, np.ndarray] | None:
         """The effect's force (N) needed on top of the rigid body as sum(p * signal): field -> signal
-        (the time-domain inverse model is linear in these parameters); None when the effect has no
-        such form (a delay, a mode or a filter act on the dynamics, not on the force balance)."""
+        (the time-domain inverse model is linear in these parameters; the effect's other fields, held in
+        the search, shape the signals); None when the effect has no such form (a delay, a mode or a filter
+        act on the dynamics, not on the force balance)."""
         return None
+
+    def configured(self, position_m: np.ndarray | None, residual_n: np.ndarray) -> Effect:
+        """The effect with the fields the search holds set from the recording: ``position_m`` (None: not
+        recorded) and a parent model's force residual ``residual_n`` at the same samples (a ripple's pitch
+        from the residual's spectrum over position); itself when it has none."""
+        return self
+
+
+@dataclasses.dataclass(frozen=True)
+class ForceSignals:
+    """Signals at the full rate (filtered, edges cut) that time-domain force models are formed from."""
+
+    velocity_m_per_s: np.ndarray
+    #: the motor force K_f u as the model computes it (N)
+    force_n: np.ndarray
+    #: None when the recording has velocity only
+    position_m: np.ndarray | None = None
 
 
 class ChainEffect(Effect):

@@ -7,7 +7,9 @@ Where an effect sits decides how it composes (``plant.physics.effect_base``):
 * mechanics, parts of the lumped network (``plant.physics.mechanics``): ``resonance`` (two-mass,
   recorded at the motor), ``payload_resonance`` (recorded at the payload), ``second_resonance``
   (three-mass chain), ``tilt_coupling`` (Y rails, off-centre load), ``coulomb_friction``,
-  ``offset`` (a constant force, time-domain data only).
+  ``offset`` (a constant force, time-domain data only); position-dependent motor forces
+  (``plant.physics.motor_forces``, time-domain data with the position only): ``force_ripple``,
+  ``force_constant_profile``.
 
 Adding an effect means one class in ``plant.physics.chain`` or ``plant.physics.mechanics`` (by where it sits)
 and its entry in ``EFFECTS`` here. Parameter names and units follow ``docs/formats.md``: an effect parameter is
@@ -30,10 +32,12 @@ from plant.physics.mechanics import (
     SecondResonance,
     TiltCoupling,
 )
+from plant.physics.motor_forces import ForceConstantProfile, ForceRipple
 
 EFFECTS: dict[str, type[Effect]] = {
     cls.name: cls for cls in (Delay, CurrentLoop, Sampling, SensorFilter, EncoderVelocity, Resonance,
-                              PayloadResonance, SecondResonance, CoulombFriction, Offset, TiltCoupling)
+                              PayloadResonance, SecondResonance, CoulombFriction, Offset, TiltCoupling, ForceRipple,
+                              ForceConstantProfile)
 }
 
 
@@ -56,6 +60,7 @@ def make_effect(name: str, **params: float) -> Effect:
 
 __all__ = [
     "EFFECTS", "PADE_ORDER", "ChainEffect", "CoulombFriction", "CurrentLoop", "Delay", "Effect", "EncoderVelocity",
+    "ForceConstantProfile", "ForceRipple",
     "MechanicalEffect", "ModeEffect", "Offset", "PayloadResonance", "Resonance", "Sampling", "SecondResonance",
     "SensorFilter",
     "TiltCoupling", "make_effect",

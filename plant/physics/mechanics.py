@@ -35,7 +35,7 @@ from typing import ClassVar
 import numpy as np
 
 from plant.errors import ParameterError
-from plant.physics.effect_base import MechanicalEffect
+from plant.physics.effect_base import ForceSignals, MechanicalEffect
 from plant.physics.parameters import check_finite, check_positive
 
 #: a mode this high (Hz) is far above any recorded band: the bodies move as one
@@ -265,9 +265,10 @@ class CoulombFriction(MechanicalEffect):
         """Exact friction force (N) opposing motion at velocity v (sliding branch)."""
         return np.asarray(self.force_n) * np.sign(velocity_m_per_s)
 
-    @classmethod
-    def force_regressors(cls, velocity_m_per_s: np.ndarray) -> dict[str, np.ndarray]:
-        return {"force_n": np.sign(velocity_m_per_s)}
+    time_domain: ClassVar[bool] = True
+
+    def force_regressors(self, signals: ForceSignals) -> dict[str, np.ndarray]:
+        return {"force_n": np.sign(signals.velocity_m_per_s)}
 
 
 @dataclass(frozen=True)
@@ -290,13 +291,15 @@ class Offset(MechanicalEffect):
     #: a constant force does not enter a velocity loop's small-signal response: nothing to design for
     in_synthesis: ClassVar[bool] = False
     complexity: ClassVar[int] = 0
+    simulated: ClassVar[bool] = False
 
     def __post_init__(self) -> None:
         check_finite("offset.force_n", self.force_n)
 
-    @classmethod
-    def force_regressors(cls, velocity_m_per_s: np.ndarray) -> dict[str, np.ndarray]:
-        return {"force_n": np.ones_like(np.asarray(velocity_m_per_s, dtype=float))}
+    time_domain: ClassVar[bool] = True
+
+    def force_regressors(self, signals: ForceSignals) -> dict[str, np.ndarray]:
+        return {"force_n": np.ones_like(np.asarray(signals.velocity_m_per_s, dtype=float))}
 
 
 @dataclass(frozen=True)

@@ -7,7 +7,9 @@ synthesis became robust to the specs' ``plant.uncertainty`` (a deliberate change
 ``synth_admittance`` when the bundled admittance spec took the walking mouse, the rig's 100 Hz law and the
 co-design of the PI gains (a new spec and a new design); ``diagnose_*`` when the diagnosis contract became one
 across kinds of data (``docs/formats.md``: the time-domain verdict ``not_explained`` and its dBIC of an added
-effect positive, the key ``domain`` on frequency data).
+effect positive, the key ``domain`` on frequency data), and again when the effect library gained the
+position-dependent motor forces (their candidates in the rankings, one effective sample size from the
+largest model of the larger search, the motor force among the residual tests).
 """
 
 from __future__ import annotations

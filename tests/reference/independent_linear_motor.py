@@ -54,15 +54,19 @@ class LinearMotorAxis:
             f = f + a * np.sin(2 * np.pi * k * x_m / self.ripple_pitch_m + phi)
         return f
 
-    def run(self, current, t_s: np.ndarray, n: int = 1, substeps: int = SUBSTEPS) -> tuple[np.ndarray, np.ndarray]:
+    def run(self, current, t_s: np.ndarray, n: int = 1, substeps: int = SUBSTEPS,
+            drive=None) -> tuple[np.ndarray, np.ndarray]:
         """Positions (m) and velocities (m/s), each (t_s.size, n), at ``t_s`` (uniform, from 0) of ``n``
         experiments side by side, each from rest at x = 0 under the commanded current ``current(t)`` (a
-        function of time in s giving n currents, A); ``substeps`` Runge-Kutta steps per sample."""
+        function of time in s giving n currents, A); ``substeps`` Runge-Kutta steps per sample. ``drive``
+        (command A, position m) -> current A: what the drive makes of the command where the carriage is
+        (a compensation table), None: the command itself."""
         dt = (t_s[1] - t_s[0]) / substeps
         m, b = self.mass_kg, self.damping_n_s_per_m
 
         def rate(t, x, v):
-            return v, (self.force_n(current(t), x) - b * v) / m
+            i = current(t) if drive is None else drive(current(t), x)
+            return v, (self.force_n(i, x) - b * v) / m
 
         x, v = np.zeros(n), np.zeros(n)
         xs, vs = np.empty((t_s.size, n)), np.empty((t_s.size, n))
@@ -103,17 +107,17 @@ def stepped_sine(axis: LinearMotorAxis, f_hz, *, amplitude_a: float, block_s: fl
 
 
 def slow_sweep(axis: LinearMotorAxis, *, duration_s: float = 16.0, sample_rate_hz: float = 500.0, seed: int = 0,
-               current_noise_a: float = 0.005, position_noise_m: float = 1e-6, substeps: int = 4):
-    """A time recording over the travel: a 0.25 Hz, 3 A current with 0.8 A at 3.1 Hz and 0.5 A at 7.3 Hz on
-    top, from rest at x = 0 (the carriage covers about 0.17 m). Returns (t s, current A, position m), the
-    current and position with white measurement noise."""
+               current_noise_a: float = 0.005, position_noise_m: float = 1e-6, substeps: int = 4, drive=None):
+    """A time recording over the travel: a 0.25 Hz, 3 A current command with 0.8 A at 3.1 Hz and 0.5 A at
+    7.3 Hz on top, from rest at x = 0 (the carriage covers about 0.17 m), through ``drive`` (``run``).
+    Returns (t s, command A, position m), the command and position with white measurement noise."""
     t = np.arange(int(round(duration_s * sample_rate_hz))) / sample_rate_hz
 
     def current(s):
         return np.atleast_1d(3.0 * np.sin(2 * np.pi * 0.25 * s) + 0.8 * np.sin(2 * np.pi * 3.1 * s)
                              + 0.5 * np.sin(2 * np.pi * 7.3 * s + 1.0))
 
-    x, _ = axis.run(current, t, 1, substeps)
+    x, _ = axis.run(current, t, 1, substeps, drive)
     rng = np.random.default_rng(seed)
     return (t, current(t) + rng.normal(0.0, current_noise_a, t.size),
             x[:, 0] + rng.normal(0.0, position_noise_m, t.size))

@@ -1,6 +1,7 @@
 """Residual tests that see what bins of one variable average out: a force constant that falls off towards
 the ends of the magnet track (the residual is current x position: zero mean in every position bin) and a
-force ripple periodic in position, each named with its size; a control with neither.
+force ripple periodic in position, each named with its size in the base model's residual (the diagnosis
+then adds the effect: ``test_motor_forces``); a control with neither, in which no effect is added.
 
 Recordings from the independent linear-motor simulator (``tests/reference/independent_linear_motor.py``):
 a slow sweep over 0.17 m of travel, position recorded.
@@ -11,7 +12,7 @@ import pytest
 
 from plant import stage_x
 from plant.data.recordings import TimeRecording
-from plant.diagnose.evidence import EXPLAINED, NOT_EXPLAINED
+from plant.diagnose.evidence import EXPLAINED
 from plant.diagnose.time_diagnosis import diagnose_time
 
 
@@ -31,8 +32,7 @@ def test_force_constant_profile_is_named_as_current_times_position():
     kt = _structure(diag, "current x position")
     assert kt.significant and kt.share > 0.8
     assert not _structure(diag, "position, periodic").significant
-    assert diag.verdict == NOT_EXPLAINED
-    assert "force constant that varies along the travel" in diag.explanation
+    assert "force constant that varies along the travel" in kt.summary
     at_end, at_start = (float(w.split(" % at ")[0].split()[-1]) for w in kt.summary.split(": ")[1].split(", "))
     assert -45 < at_end < -15 and 5 < at_start < 30
 
@@ -46,10 +46,10 @@ def test_force_ripple_is_named_with_its_pitch_and_amplitude():
     amplitude_n = float(ripple.summary.split("amplitude ")[1].split(" N")[0])
     assert pitch_mm == pytest.approx(20.0, rel=0.03)
     assert amplitude_n == pytest.approx(3.0, rel=0.1)
-    assert diag.verdict == NOT_EXPLAINED
 
 
 def test_axis_without_either_is_explained_and_flags_nothing():
     diag = _diagnose(lm.LinearMotorAxis(), seed=3)
     assert diag.verdict == EXPLAINED
+    assert diag.selected == ()
     assert not any(st.significant for st in diag.models[()].structure)

@@ -147,11 +147,17 @@ def test_diagnosis_finds_exactly_the_simulated_force_effects(axis, expected, see
 
 
 @pytest.mark.parametrize("seed", [0, 1])
-def test_diagnosis_says_not_explained_for_a_position_dependent_force(seed):
+def test_diagnosis_finds_a_force_periodic_in_position_beside_friction_and_offset(seed):
+    """The simulator's F_p(x) = 4 N sin(2 pi x / 20 mm) is the force the drive must supply: ``force_ripple``'s
+    convention, so its sine coefficient is +4 N."""
     axis = Axis(ripple_n=4.0)
     diag = diagnose_time(Plant("x", force_constant_n_per_a=axis.gain_n_per_v), _recording(axis, seed), prep=HOLD)
-    assert diag.verdict == "not_explained"
-    assert "position" in diag.explanation
+    assert set(diag.selected) == {"coulomb_friction", "offset", "force_ripple"}
+    assert diag.verdict == "explained", diag.explanation
+    ripple = diag.final.plant.effect("force_ripple")
+    assert ripple.pitch_m == pytest.approx(axis.ripple_period_m, rel=2e-3)
+    assert ripple.sin1_n == pytest.approx(axis.ripple_n, abs=0.1)
+    assert abs(ripple.cos1_n) < 0.1
 
 
 def test_base_model_failure_is_described_by_direction_and_regime():

@@ -1,0 +1,164 @@
+"""Forces of a linear motor that depend on where the carriage is: force ripple (cogging) periodic in the
+magnet pitch, and a force constant that varies along the magnet track (end effects).
+
+Both are time-domain effects: a frequency response at one operating point averages them away, so they are
+fitted from recordings with the position (``plant.identify.time_fit``), where the inverse model is linear in
+their amplitudes. Their shape fields (the ripple's pitch, the profile's centre and half span) are set from
+the recording by ``configured`` and held by the fit.
+
+* ``ForceRipple``: F_r(x) = sum_k a_k sin(2 pi k x / p) + b_k cos(2 pi k x / p), k = 1, 2 (N), the force
+  the motor must supply on top of the rigid body where the carriage is (a cogging force pulling against
+  the motor is positive, as friction and ``offset``): iron-core motors' cogging and the ripple of the
+  commutation at the pole pitch p. The pitch is found from the residual's spectrum over position and
+  refined by profile least squares in the fit (``profiled``).
+* ``ForceConstantProfile``: K(x) = K (1 + c1 u + c2 u^2), u = (x - centre) / half_span (c1 ``slope``,
+  c2 ``curvature``): the motor force K(x) u_drive; with K u_drive on the left of the inverse model, its
+  columns are minus the motor force times u and u^2 (exact, not a linearisation).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+from typing import ClassVar
+
+import numpy as np
+
+from plant.errors import EffectError
+from plant.physics.effect_base import ForceSignals, MechanicalEffect
+from plant.physics.parameters import check_finite, check_positive
+
+#: points of the uniform position grid on which a residual's spectrum over position is taken
+POSITION_GRID = 256
+#: trial pitches between the spectrum's neighbouring lines around its peak
+PITCH_REFINE = 41
+
+
+def periodic_pitch(position_m: np.ndarray, residual: np.ndarray) -> tuple[float, int]:
+    """The pitch (m) of the strongest periodic pattern of ``residual`` over position, and the number of
+    pitches searched: the peak of the spectrum of the residual's bin means on a uniform grid of
+    ``POSITION_GRID`` points over the travel covered (2 to a quarter of the grid cycles), refined between its
+    neighbouring lines by least squares; (nan, 0) when the travel is too short or too sparsely covered."""
+    x = np.asarray(position_m, float)
+    lo, hi = float(x.min()), float(x.max())
+    if not hi > lo:
+        return float("nan"), 0
+    idx = np.clip(((x - lo) / (hi - lo) * POSITION_GRID).astype(int), 0, POSITION_GRID - 1)
+    counts = np.bincount(idx, minlength=POSITION_GRID)
+    if np.count_nonzero(counts) < POSITION_GRID // 2:
+        return float("nan"), 0
+    means = np.bincount(idx, weights=residual, minlength=POSITION_GRID) / np.maximum(counts, 1)
+    spectrum = np.abs(np.fft.rfft(means * (counts > 0)))[2:POSITION_GRID // 4]
+    k = int(np.argmax(spectrum)) + 2
+
+    def explained(cycles: float) -> float:
+        phase = 2 * np.pi * cycles * (x - lo) / (hi - lo)
+        basis = np.column_stack([np.sin(phase), np.cos(phase)])
+        return float(np.linalg.norm(basis @ np.linalg.lstsq(basis, residual, rcond=None)[0]))
+
+    cycles = max(np.linspace(k - 1, k + 1, PITCH_REFINE), key=explained)
+    return (hi - lo) / cycles, spectrum.size
+
+
+def _position(effect: str, signals: ForceSignals) -> np.ndarray:
+    if signals.position_m is None:
+        raise EffectError(f"{effect} depends on the position: the recording has velocity only")
+    return np.asarray(signals.position_m, float)
+
+
+@dataclass(frozen=True)
+class ForceRipple(MechanicalEffect):
+    """Force periodic in position (module doc): fundamental and 2nd harmonic of pitch ``pitch_m``."""
+
+    pitch_m: float = 0.03
+    sin1_n: float = 0.0
+    cos1_n: float = 0.0
+    sin2_n: float = 0.0
+    cos2_n: float = 0.0
+    name: ClassVar[str] = "force_ripple"
+    bounds: ClassVar = {"pitch_m": (1e-4, 1.0, "m"), "sin1_n": (-1000.0, 1000.0, "N"),
+                        "cos1_n": (-1000.0, 1000.0, "N"), "sin2_n": (-1000.0, 1000.0, "N"),
+                        "cos2_n": (-1000.0, 1000.0, "N")}
+    signature: ClassVar[str] = "a residual force periodic in position (cogging, commutation ripple)"
+    main_parameter: ClassVar[str] = "sin1_n"
+    neutral: ClassVar = {"sin1_n": 0.0, "cos1_n": 0.0, "sin2_n": 0.0, "cos2_n": 0.0}
+    search_fixed: ClassVar = ("pitch_m",)
+    profiled: ClassVar = ("pitch_m",)
+    residual_signature: ClassVar = "position, periodic"
+    searched: ClassVar[bool] = False
+    not_searched: ClassVar[str] = ("a force that depends on the position averages out of a frequency response; "
+                                   "fitted from time-domain recordings with the position")
+    in_synthesis: ClassVar[bool] = False
+    time_domain: ClassVar[bool] = True
+    needs_position: ClassVar[bool] = True
+    simulated: ClassVar[bool] = False
+
+    def __post_init__(self) -> None:
+        check_positive("force_ripple.pitch_m", self.pitch_m)
+        for field in ("sin1_n", "cos1_n", "sin2_n", "cos2_n"):
+            check_finite(f"force_ripple.{field}", getattr(self, field))
+
+    def amplitude_n(self, harmonic: int = 1) -> float:
+        """Amplitude (N) of harmonic 1 or 2."""
+        return float(np.hypot(*((self.sin1_n, self.cos1_n) if harmonic == 1 else (self.sin2_n, self.cos2_n))))
+
+    def force(self, position_m) -> np.ndarray:
+        """F_r (N) at ``position_m``: the force the motor must supply there (module doc)."""
+        phase = 2 * np.pi * np.asarray(position_m, float) / self.pitch_m
+        return (self.sin1_n * np.sin(phase) + self.cos1_n * np.cos(phase) + self.sin2_n * np.sin(2 * phase)
+                + self.cos2_n * np.cos(2 * phase))
+
+    def force_regressors(self, signals: ForceSignals) -> dict[str, np.ndarray]:
+        phase = 2 * np.pi * _position(self.name, signals) / self.pitch_m
+        return {"sin1_n": np.sin(phase), "cos1_n": np.cos(phase), "sin2_n": np.sin(2 * phase),
+                "cos2_n": np.cos(2 * phase)}
+
+    def configured(self, position_m, residual_n) -> ForceRipple:
+        if position_m is None:
+            return self
+        pitch, _ = periodic_pitch(position_m, residual_n)
+        return replace(self, pitch_m=pitch) if np.isfinite(pitch) else self
+
+
+@dataclass(frozen=True)
+class ForceConstantProfile(MechanicalEffect):
+    """A force constant varying along the travel (module doc): K(x) = K (1 + c1 u + c2 u^2)."""
+
+    centre_m: float = 0.0
+    half_span_m: float = 0.1
+    slope: float = 0.0
+    curvature: float = 0.0
+    name: ClassVar[str] = "force_constant_profile"
+    bounds: ClassVar = {"centre_m": (-10.0, 10.0, "m"), "half_span_m": (1e-4, 10.0, "m"),
+                        "slope": (-0.9, 0.9, "1"), "curvature": (-0.9, 0.9, "1")}
+    signature: ClassVar[str] = "a residual proportional to the current times the position (magnet track's ends)"
+    main_parameter: ClassVar[str] = "curvature"
+    neutral: ClassVar = {"slope": 0.0, "curvature": 0.0}
+    search_fixed: ClassVar = ("centre_m", "half_span_m")
+    residual_signature: ClassVar = "current x position"
+    searched: ClassVar[bool] = False
+    not_searched: ClassVar[str] = ForceRipple.not_searched
+    in_synthesis: ClassVar[bool] = False
+    time_domain: ClassVar[bool] = True
+    needs_position: ClassVar[bool] = True
+    simulated: ClassVar[bool] = False
+
+    def __post_init__(self) -> None:
+        check_positive("force_constant_profile.half_span_m", self.half_span_m)
+        for field in ("centre_m", "slope", "curvature"):
+            check_finite(f"force_constant_profile.{field}", getattr(self, field))
+
+    def factor(self, position_m) -> np.ndarray:
+        """K(x) / K at ``position_m``."""
+        u = (np.asarray(position_m, float) - self.centre_m) / self.half_span_m
+        return 1.0 + self.slope * u + self.curvature * u**2
+
+    def force_regressors(self, signals: ForceSignals) -> dict[str, np.ndarray]:
+        u = (_position(self.name, signals) - self.centre_m) / self.half_span_m
+        # K u_drive (1 + c1 u + c2 u^2) = m a + b v + ...: with K u_drive on the left, exactly
+        return {"slope": -signals.force_n * u, "curvature": -signals.force_n * u**2}
+
+    def configured(self, position_m, residual_n) -> ForceConstantProfile:
+        if position_m is None:
+            return self
+        lo, hi = float(np.min(position_m)), float(np.max(position_m))
+        return replace(self, centre_m=(lo + hi) / 2, half_span_m=max((hi - lo) / 2, 1e-4)) if hi > lo else self

@@ -1,0 +1,102 @@
+"""Position-dependent motor forces found, measured and added, on recordings of the independent linear-motor
+simulator (``tests/reference/independent_linear_motor.py``): a force constant falling off towards the ends of
+the magnet track, a force ripple at a 20 mm pitch, both together, and (in ``test_interaction_residuals``) a
+control with neither. Truths from the simulator's own definitions."""
+
+import math
+
+import independent_linear_motor as lm
+import numpy as np
+import pytest
+
+from plant import stage_x
+from plant.data.recordings import TimeRecording
+from plant.diagnose.evidence import EXPLAINED, NOT_EXPLAINED
+from plant.diagnose.time_diagnosis import diagnose_time
+
+DROOP, TRAVEL_M = 0.3, 0.3
+RIPPLE_N, RIPPLE_PHASE, PITCH_M = 3.0, 0.4, 0.02
+
+
+def _diagnose(axis, seed):
+    t, current, position = lm.slow_sweep(axis, seed=seed)
+    return diagnose_time(stage_x(), TimeRecording(t, current, position[None, :], "position", ("x",), source="sweep"))
+
+
+def _profile_truth(centre_m: float, half_m: float) -> tuple[float, float]:
+    """(slope, curvature) of K(x) = K0 (1 - d (2 x / T)^2) written as K(centre) (1 + c1 u + c2 u^2)."""
+    a = 4 * DROOP / TRAVEL_M**2
+    k_centre = 1 - a * centre_m**2
+    return -2 * a * centre_m * half_m / k_centre, -a * half_m**2 / k_centre
+
+
+def test_force_constant_profile_is_found_and_measured():
+    diag = _diagnose(lm.LinearMotorAxis(kt_droop=DROOP, travel_m=TRAVEL_M), seed=1)
+    assert diag.selected == ("force_constant_profile",)
+    assert diag.verdict == EXPLAINED
+    profile = diag.final.plant.effect("force_constant_profile")
+    slope, curvature = _profile_truth(profile.centre_m, profile.half_span_m)
+    assert profile.slope == pytest.approx(slope, rel=0.03)
+    assert profile.curvature == pytest.approx(curvature, rel=0.05)
+
+
+def test_force_ripple_is_found_with_its_pitch_amplitude_and_phase():
+    diag = _diagnose(lm.LinearMotorAxis(ripple_n=(RIPPLE_N,), ripple_phase_rad=(RIPPLE_PHASE,),
+                                        ripple_pitch_m=PITCH_M), seed=2)
+    assert diag.selected == ("force_ripple",)
+    assert diag.verdict == EXPLAINED
+    ripple = diag.final.plant.effect("force_ripple")
+    assert ripple.pitch_m == pytest.approx(PITCH_M, rel=2e-3)
+    # the model's ripple is the force the motor must supply: minus the simulator's pushing force
+    assert ripple.sin1_n == pytest.approx(-RIPPLE_N * math.cos(RIPPLE_PHASE), abs=0.05 * RIPPLE_N)
+    assert ripple.cos1_n == pytest.approx(-RIPPLE_N * math.sin(RIPPLE_PHASE), abs=0.05 * RIPPLE_N)
+    assert ripple.amplitude_n(2) < 0.05 * RIPPLE_N
+    assert diag.final.values["mass_kg"] == pytest.approx(35.0, rel=0.01)
+
+
+def test_both_are_added_one_at_a_time_and_the_error_falls_each_time():
+    diag = _diagnose(lm.LinearMotorAxis(kt_droop=DROOP, travel_m=TRAVEL_M, ripple_n=(RIPPLE_N,),
+                                        ripple_phase_rad=(RIPPLE_PHASE,), ripple_pitch_m=PITCH_M), seed=3)
+    assert set(diag.selected) == {"force_ripple", "force_constant_profile"}
+    assert diag.verdict == EXPLAINED
+    rms = [step.fit.rms_residual for step in diag.steps]
+    assert len(rms) == 3 and rms[0] > rms[1] > rms[2]
+    assert rms[2] < 0.15 * rms[0]
+
+
+def test_compensation_table_makes_the_simulated_stage_a_rigid_body(tmp_path):
+    """The table the diagnosis exports, read back from its CSV and applied by the simulated drive: the stage
+    then needs no position-dependent effect and its residual falls to the noise."""
+    axis = lm.LinearMotorAxis(kt_droop=DROOP, travel_m=TRAVEL_M, ripple_n=(RIPPLE_N,), ripple_phase_rad=(RIPPLE_PHASE,),
+                              ripple_pitch_m=PITCH_M)
+    diag = _diagnose(axis, seed=4)
+    table = diag.compensation()
+    path = tmp_path / "compensation.csv"
+    table.write(path)
+    rows = np.loadtxt(path, delimiter=",", comments="#", skiprows=2)
+    x, scale, offset = rows.T
+
+    def drive(command, position):
+        return np.interp(position, x, scale) * command + np.interp(position, x, offset)
+
+    compensated = _diagnose_with(axis, drive, seed=5)
+    assert compensated.selected == ()
+    assert compensated.verdict == EXPLAINED
+    before = diag.steps[0].fit.rms_residual
+    after = compensated.steps[0].fit.rms_residual
+    assert after < 0.15 * before
+    assert table.removed_rms_n == pytest.approx(before, rel=0.3)
+
+
+def _diagnose_with(axis, drive, seed):
+    t, current, position = lm.slow_sweep(axis, seed=seed, drive=drive)
+    return diagnose_time(stage_x(), TimeRecording(t, current, position[None, :], "position", ("x",), source="comp"))
+
+
+def test_current_limit_outside_the_library_is_not_explained_and_nothing_is_found():
+    """A truth the time-domain library has no model of: the amplifier clips the current at 2.5 A of a 4.3 A
+    peak command. No position-dependent effect may be claimed; the residual is named by the motor force."""
+    diag = _diagnose(lm.LinearMotorAxis(current_limit_a=2.5), seed=6)
+    assert diag.selected == ()
+    assert diag.verdict == NOT_EXPLAINED
+    assert "it depends on motor force" in diag.explanation and "current limit" in diag.explanation

@@ -16,7 +16,8 @@ Forms (drawn per recording):
 
 A hit: for a truth in the library, exactly its effects (friction and offset included in the closed loop),
 "explained", the ripple's pitch within 1 % and its first-harmonic amplitude within 10 % (5 % of the drive
-force absolute), the profile's slope and curvature within 15 % (0.02 absolute); for the current limit,
+force absolute), the profile's slope and curvature within 15 % (0.02 absolute, or 3 Newey-West standard
+errors where the recording's noise allows no better); for the current limit,
 "not explained" with no effect claimed. False "explained": a truth outside the library called explained;
 false "found": an effect claimed that is not there.
 """
@@ -103,7 +104,9 @@ def _parameters_ok(form: str, axis, diag) -> tuple[bool, str]:
         slope = -2 * a * profile.centre_m * profile.half_span_m / k_centre
         curvature = -a * profile.half_span_m**2 / k_centre
         e1, e2 = profile.slope - slope, profile.curvature - curvature
-        ok &= abs(e1) < max(0.15 * abs(slope), 0.02) and abs(e2) < max(0.15 * abs(curvature), 0.02)
+        se = diag.final.stderr
+        ok &= (abs(e1) < max(0.15 * abs(slope), 0.02, 3 * se["force_constant_profile.slope"])
+               and abs(e2) < max(0.15 * abs(curvature), 0.02, 3 * se["force_constant_profile.curvature"]))
         words.append(f"slope {e1:+.3f}, curvature {e2:+.3f}")
     return ok, "; ".join(words)
 

@@ -3,9 +3,9 @@ fails, which force effects are missing, added one at a time while the error fall
 
 Candidates are the effects with a force model (``Effect.force_regressors``: ``coulomb_friction``,
 ``offset``, and with the position recorded ``force_ripple`` and ``force_constant_profile``, their pitch and
-span set from the recording and the base model's residual, ``Effect.configured``). Every combination of up
-to ``MAX_TIME_EFFECTS`` is fitted by the inverse model (``plant.identify.time_fit``; linear least squares,
-so each fit is global and a model containing another never fits worse) in the model search of
+span set from the recording and the residual of the model each is added to, ``Effect.configured``). Every
+combination of up to ``MAX_TIME_EFFECTS`` is fitted by the inverse model (``plant.identify.time_fit``; linear
+least squares, so each fit is global and a model containing another never fits worse) in the model search of
 ``plant.diagnose.search``, which selects among them as for a frequency response: by BIC, with the
 residual's own variance and one effective sample size for all (that of the largest model;
 ``plant.identify.time_fit`` module doc), and with "consistent with the noise" meaning a residual without
@@ -116,11 +116,10 @@ def time_candidates(position: bool = True) -> tuple[str, ...]:
     return tuple(n for n, cls in EFFECTS.items() if cls.time_domain and (position or not cls.needs_position))
 
 
-def _plant(base: Plant, effects: tuple[str, ...], shaped: dict[str, Effect]) -> Plant:
-    """The base plant with ``effects`` at their neutral values, their held fields from ``shaped`` (a friction
-    needs an excitation amplitude: the time domain does not use it)."""
-    fx = tuple(shaped.get(n) or make_effect(n, **{k: 0.0 for k in EFFECTS[n].neutral}) for n in effects)
-    return dataclasses.replace(base, effects=fx, excitation_current_a=base.excitation_current_a or 1.0)
+def _plant(base: Plant, effects: tuple[Effect, ...]) -> Plant:
+    """The base plant with ``effects`` (a friction needs an excitation amplitude: the time domain does not use
+    it)."""
+    return dataclasses.replace(base, effects=effects, excitation_current_a=base.excitation_current_a or 1.0)
 
 
 def _signatures_shown(selected: tuple[str, ...], models: dict[tuple[str, ...], TimeFitResult]) -> tuple[str, ...]:
@@ -203,12 +202,17 @@ def diagnose_time(plant: Plant, rec: TimeRecording, *, candidates: tuple[str, ..
         notes.append(f"not tried: {', '.join(n for n in skipped if EFFECTS[n].time_domain)} depend on the position, "
                      "and the recording has velocity only")
     names = tuple(n for n in names if n in usable)
-    base_fit = fit_inverse_model(_plant(plant, (), {}), data)
     position = None if data.position_m is None else data.position_m[~data.at_rest]
-    shaped = {n: make_effect(n, **{k: 0.0 for k in EFFECTS[n].neutral}).configured(position, base_fit.residual)
-              for n in names}
-    models, _ = fit_models((), base_fit, names,
-                           lambda combo, parents: fit_inverse_model(_plant(plant, combo, shaped), data),
+
+    def fit(combo: tuple[str, ...], parents: list[TimeFitResult]) -> TimeFitResult:
+        """The model of ``combo``: the effects of its best parent as that parent has them, the new one
+        configured on that parent's residual (a ripple's pitch is seen once the friction is modelled)."""
+        best = min(parents, key=lambda r: r.rss)
+        effects = tuple(best.plant.effect(n) or make_effect(n, **{k: 0.0 for k in EFFECTS[n].neutral}).configured(
+            position, best.residual) for n in combo)
+        return fit_inverse_model(_plant(plant, effects), data)
+
+    models, _ = fit_models((), fit_inverse_model(_plant(plant, ()), data), names, fit,
                            max_effects=min(len(names), MAX_TIME_EFFECTS))
     n_eff = models[max(models, key=len)].n_effective
     bics = {c: bic(f, n_eff) for c, f in models.items()}

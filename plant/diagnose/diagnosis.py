@@ -204,8 +204,10 @@ def _step(fit: FitResult, data: MeasuredResponse, ranking, decision) -> Step:
 def detect_nonlinearity(data: MeasuredResponse, *, amplitude_dependent: bool | None = None) -> Nonlinearity:
     """Odd-harmonic distortion above its noise floor, or amplitude dependence, means nonlinear.
 
-    Harmonics that could not be measured (NaN: at or above 0.45 x the sample rate) are left out;
-    they never hide the others."""
+    ``distortion`` (what a model must then reproduce to explain the data) is harmonics above that floor and
+    above what an encoder's quantisation makes by itself (``_quantisation_floor``), or output at a
+    multisine's lines not excited. Harmonics that could not be measured (NaN: at or above 0.45 x the sample
+    rate) are left out; they never hide the others."""
     hd = np.asarray(data.harmonic_distortion, float)
     hd2, hd3 = hd[..., 0], hd[..., 1]
     # white noise puts about as much noise in a harmonic's bin as in the fundamental's, whose
@@ -221,11 +223,13 @@ def detect_nonlinearity(data: MeasuredResponse, *, amplitude_dependent: bool | N
         return Nonlinearity(detected, float("nan"), float("nan"), float("nan"), amplitude_dependent,
                             ("detected: " if detected else "none: ") + words + extra, bool(lines))
     k = np.unravel_index(int(np.argmax(ratio)), ratio.shape)
-    harmonics = bool(ratio[k] > 1.0)
-    detected = harmonics or bool(amplitude_dependent)
+    detected = bool(ratio[k] > 1.0) or bool(amplitude_dependent)
+    harmonics = bool(np.any(np.isfinite(hd3) & (hd3 > np.maximum(floor, _quantisation_floor(data)))))
     f_at = float(np.asarray(data.f_hz)[k[-1]])
     words = (f"3rd harmonic up to {100 * hd3[k]:.2f} % of the fundamental at {f_at:.3g} Hz "
              f"(threshold {100 * floor[k]:.2f} %)")
+    if detected and not harmonics and np.any(np.isfinite(hd3) & (hd3 > floor)):
+        words += ", within what the encoder's quantisation makes"
     if harmonics:
         above = np.isfinite(hd3) & (hd3 > floor)
         even = np.where(np.isfinite(hd2), hd2 / floor, -np.inf)
@@ -237,6 +241,19 @@ def detect_nonlinearity(data: MeasuredResponse, *, amplitude_dependent: bool | N
                      "odd harmonics only (a symmetric nonlinearity: friction, saturation)"))
     return Nonlinearity(detected, float(hd3[k]), f_at, float(floor[k]), amplitude_dependent,
                         ("detected: " if detected else "none: ") + words + extra, harmonics)
+
+
+def _quantisation_floor(data: MeasuredResponse) -> np.ndarray | float:
+    """Harmonic ratio an encoder's quantisation can make by itself, per output and frequency (0 without an
+    encoder): a position quantised in steps q is wrong by at most q / 2, whose harmonics in the differenced
+    velocity stay below about q / X of the fundamental for a motion of amplitude X = |G| I / w."""
+    quantum = data.metadata.get("encoder_velocity_quantum_m_per_s")
+    rate = data.metadata.get("sample_rate_hz")
+    if not quantum or not rate:
+        return 0.0
+    x = np.abs(data.response) * np.asarray(data.current_amplitude_a, float) / (2 * np.pi * np.asarray(data.f_hz))
+    with np.errstate(divide="ignore"):
+        return float(quantum) / float(rate) / x
 
 
 def _multisine_distortion(data: MeasuredResponse) -> str:

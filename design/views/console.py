@@ -80,15 +80,27 @@ def print_diagnosis(console: Console, diag: Diagnosis) -> None:
     modes = final.plant.modes_hz()
     if modes.size:
         console.print(f"  mechanical modes: {', '.join(f'{m:.4g} Hz' for m in modes)}")
-    for name, value in final.values.items():
-        err = final.stderr.get(name)
-        console.print(f"  {name:32s} {value:.6g}" + (f" +/- {err:.2g}" if err is not None else " (fixed)"))
+    _print_values(console, final)
     for note in diag.notes:
         console.print(f"[yellow]Note:[/] {note}")
 
 
+def _print_values(console: Console, fit) -> None:
+    """A fit's parameters with their standard errors; a held one says whether the recording set it (the shape
+    of a position-dependent force: a ripple's pitch, a profile's span)."""
+    from plant.physics.effects import EFFECTS
+
+    for name, value in fit.values.items():
+        err = fit.stderr.get(name)
+        effect, _, field = name.partition(".")
+        cls = EFFECTS.get(effect) if field else None
+        held = " (set from the recording)" if cls and cls.needs_position and field in cls.search_fixed else " (fixed)"
+        console.print(f"  {name:34s} {value:.6g}" + (f" +/- {err:.2g}" if err is not None else held))
+
+
 def print_time_diagnosis(console: Console, diag: TimeDiagnosis) -> None:
     """The text of ``gantry diagnose`` on a time-domain recording."""
+
     console.print(f"[bold]Verdict:[/] {diag.explanation}", soft_wrap=True)
     console.print(f"[bold]Where the base model fails:[/] {diag.where_it_fails}", soft_wrap=True)
     console.print(f"[bold]By direction of motion:[/] {diag.direction.description}", soft_wrap=True)
@@ -111,9 +123,7 @@ def print_time_diagnosis(console: Console, diag: TimeDiagnosis) -> None:
     final = diag.final
     console.print(f"[bold]{'Final' if diag.verdict == 'explained' else 'Best (not explained)'} effects:[/] "
                   f"{', '.join(diag.final_effects) or 'none'}")
-    for name, value in final.values.items():
-        err = final.stderr.get(name)
-        console.print(f"  {name:32s} {value:.6g}" + (f" +/- {err:.2g}" if err is not None else " (fixed)"))
+    _print_values(console, final)
     for note in diag.notes:
         console.print(f"[yellow]Note:[/] {note}", soft_wrap=True)
 

@@ -468,25 +468,27 @@ def fit_inverse_model(plant: Plant, rec: TimeRecording | InverseModelData, *, fr
 def _profiled(plant: Plant, data: InverseModelData, free: Sequence[str]) -> Plant:
     """``plant`` with each effect's ``profiled`` field (a ripple's pitch) set to the value, within
     ``PROFILE_SPAN`` of its own either way, that leaves the least squares of the fit of ``free`` smallest
-    (profile least squares: the other parameters enter linearly)."""
+    (profile least squares: the other parameters enter linearly; only the effect's own columns change)."""
     moving = ~data.at_rest
     force = data.force_n[moving]
-    for effect in plant.effects:
+    signals = force_signals(data)
+    cols = {name: col[moving] for name, col in _regressors(plant, data).items()}
+    for i, effect in enumerate(plant.effects):
         for field in effect.profiled:
             start = float(getattr(effect, field))
 
             def rss(value, effect=effect, field=field):
-                trial = plant.with_effects(*(dataclasses.replace(effect, **{field: value}) if e is effect else e
-                                             for e in plant.effects))
-                cols = _regressors(trial, data)
-                X = np.column_stack([cols[p][moving] for p in free])
+                trial = dataclasses.replace(effect, **{field: value})
+                own = {f"{effect.name}.{k}": data.decimate(v)[moving]
+                       for k, v in trial.force_regressors(signals).items()}
+                X = np.column_stack([own.get(p, cols[p]) for p in free])
                 return float(np.sum((force - X @ np.linalg.lstsq(X, force, rcond=None)[0]) ** 2))
 
             best = scipy.optimize.minimize_scalar(rss, bounds=(start * (1 - PROFILE_SPAN), start * (1 + PROFILE_SPAN)),
                                                   method="bounded", options={"xatol": 1e-6 * start})
             if best.fun < rss(start):
-                new = dataclasses.replace(effect, **{field: float(best.x)})
-                plant = plant.with_effects(*(new if e is effect else e for e in plant.effects))
+                effect = dataclasses.replace(effect, **{field: float(best.x)})
+                plant = plant.with_effects(*plant.effects[:i], effect, *plant.effects[i + 1:])
     return plant
 
 

@@ -94,7 +94,7 @@ def _print_values(console: Console, fit) -> None:
         err = fit.stderr.get(name)
         effect, _, field = name.partition(".")
         cls = EFFECTS.get(effect) if field else None
-        held = " (set from the recording)" if cls and cls.needs_position and field in cls.search_fixed else " (fixed)"
+        held = " (set from the recording)" if cls and cls.time_domain and field in cls.search_fixed else " (fixed)"
         console.print(f"  {name:34s} {value:.6g}" + (f" +/- {err:.2g}" if err is not None else held))
 
 

@@ -2,13 +2,15 @@
 fails, which force effects are missing, added one at a time while the error falls.
 
 Candidates are the effects with a force model (``Effect.force_regressors``: ``coulomb_friction``,
-``offset``, and with the position recorded ``force_ripple`` and ``force_constant_profile``, their pitch and
-span set from the recording and the residual of the model each is added to, ``Effect.configured``). Every
+``stribeck_friction``, ``offset``, ``current_limit``, and with the position recorded ``force_ripple`` and
+``force_constant_profile``), the fields that shape their signals (a Stribeck velocity, a limit, a pitch, a
+span) set from the recording and the residual of the model each is added to (``Effect.configured``). Every
 combination of up to ``MAX_TIME_EFFECTS`` is fitted by the inverse model (``plant.identify.time_fit``; linear
 least squares, so each fit is global and a model containing another never fits worse) in the model search of
 ``plant.diagnose.search``, which selects among them as for a frequency response: by BIC, with the
-residual's own variance and one effective sample size for all (that of the largest model;
-``plant.identify.time_fit`` module doc), and with "consistent with the noise" meaning a residual without
+residual's own variance and one effective sample size for all (that of the model leaving the least
+residual, the closest to the noise whose correlation the size describes; ``plant.identify.time_fit``
+module doc), and with "consistent with the noise" meaning a residual without
 structure (``TimeFitResult.explained``). The verdict is "explained" only when the selected model's is;
 otherwise it says what is left and where.
 
@@ -32,7 +34,7 @@ from plant.errors import EffectError, ParameterError
 from plant.identify.compensation import CompensationTable, compensation_table
 from plant.identify.inverse_model import InverseModelData, Preprocessing, inverse_model_data
 from plant.identify.time_fit import TimeFitResult, bic, fit_inverse_model
-from plant.physics.effect_base import Effect
+from plant.physics.effect_base import Effect, FitSamples
 from plant.physics.effects import EFFECTS, make_effect
 from plant.physics.models import Plant
 
@@ -116,29 +118,34 @@ def time_candidates(position: bool = True) -> tuple[str, ...]:
     return tuple(n for n, cls in EFFECTS.items() if cls.time_domain and (position or not cls.needs_position))
 
 
+def _valid(combo: tuple[str, ...]) -> bool:
+    """The effects of ``combo`` can stand together (``Effect.requires_any``, ``Effect.excludes``)."""
+    names = set(combo)
+    return all((not EFFECTS[n].requires_any or names & set(EFFECTS[n].requires_any))
+               and not names & set(EFFECTS[n].excludes) for n in combo)
+
+
 def _plant(base: Plant, effects: tuple[Effect, ...]) -> Plant:
     """The base plant with ``effects`` (a friction needs an excitation amplitude: the time domain does not use
     it)."""
     return dataclasses.replace(base, effects=effects, excitation_current_a=base.excitation_current_a or 1.0)
 
 
-def _signatures_shown(selected: tuple[str, ...], models: dict[tuple[str, ...], TimeFitResult]) -> tuple[str, ...]:
-    """``selected`` without the effects whose residual signature (``Effect.residual_signature``: a structure
-    test of ``plant.identify.time_fit``) the model without them does not show: a position-dependent force is
-    added only where the residual shows its pattern (p below the test level and a quarter of the residual
-    or more), not for a BIC gain alone, which a long record gives any small correlation."""
-    while True:
-        for name in selected:
+def _signatures_shown(models: dict[tuple[str, ...], TimeFitResult]) -> dict[tuple[str, ...], TimeFitResult]:
+    """The models each of whose effects with a residual signature (``Effect.residual_signature``: a structure
+    test of ``plant.identify.time_fit``) is added to a model that shows it: a position-dependent force or a
+    Stribeck rise is added only where the residual shows its pattern (p below the test level and a quarter of
+    the residual or more), not for a BIC gain alone, which a long record gives any small correlation."""
+    def shown(combo: tuple[str, ...]) -> bool:
+        for name in combo:
             signature = EFFECTS[name].residual_signature
-            parent = tuple(n for n in selected if n != name)
-            if signature is None or parent not in models:
-                continue
-            shown = {st.variable: st.significant for st in models[parent].structure}
-            if not shown.get(signature, False):
-                selected = parent
-                break
-        else:
-            return selected
+            parent = models.get(tuple(n for n in combo if n != name))
+            if signature is not None and not (parent is not None and any(
+                    st.significant for st in parent.structure if st.variable == signature)):
+                return False
+        return True
+
+    return {c: f for c, f in models.items() if shown(c)}
 
 
 def _direction(fit: TimeFitResult) -> DirectionalResidual:
@@ -202,31 +209,34 @@ def diagnose_time(plant: Plant, rec: TimeRecording, *, candidates: tuple[str, ..
         notes.append(f"not tried: {', '.join(n for n in skipped if EFFECTS[n].time_domain)} depend on the position, "
                      "and the recording has velocity only")
     names = tuple(n for n in names if n in usable)
-    position = None if data.position_m is None else data.position_m[~data.at_rest]
+    moving = ~data.at_rest
+    samples = FitSamples(data.velocity_m_per_s[moving], data.acceleration_m_per_s2[moving], data.force_n[moving],
+                         None if data.position_m is None else data.position_m[moving])
 
     def fit(combo: tuple[str, ...], parents: list[TimeFitResult]) -> TimeFitResult:
         """The model of ``combo``: the effects of its best parent as that parent has them, the new one
         configured on that parent's residual (a ripple's pitch is seen once the friction is modelled)."""
         best = min(parents, key=lambda r: r.rss)
         effects = tuple(best.plant.effect(n) or make_effect(n, **{k: 0.0 for k in EFFECTS[n].neutral}).configured(
-            position, best.residual) for n in combo)
+            samples, best.residual) for n in combo)
         return fit_inverse_model(_plant(plant, effects), data)
 
     models, _ = fit_models((), fit_inverse_model(_plant(plant, ()), data), names, fit,
-                           max_effects=min(len(names), MAX_TIME_EFFECTS))
-    n_eff = models[max(models, key=len)].n_effective
+                           max_effects=min(len(names), MAX_TIME_EFFECTS), valid=_valid)
+    n_eff = min(models.values(), key=lambda f: f.rss).n_effective
     bics = {c: bic(f, n_eff) for c, f in models.items()}
-    selected = _signatures_shown(select_model(bics, {c: f.explained for c, f in models.items()},
-                                              {c: f.n_params for c, f in models.items()}), models)
+    admissible = _signatures_shown(models)
+    selected = select_model({c: bics[c] for c in admissible}, {c: f.explained for c, f in admissible.items()},
+                            {c: f.n_params for c, f in admissible.items()})
     base = models[()]
     ranking = tuple(sorted((TimeCandidate(n, addition_delta_bic(bics[()], bics[(n,)]), models[(n,)].rms_residual)
-                            for n in names), key=lambda c: -c.delta_bic))
+                            for n in names if (n,) in models), key=lambda c: -c.delta_bic))
     steps = _path(models, bics, selected)
     final = models[selected]
     peak_hz, peak_share = _residual_peak(final)
     explanation = _explanation(final, selected, peak_hz, peak_share)
     return TimeDiagnosis(steps, ranking, models, selected, verdict(final.explained), explanation, _where(base),
-                         _direction(base), n_eff, peak_hz, peak_share, tuple(notes), position)
+                         _direction(base), n_eff, peak_hz, peak_share, tuple(notes), samples.position_m)
 
 
 def _explanation(final: TimeFitResult, selected: tuple[str, ...], peak_hz: float, peak_share: float) -> str:
@@ -242,8 +252,8 @@ def _explanation(final: TimeFitResult, selected: tuple[str, ...], peak_hz: float
         what = "; ".join(f"it depends on {st.variable} ({st.summary}, p = {st.p_value:.1g})"
                          for st in structured)
         return (f"not explained: the best model ({model}) leaves {size}; {what}. Something outside the library "
-                "remains (a velocity-dependent friction law, a position-dependent force such as a cable, an "
-                "amplifier's current limit, dynamics above the rigid body)")
+                "remains (a velocity-dependent friction law other than Stribeck's, a position-dependent force such "
+                "as a cable, dynamics above the rigid body)")
     return (f"not explained: the best model ({model}) leaves no significant dependence on velocity, acceleration, "
             f"motor force or position, but its residual is {size}, largest at {worst.name} "
             f"({worst.rms_residual:.3g} N rms); "

@@ -91,6 +91,8 @@ class InverseModelData:
     #: the motor force and the filtered position at the full rate, edges cut (position None as above)
     full_rate_force_n: np.ndarray | None = None
     full_rate_position_m: np.ndarray | None = None
+    #: the recording has the reference of a closed loop (``TimeRecording.reference``)
+    closed_loop: bool = False
 
     @property
     def at_rest(self) -> np.ndarray:
@@ -178,4 +180,4 @@ def inverse_model_data(rec: TimeRecording, force_constant_n_per_a: float,
     t = rec.time_s[EDGE_SAMPLES: rec.n_samples - EDGE_SAMPLES][::r][: f.size]
     return InverseModelData(t, f, v, acc, fs / r, r, filter_hz, decimate_band_hz, sigma_f, sigma_y, nf, nv, na,
                             rec.source,
-                            v_full, position, f_full, x_full)
+                            v_full, position, f_full, x_full, rec.reference is not None)

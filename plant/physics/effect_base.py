@@ -20,7 +20,7 @@ broadcast against the frequency axis) it owns what the rest of the tool needs to
 * ``in_synthesis``: has a response formula of ``s`` that casadi can build (PI synthesis);
 * ``force_regressors(signals)``: its force as a sum of parameters times known signals of the velocity,
   position and motor force (``ForceSignals``), for the time-domain inverse model (None where it has no
-  such form); ``configured(position, residual)`` sets the fields the search holds from the recording.
+  such form); ``configured(samples, residual)`` sets the fields the search holds from the recording.
 """
 
 from __future__ import annotations
@@ -103,10 +103,14 @@ class Effect(abc.ABC):
     time_domain: ClassVar[bool] = False
     #: it needs the recorded position (a force that depends on where the carriage is)
     needs_position: ClassVar[bool] = False
-    #: fields a time-domain fit sets by profile least squares near their configured value (a ripple's pitch)
-    profiled: ClassVar[tuple[str, ...]] = ()
+    #: fields a time-domain fit sets by profile least squares, each within a fraction of its configured value
+    #: (a ripple's pitch within 5 %)
+    profiled: ClassVar[dict[str, float]] = {}
     #: the stepped-sine simulation (``plant.experiment.simulate``) models it
     simulated: ClassVar[bool] = True
+    #: ``Plant.frd`` models it (a force that averages out of a response, an offset or a ripple, counts as
+    #: modelled; a Stribeck rise, whose first harmonic depends on the whole motion, does not)
+    frequency_response: ClassVar[bool] = True
     #: the time-domain residual test that must show the effect's pattern before the diagnosis adds it (the
     #: ``variable`` of a ``plant.identify.time_fit.Structure``), None: BIC decides alone
     residual_signature: ClassVar[str | None] = None
@@ -118,11 +122,22 @@ class Effect(abc.ABC):
         act on the dynamics, not on the force balance)."""
         return None
 
-    def configured(self, position_m: np.ndarray | None, residual_n: np.ndarray) -> Effect:
-        """The effect with the fields the search holds set from the recording: ``position_m`` (None: not
-        recorded) and a parent model's force residual ``residual_n`` at the same samples (a ripple's pitch
-        from the residual's spectrum over position); itself when it has none."""
+    def configured(self, samples: FitSamples, residual_n: np.ndarray) -> Effect:
+        """The effect with the fields the search holds set from the recording's ``samples`` and a parent model's
+        force residual ``residual_n`` at them (a ripple's pitch from the residual's spectrum over position);
+        itself when it has none."""
         return self
+
+
+@dataclasses.dataclass(frozen=True)
+class FitSamples:
+    """The samples a time-domain fit uses (decimated, moving): velocity (m/s), acceleration (m/s^2), motor
+    force K_f u (N) and position (m, None when the recording has velocity only)."""
+
+    velocity_m_per_s: np.ndarray
+    acceleration_m_per_s2: np.ndarray
+    force_n: np.ndarray
+    position_m: np.ndarray | None = None
 
 
 @dataclasses.dataclass(frozen=True)

@@ -7,9 +7,11 @@ Where an effect sits decides how it composes (``plant.physics.effect_base``):
 * mechanics, parts of the lumped network (``plant.physics.mechanics``): ``resonance`` (two-mass,
   recorded at the motor), ``payload_resonance`` (recorded at the payload), ``second_resonance``
   (three-mass chain), ``tilt_coupling`` (Y rails, off-centre load), ``coulomb_friction``,
-  ``offset`` (a constant force, time-domain data only); position-dependent motor forces
+  ``stribeck_friction`` (its rise towards rest, time-domain data only), ``offset`` (a constant force,
+  time-domain data only); position-dependent motor forces
   (``plant.physics.motor_forces``, time-domain data with the position only): ``force_ripple``,
-  ``force_constant_profile``.
+  ``force_constant_profile``; the drive's ``current_limit`` (time-domain data, and its describing function
+  in a frequency response at the plant's excitation current).
 
 Adding an effect means one class in ``plant.physics.chain`` or ``plant.physics.mechanics`` (by where it sits)
 and its entry in ``EFFECTS`` here. Parameter names and units follow ``docs/formats.md``: an effect parameter is
@@ -30,14 +32,15 @@ from plant.physics.mechanics import (
     PayloadResonance,
     Resonance,
     SecondResonance,
+    StribeckFriction,
     TiltCoupling,
 )
-from plant.physics.motor_forces import ForceConstantProfile, ForceRipple
+from plant.physics.motor_forces import CurrentLimit, ForceConstantProfile, ForceRipple
 
 EFFECTS: dict[str, type[Effect]] = {
     cls.name: cls for cls in (Delay, CurrentLoop, Sampling, SensorFilter, EncoderVelocity, Resonance,
-                              PayloadResonance, SecondResonance, CoulombFriction, Offset, TiltCoupling, ForceRipple,
-                              ForceConstantProfile)
+                              PayloadResonance, SecondResonance, CoulombFriction, StribeckFriction, Offset,
+                              TiltCoupling, ForceRipple, ForceConstantProfile, CurrentLimit)
 }
 
 
@@ -59,9 +62,9 @@ def make_effect(name: str, **params: float) -> Effect:
 
 
 __all__ = [
-    "EFFECTS", "PADE_ORDER", "ChainEffect", "CoulombFriction", "CurrentLoop", "Delay", "Effect", "EncoderVelocity",
-    "ForceConstantProfile", "ForceRipple",
+    "EFFECTS", "PADE_ORDER", "ChainEffect", "CoulombFriction", "CurrentLimit", "CurrentLoop", "Delay", "Effect",
+    "EncoderVelocity", "ForceConstantProfile", "ForceRipple",
     "MechanicalEffect", "ModeEffect", "Offset", "PayloadResonance", "Resonance", "Sampling", "SecondResonance",
-    "SensorFilter",
+    "SensorFilter", "StribeckFriction",
     "TiltCoupling", "make_effect",
 ]

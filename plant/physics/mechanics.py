@@ -29,13 +29,13 @@ The Y rails with an off-centre load tilt (Xie & Wang, thesis Eq. 2.14-2.15): ``t
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import ClassVar
 
 import numpy as np
 
 from plant.errors import ParameterError
-from plant.physics.effect_base import ForceSignals, MechanicalEffect
+from plant.physics.effect_base import FitSamples, ForceSignals, MechanicalEffect
 from plant.physics.parameters import check_finite, check_positive
 
 #: a mode this high (Hz) is far above any recorded band: the bodies move as one
@@ -269,6 +269,69 @@ class CoulombFriction(MechanicalEffect):
 
     def force_regressors(self, signals: ForceSignals) -> dict[str, np.ndarray]:
         return {"force_n": np.sign(signals.velocity_m_per_s)}
+
+
+@dataclass(frozen=True)
+class StribeckFriction(MechanicalEffect):
+    """The rise of the friction towards rest on top of Coulomb friction (Stribeck curve): the friction
+    force is (F_c + ``excess_n`` exp(-(v / ``velocity_m_per_s``)^2)) sign(v), so the static friction is
+    F_c + excess_n (Armstrong-Helouvry, Dupont & Canudas de Wit 1994, the exponent held at 2).
+
+    Time domain only: the inverse model is linear in ``excess_n``; the Stribeck velocity is set from the
+    residual of the model it is added to (``configured``: the best of a log grid) and refined by profile
+    least squares. A frequency response at one amplitude cannot tell it from Coulomb friction."""
+
+    excess_n: float = 0.0
+    velocity_m_per_s: float = 0.01
+    name: ClassVar[str] = "stribeck_friction"
+    bounds: ClassVar = {"excess_n": (0.0, 1000.0, "N"), "velocity_m_per_s": (1e-5, 1.0, "m/s")}
+    signature: ClassVar[str] = "a residual that opposes the motion and grows towards rest"
+    main_parameter: ClassVar[str] = "excess_n"
+    neutral: ClassVar = {"excess_n": 0.0}
+    requires_any: ClassVar = ("coulomb_friction",)
+    search_fixed: ClassVar = ("velocity_m_per_s",)
+    profiled: ClassVar = {"velocity_m_per_s": 0.3}
+    residual_signature: ClassVar = "velocity"
+    searched: ClassVar[bool] = False
+    not_searched: ClassVar[str] = ("a frequency response at one amplitude cannot tell it from Coulomb friction; "
+                                   "fitted from time-domain recordings")
+    in_synthesis: ClassVar[bool] = False
+    time_domain: ClassVar[bool] = True
+    simulated: ClassVar[bool] = False
+    linear: ClassVar[bool] = False
+    frequency_response: ClassVar[bool] = False
+    #: trial Stribeck velocities (m/s) of ``configured``
+    GRID: ClassVar = np.geomspace(1e-4, 0.3, 40)
+
+    def __post_init__(self) -> None:
+        check_finite("stribeck_friction.excess_n", self.excess_n)
+        if self.excess_n < 0:
+            raise ParameterError(f"stribeck_friction.excess_n must be >= 0 (the static friction exceeds Coulomb's), "
+                                 f"got {self.excess_n}")
+        check_positive("stribeck_friction.velocity_m_per_s", self.velocity_m_per_s)
+
+    def force(self, velocity_m_per_s) -> np.ndarray:
+        """The friction force (N) above Coulomb's at velocity v, opposing it."""
+        v = np.asarray(velocity_m_per_s, float)
+        return self.excess_n * np.exp(-(v / self.velocity_m_per_s) ** 2) * np.sign(v)
+
+    def force_regressors(self, signals: ForceSignals) -> dict[str, np.ndarray]:
+        v = np.asarray(signals.velocity_m_per_s, float)
+        return {"excess_n": np.exp(-(v / self.velocity_m_per_s) ** 2) * np.sign(v)}
+
+    def configured(self, samples: FitSamples, residual_n) -> StribeckFriction:
+        """The grid velocity whose rise, fitted to the residual together with a Coulomb step and a constant
+        (the parent's friction and offset absorb part of a rise they do not model), reduces it most."""
+        v = np.asarray(samples.velocity_m_per_s, float)
+        e = np.asarray(residual_n, float)
+        known = np.column_stack([np.sign(v), np.ones_like(v)])
+
+        def reduction(vs: float) -> float:
+            X = np.column_stack([known, np.exp(-(v / vs) ** 2) * np.sign(v)])
+            coef, *_ = np.linalg.lstsq(X, e, rcond=None)
+            return float(np.sum(e**2) - np.sum((e - X @ coef) ** 2)) if coef[-1] > 0 else 0.0
+
+        return replace(self, velocity_m_per_s=float(max(self.GRID, key=reduction)))
 
 
 @dataclass(frozen=True)

@@ -259,16 +259,24 @@ class Plant:
         return friction.describing_damping(v_amp)
 
     def _force_amplitude_n(self, w):
-        """Amplitude (N) of the motor force at the excitation current and frequency."""
+        """Amplitude (N) of the motor force's first harmonic at the excitation current and frequency."""
         kt = np.asarray(self.force_constant_n_per_a, float)
-        return kt * self.excitation_current_a * np.abs(self.chain_response(1j * w, "drive"))
+        return kt * self.excitation_current_a * self._limit_gain() * np.abs(self.chain_response(1j * w, "drive"))
+
+    def _limit_gain(self):
+        """The current limit's describing gain at the excitation current (1 without a limit): the clip acts on
+        the command, before the current loop."""
+        limit = self.effect("current_limit")
+        if limit is None:
+            return 1.0
+        return limit.describing_gain(np.asarray(self.force_constant_n_per_a, float) * self.excitation_current_a)
 
     def _chain_frd(self, w) -> np.ndarray:
         """Chain of bodies times the chain effects; with Coulomb friction, the exact first harmonic of the
         rigid body (``plant.physics.coulomb_response``) or, for a chain of several bodies, the describing function."""
         s = 1j * w
         kt = np.asarray(self.force_constant_n_per_a, float)
-        series = kt * self.chain_response(s, "drive") * self.chain_response(s, "sensor")
+        series = kt * self._limit_gain() * self.chain_response(s, "drive") * self.chain_response(s, "sensor")
         friction = self.effect(CoulombFriction.name)
         if friction is None:
             return series * self.mechanics().velocity_per_force(s)
@@ -281,8 +289,15 @@ class Plant:
             mech = self.mechanics(extra_damping_n_s_per_m=np.where(stuck, 0.0, n_fric)).velocity_per_force(s)
         return np.where(stuck, 0.0, mech) * series
 
+    def _check_frequency_model(self) -> None:
+        for e in self.effects:
+            if not e.frequency_response:
+                raise EffectError(f"{e.name} has no frequency-response model (it is fitted from time-domain data); "
+                                  "leave it out of a plant whose response is computed")
+
     def frd_outputs(self, w_rad_s) -> np.ndarray:
         """Velocity per current at each output, shape (..., n_outputs, n_freq) (m/s per A)."""
+        self._check_frequency_model()
         w = check_grid(w_rad_s)
         tilt = self._tilt()
         if tilt is None:
@@ -299,7 +314,7 @@ class Plant:
         # both motors carry half the total current: f1 = f2 = K_t i / 2
         v = (h[..., :, 0, :] + h[..., :, 1, :]) * (kt[..., None] if kt.ndim else kt) / 2
         s = 1j * w
-        series = self.chain_response(s, "drive") * self.chain_response(s, "sensor")
+        series = self._limit_gain() * self.chain_response(s, "drive") * self.chain_response(s, "sensor")
         v = v * (series[..., None, :] if np.ndim(series) else series)
         # friction that sticks at this excitation holds both rails
         return np.where(stuck[..., None, :], 0.0, v) if np.ndim(stuck) else (0.0 * v if stuck else v)
@@ -307,6 +322,7 @@ class Plant:
     def frd(self, w_rad_s) -> np.ndarray:
         """Velocity per current (m/s per A), shape (..., n_freq); Stage Y: mean of the rails Y1, Y2."""
         if self._tilt() is None:  # the outputs coincide: skip the per-output copies
+            self._check_frequency_model()
             w = check_grid(w_rad_s)
             return self._chain_frd(w)
         return self.frd_outputs(w_rad_s).mean(axis=-2)

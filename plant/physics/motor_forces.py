@@ -1,10 +1,11 @@
-"""Forces of a linear motor that depend on where the carriage is: force ripple (cogging) periodic in the
-magnet pitch, and a force constant that varies along the magnet track (end effects).
+"""Forces of a linear motor and its drive: force ripple (cogging) periodic in the magnet pitch, a force
+constant that varies along the magnet track (end effects), and the drive's current limit.
 
-Both are time-domain effects: a frequency response at one operating point averages them away, so they are
-fitted from recordings with the position (``plant.identify.time_fit``), where the inverse model is linear in
-their amplitudes. Their shape fields (the ripple's pitch, the profile's centre and half span) are set from
-the recording by ``configured`` and held by the fit.
+The first two depend on where the carriage is; they are time-domain effects: a frequency response at one
+operating point averages them away, so they are fitted from recordings with the position
+(``plant.identify.time_fit``), where the inverse model is linear in their amplitudes. Their shape fields
+(the ripple's pitch, the profile's centre and half span) are set from the recording by ``configured`` and
+held by the fit.
 
 * ``ForceRipple``: F_r(x) = sum_k a_k sin(2 pi k x / p) + b_k cos(2 pi k x / p), k = 1, 2 (N), the force
   the motor must supply on top of the rigid body where the carriage is (a cogging force pulling against
@@ -14,6 +15,14 @@ the recording by ``configured`` and held by the fit.
 * ``ForceConstantProfile``: K(x) = K (1 + c1 u + c2 u^2), u = (x - centre) / half_span (c1 ``slope``,
   c2 ``curvature``): the motor force K(x) u_drive; with K u_drive on the left of the inverse model, its
   columns are minus the motor force times u and u^2 (exact, not a linearisation).
+* ``CurrentLimit``: the drive clips its current command at a limit (its peak current; a drive logs the
+  command, not what the amplifier delivered), so the motor force is F - c (F - clip(F, -F_L, F_L)) with
+  F = K_f u the commanded force, F_L ``limit_n`` and c ``fraction_lost`` (1: a hard clip). In the time domain
+  this is exact, and linear in c once F_L is set: F_L from the residual (``configured``), refined by profile
+  least squares. For a sine of force amplitude A the first harmonic of the clipped force is N(A) A with the
+  describing function N = 1 - c + c (2 / pi) (asin r + r sqrt(1 - r^2)), r = F_L / A < 1 (Gelb & Vander
+  Velde 1968); the plant after the clip being linear, a stepped sine's fundamental is exactly N(A) times
+  the linear response.
 """
 
 from __future__ import annotations
@@ -23,8 +32,8 @@ from typing import ClassVar
 
 import numpy as np
 
-from plant.errors import EffectError
-from plant.physics.effect_base import ForceSignals, MechanicalEffect
+from plant.errors import EffectError, ParameterError
+from plant.physics.effect_base import FitSamples, ForceSignals, MechanicalEffect
 from plant.physics.parameters import check_finite, check_positive
 
 #: points of the uniform position grid on which a residual's spectrum over position is taken
@@ -82,7 +91,7 @@ class ForceRipple(MechanicalEffect):
     main_parameter: ClassVar[str] = "sin1_n"
     neutral: ClassVar = {"sin1_n": 0.0, "cos1_n": 0.0, "sin2_n": 0.0, "cos2_n": 0.0}
     search_fixed: ClassVar = ("pitch_m",)
-    profiled: ClassVar = ("pitch_m",)
+    profiled: ClassVar = {"pitch_m": 0.05}
     residual_signature: ClassVar = "position, periodic"
     searched: ClassVar[bool] = False
     not_searched: ClassVar[str] = ("a force that depends on the position averages out of a frequency response; "
@@ -112,10 +121,10 @@ class ForceRipple(MechanicalEffect):
         return {"sin1_n": np.sin(phase), "cos1_n": np.cos(phase), "sin2_n": np.sin(2 * phase),
                 "cos2_n": np.cos(2 * phase)}
 
-    def configured(self, position_m, residual_n) -> ForceRipple:
-        if position_m is None:
+    def configured(self, samples: FitSamples, residual_n) -> ForceRipple:
+        if samples.position_m is None:
             return self
-        pitch, _ = periodic_pitch(position_m, residual_n)
+        pitch, _ = periodic_pitch(samples.position_m, residual_n)
         return replace(self, pitch_m=pitch) if np.isfinite(pitch) else self
 
 
@@ -157,8 +166,74 @@ class ForceConstantProfile(MechanicalEffect):
         # K u_drive (1 + c1 u + c2 u^2) = m a + b v + ...: with K u_drive on the left, exactly
         return {"slope": -signals.force_n * u, "curvature": -signals.force_n * u**2}
 
-    def configured(self, position_m, residual_n) -> ForceConstantProfile:
-        if position_m is None:
+    def configured(self, samples: FitSamples, residual_n) -> ForceConstantProfile:
+        if samples.position_m is None:
             return self
-        lo, hi = float(np.min(position_m)), float(np.max(position_m))
+        lo, hi = float(np.min(samples.position_m)), float(np.max(samples.position_m))
         return replace(self, centre_m=(lo + hi) / 2, half_span_m=max((hi - lo) / 2, 1e-4)) if hi > lo else self
+
+
+@dataclass(frozen=True)
+class CurrentLimit(MechanicalEffect):
+    """The drive's current limit (module doc): commanded force clipped at ``limit_n`` (N, K_f times the
+    drive's peak current), ``fraction_lost`` of the command above it lost (1 for a hard clip)."""
+
+    limit_n: float = 100.0
+    fraction_lost: float = 1.0
+    name: ClassVar[str] = "current_limit"
+    bounds: ClassVar = {"limit_n": (1e-3, 1e6, "N"), "fraction_lost": (0.0, 1.0, "1")}
+    signature: ClassVar[str] = ("a motor force that falls short of the command at its largest values: odd "
+                                "harmonics, and a gain that falls with the amplitude")
+    main_parameter: ClassVar[str] = "fraction_lost"
+    neutral: ClassVar = {"fraction_lost": 0.0}
+    search_fixed: ClassVar = ("limit_n",)
+    profiled: ClassVar = {"limit_n": 0.15}
+    residual_signature: ClassVar = "motor force"
+    linear: ClassVar[bool] = False
+    searched: ClassVar[bool] = False
+    not_searched: ClassVar[str] = ("at one amplitude a current limit is a gain that trades exactly with mass and "
+                                   "damping; fitted from time-domain recordings")
+    in_synthesis: ClassVar[bool] = False
+    time_domain: ClassVar[bool] = True
+    simulated: ClassVar[bool] = False
+    #: trial limits of ``configured``, as fractions of the largest recorded |force| of the moving samples
+    TRIALS: ClassVar = np.linspace(0.2, 1.0, 49)
+
+    def __post_init__(self) -> None:
+        check_positive("current_limit.limit_n", self.limit_n)
+        check_finite("current_limit.fraction_lost", self.fraction_lost)
+        if not 0.0 <= self.fraction_lost <= 1.0:
+            raise ParameterError(f"current_limit.fraction_lost must lie in [0, 1] (1: a hard clip), got "
+                                 f"{self.fraction_lost}")
+
+    def delivered(self, force_n) -> np.ndarray:
+        """The force (N) the motor delivers for the commanded ``force_n``."""
+        f = np.asarray(force_n, float)
+        return f - self.fraction_lost * (f - np.clip(f, -self.limit_n, self.limit_n))
+
+    def describing_gain(self, force_amplitude_n) -> np.ndarray:
+        """First harmonic of the delivered force per commanded amplitude, for sines of ``force_amplitude_n``."""
+        a = np.asarray(force_amplitude_n, float)
+        r = np.clip(self.limit_n / np.maximum(a, 1e-300), 0.0, 1.0)
+        clipped = 2 / np.pi * (np.arcsin(r) + r * np.sqrt(1 - r**2))
+        return 1.0 - self.fraction_lost + self.fraction_lost * clipped
+
+    def force_regressors(self, signals: ForceSignals) -> dict[str, np.ndarray]:
+        # K u = m a + b v + ... + c (K u - clip(K u)): the lost force on the right, exactly
+        f = np.asarray(signals.force_n, float)
+        return {"fraction_lost": f - np.clip(f, -self.limit_n, self.limit_n)}
+
+    def configured(self, samples: FitSamples, residual_n) -> CurrentLimit:
+        """The trial limit whose force lost by a hard clip, with mass, damping and a constant refitted to what
+        remains (the parent's absorb part of a limit they do not model), leaves the residual smallest. The
+        clip is held hard here: a soft one at a low limit trades with mass and damping."""
+        f = np.asarray(samples.force_n, float)
+        e = np.asarray(residual_n, float)
+        known = np.column_stack([samples.acceleration_m_per_s2, samples.velocity_m_per_s, np.ones_like(f)])
+
+        def remaining(limit: float) -> float:
+            r = e - (f - np.clip(f, -limit, limit))
+            return float(np.sum((r - known @ np.linalg.lstsq(known, r, rcond=None)[0]) ** 2))
+
+        peak = float(np.max(np.abs(f))) if f.size else 0.0
+        return replace(self, limit_n=float(min(self.TRIALS * peak, key=remaining))) if peak > 0 else self

@@ -2,10 +2,11 @@
 
 NumPy only (a test checks that nothing from ``plant`` or ``design`` is imported). The axis is
 one rigid mass with viscous and Coulomb friction, a constant force and, optionally, a force
-that depends on position (cogging, a cable): m dv/dt = F - b v - F_c sign(v) - F_0 - F_p(x).
+that depends on position (cogging, a cable) and a Stribeck rise of the friction towards rest:
+m dv/dt = F - b v - (F_c + F_s exp(-(v / v_s)^2)) sign(v) - F_0 - F_p(x), sticking below F_c + F_s.
 It is integrated at ``INTERNAL_HZ`` by semi-implicit Euler with a Karnopp stick band: when the
-velocity would cross zero in a step, or is inside the band, and the driving force is below F_c,
-the axis sticks (v = 0). A PD position controller with a velocity feedforward runs at the
+velocity would cross zero in a step, or is inside the band, and the driving force is below the
+static friction F_c + F_s, the axis sticks (v = 0). A PD position controller with a velocity feedforward runs at the
 logging rate on the encoder reading (quantised position) and the backward-difference
 velocity; its command (V) becomes force through a gain (N/V) with additive drive noise.
 Logged: time, command, encoder position and the reference, as the EMPS benchmark logs them.
@@ -31,6 +32,9 @@ class Axis:
     #: amplitude (N) and spatial period (m) of a position-dependent force, 0 for none
     ripple_n: float = 0.0
     ripple_period_m: float = 0.02
+    #: Stribeck friction: the static force exceeds F_c by this (N), decaying as exp(-(v / v_s)^2), v_s in m/s
+    stribeck_n: float = 0.0
+    stribeck_velocity_m_per_s: float = 0.01
     gain_n_per_v: float = 35.0
 
 
@@ -76,11 +80,13 @@ def simulate(axis: Axis, *, duration_s: float = 20.0, seed: int = 0, encoder_m: 
         force = axis.gain_n_per_v * u
         for _ in range(sub):
             drive = force - axis.offset_n - axis.ripple_n * math.sin(2 * math.pi * x / axis.ripple_period_m)
-            if v == 0.0 and abs(drive) <= axis.coulomb_n:
+            static = axis.coulomb_n + axis.stribeck_n
+            if v == 0.0 and abs(drive) <= static:
                 continue
             direction = math.copysign(1.0, v if v != 0.0 else drive)
-            v_new = (v + h * (drive - axis.coulomb_n * direction) / axis.mass_kg) / (1 + h * damping_per_mass)
-            if v != 0.0 and v_new * v < 0 and abs(drive) <= axis.coulomb_n:
+            friction = axis.coulomb_n + axis.stribeck_n * math.exp(-(v / axis.stribeck_velocity_m_per_s) ** 2)
+            v_new = (v + h * (drive - friction * direction) / axis.mass_kg) / (1 + h * damping_per_mass)
+            if v != 0.0 and v_new * v < 0 and abs(drive) <= static:
                 v_new = 0.0
             v = v_new
             x += h * v

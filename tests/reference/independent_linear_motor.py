@@ -6,13 +6,15 @@ Physics
     A rigid carriage of mass m (kg) at position x (m), velocity v (m/s), on guides with viscous damping
     b (N s/m):
 
-        m v' = Kt(x) sat(i) + ripple(x) - b v,      x' = v
+        m v' = Kt(x) sat(i) + ripple(x) - k_c (x - x_c) - b v,      x' = v
 
     * amplifier current limit: sat(i) = clip(i, -limit, limit) (A); the recorded current is the commanded
       one, as a drive logs its current command;
     * force constant along the magnet track: Kt(x) = Kt0 (1 - droop (2 x / travel)^2) (N/A), falling
       off towards the ends of the track;
-    * force ripple (cogging): sum_k a_k sin(2 pi k x / pitch + phi_k) (N).
+    * force ripple (cogging): sum_k a_k sin(2 pi k x / pitch + phi_k) (N);
+    * a cable chain pulling towards its rest position x_c with stiffness k_c (N/m): a force that depends on
+      the position but is neither periodic nor proportional to the current (outside the tool's library).
 
 Integration
     Classical fourth-order Runge-Kutta on ``SUBSTEPS`` steps per sample (fewer for slow, smooth currents);
@@ -44,15 +46,17 @@ class LinearMotorAxis:
     ripple_pitch_m: float = 0.03
     ripple_n: tuple[float, ...] = ()
     ripple_phase_rad: tuple[float, ...] = ()
+    cable_n_per_m: float = 0.0
+    cable_rest_m: float = 0.0
 
     def force_n(self, i_a: np.ndarray, x_m: np.ndarray) -> np.ndarray:
-        """Motor force (N) for commanded current ``i_a`` at position ``x_m``."""
+        """Force (N) of the motor and the cable for commanded current ``i_a`` at position ``x_m``."""
         i = i_a if self.current_limit_a is None else np.clip(i_a, -self.current_limit_a, self.current_limit_a)
         kt = self.kt_n_per_a * (1.0 - self.kt_droop * (2.0 * x_m / self.travel_m) ** 2)
         f = kt * i
         for k, (a, phi) in enumerate(zip(self.ripple_n, self.ripple_phase_rad or (0.0,) * len(self.ripple_n)), 1):
             f = f + a * np.sin(2 * np.pi * k * x_m / self.ripple_pitch_m + phi)
-        return f
+        return f - self.cable_n_per_m * (x_m - self.cable_rest_m)
 
     def run(self, current, t_s: np.ndarray, n: int = 1, substeps: int = SUBSTEPS,
             drive=None) -> tuple[np.ndarray, np.ndarray]:
@@ -106,18 +110,46 @@ def stepped_sine(axis: LinearMotorAxis, f_hz, *, amplitude_a: float, block_s: fl
     return independent_sim.Recording(f, times, currents, velocities, ("velocity_m_per_s",))
 
 
-def slow_sweep(axis: LinearMotorAxis, *, duration_s: float = 16.0, sample_rate_hz: float = 500.0, seed: int = 0,
-               current_noise_a: float = 0.005, position_noise_m: float = 1e-6, substeps: int = 4, drive=None):
-    """A time recording over the travel: a 0.25 Hz, 3 A current command with 0.8 A at 3.1 Hz and 0.5 A at
-    7.3 Hz on top, from rest at x = 0 (the carriage covers about 0.17 m), through ``drive`` (``run``).
-    Returns (t s, command A, position m), the command and position with white measurement noise."""
+def record(axis: LinearMotorAxis, current, duration_s: float, *, sample_rate_hz: float = 500.0, seed: int = 0,
+           current_noise_a: float = 0.005, position_noise_m: float = 1e-6, substeps: int = 4, drive=None):
+    """A time recording of the command ``current(t)`` (A, a function of time in s) from rest at x = 0, through
+    ``drive`` (``run``). Returns (t s, command A, position m), the command and position with white measurement
+    noise."""
     t = np.arange(int(round(duration_s * sample_rate_hz))) / sample_rate_hz
 
-    def current(s):
-        return np.atleast_1d(3.0 * np.sin(2 * np.pi * 0.25 * s) + 0.8 * np.sin(2 * np.pi * 3.1 * s)
-                             + 0.5 * np.sin(2 * np.pi * 7.3 * s + 1.0))
+    def command(s):
+        return np.atleast_1d(current(s))
 
-    x, _ = axis.run(current, t, 1, substeps, drive)
+    x, _ = axis.run(command, t, 1, substeps, drive)
     rng = np.random.default_rng(seed)
-    return (t, current(t) + rng.normal(0.0, current_noise_a, t.size),
+    return (t, command(t) + rng.normal(0.0, current_noise_a, t.size),
             x[:, 0] + rng.normal(0.0, position_noise_m, t.size))
+
+
+def slow_sweep(axis: LinearMotorAxis, *, duration_s: float = 16.0, **kw):
+    """``record`` of a 0.25 Hz, 3 A current command with 0.8 A at 3.1 Hz and 0.5 A at 7.3 Hz on top (the
+    carriage covers about 0.17 m)."""
+    return record(axis, lambda s: 3.0 * np.sin(2 * np.pi * 0.25 * s) + 0.8 * np.sin(2 * np.pi * 3.1 * s)
+                  + 0.5 * np.sin(2 * np.pi * 7.3 * s + 1.0), duration_s, **kw)
+
+
+def chirp(axis: LinearMotorAxis, *, amplitude_a: float = 3.0, f0_hz: float = 0.2, f1_hz: float = 8.0,
+          duration_s: float = 24.0, **kw):
+    """``record`` of a logarithmic chirp A sin(2 pi f0 T (r^(t/T) - 1) / ln r), r = f1 / f0, T the duration:
+    the carriage covers about 0.2 m at its start."""
+    r = f1_hz / f0_hz
+    return record(axis, lambda s: amplitude_a * np.sin(2 * np.pi * f0_hz * duration_s * (r ** (s / duration_s) - 1)
+                                                       / np.log(r)), duration_s, **kw)
+
+
+def stepped(axis: LinearMotorAxis, f_hz=(0.25, 0.5, 1.0, 2.0, 4.0, 8.0), *, amplitude_a: float = 3.0,
+            block_s: float = 4.0, **kw):
+    """``record`` of a stepped sine in one continuous run: A sin(2 pi f_k t) during block k, the motion carried
+    over from block to block."""
+    f = np.asarray(f_hz, float)
+
+    def current(s):
+        k = np.minimum((np.asarray(s) // block_s).astype(int), f.size - 1)
+        return amplitude_a * np.sin(2 * np.pi * f[k] * s)
+
+    return record(axis, current, block_s * f.size, **kw)

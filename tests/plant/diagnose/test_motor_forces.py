@@ -93,10 +93,26 @@ def _diagnose_with(axis, drive, seed):
     return diagnose_time(stage_x(), TimeRecording(t, current, position[None, :], "position", ("x",), source="comp"))
 
 
-def test_current_limit_outside_the_library_is_not_explained_and_nothing_is_found():
-    """A truth the time-domain library has no model of: the amplifier clips the current at 2.5 A of a 4.3 A
-    peak command. No position-dependent effect may be claimed; the residual is named by the motor force."""
-    diag = _diagnose(lm.LinearMotorAxis(current_limit_a=2.5), seed=6)
-    assert diag.selected == ()
+def test_current_limit_is_found_with_its_limit_and_the_error_falls():
+    """The amplifier clips the command at 2.5 A of a 4.3 A peak (the command recorded): the limit is found as
+    the simulator's Kt x 2.5 A, a hard clip, mass and damping as without it."""
+    axis = lm.LinearMotorAxis(current_limit_a=2.5)
+    diag = _diagnose(axis, seed=6)
+    assert diag.selected == ("current_limit",)
+    assert diag.verdict == EXPLAINED
+    limit = diag.final.plant.effect("current_limit")
+    assert limit.limit_n == pytest.approx(axis.kt_n_per_a * 2.5, rel=0.01)
+    assert limit.fraction_lost == pytest.approx(1.0, abs=0.02)
+    assert diag.final.values["mass_kg"] == pytest.approx(axis.mass_kg, rel=0.02)
+    assert diag.final.values["damping_n_s_per_m"] == pytest.approx(axis.damping_n_s_per_m, rel=0.02)
+    assert diag.steps[-1].fit.rms_residual < 0.3 * diag.steps[0].fit.rms_residual
+
+
+def test_a_cable_outside_the_library_is_not_explained_and_named_by_position():
+    """A cable chain pulling the carriage towards mid-travel (60 N/m): a force of the position that is neither
+    periodic nor proportional to the current. Not explained, and no position-dependent effect claimed."""
+    t, current, free = lm.slow_sweep(lm.LinearMotorAxis(), seed=7)
+    axis = lm.LinearMotorAxis(cable_n_per_m=60.0, cable_rest_m=float(np.mean(free)))
+    diag = _diagnose(axis, seed=7)
     assert diag.verdict == NOT_EXPLAINED
-    assert "it depends on motor force" in diag.explanation and "current limit" in diag.explanation
+    assert not {"force_ripple", "force_constant_profile", "current_limit"} & set(diag.selected)

@@ -254,3 +254,25 @@ def test_emps_example_runs_from_the_checkout(tmp_path):
     assert out.returncode == 0, out.stderr
     assert "mass_kg" in out.stdout and "Verdict:" in out.stdout
     assert (tmp_path / "emps.html").read_text().count("<svg") == 3
+
+
+@pytest.mark.parametrize(("excess_n", "velocity_m_per_s", "seed"), [(12.0, 0.02, 0), (8.0, 0.04, 1)])
+def test_diagnosis_finds_a_stribeck_rise_of_the_friction(excess_n, velocity_m_per_s, seed):
+    """The simulator's friction F_c + F_s exp(-(v / v_s)^2) (sticking below F_c + F_s): stribeck_friction is
+    added on top of Coulomb friction and the offset, with its excess and velocity."""
+    axis = Axis(stribeck_n=excess_n, stribeck_velocity_m_per_s=velocity_m_per_s)
+    diag = diagnose_time(Plant("x", force_constant_n_per_a=axis.gain_n_per_v), _recording(axis, seed), prep=HOLD)
+    assert set(diag.selected) == {"coulomb_friction", "stribeck_friction", "offset"}
+    assert diag.verdict == "explained", diag.explanation
+    stribeck = diag.final.plant.effect("stribeck_friction")
+    assert stribeck.excess_n == pytest.approx(excess_n, rel=0.1)
+    assert stribeck.velocity_m_per_s == pytest.approx(velocity_m_per_s, rel=0.1)
+    assert diag.final.values["coulomb_friction.force_n"] == pytest.approx(axis.coulomb_n, rel=0.05)
+
+
+def test_a_stribeck_rise_below_the_moving_samples_is_not_claimed():
+    """At v_s = 2 mm/s the rise lies within the samples at rest that every fit leaves out: nothing to see, and
+    nothing is claimed."""
+    axis = Axis(stribeck_n=6.0, stribeck_velocity_m_per_s=0.002)
+    diag = diagnose_time(Plant("x", force_constant_n_per_a=axis.gain_n_per_v), _recording(axis, 2), prep=HOLD)
+    assert "stribeck_friction" not in diag.selected

@@ -366,8 +366,8 @@ def fit_recording(path: str | Path, *, stage: str, effects: tuple[str, ...] = ()
     from plant.data.read import parse_column_map, read_measurement
     from plant.data.recordings import TimeRecording
     from plant.identify.fitting import fit_plant
-    from plant.identify.inverse_model import Preprocessing
-    from plant.identify.time_fit import fit_inverse_model, fit_output_error
+    from plant.identify.inverse_model import Preprocessing, inverse_model_data
+    from plant.identify.time_fit import configure_from_recording, fit_inverse_model, fit_output_error
     from plant.physics.effects import make_effect
     from plant.physics.models import Plant
 
@@ -382,7 +382,9 @@ def fit_recording(path: str | Path, *, stage: str, effects: tuple[str, ...] = ()
         if method not in ("inverse-model", "output-error"):
             raise ParameterError(f"--method must be inverse-model or output-error, got {method!r}")
         plant = Plant(stage, effects=fx, excitation_current_a=1.0, **geometry).with_values(values or {})
-        result = fit_inverse_model(plant, recording, free=free, prep=prep)
+        data = inverse_model_data(recording, float(plant.force_constant_n_per_a), prep)
+        plant = configure_from_recording(plant, data, tuple(values or {}))
+        result = fit_inverse_model(plant, data, free=free)
         if method == "output-error":
             result = fit_output_error(plant, recording, start=result, prep=prep)
         return FitOutcome(result)

@@ -33,8 +33,8 @@ from plant.diagnose.search import fit_models, path_to, select_model
 from plant.errors import EffectError, ParameterError
 from plant.identify.compensation import CompensationTable, compensation_table
 from plant.identify.inverse_model import InverseModelData, Preprocessing, inverse_model_data
-from plant.identify.time_fit import TimeFitResult, bic, fit_inverse_model
-from plant.physics.effect_base import Effect, FitSamples
+from plant.identify.time_fit import TimeFitResult, bic, fit_inverse_model, fit_samples
+from plant.physics.effect_base import Effect
 from plant.physics.effects import EFFECTS, make_effect
 from plant.physics.models import Plant
 
@@ -209,9 +209,7 @@ def diagnose_time(plant: Plant, rec: TimeRecording, *, candidates: tuple[str, ..
         notes.append(f"not tried: {', '.join(n for n in skipped if EFFECTS[n].time_domain)} depend on the position, "
                      "and the recording has velocity only")
     names = tuple(n for n in names if n in usable)
-    moving = ~data.at_rest
-    samples = FitSamples(data.velocity_m_per_s[moving], data.acceleration_m_per_s2[moving], data.force_n[moving],
-                         None if data.position_m is None else data.position_m[moving])
+    samples = fit_samples(data)
 
     def fit(combo: tuple[str, ...], parents: list[TimeFitResult]) -> TimeFitResult:
         """The model of ``combo``: the effects of its best parent as that parent has them, the new one

@@ -67,7 +67,7 @@ from plant.errors import DataError, EffectError, ParameterError
 from plant.estimate.lockin import TEST_P
 from plant.identify.fit_result import PlantFit
 from plant.identify.inverse_model import EDGE_SAMPLES, FILTER_ORDER, InverseModelData, Preprocessing, inverse_model_data
-from plant.physics.effect_base import ForceSignals
+from plant.physics.effect_base import FitSamples, ForceSignals
 from plant.physics.models import Plant
 from plant.physics.motor_forces import periodic_pitch
 
@@ -216,6 +216,28 @@ def time_domain_effects(plant: Plant) -> None:
 def force_signals(data: InverseModelData) -> ForceSignals:
     """The full-rate signals the effects' force models are formed from."""
     return ForceSignals(data.full_rate_velocity_m_per_s, data.full_rate_force_n, data.full_rate_position_m)
+
+
+def fit_samples(data: InverseModelData) -> FitSamples:
+    """The samples every fit uses (decimated, moving), for ``Effect.configured``."""
+    moving = ~data.at_rest
+    return FitSamples(data.velocity_m_per_s[moving], data.acceleration_m_per_s2[moving], data.force_n[moving],
+                      None if data.position_m is None else data.position_m[moving])
+
+
+def configure_from_recording(plant: Plant, data: InverseModelData, given: Sequence[str] = ()) -> Plant:
+    """``plant`` with the fields that shape its effects' signals (``search_fixed``: a limit, a pitch, a span, a
+    Stribeck velocity) set from the recording, each effect in turn on the residual of the plant with the effects
+    before it (``Effect.configured``), except the fields named in ``given`` (``effect.field``), which are kept (a
+    profiled field is then refined from there by ``fit_inverse_model``)."""
+    samples = fit_samples(data)
+    done: list = []
+    for effect in plant.effects:
+        if effect.search_fixed and not any(f"{effect.name}.{k}" in given for k in effect.search_fixed):
+            residual = fit_inverse_model(plant.with_effects(*done), data).residual
+            effect = effect.configured(samples, residual)
+        done.append(effect)
+    return plant.with_effects(*done)
 
 
 def default_free_time(plant: Plant) -> tuple[str, ...]:

@@ -116,3 +116,23 @@ def test_a_cable_outside_the_library_is_not_explained_and_named_by_position():
     diag = _diagnose(axis, seed=7)
     assert diag.verdict == NOT_EXPLAINED
     assert not {"force_ripple", "force_constant_profile", "current_limit"} & set(diag.selected)
+
+
+def test_a_fit_with_a_limit_or_a_ripple_sets_its_shape_from_the_recording_unless_given(tmp_path):
+    """``gantry fit --effects current_limit,force_ripple``: the limit and the pitch found as the diagnosis finds
+    them (the simulator's Kt x 2.5 A and 20 mm); a value the user sets is where the fit's profile refinement
+    starts (within 15 % of it for a limit)."""
+    from design.workflows import fit_recording
+
+    axis = lm.LinearMotorAxis(current_limit_a=2.5, ripple_n=(RIPPLE_N,), ripple_phase_rad=(RIPPLE_PHASE,),
+                              ripple_pitch_m=PITCH_M)
+    t, current, position = lm.slow_sweep(axis, seed=8)
+    path = tmp_path / "sweep.csv"
+    np.savetxt(path, np.column_stack([t, current, position]), delimiter=",", header="time_s,current_a,position_m",
+               comments="")
+    fit = fit_recording(path, stage="x", effects=("current_limit", "force_ripple")).result
+    assert fit.plant.effect("current_limit").limit_n == pytest.approx(axis.kt_n_per_a * 2.5, rel=0.01)
+    assert fit.plant.effect("force_ripple").pitch_m == pytest.approx(PITCH_M, rel=0.01)
+    assert fit.explained
+    held = fit_recording(path, stage="x", effects=("current_limit",), values={"current_limit.limit_n": 70.0}).result
+    assert held.plant.effect("current_limit").limit_n == pytest.approx(0.85 * 70.0, rel=1e-3)

@@ -25,7 +25,7 @@ from scipy import special
 
 from plant.data.frequency_response import MeasuredResponse
 from plant.diagnose.evidence import ACCEPT_DELTA_BIC, addition_delta_bic, verdict
-from plant.diagnose.search import children, fit_models, path_to, select_model
+from plant.diagnose.search import children, compatible, fit_models, path_to, select_model
 from plant.errors import DataError
 from plant.identify.fitting import FitResult, fit_plant
 from plant.identify.residuals import ResidualSummary, merge_failing, residual_summary
@@ -297,17 +297,6 @@ def _pool(plant: Plant, data: MeasuredResponse, nonlinear: Nonlinearity,
     return pool, skipped
 
 
-def _valid(combo: tuple[str, ...], base: tuple[str, ...]) -> bool:
-    names = set(combo) | set(base)
-    for n in names:
-        cls = EFFECTS[n]
-        if any(x in names for x in cls.excludes):
-            return False
-        if cls.requires_any and not any(x in names for x in cls.requires_any):
-            return False
-    return True
-
-
 def _fit_child(parents: list[FitResult], name: str, plant: Plant, data: MeasuredResponse,
                free_base: tuple[str, ...], fixed: tuple[str, ...]) -> FitResult:
     """Fit ``plant`` (a parent plus ``name``) from its parents' optima, the new effect neutral and at
@@ -401,7 +390,7 @@ def diagnose(plant: Plant, data: MeasuredResponse, *, candidates: tuple[str, ...
         return _fit_child(parents, name, host * effect, data, free_base, fixed)
 
     fits, unidentifiable = fit_models(base, base_fit, pool, fit, max_effects=max_effects,
-                                      valid=lambda combo: _valid(combo, base))
+                                      valid=lambda combo: compatible(combo, base))
     adequate = {k: chi2_is_noise(f) for k, f in fits.items()}
     selected = select_model({k: f.bic for k, f in fits.items()}, adequate,
                             {k: f.n_params for k, f in fits.items()})
@@ -484,7 +473,7 @@ def _path(fits, base, selected, data, skipped, unidentifiable, pool) -> list[Ste
             combo = tuple(n for n in current[len(base):]) + (name,)
             if name not in tried and name not in current:
                 reason = unidentifiable.get(tuple(sorted(combo, key=pool.index)), "") or \
-                    ("" if _valid(combo, base) else "cannot be combined with the model's effects")
+                    ("" if compatible(combo, base) else "cannot be combined with the model's effects")
                 if reason:
                     ranking.append(Candidate(name, float("nan"), float("nan"), None, reason))
         ranking += [Candidate(n, float("nan"), float("nan"), None, why) for n, why in skipped.items()

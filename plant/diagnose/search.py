@@ -52,6 +52,13 @@ def fit_models(base: Model, base_fit: F, pool: Sequence[str], fit: Callable[[Mod
     return fits, refused
 
 
+def compatible(combo: Model, base: Model = ()) -> bool:
+    """The effects of ``combo`` and ``base`` can stand together (``Effect.excludes``, ``Effect.requires_any``)."""
+    names = set(combo) | set(base)
+    return all(not names & set(EFFECTS[n].excludes)
+               and (not EFFECTS[n].requires_any or bool(names & set(EFFECTS[n].requires_any))) for n in names)
+
+
 def complexity(model: Model) -> int:
     """How elaborate the physics of a model is (``Effect.complexity`` summed)."""
     return sum(EFFECTS[n].complexity for n in model)

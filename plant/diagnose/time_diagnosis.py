@@ -29,7 +29,7 @@ import numpy as np
 
 from plant.data.recordings import TimeRecording
 from plant.diagnose.evidence import addition_delta_bic, verdict
-from plant.diagnose.search import fit_models, path_to, select_model
+from plant.diagnose.search import compatible, fit_models, path_to, select_model
 from plant.errors import EffectError, ParameterError
 from plant.identify.compensation import CompensationTable, compensation_table
 from plant.identify.inverse_model import InverseModelData, Preprocessing, inverse_model_data
@@ -116,13 +116,6 @@ class TimeDiagnosis:
 def time_candidates(position: bool = True) -> tuple[str, ...]:
     """Effects of the library with a force model (those that need the position only when it was recorded)."""
     return tuple(n for n, cls in EFFECTS.items() if cls.time_domain and (position or not cls.needs_position))
-
-
-def _valid(combo: tuple[str, ...]) -> bool:
-    """The effects of ``combo`` can stand together (``Effect.requires_any``, ``Effect.excludes``)."""
-    names = set(combo)
-    return all((not EFFECTS[n].requires_any or names & set(EFFECTS[n].requires_any))
-               and not names & set(EFFECTS[n].excludes) for n in combo)
 
 
 def _plant(base: Plant, effects: tuple[Effect, ...]) -> Plant:
@@ -220,7 +213,7 @@ def diagnose_time(plant: Plant, rec: TimeRecording, *, candidates: tuple[str, ..
         return fit_inverse_model(_plant(plant, effects), data)
 
     models, _ = fit_models((), fit_inverse_model(_plant(plant, ()), data), names, fit,
-                           max_effects=min(len(names), MAX_TIME_EFFECTS), valid=_valid)
+                           max_effects=min(len(names), MAX_TIME_EFFECTS), valid=compatible)
     n_eff = min(models.values(), key=lambda f: f.rss).n_effective
     bics = {c: bic(f, n_eff) for c, f in models.items()}
     admissible = _signatures_shown(models)

@@ -345,7 +345,7 @@ def simulation_plant(*, spec: Path | None, stage: str | None, values: dict[str, 
         amplitude_a = THESIS_AMPLITUDE_A[stage]
     if not (math.isfinite(amplitude_a) and amplitude_a > 0):
         raise ParameterError(f"--amplitude-a must be a positive number of amperes, got {amplitude_a:g}")
-    excitation = amplitude_a if "coulomb_friction" in effects else None
+    excitation = amplitude_a if any(name in EFFECTS and not EFFECTS[name].linear for name in effects) else None
     try:
         plant: Plant = build_plant(stage, effects=effects, excitation_current_a=excitation, **base)
         plant.parameters()          # within the limits every command checks

@@ -12,9 +12,10 @@ import importlib
 __version__ = "0.1.0"
 
 _EXPORTS = {
-    "plant.physics.effects": ("EFFECTS", "CoulombFriction", "CurrentLoop", "Delay", "Effect", "EncoderVelocity",
-                      "PayloadResonance", "Resonance", "Sampling", "SecondResonance", "SensorFilter", "TiltCoupling",
-                      "make_effect"),
+    "plant.physics.effects": ("EFFECTS", "CoulombFriction", "CurrentLimit", "CurrentLoop", "Delay", "Effect",
+                              "EncoderVelocity", "ForceConstantProfile", "ForceRipple", "Offset", "PayloadResonance",
+                              "Resonance", "Sampling", "SecondResonance", "SensorFilter", "StribeckFriction",
+                              "TiltCoupling", "make_effect"),
     "plant.errors": ("DataError", "EffectError", "GantryError", "GridError", "ParameterError", "SpecError"),
     "plant.physics.models": ("Plant", "build_plant", "corner_frequency_hz", "stage_x", "stage_y"),
     "plant.physics.parameters": ("THESIS", "Parameter"),

@@ -399,6 +399,25 @@ def print_reproduction(console: Console, rows: list[TableRow], sweeps: list[Payl
         console.print(t)
 
 
+def print_time_simulation(console: Console, rec, out, sidecar) -> None:
+    """``gantry simulate --form continuous|chirp``: what was written, how far the carriage went, and what that
+    travel cannot show."""
+    from plant.experiment.simulate_time import travel_notes
+
+    md = rec.metadata
+    ex = md["excitation"]
+    if "f_hz" in ex:
+        what = f"{len(ex['f_hz'])} sines {ex['f_hz'][0]:g}-{ex['f_hz'][-1]:g} Hz x {ex['block_s']:g} s in one run"
+    else:
+        what = f"a chirp {ex['f0_hz']:g}-{ex['f1_hz']:g} Hz"
+    lines = [f"wrote {out}: stage {md['stage'].upper()}, effects {', '.join(md['effects']) or 'none'}, {what} "
+             f"({md['duration_s']:g} s at {md['sample_rate_hz']:g} Hz), {ex['amplitude_a']:g} A; the carriage "
+             f"covered {1e3 * float(np.ptp(rec.output[0])):.4g} mm; noise {md['current_noise_std_a']:g} A / "
+             f"{md['noise_std']:g} m, seed {md['seed']} (settings in {sidecar.name})"]
+    lines += [f"note: {n}" for n in travel_notes(rec)]
+    console.print("\n".join(lines), markup=False, highlight=False, soft_wrap=True)
+
+
 def print_excitation(console: Console, out, ms: Multisine, pred: VariancePrediction) -> None:
     """``gantry excite``: what was written, the lines, crest factor, and the predicted variance per second."""
     from plant.experiment.excitation import THESIS_BLOCK_S

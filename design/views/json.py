@@ -671,6 +671,20 @@ def simulation_to_dict(rec: Recording, out, sidecar, *, amplitude_a: float, simu
             "method": md["method"], "simulation_s": simulation_s}
 
 
+def time_simulation_to_dict(rec, out, sidecar, *, simulation_s: float) -> dict:
+    """``gantry simulate --form continuous|chirp --json``: where the run went, how it was simulated, how far the
+    carriage went and what that travel cannot show."""
+    from plant.experiment.simulate_time import travel_notes
+
+    md = rec.metadata
+    return {"out": str(out), "sidecar": str(sidecar), "stage": md["stage"], "effects": md["effects"],
+            "parameters": md["parameters"], "excitation": md["excitation"], "duration_s": md["duration_s"],
+            "sample_rate_hz": md["sample_rate_hz"], "current_noise_std_a": md["current_noise_std_a"],
+            "position_noise_std_m": md["noise_std"], "travel_m": float(np.ptp(rec.output[0])),
+            "notes": travel_notes(rec), "seed": md["seed"], "method": md["method"],
+            "internal_rate_hz": md["internal_rate_hz"], "simulation_s": simulation_s}
+
+
 def mouse_run_to_dict(run, source: str) -> dict:
     """``gantry mouse-run --json``: the run's figures and a summary in words."""
     s = run.settings

@@ -35,10 +35,13 @@ class StageProgress:
 
 
 class LazyProgress:
-    """Progress callback that shows a rich progress bar on stderr once the work has taken a second."""
+    """Progress callback ``(done, total)`` that shows a rich progress bar on stderr once the work has taken a
+    second: ``label`` before the bar, ``unit`` after the count."""
 
-    def __init__(self, enabled: bool):
+    def __init__(self, enabled: bool, *, label: str = "sweep", unit: str = "plants"):
         self.enabled = enabled
+        self.label = label
+        self.unit = unit
         self.t0 = time.perf_counter()
         self.bar = None
         self.task = None
@@ -49,10 +52,10 @@ class LazyProgress:
         if self.bar is None and time.perf_counter() - self.t0 > 1.0 and done < total:
             from rich.progress import BarColumn, Progress, TimeRemainingColumn
 
-            self.bar = Progress("sweep", BarColumn(), "{task.completed}/{task.total} plants", TimeRemainingColumn(),
-                                console=Console(stderr=True), transient=True)
+            self.bar = Progress(self.label, BarColumn(), "{task.completed}/{task.total} " + self.unit,
+                                TimeRemainingColumn(), console=Console(stderr=True), transient=True)
             self.bar.start()
-            self.task = self.bar.add_task("sweep", total=total)
+            self.task = self.bar.add_task(self.label, total=total)
         if self.bar is not None:
             self.bar.update(self.task, completed=done)
 

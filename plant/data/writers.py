@@ -1,5 +1,6 @@
 """Write recordings: the long stepped-sine CSV of ``docs/formats.md``
-(``frequency_hz,time_s,current_a,velocity...``) and a simulation with its JSON sidecar, atomically."""
+(``frequency_hz,time_s,current_a,velocity...``), the time-domain CSV (``time_s,current_a,position...``) and a
+simulation with its JSON sidecar, atomically."""
 
 from __future__ import annotations
 
@@ -7,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
-from plant.data.recordings import Recording
+from plant.data.recordings import Recording, TimeRecording
 from plant.host.files import atomic_write_text, atomic_write_texts
 
 
@@ -24,14 +25,26 @@ def recording_csv_text(recording: Recording) -> str:
     return buf.getvalue()
 
 
+def time_recording_csv_text(recording: TimeRecording) -> str:
+    """The time-domain CSV format of ``docs/formats.md``: ``time_s,current_a`` and the outputs by name."""
+    import io
+
+    buf = io.StringIO()
+    buf.write(",".join(["time_s", "current_a", *recording.output_names]) + "\n")
+    cols = np.column_stack([recording.time_s, recording.current_a, *recording.output])
+    np.savetxt(buf, cols, fmt=["%.9f", "%.9g"] + ["%.10g"] * len(recording.output_names), delimiter=",")
+    return buf.getvalue()
+
+
 def write_recording_csv(recording: Recording, path: str | Path) -> None:
     """Write the long CSV format of ``docs/formats.md`` atomically."""
     atomic_write_text(path, recording_csv_text(recording))
 
 
-def write_simulation(recording: Recording, path: str | Path, *, spec: str | Path | None = None) -> Path:
-    """Write a simulated recording (CSV) and its sidecar ``FILE.json`` (tool version, spec, settings, true
-    parameters, seed) as a set; returns the sidecar's path."""
+def write_simulation(recording: Recording | TimeRecording, path: str | Path, *,
+                     spec: str | Path | None = None) -> Path:
+    """Write a simulated recording (stepped-sine blocks or a time-domain run, CSV) and its sidecar ``FILE.json``
+    (tool version, spec, settings, true parameters, seed) as a set; returns the sidecar's path."""
     import json
 
     from plant import __version__
@@ -40,7 +53,9 @@ def write_simulation(recording: Recording, path: str | Path, *, spec: str | Path
     sidecar = path.with_suffix(".json")
     side = {"recording": path.name, "gantry_version": __version__, "spec": None if spec is None else str(spec),
             "settings": recording.metadata}
-    atomic_write_texts({path: recording_csv_text(recording),
+    text = time_recording_csv_text(recording) if isinstance(recording, TimeRecording) else \
+        recording_csv_text(recording)
+    atomic_write_texts({path: text,
                         sidecar: json.dumps(side, indent=2, allow_nan=False) + "\n"})
     return sidecar
 

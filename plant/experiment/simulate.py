@@ -410,9 +410,9 @@ def _check_plant(plant: Plant) -> None:
     """One plant, not a batch: every parameter a single value; no effect the stepped sine does not model."""
     for e in plant.effects:
         if not e.simulated:
-            raise EffectError(f"{e.name}: the stepped-sine simulation does not model it (a force that depends on the "
-                              "position or changes no frequency response); it is fitted from time-domain "
-                              "recordings (examples/linear_motor_forces.py simulates such an axis)")
+            raise EffectError(f"{e.name}: the stepped-sine blocks do not model it (a force that depends on the "
+                              "position or changes no frequency response); simulate one continuous run instead "
+                              "(plant.experiment.simulate_time, gantry simulate --form continuous or chirp)")
     for name in plant.parameters():
         effect_name, _, field = name.rpartition(".")
         _scalar(name, getattr(plant.effect(effect_name), field) if effect_name else getattr(plant, name))

@@ -44,5 +44,6 @@ def test_stepped_sine_simulation_refuses_forces_it_does_not_model(tmp_path):
         out = gantry("simulate", "--stage", "x", "--effects", effect, "--f-hz", "2:40:4", "--duration-s", "2",
                      "--out", tmp_path / "rec.csv")
         assert out.returncode == 2, effect
-        assert "does not model it" in out.stderr and out.stderr.count("\n") == 1
+        assert "do not model it" in out.stderr and "--form continuous" in out.stderr
+        assert out.stderr.count("\n") == 1
         assert not (tmp_path / "rec.csv").exists()

@@ -36,9 +36,11 @@ preprocessing approximations leave a structure of about 0.1 % of the force that 
 resolves). With the position recorded, two dependences that bins of one variable cannot see are tested the
 same way (``_interactions``): on current x position (a force constant varying along the track) and on a
 periodic function of position (cogging, force ripple; its pitch found from the residual's spectrum over
-position). A missing Coulomb friction leaves a step at v = 0, an offset a shift in
-every bin, a Stribeck curve a bump at low velocity, a position-dependent force (cogging, a cable)
-a pattern along the travel, a wrong mass a slope in acceleration. The test needs no noise model.
+position); and the residual's mean against its own Newey-West error (``_constant``), which a slow variation
+along the travel inflates, so the mean of a cable's force is not taken for a constant one. A missing Coulomb
+friction leaves a step at v = 0, an offset a shift in every bin, a Stribeck curve a bump at low velocity, a
+position-dependent force (cogging, a cable) a pattern along the travel, a wrong mass a slope in acceleration.
+The test needs no noise model.
 Its size must also be that of the measurement noise: the residual's rms at most
 ``NOISE_RATIO_LIMIT`` times the noise's prediction (``InverseModelData.residual_noise_std_n``),
 which assumes white noise at the full rate; in a closed loop (a reference recorded) the controller colours
@@ -386,13 +388,21 @@ def _pattern(name: str, e: np.ndarray, B: np.ndarray, tests: int, words, X: np.n
     return Structure(name, chi2, int(coef.size), p, p < TEST_P and share >= STRUCTURE_SHARE, text, share, text)
 
 
+def _constant(e: np.ndarray) -> Structure:
+    """constant: the residual's mean against its own Newey-West error (``_pattern``'s score form), the pattern of
+    a constant force (``offset``); a slow variation the model lacks (a cable's force along the travel) inflates
+    that error, so its mean over the recording is not taken for a constant force."""
+    return _pattern("constant", e, np.ones((e.size, 1)), 1, lambda c: f"a constant force {c[0]:+.3g} N")
+
+
 def _interactions(e: np.ndarray, force: np.ndarray, position: np.ndarray, X: np.ndarray) -> tuple[Structure, ...]:
     """Residual dependences that bins of one variable cannot see (module doc).
 
     * current x position: e on F x and F x^2 (x scaled to -1 .. 1 over the travel covered): a force constant
       K(x) = K(mid) (1 + c1 x + c2 x^2) leaves exactly this residual, whose mean in any bin of position is
       zero where the current averages out; tested against the model's columns ``X`` (``_pattern``), since
-      the fitted mass and damping, whose force the current carries, absorb part of it;
+      the fitted mass and damping, whose force the current carries, absorb part of it, and against x and x^2,
+      its main effect (a force of the position alone, a cable, is not an interaction);
     * position, periodic: e on sin and cos of 2 pi x / pitch at the pitch of the largest peak of the
       residual's spectrum over position (``plant.physics.motor_forces.periodic_pitch``), a cogging or
       force-ripple pattern; Bonferroni over the pitches searched."""
@@ -408,7 +418,10 @@ def _interactions(e: np.ndarray, force: np.ndarray, position: np.ndarray, X: np.
                 f"with u = (x - {mid:.3g} m) / {half:.3g} m: {100 * (d1 + d2):+.2g} % at {hi:.3g} m, "
                 f"{100 * (d2 - d1):+.2g} % at {lo:.3g} m")
 
-    out = [_pattern("current x position", e, np.column_stack([force * x, force * x**2]), 1, kt_words, X)]
+    # an interaction is tested beside its main effect: a force that depends on the position alone (a cable)
+    # correlates with current x position wherever the current follows the position
+    main = np.column_stack([X, x, x**2])
+    out = [_pattern("current x position", e, np.column_stack([force * x, force * x**2]), 1, kt_words, main)]
     pitch, searched = periodic_pitch(position, e)
     if searched:
         phase = 2 * np.pi * (position - lo) / pitch
@@ -496,10 +509,10 @@ def fit_inverse_model(plant: Plant, rec: TimeRecording | InverseModelData, *, fr
     noise = data.residual_noise_std_n(m_per * values["mass_kg"], b_per * values["damping_n_s_per_m"])
     variables = {"velocity": data.velocity_m_per_s[moving], "acceleration": data.acceleration_m_per_s2[moving],
                  "motor force": force}
-    interactions = ()
+    interactions = (_constant(e),)
     if data.position_m is not None:
         variables["position"] = data.position_m[moving]
-        interactions = _interactions(e, force, data.position_m[moving], X)
+        interactions += _interactions(e, force, data.position_m[moving], X)
     return _summarise(plant, "inverse-model", values, free, X, e, force, model, "force_n", data.time_s[moving],
                       data.velocity_m_per_s[moving], noise, flags, 1, time.perf_counter() - t0,
                       _peak_input(plant, data), data.closed_loop, variables, int(data.at_rest.sum()), interactions)

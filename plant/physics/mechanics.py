@@ -345,6 +345,7 @@ class Offset(MechanicalEffect):
     force_n: float = 0.0
     name: ClassVar[str] = "offset"
     bounds: ClassVar = {"force_n": (-1000.0, 1000.0, "N")}
+    residual_signature: ClassVar = "constant"
     signature: ClassVar[str] = "a residual force of one sign whatever the direction of motion"
     main_parameter: ClassVar[str] = "force_n"
     neutral: ClassVar = {"force_n": 0.0}

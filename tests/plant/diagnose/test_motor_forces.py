@@ -118,6 +118,22 @@ def test_a_cable_outside_the_library_is_not_explained_and_named_by_position():
     assert not {"force_ripple", "force_constant_profile", "current_limit"} & set(diag.selected)
 
 
+@pytest.mark.parametrize("run, cable_n_per_m, seed", [(lm.chirp, 109.0, 66), (lm.stepped, 97.0, 57)])
+def test_a_cable_is_claimed_as_neither_an_offset_nor_a_profile(run, cable_n_per_m, seed):
+    """Under a chirp or a stepped sine the cable's force along the travel has a mean over the recording (an
+    offset's column) and follows the current where the current follows the position (current x position):
+    neither is claimed, since the mean does not stand out of the residual's slow variation and the
+    interaction is tested beside position alone."""
+    noise = {"current_noise_a": 0.005, "position_noise_m": 2e-6}
+    _, _, free = run(lm.LinearMotorAxis(), seed=seed, **noise)
+    axis = lm.LinearMotorAxis(cable_n_per_m=cable_n_per_m, cable_rest_m=float(np.mean(free)))
+    t, current, position = run(axis, seed=seed, **noise)
+    rec = TimeRecording(t, current, position[None, :], "position", ("x",), source=run.__name__)
+    diag = diagnose_time(stage_x(), rec)
+    assert diag.verdict == NOT_EXPLAINED
+    assert diag.selected == ()
+
+
 def test_a_fit_with_a_limit_or_a_ripple_sets_its_shape_from_the_recording_unless_given(tmp_path):
     """``gantry fit --effects current_limit,force_ripple``: the limit and the pitch found as the diagnosis finds
     them (the simulator's Kt x 2.5 A and 20 mm); a value the user sets is where the fit's profile refinement

@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from plant.data.recordings import SAMPLING_TOLERANCE, TimeRecording
-from plant.data.table import CsvTable
+from plant.data.table import CsvTable, streamed_numbers
 from plant.errors import DataError
 from plant.host.text_io import data_suffix
 
@@ -71,6 +71,16 @@ def _default_map(path: Path, header: list[str]) -> dict[str, list[str]]:
 
 
 def _read_csv(path: Path, columns):
+    streamed = streamed_numbers(path)
+    if streamed is not None:
+        header, values = streamed
+        columns = columns or _default_map(path, header)
+        for name in (c for cols in columns.values() for c in cols):
+            if name not in values:
+                raise DataError(f"{path}: missing column {name!r} (header: {', '.join(header)})")
+        labels = {h: f"row {{row}}, column {h!r}" for h in header}
+        n = next(iter(values.values())).size
+        return columns, values, np.arange(2, n + 2), labels, {}
     table = CsvTable.read(path)
     columns = columns or _default_map(path, table.header)
     mapped = [c for cols in columns.values() for c in cols]

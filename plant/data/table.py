@@ -1,6 +1,8 @@
 """The one reader of a CSV table, whatever the recording's kind: the header, blank lines skipped, each data
 row's number in the file, and numeric columns read fast (``numpy.loadtxt``) or, when a cell is not a
-number, cell by cell so that the error names its row and column."""
+number, cell by cell so that the error names its row and column. ``streamed_numbers`` reads a plain,
+all-numeric CSV straight from the file in numpy's chunks (memory about that of the numbers, below the file's
+size), and leaves every other file to ``CsvTable``."""
 
 from __future__ import annotations
 
@@ -11,7 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from plant.errors import DataError
-from plant.host.text_io import read_text
+from plant.host.text_io import CHUNK_BYTES, MAX_TEXT_BYTES, read_text
 
 
 def csv_header(path: str | Path) -> list[str]:
@@ -20,6 +22,42 @@ def csv_header(path: str | Path) -> list[str]:
         return [h.strip() for h in next(csv.reader(read_text(Path(path)).splitlines()[:1]))]
     except StopIteration:
         raise DataError(f"{path}: the file is empty") from None
+
+
+#: first bytes of files ``streamed_numbers`` leaves to the careful reader: UTF-8, UTF-16 and UTF-32 byte-order
+#: marks and the compressed formats ``plant.host.text_io`` opens
+_NOT_PLAIN = (b"\xef\xbb\xbf", b"\xff\xfe", b"\xfe\xff", b"\x00\x00\xfe\xff", b"\x1f\x8b", b"BZh",
+              b"\xfd7zXZ\x00")
+
+
+def streamed_numbers(path: str | Path) -> tuple[list[str], dict[str, np.ndarray]] | None:
+    """The header and every column of ``path`` as floats, parsed by ``numpy.loadtxt`` from the file itself,
+    when it is plain UTF-8 text below ``MAX_TEXT_BYTES``, every cell a number and no line blank (its data row
+    k then sits on line k + 2); None for any other file, which ``CsvTable`` reads and names what is wrong."""
+    path = Path(path)
+    try:
+        if path.stat().st_size > MAX_TEXT_BYTES:
+            return None
+        with path.open("rb") as fh:
+            head = fh.read(CHUNK_BYTES)
+            newlines, ends_with_newline = head.count(b"\n"), head.endswith(b"\n")
+            if not head or any(head.startswith(m) for m in _NOT_PLAIN) or b"\x00" in head:
+                return None
+            while chunk := fh.read(CHUNK_BYTES):
+                newlines += chunk.count(b"\n")
+                ends_with_newline = chunk.endswith(b"\n")
+        lines = newlines + (0 if ends_with_newline else 1)
+        if lines < 2:
+            return None
+        first = head.split(b"\n", 1)[0].decode("utf-8").strip()
+        header = [h.strip() for h in next(csv.reader([first]))]
+        data = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2, comments=None, encoding="utf-8")
+    except (OSError, UnicodeDecodeError, ValueError, StopIteration):
+        return None
+    if data.shape[0] != lines - 1 or data.shape[0] == 0 or data.shape[1] != len(header) or len(set(header)) != \
+            len(header):
+        return None
+    return header, {name: data[:, k] for k, name in enumerate(header)}
 
 
 @dataclass(frozen=True)

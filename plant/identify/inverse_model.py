@@ -30,6 +30,7 @@ chain, is computed by passing seeded white noise of those levels through the sam
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 import numpy as np
@@ -143,8 +144,18 @@ def _chain(rec_fs: float, output: np.ndarray, force: np.ndarray, kind: str, filt
                                                                          y[cut] if kind == "position" else None]
 
 
+@functools.lru_cache(maxsize=8)
+def _decimation_sos(r: int) -> np.ndarray:
+    """The anti-aliasing filter of ``scipy.signal.decimate(ftype="iir")`` for factor ``r``: Chebyshev type I,
+    order 8, 0.05 dB ripple, corner 0.8 / r of Nyquist; designed once per factor (a fit decimates hundreds of
+    columns)."""
+    return scipy.signal.cheby1(8, 0.05, 0.8 / r, output="sos")
+
+
 def _decimate(x: np.ndarray, r: int) -> np.ndarray:
-    return scipy.signal.decimate(x, r, ftype="iir", zero_phase=True) if r > 1 else np.asarray(x, dtype=float)
+    """``scipy.signal.decimate(x, r, ftype="iir", zero_phase=True)`` with the filter designed once."""
+    x = np.asarray(x, dtype=float)
+    return scipy.signal.sosfiltfilt(_decimation_sos(r), x)[::r] if r > 1 else x
 
 
 def inverse_model_data(rec: TimeRecording, force_constant_n_per_a: float,

@@ -529,13 +529,20 @@ def _profiled(plant: Plant, data: InverseModelData, free: Sequence[str]) -> Plan
     for i, effect in enumerate(plant.effects):
         for field, span in effect.profiled.items():
             start = float(getattr(effect, field))
+            own_names = [p for p in free if p.startswith(f"{effect.name}.")]
+            # the other columns do not change: project them out once (Frisch-Waugh-Lovell), an orthonormal
+            # basis of their span from the SVD
+            fixed = np.column_stack([cols[p] for p in free if p not in own_names] or [np.zeros_like(force)])
+            U, sv, _ = np.linalg.svd(fixed, full_matrices=False)
+            U = U[:, sv > sv[0] * 1e-12] if sv[0] > 0 else U[:, :0]
+            force_left = force - U @ (U.T @ force)
 
-            def rss(value, effect=effect, field=field):
+            def rss(value, effect=effect, field=field, own_names=own_names, U=U, force_left=force_left):
                 trial = dataclasses.replace(effect, **{field: value})
-                own = {f"{effect.name}.{k}": data.decimate(v)[moving]
-                       for k, v in trial.force_regressors(signals).items()}
-                X = np.column_stack([own.get(p, cols[p]) for p in free])
-                return float(np.sum((force - X @ np.linalg.lstsq(X, force, rcond=None)[0]) ** 2))
+                regressors = trial.force_regressors(signals)
+                O = np.column_stack([data.decimate(regressors[p.split(".", 1)[1]])[moving] for p in own_names])
+                O = O - U @ (U.T @ O)
+                return float(np.sum((force_left - O @ np.linalg.lstsq(O, force_left, rcond=None)[0]) ** 2))
 
             best = scipy.optimize.minimize_scalar(rss, bounds=(start * (1 - span), start * (1 + span)),
                                                   method="bounded", options={"xatol": 1e-6 * start})

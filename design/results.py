@@ -75,6 +75,12 @@ class DiagnosisOutcome:
     diagnosis: Diagnosis | TimeDiagnosis
     measured: MeasuredResponse | None = None
 
+    @property
+    def time_domain(self) -> bool:
+        """A diagnosis of the time-domain force balance (no frequency response was measured); telling it so
+        keeps the frequency-domain views from importing the time-domain modules."""
+        return self.measured is None
+
 
 class Gains(NamedTuple):
     """PI gains of the velocity loop: ``kp`` in A per (m/s), ``ki`` in A per m (unpacks as ``kp, ki``)."""

@@ -425,7 +425,6 @@ def diagnose_recording(path: str | Path, *, stage: str, candidates: tuple[str, .
     from plant.data.read import parse_column_map, read_measurement
     from plant.data.recordings import TimeRecording
     from plant.diagnose.diagnosis import diagnose
-    from plant.diagnose.time_diagnosis import diagnose_time
     from plant.estimate.lockin import amplitude_dependence
     from plant.identify.inverse_model import Preprocessing
     from plant.physics.models import Plant
@@ -445,6 +444,8 @@ def diagnose_recording(path: str | Path, *, stage: str, candidates: tuple[str, .
         if amplitude_files or fit_force_constant:
             raise ParameterError("--amplitude-files and --fit-force-constant apply to stepped sines; a time-domain "
                                  "fit needs the force constant set (--set force_constant_n_per_a=...)")
+        from plant.diagnose.time_diagnosis import diagnose_time
+
         return DiagnosisOutcome(diagnose_time(base, recording, candidates=candidates, prep=prep))
     measured = _estimate(recording, frf, band)
     dependent = None

@@ -58,7 +58,8 @@ def main() -> None:
 
 def _run():
     """Parse and run the command; expected failures end in ``_fail``."""
-    import matplotlib
+    import os
+
     import typer
 
     from plant.errors import GantryError
@@ -68,7 +69,9 @@ def _run():
     except ImportError:     # pragma: no cover
         from click.exceptions import ClickException, NoArgsIsHelpError
 
-    matplotlib.use("Agg")
+    os.environ["MPLBACKEND"] = "Agg"    # files only, never a window; read when matplotlib is first imported
+    if "matplotlib" in sys.modules:      # already imported (a caller in the same process)
+        sys.modules["matplotlib"].use("Agg")
     from design.cli.common import app
     from plant.host.memory import keep_freed_memory
 

@@ -61,7 +61,6 @@ def diagnose(
 ) -> None:
     """Compare a recording with the thesis model, rank the missing effects and add the justified ones."""
     from design.views.console import print_diagnosis_outcome
-    from design.views.diagnosis import diagnosis_html
     from design.views.json import diagnosis_outcome_to_dict, print_json
     from design.workflows import diagnose_recording
     from plant.identify.inverse_model import Preprocessing
@@ -76,6 +75,8 @@ def diagnose(
     if compensation is not None:
         _write_compensation(outcome, compensation)
     if report is not None:
+        from design.views.diagnosis import diagnosis_html
+
         diagnosis_html(outcome, title=f"Diagnosis of {data.name} (Stage {stage.upper()})",
                        provenance=_provenance(data)).write(report)
     if as_json:
@@ -90,10 +91,9 @@ def diagnose(
 
 def _write_compensation(outcome, path: Path) -> None:
     """The selected time-domain model's compensation table, or a ``ParameterError`` saying why there is none."""
-    from plant.diagnose.time_diagnosis import TimeDiagnosis
     from plant.errors import ParameterError
 
-    if not isinstance(outcome.diagnosis, TimeDiagnosis):
+    if not outcome.time_domain:
         raise ParameterError("--compensation: a compensation table comes from a time-domain recording with the "
                              "position (the frequency-domain diagnosis has no position-dependent force)")
     outcome.diagnosis.compensation().write(path)

@@ -38,9 +38,7 @@ def print_fit(console: Console, outcome: FitOutcome) -> None:
 
 def print_diagnosis_outcome(console: Console, outcome: DiagnosisOutcome) -> None:
     """The text of ``gantry diagnose``."""
-    from plant.diagnose.time_diagnosis import TimeDiagnosis
-
-    if isinstance(outcome.diagnosis, TimeDiagnosis):
+    if outcome.time_domain:
         print_time_diagnosis(console, outcome.diagnosis)
     else:
         print_diagnosis(console, outcome.diagnosis)

@@ -10,11 +10,9 @@ import numpy as np
 from design.results import DiagnosisOutcome
 from design.views.html import Report, table
 from design.views.plots import bode
-from design.views.time_diagnosis import time_diagnosis_report
 from plant.data.frequency_response import MeasuredResponse
 from plant.diagnose.diagnosis import Diagnosis
 from plant.diagnose.evidence import ACCEPT_DELTA_BIC
-from plant.diagnose.time_diagnosis import TimeDiagnosis
 
 
 def comparison_figure(diag: Diagnosis, data: MeasuredResponse):
@@ -116,6 +114,8 @@ def diagnosis_report(diag: Diagnosis, data: MeasuredResponse, *, title: str, pro
 
 def diagnosis_html(outcome: DiagnosisOutcome, *, title: str, provenance: str) -> Report:
     """The HTML report of a frequency-domain or a time-domain diagnosis."""
-    if isinstance(outcome.diagnosis, TimeDiagnosis):
+    if outcome.time_domain:
+        from design.views.time_diagnosis import time_diagnosis_report
+
         return time_diagnosis_report(outcome.diagnosis, title=f"{title[:-1]}, time domain)", provenance=provenance)
     return diagnosis_report(outcome.diagnosis, outcome.measured, title=title, provenance=provenance)

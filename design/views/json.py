@@ -85,9 +85,7 @@ def fit_outcome_to_dict(outcome: FitOutcome) -> dict:
 
 def diagnosis_outcome_to_dict(outcome: DiagnosisOutcome) -> dict:
     """``gantry diagnose --json`` on a frequency response or a time-domain recording."""
-    from plant.diagnose.time_diagnosis import TimeDiagnosis
-
-    if isinstance(outcome.diagnosis, TimeDiagnosis):
+    if outcome.time_domain:
         return time_diagnosis_to_dict(outcome.diagnosis)
     return diagnosis_to_dict(outcome.diagnosis)
 

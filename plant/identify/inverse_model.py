@@ -34,7 +34,6 @@ import functools
 from dataclasses import dataclass
 
 import numpy as np
-import scipy.signal
 
 from plant.data.recordings import TimeRecording
 from plant.errors import DataError
@@ -130,6 +129,8 @@ def decimation_factor(sample_rate_hz: float, band_hz: float) -> int:
 
 def _chain(rec_fs: float, output: np.ndarray, force: np.ndarray, kind: str, filter_hz: float, r: int):
     """(force, velocity, acceleration) through filter, differences, edge cut and decimation."""
+    import scipy.signal  # here, not at the top: the command line imports Preprocessing for any recording
+
     b, a = scipy.signal.butter(FILTER_ORDER, filter_hz / (rec_fs / 2))
     h = 1.0 / rec_fs
     y = scipy.signal.filtfilt(b, a, output)
@@ -149,11 +150,15 @@ def _decimation_sos(r: int) -> np.ndarray:
     """The anti-aliasing filter of ``scipy.signal.decimate(ftype="iir")`` for factor ``r``: Chebyshev type I,
     order 8, 0.05 dB ripple, corner 0.8 / r of Nyquist; designed once per factor (a fit decimates hundreds of
     columns)."""
+    import scipy.signal
+
     return scipy.signal.cheby1(8, 0.05, 0.8 / r, output="sos")
 
 
 def _decimate(x: np.ndarray, r: int) -> np.ndarray:
     """``scipy.signal.decimate(x, r, ftype="iir", zero_phase=True)`` with the filter designed once."""
+    import scipy.signal
+
     x = np.asarray(x, dtype=float)
     return scipy.signal.sosfiltfilt(_decimation_sos(r), x)[::r] if r > 1 else x
 

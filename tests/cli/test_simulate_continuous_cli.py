@@ -17,11 +17,12 @@ def gantry(*args):
 
 
 def test_a_simulated_ripple_is_found_by_the_diagnosis(tmp_path):
+    """The README's round trip."""
     rec = tmp_path / "ripple.csv"
-    out = gantry("simulate", *RIPPLE, "--form", "continuous", "--f-hz", "0.25,1,4", "--duration-s", "4",
+    out = gantry("simulate", *RIPPLE, "--form", "continuous", "--f-hz", "0.25,0.5,1,2,4,8", "--duration-s", "4",
                  "--out", rec)
     assert out.returncode == 0, out.stderr
-    assert "3 sines 0.25-4 Hz x 4 s in one run" in out.stdout and "note:" not in out.stdout
+    assert "6 sines 0.25-8 Hz x 4 s in one run" in out.stdout and "note:" not in out.stdout
     header = rec.read_text().splitlines()[0]
     assert header == "time_s,current_a,position_m"
     side = json.loads(rec.with_suffix(".json").read_text())
@@ -31,9 +32,10 @@ def test_a_simulated_ripple_is_found_by_the_diagnosis(tmp_path):
     result = json.loads(out.stdout)
     assert result["verdict"] == "explained" and result["final_effects"] == ["force_ripple"]
     values = {name: p["value"] for name, p in result["parameters"].items()}
-    assert values["force_ripple.sin1_n"] == pytest.approx(3.0, rel=0.03)
-    assert values["force_ripple.cos1_n"] == pytest.approx(1.0, rel=0.05)
-    assert values["force_ripple.pitch_m"] == pytest.approx(0.03, rel=0.01)
+    assert values["force_ripple.sin1_n"] == pytest.approx(3.0, rel=0.01)
+    assert values["force_ripple.cos1_n"] == pytest.approx(1.0, rel=0.03)
+    assert values["force_ripple.pitch_m"] == pytest.approx(0.03, rel=0.001)
+    assert result["final_noise_ratio"] < 1.0
 
 
 def test_chirp_json_and_a_travel_too_short_for_the_ripple(tmp_path):

@@ -418,10 +418,11 @@ def diagnose_recording(path: str | Path, *, stage: str, candidates: tuple[str, .
                        motor_length_m: float | None = None, columns: str | None = None,
                        sample_rate_hz: float | None = None, amplitude_files: tuple[Path, ...] = (),
                        fit_force_constant: bool = False, frf: str | None = None, band: dict | None = None,
-                       prep: Preprocessing | None = None) -> DiagnosisOutcome:
+                       prep: Preprocessing | None = None, progress=None) -> DiagnosisOutcome:
     """Start from the thesis model and find what the recording needs: a stepped sine (or a time-domain
     recording's frequency response, ``frf``) by the frequency-domain diagnosis with recordings at
-    other amplitudes as evidence of nonlinearity; a time-domain recording by its force balance."""
+    other amplitudes as evidence of nonlinearity; a time-domain recording by its force balance.
+    ``progress(done, total)`` hears the models fitted."""
     from plant.data.read import parse_column_map, read_measurement
     from plant.data.recordings import TimeRecording
     from plant.diagnose.diagnosis import diagnose
@@ -446,7 +447,7 @@ def diagnose_recording(path: str | Path, *, stage: str, candidates: tuple[str, .
                                  "fit needs the force constant set (--set force_constant_n_per_a=...)")
         from plant.diagnose.time_diagnosis import diagnose_time
 
-        return DiagnosisOutcome(diagnose_time(base, recording, candidates=candidates, prep=prep))
+        return DiagnosisOutcome(diagnose_time(base, recording, candidates=candidates, prep=prep, progress=progress))
     measured = _estimate(recording, frf, band)
     dependent = None
     if amplitude_files:
@@ -459,7 +460,7 @@ def diagnose_recording(path: str | Path, *, stage: str, candidates: tuple[str, .
         dependent = bool(amplitude_dependence([measured, *others]).significant)
     free = BASE_FREE + (("force_constant_n_per_a",) if fit_force_constant else ())
     return DiagnosisOutcome(diagnose(base, measured, candidates=candidates, free_base=free,
-                                     amplitude_dependent=dependent), measured)
+                                     amplitude_dependent=dependent, progress=progress), measured)
 
 
 def _estimate(recording, frf: str | None, band: dict | None) -> MeasuredResponse:

@@ -62,16 +62,22 @@ def diagnose(
     """Compare a recording with the thesis model, rank the missing effects and add the justified ones."""
     from design.views.console import print_diagnosis_outcome
     from design.views.json import diagnosis_outcome_to_dict, print_json
+    from design.views.progress import LazyProgress
     from design.workflows import diagnose_recording
     from plant.identify.inverse_model import Preprocessing
 
     keep_inputs({"--report": report, "--compensation": compensation}, [data, *(amplitude_files or [])])
-    outcome = diagnose_recording(
-        data, stage=stage, candidates=tuple(e.strip() for e in effects.split(",") if e.strip()) if effects else None,
-        values=parse_set(set_values), load_position_m=load_position_m, motor_length_m=motor_length_m,
-        columns=columns, sample_rate_hz=sample_rate_hz, amplitude_files=tuple(amplitude_files or ()),
-        fit_force_constant=fit_force_constant, frf=frf, band=parse_band(band_hz),
-        prep=Preprocessing(filter_hz, decimate_band_hz, input_hold))
+    candidates = tuple(e.strip() for e in effects.split(",") if e.strip()) if effects else None
+    progress = LazyProgress(enabled=not as_json and sys.stderr.isatty(), label="diagnose", unit="models")
+    try:
+        outcome = diagnose_recording(
+            data, stage=stage, candidates=candidates,
+            values=parse_set(set_values), load_position_m=load_position_m, motor_length_m=motor_length_m,
+            columns=columns, sample_rate_hz=sample_rate_hz, amplitude_files=tuple(amplitude_files or ()),
+            fit_force_constant=fit_force_constant, frf=frf, band=parse_band(band_hz),
+            prep=Preprocessing(filter_hz, decimate_band_hz, input_hold), progress=progress)
+    finally:
+        progress.close()
     if compensation is not None:
         _write_compensation(outcome, compensation)
     if report is not None:

@@ -343,7 +343,8 @@ def _relation(a: tuple[str, ...], b: tuple[str, ...], fits) -> str:
 
 def diagnose(plant: Plant, data: MeasuredResponse, *, candidates: tuple[str, ...] | None = None,
              free_base: tuple[str, ...] = ("mass_kg", "damping_n_s_per_m"),
-             amplitude_dependent: bool | None = None, max_effects: int = MAX_EFFECTS) -> Diagnosis:
+             amplitude_dependent: bool | None = None, max_effects: int = MAX_EFFECTS,
+             progress=None) -> Diagnosis:
     """Diagnose which effects ``plant`` misses to explain ``data`` (see module doc).
 
     ``plant`` sets the stage, geometry and starting values (its effects, if any, are kept and
@@ -351,7 +352,7 @@ def diagnose(plant: Plant, data: MeasuredResponse, *, candidates: tuple[str, ...
     ``force_constant_n_per_a`` when asked). ``amplitude_dependent`` comes from comparing
     recordings at several amplitudes (``plant.estimate.lockin.amplitude_dependence``). A recording whose
     velocity is an encoder position differenced at its sample rate (``data.metadata``) gets that
-    sensor in every model.
+    sensor in every model. ``progress(done, total)`` hears the models fitted (``search.fit_models``).
     """
     if candidates is not None:
         candidates = tuple(dict.fromkeys(candidates))      # an effect named twice is one candidate
@@ -390,7 +391,7 @@ def diagnose(plant: Plant, data: MeasuredResponse, *, candidates: tuple[str, ...
         return _fit_child(parents, name, host * effect, data, free_base, fixed)
 
     fits, unidentifiable = fit_models(base, base_fit, pool, fit, max_effects=max_effects,
-                                      valid=lambda combo: compatible(combo, base))
+                                      valid=lambda combo: compatible(combo, base), progress=progress)
     adequate = {k: chi2_is_noise(f) for k, f in fits.items()}
     selected = select_model({k: f.bic for k, f in fits.items()}, adequate,
                             {k: f.n_params for k, f in fits.items()})

@@ -31,24 +31,27 @@ F = TypeVar("F")
 
 def fit_models(base: Model, base_fit: F, pool: Sequence[str], fit: Callable[[Model, list[F]], F | str], *,
                max_effects: int, valid: Callable[[Model], bool] = lambda combo: True,
-               ) -> tuple[dict[Model, F], dict[Model, str]]:
+               progress: Callable[[int, int], None] | None = None) -> tuple[dict[Model, F], dict[Model, str]]:
     """Every model ``base + combo`` (``combo`` up to ``max_effects`` of ``pool``, in pool order, that
     ``valid`` accepts and whose parents were fitted), by ``fit(combo, parents)``; and, by ``combo``, why the
-    fitter refused those it returned a reason for."""
+    fitter refused those it returned a reason for. ``progress(done, total)`` hears the combinations tried."""
     fits: dict[Model, F] = {base: base_fit}
     refused: dict[Model, str] = {}
-    for size in range(1, max_effects + 1):
-        for combo in itertools.combinations(pool, size):
-            if not valid(combo):
-                continue
-            parents = [fits[p] for p in (base + tuple(c for c in combo if c != n) for n in combo) if p in fits]
-            if not parents:
-                continue
-            result = fit(combo, parents)
-            if isinstance(result, str):
-                refused[combo] = result
-            else:
-                fits[base + combo] = result
+    todo = [combo for size in range(1, max_effects + 1) for combo in itertools.combinations(pool, size)
+            if valid(combo)]
+    for done, combo in enumerate(todo):
+        if progress is not None:
+            progress(done, len(todo))
+        parents = [fits[p] for p in (base + tuple(c for c in combo if c != n) for n in combo) if p in fits]
+        if not parents:
+            continue
+        result = fit(combo, parents)
+        if isinstance(result, str):
+            refused[combo] = result
+        else:
+            fits[base + combo] = result
+    if progress is not None:
+        progress(len(todo), len(todo))
     return fits, refused
 
 

@@ -183,8 +183,9 @@ def _residual_peak(fit: TimeFitResult) -> tuple[float, float]:
 
 
 def diagnose_time(plant: Plant, rec: TimeRecording, *, candidates: tuple[str, ...] | None = None,
-                  prep: Preprocessing = Preprocessing()) -> TimeDiagnosis:
-    """Fit the base model and every combination of the candidate force effects; select and explain."""
+                  prep: Preprocessing = Preprocessing(), progress=None) -> TimeDiagnosis:
+    """Fit the base model and every combination of the candidate force effects; select and explain.
+    ``progress(done, total)`` hears the models fitted (``search.fit_models``)."""
     if plant.effects:
         raise EffectError("the diagnosis starts from the base model; give a plant without effects")
     data: InverseModelData = inverse_model_data(rec, float(plant.force_constant_n_per_a), prep)
@@ -213,7 +214,7 @@ def diagnose_time(plant: Plant, rec: TimeRecording, *, candidates: tuple[str, ..
         return fit_inverse_model(_plant(plant, effects), data)
 
     models, _ = fit_models((), fit_inverse_model(_plant(plant, ()), data), names, fit,
-                           max_effects=min(len(names), MAX_TIME_EFFECTS), valid=compatible)
+                           max_effects=min(len(names), MAX_TIME_EFFECTS), valid=compatible, progress=progress)
     n_eff = min(models.values(), key=lambda f: f.rss).n_effective
     bics = {c: bic(f, n_eff) for c, f in models.items()}
     admissible = _signatures_shown(models)

@@ -1,0 +1,44 @@
+"""Progress on a terminal: a command a user waits on shows its stage on stderr when stderr is a terminal,
+and nothing when it is piped or --json is given."""
+
+import os
+import pty
+import subprocess
+import sys
+
+
+def gantry(*args, stderr=subprocess.PIPE):
+    return subprocess.run([sys.executable, "-m", "design", *map(str, args)], stdout=subprocess.PIPE,
+                          stderr=stderr, text=True, timeout=600)
+
+
+def _on_a_terminal(*args) -> tuple[int, str]:
+    """Exit status and what the command wrote to stderr, stderr being a pseudo-terminal."""
+    master, slave = pty.openpty()
+    try:
+        out = gantry(*args, stderr=slave)
+        os.close(slave)
+        chunks = []
+        while True:
+            try:
+                chunk = os.read(master, 65536)
+            except OSError:           # the terminal closed: everything was read
+                break
+            if not chunk:
+                break
+            chunks.append(chunk)
+    finally:
+        os.close(master)
+    return out.returncode, b"".join(chunks).decode(errors="replace")
+
+
+def test_diagnose_shows_the_models_it_fits_on_a_terminal_only(tmp_path):
+    rec = tmp_path / "rec.csv"
+    assert gantry("simulate", "--stage", "x", "--out", rec).returncode == 0
+    status, terminal = _on_a_terminal("diagnose", rec, "--stage", "x")
+    assert status == 0
+    assert "diagnose" in terminal and "models" in terminal
+    piped = gantry("diagnose", rec, "--stage", "x")
+    assert piped.returncode == 0 and piped.stderr == ""
+    status, terminal = _on_a_terminal("diagnose", rec, "--stage", "x", "--json")
+    assert status == 0 and terminal == ""

@@ -358,11 +358,12 @@ def fit_recording(path: str | Path, *, stage: str, effects: tuple[str, ...] = ()
                   values: dict[str, float] | None = None, load_position_m: float | None = None,
                   columns: str | None = None, sample_rate_hz: float | None = None, frf: str | None = None,
                   band: dict | None = None, method: str = "inverse-model", prep: Preprocessing | None = None,
-                  rational: str | None = None, rational_weighting: str = "inverse_sigma") -> FitOutcome:
+                  rational: str | None = None, rational_weighting: str = "inverse_sigma",
+                  progress=lambda stage: None) -> FitOutcome:
     """Fit a plant with ``effects`` to any recording: a stepped sine (lock-in, then maximum likelihood), a
     time-domain recording by the inverse model or output error (``method``), or its frequency response
     (``frf``: auto, periodic, lpm or closed-loop) as a stepped sine's. ``rational`` ("POLES,ZEROS") adds
-    a tfest-like rational fit of the frequency response."""
+    a tfest-like rational fit of the frequency response. ``progress(stage)`` hears each stage begin."""
     from plant.data.read import parse_column_map, read_measurement
     from plant.data.recordings import TimeRecording
     from plant.identify.fitting import fit_plant
@@ -376,21 +377,27 @@ def fit_recording(path: str | Path, *, stage: str, effects: tuple[str, ...] = ()
         raise ParameterError(f"--stage must be x or y, got {stage!r}")
     fx = tuple(make_effect(n) for n in effects)
     geometry = {"load_position_m": load_position_m} if load_position_m is not None else {}
+    progress("reading the recording")
     recording = read_measurement(path, columns=parse_column_map(columns) if columns else None,
                                  sample_rate_hz=sample_rate_hz)
     if isinstance(recording, TimeRecording) and frf is None:
         if method not in ("inverse-model", "output-error"):
             raise ParameterError(f"--method must be inverse-model or output-error, got {method!r}")
         plant = Plant(stage, effects=fx, excitation_current_a=1.0, **geometry).with_values(values or {})
+        progress("filtering and differencing")
         data = inverse_model_data(recording, float(plant.force_constant_n_per_a), prep)
+        progress("fitting the inverse model")
         plant = configure_from_recording(plant, data, tuple(values or {}))
         result = fit_inverse_model(plant, data, free=free)
         if method == "output-error":
+            progress("fitting the output error (simulating the velocity)")
             result = fit_output_error(plant, recording, start=result, prep=prep)
         return FitOutcome(result)
+    progress("estimating the frequency response")
     measured = _estimate(recording, frf, band)
     plant = Plant(stage, effects=fx, excitation_current_a=float(measured.current_amplitude_a.mean()),
                   **geometry).with_values(values or {})
+    progress("fitting the model")
     result = fit_plant(plant, measured, free=free)
     return FitOutcome(result, _rational(measured, rational, rational_weighting) if rational else None, measured)
 

@@ -3,6 +3,7 @@ frequency domain, a time-domain recording (any excitation) by the inverse model 
 
 from __future__ import annotations
 
+import sys
 from pathlib import Path
 from typing import Annotated, Optional
 
@@ -55,15 +56,21 @@ def fit(
     stepped sine's frequency response, IDIM-LS or output error on a time-domain recording."""
     from design.views.console import print_fit
     from design.views.json import fit_outcome_to_dict, print_json
+    from design.views.progress import StageProgress
     from design.workflows import fit_recording
     from plant.identify.inverse_model import Preprocessing
 
-    outcome = fit_recording(
-        data, stage=stage, effects=tuple(e.strip() for e in (effects or "").split(",") if e.strip()),
-        free=tuple(p.strip() for p in free.split(",") if p.strip()) if free else None, values=parse_set(set_values),
-        load_position_m=load_position_m, columns=columns, sample_rate_hz=sample_rate_hz, frf=frf,
-        band=parse_band(band_hz), method=method, prep=Preprocessing(filter_hz, decimate_band_hz, input_hold),
-        rational=rational, rational_weighting=rational_weighting)
+    progress = StageProgress(enabled=not as_json and sys.stderr.isatty())
+    try:
+        outcome = fit_recording(
+            data, stage=stage, effects=tuple(e.strip() for e in (effects or "").split(",") if e.strip()),
+            free=tuple(p.strip() for p in free.split(",") if p.strip()) if free else None,
+            values=parse_set(set_values), load_position_m=load_position_m, columns=columns,
+            sample_rate_hz=sample_rate_hz, frf=frf, band=parse_band(band_hz), method=method,
+            prep=Preprocessing(filter_hz, decimate_band_hz, input_hold), rational=rational,
+            rational_weighting=rational_weighting, progress=progress)
+    finally:
+        progress.close()
     if as_json:
         print_json(fit_outcome_to_dict(outcome))
     else:

@@ -34,7 +34,7 @@ def _on_a_terminal(*args) -> tuple[int, str]:
 
 def test_diagnose_shows_the_models_it_fits_on_a_terminal_only(tmp_path):
     rec = tmp_path / "rec.csv"
-    assert gantry("simulate", "--stage", "x", "--out", rec).returncode == 0
+    assert gantry("simulate", "--stage", "x", "--f-hz", "1:75:20", "--duration-s", "2", "--out", rec).returncode == 0
     status, terminal = _on_a_terminal("diagnose", rec, "--stage", "x")
     assert status == 0
     assert "diagnose" in terminal and "models" in terminal
@@ -42,3 +42,13 @@ def test_diagnose_shows_the_models_it_fits_on_a_terminal_only(tmp_path):
     assert piped.returncode == 0 and piped.stderr == ""
     status, terminal = _on_a_terminal("diagnose", rec, "--stage", "x", "--json")
     assert status == 0 and terminal == ""
+
+
+def test_fit_shows_its_stage_on_a_terminal_only(tmp_path):
+    rec = tmp_path / "rec.csv"
+    assert gantry("simulate", "--stage", "x", "--form", "chirp", "--f-hz", "0.5:20:2", "--duration-s", "15",
+                  "--out", rec).returncode == 0
+    status, terminal = _on_a_terminal("fit", rec, "--stage", "x", "--method", "output-error")
+    assert status == 0 and "fitting" in terminal
+    piped = gantry("fit", rec, "--stage", "x", "--method", "output-error", "--json")
+    assert piped.returncode == 0 and piped.stderr == ""

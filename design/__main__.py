@@ -1,6 +1,12 @@
 """``python -m design`` runs the ``gantry`` command line."""
 
-from design.cli import main
+try:
+    from design.cli import main
+except KeyboardInterrupt:       # Ctrl-C while the entry module itself loads, before main's handlers
+    import sys
+
+    sys.stderr.write("gantry: error: interrupted\n")
+    sys.exit(130)
 
 try:
     main()

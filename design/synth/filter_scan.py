@@ -20,6 +20,7 @@ import numpy as np
 from design.loop.loops import pi_frd
 from design.loop.margins import closed_loop_bandwidth_hz, loop_margins
 from design.problem import LoopProblem
+from design.synth.scan import GAIN_CHUNK
 from design.synth.scenarios import Scenarios
 from plant.grid import log_grid_rad_s
 from plant.physics.drive_filters import FILTERS, KINDS
@@ -65,13 +66,16 @@ def scan_filters(problem: LoopProblem, scenarios: Scenarios, *, top: int = 3) ->
         for f, v in zip(c.filters, values):
             if v is not None:
                 F = F * KINDS[f.kind](**v).response(s)
-        L = P[None, :, :] * (C * F)[:, None, :]                         # (n_gain, n_scenario, n_freq)
-        m = loop_margins(W_SCAN, L)
-        ok = np.all((m.phase_margin_deg >= req.phase_margin_deg) & (m.gain_margin_db >= req.gain_margin_db)
-                    & m.closed_loop_stable, axis=1)
-        if not ok.any():
-            continue
-        bw = closed_loop_bandwidth_hz(W_SCAN, L[ok] / (1 + L[ok]), dc_gain=1.0, level2=req.level2)
-        scored.append((float(np.max(np.min(np.nan_to_num(bw, nan=0.0), axis=1))), values))
+        best = -np.inf
+        for start in range(0, KP.size, GAIN_CHUNK):
+            L = P[None, :, :] * (C[start:start + GAIN_CHUNK] * F)[:, None, :]    # (gains, scenarios, freq)
+            m = loop_margins(W_SCAN, L)
+            ok = np.all((m.phase_margin_deg >= req.phase_margin_deg) & (m.gain_margin_db >= req.gain_margin_db)
+                        & m.closed_loop_stable, axis=1)
+            if ok.any():
+                bw = closed_loop_bandwidth_hz(W_SCAN, L[ok] / (1 + L[ok]), dc_gain=1.0, level2=req.level2)
+                best = max(best, float(np.max(np.min(np.nan_to_num(bw, nan=0.0), axis=1))))
+        if best > -np.inf:
+            scored.append((best, values))
     scored.sort(key=lambda sv: -sv[0])
     return scored[:top]

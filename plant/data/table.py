@@ -60,6 +60,13 @@ def streamed_numbers(path: str | Path) -> tuple[list[str], dict[str, np.ndarray]
     return header, {name: data[:, k] for k, name in enumerate(header)}
 
 
+def require_columns(path: str | Path, header: list[str], names) -> None:
+    """A ``DataError`` naming the first of ``names`` that ``header`` (of ``path``) lacks."""
+    for name in names:
+        if name not in header:
+            raise DataError(f"{path}: missing column {name!r} (header: {', '.join(header)})")
+
+
 @dataclass(frozen=True)
 class CsvTable:
     """A CSV file's header and its data lines (blank lines left out) with their row numbers (header = 1)."""
@@ -84,9 +91,7 @@ class CsvTable:
 
     def require(self, names) -> None:
         """A ``DataError`` naming the first of ``names`` the header lacks."""
-        for name in names:
-            if name not in self.header:
-                raise DataError(f"{self.path}: missing column {name!r} (header: {', '.join(self.header)})")
+        require_columns(self.path, self.header, names)
 
     def numbers(self, names, *, optional=()) -> dict[str, np.ndarray]:
         """The columns ``names`` as floats: a cell that is not a number is a ``DataError`` naming its row and

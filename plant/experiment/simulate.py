@@ -407,12 +407,17 @@ def output_column_names(plant: Plant) -> tuple[str, ...]:
 
 
 def _check_plant(plant: Plant) -> None:
-    """One plant, not a batch: every parameter a single value; no effect the stepped sine does not model."""
+    """One plant, not a batch; no effect the stepped sine does not model."""
     for e in plant.effects:
         if not e.simulated:
             raise EffectError(f"{e.name}: the stepped-sine blocks do not model it (a force that depends on the "
                               "position or changes no frequency response); simulate one continuous run instead "
                               "(plant.experiment.simulate_time, gantry simulate --form continuous or chirp)")
+    check_single(plant)
+
+
+def check_single(plant: Plant) -> None:
+    """One plant, not a batch: every parameter a single value (``ParameterError`` naming the first that is not)."""
     for name in plant.parameters():
         effect_name, _, field = name.rpartition(".")
         _scalar(name, getattr(plant.effect(effect_name), field) if effect_name else getattr(plant, name))

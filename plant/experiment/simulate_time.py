@@ -34,7 +34,7 @@ import scipy.linalg
 
 from plant.data.recordings import TimeRecording
 from plant.errors import EffectError, ParameterError
-from plant.experiment.simulate import MAX_SAMPLES, _chain, _internal_rate, _rate_fraction, _scalar
+from plant.experiment.simulate import MAX_SAMPLES, _chain, _internal_rate, _rate_fraction, _scalar, check_single
 from plant.physics.models import Plant
 from plant.physics.parameters import check_finite, check_positive
 
@@ -91,8 +91,8 @@ def chirp(*, f0_hz: float, f1_hz: float, amplitude_a: float, duration_s: float) 
 def _augmented(plant: Plant):
     """(A, b_u, b_f, c_contact, c_current, C_position, C_velocity, n_chain): the chain of
     ``plant.experiment.simulate`` with the rails' position (state n_chain) and one position per recorded velocity
-    appended as states; ``c_current`` reads the
-    current the motor carries (None: the input itself, no current loop)."""
+    appended as states; ``c_current`` reads the current the motor carries (None: the input itself, no current
+    loop)."""
     for name, why in _NOT_MODELLED.items():
         if plant.effect(name) is not None:
             raise EffectError(f"effect {name}: the continuous simulation does not model it ({why})")
@@ -105,7 +105,7 @@ def _augmented(plant: Plant):
     A[n + 1:, :n] = chain.C_out
     b_u = np.concatenate([chain.b_u, np.zeros(1 + n_out)])
     b_f = np.concatenate([chain.B_f[:, 0], np.zeros(1 + n_out)])
-    c_contact = np.concatenate([chain.C_contact[0], np.zeros(1 + n_out)])
+    c_contact = A[n].copy()                      # the rails' velocity: the derivative of their position
     c_current = None
     if plant.effect("current_loop") is not None:
         c_current = np.zeros(N)
@@ -147,10 +147,7 @@ def simulate_time_domain(plant: Plant, excitation: Excitation, *, sample_rate_hz
     if n_samples > MAX_SAMPLES / 4:
         raise ParameterError(f"{excitation.duration_s:g} s at {sample_rate_hz:g} Hz is {n_samples:.3g} samples, "
                              f"more than the {MAX_SAMPLES / 4:.0e} a continuous run may have")
-    for name in plant.parameters():
-        effect_name, _, field = name.rpartition(".")
-        _scalar(name, getattr(plant.effect(effect_name), field) if effect_name else getattr(plant, name))
-
+    check_single(plant)
     if output not in ("position", "velocity"):
         raise ParameterError(f"output must be position or velocity, got {output!r}")
     A, b_u, b_f, c_contact, c_current, C_pos, C_vel, n_chain = _augmented(plant)

@@ -15,16 +15,22 @@ from design.synth.scan import W_OPT, Scan
 
 #: bisection on the bandwidth target stops at this ratio; the exact step takes it from there
 BISECTION_RATIO = 1.05
-
+#: rows whose point L lies farther than this many radii from its circle's centre are left out of an LP
+#: until its solution violates them
+SCREEN_RADII = 4.0
+#: bandwidth rows further than this above the closest one are left out likewise
+SCREEN_GAP = 0.5
+#: a left-out row counts as violated below its bound by more than this (relative)
+LP_TOLERANCE = 1e-7
 
 
 
 class _CCP:
-    """Tangent-half-plane LP of the circle constraints, built once with cvxpy parameters."""
+    """Tangent-half-plane LP of the circle constraints. Each LP is solved on the rows near their circles at
+    the iterate (``SCREEN_RADII``), and again with every row it violates until it violates none: then it is
+    the solution of the LP on all rows (a relaxation whose optimum is feasible for the whole is optimal)."""
 
     def __init__(self, P: np.ndarray, w: np.ndarray, problem: LoopProblem):
-        import cvxpy as cp
-
         c = problem.controller
         self.scale = np.array([max(c.kp.max, 1e-9), max(c.ki.max, 1e-9)])
         # L = a kp + b ki per (payload, frequency), flattened
@@ -33,37 +39,44 @@ class _CCP:
         self.wrow = np.broadcast_to(w, P.shape).ravel()
         self.circles = requirement_circles(problem)
         self.bandwidth = bandwidth_circle(problem.requirements.level2)
+        self.lo = np.array([c.kp.min, c.ki.min]) / self.scale
         self.lp_solves = 0
-        n = self.a.size
-        nm = n * len(self.circles)
-        self.x = cp.Variable(2)
-        self.t = cp.Variable()
-        self.Am = cp.Parameter((nm, 2))
-        self.bm = cp.Parameter(nm)
-        self.Ab = cp.Parameter((n, 2))
-        self.bb = cp.Parameter(n)
-        lo = np.array([c.kp.min, c.ki.min]) / self.scale
-        cons = [self.Am @ self.x >= self.bm, self.Ab @ self.x - self.t >= self.bb, self.x >= lo, self.x <= 1.0,
-                self.t <= 1.0]
+        self.hf = None
         hf = high_frequency_rows(problem)
         if hf is not None:      # |kp a + ki b| <= limit: second-order cones, convex as they stand
             _, a, b = hf
-            re = np.column_stack([a.real, b.real]) * self.scale
-            im = np.column_stack([a.imag, b.imag]) * self.scale
-            lim = problem.requirements.max_high_frequency_gain * (1 - MARGIN_HAIR / 100)
-            cons.append(cp.norm(cp.vstack([re @ self.x, im @ self.x]), 2, axis=0) <= lim)
-        self.problem = cp.Problem(cp.Maximize(self.t), cons)
+            self.hf = (np.column_stack([a.real, b.real]) * self.scale, np.column_stack([a.imag, b.imag]) * self.scale,
+                       problem.requirements.max_high_frequency_gain * (1 - MARGIN_HAIR / 100))
 
     def _rows(self, L0, centre, radius):
-        n = (L0 - centre) / np.maximum(np.abs(L0 - centre), 1e-12)
+        d = np.abs(L0 - centre)
+        n = (L0 - centre) / np.maximum(d, 1e-12)
         A = np.column_stack([np.real(np.conj(n) * self.a), np.real(np.conj(n) * self.b)]) * self.scale
         rhs = radius + centre * np.real(n)
-        return A, rhs
+        return A, rhs, d <= SCREEN_RADII * radius
+
+    def _lp(self, Am, bm, Ab, bb):
+        """max t s.t. Am x >= bm, Ab x - t >= bb, the gain box, t <= 1 (and the noise cones): (x, t) or None."""
+        import cvxpy as cp
+
+        x, t = cp.Variable(2), cp.Variable()
+        cons = [x >= self.lo, x <= 1.0, t <= 1.0]
+        if Am.shape[0]:
+            cons.append(Am @ x >= bm)
+        if Ab.shape[0]:
+            cons.append(Ab @ x - t >= bb)
+        if self.hf is not None:
+            re, im, lim = self.hf
+            cons.append(cp.norm(cp.vstack([re @ x, im @ x]), 2, axis=0) <= lim)
+        problem = cp.Problem(cp.Maximize(t), cons)
+        problem.solve(solver=cp.CLARABEL)
+        self.lp_solves += 1
+        if problem.status not in ("optimal", "optimal_inaccurate") or x.value is None:
+            return None
+        return np.asarray(x.value), float(t.value)
 
     def solve(self, x0: np.ndarray, w_b: float, *, iterations: int = 30) -> tuple[np.ndarray, float]:
         """CCP from ``x0`` (scaled gains) for bandwidth target ``w_b``; returns (x, t), t >= 0: feasible."""
-        import cvxpy as cp
-
         x, t_prev, t = x0, -math.inf, -math.inf
         active = self.wrow <= w_b
         for _ in range(iterations):
@@ -71,15 +84,24 @@ class _CCP:
             # radii 0.3 % larger: a hair inside the requirements, so the design meets them on the dense grid
             rows = [self._rows(L0, c, 1.003 * r) for c, r in self.circles]
             Am, bm = np.vstack([r[0] for r in rows]), np.concatenate([r[1] for r in rows])
-            Ab, bb = self._rows(L0, *self.bandwidth)
-            Ab[~active] = 0.0
-            bb[~active] = -1e3
-            self.Am.value, self.bm.value, self.Ab.value, self.bb.value = Am, bm, Ab, bb
-            self.problem.solve(solver=cp.CLARABEL)
-            self.lp_solves += 1
-            if self.problem.status not in ("optimal", "optimal_inaccurate") or self.x.value is None:
-                return x, -math.inf
-            x, t = np.asarray(self.x.value), float(self.t.value)
+            keep_m = np.concatenate([r[2] for r in rows])
+            Ab, bb, _ = self._rows(L0, *self.bandwidth)
+            Ab, bb = Ab[active], bb[active]
+            gap = Ab @ x - bb
+            keep_b = gap <= (np.min(gap, initial=np.inf) + SCREEN_GAP)
+            while True:
+                sol = self._lp(Am[keep_m], bm[keep_m], Ab[keep_b], bb[keep_b])
+                if sol is None:
+                    return x, -math.inf
+                x_new, t = sol
+                tol = LP_TOLERANCE * (1 + np.abs(bm))
+                miss_m = ~keep_m & (Am @ x_new < bm - tol)
+                miss_b = ~keep_b & (Ab @ x_new - t < bb - LP_TOLERANCE * (1 + np.abs(bb)))
+                if not (miss_m.any() or miss_b.any()):
+                    break
+                keep_m |= miss_m
+                keep_b |= miss_b
+            x = x_new
             if t >= 0 or t - t_prev < 1e-3:     # feasible, or stalled below 0
                 return x, t
             t_prev = t

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, replace
+from functools import lru_cache
 
 import numpy as np
 
@@ -18,11 +19,25 @@ from plant.physics.drive_filters import FILTERS, KINDS
 from plant.physics.models import Plant
 
 
-def _casadi_frd(plant: Plant, w):
-    """(Re, Im) of P(jw) as casadi expressions of w: the plant's own response formula
-    (``Plant.response``) built with casadi arithmetic."""
+def _casadi_frd(plant: Plant, w, symbolic: bool = False):
+    """(Re, Im) of P(jw) as casadi expressions of w: the plant's own response formula (``Plant.response``)
+    built with casadi arithmetic; a numeric plant's once (``_frd_function``), a plant with symbolic
+    parameters afresh."""
+    if symbolic:
+        out = plant.response(Pair(0.0, w), CASADI)
+        return out.re, out.im
+    return _frd_function(plant)(w)
+
+
+@lru_cache(maxsize=512)
+def _frd_function(plant: Plant):
+    """casadi Function w -> (Re, Im) of P(jw) of a numeric plant: every crossing of every start and
+    round of a design meets the same scenario plants."""
+    import casadi as ca
+
+    w = ca.SX.sym("w")
     out = plant.response(Pair(0.0, w), CASADI)
-    return out.re, out.im
+    return ca.Function("frd", [w], [out.re, out.im])
 
 
 def _first_crossing(w, f):
@@ -106,7 +121,7 @@ def exact_design(problem: LoopProblem, scenarios: Scenarios, kp0: float, ki0: fl
             lbx.append(max(math.log(w0) - 1.5, math.log(W_OPT[0])))
             ubx.append(min(math.log(w0) + 1.5, math.log(W_OPT[-1])))
             w = ca.exp(lw)
-            pr, pi_ = _casadi_frd(plant, w)
+            pr, pi_ = _casadi_frd(plant, w, bool(symbolic))
             lr = pr * kp + pi_ * ki / w         # L = P (kp - j ki / w)
             li = pi_ * kp - pr * ki / w
             if kind == "c":

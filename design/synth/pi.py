@@ -172,7 +172,7 @@ def _solve(problem: LoopProblem, scenarios: Scenarios, dense: Scenarios, method:
     the exact refinements from the ccp design and the best seeds (method "ccp": the ccp design); and
     the scan."""
     P = scenarios.plants(problem.plant.plant()).frd(W_OPT)
-    scan = scan_gains(problem, P)
+    scan = scan_gains(problem, P, scenarios.payload_kg)
     notes["scan_designs"] = notes.get("scan_designs", 0) + scan.kp.size
     seeds = scan.best(scan.meets, scan.worst_bandwidth_hz, EXTRA_STARTS)
     if not seeds:   # nothing meets the requirements: start from the least violating gains
@@ -436,7 +436,10 @@ def _synthesise(problem: LoopProblem, method: str, max_rounds: int, extra: list[
     base, names = baselines(problem)
     pts = tuple(float(p) for p in np.unique(points.payload_kg))
     if not good:
-        d = first_scan[0].diagnose(first_scan[1])
+        scan, scanned = first_scan
+        if scan.screened:
+            scan = scan_gains(problem, scanned.plants(problem.plant.plant()).frd(W_OPT))
+        d = scan.diagnose(scanned)
         what, where = d["constraint"].replace("_", " "), d["where"]
         short = (f"kp = {d['kp']:.4g}, ki = {d['ki']:.4g} miss it by {-100 * d['relative_slack']:.1f} %"
                  if d["relative_slack"] > -1 else f"the closed loop is unstable, e.g. kp = {d['kp']:.4g}, "

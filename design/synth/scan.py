@@ -46,10 +46,15 @@ class Scan:
     relative_slack: np.ndarray
     #: relative slack per requirement, each shaped (gains, scenarios)
     slack: dict
+    #: the gains failing at the lightest or heaviest payload were evaluated there alone (their slack at the
+    #: other scenarios is nan, their figures are those of the screening scenarios)
+    screened: bool = False
 
     def diagnose(self, scenarios: Scenarios) -> dict:
         """Why nothing on the scan meets the requirements: the payload where the best gains for that
         payload alone fall furthest short, or, when each payload alone is feasible, the conflict."""
+        if self.screened:
+            raise ValueError("diagnose needs a scan of every gain on every scenario (scan_gains without payload_kg)")
         per = np.min(np.array(list(self.slack.values())), axis=0)          # (gains, payloads)
         alone = per.max(axis=0)
         j = int(np.argmin(alone))
@@ -96,13 +101,14 @@ def _evaluate(problem: LoopProblem, P: np.ndarray, kp: np.ndarray, ki: np.ndarra
     return out
 
 
-def scan_gains(problem: LoopProblem, P: np.ndarray, *, n: int = SCAN_POINTS) -> Scan:
-    """Evaluate an n x n log grid of (kp, ki) on the responses ``P`` (scenarios x ``W_OPT``)."""
-    c, req = problem.controller, problem.requirements
-    KP, KI = np.meshgrid(_gain_grid(c.kp.min, c.kp.max, n), _gain_grid(c.ki.min, c.ki.max, n), indexing="ij")
-    kp, ki = KP.ravel(), KI.ravel()
+def _chunked(problem: LoopProblem, P: np.ndarray, kp: np.ndarray, ki: np.ndarray) -> dict[str, np.ndarray]:
     parts = [_evaluate(problem, P, kp[s:s + GAIN_CHUNK], ki[s:s + GAIN_CHUNK]) for s in range(0, kp.size, GAIN_CHUNK)]
-    ev = {k: np.concatenate([part[k] for part in parts]) for k in parts[0]}
+    return {k: np.concatenate([part[k] for part in parts]) for k in parts[0]}
+
+
+def _slack(problem: LoopProblem, ev: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+    """Relative slack per requirement (gains, scenarios)."""
+    req = problem.requirements
     bw = ev["bandwidth_hz"]
     pm = np.where(ev["stable"], ev["phase_margin_deg"], 0.0)
     slack = {"phase_margin": (pm - req.phase_margin_deg) / max(req.phase_margin_deg, 1.0),
@@ -112,9 +118,57 @@ def scan_gains(problem: LoopProblem, P: np.ndarray, *, n: int = SCAN_POINTS) -> 
         slack["peak_sensitivity"] = (req.peak_sensitivity - ev["peak_sensitivity"]) / req.peak_sensitivity
     if req.disk_margin is not None:
         slack["disk_margin"] = (ev["disk_margin"] - req.disk_margin) / req.disk_margin
-    rel = np.min(np.min(np.array(list(slack.values())), axis=0), axis=-1)
+    return slack
+
+
+def scan_gains(problem: LoopProblem, P: np.ndarray, payload_kg: np.ndarray | None = None, *,
+               n: int = SCAN_POINTS) -> Scan:
+    """Evaluate an n x n log grid of (kp, ki) on the responses ``P`` (scenarios x ``W_OPT``).
+
+    With ``payload_kg`` (per scenario) every gain is evaluated first on the scenarios at the lightest and
+    heaviest payloads, and only the gains that meet the requirements there on the others: a gain failing
+    them cannot meet the requirements, and its slack elsewhere stays nan (``Scan.screened``). When no gain
+    meets the requirements, every gain is evaluated on every scenario, so that ``Scan.diagnose`` sees all."""
+    c = problem.controller
+    KP, KI = np.meshgrid(_gain_grid(c.kp.min, c.kp.max, n), _gain_grid(c.ki.min, c.ki.max, n), indexing="ij")
+    kp, ki = KP.ravel(), KI.ravel()
+    if payload_kg is not None:
+        rows = np.isin(payload_kg, [np.min(payload_kg), np.max(payload_kg)])
+        if not rows.all():
+            first = _chunked(problem, P[rows], kp, ki)
+            slack_first = _slack(problem, first)
+            rel = _relative(slack_first)
+            passed = rel >= 0
+            if passed.any():
+                rest = _chunked(problem, P, kp[passed], ki[passed])
+                slack_rest = _slack(problem, rest)
+                rel[passed] = _relative(slack_rest)
+                if np.any(rel >= 0):
+                    slack = {}
+                    for k, v in slack_first.items():
+                        slack[k] = np.full((kp.size, P.shape[0]), np.nan)
+                        slack[k][:, rows] = v
+                        slack[k][passed] = slack_rest[k]
+                    bw = np.full((kp.size, P.shape[0]), np.nan)
+                    bw[:, rows] = first["bandwidth_hz"]
+                    bw[passed] = rest["bandwidth_hz"]
+                    ev = {k: first[k].copy() for k in ("circles_clear", "first_inside")}
+                    for k in ev:
+                        ev[k][passed] = rest[k]
+                    return _scan(kp, ki, rel, slack, bw, ev, True)
+    ev = _chunked(problem, P, kp, ki)
+    slack = _slack(problem, ev)
+    return _scan(kp, ki, _relative(slack), slack, ev["bandwidth_hz"], ev, False)
+
+
+def _relative(slack: dict[str, np.ndarray]) -> np.ndarray:
+    """Least relative slack per gain over the requirements and the scenarios."""
+    return np.min(np.min(np.array(list(slack.values())), axis=0), axis=-1)
+
+
+def _scan(kp, ki, rel, slack, bw, ev, screened: bool) -> Scan:
     circle_ok = (rel >= 0) & ev["circles_clear"]     # outside the circles, and on the stable side of them
     circle_bw = W_OPT[np.maximum(ev["first_inside"] - 1, 0)] / (2 * np.pi)
     with np.errstate(invalid="ignore"):
         worst_bw = np.nan_to_num(np.min(bw, axis=-1))
-    return Scan(kp, ki, rel >= 0, worst_bw, circle_ok, circle_bw, rel, slack)
+    return Scan(kp, ki, rel >= 0, worst_bw, circle_ok, circle_bw, rel, slack, screened)

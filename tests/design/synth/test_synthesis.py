@@ -16,11 +16,13 @@ import pytest
 
 from design.loop.fast import fast_analyse_loop
 from design.spec.schema import parse_spec
+from design.synth import ccp
+from design.synth.ccp import ccp_design
 from design.synth.evaluation import margin_circle
 from design.synth.exact import _casadi_frd
 from design.synth.pi import synthesise_pi
 from design.synth.scan import W_OPT, scan_gains
-from design.synth.scenarios import Scenarios
+from design.synth.scenarios import Scenarios, design_scenarios
 from design.synth.schedule import gain_schedule
 from design.synth.verify import verify
 from design.views.json import synthesis_to_dict
@@ -229,6 +231,40 @@ def test_scan_marks_unstable_loops_like_python_control():
         stable = np.all(np.real(control.poles(control.feedback(sys5 * control.tf([kp, ki], [1, 0]), 1))) < 0)
         if not stable:
             assert rel == -1.0, (kp, ki)   # unstable: counted as 0 deg phase margin
+
+
+def test_screened_scan_keeps_every_gain_that_meets_the_requirements():
+    # the scan evaluates gains failing at the extreme payloads nowhere else: the gains that meet the
+    # requirements and their worst bandwidths must be those of the scan of every gain on every scenario
+    spec = spec_with(uncertainty=True)
+    points = design_scenarios(spec)
+    P = points.plants(spec.plant.plant()).frd(W_OPT)
+    full, screened = scan_gains(spec, P), scan_gains(spec, P, points.payload_kg)
+    assert screened.screened and not full.screened
+    assert 0 < screened.meets.sum() < screened.meets.size
+    assert np.array_equal(screened.meets, full.meets)
+    assert np.array_equal(screened.circle_ok, full.circle_ok)
+    assert np.array_equal(screened.worst_bandwidth_hz[full.meets], full.worst_bandwidth_hz[full.meets])
+    assert np.array_equal(screened.relative_slack[full.meets], full.relative_slack[full.meets])
+    assert np.all(screened.relative_slack[~full.meets] >= full.relative_slack[~full.meets])
+    with pytest.raises(ValueError, match="every gain on every scenario"):
+        screened.diagnose(points)
+
+
+def test_screened_lp_rows_give_the_lp_of_every_row(monkeypatch):
+    # the convex-concave LPs solved on the rows near their circles (and every row they violate) against
+    # the same LPs on every row
+    spec = spec_with(uncertainty=True)
+    points = design_scenarios(spec)
+    P = points.plants(spec.plant.plant()).frd(W_OPT)
+    scan = scan_gains(spec, P, points.payload_kg)
+    screened = ccp_design(spec, P, scan)
+    monkeypatch.setattr(ccp, "SCREEN_RADII", math.inf)
+    monkeypatch.setattr(ccp, "SCREEN_GAP", math.inf)
+    every = ccp_design(spec, P, scan)
+    assert screened.lp_solves >= every.lp_solves
+    assert screened.target_hz == pytest.approx(every.target_hz, rel=1e-6)
+    assert [screened.kp, screened.ki] == pytest.approx([every.kp, every.ki], rel=1e-5)
 
 
 def test_verification_catches_bad_designs():

@@ -15,13 +15,15 @@ import numpy as np
 import pytest
 
 from design.loop.fast import fast_analyse_loop
+from design.loop.margins import closed_loop_bandwidth_hz, loop_margins
 from design.problem import with_filter_values
 from design.spec.schema import parse_spec
 from design.synth.exact import _casadi_frd
-from design.synth.filter_scan import filter_settings
+from design.synth.filter_scan import SCAN_GAINS, W_SCAN, filter_settings, scan_filters
+from design.synth.scenarios import design_scenarios
 from plant import CurrentLoop, Delay, stage_x
 from plant.errors import SpecError
-from plant.physics.drive_filters import LowPassFilter, NotchFilter
+from plant.physics.drive_filters import FILTERS, KINDS, LowPassFilter, NotchFilter
 
 ROOT = Path(__file__).resolve().parents[3]
 RESONANT = ROOT / "specs" / "stage_x_resonant_payload.toml"
@@ -163,6 +165,31 @@ def test_the_filter_scan_covers_every_designed_range():
                 assert all(lo - 1e-9 <= v[k] <= hi + 1e-9 for k, (lo, hi) in f.ranges.items())
     depths = {v[0]["depth"] for v in settings if v[0] is not None}
     assert min(depths) == notch.ranges["depth"][0] and max(depths) == notch.ranges["depth"][1]
+
+
+def test_the_filter_scan_scores_settings_as_a_check_of_every_gain_on_every_payload():
+    # the scan checks gains at the lightest and heaviest payloads first; its scores must be those of every
+    # gain on every payload, computed here with python-control's conventions through loop_margins
+    problem = parse_spec(tomllib.loads(RESONANT.read_text())).problem()
+    points = design_scenarios(problem)
+    req, c = problem.requirements, problem.controller
+    base = problem.plant.plant()
+    P = points.plants(base.with_effects(*[e for e in base.effects if e.name not in FILTERS])).frd(W_SCAN)
+    kp = np.geomspace(max(c.kp.min, 1e-4 * c.kp.max), c.kp.max, SCAN_GAINS)
+    ki = np.geomspace(max(c.ki.min, 1e-4 * c.ki.max), c.ki.max, SCAN_GAINS)
+    KP, KI = (g.ravel() for g in np.meshgrid(kp, ki, indexing="ij"))
+    C = KP[:, None] + KI[:, None] / (1j * W_SCAN)
+    top = scan_filters(problem, points)
+    assert len(top) == 3
+    for score, values in top:
+        F = np.prod([KINDS[f.kind](**v).response(1j * W_SCAN) for f, v in zip(c.filters, values) if v is not None],
+                    axis=0)
+        L = P[None] * (C * F)[:, None, :]
+        m = loop_margins(W_SCAN, L)
+        ok = np.all((m.phase_margin_deg >= req.phase_margin_deg) & (m.gain_margin_db >= req.gain_margin_db)
+                    & m.closed_loop_stable, axis=1)
+        bw = closed_loop_bandwidth_hz(W_SCAN, L[ok] / (1 + L[ok]), dc_gain=1.0, level2=req.level2)
+        assert score == pytest.approx(np.max(np.min(np.nan_to_num(bw), axis=1)), rel=1e-12)
 
 
 @pytest.mark.slow

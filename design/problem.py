@@ -118,14 +118,19 @@ class Uncertainty:
         check_ordered(self.min, self.max)
 
 
+#: gains (A per m/s, A per m) and their bounds lie within [1/GAIN_LIMIT, GAIN_LIMIT]: the scan spans six
+#: decades below the upper bound, and the solvers work on gains scaled by it in double precision
+GAIN_LIMIT = 1.0e9
+
+
 @dataclass(frozen=True)
 class GainBounds:
     """A controller gain: ``value`` (used for analysis), and bounds for synthesis."""
 
     __pydantic_config__ = FORBID
-    value: Annotated[float, Ge(0)] | None = None
-    min: Annotated[float, Ge(0)] = 0.0
-    max: Annotated[float, Gt(0)] = 1.0e7
+    value: Annotated[float, Ge(0), Le(GAIN_LIMIT)] | None = None
+    min: Annotated[float, Ge(0), Le(GAIN_LIMIT)] = 0.0
+    max: Annotated[float, Ge(1.0 / GAIN_LIMIT), Le(GAIN_LIMIT)] = 1.0e7
 
     def __post_init__(self):
         check_ordered(self.min, self.max)
@@ -165,6 +170,8 @@ class ControllerBounds:
     loop_rate_hz: float | None = None
     #: biquads after the PI controller, in the loop in this order
     filters: tuple[DriveFilter, ...] = ()
+    #: a design must have integral action (ki > 0: no steady-state velocity error); False admits P-only
+    integral_required: bool = True
 
 
 @dataclass(frozen=True)
@@ -178,8 +185,8 @@ class Requirements:
     peak_sensitivity: Annotated[float, Gt(1)] | None = None
     #: optional: synthesis is infeasible when the worst-case bandwidth cannot reach this
     min_bandwidth_hz: Annotated[float, Gt(0), Le(1e5)] | None = None
-    #: closed-loop bandwidth: where |T| falls to |T(0)|/sqrt 2 ("half_power", -3.01 dB) or 3 dB below
-    #: |T(0)| ("minus_3_db", MATLAB's ``bandwidth``)
+    #: closed-loop bandwidth: where |T| falls to 1/sqrt 2 ("half_power", -3.01 dB) or 3 dB below ("minus_3_db",
+    #: as MATLAB's ``bandwidth``) the reference |T| = 1, which T(0) reaches with integral action
     bandwidth_definition: Literal["half_power", "minus_3_db"] = "half_power"
     #: optional noise limit: the controller's gain |(kp + ki/jw) F(jw)| in A per (m/s), the drive filters F
     #: included, may not exceed this above ``high_frequency_hz`` (sensor noise reaches the current there)

@@ -43,10 +43,15 @@ def main() -> None:
     except KeyboardInterrupt:      # before the handlers (SIGTERM's default action ends the process quietly)
         _fail("interrupted", 130)
     try:
+        _quiet_cvxpy_after_a_stop()
         code = _run()
         _stop_if_requested()
         if code == 130:
             _fail("interrupted", 130)
+        sys.stdout.flush()
+    except BrokenPipeError:     # the reader went away (gantry ... | head): end as a program SIGPIPE ends, quietly
+        _stdout_to_devnull()
+        sys.exit(128 + 13)
     except KeyboardInterrupt:
         _fail("interrupted", 130)
     except interrupts.Terminated:
@@ -92,6 +97,8 @@ def _run():
     except ClickException as exc:
         _fail(f"{exc.format_message()} (gantry --help lists the commands; gantry COMMAND --help their options)",
               exc.exit_code)
+    except BrokenPipeError:
+        raise
     except MemoryError:
         _fail("not enough memory for this input; use fewer payloads, samples, frequencies or a shorter duration", 2)
     except OSError as exc:
@@ -104,6 +111,23 @@ def _run():
 
         traceback.print_exc()
         _fail("this is a bug in gantry, not a problem with your input: please report it with the traceback above", 1)
+
+
+def _stdout_to_devnull() -> None:
+    """Standard output to /dev/null, so that the interpreter's final flush has nowhere to fail."""
+    import os
+
+    os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+
+
+def _quiet_cvxpy_after_a_stop() -> None:
+    """No cvxpy warning once a stop was requested: a Ctrl-C that lands while cvxpy probes its solvers makes
+    one fail to import, which it would report on stderr beside the one line."""
+    import logging
+
+    from plant.host.interrupts import requested
+
+    logging.getLogger("__cvxpy__").addFilter(lambda record: requested() is None)
 
 
 def _stop_if_requested() -> None:

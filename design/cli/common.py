@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 import re
+import sys
 from contextlib import contextmanager
 from pathlib import Path
 from typing import Annotated, Optional
@@ -17,7 +18,16 @@ from plant.errors import GantryError, ParameterError, SpecError
 
 app = typer.Typer(add_completion=False, no_args_is_help=True, pretty_exceptions_enable=False,
                   help="Model, identify and tune the controllers of the exoskeleton H-gantry.")
-console = Console()
+class _Console(Console):
+    """rich's console, ending as the other outputs do when the reader of standard output goes away
+    (``design.cli.main``: status 141, as SIGPIPE would) instead of rich's exit status 1."""
+
+    def on_broken_pipe(self) -> None:
+        self.quiet = True
+        raise BrokenPipeError
+
+
+console = _Console()
 
 
 def _version(value: bool) -> None:
@@ -59,11 +69,19 @@ def options_named(*names: str, **renamed: str):
         raise ParameterError(msg) from None
 
 
-def keep_inputs(outputs: dict[str, Path | None], inputs: list[Path | None]) -> None:
-    """Refuse an output option that names one of the command's inputs (it would replace it)."""
+def keep_inputs(outputs: dict[str, Path | None], inputs: list[Path | None], *, json: bool = False) -> None:
+    """Refuse an output option that names one of the command's inputs (it would replace it), and more than
+    one output to standard output (``-``; ``json``: ``--json`` prints there); with one there, what the command
+    prints for reading goes to standard error."""
     given = {Path(p).resolve() for p in inputs if p is not None}
+    to_stdout = [option for option, path in outputs.items() if path is not None and str(path) == "-"]
+    if len(to_stdout) + json > 1:
+        raise ParameterError(f"{' and '.join(to_stdout + ['--json'] * json)}: only one output can go to standard "
+                             "output (-); write the others to files")
+    if to_stdout:       # the file owns standard output: the tables and notes go to standard error
+        console.file = sys.stderr
     for option, path in outputs.items():
-        if path is not None and Path(path).resolve() in given:
+        if path is not None and str(path) != "-" and Path(path).resolve() in given:
             raise ParameterError(f"{option} {path}: is an input of this command; write the output to another file")
 
 

@@ -66,7 +66,7 @@ def diagnose(
     from design.workflows import diagnose_recording
     from plant.identify.inverse_model import Preprocessing
 
-    keep_inputs({"--report": report, "--compensation": compensation}, [data, *(amplitude_files or [])])
+    keep_inputs({"--report": report, "--compensation": compensation}, [data, *(amplitude_files or [])], json=as_json)
     candidates = tuple(e.strip() for e in effects.split(",") if e.strip()) if effects else None
     progress = LazyProgress(enabled=not as_json and sys.stderr.isatty(), label="diagnose", unit="models")
     try:
@@ -89,9 +89,9 @@ def diagnose(
         print_json(diagnosis_outcome_to_dict(outcome))
         return
     print_diagnosis_outcome(console, outcome)
-    if compensation is not None:
+    if compensation is not None and str(compensation) != "-":
         console.print(f"compensation table written to {compensation}", soft_wrap=True)
-    if report is not None:
+    if report is not None and str(report) != "-":
         console.print(f"report written to {report}")
 
 

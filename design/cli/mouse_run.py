@@ -47,7 +47,7 @@ def mouse_run(
     from plant.host.files import atomic_write_text
     from plant.host.text_io import read_text
 
-    keep_inputs({"--out": out}, [spec_file, design_file, path])
+    keep_inputs({"--out": out}, [spec_file, design_file, path], json=as_json)
     if lab == (design_file is not None):
         raise ParameterError("give exactly one of --design FILE (the JSON of gantry synth --json) or --lab")
     problem = load_problem(spec_file).loop
@@ -83,7 +83,7 @@ def mouse_run(
                       f"Kp = {kp:.4g}, Ki = {ki:.4g}) at {settings.gantry_mass_kg:g} kg", soft_wrap=True)
         for line in d["summary"]:
             console.print(f"  {line}", soft_wrap=True)
-        if out is not None:
+        if out is not None and str(out) != "-":
             console.print(f"run written to {out}")
     if not d["mouse_keeps_up"]:
         raise typer.Exit(3)

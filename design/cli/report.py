@@ -14,7 +14,7 @@ from design.cli.common import ColumnsOption, PlantFromOption, SampleRateHzOption
 
 def report(
     spec_file: Annotated[Path, typer.Argument(metavar="SPEC", help="Spec file (TOML).")],
-    out: Annotated[Path, typer.Option(help="Output HTML file.")],
+    out: Annotated[Path, typer.Option(help="Output HTML file (- for standard output).")],
     data: Annotated[Optional[list[Path]], typer.Option(
         "--data", help="Recording(s) to compare with the model and diagnose (repeatable).")] = None,
     columns: ColumnsOption = None,
@@ -33,6 +33,10 @@ def report(
     from design.views.report import design_report
     from design.workflows import load_problem, report_content
 
+    if pdf and str(out) == "-":
+        from plant.errors import ParameterError
+
+        raise ParameterError("--pdf: the PDF is written beside the HTML file; give --out FILE.html")
     keep_inputs({"--out": out, "--pdf": out.with_suffix(".pdf") if pdf else None},
                 [spec_file, plant_from, *(data or [])])
     problem = load_problem(spec_file, plant_from=plant_from)
@@ -50,21 +54,24 @@ def report(
             outcome = design(problem, progress=progress)
         finally:
             progress.close()
-        dual_report(outcome, command="gantry " + shlex.join(sys.argv[1:])).write(out)
-        console.print(f"report written to {out}")
-        if pdf:
-            from design.views.browser import html_to_pdf
-
-            html_to_pdf(out, out.with_suffix(".pdf"))
-            console.print(f"PDF written to {out.with_suffix('.pdf')}")
+        _write(dual_report(outcome, command="gantry " + shlex.join(sys.argv[1:])), out, pdf)
         return
     content = report_content(problem, synthesise=synthesise, data=data or (), columns=columns,
                              sample_rate_hz=sample_rate_hz, samples=samples, seed=seed,
                              command="gantry " + shlex.join(sys.argv[1:]))
-    design_report(content).write(out)
-    console.print(f"report written to {out}")
+    _write(design_report(content), out, pdf)
+
+
+def _write(report, out: Path, pdf: bool) -> None:
+    """The HTML report, and with ``pdf`` its PDF beside it: both written or neither."""
+    from plant.host.files import atomic_write_texts, is_stdout
+
+    html = report.render()
+    files: dict[Path, str | bytes] = {out: html}
     if pdf:
         from design.views.browser import html_to_pdf
 
-        html_to_pdf(out, out.with_suffix(".pdf"))
-        console.print(f"PDF written to {out.with_suffix('.pdf')}")
+        files[out.with_suffix(".pdf")] = html_to_pdf(html)
+    atomic_write_texts(files)
+    if not is_stdout(out):
+        console.print(f"report written to {out}" + (f" and {out.with_suffix('.pdf')}" if pdf else ""))

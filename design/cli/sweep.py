@@ -34,7 +34,7 @@ def sweep(
     from design.workflows import load_problem
     from plant.host.files import atomic_write_text
 
-    keep_inputs({"--csv": csv}, [spec])
+    keep_inputs({"--csv": csv}, [spec], json=as_json)
     problem = load_problem(spec).loop
     if payload is not None:
         masses = parse_payload(payload)
@@ -54,5 +54,5 @@ def sweep(
         print_json(sweep_to_dict(result))
         return
     print_sweep(console, result)
-    if csv is not None:
+    if csv is not None and str(csv) != "-":
         console.print(f"Wrote {csv}")

@@ -34,7 +34,7 @@ def synth(
     from design.views.progress import StageProgress
     from design.workflows import design, load_problem
 
-    keep_inputs({"--report": report}, [spec_file, plant_from])
+    keep_inputs({"--report": report}, [spec_file, plant_from], json=as_json)
     problem = load_problem(spec_file, plant_from=plant_from)
     if problem.spec.dual_drive is not None and schedule:
         from plant.errors import ParameterError
@@ -65,7 +65,7 @@ def synth(
         print_json(out)
     else:
         print_synthesis(console, out)
-        if report is not None and reportable:
+        if report is not None and reportable and str(report) != "-":
             console.print(f"report written to {report}")
     if report is not None and not reportable:
         typer.echo(f"no report written to {report}: no verified design", err=True)

@@ -20,7 +20,7 @@ class LoopAnalysis:
     """Margins and bandwidth of the velocity loop P (Kp + Ki/s) for a batch of plants."""
 
     margins: Margins
-    #: closed-loop -3 dB bandwidth (first |T| < 1/sqrt 2, T(0) = 1 with integral action), Hz
+    #: closed-loop -3 dB bandwidth (first |T| < 1/sqrt 2 of the reference, |T| = 1), Hz
     closed_loop_bandwidth_hz: np.ndarray
     #: -3 dB frequency of the plant itself (the corner b/(2 pi M) for the thesis plants), Hz
     open_loop_corner_hz: np.ndarray
@@ -59,10 +59,10 @@ def analyse_loop(plant, kp, ki, *, w_rad_s=ANALYSIS_GRID_RAD_S, level2: float = 
     P = plant_frd(plant, w)
     L = open_loop_frd(P, w, kp, ki)
     margins = loop_margins(w, L)
-    dc2 = 1.0 if np.all(np.asarray(ki) > 0) else None
-    # |T|^2 = |L|^2 / |1 + L|^2 of T = L / (1 + L) (Eq. 3.19/3.20), in real arithmetic
+    # |T|^2 = |L|^2 / |1 + L|^2 of T = L / (1 + L) (Eq. 3.19/3.20), in real arithmetic; the bandwidth against
+    # the reference |T| = 1 (T(0) = 1 with integral action; a P-only loop's |T(0)| < 1 is not rewarded)
     T2 = (L.real**2 + L.imag**2) / ((1.0 + L.real) ** 2 + L.imag**2)
-    bw = first_drop_hz(w, T2, dc2, level2=level2)
+    bw = first_drop_hz(w, T2, 1.0, level2=level2)
     corner = first_drop_hz(w, P.real**2 + P.imag**2)
     return LoopAnalysis(margins, bw, corner)
 

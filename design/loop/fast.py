@@ -183,18 +183,20 @@ def _refined_grid(w: np.ndarray, rough: np.ndarray) -> np.ndarray:
     return np.exp(np.log(w[k])[:, None] + np.log(w[k + 1] / w[k])[:, None] * frac).ravel()
 
 
-def _first_below(L: np.ndarray, integral: bool, level2: float = 0.5):
-    """First grid index where |T|^2 = |L/(1 + L)|^2 < level2 |T(0)|^2 (0 when none), i.e. where
-    |L|^2 < level2 |T(0)|^2 |1 + L|^2; T(0) = 1 with integral action, else |T| at the first point.
-    Also returns |L|^2, |1 + L|^2 and |T(0)|^2 per row."""
+def _first_below(L: np.ndarray, level2: float = 0.5):
+    """First grid index where |T|^2 = |L/(1 + L)|^2 < level2 (0 when none), i.e. where |L|^2 < level2 |1 + L|^2:
+    the bandwidth is measured against the reference, |T| = 1, which a loop with integral action reaches at
+    0 rad/s and a P-only loop never does (its bandwidth is nan when |T| starts below the level). Also returns
+    |L|^2, |1 + L|^2 and the reference's |T(0)|^2 = 1 per row."""
     re, im = L.real, L.imag
     mag2 = re * re + im * im
     one_plus2 = mag2 + 2 * re + 1
-    dc2 = np.ones(L.shape[0]) if integral else mag2[:, 0] / one_plus2[:, 0]
-    below = mag2 < level2 * dc2[:, None] * one_plus2
+    dc2 = np.ones(L.shape[0])
+    below = mag2 < level2 * one_plus2
+    starts_below = below[:, 0].copy()
     below[:, 0] = False
     i = np.argmax(below, axis=-1)
-    return np.where(below[np.arange(L.shape[0]), i], i, 0), mag2, one_plus2, dc2
+    return np.where(below[np.arange(L.shape[0]), i] & ~starts_below, i, 0), mag2, one_plus2, dc2
 
 
 def fast_analyse_loop(plant, kp, ki, *, points_per_decade: int = POINTS_PER_DECADE,
@@ -205,8 +207,7 @@ def fast_analyse_loop(plant, kp, ki, *, points_per_decade: int = POINTS_PER_DECA
     L3 = open_loop_frd(plant, w, kp, ki)
     batch = L3.shape[:-1]
     L = L3.reshape(-1, w.size)
-    integral = bool(np.all(np.asarray(ki) > 0))
-    first_below, mag2, one_plus2, dc2 = _first_below(L, integral, level2)
+    first_below, mag2, one_plus2, dc2 = _first_below(L, level2)
     rough = _rough_intervals(L, mag2, one_plus2, np.where(first_below > 0, first_below, L.shape[-1]))
     if rough.any():
         extra = _refined_grid(w, rough)
@@ -214,7 +215,7 @@ def fast_analyse_loop(plant, kp, ki, *, points_per_decade: int = POINTS_PER_DECA
         order = np.argsort(np.concatenate([w, extra]))
         w = np.concatenate([w, extra])[order]
         L = np.concatenate([L, L_extra], axis=-1)[:, order]
-        first_below, mag2, one_plus2, dc2 = _first_below(L, integral, level2)
+        first_below, mag2, one_plus2, dc2 = _first_below(L, level2)
     x = np.log(w)
     n = L.shape[0]
 

@@ -249,7 +249,7 @@ BANDWIDTH_LEVELS2 = {"half_power": 0.5, "minus_3_db": 10 ** (-0.3)}
 
 def closed_loop_bandwidth_hz(w_rad_s, closed_loop, *, dc_gain=None, level2: float = 0.5) -> np.ndarray:
     """First frequency (Hz) where |T|^2 falls below ``level2`` |T(0)|^2 (default half power, |T(0)|/sqrt 2);
-    ``nan`` if it never does on the grid.
+    ``nan`` if it never does on the grid, or if |T| is below that level from the lowest grid frequency on.
 
     ``dc_gain`` is |T(0)|; by default |T| at the lowest grid frequency (pass 1.0 for loops
     with integral action, whose T(0) = 1 exactly). The crossing is refined like those of
@@ -272,9 +272,10 @@ def first_drop_hz(w_rad_s: np.ndarray, mag2: np.ndarray, dc_gain2=None, *, level
     dc2 = m2[:, 0] if dc_gain2 is None else np.broadcast_to(np.asarray(dc_gain2, float), batch).reshape(-1)
     level = dc2 * level2
     below = m2 < level[:, None]
-    below[:, 0] = False  # the first grid point defines the reference
+    starts_below = below[:, 0].copy()       # below the level from the start (a P-only loop's |T(0)| < 1): nan
+    below[:, 0] = False
     i = np.argmax(below, axis=-1)  # first index below the level
-    rows = np.flatnonzero(below[np.arange(m2.shape[0]), i])
+    rows = np.flatnonzero(below[np.arange(m2.shape[0]), i] & ~starts_below)
     i0 = i[rows] - 1
     idx = _stencil(i0, n) if n >= 4 else np.stack([i0, i0 + 1], axis=1)
     with np.errstate(divide="ignore", invalid="ignore"):

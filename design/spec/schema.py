@@ -200,6 +200,9 @@ class ControllerSpec(_Strict):
     loop_rate_hz: float | None = Field(None, gt=0, le=1e6)
     #: biquads after the PI controller (``[[controller.filters]]``)
     filters: list[FilterSpec] = Field(default_factory=list, max_length=2)
+    #: "required": a synthesised design has ki > 0, so the loop tracks a constant velocity without error;
+    #: "optional" admits a P-only design (ki = 0), whose steady-state velocity error 1 - |T(0)| is reported
+    integral: Literal["required", "optional"] = "required"
 
     @field_validator("kp", "ki", mode="before")
     @classmethod
@@ -320,7 +323,8 @@ class Spec(_Strict):
                 raise SpecError(f"controller.filters.{k}.frequency_hz reaches {top:g} Hz, at or above the Nyquist "
                                 f"frequency of controller.loop_rate_hz = {rate:g} Hz ({rate / 2:g} Hz)")
         return LoopProblem(with_filters(family, filters), ControllerBounds(self.controller.kp, self.controller.ki,
-                                                                            rate, filters),
+                                                                            rate, filters,
+                                                                            self.controller.integral == "required"),
                            self.requirements, self.admittance, self.verification)
 
 
@@ -360,6 +364,9 @@ def _message(exc: ValidationError, data: dict) -> str:
     same = [e for e in errors if _within(_key_path(e["loc"], data), first)]
     err = next((e for e in same if e["type"] not in _WRONG_KIND), errors[0])
     path = _key_path(err["loc"], data)
+    if err["type"] == "missing":
+        key = str(err["loc"][-1])
+        return f"{path + '.' if path else ''}{key}: required, and missing from the spec"
     if err["type"] in ("extra_forbidden", "unexpected_keyword_argument"):
         msg = "unknown key"
     elif err["type"] in _BOUNDS and err.get("ctx"):
@@ -534,6 +541,10 @@ def parse_spec(data: dict, *, source: str = "spec") -> Spec:
     """Validate a spec mapping; ``SpecError`` names the first failing key path (an unknown key first, with
     the closest known one) and, for a value out of bounds, the value as written."""
     try:
+        if not data:
+            raise SpecError("the spec is empty: it needs at least a [plant] table with stage = \"x\" or \"y\" "
+                            "(see specs/stage_x_synth.toml)")
+        _check_nesting(data)
         _no_booleans(data)
         _booleans(data)
         unknown = _unknown_key(data, Spec)
@@ -549,6 +560,22 @@ def parse_spec(data: dict, *, source: str = "spec") -> Spec:
     return spec
 
 
+#: tables and arrays of a spec nest at most this deep (the deepest, [[controller.filters]] ranges, takes 4)
+MAX_NESTING = 16
+
+
+def _check_nesting(data: Mapping[str, Any]) -> None:
+    """SpecError naming the first key path nested deeper than ``MAX_NESTING`` (walked without recursion)."""
+    stack: list[tuple[Any, tuple[str, ...]]] = [(data, ())]
+    while stack:
+        node, keys = stack.pop()
+        if len(keys) > MAX_NESTING:
+            raise SpecError(f"{'.'.join(keys[:MAX_NESTING + 1])}: nested more than {MAX_NESTING} levels deep; "
+                            "no spec key nests that deep")
+        items = node.items() if isinstance(node, dict) else enumerate(node) if isinstance(node, list) else ()
+        stack.extend((v, (*keys, str(k))) for k, v in items)
+
+
 def load_spec(path: str | Path, *, plant: Mapping[str, Any] | None = None) -> Spec:
     """Read and validate a TOML spec file; ``plant`` updates its ``[plant]`` table first (keys as the file
     writes them: the plant a fit found)."""
@@ -558,6 +585,9 @@ def load_spec(path: str | Path, *, plant: Mapping[str, Any] | None = None) -> Sp
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise SpecError(f"{path}: not valid TOML: {exc}") from None
+    except RecursionError:
+        raise SpecError(f"{path}: arrays or tables nested thousands deep; a spec nests at most "
+                        f"{MAX_NESTING} levels") from None
     if plant:
         if not isinstance(data.get("plant", {}), dict):
             raise SpecError(f"{path}: plant: must be a table")

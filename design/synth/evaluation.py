@@ -83,6 +83,9 @@ def evaluate(problem: LoopProblem, kp: float, ki: float, scenarios: Scenarios | 
         if req.disk_margin is not None:
             slack["disk_margin"] = np.ravel(margins.disk_margin) - req.disk_margin
             scale["disk_margin"] = req.disk_margin
+    if problem.controller.integral_required:     # ki = 0: a steady-state velocity error (controller.integral)
+        slack["integral_action"] = np.full(len(s), np.inf if ki > 0 else -1.0)
+        scale["integral_action"] = 1.0
     stable = bool(np.all(n.stable) and np.all(pm > 0) and np.all(gm > 0))
     hf = high_frequency_gain(problem, kp, ki)
     if hf is not None:

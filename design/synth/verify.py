@@ -5,9 +5,9 @@ Nothing here reuses the synthesis' own margin code: the plant is turned into a r
 
 * the closed-loop poles must lie in the open left half-plane,
 * ``control.stability_margins`` must give PM and GM at or above the requirements,
-* ``control.bandwidth(T, dbdrop=-3.01 dB)``: the worst case over the payloads must agree with the
-  worst-case bandwidth the synthesis claims (within ``BANDWIDTH_RTOL``), so the reported objective
-  is checked too; the largest per-payload disagreement is reported,
+* ``control.bandwidth(T, dbdrop=-3.01 dB)`` (against |T| = 1, ``_bandwidth_hz``): the worst case over the
+  payloads must agree with the worst-case bandwidth the synthesis claims (within ``BANDWIDTH_RTOL``), so the
+  reported objective is checked too; the largest per-payload disagreement is reported,
 * when the spec asks for them, the peak sensitivity max|S| and the balanced disk margin
   1 / max|S - 1/2| (Seiler, Packard & Gahinet 2020) from ``control.frequency_response`` of S.
 """
@@ -53,6 +53,16 @@ class Verification:
     pade_order: int
 
 
+def _bandwidth_hz(control, T, level2: float, integral: bool) -> float:
+    """python-control's bandwidth of T against the reference |T| = 1: its drop below |T(0)| moved by |T(0)|
+    (T(0) = 1 with integral action); nan when |T(0)| is already below the level (a P-only loop)."""
+    dc = 1.0 if integral else abs(float(np.real(control.dcgain(T))))
+    drop_db = 10 * math.log10(level2) - 20 * math.log10(dc) if dc > 0 else -math.inf
+    if not drop_db < 0:
+        return math.nan
+    return float(control.bandwidth(T, dbdrop=drop_db)) / (2 * math.pi)
+
+
 def verify(problem: LoopProblem, kp: float, ki: float, scenarios: Scenarios | None = None, *,
            claimed_worst_bandwidth_hz: float | None = None, pade_order: int = 6) -> Verification:
     """python-control check of (kp, ki) on every scenario (default: the dense payloads of
@@ -85,7 +95,7 @@ def verify(problem: LoopProblem, kp: float, ki: float, scenarios: Scenarios | No
             failures.append(f"unstable closed loop at {m} (pole real part {re:.3g})")
             bws.append(math.nan)
             continue
-        bw = float(control.bandwidth(T, dbdrop=10 * math.log10(req.level2))) / (2 * math.pi)
+        bw = _bandwidth_hz(control, T, req.level2, ki > 0)
         bws.append(bw)
         if pm < req.phase_margin_deg - MARGIN_TOLERANCE:
             failures.append(f"phase margin {pm:.2f} deg < {req.phase_margin_deg:g} at {m}")

@@ -30,15 +30,17 @@ def _run(args: list[str], what: str) -> None:
         raise GantryError(f"{what} failed: chromium exited {proc.returncode}: {proc.stderr.strip()[-300:]}")
 
 
-def html_to_pdf(html_path: Path, pdf_path: Path) -> None:
-    """Print an HTML file to PDF, written atomically."""
-    tmp = pdf_path.with_name(f".{pdf_path.name}.tmp.pdf")
-    try:
-        _run([f"--print-to-pdf={tmp}", "--no-pdf-header-footer", html_path.resolve().as_uri()], "PDF output")
+def html_to_pdf(html: str) -> bytes:
+    """The PDF Chromium prints of an HTML document (both kept in a temporary directory, never beside the
+    outputs)."""
+    with tempfile.TemporaryDirectory() as work:
+        page, pdf = Path(work) / "report.html", Path(work) / "report.pdf"
+        page.write_text(html, encoding="utf-8")
+        _run([f"--print-to-pdf={pdf}", "--no-pdf-header-footer", page.as_uri()], "PDF output")
         raise_if_requested()
-        tmp.replace(pdf_path)
-    finally:
-        tmp.unlink(missing_ok=True)
+        if not pdf.is_file():
+            raise GantryError("PDF output failed: chromium wrote no PDF")
+        return pdf.read_bytes()
 
 
 def screenshot(html_path: Path, png_path: Path, *, width: int = 1200, height: int = 3000) -> None:

@@ -39,9 +39,10 @@ if TYPE_CHECKING:
 
 #: the closed-loop bandwidth definitions (``requirements.bandwidth_definition``)
 BANDWIDTH_DEFINITIONS = {
-    "half_power": "first frequency where |T| = |L/(1 + L)| falls to |T(0)|/sqrt 2 (half power, -3.01 dB; T(0) = 1 "
-                  "with integral action)",
-    "minus_3_db": "first frequency where |T| = |L/(1 + L)| falls 3 dB below |T(0)| (MATLAB's bandwidth)"}
+    "half_power": "first frequency where |T| = |L/(1 + L)| falls to 1/sqrt 2 of the reference, |T| = 1 (half "
+                  "power, -3.01 dB; T(0) = 1 with integral action, and a loop without it starts below 1)",
+    "minus_3_db": "first frequency where |T| = |L/(1 + L)| falls 3 dB below the reference, |T| = 1 (MATLAB's "
+                  "bandwidth, taken against 1 rather than |T(0)|)"}
 
 
 def finite_or_none(x) -> float | None:

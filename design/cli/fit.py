@@ -58,6 +58,7 @@ def fit(
     from design.views.json import fit_outcome_to_dict, print_json
     from design.views.progress import StageProgress
     from design.workflows import fit_recording
+    from plant.errors import DataError
     from plant.identify.inverse_model import Preprocessing
 
     progress = StageProgress(enabled=not as_json and sys.stderr.isatty())
@@ -69,6 +70,8 @@ def fit(
             sample_rate_hz=sample_rate_hz, frf=frf, band=parse_band(band_hz), method=method,
             prep=Preprocessing(filter_hz, decimate_band_hz, input_hold), rational=rational,
             rational_weighting=rational_weighting, progress=progress)
+    except DataError as exc:        # the data's own failings, named with the file
+        raise DataError(str(exc) if str(exc).startswith(str(data)) else f"{data}: {exc}") from None
     finally:
         progress.close()
     if as_json:

@@ -141,8 +141,10 @@ def _validated(path: Path, columns, values, rows, labels, metadata) -> TimeRecor
     d = np.diff(t)
     if np.any(d <= 0):
         i = int(np.argmax(d <= 0)) + 1
+        restart = (f"; time starting again at {t[i]:g} s looks like the next block of a stepped sine, which "
+                   "needs a frequency_hz column naming each block's frequency" if t[i] <= t[0] else "")
         raise DataError(f"{path}: {labels[mapped['time'][0]].format(row=rows[i])}: time must increase "
-                        f"({t[i - 1]:g} s then {t[i]:g} s)")
+                        f"({t[i - 1]:g} s then {t[i]:g} s){restart}")
     step = float(np.median(d))
     off = np.abs(d - step) > SAMPLING_TOLERANCE * step
     if off.any():

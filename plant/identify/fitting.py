@@ -40,7 +40,7 @@ from plant.data.frequency_response import MeasuredResponse
 from plant.errors import DataError, EffectError, ParameterError
 from plant.identify.fit_result import PlantFit
 from plant.physics.models import BASE_BOUNDS, Plant
-from plant.physics.parameters import Parameter
+from plant.physics.parameters import Parameter, check_finite
 
 #: |correlation| above which two parameters are flagged as not separable by the data
 CORRELATION_FLAG = 0.95
@@ -332,6 +332,25 @@ def default_free(plant: Plant) -> tuple[str, ...]:
                                                                  "force_constant_n_per_a"))
 
 
+def _check_arguments(plant, data, start, starts) -> None:
+    """``fit_plant``'s arguments: a ``Plant``, a complex ``MeasuredResponse``, finite numeric starts."""
+    if not isinstance(plant, Plant):
+        raise ParameterError(f"fit_plant: plant must be a Plant (e.g. plant.stage_x()), got {type(plant).__name__}")
+    if not isinstance(data, MeasuredResponse):
+        raise DataError(f"fit_plant: data must be a MeasuredResponse (plant.estimate.estimate_response), got "
+                        f"{type(data).__name__}")
+    if data.method == "rms" or not np.iscomplexobj(data.response) or np.all(np.imag(data.response) == 0):
+        raise DataError(f"measured response {data.source}: holds magnitudes only (no phase; method "
+                        f"{data.method!r}); a fit needs the complex response G = V/I of the lock-in estimate, "
+                        "whose phase carries the mass, the delay and the lags")
+    for k, candidate in enumerate([start] if start is not None else list(starts or [])):
+        if not isinstance(candidate, Mapping):
+            raise ParameterError(f"fit_plant: a start must map parameter names to values, got "
+                                 f"{type(candidate).__name__}")
+        for name, value in candidate.items():
+            check_finite(f"{name} (start{'' if start is not None else f' {k + 1}'})", value)
+
+
 def fit_plant(plant: Plant, data: MeasuredResponse, *, free: Sequence[str] | None = None,
               start: Mapping[str, float] | None = None, starts: Sequence[Mapping[str, float]] | None = None,
               multistart: bool = True, variance_dof=None) -> FitResult:
@@ -357,6 +376,7 @@ def fit_plant(plant: Plant, data: MeasuredResponse, *, free: Sequence[str] | Non
     ``data.metadata["variance_dof"]`` from the estimator (else 2 (k - 1) from its sub-block counts
     ``data.metadata["subblocks"]``), else inf.
     """
+    _check_arguments(plant, data, start, starts)
     result = _fit(plant, data, free=free, start=start, starts=starts, multistart=multistart,
                   variance_dof=variance_dof)
     if result.plant.linear or not np.all(np.isfinite(np.asarray(data.current_amplitude_variance, float))):
@@ -407,7 +427,8 @@ def _fit(plant: Plant, data: MeasuredResponse, *, free, start, starts, multistar
         raise ParameterError(f"free parameters must be distinct and at least one, got {list(free)}")
     n_data = 2 * g.size
     if n_data <= len(free):
-        raise DataError(f"{n_data} data values cannot determine {len(free)} parameters")
+        raise DataError(f"{g.size} frequenc{'y gives' if g.size == 1 else 'ies give'} {n_data} real values, too few "
+                        f"to determine the {len(free)} free parameters ({', '.join(free)}); record more frequencies")
     rows = output_map(plant, data.output_names)
     sigma = np.sqrt(var / 2)
     own = {n: params[n].value for n in free}

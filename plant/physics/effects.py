@@ -54,7 +54,8 @@ def make_effect(name: str, **params: float) -> Effect:
     if unknown:
         raise EffectError(f"effect {name} has no parameter {sorted(unknown)[0]!r}; known: {', '.join(cls.bounds)}")
     try:
-        return cls(**{k: float(v) if np.ndim(v) == 0 else v for k, v in params.items()})
+        return cls(**{k: float(v) if isinstance(v, int | float | np.integer | np.floating) and not isinstance(v, bool)
+                      else v for k, v in params.items()})
     except (TypeError, ValueError) as exc:
         if isinstance(exc, ParameterError):
             raise

@@ -35,9 +35,13 @@ class Parameter:
 
 
 def check_finite(name: str, value) -> None:
-    """Raise ``ParameterError`` naming ``name`` unless every element of ``value`` is finite."""
+    """Raise ``ParameterError`` naming ``name`` unless ``value`` is a real number (or array of them; not a string
+    or a bool) and every element is finite."""
     import numpy as np
 
+    kind = "" if isinstance(value, str | bytes) else np.asarray(value).dtype.kind
+    if kind not in ("i", "u", "f"):     # a string, bool or object is refused, not converted
+        raise ParameterError(f"parameter {name} must be a number, got {type(value).__name__} {value!r}")
     arr = np.asarray(value, dtype=float)
     if arr.size == 0 or not np.all(np.isfinite(arr)):
         raise ParameterError(f"parameter {name} must be a finite number, got {value!r}")

@@ -147,3 +147,18 @@ def test_a_pi_design_requires_integral_action_unless_the_spec_admits_p_only():
     optional = thesis_problem(integral="optional")
     assert evaluate(optional, 1500.0, 0.0).binding["constraint"] != "integral_action"
     assert evaluate(required, 1500.0, 47.0).binding["constraint"] != "integral_action"
+
+
+def test_a_stepped_sine_without_its_frequency_column_or_with_one_block_is_named_with_the_file(tmp_path):
+    rec = tmp_path / "rec.csv"
+    out = gantry("simulate", "--stage", "x", "--f-hz", "2:50:3", "--duration-s", "1", "--out", rec)
+    assert out.returncode == 0, out.stderr
+    lines = rec.read_text().splitlines()
+    no_frequency = tmp_path / "no_frequency.csv"
+    no_frequency.write_text("\n".join(line.split(",", 1)[1] for line in lines) + "\n")
+    one_line(gantry("diagnose", no_frequency, "--stage", "x"), "no_frequency.csv", "time must increase",
+             "frequency_hz column")
+    one_block = tmp_path / "one_block.csv"
+    first = lines[1].split(",", 1)[0]
+    one_block.write_text("\n".join([lines[0]] + [line for line in lines[1:] if line.split(",", 1)[0] == first]) + "\n")
+    one_line(gantry("fit", one_block, "--stage", "x"), "one_block.csv", "1 frequency", "record more frequencies")

@@ -14,11 +14,12 @@ import control
 import numpy as np
 import pytest
 
-from plant import CoulombFriction, CurrentLoop, Delay, Resonance, stage_x, stage_y
+from plant import CoulombFriction, CurrentLoop, Delay, Plant, Resonance, stage_x, stage_y
 from plant.data.frequency_response import MeasuredResponse
 from plant.errors import DataError, EffectError, ParameterError
 from plant.identify.fitting import FitResult, default_free, fit_plant, output_map
 from plant.identify.rational_fit import fit_rational, thesis_weights
+from plant.physics.effects import make_effect
 
 # thesis section 4.1: stepped sine 1..75 Hz
 F_HZ = np.linspace(1.0, 75.0, 50)
@@ -397,3 +398,29 @@ def test_likelihood_of_residuals_with_estimated_variances_is_the_f_density():
     expected = -2 * np.sum(stats.f.logpdf(np.abs(r) ** 2 / 2, 2, nu))
     assert minus_two_log_likelihood(r, nu) == pytest.approx(expected, rel=1e-12)
     assert minus_two_log_likelihood(r, np.full(9, np.inf)) == pytest.approx(np.sum(np.abs(r) ** 2), rel=1e-12)
+
+
+# --- arguments at the library's boundary ----------------------------------------------------
+def test_fit_plant_refuses_what_it_cannot_fit_with_a_clear_exception():
+    plant = stage_x(mass_kg=40.0)
+    data = measured(plant, seed=1)
+    with pytest.raises(ParameterError, match="plant must be a Plant"):
+        fit_plant(None, data)
+    with pytest.raises(DataError, match="must be a MeasuredResponse"):
+        fit_plant(plant, None)
+    with pytest.raises(ParameterError, match="mass_kg .start.* finite"):
+        fit_plant(plant, data, start={"mass_kg": float("nan")})
+    with pytest.raises(ParameterError, match="damping_n_s_per_m .start 1.* number"):
+        fit_plant(plant, data, starts=[{"damping_n_s_per_m": "400"}])
+    # magnitudes where the complex response belongs: no phase, refused rather than fitted to a wrong mass
+    magnitude = dataclasses.replace(data, response=np.abs(data.response))
+    with pytest.raises(DataError, match="magnitudes only"):
+        fit_plant(plant, magnitude)
+
+
+@pytest.mark.parametrize("bad", ["40", True, None, [5.0, "a"]])
+def test_plants_and_effects_refuse_values_that_are_not_numbers(bad):
+    with pytest.raises(ParameterError, match="must be a"):
+        Plant("x", mass_kg=bad)
+    with pytest.raises(ParameterError, match="must be a"):
+        make_effect("delay", seconds=bad)

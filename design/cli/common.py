@@ -18,6 +18,23 @@ from plant.errors import GantryError, ParameterError, SpecError
 
 app = typer.Typer(add_completion=False, no_args_is_help=True, pretty_exceptions_enable=False,
                   help="Model, identify and tune the controllers of the exoskeleton H-gantry.")
+
+
+def _flags_without_a_type() -> None:
+    """Help that reads as flags: typer (0.29) shows a flag such as ``--json`` with the type ``<bool>``, as if it
+    took a value; a flag is shown bare, every other option keeps its type."""
+    from typer.core import TyperOption
+
+    shown = TyperOption.display_type_rich
+
+    def display_type_rich(self, ctx):
+        return None if self.is_flag else shown(self, ctx)
+
+    TyperOption.display_type_rich = display_type_rich
+
+
+_flags_without_a_type()
+
 class _Console(Console):
     """rich's console, ending as the other outputs do when the reader of standard output goes away
     (``design.cli.main``: status 141, as SIGPIPE would) instead of rich's exit status 1."""
@@ -83,6 +100,34 @@ def keep_inputs(outputs: dict[str, Path | None], inputs: list[Path | None], *, j
     for option, path in outputs.items():
         if path is not None and str(path) != "-" and Path(path).resolve() in given:
             raise ParameterError(f"{option} {path}: is an input of this command; write the output to another file")
+
+
+def read_design(path: Path, problem, *, need: tuple[str, ...] = ("kp", "ki")):
+    """A design as ``gantry synth --json`` writes it: (the problem with the design's drive filters, its gains
+    ``need`` as floats); ParameterError naming the file and what is missing."""
+    import json
+
+    from design.problem import with_filter_values
+    from plant.host.text_io import read_text
+
+    what = f"{path}: not the JSON of gantry synth --json with gains {', '.join(need)}"
+    try:
+        design = json.loads(read_text(path, what="design file"))
+        gains = {k: float(design["gains"][k]) for k in need}
+        filters = design.get("filters") or []
+        values = [{k: float(v) for k, v in f.items() if k not in ("kind", "used", "designed")} if f["used"] else None
+                  for f in filters]
+        kinds = [f["kind"] for f in filters]
+    except (json.JSONDecodeError, KeyError, TypeError, ValueError, AttributeError):
+        raise ParameterError(what) from None
+    if not all(math.isfinite(v) and v >= 0 for v in gains.values()):
+        raise ParameterError(f"{path}: gains must be finite and non-negative, got {gains}")
+    if filters:
+        if kinds != [f.kind for f in problem.controller.filters]:
+            raise ParameterError(f"{path}: its drive filters ({', '.join(kinds)}) are not the spec's "
+                                 f"controller.filters ({', '.join(f.kind for f in problem.controller.filters)})")
+        problem = with_filter_values(problem, values)
+    return problem, gains
 
 
 def bundled_spec(name: str) -> Path:

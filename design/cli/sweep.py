@@ -8,7 +8,7 @@ from typing import Annotated, Optional
 
 import typer
 
-from design.cli.common import console, keep_inputs, parse_payload
+from design.cli.common import PlantFromOption, console, keep_inputs, parse_payload, read_design
 from plant.errors import SpecError
 
 #: payload points when --payload is not given and the spec's range is not a single mass
@@ -24,6 +24,10 @@ def sweep(
     seed: Annotated[int, typer.Option(help="Seed of the random draws (recorded in the outputs).", min=0)] = 0,
     csv: Annotated[Optional[Path], typer.Option("--csv", help="Write one row per payload (percentiles, worst "
                                                 "case; units in the column names) to this CSV file.")] = None,
+    design_file: Annotated[Optional[Path], typer.Option("--design", help="Sweep a design: the JSON of gantry synth "
+                                                        "--json (its gains and drive filters) instead of the "
+                                                        "spec's controller values.")] = None,
+    plant_from: PlantFromOption = None,
     as_json: Annotated[bool, typer.Option("--json", help="Print JSON instead of tables.")] = False,
 ) -> None:
     """Margins and bandwidth across payloads, with Monte Carlo over the spec's uncertainty ranges."""
@@ -34,8 +38,12 @@ def sweep(
     from design.workflows import load_problem
     from plant.host.files import atomic_write_text
 
-    keep_inputs({"--csv": csv}, [spec], json=as_json)
-    problem = load_problem(spec).loop
+    keep_inputs({"--csv": csv}, [spec, design_file, plant_from], json=as_json)
+    problem = load_problem(spec, plant_from=plant_from).loop
+    source = "the spec's controller values"
+    if design_file is not None:
+        problem, gains = read_design(design_file, problem)
+        source = f"the design {design_file}"
     if payload is not None:
         masses = parse_payload(payload)
     else:
@@ -43,16 +51,18 @@ def sweep(
         masses = rng.grid(DEFAULT_POINTS if rng.max > rng.min else 1)
     progress = LazyProgress(enabled=not as_json and sys.stderr.isatty())
     try:
-        result = monte_carlo_sweep(problem, payload_kg=masses, samples=samples, seed=seed, progress=progress)
+        result = monte_carlo_sweep(problem, payload_kg=masses, samples=samples, seed=seed, progress=progress,
+                                   **(gains if design_file is not None else {}))
     except SpecError as exc:
         raise SpecError(f"{spec}: {exc}") from None
     finally:
         progress.close()
     if csv is not None:
         atomic_write_text(csv, sweep_csv(result))
+    check = result.check(problem.requirements)
     if as_json:
-        print_json(sweep_to_dict(result))
+        print_json({**sweep_to_dict(result), "gains_source": source, **check.to_dict()})
         return
-    print_sweep(console, result)
+    print_sweep(console, result, check, source)
     if csv is not None and str(csv) != "-":
         console.print(f"Wrote {csv}")

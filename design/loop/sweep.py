@@ -28,6 +28,8 @@ CHUNK_PLANTS = 4096
 SAMPLING = "uniform, independent per parameter, the same samples at every payload"
 #: the swept quantities: name -> unit; for all of them lower is worse
 QUANTITIES = {"closed_loop_bandwidth_hz": "Hz", "phase_margin_deg": "deg", "gain_margin_db": "dB"}
+#: a margin may fall short of its requirement by this much (deg, dB) and pass (rounding; as the verification)
+MARGIN_TOLERANCE = 0.05
 
 
 def percentiles_inf(x: np.ndarray, q, *, axis: int = -1) -> np.ndarray:
@@ -76,6 +78,25 @@ class WorstCase:
 
 
 @dataclass(frozen=True)
+class SweepCheck:
+    """A sweep against the spec's requirements: the violations, one per payload and requirement (worst sample)."""
+
+    phase_margin_deg: float
+    gain_margin_db: float
+    min_bandwidth_hz: float | None
+    violations: tuple[str, ...]
+
+    @property
+    def meets(self) -> bool:
+        return not self.violations
+
+    def to_dict(self) -> dict:
+        return {"requirements": {"phase_margin_deg": self.phase_margin_deg, "gain_margin_db": self.gain_margin_db,
+                                 "min_bandwidth_hz": self.min_bandwidth_hz},
+                "meets_requirements": self.meets, "violations": list(self.violations)}
+
+
+@dataclass(frozen=True)
 class SweepResult:
     """Margins and bandwidth against payload: nominal curve and Monte Carlo statistics.
 
@@ -103,6 +124,24 @@ class SweepResult:
     unstable_samples: np.ndarray
     #: "half_power" (|T(0)|/sqrt 2) or "minus_3_db"
     bandwidth_definition: str = "half_power"
+
+    def check(self, requirements) -> SweepCheck:
+        """The swept loops against ``requirements`` (phase and gain margin, minimum bandwidth): every sample
+        at every payload, the worst case of each payload named."""
+        found = []
+        for i, m in enumerate(self.payload_kg):
+            if self.unstable_samples[i]:
+                found.append(f"{int(self.unstable_samples[i])} unstable closed loop(s) at {m:g} kg")
+            pm, gm = float(self.phase_margin_deg.worst[i]), float(self.gain_margin_db.worst[i])
+            bw = float(self.closed_loop_bandwidth_hz.worst[i])
+            if pm < requirements.phase_margin_deg - MARGIN_TOLERANCE:
+                found.append(f"phase margin {pm:.1f} deg < {requirements.phase_margin_deg:g} at {m:g} kg")
+            if gm < requirements.gain_margin_db - MARGIN_TOLERANCE:
+                found.append(f"gain margin {gm:.1f} dB < {requirements.gain_margin_db:g} at {m:g} kg")
+            if requirements.min_bandwidth_hz is not None and not bw >= requirements.min_bandwidth_hz:
+                found.append(f"bandwidth {bw:.2f} Hz < {requirements.min_bandwidth_hz:g} at {m:g} kg")
+        return SweepCheck(requirements.phase_margin_deg, requirements.gain_margin_db, requirements.min_bandwidth_hz,
+                          tuple(found))
 
     @property
     def distributions(self) -> tuple[Distribution, ...]:

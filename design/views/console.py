@@ -351,8 +351,11 @@ def sweep_table(result) -> Table:
     return t
 
 
-def print_sweep(console: Console, result) -> None:
-    """The text of ``gantry sweep``: the table and, with samples, the ranges and the worst cases."""
+def print_sweep(console: Console, result, check=None, source: str | None = None) -> None:
+    """The text of ``gantry sweep``: the gains swept and where they come from, the table, with samples the
+    ranges and the worst cases, and the verdict against the requirements (``check``)."""
+    if source is not None:
+        console.print(f"Gains: Kp = {result.kp:.4g} A/(m/s), Ki = {result.ki:.4g} A/m ({source})", soft_wrap=True)
     console.print(sweep_table(result))
     unstable = int(np.sum(result.unstable_samples))
     if unstable:
@@ -365,6 +368,16 @@ def print_sweep(console: Console, result) -> None:
         for w in result.worst_case().values():
             params = ", ".join(f"{k} = {v:.4g}" for k, v in w.parameters.items())
             console.print(f"  {w.name} = {_fmt(w.value, 2)} at {w.payload_kg:.2f} kg ({params})")
+    if check is not None:
+        need = f"PM >= {check.phase_margin_deg:g} deg, GM >= {check.gain_margin_db:g} dB" + (
+            f", bandwidth >= {check.min_bandwidth_hz:g} Hz" if check.min_bandwidth_hz is not None else "")
+        if check.meets:
+            console.print(f"[bold green]meets the requirements[/] ({need}) at every payload"
+                          + (" and sample" if result.samples else ""))
+        else:
+            console.print(f"[bold red]VIOLATES the requirements[/] ({need}):", soft_wrap=True)
+            for line in check.violations:
+                console.print(f"  {line}", soft_wrap=True)
 
 
 def print_reproduction(console: Console, rows: list[TableRow], sweeps: list[PayloadSweep]) -> None:

@@ -326,3 +326,26 @@ def test_cli_bad_uncertainty_key_exits_2_with_one_line(tmp_path):
     assert proc.returncode == 2 and proc.stdout == ""
     assert proc.stderr.count("\n") == 1
     assert "plant.uncertainty.delay.second" in proc.stderr and str(spec) in proc.stderr
+
+
+def _gantry_json(*args):
+    out = subprocess.run([sys.executable, "-m", "design", *map(str, args)], capture_output=True, text=True,
+                         timeout=600)
+    assert out.returncode == 0, out.stderr
+    return json.loads(out.stdout)
+
+
+def test_sweep_flags_the_requirements_the_swept_gains_violate_and_sweeps_a_synthesised_design(tmp_path):
+    spec = ROOT / "specs" / "stage_x_synth.toml"
+    thesis = _gantry_json("sweep", spec, "--samples", "200", "--payload", "5:40:8", "--json")
+    assert (thesis["kp"], thesis["ki"]) == (236.0, 47.0) and thesis["gains_source"] == "the spec's controller values"
+    worst_gm = min(p["gain_margin_db"]["worst"] for p in thesis["payloads"])
+    assert worst_gm < 6.0 and not thesis["meets_requirements"]
+    assert any(v.startswith(f"gain margin {worst_gm:.1f} dB < 6 at ") for v in thesis["violations"])
+    design = tmp_path / "design.json"
+    design.write_text(json.dumps(_gantry_json("synth", spec, "--json")))
+    gains = json.loads(design.read_text())["gains"]
+    swept = _gantry_json("sweep", spec, "--samples", "200", "--payload", "5:40:8", "--design", design, "--json")
+    assert (swept["kp"], swept["ki"]) == (gains["kp"], gains["ki"]) and str(design) in swept["gains_source"]
+    assert swept["meets_requirements"] and swept["violations"] == []
+    assert min(p["phase_margin_deg"]["worst"] for p in swept["payloads"]) >= 45.0 - 0.05

@@ -131,12 +131,12 @@ def read_design(path: Path, problem, *, need: tuple[str, ...] = ("kp", "ki")):
 
 
 def bundled_spec(name: str) -> Path:
-    """A spec of ``specs/`` next to the package (source checkout) or in the working directory."""
-    for root in (Path(__file__).resolve().parents[2], Path.cwd()):
-        path = root / "specs" / name
-        if path.is_file():
-            return path
-    raise SpecError(f"bundled spec specs/{name} not found; run from the project checkout or pass --spec FILE")
+    """A spec shipped with the package (``specs/`` of the checkout, installed as ``design/specs``)."""
+    path = Path(__file__).resolve().parents[1] / "specs" / name
+    if not path.is_file():
+        raise SpecError(f"bundled spec {name} is not installed with the package (looked in {path.parent}); "
+                        "pass --spec FILE")
+    return path
 
 
 #: options shared by the commands that read recordings (``fit``, ``diagnose``; ``report`` the first two)

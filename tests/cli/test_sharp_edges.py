@@ -162,3 +162,13 @@ def test_a_stepped_sine_without_its_frequency_column_or_with_one_block_is_named_
     first = lines[1].split(",", 1)[0]
     one_block.write_text("\n".join([lines[0]] + [line for line in lines[1:] if line.split(",", 1)[0] == first]) + "\n")
     one_line(gantry("fit", one_block, "--stage", "x"), "one_block.csv", "1 frequency", "record more frequencies")
+
+
+def test_the_bundled_specs_travel_with_the_package_and_reproduce_runs_anywhere(tmp_path):
+    package_specs = Path(__import__("design").__file__).parent / "specs"
+    names = sorted(p.name for p in (ROOT / "specs").glob("*.toml"))
+    assert sorted(p.name for p in package_specs.glob("*.toml")) == names
+    out = subprocess.run([sys.executable, "-m", "design", "reproduce", "--json"], capture_output=True, text=True,
+                         timeout=600, cwd=tmp_path)
+    assert out.returncode == 0, out.stderr
+    assert '"table_3_1"' in out.stdout

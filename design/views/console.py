@@ -445,6 +445,7 @@ def print_excitation(console: Console, out, ms: Multisine, pred: VariancePredict
         f"  stepped sine {pred.stepped_variance_s:.4g} (m/s per A)^2 s  ({pred.stepped_f_hz.size} log-spaced "
         f"frequencies, {THESIS_BLOCK_S:g} s blocks at {ms.peak_a:g} A, {pred.stepped_time_s:g} s)",
         f"  ratio stepped / multisine: {pred.ratio:.3g} (> 1: the multisine is better per second)",
+        pred.verdict(ms.crest_factor),
     ]
     console.print("\n".join(lines), markup=False, highlight=False, soft_wrap=True)
 

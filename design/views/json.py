@@ -657,7 +657,7 @@ def excitation_to_dict(ms: Multisine, pred: VariancePrediction) -> dict:
             "stepped": {"f_hz": pred.stepped_f_hz, "block_s": THESIS_BLOCK_S, "amplitude_a": ms.peak_a,
                         "machine_time_s": pred.stepped_time_s, "variance": pred.stepped_variance,
                         "variance_s": pred.stepped_variance_s},
-            "ratio": pred.ratio}
+            "ratio": pred.ratio, "better": pred.better, "verdict": pred.verdict(ms.crest_factor)}
 
 
 def simulation_to_dict(rec: Recording, out, sidecar, *, amplitude_a: float, simulation_s: float) -> dict:

@@ -302,6 +302,26 @@ class VariancePrediction:
     def ratio(self) -> float:
         return self.stepped_variance_s / self.multisine_variance_s
 
+    @property
+    def better(self) -> str:
+        """"multisine" or "stepped_sine": the lower variance per second of machine time."""
+        return "multisine" if self.ratio > 1 else "stepped_sine"
+
+    def verdict(self, crest_factor: float) -> str:
+        """Which excitation to use and why: at one peak current, a multisine of N lines with crest factor c
+        gives each line 2 / (c^2 N) of the peak power a stepped sine gives each of its N_f frequencies for
+        N_f times less time, so it is better per second only when c^2 N < 2 N_f."""
+        n, nf = self.f_hz.size, self.stepped_f_hz.size
+        why = (f"at {crest_factor:.3g} crest factor and {n} lines, c^2 N = {crest_factor ** 2 * n:.3g} against "
+               f"2 N_f = {2 * nf} for the stepped sine's {nf} frequencies")
+        if self.better == "multisine":
+            fewer = f"; it measures {n} frequencies, the stepped sine {nf}" if n < nf else ""
+            return f"the multisine is better per second (ratio {self.ratio:.3g}): {why}{fewer}"
+        return (f"the STEPPED SINE is better per second here (ratio {self.ratio:.3g}; this multisine needs "
+                f"{1 / self.ratio:.3g} x the machine time for the same variance): {why}. Measure with the stepped "
+                "sine, or keep the multisine where measuring every line at once matters (a plant that drifts, "
+                "distortion seen at the lines not excited)")
+
 
 def multisine_variance(multisine: Multisine, noise_m_per_s: float, transient_periods: int = 1) -> np.ndarray:
     """Predicted E|G_hat_k - G_k|^2 ((m/s per A)^2) per excited line from all periods but the

@@ -16,7 +16,6 @@ if TYPE_CHECKING:
     from design.admittance.synthesis import AdmittanceResult
     from design.loop.control_models import LoopModels
     from design.loop.curves import LoopCurves
-    from design.loop.sweep import SweepResult
     from design.problem import LoopProblem
     from design.spec.schema import Spec
     from design.synth.dual import DualDesign
@@ -204,7 +203,7 @@ class AdmittanceComparison:
 @dataclass(frozen=True)
 class ReportContent:
     """Everything a design report shows, computed before it is drawn: the gains on the dense payloads
-    beside the thesis gains, the loop's curves, the Monte Carlo sweep, the design and admittance curves,
+    beside the thesis gains, the loop's curves, the one Monte Carlo check, the design and admittance curves,
     and the recordings with their diagnoses."""
 
     problem: DesignProblem
@@ -214,8 +213,6 @@ class ReportContent:
     evaluation: Evaluation
     thesis: Evaluation
     curves: LoopCurves
-    monte_carlo: SweepResult | None = None
-    seed: int = 0
     design: DesignOutcome | None = None
     admittance_curves: AdmittanceCurves | None = None
     recordings: tuple[ComparedRecording, ...] = ()

@@ -166,20 +166,19 @@ def measured_plants(problem: DesignProblem):
 
 def report_content(problem: DesignProblem, *, outcome: DesignOutcome | None = None, synthesise: bool = True,
                    data=(), columns: str | None = None, sample_rate_hz: float | None = None,
-                   samples: int | None = None, seed: int = 0, command: str = "") -> ReportContent:
+                   samples: int | None = None, seed: int | None = None, command: str = "") -> ReportContent:
     """Everything ``design.views.report.design_report`` draws: the gains (of ``outcome``, or synthesised
     when ``synthesise`` and the plant has a phase-limiting effect, else the spec's controller values)
-    evaluated on the dense payloads beside the thesis gains, the loop's curves, a Monte Carlo sweep over
-    the spec's uncertainty (``samples``; default 200 when it has ranges), and the diagnoses of ``data``
+    evaluated on the dense payloads beside the thesis gains, the loop's curves (with the binding scenario),
+    one Monte Carlo check over the spec's uncertainty (``samples`` draws of ``seed``, default the spec's
+    ``verification``, and the synthesis' own check when they agree; 0: none), and the diagnoses of ``data``
     (recordings read with the column map ``columns`` and ``sample_rate_hz`` in Hz, as ``measure``)."""
-    from design.loop.curves import loop_curves
+    from design.loop.curves import loop_curves, report_payloads
     from design.synth.evaluation import evaluate
     from design.synth.pi import PHASE_LIMITING, THESIS_GAINS, as_designed
 
     loop = problem.loop
-    if samples is None:
-        samples = 200 if loop.plant.uncertainty else 0
-    elif samples and not loop.plant.uncertainty:     # before any long computation
+    if samples and not loop.plant.uncertainty:     # before any long computation
         raise SpecError(f"{problem.spec_path}: plant.uncertainty: no parameter ranges to sample; add some or drop "
                         "--samples")
     measured = [measure(path, columns=columns, sample_rate_hz=sample_rate_hz) for path in data]   # before the work
@@ -197,11 +196,6 @@ def report_content(problem: DesignProblem, *, outcome: DesignOutcome | None = No
         raise SpecError(f"{problem.spec_path}: no gains to report: synthesis did not succeed and "
                         "controller.kp.value / controller.ki.value are not set")
     ev = evaluate(loop, kp, ki)
-    mc = None
-    if samples:
-        from design.loop.sweep import monte_carlo_sweep
-
-        mc = monte_carlo_sweep(loop, payload_kg=ev.payload_kg, samples=samples, seed=seed, kp=kp, ki=ki)
     adm_curves = None
     if outcome is not None and outcome.admittance is not None and outcome.admittance.status in (
             "optimal", "mouse_cannot_drive"):
@@ -214,12 +208,15 @@ def report_content(problem: DesignProblem, *, outcome: DesignOutcome | None = No
 
         recordings.append(ComparedRecording(Path(path), response, diagnose(loop.plant.plant(), response)))
     check, comparison, adm_comparison = None, (), None
-    if loop.plant.uncertainty:
-        check, comparison = _robustness(loop, kp, ki, outcome)
+    if loop.plant.uncertainty and samples != 0:
+        check, comparison = _robustness(loop, kp, ki, outcome, samples, seed)
         if adm_curves is not None:
             adm_comparison = _admittance_robustness(loop, outcome.admittance)
-    return ReportContent(problem, kp, ki, source, ev, evaluate(loop, *THESIS_GAINS), loop_curves(loop, kp, ki), mc,
-                         seed, outcome, adm_curves, tuple(recordings), command, check, comparison, adm_comparison)
+    binding = ev.worst_scenario if loop.plant.uncertainty or ev.worst_scenario.get("payload_kg") not in \
+        report_payloads(loop) else None
+    return ReportContent(problem, kp, ki, source, ev, evaluate(loop, *THESIS_GAINS),
+                         loop_curves(loop, kp, ki, binding), outcome, adm_curves, tuple(recordings), command, check,
+                         comparison, adm_comparison)
 
 
 def _admittance_robustness(loop, robust):
@@ -238,9 +235,11 @@ def _admittance_robustness(loop, robust):
     return AdmittanceComparison(nominal, mc)
 
 
-def _robustness(loop, kp: float, ki: float, outcome: DesignOutcome | None):
-    """The reported gains on the Monte Carlo draws; and, when they were synthesised, the robust design beside
-    the design for the nominal parameters, each on the nominal plants, the check scenarios and the draws."""
+def _robustness(loop, kp: float, ki: float, outcome: DesignOutcome | None, samples: int | None = None,
+                seed: int | None = None):
+    """The reported gains on the Monte Carlo draws (the synthesis' own check, or ``samples`` draws of ``seed``
+    when given: the one Monte Carlo of the report); and, when they were synthesised, the robust design beside
+    the design for the nominal parameters, each on the nominal plants, the check scenarios and the same draws."""
     from dataclasses import replace
 
     from design.results import DesignOnPlants
@@ -250,7 +249,9 @@ def _robustness(loop, kp: float, ki: float, outcome: DesignOutcome | None):
 
     s = outcome.synthesis if outcome is not None else None
     robust_synthesised = s is not None and s.status == "optimal" and s.monte_carlo is not None
-    check = s.monte_carlo if robust_synthesised else monte_carlo_check(loop, kp, ki)
+    own = robust_synthesised and (samples is None or samples == s.monte_carlo.samples) and (
+        seed is None or seed == s.monte_carlo.seed)
+    check = s.monte_carlo if own else monte_carlo_check(loop, kp, ki, samples=samples, seed=seed)
     if not robust_synthesised:
         return check, ()
     nominal_problem = replace(loop, plant=replace(loop.plant, uncertainty={}))
@@ -259,7 +260,8 @@ def _robustness(loop, kp: float, ki: float, outcome: DesignOutcome | None):
     if nominal.status == "optimal":
         n = nominal.evaluation
         rows.append(DesignOnPlants("nominal parameters only", evaluate(nominal_problem, n.kp, n.ki),
-                                   evaluate(loop, n.kp, n.ki), monte_carlo_check(loop, n.kp, n.ki)))
+                                   evaluate(loop, n.kp, n.ki),
+                                   monte_carlo_check(loop, n.kp, n.ki, samples=check.samples, seed=check.seed)))
     return check, tuple(rows)
 
 

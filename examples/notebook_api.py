@@ -58,5 +58,5 @@ loops.plot().savefig(out / "loop.png")
 write_design_mat(outcome, out / "design.mat")
 
 # 7. The design report (self-contained HTML).
-design_report(report_content(problem, outcome=outcome, samples=0)).write(out / "design.html")
+design_report(report_content(problem, outcome=outcome)).write(out / "design.html")
 print(f"written to {out}: rec.csv, response.mat, loop.png, design.mat, design.html")

@@ -20,9 +20,11 @@ def report(
     columns: ColumnsOption = None,
     sample_rate_hz: SampleRateHzOption = None,
     samples: Annotated[Optional[int], typer.Option(
-        help="Monte Carlo samples over the spec's plant.uncertainty (0: none; default 200 when the spec has "
-             "uncertainty ranges, else 0).", min=0, max=100000)] = None,
-    seed: Annotated[int, typer.Option(help="Seed of the Monte Carlo samples.")] = 0,
+        help="Monte Carlo draws over payload x the spec's plant.uncertainty, the report's one Monte Carlo (0: "
+             "none; default the spec's verification.monte_carlo_samples, the synthesis' own check).",
+        min=0, max=100000)] = None,
+    seed: Annotated[Optional[int], typer.Option(
+        help="Seed of the Monte Carlo draws (default the spec's verification.seed).", min=0)] = None,
     pdf: Annotated[bool, typer.Option("--pdf", help="Also write a PDF next to the HTML (needs Chromium).")] = False,
     synthesise: Annotated[bool, typer.Option(
         "--synth/--no-synth", help="Synthesise the gains (default when the plant has a delay, lag, sampling or "

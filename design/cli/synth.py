@@ -59,7 +59,7 @@ def synth(
         from design.views.report import design_report
         from design.workflows import report_content
 
-        design_report(report_content(problem, outcome=outcome, samples=0,
+        design_report(report_content(problem, outcome=outcome,
                                      command="gantry " + shlex.join(sys.argv[1:]))).write(report)
     if as_json:
         print_json(out)

@@ -1,6 +1,7 @@
 """The curves a design report plots, computed once from the problem and the gains: plant and loop
 frequency responses, Nyquist curves and closed-loop step responses at the light, nominal and
-heavy payloads."""
+heavy payloads (nominal parameters) and at the binding scenario (a payload with the uncertain
+parameters where the requirement with the least slack binds), with the loop margins of each."""
 
 from __future__ import annotations
 
@@ -22,9 +23,11 @@ STEP_TIME_S = np.linspace(0.0, 0.25, 2000)
 
 @dataclass(frozen=True)
 class LoopCurves:
-    """Curves of the loop with gains (kp, ki); rows are the payloads ``payload_kg``."""
+    """Curves of the loop with gains (kp, ki); rows are the plants named ``labels``: the payloads
+    ``payload_kg`` at the nominal parameters, then the binding scenario when there is one."""
 
     payload_kg: tuple[float, ...]
+    labels: tuple[str, ...]
     bode_w_rad_s: np.ndarray
     plant: np.ndarray
     loop: np.ndarray
@@ -33,6 +36,13 @@ class LoopCurves:
     step_time_s: np.ndarray
     #: closed velocity-loop response to a unit velocity-reference step (rational model, Pade for delays)
     step_response: np.ndarray
+    #: per row: gain crossover (Hz) and phase margin (deg), phase crossover (Hz) and gain margin (dB)
+    gain_crossover_hz: np.ndarray
+    phase_margin_deg: np.ndarray
+    phase_crossover_hz: np.ndarray
+    gain_margin_db: np.ndarray
+    #: the row of the binding scenario (None: none given)
+    binding_row: int | None = None
 
 
 def report_payloads(problem: LoopProblem) -> tuple[float, ...]:
@@ -41,14 +51,34 @@ def report_payloads(problem: LoopProblem) -> tuple[float, ...]:
     return tuple(sorted({rng.min, rng.nominal_kg, rng.max}))
 
 
-def loop_curves(problem: LoopProblem, kp: float, ki: float) -> LoopCurves:
+def scenario_label(row: dict) -> str:
+    """'binding: 40 kg, damping_n_s_per_m 330, delay.seconds 0.0008'."""
+    return f"binding: {row['payload_kg']:.3g} kg" + "".join(f", {k} {v:.3g}" for k, v in row.items()
+                                                           if k != "payload_kg")
+
+
+def loop_curves(problem: LoopProblem, kp: float, ki: float, binding: dict | None = None) -> LoopCurves:
+    """The curves at the report payloads and, with ``binding`` (``payload_kg`` and uncertain parameter
+    values, as ``Evaluation.worst_scenario``), at that scenario."""
     import control
 
+    from design.loop.margins import loop_margins
+
     masses = report_payloads(problem)
-    plants = problem.plant.plant(np.array(masses))
-    P = plants.frd(W_BODE)
+    base = problem.plant.plant()
+    plants = [base.with_values({"mass_kg": m}) for m in masses]
+    labels = [f"{m:g} kg" for m in masses]
+    if binding is not None:
+        plants.append(base.with_values({"mass_kg": binding["payload_kg"],
+                                        **{k: v for k, v in binding.items() if k != "payload_kg"}}))
+        labels.append(scenario_label(binding))
+    P = np.array([p.frd(W_BODE) for p in plants])
     with np.errstate(over="ignore", invalid="ignore"):        # an unstable loop's response diverges
-        steps = [np.squeeze(control.step_response(balanced(closed_loop_tf(problem.plant.plant(m), kp, ki)),
-                                                  STEP_TIME_S).outputs) for m in masses]
-    return LoopCurves(masses, W_BODE, P, open_loop_frd(P, W_BODE, kp, ki), W_NYQUIST,
-                      open_loop_frd(plants, W_NYQUIST, kp, ki), STEP_TIME_S, np.array(steps))
+        steps = [np.squeeze(control.step_response(balanced(closed_loop_tf(p, kp, ki)), STEP_TIME_S).outputs)
+                 for p in plants]
+    L = open_loop_frd(P, W_BODE, kp, ki)
+    m = loop_margins(W_BODE, L)
+    return LoopCurves(masses, tuple(labels), W_BODE, P, L, W_NYQUIST,
+                      np.array([open_loop_frd(p, W_NYQUIST, kp, ki) for p in plants]), STEP_TIME_S, np.array(steps),
+                      m.gain_crossover_hz, m.phase_margin_deg, m.phase_crossover_hz, m.gain_margin_db,
+                      len(plants) - 1 if binding is not None else None)

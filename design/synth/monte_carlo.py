@@ -9,7 +9,7 @@ plants take about a second.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -39,6 +39,9 @@ class MonteCarloCheck:
     #: the draw with the least slack: payload_kg and the uncertain parameters
     worst_scenario: dict
     unstable: int
+    #: every draw: payload (kg), phase margin (deg), gain margin (dB), bandwidth (Hz), shaped (samples,)
+    #: (the report plots them; not compared)
+    draws: dict = field(default_factory=dict, repr=False, compare=False)
 
     @property
     def rate(self) -> float:
@@ -86,4 +89,6 @@ def monte_carlo_check(problem: LoopProblem, kp: float, ki: float, *, samples: in
     k = int(bad.sum())
     return MonteCarloCheck(samples, seed, k, clopper_pearson_upper(k, samples), float(np.min(pm)),
                            float(np.min(gm)), float(np.nanmin(bw)) if np.any(np.isfinite(bw)) else float("nan"),
-                           s.row(i), int(np.sum(stable == 0)))
+                           s.row(i), int(np.sum(stable == 0)),
+                           {"payload_kg": np.asarray(s.payload_kg, float), "phase_margin_deg": pm,
+                            "gain_margin_db": gm, "bandwidth_hz": bw, "stable": stable == 1})

@@ -14,19 +14,44 @@ from plant.data.frequency_response import MeasuredResponse
 from plant.diagnose.diagnosis import Diagnosis
 from plant.diagnose.evidence import ACCEPT_DELTA_BIC
 
+#: model curves of the comparison figure: this many points per decade over the measured band
+MODEL_POINTS_PER_DECADE = 200
+
+
+def model_curves(fit, data: MeasuredResponse) -> tuple[np.ndarray, np.ndarray]:
+    """(w in rad/s, response per output) of a fitted model on a dense grid over the measured band, so that a
+    resonance is drawn as the model has it; at the measured frequencies alone for a plant whose response
+    depends on the excitation at each of them (friction, a current limit)."""
+    from plant.identify.fitting import at_outputs, output_map
+
+    w = data.w_rad_s
+    if not fit.plant.linear:
+        return w, fit.model_response
+    dense = np.geomspace(w[0], w[-1], max(int(MODEL_POINTS_PER_DECADE * np.log10(w[-1] / w[0])), 50))
+    return dense, at_outputs(fit.plant.frd_outputs(dense), output_map(fit.plant, data.output_names))
+
+
+def output_title(name: str) -> str:
+    """'velocity per current, (m/s)/A' for an output column such as velocity or velocity_m_per_s."""
+    what = name.removesuffix("_m_per_s").replace("_", " ")
+    return f"{what} per current, (m/s)/A"
+
 
 def comparison_figure(diag: Diagnosis, data: MeasuredResponse):
-    """Measured (with its 2-sigma band) against the base and the final model, per output."""
+    """Measured points (with their 2-sigma band, on magnitude and phase) against the base and the final model,
+    drawn on a dense grid, per output."""
     n_out = len(data.output_names)
     fig, axes = plt.subplots(2, n_out, sharex=True, figsize=(6.5 * n_out, 5.5), layout="tight", squeeze=False)
-    w = data.w_rad_s
     base, final = diag.steps[0].fit, diag.final
+    (wb, gb), (wf, gf) = model_curves(base, data), model_curves(final, data)
     for k, name in enumerate(data.output_names):
         band = 2 * np.sqrt(np.asarray(data.variance[k]))
-        bode(w, [data.response[k], base.model_response[k], final.model_response[k]],
-             ["measured (±2σ)", f"base model (χ²ᵣ {base.reduced_chi2:.3g})",
-              f"+ {', '.join(diag.added) or 'no effect'} (χ²ᵣ {final.reduced_chi2:.3g})"],
-             axes=axes[:, k], bands=[band, None, None], styles=["o", "--", "-"], title=name)
+        bode(data.w_rad_s, [data.response[k]], ["measured (±2σ)"], axes=axes[:, k], bands=[band], styles=["o"],
+             legend=False, unit="(m/s)/A")
+        bode(wb, [gb[k]], [f"base model (χ²ᵣ {base.reduced_chi2:.3g})"], axes=axes[:, k], styles=["--"],
+             legend=False, unit="(m/s)/A")
+        bode(wf, [gf[k]], [f"+ {', '.join(diag.added) or 'no effect'} (χ²ᵣ {final.reduced_chi2:.3g})"],
+             axes=axes[:, k], styles=["-"], title=output_title(name), unit="(m/s)/A")
     return fig
 
 

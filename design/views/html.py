@@ -22,7 +22,14 @@ th { background: #f0f0f0; } td.l, th.l { text-align: left; }
 .summary { background: #f6f8fa; border-left: 4px solid #444; padding: .6em 1em; }
 svg { max-width: 100%; height: auto; }
 figure { margin: 1em 0; } figcaption { font-size: .9em; color: #555; }
-pre { background: #f6f8fa; padding: .6em; overflow-x: auto; font-size: .85em; }
+pre { background: #f6f8fa; padding: .6em; overflow-x: auto; font-size: .85em; white-space: pre-wrap;
+      overflow-wrap: anywhere; }
+.table { overflow-x: auto; max-width: 100%; }
+@media (max-width: 700px) {
+  body { margin: 1em auto; padding: 0 .5em; font-size: 15px; }
+  table { font-size: .8em; } th, td { padding: .2em .35em; }
+  h1 { font-size: 1.4em; }
+}
 """
 
 
@@ -39,13 +46,26 @@ def svg(fig) -> str:
 
 
 def table(header: list[str], rows: list[list], *, left: int = 1) -> str:
-    """HTML table; the first ``left`` columns are left-aligned."""
+    """HTML table (scrolling sideways on a narrow screen); the first ``left`` columns and every column of text
+    (not a number) are left-aligned."""
+    text_columns = {k for k in range(len(header)) if rows and not all(_numeric(r[k]) for r in rows if k < len(r))}
+
     def cell(tag, k, v):
-        cls = ' class="l"' if k < left else ""
+        cls = ' class="l"' if k < left or k in text_columns else ""
         return f"<{tag}{cls}>{v if isinstance(v, Markup) else html.escape(str(v))}</{tag}>"
     head = "".join(cell("th", k, h) for k, h in enumerate(header))
     body = "".join("<tr>" + "".join(cell("td", k, v) for k, v in enumerate(r)) + "</tr>" for r in rows)
-    return f"<table><tr>{head}</tr>{body}</table>"
+    return f"<div class='table'><table><tr>{head}</tr>{body}</table></div>"
+
+
+def _numeric(v) -> bool:
+    """A cell that reads as a number (right-aligned): 12.3, -4, 1e+05, ∞, 5 / 10000, 0.03 %."""
+    t = str(v).replace("∞", "1").replace(" %", "").replace(" / ", "").replace("−", "-").strip()
+    try:
+        float(t)
+        return True
+    except ValueError:
+        return False
 
 
 class Markup(str):

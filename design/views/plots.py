@@ -26,8 +26,9 @@ def fixed_margins(fig, *, left_in: float = 0.75, right_in: float = 0.15, bottom_
 
 
 def bode(w_rad_s, responses: Sequence[np.ndarray], labels: Sequence[str], *, axes=None, title: str = "",
-         bands: Sequence[np.ndarray | None] | None = None, styles: Sequence[str] | None = None):
-    """Magnitude (dB) and phase (deg) against frequency (Hz); ``bands`` are optional 2-sigma
+         bands: Sequence[np.ndarray | None] | None = None, styles: Sequence[str] | None = None,
+         unit: str = "", legend: bool = True):
+    """Magnitude (dB, of ``unit``) and phase (deg) against frequency (Hz); ``bands`` are optional 2-sigma
     magnitude half-widths (same units as the response) drawn as shaded regions."""
     if axes is None:
         fig, axes = plt.subplots(2, 1, sharex=True, figsize=(7, 5.5), layout="tight")
@@ -42,13 +43,15 @@ def bode(w_rad_s, responses: Sequence[np.ndarray], labels: Sequence[str], *, axe
             lo = np.maximum(mag - bands[k], mag * 1e-3)
             axes[0].fill_between(f, 20 * np.log10(lo), 20 * np.log10(mag + bands[k]), color=line.get_color(),
                                  alpha=0.2, lw=0)
-        axes[1].semilogx(f, unwrapped_phase_deg(resp), linestyle=line.get_linestyle(), color=line.get_color())
-    axes[0].set_ylabel("magnitude (dB)")
+        axes[1].semilogx(f, unwrapped_phase_deg(resp), linestyle=line.get_linestyle(), color=line.get_color(),
+                         marker=line.get_marker(), markersize=line.get_markersize())
+    axes[0].set_ylabel(f"magnitude (dB re 1 {unit})" if unit else "magnitude (dB)")
     axes[1].set_ylabel("phase (deg)")
     axes[1].set_xlabel("frequency (Hz)")
     for ax in axes:
         ax.grid(True, which="both", alpha=0.3)
-    axes[0].legend(fontsize=8)
+    if legend:
+        axes[0].legend(fontsize=8)
     if title:
         axes[0].set_title(title)
     return fig

@@ -38,39 +38,76 @@ def limiting_text(ev: Evaluation, requirements) -> str:
     return f"{b['constraint'].replace('_', ' ')} (slack {b['slack']:.3g}) at {where}"
 
 
+#: the binding scenario's curves: black and dashed, drawn over the payloads'
+BINDING_STYLE = {"color": "k", "ls": "--", "lw": 1.6}
+
+
+def _styles(c: LoopCurves) -> list[dict]:
+    return [BINDING_STYLE if k == c.binding_row else {} for k in range(len(c.labels))]
+
+
+def _legend_below(fig, ax, ncol: int) -> None:
+    """One legend for the figure, under the axes, where it covers no curve."""
+    handles, labels = ax.get_legend_handles_labels()
+    fig.legend(handles, labels, loc="lower center", ncol=ncol, fontsize=8, frameon=False)
+
+
 def loop_bode_figure(c: LoopCurves):
-    fig, axes = plt.subplots(2, 2, sharex=True, figsize=(12, 5.5))
-    fixed_margins(fig, hspace=0.12)
-    bode(c.bode_w_rad_s, list(c.plant), [f"plant, {m:g} kg" for m in c.payload_kg], axes=axes[:, 0],
-         title="Plant P(jω)")
-    bode(c.bode_w_rad_s, list(c.loop), [f"loop, {m:g} kg" for m in c.payload_kg], axes=axes[:, 1],
-         title="Loop L = P (Kp + Ki/s)")
+    """Plant and loop Bode plots at the report payloads and the binding scenario, with each loop's gain
+    crossover (phase margin) and phase crossover (gain margin) marked."""
+    fig, axes = plt.subplots(2, 2, sharex=True, figsize=(12, 6.4))
+    fixed_margins(fig, hspace=0.12, bottom_in=1.15)
+    styles = ["k--" if k == c.binding_row else "-" for k in range(len(c.labels))]
+    bode(c.bode_w_rad_s, list(c.plant), list(c.labels), axes=axes[:, 0], title="Plant P(jω)", styles=styles,
+         unit="(m/s)/A", legend=False)
+    bode(c.bode_w_rad_s, list(c.loop), list(c.labels), axes=axes[:, 1], title="Loop L = P (Kp + Ki/s)",
+         styles=styles, unit="(dimensionless)", legend=False)
+    mag, phase = axes[:, 1]
+    mag.axhline(0.0, color="0.4", lw=0.8)
+    phase.axhline(-180.0, color="0.4", lw=0.8)
+    f = c.bode_w_rad_s / (2 * np.pi)
+    for k, line in enumerate(mag.get_lines()[:len(c.labels)]):
+        color, fc, pm = line.get_color(), c.gain_crossover_hz[k], c.phase_margin_deg[k]
+        if np.isfinite(fc) and np.isfinite(pm):
+            mag.plot([fc], [0.0], "o", color=color, ms=4)
+            phase.plot([fc, fc], [-180.0, -180.0 + pm], color=color, lw=2.2, solid_capstyle="butt")
+            if k == c.binding_row or c.binding_row is None and k == int(np.nanargmin(c.phase_margin_deg)):
+                phase.annotate(f"PM {pm:.1f}°", (fc, -180.0 + pm / 2), xytext=(6, 0), textcoords="offset points",
+                               fontsize=8, color=color, va="center")
+        fp, gm = c.phase_crossover_hz[k], c.gain_margin_db[k]
+        if np.isfinite(fp) and np.isfinite(gm) and f[0] <= fp <= f[-1]:
+            mag.plot([fp, fp], [0.0, -gm], color=color, lw=2.2, solid_capstyle="butt")
+            if k == c.binding_row or c.binding_row is None and k == int(np.nanargmin(c.gain_margin_db)):
+                mag.annotate(f"GM {gm:.1f} dB", (fp, -gm / 2), xytext=(6, 0), textcoords="offset points",
+                             fontsize=8, color=color, va="center")
+    _legend_below(fig, axes[0, 0], min(len(c.labels), 4))
     return fig
 
 
 def nyquist_figure(c: LoopCurves, requirements):
     """Nyquist curves with the margin regions: unit circle, PM cone and the GM point."""
     req = requirements
-    fig, ax = plt.subplots(figsize=(6.2, 6))
-    fixed_margins(fig)
+    fig, ax = plt.subplots(figsize=(8.6, 6))
+    fixed_margins(fig, right_in=2.6)
     th = np.linspace(0, 2 * np.pi, 400)
     ax.plot(np.cos(th), np.sin(th), color="0.6", lw=0.8, label="|L| = 1")
     pm = np.radians(req.phase_margin_deg)
     for sgn in (1, -1):
-        ax.plot([0, -np.cos(pm) * 1.6], [0, sgn * np.sin(pm) * 1.6], color="tab:red", lw=0.8, ls="--")
+        ax.plot([0, -np.cos(pm) * 1.6], [0, sgn * np.sin(pm) * 1.6], color="tab:red", lw=0.8, ls="--",
+                label=f"PM {req.phase_margin_deg:g}° cone" if sgn > 0 else None)
     gm = 10 ** (-req.gain_margin_db / 20)
     ax.plot([-gm], [0], "x", color="tab:red", ms=9, label=f"-1/GM ({req.gain_margin_db:g} dB)")
     ax.plot([-1], [0], "k+", ms=12, mew=2, label="-1")
-    for m, L in zip(c.payload_kg, c.nyquist_loop):
-        ax.plot(L.real, L.imag, label=f"{m:g} kg")
+    for label, L, style in zip(c.labels, c.nyquist_loop, _styles(c)):
+        ax.plot(L.real, L.imag, label=label, **style)
     ax.set_xlim(-3, 1.5)
     ax.set_ylim(-2.5, 2)
     ax.set_aspect("equal")
-    ax.set_xlabel("Re L")
-    ax.set_ylabel("Im L")
+    ax.set_xlabel("Re L (dimensionless)")
+    ax.set_ylabel("Im L (dimensionless)")
     ax.grid(True, alpha=0.3)
-    ax.set_title(f"Nyquist; dashed: PM {req.phase_margin_deg:g}° cone", fontsize=10)
-    ax.legend(fontsize=8, loc="lower right")
+    ax.set_title("Nyquist: each curve must pass right of the cone on |L| = 1 and of the GM mark", fontsize=10)
+    ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.03, 1.0), frameon=False)
     return fig
 
 
@@ -80,42 +117,91 @@ STEP_PLOT_LIMIT = 5.0
 
 def step_figure(c: LoopCurves):
     """Closed velocity-loop step response (rational model, Pade for delays)."""
-    fig, ax = plt.subplots(figsize=(7, 3.6))
-    fixed_margins(fig)
-    for m, y in zip(c.payload_kg, c.step_response):
+    fig, ax = plt.subplots(figsize=(9.5, 3.8))
+    fixed_margins(fig, right_in=2.6)
+    for label, y, style in zip(c.labels, c.step_response, _styles(c)):
         finite = np.all(np.isfinite(y)) and np.max(np.abs(y)) < STEP_PLOT_LIMIT
         ax.plot(c.step_time_s * 1e3, np.clip(np.where(np.isfinite(y), y, np.nan), -STEP_PLOT_LIMIT, STEP_PLOT_LIMIT),
-                label=f"{m:g} kg" + ("" if finite else " (diverges: unstable closed loop)"))
+                label=label + ("" if finite else " (diverges: unstable closed loop)"), **style)
+    ax.axhline(1.0, color="0.4", lw=0.8)
     ax.set_xlabel("time (ms)")
-    ax.set_ylabel("velocity / reference")
+    ax.set_ylabel("velocity / reference (m/s per m/s)")
     ax.grid(True, alpha=0.3)
-    ax.legend(fontsize=8)
+    ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.02, 1.0), frameon=False)
     ax.set_title("Closed velocity loop: unit step of the velocity reference", fontsize=10)
     return fig
 
 
-def payload_figure(designed: Evaluation, thesis: Evaluation, requirements, mc=None):
-    """Thesis Figure 4.31 extended: bandwidth and margins against payload, designed vs thesis gains."""
-    fig, axes = plt.subplots(1, 3, figsize=(13, 3.8))
-    fixed_margins(fig, left_in=0.5)
+#: payload bins of the Monte Carlo band in the margins-against-payload figure
+MC_BINS = 14
+
+
+def _monte_carlo_band(check, key: str):
+    """Bin centres (kg), 5 % and 95 % percentiles and minimum per payload bin of the check's draws."""
+    m, v = check.draws["payload_kg"], np.asarray(check.draws[key], float)
+    edges = np.linspace(np.min(m), np.max(m), MC_BINS + 1)
+    idx = np.clip(np.digitize(m, edges) - 1, 0, MC_BINS - 1)
+    centres, lo, hi, low = [], [], [], []
+    for b in range(MC_BINS):
+        x = v[idx == b]
+        x = x[~np.isnan(x)]
+        if x.size:
+            centres.append(0.5 * (edges[b] + edges[b + 1]))
+            lo.append(np.percentile(x, 5))
+            hi.append(np.percentile(x, 95))
+            low.append(np.min(x))
+    return np.array(centres), np.array(lo), np.array(hi), np.array(low)
+
+
+def thesis_verdict(ev: Evaluation) -> str:
+    """The thesis gains' verdict as HTML: a pass or fail mark and the worst margins."""
+    gm = float(np.min(ev.gain_margin_db))
+    mark = "<span class='ok'>meet the requirements</span>" if ev.meets else \
+        "<span class='bad'>FAIL the requirements</span>"
+    return (f"{mark} (worst phase margin {np.min(ev.phase_margin_deg):.1f} deg, gain margin "
+            + ("infinite" if not np.isfinite(gm) else f"{gm:.1f} dB") + ")")
+
+
+def verdict_label(name: str, ev: Evaluation, requirements) -> str:
+    """'thesis gains (Kp 236, Ki 47): FAILS (worst PM 40.0 deg, GM 5.0 dB)' or '...: meets ...'."""
+    gm = float(np.min(ev.gain_margin_db))
+    return (f"{name} (Kp {ev.kp:.4g}, Ki {ev.ki:.4g}): {'meets' if ev.meets else 'FAILS'} (worst PM "
+            f"{np.min(ev.phase_margin_deg):.1f}°, GM " + ("∞" if not np.isfinite(gm) else f"{gm:.1f} dB") + ")")
+
+
+def payload_figure(designed: Evaluation, thesis: Evaluation, requirements, check=None):
+    """Thesis Figure 4.31 extended: bandwidth and margins against payload, each the worst over the uncertainty
+    scenarios at that payload, for the designed and the thesis gains; shaded, the report's Monte Carlo check."""
+    fig, axes = plt.subplots(1, 3, figsize=(13, 4.6))
+    fixed_margins(fig, left_in=0.6, bottom_in=1.35)
     req = requirements
-    for s, label, style in ((designed, "designed gains", "-"), (thesis, "thesis gains (Kp 236, Ki 47)", "--")):
-        axes[0].plot(s.payload_kg, s.bandwidth_hz, style, label=label)
-        axes[1].plot(s.payload_kg, s.phase_margin_deg, style, label=label)
-        axes[2].plot(s.payload_kg, np.where(np.isfinite(s.gain_margin_db), s.gain_margin_db, np.nan), style,
-                     label=label)
-    if mc is not None:
-        for ax, dist in zip(axes, mc.distributions):
-            lo, hi = dist.percentile(mc.levels[0]), dist.percentile(mc.levels[-1])
-            ax.fill_between(mc.payload_kg, lo, hi, alpha=0.2, label=f"{mc.levels[0]:g}-{mc.levels[-1]:g} % "
-                            f"({mc.samples} samples)")
+    keys = ("bandwidth_hz", "phase_margin_deg", "gain_margin_db")
+    for s, name, style in ((designed, "designed gains", "-"), (thesis, "thesis gains", "--")):
+        label = verdict_label(name, s, req)
+        for ax, key in zip(axes, keys):
+            y = getattr(s, key)
+            ax.plot(s.payload_kg, np.where(np.isfinite(y), y, np.nan), style, label=label,
+                    color="tab:blue" if name == "designed gains" else ("tab:green" if s.meets else "tab:red"))
+    if check is not None and check.draws:
+        for ax, key in zip(axes, keys):
+            x, lo, hi, low = _monte_carlo_band(check, key)
+            ax.fill_between(x, lo, hi, color="tab:blue", alpha=0.18, lw=0,
+                            label=f"designed gains, Monte Carlo check: 5-95 % of its {check.samples} draws "
+                                  f"(seed {check.seed}) per payload bin")
+            ax.plot(x, low, ":", color="tab:blue", lw=1, label="... and their worst draw per bin")
     axes[1].axhline(req.phase_margin_deg, color="tab:red", ls=":", label="required")
-    axes[2].axhline(req.gain_margin_db, color="tab:red", ls=":", label="required")
-    for ax, title in zip(axes, ("closed-loop bandwidth (Hz)", "phase margin (deg)", "gain margin (dB; gaps: ∞)")):
-        ax.set_title(title, fontsize=10)
+    axes[2].axhline(req.gain_margin_db, color="tab:red", ls=":")
+    for ax, title, unit in zip(axes, ("closed-loop bandwidth", "phase margin", "gain margin (gaps: ∞)"),
+                               ("Hz", "deg", "dB")):
+        ax.set_title(title + ", worst over the uncertainty", fontsize=10)
         ax.set_xlabel("payload (kg)")
+        ax.set_ylabel(unit)
         ax.grid(True, alpha=0.3)
-        ax.legend(fontsize=7)
+    handles = {}
+    for ax in axes:
+        for h, lab in zip(*ax.get_legend_handles_labels()):
+            handles.setdefault(lab, h)
+    fig.legend(list(handles.values()), list(handles), loc="lower center", ncol=2, fontsize=8, frameon=False)
     return fig
 
 
@@ -143,8 +229,8 @@ def design_report(content: ReportContent) -> Report:
                 f"{mc.violations} violate the requirements ({100 * mc.rate:.2g} %, one-sided 95 % upper bound "
                 f"{100 * mc.rate_upper_bound:.2g} %); worst PM {mc.worst_phase_margin_deg:.1f} deg, worst GM "
                 f"{mc.worst_gain_margin_db:.1f} dB."] if mc is not None else []),
-             f"<b>Thesis gains on the same plant:</b> worst-case bandwidth {thesis.worst_bandwidth_hz:.2f} Hz, "
-             f"phase margin {np.min(thesis.phase_margin_deg):.1f} deg."]
+             f"<b>Thesis gains on the same plant:</b> {thesis_verdict(thesis)}; worst-case bandwidth "
+             f"{thesis.worst_bandwidth_hz:.2f} Hz."]
     d = c.design
     for f in (d.synthesis.filters if d is not None and d.synthesis is not None else ()):
         params = ", ".join(f"{k} {f[k]:.4g}" for k in ("frequency_hz", "damping_ratio", "depth") if k in f)
@@ -184,18 +270,23 @@ def design_report(content: ReportContent) -> Report:
             f"{n} = {fitted.values[n]:.4g} ± {fitted.stderr[n]:.2g}" for n in fitted.free))
 
     report.heading("Loop over the payload range")
-    report.figure(loop_bode_figure(c.curves), "Bode plots of plant and loop at light, nominal and heavy payload.")
+    report.figure(loop_bode_figure(c.curves), "Bode plots of plant and loop at light, nominal and heavy payload "
+                  "(nominal parameters)" + (" and, dashed, the binding scenario, where the requirement with the least "
+                                            "slack binds" if c.curves.binding_row is not None else "")
+                  + "; on the loop, each gain crossover's phase margin and phase crossover's gain margin.")
     report.figure(nyquist_figure(c.curves, req), "Nyquist curves; the curve must stay right of the dashed PM cone "
                                                  "where it crosses the unit circle and cross the real axis right "
                                                  "of the GM mark.")
     report.figure(step_figure(c.curves), "Closed-loop step response of the velocity loop.")
 
     report.heading("Margins and bandwidth against payload")
-    mc = c.monte_carlo
-    report.figure(payload_figure(ev, thesis, req, mc),
-                  "Thesis Figure 4.31 extended: designed against thesis gains" +
-                  (f"; shaded: Monte Carlo over the spec's uncertainty (seed {c.seed})" if mc else "") + ".")
-    report.raw(table(["payload kg", "bandwidth Hz", "PM deg", "GM dB", "thesis-gain bandwidth Hz"],
+    report.figure(payload_figure(ev, thesis, req, c.monte_carlo_check),
+                  "Thesis Figure 4.31 extended: designed against thesis gains, each the worst over the uncertainty "
+                  "scenarios at each payload (the figures of the summary)"
+                  + (f"; shaded: the summary's Monte Carlo check ({c.monte_carlo_check.samples} draws, seed "
+                     f"{c.monte_carlo_check.seed})" if c.monte_carlo_check is not None else "") + ".")
+    report.raw(table(["payload kg", "bandwidth Hz (worst)", "PM deg (worst)", "GM dB (worst)",
+                      "thesis gains: bandwidth Hz (worst)"],
                      [[f"{m:.1f}", f"{b:.2f}", f"{pm:.1f}", "∞" if not np.isfinite(g) else f"{g:.1f}", f"{bt:.2f}"]
                       for m, b, pm, g, bt in list(zip(ev.payload_kg, ev.bandwidth_hz, ev.phase_margin_deg,
                                                       ev.gain_margin_db, thesis.bandwidth_hz))[::7]]))
@@ -208,7 +299,7 @@ def design_report(content: ReportContent) -> Report:
                     "cases over the payload range.")
         report.raw(table(["design", "Kp A/(m/s)", "Ki A/m", "bandwidth, nominal parameters Hz",
                           "bandwidth over the uncertainty Hz", "Monte Carlo violations", "95 % bound",
-                          "worst PM deg", "worst GM dB"],
+                          "Monte Carlo: worst PM deg", "Monte Carlo: worst GM dB"],
                          [[r.name, f"{r.nominal.kp:.4g}", f"{r.nominal.ki:.4g}", f"{r.nominal.worst_bandwidth_hz:.2f}",
                            f"{r.robust.worst_bandwidth_hz:.2f}",
                            f"{r.monte_carlo.violations} / {r.monte_carlo.samples}",
@@ -239,9 +330,10 @@ def design_report(content: ReportContent) -> Report:
     report.raw(table(["item", "value"], [
         ["tool", f"gantry {__version__}"], ["command", c.command or "(library call)"],
         ["spec", f"{spec_path} (sha256 {hashlib.sha256(text.encode()).hexdigest()})"],
-        ["seed", str(c.seed)], *[[f"data {k + 1}", f"{r.path} (sha256 "
-                                                f"{hashlib.sha256(r.path.read_bytes()).hexdigest()[:16]}…)"]
-                                 for k, r in enumerate(c.recordings)]]))
+        ["Monte Carlo", "none" if c.monte_carlo_check is None else
+         f"{c.monte_carlo_check.samples} draws, seed {c.monte_carlo_check.seed}"],
+        *[[f"data {k + 1}", f"{r.path} (sha256 {hashlib.sha256(r.path.read_bytes()).hexdigest()[:16]}…)"]
+          for k, r in enumerate(c.recordings)]]))
     report.pre(text)
     if d is not None:
         import json

@@ -99,3 +99,71 @@ def test_report_samples_without_uncertainty_exits_2_at_once(tmp_path):
                            str(tmp_path / "r.html")], capture_output=True, text=True)
     assert proc.returncode == 2 and "plant.uncertainty" in proc.stderr and proc.stderr.count("\n") == 1
     assert not (tmp_path / "r.html").exists()
+
+
+@pytest.fixture(scope="module")
+def synth_report(tmp_path_factory):
+    out = tmp_path_factory.mktemp("synth_report") / "design.html"
+    proc = subprocess.run([sys.executable, "-m", "design", "report", str(ROOT / "specs" / "stage_x_synth.toml"),
+                           "--out", str(out)], capture_output=True, text=True)
+    assert proc.returncode == 0, proc.stderr
+    return out.read_text()
+
+
+def test_the_binding_scenario_of_the_summary_is_drawn_with_its_margins(synth_report):
+    html = synth_report
+    limiting = re.search(r"<b>Limiting:</b> phase margin ([\d.]+) deg \(required 45\) at ([\d.]+) kg, "
+                         r"current_loop.bandwidth_hz = (\d+), damping_n_s_per_m = (\d+), delay.seconds = ([\d.]*\d)",
+                         html)
+    assert limiting, html[:3000]
+    pm, kg, bw, damping, delay = limiting.groups()
+    label = (f"binding: {float(kg):.3g} kg, current_loop.bandwidth_hz {bw}, damping_n_s_per_m {damping}, "
+             f"delay.seconds {delay}")
+    bode, nyquist, step = (html.split("<figure>")[k] for k in (1, 2, 3))
+    assert all(label in fig for fig in (bode, nyquist, step))
+    assert f"PM {float(pm):.1f}°" in bode                 # the binding loop's phase margin, marked
+    assert "dB re 1 (m/s)/A" in bode and "dB re 1 (dimensionless)" in bode
+
+
+def test_one_monte_carlo_and_honest_verdicts_on_every_panel(synth_report):
+    html = synth_report
+    summary = html[html.index("<div class='summary'>"):html.index(">Plant</h2>")]
+    draws = re.search(r"\((\d+) independent draws, seed (\d+)\)", summary).groups()
+    assert draws == ("10000", "20261124")
+    payload = html.split("<figure>")[4]
+    assert f"{draws[0]} draws (seed {draws[1]})" in payload and "200 samples" not in html
+    # the thesis gains fail this spec's requirements (worst PM 40 deg < 45): said in the summary and the legend
+    assert "<span class='bad'>FAIL the requirements</span>" in summary
+    assert "thesis gains (Kp 236, Ki 47): FAILS" in payload
+    assert "worst over the uncertainty" in payload
+    # text columns left-aligned, numbers right-aligned
+    assert '<td class="l">330 – 550</td>' in html
+    assert re.search(r"<td>172\.\d\d</td>", html)
+
+
+def test_the_diagnosis_figure_draws_models_through_a_resonance_and_measured_phase():
+    # a lightly damped mode between measured frequencies: the final model's curve must reach the mode's peak,
+    # which the measured frequencies alone miss (closed form of the plant's peak via plant.frd on a fine grid)
+    from design.views.diagnosis import comparison_figure, model_curves, output_title
+    from plant import Resonance
+    from plant.diagnose.diagnosis import diagnose
+    from plant.estimate.lockin import estimate_response
+
+    plant = stage_x(mass_kg=20.0) * Resonance(40.0, 30.0, 0.03)
+    rec = simulate_stepped_sine(plant, f_hz=np.geomspace(2, 100, 25), current_amplitude_a=0.5, duration_s=2.0,
+                                noise_fraction=0.01, seed=3)
+    data = estimate_response(rec)
+    diag = diagnose(stage_x(mass_kg=20.0), data)
+    w, g = model_curves(diag.final, data)
+    assert w.size > 5 * data.f_hz.size
+    fine = np.geomspace(2 * np.pi * 30, 2 * np.pi * 60, 20000)        # around the mode
+    peak = np.max(np.abs(plant.frd(fine)))
+    near = (w >= fine[0]) & (w <= fine[-1])
+    assert np.max(np.abs(g[0, near])) == pytest.approx(peak, rel=0.05)
+    measured_near = (data.f_hz >= 30) & (data.f_hz <= 60)
+    assert np.max(np.abs(data.response[0, measured_near])) < 0.9 * peak
+    fig = comparison_figure(diag, data)
+    phase_axis = fig.axes[1]
+    measured = [line for line in phase_axis.get_lines() if line.get_marker() == "o"]
+    assert len(measured) == 1 and measured[0].get_xdata().size == data.f_hz.size
+    assert fig.axes[0].get_title() == output_title(data.output_names[0]) == "velocity per current, (m/s)/A"

@@ -78,31 +78,38 @@ def diagnose(
             prep=Preprocessing(filter_hz, decimate_band_hz, input_hold), progress=progress)
     finally:
         progress.close()
+    files: dict[Path, str] = {}
     if compensation is not None:
-        _write_compensation(outcome, compensation)
+        files[compensation] = _compensation_text(outcome)
     if report is not None:
         from design.views.diagnosis import diagnosis_html
 
-        diagnosis_html(outcome, title=f"Diagnosis of {data.name} (Stage {stage.upper()})",
-                       provenance=_provenance(data)).write(report)
+        files[report] = diagnosis_html(outcome, title=f"Diagnosis of {data.name} (Stage {stage.upper()})",
+                                       provenance=_provenance(data)).render()
     if as_json:
         print_json(diagnosis_outcome_to_dict(outcome))
-        return
-    print_diagnosis_outcome(console, outcome)
-    if compensation is not None and str(compensation) != "-":
-        console.print(f"compensation table written to {compensation}", soft_wrap=True)
-    if report is not None and str(report) != "-":
-        console.print(f"report written to {report}")
+    else:
+        print_diagnosis_outcome(console, outcome)
+    if files:       # the files last: a stop while the text prints leaves none behind
+        from plant.host.files import atomic_write_texts
+
+        done = "; ".join(f"{what} written to {path}" for what, path in (("compensation table", compensation),
+                                                                         ("report", report))
+                         if path is not None and str(path) != "-")
+        atomic_write_texts(files)
+        if done and not as_json:
+            print(done)
 
 
-def _write_compensation(outcome, path: Path) -> None:
-    """The selected time-domain model's compensation table, or a ``ParameterError`` saying why there is none."""
+def _compensation_text(outcome) -> str:
+    """The selected time-domain model's compensation table (CSV), or a ``ParameterError`` saying why there is
+    none."""
     from plant.errors import ParameterError
 
     if not outcome.time_domain:
         raise ParameterError("--compensation: a compensation table comes from a time-domain recording with the "
                              "position (the frequency-domain diagnosis has no position-dependent force)")
-    outcome.diagnosis.compensation().write(path)
+    return outcome.diagnosis.compensation().csv_text()
 
 
 def _provenance(data: Path) -> str:

@@ -7,7 +7,7 @@ from typing import Annotated, Optional
 
 import typer
 
-from design.cli.common import console, finite_positive, options_named
+from design.cli.common import finite_positive, options_named
 from plant.errors import ParameterError
 
 #: velocity noise (m/s, standard deviation) of the prediction when none is given: a velocity
@@ -46,8 +46,8 @@ def excite(
 ) -> None:
     """Design an odd log-spaced multisine, write it, and compare its predicted FRF variance per second of
     machine time with the thesis stepped sine (one 5 s block per frequency, same band, same peak current)."""
-    from design.views.console import print_excitation
-    from design.views.json import excitation_to_dict, print_json
+    from design.views.console import excitation_text
+    from design.views.json import excitation_to_dict, json_text
     from plant.experiment.excitation import design_multisine, periods_for, predicted_variance, write_excitation_csv
 
     if out.suffix.lower() != ".csv":
@@ -60,8 +60,6 @@ def excite(
                           sample_rate_hz=sample_rate_hz, periods=n, lines_per_decade=lines_per_decade,
                           phases=phases, seed=seed)
     pred = predicted_variance(ms, noise_m_per_s=noise_m_per_s)
-    write_excitation_csv(ms, out)
-    if as_json:
-        print_json({"out": str(out), **excitation_to_dict(ms, pred)})
-    else:
-        print_excitation(console, out, ms, pred)
+    text = json_text({"out": str(out), **excitation_to_dict(ms, pred)}) if as_json else excitation_text(out, ms, pred)
+    write_excitation_csv(ms, out)         # the file last, then only the text composed before it
+    print(text)

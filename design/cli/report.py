@@ -9,7 +9,7 @@ from typing import Annotated, Optional
 
 import typer
 
-from design.cli.common import ColumnsOption, PlantFromOption, SampleRateHzOption, console, keep_inputs
+from design.cli.common import ColumnsOption, PlantFromOption, SampleRateHzOption, keep_inputs
 
 
 def report(
@@ -74,6 +74,7 @@ def _write(report, out: Path, pdf: bool) -> None:
         from design.views.browser import html_to_pdf
 
         files[out.with_suffix(".pdf")] = html_to_pdf(html)
+    done = f"report written to {out}" + (f" and {out.with_suffix('.pdf')}" if pdf else "")
     atomic_write_texts(files)
     if not is_stdout(out):
-        console.print(f"report written to {out}" + (f" and {out.with_suffix('.pdf')}" if pdf else ""))
+        print(done)         # plain: after the files, as few calls as possible

@@ -57,12 +57,13 @@ def sweep(
         raise SpecError(f"{spec}: {exc}") from None
     finally:
         progress.close()
-    if csv is not None:
-        atomic_write_text(csv, sweep_csv(result))
     check = result.check(problem.requirements)
     if as_json:
         print_json({**sweep_to_dict(result), "gains_source": source, **check.to_dict()})
-        return
-    print_sweep(console, result, check, source)
-    if csv is not None and str(csv) != "-":
-        console.print(f"Wrote {csv}")
+    else:
+        print_sweep(console, result, check, source)
+    if csv is not None:         # the file last: a stop while the tables print leaves no file behind
+        csv_text = sweep_csv(result)
+        atomic_write_text(csv, csv_text)
+        if not as_json and str(csv) != "-":
+            print(f"Wrote {csv}")       # plain: after the file, as few calls as possible

@@ -429,8 +429,9 @@ def print_time_simulation(console: Console, rec, out, sidecar) -> None:
     console.print("\n".join(lines), markup=False, highlight=False, soft_wrap=True)
 
 
-def print_excitation(console: Console, out, ms: Multisine, pred: VariancePrediction) -> None:
-    """``gantry excite``: what was written, the lines, crest factor, and the predicted variance per second."""
+def excitation_text(out, ms: Multisine, pred: VariancePrediction) -> str:
+    """``gantry excite``: what was written, the lines, crest factor, the predicted variance per second and
+    the verdict (composed before the file is written)."""
     from plant.experiment.excitation import THESIS_BLOCK_S
 
     lines = [
@@ -447,7 +448,7 @@ def print_excitation(console: Console, out, ms: Multisine, pred: VariancePredict
         f"  ratio stepped / multisine: {pred.ratio:.3g} (> 1: the multisine is better per second)",
         pred.verdict(ms.crest_factor),
     ]
-    console.print("\n".join(lines), markup=False, highlight=False, soft_wrap=True)
+    return "\n".join(lines)
 
 
 def print_simulation(console: Console, rec: Recording, out, sidecar, *, amplitude_a: float) -> None:

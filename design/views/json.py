@@ -53,7 +53,12 @@ def finite_or_none(x) -> float | None:
 
 def print_json(obj) -> None:
     """Strict JSON on stdout: NaN and infinities anywhere in ``obj`` become null (see ``_strict``)."""
-    print(json.dumps(_strict(obj), indent=2, allow_nan=False))
+    print(json_text(obj))
+
+
+def json_text(obj) -> str:
+    """The strict JSON ``print_json`` prints."""
+    return json.dumps(_strict(obj), indent=2, allow_nan=False)
 
 
 def _strict(obj):

@@ -125,9 +125,13 @@ def _quiet_cvxpy_after_a_stop() -> None:
     one fail to import, which it would report on stderr beside the one line."""
     import logging
 
+    logging.getLogger("__cvxpy__").addFilter(_no_stop_requested)     # one filter however often main() runs
+
+
+def _no_stop_requested(record) -> bool:
     from plant.host.interrupts import requested
 
-    logging.getLogger("__cvxpy__").addFilter(lambda record: requested() is None)
+    return requested() is None
 
 
 def _stop_if_requested() -> None:

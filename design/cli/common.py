@@ -15,6 +15,7 @@ from rich.console import Console
 
 from plant import __version__
 from plant.errors import GantryError, ParameterError, SpecError
+from plant.host.files import is_stdout
 
 app = typer.Typer(add_completion=False, no_args_is_help=True, pretty_exceptions_enable=False,
                   help="Model, identify and tune the controllers of the exoskeleton H-gantry.")
@@ -91,14 +92,14 @@ def keep_inputs(outputs: dict[str, Path | None], inputs: list[Path | None], *, j
     one output to standard output (``-``; ``json``: ``--json`` prints there); with one there, what the command
     prints for reading goes to standard error."""
     given = {Path(p).resolve() for p in inputs if p is not None}
-    to_stdout = [option for option, path in outputs.items() if path is not None and str(path) == "-"]
+    to_stdout = [option for option, path in outputs.items() if path is not None and is_stdout(path)]
     if len(to_stdout) + json > 1:
         raise ParameterError(f"{' and '.join(to_stdout + ['--json'] * json)}: only one output can go to standard "
                              "output (-); write the others to files")
     if to_stdout:       # the file owns standard output: the tables and notes go to standard error
         console.file = sys.stderr
     for option, path in outputs.items():
-        if path is not None and str(path) != "-" and Path(path).resolve() in given:
+        if path is not None and not is_stdout(path) and Path(path).resolve() in given:
             raise ParameterError(f"{option} {path}: is an input of this command; write the output to another file")
 
 

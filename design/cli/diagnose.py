@@ -91,11 +91,11 @@ def diagnose(
     else:
         print_diagnosis_outcome(console, outcome)
     if files:       # the files last: a stop while the text prints leaves none behind
-        from plant.host.files import atomic_write_texts
+        from plant.host.files import atomic_write_texts, is_stdout
 
         done = "; ".join(f"{what} written to {path}" for what, path in (("compensation table", compensation),
                                                                          ("report", report))
-                         if path is not None and str(path) != "-")
+                         if path is not None and not is_stdout(path))
         atomic_write_texts(files)
         if done and not as_json:
             print(done)

@@ -44,7 +44,7 @@ def mouse_run(
     from design.admittance.mouse_run import path_from_csv, run_settings, trapezoid_path
     from design.views.json import mouse_run_csv, mouse_run_to_dict, print_json
     from design.workflows import load_problem
-    from plant.host.files import atomic_write_text
+    from plant.host.files import atomic_write_text, is_stdout
     from plant.host.text_io import read_text
 
     keep_inputs({"--out": out}, [spec_file, design_file, path], json=as_json)
@@ -83,7 +83,7 @@ def mouse_run(
                       f"Kp = {kp:.4g}, Ki = {ki:.4g}) at {settings.gantry_mass_kg:g} kg", soft_wrap=True)
         for line in d["summary"]:
             console.print(f"  {line}", soft_wrap=True)
-        if out is not None and str(out) != "-":
+        if out is not None and not is_stdout(out):
             console.print(f"run written to {out}")
     if not d["mouse_keeps_up"]:
         raise typer.Exit(3)

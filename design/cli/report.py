@@ -10,6 +10,7 @@ from typing import Annotated, Optional
 import typer
 
 from design.cli.common import ColumnsOption, PlantFromOption, SampleRateHzOption, keep_inputs
+from plant.host.files import is_stdout
 
 
 def report(
@@ -35,7 +36,7 @@ def report(
     from design.views.report import design_report
     from design.workflows import load_problem, report_content
 
-    if pdf and str(out) == "-":
+    if pdf and is_stdout(out):
         from plant.errors import ParameterError
 
         raise ParameterError("--pdf: the PDF is written beside the HTML file; give --out FILE.html")
@@ -66,7 +67,7 @@ def report(
 
 def _write(report, out: Path, pdf: bool) -> None:
     """The HTML report, and with ``pdf`` its PDF beside it: both written or neither."""
-    from plant.host.files import atomic_write_texts, is_stdout
+    from plant.host.files import atomic_write_texts
 
     html = report.render()
     files: dict[Path, str | bytes] = {out: html}

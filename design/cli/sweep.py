@@ -36,7 +36,7 @@ def sweep(
     from design.views.json import print_json, sweep_csv, sweep_to_dict
     from design.views.progress import LazyProgress
     from design.workflows import load_problem
-    from plant.host.files import atomic_write_text
+    from plant.host.files import atomic_write_text, is_stdout
 
     keep_inputs({"--csv": csv}, [spec, design_file, plant_from], json=as_json)
     problem = load_problem(spec, plant_from=plant_from).loop
@@ -63,7 +63,6 @@ def sweep(
     else:
         print_sweep(console, result, check, source)
     if csv is not None:         # the file last: a stop while the tables print leaves no file behind
-        csv_text = sweep_csv(result)
-        atomic_write_text(csv, csv_text)
-        if not as_json and str(csv) != "-":
+        atomic_write_text(csv, sweep_csv(result))
+        if not as_json and not is_stdout(csv):
             print(f"Wrote {csv}")       # plain: after the file, as few calls as possible

@@ -18,6 +18,7 @@ from typing import Annotated, Optional
 import typer
 
 from design.cli.common import PlantFromOption, console, keep_inputs
+from plant.host.files import is_stdout
 
 
 def synth(
@@ -65,7 +66,7 @@ def synth(
         print_json(out)
     else:
         print_synthesis(console, out)
-        if report is not None and reportable and str(report) != "-":
+        if report is not None and reportable and not is_stdout(report):
             console.print(f"report written to {report}")
     if report is not None and not reportable:
         typer.echo(f"no report written to {report}: no verified design", err=True)

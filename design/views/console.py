@@ -18,7 +18,7 @@ if TYPE_CHECKING:
     from plant.data.recordings import Recording
     from plant.diagnose.diagnosis import Diagnosis
     from plant.diagnose.time_diagnosis import TimeDiagnosis
-    from plant.experiment.excitation import Multisine, VariancePrediction
+    from plant.experiment.excitation import Multisine, SteppedSine, VariancePrediction
 
 #: payload rows shown in the sweep's terminal table (all of them go to --csv / --json)
 TABLE_ROWS = 15
@@ -429,22 +429,30 @@ def print_time_simulation(console: Console, rec, out, sidecar) -> None:
     console.print("\n".join(lines), markup=False, highlight=False, soft_wrap=True)
 
 
-def excitation_text(out, ms: Multisine, pred: VariancePrediction) -> str:
-    """``gantry excite``: what was written, the lines, crest factor, the predicted variance per second and
-    the verdict (composed before the file is written)."""
-    from plant.experiment.excitation import THESIS_BLOCK_S
-
+def excitation_text(out, written: str, ms: Multisine, pred: VariancePrediction, stepped: SteppedSine, *,
+                    chosen: bool) -> str:
+    """``gantry excite``: what was written and why, both designs, their predicted variance per second and the
+    verdict (composed before the file is written)."""
+    if written == "stepped_sine":
+        what = (f"wrote {out}: the stepped sine, {stepped.f_hz.size} log-spaced frequencies {stepped.f_hz[0]:g} to "
+                f"{stepped.f_hz[-1]:g} Hz, {stepped.block_s:g} s each at {stepped.amplitude_a:g} A, "
+                f"{stepped.samples_per_block} samples per block at {stepped.sample_rate_hz:g} Hz = "
+                f"{stepped.duration_s:g} s of machine time")
+    else:
+        what = (f"wrote {out}: the multisine, {ms.current_a.size} samples at {ms.sample_rate_hz:g} Hz, {ms.periods} "
+                f"periods of {ms.period_s:g} s = {ms.duration_s:g} s of machine time")
+    why = ("(--form auto: the lower predicted variance per second of machine time)" if chosen
+           else "(asked for by --form)")
     lines = [
-        f"wrote {out}: {ms.current_a.size} samples at {ms.sample_rate_hz:g} Hz, {ms.periods} periods of "
-        f"{ms.period_s:g} s = {ms.duration_s:g} s of machine time",
-        f"lines: {ms.f_hz.size} odd harmonics of {1 / ms.period_s:g} Hz, {ms.f_hz[0]:g} to {ms.f_hz[-1]:g} Hz, "
-        f"{ms.amplitudes[0]:.4g} A each",
-        f"peak {ms.peak_a:.4g} A, RMS {ms.rms_a:.4g} A, crest factor {ms.crest_factor:.3f} ({ms.phase_method} phases)",
+        f"{what} {why}",
+        f"multisine: {ms.f_hz.size} odd harmonics of {1 / ms.period_s:g} Hz, {ms.f_hz[0]:g} to {ms.f_hz[-1]:g} Hz, "
+        f"{ms.amplitudes[0]:.4g} A each; peak {ms.peak_a:.4g} A, RMS {ms.rms_a:.4g} A, crest factor "
+        f"{ms.crest_factor:.3f} ({ms.phase_method} phases)",
         f"predicted FRF variance for {pred.noise_m_per_s:g} m/s velocity noise, mean per line x machine time:",
         f"  multisine    {pred.multisine_variance_s:.4g} (m/s per A)^2 s  ({ms.f_hz.size} lines in "
         f"{pred.multisine_time_s:g} s, first period dropped)",
         f"  stepped sine {pred.stepped_variance_s:.4g} (m/s per A)^2 s  ({pred.stepped_f_hz.size} log-spaced "
-        f"frequencies, {THESIS_BLOCK_S:g} s blocks at {ms.peak_a:g} A, {pred.stepped_time_s:g} s)",
+        f"frequencies, {stepped.block_s:g} s blocks at {stepped.amplitude_a:g} A, {pred.stepped_time_s:g} s)",
         f"  ratio stepped / multisine: {pred.ratio:.3g} (> 1: the multisine is better per second)",
         pred.verdict(ms.crest_factor),
     ]

@@ -32,7 +32,7 @@ if TYPE_CHECKING:
     from plant.data.recordings import Recording
     from plant.diagnose.diagnosis import Diagnosis
     from plant.diagnose.time_diagnosis import TimeDiagnosis
-    from plant.experiment.excitation import Multisine, VariancePrediction
+    from plant.experiment.excitation import Multisine, SteppedSine, VariancePrediction
     from plant.identify.fitting import FitResult
     from plant.identify.rational_fit import RationalFit
     from plant.identify.time_fit import TimeFitResult
@@ -648,10 +648,8 @@ def dual_design_to_dict(dual: DualDesign) -> dict:
             "seconds": dual.seconds}
 
 
-def excitation_to_dict(ms: Multisine, pred: VariancePrediction) -> dict:
-    """``gantry excite --json`` (without ``out``): the multisine and its predicted FRF variance."""
-    from plant.experiment.excitation import THESIS_BLOCK_S
-
+def excitation_to_dict(ms: Multisine, pred: VariancePrediction, stepped: SteppedSine) -> dict:
+    """``gantry excite --json`` (without ``out`` and ``form``): both designs and their predicted FRF variance."""
     return {"f_hz": ms.f_hz, "harmonics": ms.harmonics, "amplitudes_a": ms.amplitudes,
             "phases_rad": ms.phases, "phase_method": ms.phase_method, "period_s": ms.period_s,
             "periods": ms.periods, "machine_time_s": ms.duration_s, "sample_rate_hz": ms.sample_rate_hz,
@@ -659,9 +657,9 @@ def excitation_to_dict(ms: Multisine, pred: VariancePrediction) -> dict:
             "crest_factor": ms.crest_factor, "noise_m_per_s": pred.noise_m_per_s,
             "multisine_variance": pred.multisine_variance,
             "multisine_variance_s": pred.multisine_variance_s,
-            "stepped": {"f_hz": pred.stepped_f_hz, "block_s": THESIS_BLOCK_S, "amplitude_a": ms.peak_a,
-                        "machine_time_s": pred.stepped_time_s, "variance": pred.stepped_variance,
-                        "variance_s": pred.stepped_variance_s},
+            "stepped": {"f_hz": pred.stepped_f_hz, "block_s": stepped.block_s, "amplitude_a": stepped.amplitude_a,
+                        "samples_per_block": stepped.samples_per_block, "machine_time_s": pred.stepped_time_s,
+                        "variance": pred.stepped_variance, "variance_s": pred.stepped_variance_s},
             "ratio": pred.ratio, "better": pred.better, "verdict": pred.verdict(ms.crest_factor)}
 
 

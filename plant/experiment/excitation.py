@@ -1,4 +1,8 @@
-"""Periodic multisine excitation for frequency-response measurement, and its predicted variance.
+"""Excitation for frequency-response measurement: the thesis stepped sine and a periodic multisine, and the
+variance each is predicted to give.
+
+The stepped sine (thesis section 4.1) plays A sin(2 pi f_k t) for one block of ``block_s`` seconds at each
+frequency f_k, time restarting at 0 in each block, at the full peak current on one line at a time.
 
 A multisine is a sum of cosines at harmonics of the base frequency f0 = 1 / period, played
 for a whole number of periods. This module excites only ODD harmonics, log-spaced over the
@@ -45,6 +49,8 @@ from plant.errors import ParameterError
 from plant.host.files import atomic_write_text
 
 PHASES = ("schroeder", "optimised", "random")
+#: what ``gantry excite`` writes: the better of the two per second of machine time, or the one named
+FORMS = ("auto", "stepped", "multisine")
 #: largest number of samples a design may hold (periods x samples per period): about 400 MB of float64
 MAX_SAMPLES = 50_000_000
 #: iterations of the clipping algorithm of ``"optimised"`` phases
@@ -93,7 +99,36 @@ class Multisine:
         return self.periods * self.period_s
 
 
+@dataclass(frozen=True)
+class SteppedSine:
+    """A stepped sine: ``amplitude_a`` sin(2 pi f t) (A) for ``block_s`` seconds at each frequency of ``f_hz`` (Hz,
+    in order), sampled at ``sample_rate_hz`` (Hz) with t = 0 at each block's first sample (thesis section 4.1:
+    each frequency a separate recording from rest)."""
+
+    f_hz: np.ndarray
+    amplitude_a: float
+    block_s: float
+    sample_rate_hz: float
+    samples_per_block: int
+
+    @property
+    def duration_s(self) -> float:
+        """Machine time of all blocks (s)."""
+        return self.f_hz.size * self.block_s
+
+    @property
+    def time_s(self) -> np.ndarray:
+        """Time within a block (s) of each of its samples."""
+        return np.arange(self.samples_per_block) / self.sample_rate_hz
+
+    def block_current_a(self, k: int) -> np.ndarray:
+        """Current (A) of block ``k``."""
+        return self.amplitude_a * np.sin(2 * np.pi * self.f_hz[k] * self.time_s)
+
+
 def _finite_positive(name: str, value) -> float:
+    if isinstance(value, (bool, str, bytes)):
+        raise ParameterError(f"{name} must be a number, got {value!r}")
     try:
         v = float(value)
     except (TypeError, ValueError):
@@ -363,6 +398,38 @@ def thesis_frequencies(f_min_hz: float, f_max_hz: float, count: int = THESIS_FRE
     return np.geomspace(f_min_hz, f_max_hz, count) if count > 1 else np.array([f_min_hz])
 
 
+def design_stepped_sine(*, f_min_hz: float, f_max_hz: float, amplitude_a: float,
+                        frequencies: int = THESIS_FREQUENCIES, block_s: float = THESIS_BLOCK_S,
+                        sample_rate_hz: float = 2000.0) -> SteppedSine:
+    """The thesis stepped sine over a band: ``frequencies`` log-spaced from ``f_min_hz`` to ``f_max_hz`` (Hz,
+    ``thesis_frequencies``), ``block_s`` (s, a whole number of samples at ``sample_rate_hz``) each, peak
+    ``amplitude_a`` (A). ``ParameterError`` names the argument that is not finite or out of range."""
+    f_min = _finite_positive("f_min_hz", f_min_hz)
+    f_max = _finite_positive("f_max_hz", f_max_hz)
+    amplitude = _finite_positive("amplitude_a", amplitude_a)
+    count = _whole_count("frequencies", frequencies, 1)
+    block = _finite_positive("block_s", block_s)
+    fs = _finite_positive("sample_rate_hz", sample_rate_hz)
+    if f_min > f_max:
+        raise ParameterError(f"f_min_hz {f_min:g} Hz is above f_max_hz {f_max:g} Hz")
+    if f_max >= fs / 2:
+        raise ParameterError(f"f_max_hz {f_max:g} Hz is not below the Nyquist frequency {fs / 2:g} Hz "
+                             f"(sample_rate_hz {fs:g})")
+    try:
+        n = samples_per_period(block, fs)
+    except ParameterError:
+        raise ParameterError(f"block_s {block:g} s at sample_rate_hz {fs:g} Hz is {block * fs:.6g} samples: a block "
+                             "must be a whole number of samples") from None
+    if n * count > MAX_SAMPLES:
+        raise ParameterError(f"frequencies {count} x {n} samples per block is {n * count:.3g} samples, more than "
+                             f"{MAX_SAMPLES:.3g}")
+    if block <= STEPPED_SETTLE_S:
+        raise ParameterError(f"block_s {block:g} s leaves nothing after the {STEPPED_SETTLE_S:g} s the lock-in "
+                             "drops to settle")
+    return SteppedSine(f_hz=thesis_frequencies(f_min, f_max, count), amplitude_a=amplitude, block_s=block,
+                       sample_rate_hz=fs, samples_per_block=n)
+
+
 def predicted_variance(multisine: Multisine, *, noise_m_per_s: float, transient_periods: int = 1,
                        stepped_f_hz: np.ndarray | None = None, stepped_amplitude_a: float | None = None,
                        block_s: float = THESIS_BLOCK_S, settle_s: float = STEPPED_SETTLE_S) -> VariancePrediction:
@@ -390,6 +457,18 @@ def predicted_variance(multisine: Multisine, *, noise_m_per_s: float, transient_
     return VariancePrediction(f_hz=multisine.f_hz, multisine_variance=ms, multisine_time_s=multisine.duration_s,
                               stepped_f_hz=f_ss, stepped_variance=np.full(f_ss.shape, var),
                               stepped_time_s=f_ss.size * block_s, noise_m_per_s=float(noise_m_per_s))
+
+
+def write_stepped_sine_csv(stepped: SteppedSine, path: str | Path) -> None:
+    """Write ``frequency_hz,time_s,current_a`` rows (Hz, s, A) of every block atomically, the long format of
+    a stepped-sine recording (``docs/formats.md``) without its outputs."""
+    buf = io.StringIO()
+    buf.write("frequency_hz,time_s,current_a\n")
+    t = stepped.time_s
+    for k, f in enumerate(stepped.f_hz):
+        np.savetxt(buf, np.column_stack([np.full(t.size, f), t, stepped.block_current_a(k)]),
+                   fmt=["%.9g", "%.9f", "%.9g"], delimiter=",")
+    atomic_write_text(path, buf.getvalue())
 
 
 def write_excitation_csv(multisine: Multisine, path: str | Path) -> None:

@@ -212,7 +212,10 @@ def option_cases(draw) -> Case:
         rate = draw(st.sampled_from(["100", "200", "500", "1000", "2000", "4000", "1e4"]))
         period = draw(st.one_of(st.sampled_from(["0.1", "0.5", "1", "2", "5"]), number(0.05, 5)))
         phases = draw(st.sampled_from(["schroeder", "random", "optimised", "bogus"]))
+        form = draw(st.sampled_from(["auto", "stepped", "multisine", "bogus"]))
         return Case(["excite", "--out", "ms.csv", "--period-s", period, "--sample-rate-hz", rate, "--phases", phases,
+                     "--form", form, "--frequencies", draw(number(0, 20, True)),
+                     "--block-s", draw(st.one_of(st.sampled_from(["0.5", "1", "2"]), number(0.001, 2))),
                      *some(["--f-min-hz", draw(number(0.01, 50))], ["--f-max-hz", draw(number(1, 2000))],
                            ["--periods", draw(number(1, 4, True))], ["--duration-s", draw(number(0.1, 20))],
                            ["--lines-per-decade", draw(number(0.5, 1000))], ["--amplitude-a", draw(number(1e-3, 50))],
@@ -333,7 +336,8 @@ def test_a_read_only_directory(command):
 TARGETS = {
     "sweep": ["design.loop.sweep:monte_carlo_sweep", "design.views.json:sweep_csv"],
     "simulate": ["plant.experiment.simulate:simulate_stepped_sine", "plant.data.writers:recording_csv_text"],
-    "excite": ["plant.experiment.excitation:design_multisine", "plant.experiment.excitation:predicted_variance"],
+    "excite": ["plant.experiment.excitation:design_multisine", "plant.experiment.excitation:predicted_variance",
+               "plant.experiment.excitation:design_stepped_sine"],
     "diagnose": ["design.workflows:diagnose_recording", "matplotlib.figure:Figure.savefig"],
     "report": ["design.workflows:report_content", "matplotlib.figure:Figure.savefig"],
     "synth": ["cvxpy:Problem.solve", "design.workflows:design", "matplotlib.figure:Figure.savefig"],

@@ -11,10 +11,12 @@ import pytest
 from plant.errors import ParameterError
 from plant.experiment.excitation import (
     design_multisine,
+    design_stepped_sine,
     multisine_variance,
     predicted_variance,
     stepped_sine_variance,
     write_excitation_csv,
+    write_stepped_sine_csv,
 )
 
 
@@ -147,20 +149,22 @@ def test_ratio_follows_energy_per_line():
 
 def test_cli_writes_the_excitation(tmp_path):
     out = tmp_path / "ms.csv"
-    res = gantry("excite", "--out", out, "--duration-s", "20", "--period-s", "2", "--f-min-hz", "1.5", "--json")
+    res = gantry("excite", "--out", out, "--form", "multisine", "--duration-s", "20", "--period-s", "2",
+                 "--f-min-hz", "1.5", "--json")
     assert res.returncode == 0, res.stderr
     doc = json.loads(res.stdout)
+    assert doc["form"] == "multisine"
     data = np.loadtxt(out, delimiter=",", skiprows=1)
     assert data.shape == (40000, 2) and doc["samples"] == 40000 and doc["periods"] == 10
     assert np.isclose(np.max(np.abs(data[:, 1])), 0.5, rtol=1e-6)
     assert doc["ratio"] > 0 and doc["crest_factor"] >= math.sqrt(2)
-    text = gantry("excite", "--out", out, "--periods", "3", "--phases", "schroeder")
+    text = gantry("excite", "--out", out, "--form", "multisine", "--periods", "3", "--phases", "schroeder")
     assert text.returncode == 0, text.stderr
     assert "crest factor" in text.stdout and "ratio stepped / multisine" in text.stdout
 
 
 @pytest.mark.parametrize("args, name", [
-    (["--f-max-hz", "1500"], "f_max_hz"),
+    (["--f-max-hz", "1500"], "--f-max-hz"),
     (["--duration-s", "1e9"], "--duration-s"),
     (["--periods", "100000"], "--periods"),
     (["--duration-s", "12"], "--duration-s"),
@@ -168,6 +172,10 @@ def test_cli_writes_the_excitation(tmp_path):
     (["--amplitude-a", "nan"], "--amplitude-a"),
     (["--periods", "1"], "--periods"),
     (["--phases", "chirp"], "phases"),
+    (["--form", "chirp"], "--form"),
+    (["--frequencies", "0"], "--frequencies"),
+    (["--block-s", "0.0001"], "--block-s"),
+    (["--block-s", "0.01"], "--block-s"),
 ])
 def test_cli_bad_arguments_exit_2_with_one_line(tmp_path, args, name):
     out = tmp_path / "ms.csv"
@@ -215,5 +223,57 @@ def test_the_verdict_follows_the_peak_power_each_line_gets(tmp_path, lines_per_d
     n, nf, c = len(d["f_hz"]), len(d["stepped"]["f_hz"]), d["crest_factor"]
     assert d["ratio"] == pytest.approx(2 * nf / (c * c * n), rel=0.05)
     assert d["better"] == better and ("STEPPED SINE" in d["verdict"]) == (better == "stepped_sine")
+    assert d["form"] == better                                         # the better one is written by default
+    header = (tmp_path / "x.csv").read_text().partition("\n")[0]
+    assert header == ("frequency_hz,time_s,current_a" if better == "stepped_sine" else "time_s,current_a")
     text = gantry("excite", "--out", tmp_path / "x.csv", "--lines-per-decade", lines_per_decade)
     assert d["verdict"][:60] in text.stdout
+
+
+def test_the_stepped_sine_file_holds_the_thesis_blocks(tmp_path):
+    # thesis section 4.1: one block per frequency, log-spaced over the band, each starting at t = 0
+    stepped = design_stepped_sine(f_min_hz=1.0, f_max_hz=75.0, amplitude_a=0.5, frequencies=6, block_s=0.5,
+                                  sample_rate_hz=1000.0)
+    path = tmp_path / "ss.csv"
+    write_stepped_sine_csv(stepped, path)
+    assert path.read_text().partition("\n")[0] == "frequency_hz,time_s,current_a"
+    data = np.loadtxt(path, delimiter=",", skiprows=1).reshape(6, 500, 3)
+    f = np.exp(np.linspace(0.0, math.log(75.0), 6))
+    t = np.arange(500) / 1000.0
+    assert np.allclose(data[:, :, 0], f[:, None], rtol=1e-8)
+    assert np.allclose(data[:, :, 1], t[None, :], atol=1e-9)
+    assert np.allclose(data[:, :, 2], 0.5 * np.sin(2 * np.pi * f[:, None] * t[None, :]), atol=1e-8)
+    assert stepped.duration_s == 3.0
+
+
+def test_the_played_stepped_sine_read_back_with_a_velocity_gives_the_plant(tmp_path):
+    # the written file plus a velocity column is a stepped-sine recording (docs/formats.md): the lock-in on it
+    # recovers an independent zero-order-hold mass-damper (Stage X, thesis Table 4.1 scale) to the noise
+    from scipy.signal import lfilter
+
+    from design.workflows import measure
+
+    fs, m, b, kt = 2000.0, 20.0, 400.0, 20.0
+    stepped = design_stepped_sine(f_min_hz=2.0, f_max_hz=60.0, amplitude_a=0.5, frequencies=5, block_s=2.0,
+                                  sample_rate_hz=fs)
+    write_stepped_sine_csv(stepped, tmp_path / "ss.csv")
+    data = np.loadtxt(tmp_path / "ss.csv", delimiter=",", skiprows=1).reshape(5, 4000, 3)
+    a = math.exp(-b / m / fs)
+    velocity = lfilter([0.0, kt * (1 - a) / b], [1.0, -a], data[:, :, 2], axis=1)      # each block from rest
+    rows = np.column_stack([data.reshape(-1, 3), velocity.ravel()])
+    np.savetxt(tmp_path / "rec.csv", rows, delimiter=",", fmt="%.12g",
+               header="frequency_hz,time_s,current_a,velocity_m_per_s", comments="")
+    measured = measure(tmp_path / "rec.csv")
+    z = np.exp(-2j * np.pi * stepped.f_hz / fs)
+    truth = kt * (1 - a) / b * z / (1 - a * z)
+    assert np.allclose(measured.f_hz, stepped.f_hz)
+    assert np.allclose(measured.response[0], truth, rtol=0.02)
+
+
+@pytest.mark.parametrize(("kw", "name"), [({"amplitude_a": "0.5"}, "amplitude_a"), ({"block_s": True}, "block_s"),
+                                          ({"frequencies": 2.5}, "frequencies"), ({"f_max_hz": 1500.0}, "f_max_hz"),
+                                          ({"f_min_hz": float("nan")}, "f_min_hz")])
+def test_stepped_sine_arguments_are_checked(kw, name):
+    args = {"f_min_hz": 1.0, "f_max_hz": 75.0, "amplitude_a": 0.5, **kw}
+    with pytest.raises(ParameterError, match=name):
+        design_stepped_sine(**args)

@@ -24,6 +24,14 @@ from design.results import (
     ReportContent,
 )
 from design.spec.schema import load_spec
+from plant.arguments import (
+    check_instance,
+    check_names,
+    check_number,
+    check_optional_text,
+    check_path,
+    check_values,
+)
 from plant.errors import GantryError, ParameterError, SpecError
 from plant.physics.effects import EFFECTS
 
@@ -43,8 +51,9 @@ def load_problem(spec_path: str | Path, *, plant_from: str | Path | None = None)
     (the ``gantry fit --json`` output) when ``plant_from`` is given. The payload range, uncertainty,
     requirements and controller bounds stay the spec's; effects a synthesis cannot design for
     (``coulomb_friction``, ``offset``: no linear response) are left out and listed."""
-    spec_path = Path(spec_path)
-    plant, left_out = _plant_from_fit(Path(plant_from)) if plant_from is not None else (None, [])
+    spec_path = check_path("spec_path", spec_path)
+    plant, left_out = (_plant_from_fit(check_path("plant_from", plant_from)) if plant_from is not None
+                       else (None, []))
     spec = load_spec(spec_path, plant=plant)
     try:
         loop = spec.problem()
@@ -92,6 +101,7 @@ def design(problem: DesignProblem, *, method: str = "ccp+exact", schedule: bool 
     and the spec's controller values: the PI gains chosen with it). ``progress(stage)`` hears the
     admittance stages. ``design.views.json.design_to_dict`` turns the outcome into the ``gantry synth --json``
     contract."""
+    check_instance("problem", problem, DesignProblem, "design.workflows.load_problem(spec_path) makes one")
     spec, loop = problem.spec, problem.loop
     if spec.dual_drive is not None:
         dual = _dual(problem, progress)
@@ -177,6 +187,9 @@ def report_content(problem: DesignProblem, *, outcome: DesignOutcome | None = No
     from design.synth.evaluation import evaluate
     from design.synth.pi import PHASE_LIMITING, THESIS_GAINS, as_designed
 
+    check_instance("problem", problem, DesignProblem, "design.workflows.load_problem(spec_path) makes one")
+    if outcome is not None:
+        check_instance("outcome", outcome, DesignOutcome, "design.workflows.design(problem) makes one")
     loop = problem.loop
     if samples and not loop.plant.uncertainty:     # before any long computation
         raise SpecError(f"{problem.spec_path}: plant.uncertainty: no parameter ranges to sample; add some or drop "
@@ -311,7 +324,10 @@ def measure(path: str | Path, *, columns: str | None = None, sample_rate_hz: flo
     from plant.data.read import parse_column_map, read_measurement
     from plant.estimate.response import estimate
 
-    rec = read_measurement(path, columns=parse_column_map(columns) if columns else None,
+    columns = check_optional_text("columns", columns)
+    if sample_rate_hz is not None:
+        sample_rate_hz = check_number("sample_rate_hz", sample_rate_hz, minimum=0.0)
+    rec = read_measurement(check_path("path", path), columns=parse_column_map(columns) if columns else None,
                            sample_rate_hz=sample_rate_hz)
     return estimate(rec, method=frf)
 
@@ -375,6 +391,12 @@ def fit_recording(path: str | Path, *, stage: str, effects: tuple[str, ...] = ()
     from plant.physics.models import Plant
 
     prep = prep or Preprocessing()
+    path, effects = check_path("path", path), check_names("effects", effects)
+    free = None if free is None else check_names("free", free)
+    columns, rational = check_optional_text("columns", columns), check_optional_text("rational", rational)
+    values = check_values("values", values)
+    if load_position_m is not None:
+        load_position_m = check_number("load_position_m", load_position_m)
     if stage not in ("x", "y"):
         raise ParameterError(f"--stage must be x or y, got {stage!r}")
     fx = tuple(make_effect(n) for n in effects)
@@ -440,6 +462,11 @@ def diagnose_recording(path: str | Path, *, stage: str, candidates: tuple[str, .
     from plant.physics.models import Plant
 
     prep = prep or Preprocessing()
+    path, columns = check_path("path", path), check_optional_text("columns", columns)
+    candidates = None if candidates is None else check_names("candidates", candidates)
+    values = check_values("values", values)
+    load_position_m, motor_length_m = (None if v is None else check_number(n, v) for n, v in
+                                       (("load_position_m", load_position_m), ("motor_length_m", motor_length_m)))
     if stage not in ("x", "y"):
         raise ParameterError(f"--stage must be x or y, got {stage!r}")
     unknown = [e for e in candidates or () if e not in EFFECTS]

@@ -27,3 +27,7 @@ class DataError(GantryError):
 
 class SpecError(GantryError):
     """A spec file is invalid; the message names the key path."""
+
+
+class ArgumentError(GantryError, TypeError):
+    """A library function got an argument of the wrong kind (a number where a path belongs, ...)."""

@@ -10,6 +10,8 @@ from plant.errors import GridError
 def check_grid(w_rad_s, *, name: str = "frequency grid") -> np.ndarray:
     """Return ``w_rad_s`` as a 1-D float array; raise ``GridError`` unless it is non-empty,
     finite, positive and strictly increasing."""
+    if isinstance(w_rad_s, str | bytes) or np.asarray(w_rad_s).dtype.kind not in "iuf":
+        raise GridError(f"{name} must be an array of numbers (rad/s), got {type(w_rad_s).__name__} {w_rad_s!r}"[:300])
     w = np.asarray(w_rad_s, dtype=float)
     if w.ndim != 1 or w.size == 0:
         raise GridError(f"{name} must be a non-empty 1-D array of frequencies, got shape {w.shape}")

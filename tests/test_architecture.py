@@ -8,12 +8,12 @@ import ast
 from pathlib import Path
 
 PLANT = Path(__file__).resolve().parents[1] / "plant"
-#: the floors from the bottom up; the base modules (errors, grid) sit under every floor
+#: the floors from the bottom up; the base modules (errors, grid, arguments) sit under every floor
 FLOORS = ("host", "physics", "data", "estimate", "experiment", "identify", "diagnose")
 
 
 def _floor(module: str) -> int:
-    """0 for the base (``plant``, ``plant.errors``, ``plant.grid``), else 1 + the floor's index."""
+    """0 for the base (``plant``, ``plant.errors``, ``plant.grid``, ``plant.arguments``), else 1 + the floor's index."""
     parts = module.split(".")
     return FLOORS.index(parts[1]) + 1 if len(parts) > 1 and parts[1] in FLOORS else 0
 
@@ -45,7 +45,7 @@ def _graph() -> dict[str, set[str]]:
 
 def test_plant_is_in_floors_with_a_doc_each():
     top = {p.stem for p in PLANT.glob("*.py")}
-    assert top == {"__init__", "errors", "grid"}, top
+    assert top == {"__init__", "errors", "grid", "arguments"}, top
     for floor in FLOORS:
         doc = ast.get_docstring(ast.parse((PLANT / floor / "__init__.py").read_text(encoding="utf-8")))
         assert doc and "May import" in doc, floor

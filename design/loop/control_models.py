@@ -16,6 +16,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from design.loop.loops import balanced, pi_tf
+from plant.arguments import check_instance, check_number
 from plant.physics.effect_base import PADE_ORDER, ChainEffect
 from plant.physics.models import Plant
 
@@ -86,8 +87,11 @@ def plant_ss(plant: Plant, *, pade_order: int = PADE_ORDER) -> control.StateSpac
 
 
 def loop_models(plant: Plant, kp: float, ki: float, *, pade_order: int = PADE_ORDER) -> LoopModels:
-    """``LoopModels`` of one plant under (kp, ki)."""
+    """``LoopModels`` of one plant under (kp, ki) (A/(m/s), A/m, finite and >= 0)."""
     import control
+
+    check_instance("plant", plant, Plant, "plant.stage_x(mass_kg=...) makes one")
+    kp, ki = check_number("kp", kp, minimum=0.0), check_number("ki", ki, minimum=0.0)
 
     P = plant_ss(plant, pade_order=pade_order)
     C = control.ss(pi_tf(kp, ki))

@@ -10,6 +10,7 @@ import numpy as np
 
 from design.results import DesignOutcome
 from plant import __version__
+from plant.arguments import check_instance
 from plant.data.frequency_response import MeasuredResponse
 from plant.host.files import atomic_write_texts
 from plant.physics.effect_base import PADE_ORDER
@@ -27,6 +28,7 @@ def write_design_mat(outcome: DesignOutcome, path: str | Path, *, payload_kg: fl
                      pade_order: int = PADE_ORDER) -> None:
     """The designed gains and P, C, L, S, T as state-space matrices (``<name>_A`` ... ``<name>_D``; load them
     in MATLAB with ``ss(P_A, P_B, P_C, P_D)``) at ``payload_kg`` (default: the spec's nominal payload)."""
+    check_instance("outcome", outcome, DesignOutcome, "design.workflows.design(problem) makes one")
     models = outcome.loop_models(payload_kg, pade_order=pade_order)
     gm_db, pm_deg = models.margins()
     content = {"status": outcome.status, "kp_a_per_m_per_s": models.kp, "ki_a_per_m": models.ki,
@@ -42,6 +44,7 @@ def write_design_mat(outcome: DesignOutcome, path: str | Path, *, payload_kg: fl
 def write_response_mat(measured: MeasuredResponse, path: str | Path) -> None:
     """A measured frequency response: ``f_hz``, ``response_m_per_s_per_a`` (complex, outputs x frequencies),
     its ``variance``, the outputs' names, the excitation current and how it was estimated."""
+    check_instance("measured", measured, MeasuredResponse, "design.workflows.measure(path) makes one")
     _write(path, {"f_hz": np.asarray(measured.f_hz, float),
                   "response_m_per_s_per_a": np.asarray(measured.response, complex),
                   "variance_m2_per_s2_per_a2": np.asarray(measured.variance, float),

@@ -21,6 +21,7 @@ from design.synth.evaluation import Evaluation
 from design.views.html import Report, table
 from design.views.plots import bode, fixed_margins
 from plant import __version__
+from plant.arguments import check_instance
 from plant.host.text_io import read_text
 
 
@@ -208,6 +209,7 @@ def payload_figure(designed: Evaluation, thesis: Evaluation, requirements, check
 
 def design_report(content: ReportContent) -> Report:
     """The report of ``content`` (built by ``design.workflows.report_content``)."""
+    check_instance("content", content, ReportContent, "design.workflows.report_content(problem) makes one")
     c, problem = content, content.problem
     spec, loop = problem.spec, problem.loop
     ev, thesis, req = c.evaluation, c.thesis, loop.requirements

@@ -12,6 +12,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from plant.arguments import check_count
 from plant.errors import DataError
 
 if TYPE_CHECKING:
@@ -82,7 +83,7 @@ class MeasuredResponse:
                 raise DataError(f"{self.source}: no output {output!r}; outputs: {', '.join(names)}")
             k = names.index(output)
         else:
-            k = int(output)
+            k = check_count("output", output)
             if not 0 <= k < len(names):
                 raise DataError(f"{self.source}: output index {output} out of range 0..{len(names) - 1} "
                                 f"({', '.join(names)})")

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from plant.arguments import check_path
 from plant.data.read_stepped_sine import read_recording
 from plant.data.read_time_domain import read_time_recording
 from plant.data.recordings import Recording, TimeRecording
@@ -23,7 +24,7 @@ def read_measurement(path: str | Path, *, columns: dict[str, list[str]] | None =
 
     ``.mat`` files are time-domain; a CSV is a stepped sine when it has (or the map names) a
     frequency column; spreadsheets and TDMS files are stepped sines (``plant.data.read_stepped_sine``)."""
-    path = Path(path)
+    path = check_path("path", path)
     if not path.is_file():
         raise DataError(f"{path}: no such file")
     suffix = data_suffix(path)

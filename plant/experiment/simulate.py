@@ -55,6 +55,7 @@ import control
 import numpy as np
 import scipy.linalg
 
+from plant.arguments import check_instance, check_number
 from plant.data.recordings import Block, Recording
 from plant.errors import EffectError, ParameterError
 from plant.physics.effect_base import ChainEffect
@@ -502,15 +503,18 @@ def simulate_stepped_sine(
     which the stage never breaks loose from the friction is a ``ParameterError``. The settings,
     true parameters, per-block noise levels and ``seed`` are in ``Recording.metadata``.
     """
+    check_instance("plant", plant, Plant, "plant.stage_x(...) makes one")
+    check_positive("f_hz", f_hz)
+    check_positive("current_amplitude_a", current_amplitude_a)
     f = np.asarray(f_hz, dtype=float).ravel()
-    check_positive("f_hz", f)
     check_positive("sample_rate_hz", sample_rate_hz)
+    duration_s = check_number("duration_s", duration_s, minimum=0.0)
     check_positive("duration_s", duration_s)
     check_positive("friction_rate_hz", friction_rate_hz)
     order = np.argsort(f, kind="stable")
-    amp = np.broadcast_to(np.asarray(current_amplitude_a, dtype=float), np.shape(f_hz)).ravel() \
-        if np.ndim(current_amplitude_a) else np.full(f.shape, float(current_amplitude_a))
-    check_positive("current_amplitude_a", amp)
+    amp = np.asarray(current_amplitude_a, dtype=float).ravel()
+    if amp.size == 1:
+        amp = np.full(f.shape, amp[0])
     if amp.shape != f.shape:
         raise ParameterError(f"current_amplitude_a has {amp.size} values for {f.size} frequencies")
     f, amp = f[order], amp[order]

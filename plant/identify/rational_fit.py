@@ -46,6 +46,7 @@ from scipy import special
 from scipy.optimize import least_squares
 from scipy.signal import find_peaks
 
+from plant.arguments import check_count
 from plant.errors import DataError, ParameterError
 from plant.grid import check_grid
 from plant.identify.fit_result import Fit
@@ -455,7 +456,7 @@ def fit_rational(w_rad_s, response, *, n_poles: int, n_zeros: int, delay: bool =
     if not np.all(np.isfinite(g)):
         raise DataError(f"response contains NaN or infinite values (first at index {int(np.argmax(~np.isfinite(g)))})")
     g = g.astype(complex)
-    n, m = int(n_poles), int(n_zeros)
+    n, m = check_count("n_poles", n_poles), check_count("n_zeros", n_zeros)
     if n < 0 or m < 0 or m > n:
         raise ParameterError(f"need 0 <= n_zeros <= n_poles, got n_poles={n_poles}, n_zeros={n_zeros}")
     var = _check_variance(variance, w)

@@ -15,7 +15,7 @@ import numpy as np
 
 from plant.physics.algebra import NUMPY
 from plant.physics.effect_base import PADE_ORDER, ChainEffect, phase_delay_s, scalar
-from plant.physics.parameters import check_positive
+from plant.physics.parameters import check_batch, check_positive
 
 if TYPE_CHECKING:
     import control
@@ -58,6 +58,7 @@ class Delay(ChainEffect):
 
     def __post_init__(self) -> None:
         check_positive("delay.seconds", self.seconds, allow_zero=True)
+        check_batch("delay.seconds", self.seconds)
 
     def response(self, s, ops=NUMPY):
         return ops.exp(-s * np.asarray(self.seconds) if ops is NUMPY else -s * float(self.seconds))

@@ -21,6 +21,7 @@ from typing import ClassVar
 
 import numpy as np
 
+from plant.errors import ParameterError
 from plant.physics.algebra import NUMPY
 from plant.physics.chain import ChainEffect
 
@@ -79,9 +80,9 @@ class NotchFilter(ChainEffect):
     def __post_init__(self) -> None:
         for field in ("frequency_hz", "damping_ratio"):
             if not np.all(np.asarray(getattr(self, field)) > 0):
-                raise ValueError(f"notch_filter.{field} must be > 0, got {getattr(self, field)!r}")
+                raise ParameterError(f"notch_filter.{field} must be > 0, got {getattr(self, field)!r}")
         if not np.all((np.asarray(self.depth) >= 0) & (np.asarray(self.depth) <= 1)):
-            raise ValueError(f"notch_filter.depth must lie in [0, 1], got {self.depth!r}")
+            raise ParameterError(f"notch_filter.depth must lie in [0, 1], got {self.depth!r}")
 
     def response(self, s, ops=NUMPY):
         w = 2 * np.pi * _value(self.frequency_hz, ops)

@@ -33,7 +33,7 @@ import numpy as np
 
 from plant.errors import EffectError
 from plant.physics.algebra import NUMPY
-from plant.physics.parameters import Parameter, check_positive
+from plant.physics.parameters import Parameter, check_batch, check_positive
 
 if TYPE_CHECKING:
     import control
@@ -90,6 +90,7 @@ class Effect(abc.ABC):
     def _check_positive(self) -> None:
         for field in self.bounds:
             check_positive(f"{self.name}.{field}", getattr(self, field))
+            check_batch(f"{self.name}.{field}", getattr(self, field))
 
     def guesses(self, w_rad_s: np.ndarray, ratio: np.ndarray) -> list[dict[str, float]]:
         """Starting values (field -> value) from ``ratio`` = data / parent model, shape (n_out, n_freq)."""

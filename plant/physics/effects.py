@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from plant.arguments import check_optional_text
 from plant.errors import EffectError, ParameterError
 from plant.physics.chain import CurrentLoop, Delay, EncoderVelocity, Sampling, SensorFilter
 from plant.physics.effect_base import PADE_ORDER, ChainEffect, Effect, MechanicalEffect
@@ -47,7 +48,7 @@ EFFECTS: dict[str, type[Effect]] = {
 def make_effect(name: str, **params: float) -> Effect:
     """Build an effect by its name (``delay``, ``current_loop``, ...) with keyword parameters."""
     try:
-        cls = EFFECTS[name]
+        cls = EFFECTS[check_optional_text("name", name)]
     except KeyError:
         raise EffectError(f"unknown effect {name!r}; known effects: {', '.join(EFFECTS)}") from None
     unknown = set(params) - set(cls.bounds)

@@ -25,7 +25,8 @@ from typing import TYPE_CHECKING, Literal
 
 import numpy as np
 
-from plant.errors import EffectError, ParameterError
+from plant.arguments import check_count
+from plant.errors import ArgumentError, EffectError, ParameterError
 from plant.grid import check_grid
 from plant.physics.algebra import NUMPY
 from plant.physics.coulomb_response import rigid_body_first_harmonic
@@ -39,7 +40,7 @@ from plant.physics.mechanics import (
     TiltCoupling,
     body_chain,
 )
-from plant.physics.parameters import THESIS, Parameter, check_positive
+from plant.physics.parameters import THESIS, Parameter, check_batch, check_positive
 
 if TYPE_CHECKING:
     import control
@@ -75,6 +76,7 @@ class Plant:
             raise ParameterError(f"stage must be 'x' or 'y', got {self.stage!r}")
         for name in BASE_PARAMETERS:
             check_positive(name, getattr(self, name))
+            check_batch(name, getattr(self, name))
         check_positive("motor_length_m", self.motor_length_m)
         check_positive("load_position_m", self.load_position_m)
         if self.load_position_m < _RAIL_CLEARANCE * self.motor_length_m:
@@ -86,6 +88,9 @@ class Plant:
             raise ParameterError(
                 f"load_position_m ({self.load_position_m:g}) must lie inside the beam (motor_length_m "
                 f"{self.motor_length_m:g})")
+        if not isinstance(self.effects, tuple | list):
+            raise ArgumentError(f"effects must be a tuple of Effect objects, e.g. (Delay(0.001),), got "
+                                f"{type(self.effects).__name__} {self.effects!r}")
         for e in self.effects:
             if not isinstance(e, Effect):
                 raise EffectError(f"effects must be Effect objects, got {e!r}")
@@ -135,6 +140,7 @@ class Plant:
 
     def with_payload(self, payload_kg) -> Plant:
         """Same plant with ``mass_kg`` replaced; an array of payloads gives a batch on axis -2."""
+        check_positive("payload_kg", payload_kg)
         m = np.asarray(payload_kg, dtype=float)
         return dataclasses.replace(self, mass_kg=m.reshape(-1, 1) if m.ndim else float(m))
 
@@ -332,6 +338,7 @@ class Plant:
         """Rational model (Pade for delays). A nonlinear effect has none and raises ``EffectError``."""
         import control
 
+        check_count("pade_order", pade_order, minimum=1)
         for name in BASE_PARAMETERS:
             if np.size(getattr(self, name)) != 1:
                 raise ParameterError(f"{name} is a batch; to_control needs one plant (index the batch first)")

@@ -59,6 +59,18 @@ def check_positive(name: str, value, *, allow_zero: bool = False) -> None:
         raise ParameterError(f"parameter {name} must be {word}, got {value!r}")
 
 
+def check_batch(name: str, value) -> None:
+    """Raise ``ParameterError`` naming ``name`` unless ``value`` is one number or a batch along axis -2 (an
+    array whose last axis has length 1, as ``Plant.with_payload`` builds): a flat array of values would pair
+    element by element with the frequencies of a response instead of making one response each."""
+    import numpy as np
+
+    shape = np.shape(value)
+    if shape and shape[-1] != 1:
+        raise ParameterError(f"parameter {name} must be one number, or a batch as a column of shape (n, 1) (e.g. "
+                             f"Plant.with_payload(array)); got shape {shape}")
+
+
 # The thesis's parameter set (Dynamic Modelling and Control of Exoskeleton Gantry Robot).
 THESIS = {
     "force_constant_n_per_a": Parameter(

@@ -6,13 +6,12 @@ for long), 3 when it cannot (the profile asks more than the mouse's peak force),
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 from typing import Annotated, Optional
 
 import typer
 
-from design.cli.common import console, finite_non_negative, finite_positive, keep_inputs
+from design.cli.common import console, finite_non_negative, finite_positive, keep_inputs, read_design
 from plant.errors import ParameterError, SpecError
 
 #: the lab's hand-tuned X-axis setting (bsbrl/exoskeleton, mousetrack tuning files "newsys_m0p04_c4")
@@ -45,7 +44,6 @@ def mouse_run(
     from design.views.json import mouse_run_csv, mouse_run_to_dict, print_json
     from design.workflows import load_problem
     from plant.host.files import atomic_write_text, is_stdout
-    from plant.host.text_io import read_text
 
     keep_inputs({"--out": out}, [spec_file, design_file, path], json=as_json)
     if lab == (design_file is not None):
@@ -57,12 +55,8 @@ def mouse_run(
             raise SpecError(f"{spec_file}: --lab uses controller.kp.value and controller.ki.value; set them")
         m_v, b_v, source = LAB_M_V_KG, LAB_B_V_N_S_PER_M, "the lab's hand-tuned setting (bsbrl/exoskeleton)"
     else:
-        try:
-            gains = json.loads(read_text(design_file, what="design file"))["gains"]
-            kp, ki, m_v, b_v = (float(gains[k]) for k in ("kp", "ki", "m_v", "b_v"))
-        except (json.JSONDecodeError, KeyError, TypeError, ValueError):
-            raise ParameterError(f"{design_file}: not the JSON of gantry synth --json with gains kp, ki, m_v and b_v "
-                                 "(a design the admittance stage produced)") from None
+        problem, gains = read_design(design_file, problem, need=("kp", "ki", "m_v", "b_v"))
+        kp, ki, m_v, b_v = (gains[k] for k in ("kp", "ki", "m_v", "b_v"))
         source = str(design_file)
     try:
         settings = run_settings(problem, kp=kp, ki=ki, m_v=m_v, b_v=b_v, payload_kg=payload_kg, friction_n=friction_n,
@@ -73,9 +67,9 @@ def mouse_run(
     intended = (path_from_csv(path, settings.drive_rate_hz) if path is not None
                 else trapezoid_path(adm.locomotion, settings.drive_rate_hz))
     result = run(settings, intended)
-    if out is not None:
-        atomic_write_text(out, mouse_run_csv(result))
     d = mouse_run_to_dict(result, source)
+    if out is not None:                           # the file last, after what is printed
+        text = mouse_run_csv(result)
     if as_json:
         print_json(d)
     else:
@@ -85,5 +79,7 @@ def mouse_run(
             console.print(f"  {line}", soft_wrap=True)
         if out is not None and not is_stdout(out):
             console.print(f"run written to {out}")
+    if out is not None:
+        atomic_write_text(out, text)
     if not d["mouse_keeps_up"]:
         raise typer.Exit(3)

@@ -457,6 +457,12 @@ def test_mouse_run_with_the_lab_setting_reports_and_exits_by_the_mouse(tmp_path)
     assert rows[0].startswith("time_s,intended_x_m") and len(rows) > 1000
     bad = subprocess.run([sys.executable, "-m", "design", "mouse-run", str(SPEC)], capture_output=True, text=True)
     assert bad.returncode == 2 and "--design" in bad.stderr and "Traceback" not in bad.stderr
+    # the same gains given as a design file (gantry synth --json's form) run the same mouse
+    (tmp_path / "lab.json").write_text(json.dumps({"gains": doc["gains"], "filters": []}))
+    same = subprocess.run([sys.executable, "-m", "design", "mouse-run", str(SPEC), "--design", str(tmp_path / "lab.json"),
+                           "--json"], capture_output=True, text=True)
+    assert same.returncode == out.returncode, same.stderr
+    assert json.loads(same.stdout)["summary"] == doc["summary"]
 
 
 @pytest.mark.parametrize("option, name, content, message", [
@@ -465,6 +471,7 @@ def test_mouse_run_with_the_lab_setting_reports_and_exits_by_the_mouse(tmp_path)
     ("--path", "cell.csv", b"time_s,position_m\n0,0\n1,abc\n2,1\n", "row 3: expected numbers"),
     ("--path", "bin.csv", b"\x00\x01\x02binary", "not a text file"),
     ("--design", "d.json", b'{"gains": {"kp": 1}}', "not the JSON of gantry synth --json"),
+    ("--design", "neg.json", b'{"gains": {"kp": 200, "ki": 10, "m_v": -0.04, "b_v": 4}}', "finite and non-negative"),
 ])
 def test_mouse_run_bad_input_is_one_line_naming_the_file(tmp_path, option, name, content, message):
     bad = tmp_path / name

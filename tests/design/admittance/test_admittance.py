@@ -459,8 +459,8 @@ def test_mouse_run_with_the_lab_setting_reports_and_exits_by_the_mouse(tmp_path)
     assert bad.returncode == 2 and "--design" in bad.stderr and "Traceback" not in bad.stderr
     # the same gains given as a design file (gantry synth --json's form) run the same mouse
     (tmp_path / "lab.json").write_text(json.dumps({"gains": doc["gains"], "filters": []}))
-    same = subprocess.run([sys.executable, "-m", "design", "mouse-run", str(SPEC), "--design", str(tmp_path / "lab.json"),
-                           "--json"], capture_output=True, text=True)
+    same = subprocess.run([sys.executable, "-m", "design", "mouse-run", str(SPEC), "--design",
+                           str(tmp_path / "lab.json"), "--json"], capture_output=True, text=True)
     assert same.returncode == out.returncode, same.stderr
     assert json.loads(same.stdout)["summary"] == doc["summary"]
 

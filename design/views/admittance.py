@@ -21,9 +21,8 @@ from design.views.admittance_figures import (
     rendered_figure,
     run_figures,
     tradeoff_figures,
-    units,
 )
-from design.views.html import Report, table
+from design.views.html import Report, table, units
 
 
 def add_admittance_section(report: Report, problem: LoopProblem, outcome: DesignOutcome,

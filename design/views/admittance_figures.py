@@ -22,11 +22,6 @@ BINDING_STYLE = {"color": "k", "marker": "o", "ms": 7, "mfc": "none", "mew": 1.6
 LEGEND_ROW_IN = 0.2
 
 
-def units(text: str) -> str:
-    """The models' ASCII units N*s/m and m/s^2 written as the report writes units, N·s/m and m/s²."""
-    return text.replace("N*s/m", "N·s/m").replace("m/s^2", "m/s²")
-
-
 def num(x, fmt: str = ".1f") -> str:
     """A number for text; ∞ for an infinite one, — for none."""
     if x is None or (isinstance(x, float) and math.isnan(x)):

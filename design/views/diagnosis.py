@@ -9,7 +9,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from design.results import DiagnosisOutcome
-from design.views.html import Report, table
+from design.views.html import Report, table, units
 from design.views.plots import bode
 from plant.data.frequency_response import MeasuredResponse
 from plant.diagnose.diagnosis import Diagnosis
@@ -121,7 +121,7 @@ def add_diagnosis_section(report: Report, diag: Diagnosis, data: MeasuredRespons
     report.heading("Fitted parameters", 3)
     params = final.plant.parameters()
     report.raw(table(["parameter", "value", "±1σ", "unit"],
-                     [[n, f"{v:.6g}", f"{final.stderr[n]:.3g}" if n in final.stderr else "fixed", params[n].unit]
+                     [[n, f"{v:.6g}", f"{final.stderr[n]:.3g}" if n in final.stderr else "fixed", units(params[n].unit)]
                       for n, v in final.values.items()]))
     report.text(f"Nonlinearity: {diag.nonlinearity.description}")
     for note in diag.notes:

@@ -47,6 +47,11 @@ def svg(fig) -> str:
     return text[text.index("<svg"):]
 
 
+def units(text: str) -> str:
+    """The models' ASCII units N*s/m and m/s^2 written as the reports write units, N·s/m and m/s²."""
+    return text.replace("N*s/m", "N·s/m").replace("m/s^2", "m/s²")
+
+
 def table(header: list[str], rows: list[list], *, left: int = 1) -> str:
     """HTML table (scrolling sideways on a narrow screen); the first ``left`` columns and every column of text
     (not a number) are left-aligned."""

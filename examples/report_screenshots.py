@@ -12,6 +12,8 @@ from pathlib import Path
 from design.views.browser import screenshot
 
 ROOT = Path(__file__).resolve().parents[1]
+#: screenshot heights (px) at 1200 and 600 px wide; the admittance report's own section lies below the PI part
+HEIGHTS = {"admittance": (8800, 10500)}
 
 
 def gantry(*args) -> None:
@@ -31,7 +33,8 @@ def main(out: Path) -> None:
     for name, command in pages.items():
         html = out / f"{name}.html"
         gantry(*command, html)
-        for width, height, tag in ((1200, 5200, ""), (600, 7000, "_600px")):
+        desktop, narrow = HEIGHTS.get(name, (5200, 7000))
+        for width, height, tag in ((1200, desktop, ""), (600, narrow, "_600px")):
             png = out / f"{name}{tag}.png"
             screenshot(html, png, width=width, height=height)
             print(png)

@@ -5,17 +5,24 @@ beside the design, and, for a design that is not optimal, the trade-off front an
 
 from __future__ import annotations
 
-import math
-
-import matplotlib.pyplot as plt
 import numpy as np
 
 from design.admittance.curves import AdmittanceCurves
 from design.admittance.model import admittance_problem
 from design.problem import LoopProblem
 from design.results import AdmittanceComparison, DesignOutcome
-from design.views.html import Report, table
-from design.views.plots import bode
+from design.views.admittance_figures import (
+    apparent_mass_figure,
+    bandwidth_text,
+    force_felt_figure,
+    margin_figures,
+    num,
+    passive_text,
+    rendered_figure,
+    run_figures,
+    tradeoff_figures,
+)
+from design.views.html import Report, table, units
 
 
 def add_admittance_section(report: Report, problem: LoopProblem, outcome: DesignOutcome,
@@ -29,25 +36,24 @@ def add_admittance_section(report: Report, problem: LoopProblem, outcome: Design
     if r.status not in ("optimal", "mouse_cannot_drive") or curves is None:
         report.text(f"Admittance synthesis: {r.status}: {r.message}", cls="summary")
         if r.tradeoff is not None:
-            _tradeoff(report, r.tradeoff)
+            _tradeoff(report, r.tradeoff, admittance_problem(problem))
         return
     a = admittance_problem(problem)
     loc, hw, c, feel = a.locomotion, a.hardware, r.check, r.feel
     verdict = ("<span class=ok>The mouse can drive this design</span>" if r.status == "optimal" else
                "<span class=bad>The mouse CANNOT drive this design</span>")
     legs = c.worst_by_legs()
-    margins = "; ".join(f"{k} mice: PM {_num(v[0])}°, GM {_num(v[1])} dB" for k, v in legs.items())
-    bw = np.nanmin(c.rendered_bandwidth_hz) if np.any(np.isfinite(c.rendered_bandwidth_hz)) else math.nan
+    margins = "; ".join(f"{k} mice: PM {num(v[0])}°, GM {num(v[1])} dB" for k, v in legs.items())
     rig = "continuous" if not r.timing.sampled else f"sampled at {1 / r.timing.period_s:g} Hz"
     report.raw(f"<div class='summary'>{verdict}: it feels {feel.peak_force_n:.3g} N peak ({feel.rms_force_n:.3g} N "
                f"RMS) on the locomotion profile ({loc.travel_m:g} m at {loc.peak_speed_m_per_s:g} m/s, "
                f"{loc.peak_acceleration_m_per_s2:g} m/s²) and can push {a.mouse.peak_force_n:g} N. "
                f"m_v = {r.m_v:.4g} kg, b_v = {r.b_v:.4g} N·s/m with Kp = {r.kp:.4g} A/(m/s), Ki = {r.ki:.4g} A/m "
                f"(admittance law {rig}). Interaction loop (broken at the force-sensor signal), worst over "
-               f"{len(c.scenarios)} scenarios: {margins}. Binding: {r.binding['detail']}. Passive up to "
-               f"{_num(float(np.min(c.passive_up_to_hz)), '.3g')} Hz; stable on a grounded spring up to "
-               f"{_num(r.contact.worst_n_per_m, '.4g')} N/m. Rendered admittance within 3 dB / 30° of "
-               f"1/(m_v s + b_v) up to {_num(bw)} Hz. Verified: {r.verified}.{_mc(r)}</div>")
+               f"{len(c.scenarios)} scenarios: {margins}. Binding: {units(r.binding['detail'])}. Passive up to "
+               f"{passive_text(c)} Hz; stable on a grounded spring up to "
+               f"{num(r.contact.worst_n_per_m, '.4g')} N/m. Rendered admittance within 3 dB / 30° of "
+               f"1/(m_v s + b_v) up to {bandwidth_text(c)} Hz. Verified: {r.verified}.{_mc(r)}</div>")
     report.raw(table(["what the mouse meets", "value", "requirement / budget"], [
         ["force felt on the profile, peak / RMS", f"{feel.peak_force_n:.3g} / {feel.rms_force_n:.3g} N",
          f"{a.mouse.peak_force_n:g} N"],
@@ -62,32 +68,21 @@ def add_admittance_section(report: Report, problem: LoopProblem, outcome: Design
         ["current per force-sensor step", f"{1e3 * np.max(c.sensor_current_a):.3g} mA",
          "—" if hw.max_current_per_sensor_step_a is None else f"{1e3 * hw.max_current_per_sensor_step_a:g} mA"],
     ]))
-    fig, axes = plt.subplots(1, 2, figsize=(12, 3.4), layout="tight")
-    t = feel.profile.time_s
-    axes[0].plot(t, feel.force_n, label="felt (neck force, real loop)")
-    axes[0].plot(t, feel.ideal_force_n, "--", label="m_v a + b_v v")
-    axes[0].axhline(a.mouse.peak_force_n, color="k", ls=":", lw=1, label="the mouse's peak force")
-    axes[0].set(xlabel="time (s)", ylabel="force (N)")
-    axes[0].set_title(f"Force felt on the profile ({feel.worst})", fontsize=9)
-    for k, m in enumerate(feel.payload_kg):
-        axes[1].semilogx(feel.frequency_hz, feel.apparent_mass_kg[k], label=f"apparent mass, {m:g} kg")
-    axes[1].axhline(r.m_v, color="k", ls="--", lw=1, label="m_v")
-    axes[1].set(xlabel="frequency (Hz)", ylabel="mass (kg)", xlim=(0.1, feel.frequency_hz[-1]))
-    axes[1].set_yscale("symlog", linthresh=max(r.m_v, 1e-3))
-    axes[1].set_title("Apparent mass Im(1/Y_r)/ω over frequency", fontsize=9)
-    for ax in axes:
-        ax.grid(True, alpha=0.3)
-        ax.legend(fontsize=7)
-    report.figure(fig, "What the mouse feels: the neck force when its body follows the profile, and the mass the "
-                       "gantry seems to have at each frequency (the virtual mass where the loop renders it, the "
-                       "gantry's own above).")
-    fig = bode(curves.w_rad_s, [curves.virtual, *curves.rendered],
-               ["virtual 1/(m_v s + b_v)"] + [f"rendered, {m:g} kg" for m in curves.payload_kg],
-               styles=["k--", "-", "-", "-"], title="Rendered admittance v/F against the virtual dynamics")
-    report.figure(fig, "Velocity per sensed force: what the mouse feels, against what was asked for"
-                       + (" (the sampled law at the input frequency)." if r.timing.sampled else "."))
-    report.figure(_per_payload_figure(c, a), "Worst interaction-loop margins over the uncertainty corners at each "
-                  "payload, for the floating and the braced (grounded) mice, with the requirement (dashed).")
+    report.figures([force_felt_figure(feel, a.mouse.peak_force_n), apparent_mass_figure(feel, r.m_v)],
+                   f"What the mouse feels: left, the neck force when its body follows the profile, at the worst case "
+                   f"({units(feel.worst)}); right, the mass the gantry seems to have at each frequency, the virtual "
+                   "mass where the loop renders it, the gantry's own above (magnitude on a log axis, dotted where "
+                   "negative).")
+    report.figure(rendered_figure(curves, c, a.passivity),
+                  "Velocity per sensed force: what the mouse feels, against what was asked for"
+                  + (" (the sampled law at the input frequency)" if r.timing.sampled else "")
+                  + ", at nominal parameters; shaded, the 3 dB / 30° tolerance around the virtual dynamics; the "
+                    "vertical lines are the summary's worst passive band and rendered bandwidth over the "
+                    f"{len(c.scenarios)} scenarios.")
+    report.figures(margin_figures(c, a, r.binding),
+                   "Worst interaction-loop margins over the uncertainty corners at each payload, for the floating and "
+                   "the braced (grounded) mice, with the requirement (dotted) and the binding scenario of the summary "
+                   "(circled).")
     if curves.run is not None:
         _run_figure(report, curves.run)
     if curves.lab is not None:
@@ -95,7 +90,7 @@ def add_admittance_section(report: Report, problem: LoopProblem, outcome: Design
     if comparison is not None:
         _comparison_table(report, r, comparison)
     if r.tradeoff is not None:
-        _tradeoff(report, r.tradeoff)
+        _tradeoff(report, r.tradeoff, admittance_problem(problem))
     if r.discrete is not None:
         d = r.discrete
         report.text(f"The admittance law as the rig runs it at {d.update_rate_hz:g} Hz: v[k] = {d.alpha:.10g} "
@@ -112,29 +107,19 @@ def _mc(r) -> str:
 
 
 def _run_figure(report: Report, run) -> None:
-    tr, s = run.trace, run.settings
-    fig, axes = plt.subplots(1, 2, figsize=(12, 3.4), layout="tight")
-    axes[0].plot(tr.time_s, tr.intended_v_m_per_s, "k--", label="intended")
-    axes[0].plot(tr.time_s, tr.v_m_per_s, label="gantry")
-    axes[0].set(xlabel="time (s)", ylabel="speed (m/s)")
-    axes[1].plot(tr.time_s, tr.sensed_force_n, label="sensed force")
-    axes[1].plot(tr.time_s, tr.leg_force_n, alpha=0.7, label="the legs' push")
-    axes[1].axhline(s.mouse_peak_force_n, color="k", ls=":", lw=1)
-    axes[1].set(xlabel="time (s)", ylabel="force (N)")
-    for ax in axes:
-        ax.grid(True, alpha=0.3)
-        ax.legend(fontsize=7)
-    report.figure(fig, f"A simulated run through the sampled loop at {s.gantry_mass_kg:g} kg ({run.path.source}; drive "
-                       f"{s.drive_rate_hz:g} Hz, admittance {s.admittance_rate_hz:g} Hz, force quantised, offset and "
-                       f"deadband applied, motor force limited): force felt {run.peak_force_n:.3g} N peak, speed "
-                       f"shortfall {run.speed_shortfall_m_per_s:.3g} m/s, largest lag {1e3 * run.max_lag_m:.3g} mm, "
-                       f"drift at rest {run.drift_mm_per_s:.3g} mm/s, limit cycle {run.limit_cycle_um:.3g} µm.")
+    s = run.settings
+    report.figures(run_figures(run), f"A simulated run through the sampled loop at {s.gantry_mass_kg:g} kg "
+                   f"({units(run.path.source)}; drive {s.drive_rate_hz:g} Hz, admittance {s.admittance_rate_hz:g} "
+                   f"Hz, force quantised, offset and deadband applied, motor force limited): force felt "
+                   f"{run.peak_force_n:.3g} N peak, speed shortfall {run.speed_shortfall_m_per_s:.3g} m/s, largest "
+                   f"lag {1e3 * run.max_lag_m:.3g} mm, drift at rest {run.drift_mm_per_s:.3g} mm/s, limit cycle "
+                   f"{run.limit_cycle_um:.3g} µm.")
 
 
 def _lab_table(report: Report, r, lab, feel) -> None:
     def row(name, m_v, b_v, legs, force, passive, stable):
         cells = [f"{legs[k][0]:.1f}° / {legs[k][1]:.1f} dB" if k in legs else "—" for k in ("floating", "grounded")]
-        return [name, f"{m_v:.4g}", f"{b_v:.4g}", *cells, f"{force:.3g} N", f"{_num(passive, '.3g')} Hz",
+        return [name, f"{m_v:.4g}", f"{b_v:.4g}", *cells, f"{force:.3g} N", f"{num(passive, '.3g')} Hz",
                 "yes" if stable else "NO"]
 
     report.raw(table(["virtual dynamics (same plant, loop and rig)", "m_v (kg)", "b_v (N·s/m)",
@@ -165,45 +150,9 @@ def _comparison_table(report: Report, robust, comparison: AdmittanceComparison) 
                       row("nominal parameters only", n, comparison.monte_carlo)]))
 
 
-def _tradeoff(report: Report, t) -> None:
-    fig, axes = plt.subplots(1, 2, figsize=(12, 3.4), layout="tight")
-    for ax, front, label in ((axes[0], t.margin_front, "interaction phase margin required (deg)"),
-                             (axes[1], t.passivity_front, "passive up to (Hz)")):
-        x = [p.requirement for p in front]
-        y = [p.force_n if p.feasible else np.nan for p in front]
-        ax.plot(x, y, "o-")
-        ax.axhline(t.mouse_peak_force_n, color="k", ls=":", lw=1, label="the mouse's peak force")
-        ax.set(xlabel=label, ylabel="m_v a + b_v v (N)")
-        ax.grid(True, alpha=0.3)
-        ax.legend(fontsize=7)
-    report.figure(fig, "The trade-off: the least force the virtual dynamics ask on the profile for each requirement "
-                       "(every other requirement held). Gaps: no design within the bounds.")
+def _tradeoff(report: Report, t, adm) -> None:
+    report.figures(tradeoff_figures(t, adm), "The trade-off: the least force the virtual dynamics ask on the profile "
+                   "for each requirement (every other requirement held), against the mouse's peak force (dotted) "
+                   "and this spec's requirement (dashed). Gaps: no design within the bounds.")
     report.raw(table(["hardware change", "least force (N)", "now (N)"],
-                     [[h.change, _num(h.force_n, ".3g"), _num(h.baseline_n, ".3g")] for h in t.changes]))
-
-
-def _num(x, fmt: str = ".1f") -> str:
-    """A number for text; ∞ for an infinite one, — for none."""
-    if x is None or (isinstance(x, float) and math.isnan(x)):
-        return "—"
-    return "∞" if not np.isfinite(x) else format(x, fmt)
-
-
-def _per_payload_figure(c, a):
-    fig, axes = plt.subplots(1, 2, figsize=(12, 3.4), layout="tight")
-    payloads = np.unique(c.payload_kg)
-    for name, keep in (("floating", [not m.grounded for m in c.mice]), ("braced", [m.grounded for m in c.mice])):
-        k = np.asarray(keep)
-        if not k.any():
-            continue
-        pm = np.nanmin(np.where(k[:, None], c.phase_margin_deg, np.nan), axis=0)
-        gm = np.nanmin(np.where(k[:, None], c.gain_margin_db, np.nan), axis=0)
-        axes[0].plot(payloads, [np.nanmin(pm[c.payload_kg == m]) for m in payloads], "o-", ms=3, label=name)
-        axes[1].plot(payloads, [np.nanmin(gm[c.payload_kg == m]) for m in payloads], "o-", ms=3, label=name)
-    for ax, limit, label in ((axes[0], a.phase_margin_deg, "interaction PM (deg)"),
-                             (axes[1], a.gain_margin_db, "interaction GM (dB)")):
-        ax.axhline(limit, color="k", ls="--", lw=1)
-        ax.set(xlabel="payload (kg)", title=label)
-        ax.grid(True, alpha=0.3)
-        ax.legend(fontsize=7)
-    return fig
+                     [[h.change, num(h.force_n, ".3g"), num(h.baseline_n, ".3g")] for h in t.changes]))

@@ -22,6 +22,8 @@ th { background: #f0f0f0; } td.l, th.l { text-align: left; }
 .summary { background: #f6f8fa; border-left: 4px solid #444; padding: .6em 1em; }
 svg { max-width: 100%; height: auto; }
 figure { margin: 1em 0; } figcaption { font-size: .9em; color: #555; }
+figure.row { display: flex; flex-wrap: wrap; gap: .4em 1.2em; align-items: flex-start; }
+figure.row > svg { flex: 1 1 380px; min-width: 0; } figure.row > figcaption { flex-basis: 100%; }
 pre { background: #f6f8fa; padding: .6em; overflow-x: auto; font-size: .85em; white-space: pre-wrap;
       overflow-wrap: anywhere; }
 .table { overflow-x: auto; max-width: 100%; }
@@ -43,6 +45,11 @@ def svg(fig) -> str:
     plt.close(fig)
     text = buf.getvalue()
     return text[text.index("<svg"):]
+
+
+def units(text: str) -> str:
+    """The models' ASCII units N*s/m and m/s^2 written as the reports write units, N·s/m and m/s²."""
+    return text.replace("N*s/m", "N·s/m").replace("m/s^2", "m/s²")
 
 
 def table(header: list[str], rows: list[list], *, left: int = 1) -> str:
@@ -91,6 +98,11 @@ class Report:
 
     def figure(self, fig, caption: str) -> None:
         self.parts.append(f"<figure>{svg(fig)}<figcaption>{html.escape(caption)}</figcaption></figure>")
+
+    def figures(self, figs, caption: str) -> None:
+        """Figures side by side under one caption, stacked on a narrow screen."""
+        self.parts.append("<figure class='row'>" + "".join(svg(f) for f in figs)
+                          + f"<figcaption>{html.escape(caption)}</figcaption></figure>")
 
     def raw(self, markup: str) -> None:
         self.parts.append(markup)

@@ -40,6 +40,7 @@ def figure_with(svgs, text: str) -> list[str]:
     return found[0]
 
 
+@pytest.mark.slow                 # one admittance report build (~30 s)
 def test_the_rendered_admittance_marks_the_summarys_passive_band_and_bandwidth(section):
     summary, svgs, _ = section
     passive = re.search(r"Passive up to ([\d.]+) Hz", summary).group(1)
@@ -53,6 +54,7 @@ def test_the_rendered_admittance_marks_the_summarys_passive_band_and_bandwidth(s
     assert min(ticks) >= -180                                          # the phase is wrapped, not unwrapped
 
 
+@pytest.mark.slow                 # one admittance report build (~30 s)
 def test_the_binding_scenario_of_the_summary_is_circled_on_its_margin(section):
     summary, svgs, _ = section
     b = re.search(r"Binding: interaction-loop phase margin \(admittance.phase_margin_deg = [\d.]+\) at ([\d.]+) kg, "
@@ -69,6 +71,7 @@ def test_the_binding_scenario_of_the_summary_is_circled_on_its_margin(section):
     assert f"{legs} mouse: {worst} deg" in fig                        # the binding one is the worst of its mice
 
 
+@pytest.mark.slow                 # one admittance report build (~30 s)
 def test_every_margin_and_force_limit_says_whether_it_is_met(section):
     summary, svgs, part = section
     spec = tomllib.loads(SPEC.read_text())["admittance"]
@@ -88,6 +91,7 @@ def test_every_margin_and_force_limit_says_whether_it_is_met(section):
     assert "N*s/m" not in part and "m/s^2" not in part
 
 
+@pytest.mark.slow                 # one admittance report build (~30 s)
 def test_the_admittance_figures_stack_on_a_narrow_screen(section):
     _, svgs, part = section
     rows = re.findall(r"<figure class='row'>(.*?)</figure>", part, flags=re.S)

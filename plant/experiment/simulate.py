@@ -451,6 +451,13 @@ def _refuse_stuck_blocks(plant: Plant, f_hz: np.ndarray, amp_a: np.ndarray, velo
                          "force then exceeds the friction) or lower coulomb_friction.force_n")
 
 
+def _check_four_samples_per_period(f_max_hz: float, sample_rate_hz: float) -> None:
+    if f_max_hz > sample_rate_hz / 4:
+        raise ParameterError(f"f_hz {f_max_hz:g} Hz has fewer than 4 samples per period at sample_rate_hz "
+                             f"{sample_rate_hz:g}; " + (f"raise sample_rate_hz to at least {4 * f_max_hz:g}"
+                                                        if math.isfinite(4 * f_max_hz) else "lower f_hz"))
+
+
 def check_stepped_sine_plan(f_hz, duration_s: float, sample_rate_hz: float) -> None:
     """Refuse a stepped sine the estimate cannot use or the machine cannot hold (``ParameterError`` naming the
     parameters): a block too short for the lock-in of ``fit`` and ``diagnose`` (``plant.estimate.lockin``: it
@@ -459,6 +466,8 @@ def check_stepped_sine_plan(f_hz, duration_s: float, sample_rate_hz: float) -> N
     from plant.estimate.lockin import MIN_PERIODS, shortest_block_s
 
     f = np.asarray(f_hz, dtype=float).ravel()
+    if f.size:
+        _check_four_samples_per_period(float(np.max(f)), sample_rate_hz)
     short = [x for x in f if duration_s < shortest_block_s(x, sample_rate_hz) * (1 - 1e-9)]
     if short:
         need = shortest_block_s(short[0], sample_rate_hz)
@@ -520,9 +529,7 @@ def simulate_stepped_sine(
     f, amp = f[order], amp[order]
     if np.any(np.diff(f) == 0):
         raise ParameterError(f"f_hz lists {f[np.flatnonzero(np.diff(f) == 0)[0]]:g} Hz twice (duplicate block)")
-    if f[-1] > sample_rate_hz / 4:
-        raise ParameterError(f"f_hz {f[-1]:g} Hz has fewer than 4 samples per period at sample_rate_hz "
-                             f"{sample_rate_hz:g}; raise sample_rate_hz to at least {4 * f[-1]:g}")
+    _check_four_samples_per_period(f[-1], sample_rate_hz)
     n_samples = int(round(duration_s * sample_rate_hz))
     if n_samples < 2:
         raise ParameterError(f"duration_s {duration_s:g} gives {n_samples} sample(s) at {sample_rate_hz:g} Hz")

@@ -184,6 +184,7 @@ def test_non_finite_boolean_and_oversized_spec_values_are_refused(tmp_path, old,
 @pytest.mark.parametrize("args,word", [
     (["simulate", "--stage", "x", "--f-hz", "1:10:1e9", "--out", "OUT"], "2000"),
     (["simulate", "--stage", "x", "--duration-s", "1e5", "--out", "OUT"], "GB"),
+    (["simulate", "--stage", "x", "--f-hz", "1_0:1e308:2", "--sample-rate-hz", "20", "--out", "OUT"], "lower --f-hz"),
     (["sweep", str(THESIS_X), "--payload", "1e9:1e9:1"], "outside [0.5, 500] kg"),
 ])
 def test_sizes_are_refused_before_any_work(tmp_path, args, word):

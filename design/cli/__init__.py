@@ -42,6 +42,7 @@ def main() -> None:
         previous = interrupts.install()
     except KeyboardInterrupt:      # before the handlers (SIGTERM's default action ends the process quietly)
         _fail("interrupted", 130)
+    sys.stderr = _SilentAfterStop(sys.stderr)
     try:
         _quiet_cvxpy_after_a_stop()
         code = _run()
@@ -56,8 +57,9 @@ def main() -> None:
         _fail("interrupted", 130)
     except interrupts.Terminated:
         _fail("terminated", 143)
-    finally:        # called in-process (tests, scripts): the caller's handlers back, no stop pending
+    finally:        # called in-process (tests, scripts): the caller's handlers and stderr back, no stop pending
         interrupts.uninstall(previous)
+        sys.stderr = sys.stderr.stream if isinstance(sys.stderr, _SilentAfterStop) else sys.stderr
     sys.exit(code if isinstance(code, int) else 0)
 
 
@@ -143,8 +145,26 @@ def _stop_if_requested() -> None:
         _fail("interrupted" if kind == "interrupt" else "terminated", 130 if kind == "interrupt" else 143)
 
 
+class _SilentAfterStop:
+    """Standard error that passes nothing on once Ctrl-C or SIGTERM was requested: a library that catches the
+    interrupt reports it itself (casadi's IPOPT callback prints a KeyboardInterruptException warning), and the
+    one line of ``_fail`` is all the user should see."""
+
+    def __init__(self, stream):
+        self.stream = stream
+
+    def write(self, text: str) -> int:
+        from plant.host.interrupts import requested
+
+        return len(text) if requested() is not None else self.stream.write(text)
+
+    def __getattr__(self, name: str):
+        return getattr(self.stream, name)
+
+
 def _fail(message: str, status: int) -> None:
     """The one line on stderr (a message over several lines is joined) and the exit status."""
     line = " ".join(part.strip() for part in message.splitlines() if part.strip())
-    print(f"gantry: error: {line}", file=sys.stderr)
+    stream = sys.stderr.stream if isinstance(sys.stderr, _SilentAfterStop) else sys.stderr
+    print(f"gantry: error: {line}", file=stream)
     sys.exit(status)

@@ -7,6 +7,7 @@ exit status 130, and a genuine bug keeps its traceback.
 
 from __future__ import annotations
 
+import contextvars
 import sys
 
 
@@ -36,7 +37,9 @@ def main() -> None:
     cannot be read or written, not enough memory) is one line on stderr and exit status 2; Ctrl-C is
     exit status 130 and SIGTERM 143, wherever they land (imports included, and also when a library
     swallowed the exception: ``plant.host.interrupts``); anything else is a bug, shown with its traceback and
-    a request to report it."""
+    a request to report it. The command runs in a copy of the caller's context: a Ctrl-C that lands inside a
+    library's context manager (numpy's ``errstate`` between setting its state and its ``with`` block) cannot
+    leave that state behind for an in-process caller."""
     try:
         from plant.host import interrupts
         previous = interrupts.install()
@@ -45,7 +48,7 @@ def main() -> None:
     sys.stderr = _SilentAfterStop(sys.stderr)
     try:
         _quiet_cvxpy_after_a_stop()
-        code = _run()
+        code = contextvars.copy_context().run(_run)   # a library's context state ends with the command
         _stop_if_requested()
         if code == 130:
             _fail("interrupted", 130)

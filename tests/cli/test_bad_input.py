@@ -287,6 +287,25 @@ def in_process(monkeypatch, capsys, *args) -> tuple[int, str, str]:
     return exc.value.code, err, out
 
 
+def test_a_command_run_in_process_leaves_no_numpy_error_state_behind(monkeypatch, capsys):
+    # an interrupt that lands inside numpy's errstate, after it set its state and before its with block,
+    # never restores that state (found when the in-process fuzz interrupts made later tests raise underflow)
+    import design.cli as cli
+
+    def leaky_run():
+        np.errstate(under="raise").__enter__()
+        return 0
+
+    before = np.geterr()
+    monkeypatch.setattr(cli, "_run", leaky_run)
+    monkeypatch.setattr(sys, "argv", ["gantry", "reproduce"])
+    try:
+        cli.main()
+    except SystemExit:
+        pass
+    assert np.geterr() == before
+
+
 SYNTH_X = ROOT / "specs" / "stage_x_synth.toml"
 
 

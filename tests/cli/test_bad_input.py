@@ -109,12 +109,25 @@ def test_ctrl_c_during_the_admittance_solve_ends_with_130_and_no_output(tmp_path
     assert list(tmp_path.iterdir()) == []
 
 
+def run_with_patched_command(tmp_path, name: str, run: str) -> subprocess.CompletedProcess:
+    """``gantry reproduce`` as ``python -m`` runs it, its command replaced by ``run`` (the source of a function
+    ``_run()`` returning the exit status; ``cli`` is ``design.cli``)."""
+    (tmp_path / f"{name}.py").write_text(
+        "import runpy, sys\n"
+        "import design.cli as cli\n"
+        f"{run}"
+        "cli._run = _run\n"
+        "sys.argv = ['gantry', 'reproduce']\n"
+        "runpy.run_module('design', run_name='__main__')\n")
+    return subprocess.run([sys.executable, "-m", name], cwd=tmp_path, capture_output=True, text=True,
+                          env={**os.environ, "PYTHONPATH": os.pathsep.join([str(ROOT), str(tmp_path)])}, timeout=120)
+
+
 def test_what_a_library_prints_about_the_interrupt_it_caught_is_not_shown(tmp_path):
     # casadi catches the KeyboardInterrupt inside IPOPT and prints its own warning on stderr: the one line only
-    (tmp_path / "ctrl_c_in_ipopt.py").write_text(
-        "import os, runpy, signal, sys, threading\n"
+    p = run_with_patched_command(tmp_path, "ctrl_c_in_ipopt", (
+        "import os, signal, threading\n"
         "import casadi as ca\n"
-        "import design.cli as cli\n"
         "def _run():\n"
         "    x = ca.SX.sym('x', 200)\n"
         "    f = ca.sumsqr(x - 1) + ca.sum1(ca.sin(x) ** 4 * ca.cos(x) ** 2)\n"
@@ -124,30 +137,18 @@ def test_what_a_library_prints_about_the_interrupt_it_caught_is_not_shown(tmp_pa
         "    threading.Timer(0.05, lambda: os.kill(os.getpid(), signal.SIGINT)).start()\n"
         "    for _ in range(200):\n"
         "        solver(x0=ca.DM.rand(200) * 3, lbg=-1, ubg=1)\n"
-        "    return 0\n"
-        "cli._run = _run\n"
-        "sys.argv = ['gantry', 'reproduce']\n"
-        "runpy.run_module('design', run_name='__main__')\n")
-    p = subprocess.run([sys.executable, "-m", "ctrl_c_in_ipopt"], cwd=tmp_path, capture_output=True, text=True,
-                       env={**os.environ, "PYTHONPATH": os.pathsep.join([str(ROOT), str(tmp_path)])}, timeout=120)
+        "    return 0\n"))
     assert p.returncode == 130 and p.stderr == "gantry: error: interrupted\n", (p.returncode, p.stderr)
 
 
 def test_ctrl_c_inside_an_executed_string_still_ends_with_130(tmp_path):
     # a Ctrl-C that lands while an import runs a dataclass's generated code (exec of a string) is handled by
     # main, yet CPython's `python -m` would still end the process by SIGINT (status -2) unless that is undone
-    (tmp_path / "ctrl_c_in_exec.py").write_text(
-        "import runpy, sys\n"
-        "import design.cli as cli\n"
+    p = run_with_patched_command(tmp_path, "ctrl_c_in_exec", (
         "run = cli._run\n"
         "def _run():\n"
         "    exec('import os, signal; os.kill(os.getpid(), signal.SIGINT)')\n"
-        "    return run()\n"
-        "cli._run = _run\n"
-        "sys.argv = ['gantry', 'reproduce']\n"
-        "runpy.run_module('design', run_name='__main__')\n")
-    p = subprocess.run([sys.executable, "-m", "ctrl_c_in_exec"], cwd=tmp_path, capture_output=True, text=True,
-                       env={**os.environ, "PYTHONPATH": os.pathsep.join([str(ROOT), str(tmp_path)])}, timeout=120)
+        "    return run()\n"))
     assert p.returncode == 130 and p.stderr == "gantry: error: interrupted\n", (p.returncode, p.stderr)
 
 

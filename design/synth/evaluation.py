@@ -9,7 +9,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from design.loop.fast import F_LOW_HZ, fast_analyse_loop
+from design.loop.fast import F_LOW_HZ, coarse_grid_rad_s, fast_analyse_loop
 from design.problem import LoopProblem
 from design.synth.scenarios import Scenarios, check_scenarios
 from plant.physics.drive_filters import FILTERS
@@ -64,9 +64,10 @@ class Evaluation:
 def evaluate(problem: LoopProblem, kp: float, ki: float, scenarios: Scenarios | None = None) -> Evaluation:
     """Margins and bandwidth of (kp, ki) on every scenario (default: the check scenarios)."""
     s = check_scenarios(problem) if scenarios is None else scenarios
-    plant = s.plants(problem.plant.plant())
+    base = problem.plant.plant()
+    plant = s.plants(base)
     req = problem.requirements
-    n = fast_analyse_loop(plant, kp, ki, level2=req.level2)
+    n = fast_analyse_loop(plant, kp, ki, level2=req.level2, coarse_response=s.response(base, coarse_grid_rad_s()))
     pm, gm = np.ravel(n.phase_margin_deg), np.ravel(n.gain_margin_db)
     # a bandwidth at the grid's lowest frequency is below the grid: unknown, counted as 0
     bw = np.ravel(np.where(n.closed_loop_bandwidth_hz > 1.01 * F_LOW_HZ, n.closed_loop_bandwidth_hz, 0.0))

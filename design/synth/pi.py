@@ -167,34 +167,34 @@ def unbounded_message(problem: LoopProblem) -> str:
 
 
 def _solve(problem: LoopProblem, scenarios: Scenarios, dense: Scenarios, method: str,
-           notes: dict) -> tuple[list[tuple[str, float, float]], Scan]:
-    """Candidate designs (label, kp, ki) for the design scenarios: the best scan seeds, the ccp design and
-    the exact refinements from the ccp design and the best seeds (method "ccp": the ccp design); and
-    the scan."""
-    P = scenarios.plants(problem.plant.plant()).frd(W_OPT)
+           notes: dict) -> tuple[list[tuple[str, float, float, Evaluation | None]], Scan]:
+    """Candidate designs (label, kp, ki, their evaluation on ``dense`` when already made) for the design
+    scenarios: the best scan seeds, the ccp design and the exact refinements from the ccp design and the best
+    seeds (method "ccp": the ccp design); and the scan."""
+    P = scenarios.response(problem.plant.plant(), W_OPT)
     scan = scan_gains(problem, P, scenarios.payload_kg)
     notes["scan_designs"] = notes.get("scan_designs", 0) + scan.kp.size
     seeds = scan.best(scan.meets, scan.worst_bandwidth_hz, EXTRA_STARTS)
     if not seeds:   # nothing meets the requirements: start from the least violating gains
         seeds = scan.best(np.ones(scan.kp.size, bool), scan.relative_slack, 1)
-    cands = [(f"scan seed {k + 1}", float(scan.kp[i]), float(scan.ki[i])) for k, i in enumerate(seeds)]
+    cands = [(f"scan seed {k + 1}", float(scan.kp[i]), float(scan.ki[i]), None) for k, i in enumerate(seeds)]
     ccp = ccp_design(problem, P, scan)
     notes["lp_solves"] = notes.get("lp_solves", 0) + ccp.lp_solves
     starts = list(cands)
     if math.isfinite(ccp.kp):
-        cands.append(("ccp (cvxpy+CLARABEL)", ccp.kp, ccp.ki))
+        cands.append(("ccp (cvxpy+CLARABEL)", ccp.kp, ccp.ki, None))
         starts.insert(0, cands[-1])
         if method == "ccp":     # the circle design alone (the seeds only when it failed)
             cands = cands[-1:]
     if method == "ccp+exact":
-        def exact(label, kp0, ki0, high):
+        def exact(label, kp0, ki0, _, high):
             ex = exact_design(problem, scenarios, kp0, ki0, high_circle=high)
             name = f"exact (casadi+IPOPT{', high-frequency circle' if high else ''}) from {label}"
             notes.setdefault("exact_starts", []).append({"design": name, "kp0": kp0, "ki0": ki0, "kp": ex.kp,
                                                          "ki": ex.ki, "ipopt": ex.note})
             if ex.success:
-                cands.append((name, ex.kp, ex.ki))
-                return evaluate(problem, ex.kp, ex.ki, dense).meets
+                cands.append((name, ex.kp, ex.ki, evaluate(problem, ex.kp, ex.ki, dense)))
+                return cands[-1][3].meets
             return False
 
         met = [exact(*start, False) for start in starts]
@@ -407,7 +407,7 @@ def _synthesise(problem: LoopProblem, method: str, max_rounds: int, extra: list[
     for rounds in range(1, max_rounds + 1):
         cands, scan = _solve(problem, points, dense, method, notes)
         first_scan = first_scan or (scan, points)
-        evs = [(label, evaluate(problem, kp, ki, dense)) for label, kp, ki in cands]
+        evs = [(label, ev or evaluate(problem, kp, ki, dense)) for label, kp, ki, ev in cands]
         good += [(label, ev) for label, ev in evs if ev.meets]
         bad = [(label, ev) for label, ev in evs if not ev.meets]
         failed += [ev for _, ev in bad if ev.stable]

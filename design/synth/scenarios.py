@@ -29,6 +29,9 @@ class Scenarios:
 
     payload_kg: np.ndarray
     parameters: dict[str, np.ndarray] = field(default_factory=dict)
+    #: responses of ``plants`` already computed, by (base plant, grid size, grid ends): a design evaluates
+    #: many gains on the same scenarios, and the plants' response does not depend on the gains
+    _responses: dict = field(default_factory=dict, compare=False, repr=False)
 
     def __len__(self) -> int:
         return int(self.payload_kg.size)
@@ -41,6 +44,17 @@ class Scenarios:
     def plants(self, base: Plant, rows=None) -> Plant:
         """The scenarios as one (n, 1) batch of ``base``."""
         return base.with_values(self.values(rows))
+
+    def response(self, base: Plant, w_rad_s: np.ndarray) -> np.ndarray:
+        """``plants(base).frd(w_rad_s)``, computed once per base plant and grid (m/s per A, (n, n_freq))."""
+        try:
+            key = (base, w_rad_s.size, float(w_rad_s[0]), float(w_rad_s[-1]))
+            hash(key)
+        except TypeError:       # a plant with batch parameters: not kept
+            return self.plants(base).frd(w_rad_s)
+        if key not in self._responses:
+            self._responses[key] = self.plants(base).frd(w_rad_s)
+        return self._responses[key]
 
     def plant(self, base: Plant, k: int) -> Plant:
         """Scenario ``k`` as a scalar plant."""

@@ -24,7 +24,7 @@ from design.synth.pi import synthesise_pi
 from design.synth.scan import W_OPT, scan_gains
 from design.synth.scenarios import Scenarios, design_scenarios
 from design.synth.schedule import gain_schedule
-from design.synth.verify import verify
+from design.synth.verify import _bandwidth_hz, verify
 from design.views.json import synthesis_to_dict
 from plant import Resonance, SpecError
 from plant.physics.effects import Sampling
@@ -279,6 +279,27 @@ def test_verification_catches_bad_designs():
     # a wrong bandwidth claim is caught too
     v = verify(spec, 236.0, 47.0, Scenarios(np.array([5.0, 40.0])), claimed_worst_bandwidth_hz=30.0)
     assert not v.verified and "claimed worst-case bandwidth" in v.failures[0]
+
+
+@pytest.mark.parametrize("kp, ki, level2", [(178.5, 19152.0, 0.5), (236.0, 47.0, 0.5), (400.0, 0.0, 0.5),
+                                             (178.5, 19152.0, 0.9)])
+def test_verification_bandwidth_is_python_controls(kp, ki, level2):
+    """The verification's bandwidth (Brent on T(jw)) against ``control.bandwidth`` itself (bisection), with
+    the drop measured from |T(0)| as python-control measures it, on rational Stage X loops with delay and
+    current loop; a P-only loop whose |T(0)| is below the level has none (nan)."""
+    from plant import CurrentLoop, Delay, stage_x
+
+    C = control.tf([kp, ki], [1.0, 0.0]) if ki > 0 else control.tf([kp], [1.0])
+    for m in (5.0, 40.0):
+        plant = stage_x(mass_kg=m).with_effects(Delay(seconds=5e-4), CurrentLoop(bandwidth_hz=1000.0))
+        T = control.feedback(plant.to_control(pade_order=6) * C, 1)
+        dc = 1.0 if ki > 0 else abs(float(np.real(control.dcgain(T))))
+        ours = _bandwidth_hz(T, level2, ki > 0)
+        if dc <= math.sqrt(level2):
+            assert math.isnan(ours)
+            continue
+        ref = control.bandwidth(T, dbdrop=10 * math.log10(level2) - 20 * math.log10(dc)) / (2 * math.pi)
+        assert ours == pytest.approx(ref, rel=1e-9)
 
 
 def test_unbounded_spec_names_the_missing_effects():

@@ -18,6 +18,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from in_process import gantry
 
 from plant import Delay, stage_x
 from plant.data.writers import recording_csv_text, write_recording_csv
@@ -30,8 +31,6 @@ ROOT = Path(__file__).resolve().parents[2]
 THESIS_X = ROOT / "specs" / "thesis_stage_x.toml"
 
 
-def gantry(*args):
-    return subprocess.run([sys.executable, "-m", "design", *map(str, args)], capture_output=True, text=True)
 
 
 def one_line(out, status=2):

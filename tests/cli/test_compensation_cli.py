@@ -1,15 +1,10 @@
 """`gantry diagnose --compensation`: the table of a time-domain recording's position-dependent forces, and a clear
 refusal where there is none. Recordings from the independent linear-motor simulator."""
 
-import subprocess
-import sys
 
 import independent_linear_motor as lm
 import numpy as np
-
-
-def gantry(*args):
-    return subprocess.run([sys.executable, "-m", "design", *map(str, args)], capture_output=True, text=True)
+from in_process import gantry
 
 
 def _sweep_csv(path, axis):

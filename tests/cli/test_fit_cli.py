@@ -1,14 +1,9 @@
 """`gantry simulate` -> `gantry fit` end to end."""
 
 import json
-import subprocess
-import sys
 
 import numpy as np
-
-
-def gantry(*args):
-    return subprocess.run([sys.executable, "-m", "design", *map(str, args)], capture_output=True, text=True)
+from in_process import gantry
 
 
 def test_delay_and_mass_come_back_within_their_uncertainty(tmp_path):

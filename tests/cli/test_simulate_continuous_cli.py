@@ -2,18 +2,15 @@
 time-domain recording; the forces that depend on the position are found in it."""
 
 import json
-import subprocess
-import sys
 
 import numpy as np
 import pytest
+from in_process import gantry
 
 RIPPLE = ("--stage", "x", "--effects", "force_ripple.sin1_n=3,force_ripple.cos1_n=1", "--amplitude-a", "3",
           "--sample-rate-hz", "500")
 
 
-def gantry(*args):
-    return subprocess.run([sys.executable, "-m", "design", *map(str, args)], capture_output=True, text=True)
 
 
 def test_a_simulated_ripple_is_found_by_the_diagnosis(tmp_path):

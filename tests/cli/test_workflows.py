@@ -4,12 +4,11 @@ exactly as a spec with the fitted values typed in by hand does; the workflow API
 from __future__ import annotations
 
 import json
-import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
+from in_process import gantry
 
 from design.workflows import load_problem, measure
 from plant.errors import SpecError
@@ -19,9 +18,6 @@ SPEC_X = ROOT / "specs" / "stage_x_synth.toml"
 EMPS = ROOT / "examples" / "data" / "emps" / "DATA_EMPS.mat"
 
 
-def gantry(*args) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "design", *map(str, args)], capture_output=True, text=True,
-                          timeout=600)
 
 
 @pytest.fixture(scope="module")

@@ -165,7 +165,8 @@ def call(args: list[str], *, cwd: Path, timeout: float = 60.0, interrupt: Interr
     from design.cli.common import app
 
     result = Result(0, "", "", 0.0)
-    stdout, stderr = io.StringIO(), io.StringIO()
+    # stdout has a byte buffer, as a process's has (a CSV written to "-" goes there)
+    stdout, stderr = io.TextIOWrapper(io.BytesIO(), encoding="utf-8", write_through=True), io.StringIO()
     saved = (sys.argv, os.getcwd(), signal.getsignal(signal.SIGTERM), signal.getsignal(signal.SIGALRM),
              resource.getrlimit(resource.RLIMIT_AS), sys.unraisablehook, signal.getsignal(signal.SIGINT))
     lost = []
@@ -213,7 +214,8 @@ def call(args: list[str], *, cwd: Path, timeout: float = 60.0, interrupt: Interr
         plt.close("all")
     if interrupt is not None and any(isinstance(e, (KeyboardInterrupt, Terminated)) for e in lost):
         result.interrupted, result.lost = False, True
-    result.out, result.err = stdout.getvalue(), stderr.getvalue()
+    stdout.flush()
+    result.out, result.err = stdout.buffer.getvalue().decode("utf-8", errors="replace"), stderr.getvalue()
     return result
 
 

@@ -5,14 +5,13 @@ exit codes, bad keys named."""
 
 import json
 import math
-import subprocess
-import sys
 import tomllib
 from pathlib import Path
 
 import independent_admittance as ref
 import numpy as np
 import pytest
+from in_process import gantry
 
 from design.admittance.feel import FeltForce
 from design.admittance.model import (
@@ -197,8 +196,7 @@ def test_ray_bounds_of_a_batch_follow_their_definition():
 # --- the bundled design ------------------------------------------------------------------------------------------
 @pytest.fixture(scope="module")
 def bundled():
-    out = subprocess.run([sys.executable, "-m", "design", "synth", str(SPEC), "--json"], capture_output=True,
-                         text=True)
+    out = gantry("synth", str(SPEC), "--json")
     assert out.returncode in (0, 3), out.stderr
     return out.returncode, json.loads(out.stdout)
 
@@ -378,8 +376,7 @@ def _toml(v):
 def test_a_mouse_too_weak_for_the_profile_gets_its_own_status_and_exit_3(tmp_path):
     data = _fast_data()
     data["admittance"]["mouse"]["peak_force_n"] = 0.3
-    out = subprocess.run([sys.executable, "-m", "design", "synth", str(_write(tmp_path, data))],
-                         capture_output=True, text=True)
+    out = gantry("synth", str(_write(tmp_path, data)))
     assert out.returncode == 3, out.stderr
     first = out.stdout.strip().splitlines()[0]
     assert first.startswith("status: mouse_cannot_drive (admittance: the mouse cannot drive this design")
@@ -432,7 +429,7 @@ def test_bad_admittance_key_is_named(tmp_path, old, new, key):
     text = SPEC.read_text()
     assert old in text
     bad.write_text(text.replace(old, new))
-    out = subprocess.run([sys.executable, "-m", "design", "synth", str(bad)], capture_output=True, text=True)
+    out = gantry("synth", str(bad))
     assert out.returncode == 2 and key in out.stderr
     assert "Traceback" not in out.stderr and len(out.stderr.strip().splitlines()) == 1
 
@@ -447,20 +444,18 @@ def test_admittance_with_measured_plant_is_refused_with_a_reason():
 
 
 def test_mouse_run_with_the_lab_setting_reports_and_exits_by_the_mouse(tmp_path):
-    out = subprocess.run([sys.executable, "-m", "design", "mouse-run", str(SPEC), "--lab", "--json", "--out",
-                          str(tmp_path / "run.csv")], capture_output=True, text=True)
+    out = gantry("mouse-run", str(SPEC), "--lab", "--json", "--out", str(tmp_path / "run.csv"))
     assert out.returncode in (0, 3), out.stderr
     doc = json.loads(out.stdout)
     assert doc["gains"]["m_v"] == 0.04 and doc["gains"]["b_v"] == 4.0
     assert (out.returncode == 0) == doc["mouse_keeps_up"]
     rows = (tmp_path / "run.csv").read_text().splitlines()
     assert rows[0].startswith("time_s,intended_x_m") and len(rows) > 1000
-    bad = subprocess.run([sys.executable, "-m", "design", "mouse-run", str(SPEC)], capture_output=True, text=True)
+    bad = gantry("mouse-run", str(SPEC))
     assert bad.returncode == 2 and "--design" in bad.stderr and "Traceback" not in bad.stderr
     # the same gains given as a design file (gantry synth --json's form) run the same mouse
     (tmp_path / "lab.json").write_text(json.dumps({"gains": doc["gains"], "filters": []}))
-    same = subprocess.run([sys.executable, "-m", "design", "mouse-run", str(SPEC), "--design",
-                           str(tmp_path / "lab.json"), "--json"], capture_output=True, text=True)
+    same = gantry("mouse-run", str(SPEC), "--design", str(tmp_path / "lab.json"), "--json")
     assert same.returncode == out.returncode, same.stderr
     assert json.loads(same.stdout)["summary"] == doc["summary"]
 
@@ -477,8 +472,7 @@ def test_mouse_run_bad_input_is_one_line_naming_the_file(tmp_path, option, name,
     bad = tmp_path / name
     bad.write_bytes(content)
     args = [option, str(bad)] + (["--lab"] if option == "--path" else [])
-    out = subprocess.run([sys.executable, "-m", "design", "mouse-run", str(SPEC), *args, "--out",
-                          str(tmp_path / "run.csv")], capture_output=True, text=True)
+    out = gantry("mouse-run", str(SPEC), *args, "--out", str(tmp_path / "run.csv"))
     assert out.returncode == 2 and name in out.stderr and message in out.stderr
     assert len(out.stderr.strip().splitlines()) == 1 and "Traceback" not in out.stderr
     assert not (tmp_path / "run.csv").exists()

@@ -6,14 +6,13 @@ from __future__ import annotations
 
 import json
 import math
-import subprocess
-import sys
 
 import control
 import numpy as np
 import pytest
 import scipy.linalg
 import scipy.signal
+from in_process import gantry
 
 from design.loop.discrete import tustin_biquad, zoh_with_delay
 from plant.errors import SpecError
@@ -66,8 +65,7 @@ def _design(tmp_path, rate_hz):
              "sensor_filter = { frequency_hz = 800.0 }", "[controller]",
              "kp = { min = 0.0, max = 10000.0 }", "ki = { min = 0.0, max = 1.0e7 }", f"loop_rate_hz = {rate_hz}"]
     spec.write_text("\n".join(lines) + "\n")
-    out = subprocess.run([sys.executable, "-m", "design", "synth", str(spec), "--json"], capture_output=True,
-                         text=True)
+    out = gantry("synth", str(spec), "--json")
     assert out.returncode == 0, out.stderr + out.stdout[-2000:]
     return json.loads(out.stdout)
 

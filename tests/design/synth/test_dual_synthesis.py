@@ -6,13 +6,12 @@ from __future__ import annotations
 
 import dataclasses
 import json
-import subprocess
-import sys
 from pathlib import Path
 
 import control
 import numpy as np
 import pytest
+from in_process import gantry as _gantry
 from independent_dual_drive import Rig, channel_loop, unstable_poles
 
 from design.loop.dual import PerMotor, loop_figures
@@ -109,8 +108,6 @@ def test_each_design_is_stable_on_10000_independent_draws(bundled, which):
     assert not bad, f"{len(bad)} unstable, e.g. {bad[0]}"
 
 
-def _gantry(*args: str) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "design", *args], capture_output=True, text=True, timeout=600)
 
 
 def test_the_report_shows_each_structure_over_the_travel_and_its_step(tmp_path):

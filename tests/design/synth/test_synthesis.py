@@ -5,14 +5,13 @@ specs, and an independent check that catches bad designs."""
 import itertools
 import json
 import math
-import subprocess
-import sys
 import tomllib
 from pathlib import Path
 
 import control
 import numpy as np
 import pytest
+from in_process import gantry
 
 from design.loop.fast import fast_analyse_loop
 from design.spec.schema import parse_spec
@@ -33,8 +32,6 @@ ROOT = Path(__file__).resolve().parents[3]
 SPEC_X = ROOT / "specs" / "stage_x_synth.toml"
 
 
-def gantry(*args):
-    return subprocess.run([sys.executable, "-m", "design", *map(str, args)], capture_output=True, text=True)
 
 
 def spec_with(*, uncertainty: bool = False, **changes):

@@ -1,12 +1,11 @@
 """Design report: self-contained HTML with its figures, rendered by headless Chromium."""
 
 import re
-import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
+from in_process import gantry
 
 from design.views.browser import chromium, dom, screenshot
 from plant import Delay, stage_x
@@ -24,8 +23,7 @@ def report_html(tmp_path_factory):
                                 current_amplitude_a=0.5, duration_s=2.0, noise_fraction=0.02, seed=1)
     write_recording_csv(rec, tmp / "rec.csv")
     out = tmp / "design.views.html"
-    proc = subprocess.run([sys.executable, "-m", "design", "report", str(SPEC), "--data", str(tmp / "rec.csv"),
-                           "--samples", "50", "--out", str(out)], capture_output=True, text=True)
+    proc = gantry("report", str(SPEC), "--data", str(tmp / "rec.csv"), "--samples", "50", "--out", str(out))
     assert proc.returncode == 0, proc.stderr
     return out
 
@@ -60,8 +58,7 @@ def test_report_renders_in_headless_chromium(report_html, tmp_path):
 def test_report_bad_spec_exits_2(tmp_path):
     bad = tmp_path / "bad.toml"
     bad.write_text('[plant]\nstage = "z"\n')
-    proc = subprocess.run([sys.executable, "-m", "design", "report", str(bad), "--out", str(tmp_path / "r.html")],
-                          capture_output=True, text=True)
+    proc = gantry("report", str(bad), "--out", str(tmp_path / "r.html"))
     assert proc.returncode == 2
     assert "plant.stage" in proc.stderr and proc.stderr.count("\n") == 1
     assert not (tmp_path / "r.html").exists()
@@ -71,8 +68,7 @@ def test_report_bad_spec_exits_2(tmp_path):
 def test_admittance_report_has_its_section_beside_the_nominal_design(tmp_path):
     spec = ROOT / "specs" / "stage_x_admittance.toml"
     out = tmp_path / "adm.html"
-    proc = subprocess.run([sys.executable, "-m", "design", "report", str(spec), "--out", str(out)],
-                          capture_output=True, text=True)
+    proc = gantry("report", str(spec), "--out", str(out))
     assert proc.returncode == 0, proc.stderr
     html = out.read_text()
     # the verdict on the mouse comes first in the summary
@@ -95,8 +91,7 @@ def test_admittance_report_has_its_section_beside_the_nominal_design(tmp_path):
 
 def test_report_samples_without_uncertainty_exits_2_at_once(tmp_path):
     spec = ROOT / "specs" / "stage_x_resonant_motor.toml"
-    proc = subprocess.run([sys.executable, "-m", "design", "report", str(spec), "--samples", "10", "--out",
-                           str(tmp_path / "r.html")], capture_output=True, text=True)
+    proc = gantry("report", str(spec), "--samples", "10", "--out", str(tmp_path / "r.html"))
     assert proc.returncode == 2 and "plant.uncertainty" in proc.stderr and proc.stderr.count("\n") == 1
     assert not (tmp_path / "r.html").exists()
 
@@ -104,8 +99,7 @@ def test_report_samples_without_uncertainty_exits_2_at_once(tmp_path):
 @pytest.fixture(scope="module")
 def synth_report(tmp_path_factory):
     out = tmp_path_factory.mktemp("synth_report") / "design.html"
-    proc = subprocess.run([sys.executable, "-m", "design", "report", str(ROOT / "specs" / "stage_x_synth.toml"),
-                           "--out", str(out)], capture_output=True, text=True)
+    proc = gantry("report", str(ROOT / "specs" / "stage_x_synth.toml"), "--out", str(out))
     assert proc.returncode == 0, proc.stderr
     return out.read_text()
 

@@ -2,11 +2,10 @@
 
 import json
 import math
-import subprocess
-import sys
 
 import numpy as np
 import pytest
+from in_process import gantry
 
 from plant.errors import ParameterError
 from plant.experiment.excitation import (
@@ -18,10 +17,6 @@ from plant.experiment.excitation import (
     write_excitation_csv,
     write_stepped_sine_csv,
 )
-
-
-def gantry(*args):
-    return subprocess.run([sys.executable, "-m", "design", *map(str, args)], capture_output=True, text=True)
 
 
 def crest(x):

@@ -16,6 +16,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import scipy.io
+from in_process import gantry as _gantry
 from independent_friction_sim import Axis, simulate
 
 from plant.data.read import parse_column_map, read_measurement
@@ -39,8 +40,6 @@ PUBLISHED = {"mass_kg": 95.1089, "damping_n_s_per_m": 203.5034, "coulomb_frictio
 HOLD = Preprocessing(input_hold=True)
 
 
-def _gantry(*args: str) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "design", *args], capture_output=True, text=True, timeout=120)
 
 
 def _recording(axis: Axis, seed: int) -> TimeRecording:

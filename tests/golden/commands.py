@@ -53,10 +53,15 @@ def _volatile(key: str) -> bool:
     return key in VOLATILE or key == "seconds" or key.endswith("_seconds")
 
 
-def run(name: str, tmp: Path) -> dict:
+def run(name: str, tmp: Path, gantry=None) -> dict:
+    """Exit status and JSON of the command ``name``, run by ``gantry(*args, cwd=...)`` (returning a
+    ``CompletedProcess``) or in a new process."""
     args = [a.replace("{tmp}", str(tmp)) for a in COMMANDS[name]]
-    out = subprocess.run([sys.executable, "-m", "design", *args], capture_output=True, text=True, cwd=ROOT,
-                         timeout=600)
+    if gantry is not None:
+        out = gantry(*args, cwd=ROOT)
+    else:
+        out = subprocess.run([sys.executable, "-m", "design", *args], capture_output=True, text=True, cwd=ROOT,
+                             timeout=600)
     try:
         result = json.loads(out.stdout)
     except json.JSONDecodeError:

@@ -151,8 +151,13 @@ def test_ctrl_c_inside_an_executed_string_still_ends_with_130(tmp_path):
     assert p.returncode == 130 and p.stderr == "gantry: error: interrupted\n", (p.returncode, p.stderr)
 
 
-@pytest.mark.parametrize("sig,status,word", [(signal.SIGINT, 130, "interrupted"), (signal.SIGTERM, 143, "terminated")])
-@pytest.mark.parametrize("after_s", [0.5, 0.7, 0.9, 1.2, 1.6, 2.0, 3.0])
+INT, TERM = (signal.SIGINT, 130, "interrupted"), (signal.SIGTERM, 143, "terminated")
+
+
+@pytest.mark.parametrize("after_s,sig,status,word", [
+    (0.5, *INT), (0.7, *TERM), (0.9, *INT), (1.2, *TERM), (1.6, *INT), (2.0, *TERM), (3.0, *INT),
+    *(pytest.param(t, *s, marks=pytest.mark.slow) for t, s in ((0.5, TERM), (0.7, INT), (0.9, TERM), (1.2, INT),
+                                                             (1.6, TERM), (2.0, INT), (3.0, TERM)))])
 def test_a_signal_anywhere_in_a_synthesis_ends_with_its_status_and_no_output(tmp_path, sig, status, word, after_s):
     # start-up, the imports (numpy, scipy, cvxpy, python-control, casadi), the PI synthesis (Clarabel, IPOPT,
     # casadi's SWIG wrappers, which swallow exceptions) and the robustness checks: wherever the signal lands,

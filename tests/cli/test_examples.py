@@ -6,9 +6,12 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 ROOT = Path(__file__).resolve().parents[2]
 
 
+@pytest.mark.slow
 def test_notebook_example_runs_end_to_end(tmp_path):
     out = subprocess.run([sys.executable, str(ROOT / "examples" / "notebook_api.py"), str(tmp_path)],
                          capture_output=True, text=True, cwd=tmp_path, timeout=600)

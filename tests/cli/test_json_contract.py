@@ -24,7 +24,12 @@ def scratch(tmp_path_factory):
     return tmp_path_factory.mktemp("golden")
 
 
-@pytest.mark.parametrize("name", list(COMMANDS))
+#: the admittance design is run by default by its own tests' fixture (tests/design/admittance): its contract is
+#: checked in the slow pass
+SLOW = ("synth_admittance",)
+
+
+@pytest.mark.parametrize("name", [pytest.param(n, marks=[pytest.mark.slow] if n in SLOW else []) for n in COMMANDS])
 def test_command_prints_the_same_json(name, scratch):
     if name in ("fit_x", "diagnose_x") and not (scratch / "golden_recording.csv").exists():
         run("simulate_x", scratch, gantry)

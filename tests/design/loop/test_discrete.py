@@ -70,7 +70,7 @@ def _design(tmp_path, rate_hz):
     return json.loads(out.stdout)
 
 
-@pytest.mark.parametrize("rate_hz", [4000.0, 16000.0])
+@pytest.mark.parametrize("rate_hz", [4000.0, pytest.param(16000.0, marks=pytest.mark.slow)])
 def test_discrete_design_meets_the_margins_as_the_drive_runs_it(tmp_path, rate_hz):
     res = _design(tmp_path, rate_hz)
     d = res["discrete"]

@@ -83,14 +83,14 @@ def test_the_bundled_spec_designs_every_structure_and_recommends_the_fastest_tha
 
 @pytest.mark.parametrize("which", [0, 1, 2])
 def test_each_design_holds_on_independently_built_plants_drawn_at_random(bundled, which):
-    """40 draws per structure: the closed loop (python-control, Pade 8 delay) has no right-half-plane pole and
+    """20 draws per structure: the closed loop (python-control, Pade 8 delay) has no right-half-plane pole and
     every channel keeps its margins (python-control's, within 1 deg and 0.2 dB of the requirement: the Pade
-    approximant's phase at crossover)."""
+    approximant's phase at crossover). The slow pass checks stability on 10,000 draws."""
     spec, result = bundled
     d = result.structures[which]
     n_channels = 1 if d.structure == "master_slave" else 2
     w = 2 * np.pi * np.logspace(-2, 3.3, 3000)          # finer than the tool's grid
-    for rig in _draws(spec, 40, seed=100 + which):
+    for rig in _draws(spec, 20, seed=100 + which):
         assert unstable_poles(rig, d.structure, _gains(d)) == 0, rig
         for j in range(n_channels):
             gm, pm, *_ = control.stability_margins(control.frd(channel_loop(rig, d.structure, _gains(d), j), w))

@@ -44,6 +44,7 @@ def test_report_is_self_contained_with_its_figures(report_html):
     assert "delay" in html and "sha256" in html
 
 
+@pytest.mark.slow
 @pytest.mark.skipif(chromium() is None, reason="Chromium not installed (Debian package 'chromium'); "
                                                 ".ci/run installs it")
 def test_report_renders_in_headless_chromium(report_html, tmp_path):

@@ -137,7 +137,7 @@ def test_output_error_recovers_the_simulated_axis():
     (Axis(offset_n=0.0), ("coulomb_friction",)),
     (Axis(), ("coulomb_friction", "offset")),
 ])
-@pytest.mark.parametrize("seed", [0, 1])
+@pytest.mark.parametrize("seed", [0, pytest.param(1, marks=pytest.mark.slow)])
 def test_diagnosis_finds_exactly_the_simulated_force_effects(axis, expected, seed):
     diag = diagnose_time(Plant("x", force_constant_n_per_a=axis.gain_n_per_v), _recording(axis, seed), prep=HOLD)
     assert set(diag.selected) == set(expected)
@@ -145,7 +145,7 @@ def test_diagnosis_finds_exactly_the_simulated_force_effects(axis, expected, see
     assert [s.fit.rms_residual for s in diag.steps] == sorted((s.fit.rms_residual for s in diag.steps), reverse=True)
 
 
-@pytest.mark.parametrize("seed", [0, 1])
+@pytest.mark.parametrize("seed", [0, pytest.param(1, marks=pytest.mark.slow)])
 def test_diagnosis_finds_a_force_periodic_in_position_beside_friction_and_offset(seed):
     """The simulator's F_p(x) = 4 N sin(2 pi x / 20 mm) is the force the drive must supply: ``force_ripple``'s
     convention, so its sine coefficient is +4 N."""
@@ -255,7 +255,8 @@ def test_emps_example_runs_from_the_checkout(tmp_path):
     assert (tmp_path / "emps.html").read_text().count("<svg") == 3
 
 
-@pytest.mark.parametrize(("excess_n", "velocity_m_per_s", "seed"), [(12.0, 0.02, 0), (8.0, 0.04, 1)])
+@pytest.mark.parametrize(("excess_n", "velocity_m_per_s", "seed"), [
+    (12.0, 0.02, 0), pytest.param(8.0, 0.04, 1, marks=pytest.mark.slow)])
 def test_diagnosis_finds_a_stribeck_rise_of_the_friction(excess_n, velocity_m_per_s, seed):
     """The simulator's friction F_c + F_s exp(-(v / v_s)^2) (sticking below F_c + F_s): stribeck_friction is
     added on top of Coulomb friction and the offset, with its excess and velocity."""

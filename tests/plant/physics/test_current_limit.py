@@ -25,7 +25,7 @@ def test_describing_gain_is_the_first_fourier_coefficient_of_the_clipped_sine(ra
     assert limit.describing_gain(50.0) == pytest.approx(first, abs=1e-8)
 
 
-@pytest.mark.parametrize("amplitude_a", [0.8, 1.5])
+@pytest.mark.parametrize("amplitude_a", [0.8, pytest.param(1.5, marks=pytest.mark.slow)])
 def test_stepped_sine_fundamental_is_the_describing_gain_times_the_linear_response(amplitude_a):
     """Commands of 0.8 A (unclipped) and 1.5 A against a 1 A limit, Stage X defaults in both."""
     axis = lm.LinearMotorAxis(current_limit_a=1.0)

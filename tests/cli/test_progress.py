@@ -6,6 +6,8 @@ import pty
 import subprocess
 import sys
 
+from in_process import gantry as in_process
+
 
 def gantry(*args, stderr=subprocess.PIPE):
     return subprocess.run([sys.executable, "-m", "design", *map(str, args)], stdout=subprocess.PIPE,
@@ -34,7 +36,8 @@ def _on_a_terminal(*args) -> tuple[int, str]:
 
 def test_diagnose_shows_the_models_it_fits_on_a_terminal_only(tmp_path):
     rec = tmp_path / "rec.csv"
-    assert gantry("simulate", "--stage", "x", "--f-hz", "1:75:20", "--duration-s", "2", "--out", rec).returncode == 0
+    made = in_process("simulate", "--stage", "x", "--f-hz", "1:75:20", "--duration-s", "2", "--out", rec)
+    assert made.returncode == 0
     status, terminal = _on_a_terminal("diagnose", rec, "--stage", "x")
     assert status == 0
     assert "diagnose" in terminal and "models" in terminal
@@ -46,8 +49,8 @@ def test_diagnose_shows_the_models_it_fits_on_a_terminal_only(tmp_path):
 
 def test_fit_shows_its_stage_on_a_terminal_only(tmp_path):
     rec = tmp_path / "rec.csv"
-    assert gantry("simulate", "--stage", "x", "--form", "chirp", "--f-hz", "0.5:20:2", "--duration-s", "15",
-                  "--out", rec).returncode == 0
+    assert in_process("simulate", "--stage", "x", "--form", "chirp", "--f-hz", "0.5:20:2", "--duration-s", "15",
+                      "--out", rec).returncode == 0
     status, terminal = _on_a_terminal("fit", rec, "--stage", "x", "--method", "output-error")
     assert status == 0 and "fitting" in terminal
     piped = gantry("fit", rec, "--stage", "x", "--method", "output-error", "--json")

@@ -5,13 +5,12 @@ by scipy and judged by python-control (``independent_admittance``)."""
 from __future__ import annotations
 
 import json
-import subprocess
-import sys
 from pathlib import Path
 
 import independent_admittance as adm_ref
 import numpy as np
 import pytest
+from in_process import gantry
 from independent_dual_drive import Rig, clamp_path
 
 from design.admittance.dual import DualLoops
@@ -125,8 +124,7 @@ def test_bundled_stage_y_admittance_spec_holds_on_newtons_model(tmp_path):
     reports (the ends, where the margin is least) the design's interaction loop rebuilt from Newton's law for the
     heaviest payload, slowest drive, least damping and each corner mouse, discretised by scipy and judged by
     python-control, keeps the requirements."""
-    out = subprocess.run([sys.executable, "-m", "design", "synth", str(SPEC), "--json"], capture_output=True,
-                         text=True, timeout=900)
+    out = gantry("synth", str(SPEC), "--json")
     assert out.returncode in (0, 3), out.stderr
     doc = json.loads(out.stdout)
     adm = doc["admittance"]
@@ -152,14 +150,10 @@ def test_bundled_stage_y_admittance_spec_holds_on_newtons_model(tmp_path):
             assert pm >= a.phase_margin_deg - 0.1 and gm >= a.gain_margin_db - 0.05
 
 
-def _gantry(*args: str) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "design", *args], capture_output=True, text=True, timeout=900)
-
-
 def test_codesign_on_two_motors_is_refused_naming_the_key(tmp_path):
     path = tmp_path / "codesign.toml"
     path.write_text(SPEC.read_text().replace("codesign = false", "codesign = true"))
-    r = _gantry("synth", str(path), "--json")
+    r = gantry("synth", str(path), "--json")
     assert r.returncode == 2 and r.stderr.strip().count("\n") == 0
     assert "admittance.codesign" in r.stderr and "Traceback" not in r.stderr
 
@@ -173,7 +167,7 @@ def test_the_report_shows_the_admittance_by_carriage_position(tmp_path):
                     .replace('structures = ["per_motor", "common_differential"]', 'structures = ["per_motor"]')
                     .replace("monte_carlo_samples = 10000", "monte_carlo_samples = 500"))
     out = tmp_path / "y.html"
-    r = _gantry("synth", str(spec), "--json", "--report", str(out))
+    r = gantry("synth", str(spec), "--json", "--report", str(out))
     assert r.returncode in (0, 3), r.stderr
     adm = json.loads(r.stdout)["admittance"]
     text = out.read_text()

@@ -5,14 +5,13 @@ from __future__ import annotations
 
 import json
 import math
-import subprocess
-import sys
 import tomllib
 from pathlib import Path
 
 import control
 import numpy as np
 import pytest
+from in_process import gantry
 
 from design.loop.fast import fast_analyse_loop
 from design.loop.margins import closed_loop_bandwidth_hz, loop_margins
@@ -27,10 +26,6 @@ from plant.physics.drive_filters import FILTERS, KINDS, LowPassFilter, NotchFilt
 
 ROOT = Path(__file__).resolve().parents[3]
 RESONANT = ROOT / "specs" / "stage_x_resonant_payload.toml"
-
-
-def gantry(*args):
-    return subprocess.run([sys.executable, "-m", "design", *map(str, args)], capture_output=True, text=True)
 
 
 @pytest.mark.parametrize("zeta", [0.3, 1 / math.sqrt(2), 1.2])

@@ -7,12 +7,12 @@ Eq. 3.15-3.20 written out here.
 
 import json
 import math
-import subprocess
 import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
+from in_process import gantry as in_process
 from typer.testing import CliRunner
 
 import design.cli.common
@@ -46,8 +46,7 @@ def closed_forms(stage, *, mass=M, damping=B):
 
 
 def gantry(*args):
-    return subprocess.run([sys.executable, "-m", "design", *map(str, args)], capture_output=True, text=True,
-                          cwd=ROOT, timeout=120)
+    return in_process(*args, cwd=ROOT)
 
 
 def strict_json(text):

@@ -12,6 +12,7 @@ from pathlib import Path
 import control
 import numpy as np
 import pytest
+from in_process import gantry
 
 from design.cli import main
 from design.loop.analysis import analyse_loop
@@ -329,8 +330,7 @@ def test_cli_bad_uncertainty_key_exits_2_with_one_line(tmp_path):
 
 
 def _gantry_json(*args):
-    out = subprocess.run([sys.executable, "-m", "design", *map(str, args)], capture_output=True, text=True,
-                         timeout=600)
+    out = gantry(*map(str, args))
     assert out.returncode == 0, out.stderr
     return json.loads(out.stdout)
 

@@ -2,13 +2,12 @@
 
 import html as html_lib
 import re
-import subprocess
-import sys
 import tomllib
 from pathlib import Path
 
 import numpy as np
 import pytest
+from in_process import gantry
 
 from design.views.plots import wrapped_phase_deg
 from plant import stage_x
@@ -22,8 +21,7 @@ SPEC = ROOT / "specs" / "stage_x_admittance.toml"
 def section(tmp_path_factory):
     """The admittance section of the report of SPEC: (summary text, list of its figures' SVG texts)."""
     out = tmp_path_factory.mktemp("adm") / "adm.html"
-    proc = subprocess.run([sys.executable, "-m", "design", "report", str(SPEC), "--out", str(out)],
-                          capture_output=True, text=True)
+    proc = gantry("report", str(SPEC), "--out", str(out))
     assert proc.returncode == 0, proc.stderr
     page = out.read_text()
     part = page[page.index(">Admittance (mouse following)</h2>"):page.index(">Reproducibility</h2>")]

@@ -8,12 +8,11 @@ from the code under test.
 """
 
 import json
-import subprocess
-import sys
 from dataclasses import replace
 
 import numpy as np
 import pytest
+from in_process import gantry
 
 from plant import (
     CoulombFriction,
@@ -141,8 +140,8 @@ def test_cli_names_a_hidden_delay_and_shows_the_error_falling(tmp_path):
     truth = stage_x(mass_kg=40.0) * Delay(0.0012)
     rec = simulate_stepped_sine(truth, f_hz=F_HZ, current_amplitude_a=AMPLITUDE_A, noise_fraction=0.02, seed=8)
     write_recording_csv(rec, tmp_path / "rec.csv")
-    out = subprocess.run([sys.executable, "-m", "design", "diagnose", str(tmp_path / "rec.csv"), "--stage", "x",
-                          "--json", "--report", str(tmp_path / "d.html")], capture_output=True, text=True, check=True)
+    out = gantry("diagnose", str(tmp_path / "rec.csv"), "--stage", "x", "--json", "--report", str(tmp_path / "d.html"))
+    assert out.returncode == 0, out.stderr
     res = json.loads(out.stdout)
     assert res["final_effects"] == ["delay"]
     assert res["ranking"][0]["effect"] == "delay"
@@ -157,8 +156,7 @@ def test_cli_names_a_hidden_delay_and_shows_the_error_falling(tmp_path):
 def test_cli_bad_input_exits_2_with_one_line(tmp_path):
     bad = tmp_path / "bad.csv"
     bad.write_text("frequency_hz,time_s,current_a,velocity_m_per_s\n1,0,0.1,0.2\n1,0.001,abc,0.1\n")
-    out = subprocess.run([sys.executable, "-m", "design", "diagnose", str(bad), "--stage", "x"], capture_output=True,
-                         text=True)
+    out = gantry("diagnose", str(bad), "--stage", "x")
     assert out.returncode == 2
     assert out.stderr.strip().count("\n") == 0 and "row 3" in out.stderr and "current_a" in out.stderr
 

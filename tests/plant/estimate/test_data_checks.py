@@ -9,12 +9,11 @@ a broadband current goes through the plant's exact zero-order-hold discretisatio
 """
 
 import json
-import subprocess
-import sys
 
 import numpy as np
 import pytest
 import scipy.signal
+from in_process import gantry
 
 from design.views.json import print_json
 from plant.data.read_stepped_sine import read_recording
@@ -277,8 +276,7 @@ def test_diagnose_refuses_broadband_data_in_one_line(tmp_path):
     rng = np.random.default_rng(3)
     path = tmp_path / "broadband.csv"
     write_recording_csv(rec([broadband_block(f, _random_current(int(2.0 * FS), rng), rng=rng) for f in F_HZ]), path)
-    out = subprocess.run([sys.executable, "-m", "design", "diagnose", str(path), "--stage", "x", "--json"],
-                         capture_output=True, text=True)
+    out = gantry("diagnose", str(path), "--stage", "x", "--json")
     assert out.returncode == 2 and out.stdout == ""
     assert out.stderr.count("\n") == 1 and "broadband.csv" in out.stderr
     assert "not look like a stepped sine" in out.stderr

@@ -16,6 +16,7 @@ from __future__ import annotations
 import independent_timesim as sim
 import numpy as np
 import pytest
+from in_process import gantry
 
 from plant.data.recordings import TimeRecording
 from plant.errors import DataError
@@ -387,8 +388,6 @@ def test_cli_fits_and_diagnoses_a_multisine_csv_through_its_frequency_response(t
     """A time-domain CSV (time_s, current_a, velocity_m_per_s) of a multisine: ``--frf periodic``
     estimates the frequency response and the frequency-domain fit finds the simulator's mass and damping."""
     import json
-    import subprocess
-    import sys
 
     r = _multisine(np.random.default_rng(5), periods=8)
     path = tmp_path / "multisine.csv"
@@ -396,18 +395,15 @@ def test_cli_fits_and_diagnoses_a_multisine_csv_through_its_frequency_response(t
                header="time_s,current_a,velocity_m_per_s", comments="")
     common = [str(path), "--stage", "x", "--frf", "periodic", "--set", f"force_constant_n_per_a={sim.KT_N_PER_A}",
               "--json"]
-    out = subprocess.run([sys.executable, "-m", "design", "fit", *common], capture_output=True, text=True,
-                         timeout=120)
+    out = gantry("fit", *common)
     assert out.returncode == 0, out.stderr
     params = json.loads(out.stdout)["parameters"]
     for name, truth in (("mass_kg", sim.MASS_KG), ("damping_n_s_per_m", sim.DAMPING_N_S_PER_M)):
         assert abs(params[name]["value"] - truth) < 4 * params[name]["stderr"], (name, params[name], truth)
-    out = subprocess.run([sys.executable, "-m", "design", "diagnose", *common], capture_output=True, text=True,
-                         timeout=300)
+    out = gantry("diagnose", *common)
     assert out.returncode == 0, out.stderr
     assert json.loads(out.stdout)["final_effects"] == []
-    out = subprocess.run([sys.executable, "-m", "design", "fit", *common, "--band-hz", "300:400"], capture_output=True,
-                         text=True, timeout=120)
+    out = gantry("fit", *common, "--band-hz", "300:400")
     assert out.returncode == 2 and out.stderr.count("\n") == 1 and "no excited line in 300..400 Hz" in out.stderr
 
 

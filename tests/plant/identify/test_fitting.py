@@ -13,6 +13,7 @@ import math
 import control
 import numpy as np
 import pytest
+from in_process import gantry
 
 from plant import CoulombFriction, CurrentLoop, Delay, Plant, Resonance, stage_x, stage_y
 from plant.data.frequency_response import MeasuredResponse
@@ -345,11 +346,6 @@ def test_calibration_two_sigma_coverage_pipeline_thesis_protocol(truth, model, a
 
 
 # --- gantry fit (CLI) ------------------------------------------------------------------------------
-def _gantry(*args):
-    import subprocess
-    import sys
-
-    return subprocess.run([sys.executable, "-m", "design", *map(str, args)], capture_output=True, text=True)
 
 
 @pytest.fixture(scope="module")
@@ -366,7 +362,7 @@ def small_recording(tmp_path_factory):
 
 
 def test_cli_unknown_effect_is_named(small_recording):
-    out = _gantry("fit", small_recording, "--stage", "x", "--effects", "delay,backlash")
+    out = gantry("fit", small_recording, "--stage", "x", "--effects", "delay,backlash")
     assert out.returncode == 2
     assert "'backlash'" in out.stderr and out.stderr.count("\n") == 1
 
@@ -374,7 +370,7 @@ def test_cli_unknown_effect_is_named(small_recording):
 def test_cli_json_contract(small_recording):
     import json
 
-    out = _gantry("fit", small_recording, "--stage", "x", "--effects", "delay", "--json")
+    out = gantry("fit", small_recording, "--stage", "x", "--effects", "delay", "--json")
     assert out.returncode == 0, out.stderr
     res = json.loads(out.stdout)
     assert set(res["parameters"]) == {"mass_kg", "damping_n_s_per_m", "delay.seconds"}

@@ -205,17 +205,23 @@ def fast_analyse_loop(plant, kp, ki, *, points_per_decade: int = POINTS_PER_DECA
     ``ki`` (A per m); agrees with ``design.loop.analysis.analyse_loop`` to about 1e-5 (relative).
     ``coarse_response``: the plant's response on ``coarse_grid_rad_s(points_per_decade)`` when already known."""
     w = coarse_grid_rad_s(points_per_decade)
-    L3 = open_loop_frd(plant if coarse_response is None else coarse_response, w, kp, ki)
-    batch = L3.shape[:-1]
-    L = L3.reshape(-1, w.size)
+    L = open_loop_frd(plant if coarse_response is None else coarse_response, w, kp, ki)
+    batch = L.shape[:-1]
+    L = L.reshape(-1, w.size)
     first_below, mag2, one_plus2, dc2 = _first_below(L, level2)
     rough = _rough_intervals(L, mag2, one_plus2, np.where(first_below > 0, first_below, L.shape[-1]))
     if rough.any():
         extra = _refined_grid(w, rough)
-        L_extra = open_loop_frd(plant, extra, kp, ki).reshape(L.shape[0], -1)
-        order = np.argsort(np.concatenate([w, extra]))
-        w = np.concatenate([w, extra])[order]
-        L = np.concatenate([L, L_extra], axis=-1)[:, order]
+        del mag2, one_plus2
+        # the coarse and added points, each written straight to its place on the merged grid
+        at = np.argsort(np.argsort(np.concatenate([w, extra])))
+        merged = np.empty((L.shape[0], w.size + extra.size), complex)
+        merged[:, at[:w.size]] = L
+        del L
+        merged[:, at[w.size:]] = open_loop_frd(plant, extra, kp, ki).reshape(merged.shape[0], -1)
+        w_merged = np.empty(merged.shape[1])
+        w_merged[at] = np.concatenate([w, extra])
+        w, L = w_merged, merged
         first_below, mag2, one_plus2, dc2 = _first_below(L, level2)
     x = np.log(w)
     n = L.shape[0]

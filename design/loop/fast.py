@@ -214,14 +214,13 @@ def fast_analyse_loop(plant, kp, ki, *, points_per_decade: int = POINTS_PER_DECA
         extra = _refined_grid(w, rough)
         del mag2, one_plus2
         # the coarse and added points, each written straight to its place on the merged grid
-        at = np.argsort(np.argsort(np.concatenate([w, extra])))
-        merged = np.empty((L.shape[0], w.size + extra.size), complex)
+        grid = np.concatenate([w, extra])
+        at = np.argsort(np.argsort(grid))
+        merged = np.empty((L.shape[0], grid.size), complex)
         merged[:, at[:w.size]] = L
         del L
         merged[:, at[w.size:]] = open_loop_frd(plant, extra, kp, ki).reshape(merged.shape[0], -1)
-        w_merged = np.empty(merged.shape[1])
-        w_merged[at] = np.concatenate([w, extra])
-        w, L = w_merged, merged
+        w, L = np.sort(grid), merged
         first_below, mag2, one_plus2, dc2 = _first_below(L, level2)
     x = np.log(w)
     n = L.shape[0]

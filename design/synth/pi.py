@@ -187,7 +187,7 @@ def _solve(problem: LoopProblem, scenarios: Scenarios, dense: Scenarios, method:
         if method == "ccp":     # the circle design alone (the seeds only when it failed)
             cands = cands[-1:]
     if method == "ccp+exact":
-        def exact(label, kp0, ki0, _, high):
+        def exact(label, kp0, ki0, high):
             ex = exact_design(problem, scenarios, kp0, ki0, high_circle=high)
             name = f"exact (casadi+IPOPT{', high-frequency circle' if high else ''}) from {label}"
             notes.setdefault("exact_starts", []).append({"design": name, "kp0": kp0, "ki0": ki0, "kp": ex.kp,
@@ -197,9 +197,9 @@ def _solve(problem: LoopProblem, scenarios: Scenarios, dense: Scenarios, method:
                 return cands[-1][3].meets
             return False
 
-        met = [exact(*start, False) for start in starts]
+        met = [exact(*start[:3], False) for start in starts]
         if not any(met):      # e.g. a resonance crossing again above the tracked crossover
-            exact(*starts[0], True)
+            exact(*starts[0][:3], True)
     return cands, scan
 
 

@@ -3,7 +3,7 @@ filter parameters together, ``design.synth.exact.exact_design(..., design_filter
 gains moved by a relative ``eps`` (1e-12 is a few units in the last place) and the whole synthesis is run
 to its verified result, for each bundled spec that designs filters.
 
-Run:  python benchmarks/bench_joint_sensitivity.py [--eps 0 1e-12 -1e-12 1e-9 -1e-9] [--spec PATH ...]
+Run:  python benchmarks/bench_joint_sensitivity.py [--eps 0,1e-12,-1e-12,1e-9,-1e-9] [--spec PATH ...]
 
 A robust design step gives the same worst-case bandwidth for every ``eps``; the spread printed at the end
 (largest over smallest) is 1 then. Each synthesis takes 20-40 s on a 2-core machine.
@@ -38,7 +38,8 @@ def _synthesise(spec: str, eps: float):
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--eps", type=float, nargs="+", default=[0.0, 1e-12, -1e-12, 1e-9, -1e-9])
+    parser.add_argument("--eps", type=lambda text: [float(v) for v in text.split(",")],
+                        default=[0.0, 1e-12, -1e-12, 1e-9, -1e-9], help="relative moves, comma-separated")
     parser.add_argument("--spec", nargs="+", default=list(SPECS))
     args = parser.parse_args()
     for spec in args.spec:

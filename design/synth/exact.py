@@ -18,6 +18,12 @@ from plant.physics.algebra import CASADI, Pair
 from plant.physics.drive_filters import FILTERS, KINDS
 from plant.physics.models import Plant
 
+#: IPOPT's initial barrier parameter when the filters are variables too. The joint step starts from a design
+#: the pipeline verified; with IPOPT's default (0.1) the first barrier steps throw the iterate far from it and
+#: the basin it ends in changes with the last bits of the start (``benchmarks/bench_joint_sensitivity.py``).
+#: A small one keeps the iterates near the start, as IPOPT's warm-start advice has it.
+JOINT_MU_INIT = 1e-3
+
 
 def _casadi_frd(plant: Plant, w, symbolic: bool = False):
     """(Re, Im) of P(jw) as casadi expressions of w: the plant's own response formula (``Plant.response``)
@@ -49,6 +55,33 @@ def _first_crossing(w, f):
     i = s[0]
     lw = np.log(w)
     return float(np.exp(lw[i] + (lw[i + 1] - lw[i]) * f[i] / (f[i] - f[i + 1])))
+
+
+def _circle_rows(numeric: Plant, plant: Plant, symbolic: dict, circles, kp, ki, u, theta):
+    """The sampled circles |L - centre|^2 >= radius^2 of one scenario whose designed filters are variables,
+    as (f, data): f a casadi Function of one row, mapped over the rows, and its data (w, Re P_0, Im P_0,
+    centre, radius^2 per row; P_0 the numeric response without the designed filters). One row's expression
+    mapped over a few thousand rows keeps the derivatives IPOPT needs the size of one row: written out
+    element by element (SX), the rows and their Hessian take hundreds of MB."""
+    import casadi as ca
+
+    rest = replace(numeric, effects=tuple(e for e in numeric.effects if e.name not in symbolic))
+    wg = np.concatenate([c[2] for c in circles])
+    p0 = np.concatenate([rest.frd(c[2]) for c in circles])
+    centre = np.concatenate([np.full(c[2].size, c[0]) for c in circles])
+    r2 = np.concatenate([np.full(c[2].size, (c[1] * 1.003) ** 2) for c in circles])
+    w, pr, pi_, cc, rr = (ca.SX.sym(n) for n in ("w", "p0re", "p0im", "centre", "r2"))
+    pf = Pair(pr, pi_)
+    for e in plant.effects:
+        if e.name in symbolic:
+            pf = pf * e.response(Pair(0.0, w), CASADI)
+    cre, cim = kp, -ki / w          # kp + ki/(jw) = kp - j ki/w
+    re = pf.re * cre - pf.im * cim - cc
+    im = pf.re * cim + pf.im * cre
+    z = ca.vertcat(u, *theta)
+    row = ca.Function("circle_row", [z, w, pr, pi_, cc, rr], [re**2 + im**2 - rr])
+    data = [ca.DM(v).T for v in (wg, p0.real, p0.imag, centre, r2)]
+    return row.map(wg.size), data
 
 
 @dataclass(frozen=True)
@@ -103,6 +136,8 @@ def exact_design(problem: LoopProblem, scenarios: Scenarios, kp0: float, ki0: fl
                 symbolic.setdefault(name, {})[field] = v * scale
                 variables.append((i, field, scale))
     gs, lbg, ubg, t_start = [], [], [], []
+    theta = [xs[2 + j] for j in range(len(variables))]
+    rows: list[tuple] = []
     P = scenarios.plants(base).frd(W_OPT)
     for k in range(len(scenarios)):
         numeric = scenarios.plant(base, k)
@@ -145,23 +180,14 @@ def exact_design(problem: LoopProblem, scenarios: Scenarios, kp0: float, ki0: fl
         if high_circle and starts["c"] is not None and 2 * starts["c"] < W_OPT[-1]:
             high = np.geomspace(2 * starts["c"], W_OPT[-1], max(int(100 * np.log10(W_OPT[-1] / starts["c"] / 2)), 2))
             circles.append((*requirement_circles(problem)[0], high))
-        rest = replace(numeric, effects=tuple(e for e in numeric.effects if e.name not in symbolic)) \
-            if symbolic else None
+        if symbolic:
+            rows.append(_circle_rows(numeric, plant, symbolic, circles, kp, ki, u, theta))
+            continue
         for centre, radius, wg in circles:
-            if symbolic:    # P = P_0 F(theta): the numeric response without the designed filters, times theirs
-                p0 = rest.frd(wg)
-                pf = Pair(ca.DM(p0.real), ca.DM(p0.imag))
-                for e in plant.effects:
-                    if e.name in symbolic:
-                        pf = pf * e.response(Pair(0.0, ca.DM(wg)), CASADI)
-                cre, cim = kp, -ki / ca.DM(wg)          # kp + ki/(jw) = kp - j ki/w
-                re = pf.re * cre - pf.im * cim - centre
-                im = pf.re * cim + pf.im * cre
-            else:
-                a = numeric.frd(wg) if wg is not W_OPT else P[k]
-                b = a / (1j * wg)
-                re = ca.DM(a.real) * kp + ca.DM(b.real) * ki - centre
-                im = ca.DM(a.imag) * kp + ca.DM(b.imag) * ki
+            a = numeric.frd(wg) if wg is not W_OPT else P[k]
+            b = a / (1j * wg)
+            re = ca.DM(a.real) * kp + ca.DM(b.real) * ki - centre
+            im = ca.DM(a.imag) * kp + ca.DM(b.imag) * ki
             gs.append(re**2 + im**2 - radius**2 * 1.003**2)
             lbg += [0.0] * wg.size
             ubg += [math.inf] * wg.size
@@ -187,8 +213,18 @@ def exact_design(problem: LoopProblem, scenarios: Scenarios, kp0: float, ki0: fl
     ubx.insert(2, math.log(W_OPT[-1]))
     # the vector: the gains, t, the filter variables, then the crossings
     nlp = {"x": ca.vertcat(*xs), "f": -t, "g": ca.vertcat(*gs)}
-    solver = ca.nlpsol("exact_pi", "ipopt", nlp, {"print_time": False, "ipopt": {
-        "print_level": 0, "sb": "yes", "max_iter": 200, "tol": 1e-9}})
+    if rows:    # the designed filters' circle rows: calls of one row's function mapped over them (_circle_rows)
+        x = ca.MX.sym("x", nlp["x"].numel())
+        z = ca.vertcat(x[0], x[1], x[3:3 + len(variables)])
+        g = ca.Function("rows", [nlp["x"]], [nlp["g"]])(x)
+        nlp = {"x": x, "f": -x[2], "g": ca.vertcat(g, *[f(z, *data).T for f, data in rows])}
+        n = sum(data[0].numel() for _, data in rows)
+        lbg += [0.0] * n
+        ubg += [math.inf] * n
+    options = {"print_level": 0, "sb": "yes", "max_iter": 200, "tol": 1e-9}
+    if symbolic:
+        options["mu_init"] = JOINT_MU_INIT
+    solver = ca.nlpsol("exact_pi", "ipopt", nlp, {"print_time": False, "ipopt": options})
     sol = solver(x0=x0, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg)
     stats = raise_if_interrupted(solver)
     x = np.asarray(sol["x"]).ravel()

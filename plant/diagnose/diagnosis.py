@@ -44,6 +44,8 @@ REFERENCE_DRAWS = 20000
 MAX_EFFECTS = 3
 #: force amplitudes (fractions of the excitation force K_t I) a friction fit starts from
 FRICTION_SHARES = (0.05, 0.15, 0.3)
+#: models whose BIC agree this closely are tied (their order would be the last bits of each fit)
+TIED_BIC = 1e-6
 
 
 @dataclass(frozen=True)
@@ -404,7 +406,7 @@ def diagnose(plant: Plant, data: MeasuredResponse, *, candidates: tuple[str, ...
         Alternative(k, fits[k].bic - final.bic, fits[k].reduced_chi2, adequate[k],
                     ("lower BIC, but its extra parameters fall short of very strong evidence; "
                      if fits[k].bic < final.bic else "") + _relation(k, selected, fits))
-        for k in sorted(fits, key=lambda k: fits[k].bic)
+        for k in _ranked({k: f.bic for k, f in fits.items()})
         if k != selected and fits[k].bic - final.bic < ACCEPT_DELTA_BIC)
     steps = _path(fits, base, selected, data, skipped, unidentifiable, pool)
     final_res = steps[-1].residuals
@@ -435,6 +437,19 @@ def diagnose(plant: Plant, data: MeasuredResponse, *, candidates: tuple[str, ...
             notes.append(flag)
     return Diagnosis(tuple(steps), final, nonlinear, tuple(dict.fromkeys(notes)),
                      verdict(explained), explanation, alternatives, fits)
+
+
+def _ranked(bic: dict[tuple[str, ...], float]) -> list[tuple[str, ...]]:
+    """Models by rising BIC; a run of models each within ``TIED_BIC`` of the one before is a tie, listed in
+    name order."""
+    order = sorted(bic, key=bic.get)
+    runs: list[list[tuple[str, ...]]] = []
+    for k in order:
+        if runs and bic[k] - bic[runs[-1][-1]] < TIED_BIC:
+            runs[-1].append(k)
+        else:
+            runs.append([k])
+    return [k for run in runs for k in sorted(run)]
 
 
 def _sources(pool: list[str], skipped: dict[str, str]) -> str:

@@ -25,7 +25,7 @@ from plant import (
 )
 from plant.data.frequency_response import MeasuredResponse
 from plant.data.writers import write_recording_csv
-from plant.diagnose.diagnosis import detect_nonlinearity, diagnose
+from plant.diagnose.diagnosis import _ranked, detect_nonlinearity, diagnose
 from plant.errors import DataError
 from plant.estimate.lockin import amplitude_dependence, estimate_response
 from plant.experiment.simulate import simulate_stepped_sine
@@ -190,3 +190,11 @@ def test_a_model_that_holds_the_stage_still_is_compared_without_a_ratio():
     assert np.allclose(res.magnitude_error_db[0, :-4], 0.0) and np.allclose(res.phase_error_deg[0, :-4], 0.0)
     assert all(np.isfinite(b.magnitude_error_db) and np.isfinite(b.phase_error_deg) for b in res.bands)
     assert res.bands[-1].reduced_chi2 > 1e3 and res.failing == (res.bands[-1],)
+
+
+def test_models_whose_bic_agree_to_the_last_bits_are_listed_in_name_order():
+    # delay + one vanishing lag: three fits of the same model, apart only in the optimiser's last bits
+    bic = {("delay", "sensor_filter"): 3.1780538283, ("delay", "sampling"): 3.1780538286,
+           ("delay", "current_loop"): 3.1780538296, ("delay",): 0.0, ("delay", "resonance"): 3.1790}
+    assert _ranked(bic) == [("delay",), ("delay", "current_loop"), ("delay", "sampling"), ("delay", "sensor_filter"),
+                            ("delay", "resonance")]

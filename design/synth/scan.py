@@ -8,7 +8,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from design.loop.margins import closed_loop_bandwidth_hz, loop_margins, nyquist_stable
+from design.loop.margins import closed_loop_bandwidth_hz, crossover_margins, loop_margins, nyquist_stable
 from design.problem import LoopProblem
 from design.synth.evaluation import bandwidth_circle, requirement_circles
 from design.synth.scenarios import Scenarios
@@ -81,15 +81,19 @@ def _evaluate(problem: LoopProblem, P: np.ndarray, kp: np.ndarray, ki: np.ndarra
     frequency inside the bandwidth circle (gains) of the PI loops ``kp``, ``ki`` on ``P``."""
     req = problem.requirements
     L = P[None] * (kp[:, None, None] + ki[:, None, None] / (1j * W_OPT))
-    mg = loop_margins(W_OPT, L)
-    out = {"phase_margin_deg": mg.phase_margin_deg, "gain_margin_db": mg.gain_margin_db,
-           "peak_sensitivity": mg.peak_sensitivity, "disk_margin": mg.disk_margin,
-           "bandwidth_hz": closed_loop_bandwidth_hz(W_OPT, L / (1 + L), dc_gain=np.ones(L.shape[:-1]),
-                                                    level2=req.level2),
-           # Nyquist: with no open-loop poles in the right half-plane, the phase of 1 + L rises by 0 to 90 deg
-           # from the lowest to the highest grid frequency when the closed loop is stable, and falls by 180 deg
-           # more per unstable closed-loop pole; an unstable loop's margins are wrapped angles: count PM as 0
-           "stable": nyquist_stable(L)}
+    # Nyquist: with no open-loop poles in the right half-plane, the phase of 1 + L rises by 0 to 90 deg
+    # from the lowest to the highest grid frequency when the closed loop is stable, and falls by 180 deg
+    # more per unstable closed-loop pole; an unstable loop's margins are wrapped angles: count PM as 0
+    if req.peak_sensitivity is None and req.disk_margin is None:
+        gm, pm = crossover_margins(W_OPT, L)
+        out = {"phase_margin_deg": pm, "gain_margin_db": gm, "stable": nyquist_stable(L)}
+    else:
+        mg = loop_margins(W_OPT, L)
+        out = {"phase_margin_deg": mg.phase_margin_deg, "gain_margin_db": mg.gain_margin_db,
+               "peak_sensitivity": mg.peak_sensitivity, "disk_margin": mg.disk_margin,
+               "stable": mg.closed_loop_stable}
+    out["bandwidth_hz"] = closed_loop_bandwidth_hz(W_OPT, L / (1 + L), dc_gain=np.ones(L.shape[:-1]),
+                                                   level2=req.level2)
     clear = np.ones(kp.size, bool)
     for centre, radius in requirement_circles(problem):
         clear &= np.all(np.abs(L - centre) >= radius * 1.003, axis=(-2, -1))

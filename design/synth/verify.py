@@ -22,6 +22,7 @@ import numpy as np
 from design.problem import LoopProblem
 from design.synth.scenarios import Scenarios
 from plant.physics.drive_filters import FILTERS
+from plant.physics.effect_base import series_tf
 
 #: margins may fall short of the requirement by this much (deg, dB) and still pass (rounding)
 MARGIN_TOLERANCE = 0.05
@@ -95,7 +96,7 @@ def verify(problem: LoopProblem, kp: float, ki: float, scenarios: Scenarios | No
     max_re, pms, gms, bws, errs = -math.inf, [], [], [], [0.0]
     for k in range(len(scenarios)):
         m = scenarios.describe(k)
-        L = scenarios.plant(base, k).to_control(pade_order=pade_order) * C
+        L = series_tf(scenarios.plant(base, k).to_control(pade_order=pade_order), C)
         T = control.feedback(L, 1)
         re = float(np.max(np.real(control.poles(T))))
         max_re = max(max_re, re)

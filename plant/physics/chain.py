@@ -14,7 +14,7 @@ from typing import TYPE_CHECKING, ClassVar
 import numpy as np
 
 from plant.physics.algebra import NUMPY
-from plant.physics.effect_base import PADE_ORDER, ChainEffect, phase_delay_s, scalar
+from plant.physics.effect_base import PADE_ORDER, ChainEffect, phase_delay_s, scalar, series_tf
 from plant.physics.parameters import check_batch, check_positive
 
 if TYPE_CHECKING:
@@ -157,7 +157,7 @@ class Sampling(ChainEffect):
         T = 1.0 / scalar(self, "rate_hz")
         num, den = (np.asarray(p, float) for p in control.pade(T, min(max(pade_order, 1), SAMPLING_PADE_ORDER)))
         hold = control.tf(np.polysub(den, num)[:-1], T * den)   # (D - N) / (s T D)
-        return hold * control.tf(num, den)
+        return series_tf(hold, control.tf(num, den))
 
     def guesses(self, w_rad_s, ratio) -> list[dict[str, float]]:
         return [{"rate_hz": 1.5 / t} for t in _delay_starts(w_rad_s, ratio)]

@@ -182,6 +182,17 @@ def replace_unchecked(obj, changes: dict):
     return new
 
 
+def series_tf(*tfs):
+    """The product of SISO python-control transfer functions, its polynomials multiplied by ``np.convolve``:
+    the same numbers as ``*`` (which adds each product to a zero fraction, five times slower)."""
+    import control
+
+    num, den = np.ones(1), np.ones(1)
+    for tf in tfs:
+        num, den = np.convolve(num, tf.num[0][0]), np.convolve(den, tf.den[0][0])
+    return control.tf(num, den)
+
+
 def scalar(effect: Effect, field: str) -> float:
     """The single value of ``effect.field`` (a rational model or a simulation needs one plant)."""
     value = np.asarray(getattr(effect, field), dtype=float)

@@ -30,7 +30,7 @@ from plant.errors import ArgumentError, EffectError, ParameterError
 from plant.grid import check_grid
 from plant.physics.algebra import NUMPY
 from plant.physics.coulomb_response import rigid_body_first_harmonic
-from plant.physics.effect_base import PADE_ORDER, ChainEffect, Effect, replace_unchecked
+from plant.physics.effect_base import PADE_ORDER, ChainEffect, Effect, replace_unchecked, series_tf
 from plant.physics.effects import make_effect
 from plant.physics.gantry_models import xie_wang_frd
 from plant.physics.mechanics import (
@@ -367,10 +367,7 @@ class Plant:
             # mean rail velocity for f1 = f2 = K_t i / 2
             mean = control.ss([], [], [], [[0.5, 0.5]]) * ss * control.ss([], [], [], [[kt / 2], [kt / 2]])
             sys = control.minreal(control.ss2tf(mean), verbose=False)
-        for e in self.effects:
-            if isinstance(e, ChainEffect):
-                sys = sys * e.to_tf(pade_order=pade_order)
-        return sys
+        return series_tf(sys, *(e.to_tf(pade_order=pade_order) for e in self.effects if isinstance(e, ChainEffect)))
 
     def to_frd_data(self, w_rad_s) -> control.FrequencyResponseData:
         """python-control ``FrequencyResponseData`` of ``frd`` on the grid."""

@@ -288,3 +288,15 @@ def test_tilt_coupling_parameters_and_centred_load():
     assert np.allclose((stage_y() * t).frd_outputs(W), stage_y().frd(W), rtol=1e-9)
     assert set(t.parameters()) == {"tilt_coupling.frequency_hz", "tilt_coupling.stiffness_n_m_per_rad",
                                    "tilt_coupling.offset_m"}
+
+
+def test_series_tf_is_python_controls_product():
+    import control
+
+    from plant.physics.effect_base import series_tf
+
+    parts = [control.tf([2.0, 3.0], [1.0, 4.0, 5.0]), control.tf(*control.pade(1e-3, 4)),
+             control.tf([7.0], [1e-4, 1.0]), control.tf([1.0, 0.5], [1.0, 0.0])]
+    ours, theirs = series_tf(*parts), parts[0] * parts[1] * parts[2] * parts[3]
+    assert np.array_equal(ours.num[0][0], theirs.num[0][0])
+    assert np.array_equal(ours.den[0][0], theirs.den[0][0])

@@ -56,9 +56,24 @@ def nyquist_stable(loop: np.ndarray) -> np.ndarray:
     top of the grid (the winding is not complete there)."""
     L = np.asarray(loop)
     a = 1 + L
-    step = a[..., 1:] * a[..., :-1].conj()        # its angle is the phase step (a product: cheaper than a ratio)
-    turn = np.arctan2(step.imag, step.real).sum(axis=-1)      # the unwrapped phase change
-    return (turn > -math.pi / 4) & (np.abs(L[..., -1]) < 1)
+    return (phase_change(a) > -math.pi / 4) & (np.abs(L[..., -1]) < 1)
+
+
+def phase_change(z: np.ndarray) -> np.ndarray:
+    """The change of the phase of ``z`` (..., n) from its first to its last point (rad), unwrapped as
+    ``numpy.unwrap`` does (each step taken below pi in magnitude): the principal phases at the ends, and
+    2 pi for every step across the negative real axis (Im z changes sign where the step's shorter rotation
+    passes pi), so the arctangent is taken at the ends and the crossings only."""
+    flat = z.reshape(-1, z.shape[-1])
+    low = np.signbit(flat.imag)
+    r, i = np.nonzero(low[:, 1:] != low[:, :-1])
+    a, b = flat[r, i], flat[r, i + 1]
+    cross = a.real * b.imag - a.imag * b.real        # Im(b conj(a)): the sign of the shorter rotation a -> b
+    up = low[r, i] & (cross < 0)                     # lower -> upper through pi: the principal phase jumps +2 pi
+    down = ~low[r, i] & (cross > 0)                  # upper -> lower through pi: it jumps -2 pi
+    wraps = np.bincount(r, weights=up.astype(float) - down, minlength=flat.shape[0])
+    ends = np.angle(flat[:, -1]) - np.angle(flat[:, 0])
+    return (ends - 2 * math.pi * wraps).reshape(z.shape[:-1])
 
 
 def _per_row_min(rows: np.ndarray, key: np.ndarray, n_rows: int):

@@ -34,7 +34,7 @@ from design.loop.loops import (
     pi_tf,
     virtual_admittance_frd,
 )
-from design.loop.margins import closed_loop_bandwidth_hz, loop_margins
+from design.loop.margins import closed_loop_bandwidth_hz, loop_margins, phase_change
 from plant import CurrentLoop, Delay, Resonance, stage_x, stage_y
 from plant.errors import GridError
 from plant.grid import log_grid_rad_s
@@ -373,3 +373,16 @@ def test_bandwidth_definitions_match_python_control(definition):
     assert analyse_loop(plant, 275.0, 4.46e4, level2=level2).closed_loop_bandwidth_hz == pytest.approx(ref, rel=1e-5)
     assert fast_analyse_loop(plant, 275.0, 4.46e4, level2=level2).closed_loop_bandwidth_hz == pytest.approx(ref,
                                                                                                            rel=1e-5)
+
+
+def test_phase_change_is_that_of_numpys_unwrap_on_curves_that_circle_the_origin():
+    # random smooth curves: radius and phase random walks (steps well below pi), some circling the origin
+    # several times either way, some passing near it; numpy.unwrap is the reference
+    rng = np.random.default_rng(7)
+    n_curves, n = 400, 600
+    phase = np.cumsum(rng.normal(0.0, 0.3, (n_curves, n)), axis=1) + rng.uniform(-np.pi, np.pi, (n_curves, 1))
+    radius = np.exp(np.cumsum(rng.normal(0.0, 0.05, (n_curves, n)), axis=1))
+    z = (radius * np.exp(1j * phase)).reshape(20, 20, n)
+    reference = np.unwrap(np.angle(z), axis=-1)
+    assert np.allclose(phase_change(z), reference[..., -1] - reference[..., 0], rtol=0, atol=1e-9)
+    assert np.ptp(np.round((reference[..., -1] - reference[..., 0]) / (2 * np.pi))) >= 4     # many windings

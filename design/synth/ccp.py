@@ -16,8 +16,9 @@ from design.synth.scan import W_OPT, Scan
 #: bisection on the bandwidth target stops at this ratio; the exact step takes it from there
 BISECTION_RATIO = 1.05
 #: rows whose point L lies farther than this many radii from its circle's centre are left out of an LP
-#: until its solution violates them
-SCREEN_RADII = 4.0
+#: until its solution violates them (a few hundred rows of thousands remain; the re-solves with the violated
+#: rows make the result that of the LP on all rows)
+SCREEN_RADII = 1.25
 #: bandwidth rows further than this above the closest one are left out likewise
 SCREEN_GAP = 0.5
 #: a left-out row counts as violated below its bound by more than this (relative)

@@ -1,7 +1,7 @@
 """What a user waits for: wall time, CPU time and peak memory of the commands of a design iteration, each in
 its own process, optionally side by side with another commit of the tool in one run.
 
-Run:  python benchmarks/bench_speed.py [--against REF] [--repeat 1]
+Run:  python benchmarks/bench_speed.py [--against REF] [--repeat 1] [--only NAME]
 
 Commands: ``gantry synth`` and ``gantry report`` on the bundled Stage X spec, ``gantry synth`` on the admittance
 spec, and ``gantry diagnose`` on a ``gantry simulate`` default recording (50 blocks x 5 s, the thesis's size).
@@ -50,7 +50,9 @@ def _measure(tree: Path, args: list[str]) -> tuple[float, float, float]:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--against", help="a git commit to measure beside this checkout")
-    parser.add_argument("--repeat", type=int, default=1, help="runs per command and tree (the median is shown)")
+    parser.add_argument("--repeat", type=int, default=1, help="runs per command and tree, the trees in turn "
+                                                                "(the median is shown)")
+    parser.add_argument("--only", help="only the commands whose name contains this, e.g. 'report'")
     args = parser.parse_args()
     with tempfile.TemporaryDirectory() as tmp_name:
         tmp = Path(tmp_name)
@@ -65,11 +67,14 @@ def main() -> None:
         try:
             print(f"{'command':36} {'tree':14} {'wall s':>7} {'CPU s':>7} {'peak MB':>8}")
             for name, cmd in _commands(tmp).items():
-                rows = {}
-                for label, tree in trees.items():
-                    runs = sorted(_measure(tree, cmd) for _ in range(args.repeat))
-                    rows[label] = runs[len(runs) // 2]
-                    wall, cpu, peak = rows[label]
+                if args.only and args.only not in name:
+                    continue
+                runs: dict[str, list] = {label: [] for label in trees}
+                for _ in range(args.repeat):      # the trees in turn, so a drift of the machine hits both alike
+                    for label, tree in trees.items():
+                        runs[label].append(_measure(tree, cmd))
+                rows = {label: sorted(r)[len(r) // 2] for label, r in runs.items()}
+                for label, (wall, cpu, peak) in rows.items():
                     print(f"{name:36} {label[:14]:14} {wall:7.2f} {cpu:7.2f} {peak:8.0f}", flush=True)
                 if args.against:
                     (w0, c0, m0), (w1, c1, m1) = rows["this checkout"], rows[args.against]

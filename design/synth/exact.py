@@ -97,11 +97,13 @@ class ExactDesign:
 
 
 def exact_design(problem: LoopProblem, scenarios: Scenarios, kp0: float, ki0: float, *,
-                 high_circle: bool = False, design_filters: bool = False) -> ExactDesign:
+                 high_circle: bool = False, design_filters: bool = False, solvers: dict | None = None) -> ExactDesign:
     """IPOPT on the exact crossings from the start (kp0, ki0); ``high_circle`` also keeps the Nyquist curve
     outside the margin circle above twice the first crossover (see the module doc). ``design_filters``:
     the parameters with ranges of ``problem.controller.filters`` are variables too, started from the values
-    the problem's plant carries."""
+    the problem's plant carries. ``solvers``: a dict kept by the caller across starts on the same problem and
+    scenarios; a start whose crossings are those of an earlier one reuses its IPOPT instance (the gains'
+    scales are parameters)."""
     import casadi as ca
 
     from plant.physics.effect_base import replace_unchecked
@@ -112,7 +114,6 @@ def exact_design(problem: LoopProblem, scenarios: Scenarios, kp0: float, ki0: fl
     base = problem.plant.plant()
     kps, kis = max(kp0, 1e-9 * c.kp.max, 1e-12), max(ki0, 1e-9 * c.ki.max, 1e-12)
     u = ca.SX.sym("u", 2)           # gains relative to the start
-    kp, ki = u[0] * kps, u[1] * kis
     t = ca.SX.sym("t")              # log of the worst-case bandwidth (rad/s)
     xs, x0, lbx, ubx = [u, t], [kp0 / kps, ki0 / kis], [c.kp.min / kps, c.ki.min / kis], [c.kp.max / kps,
                                                                                           c.ki.max / kis]
@@ -135,26 +136,39 @@ def exact_design(problem: LoopProblem, scenarios: Scenarios, kp0: float, ki0: fl
                 ubx.append(hi / scale)
                 symbolic.setdefault(name, {})[field] = v * scale
                 variables.append((i, field, scale))
+    # the gains' scales: parameters of the NLP (one IPOPT instance serves several starts), numbers in the
+    # joint step (its circle rows are functions of the variables alone)
+    scales = ca.DM([kps, kis]) if symbolic else ca.SX.sym("scales", 2)
+    kp, ki = u[0] * scales[0], u[1] * scales[1]
     gs, lbg, ubg, t_start = [], [], [], []
     theta = [xs[2 + j] for j in range(len(variables))]
     rows: list[tuple] = []
     P = scenarios.plants(base).frd(W_OPT)
+    crossings = []
     for k in range(len(scenarios)):
+        L0 = P[k] * (kp0 + ki0 / (1j * W_OPT))
+        crossings.append({"c": _first_crossing(W_OPT, np.abs(L0) ** 2 - 1),
+                          "p": _first_crossing(W_OPT, np.where(np.real(L0) < 0, np.imag(L0), np.nan)),
+                          "b": _first_crossing(W_OPT, np.abs(L0) ** 2 - req.level2 * np.abs(1 + L0) ** 2)})
+    key = tuple(tuple(w0 is not None for w0 in starts.values()) for starts in crossings)
+    reuse = solvers is not None and not symbolic and not high_circle
+    build = not (reuse and key in solvers)
+    for k, starts in enumerate(crossings):
         numeric = scenarios.plant(base, k)
         plant = numeric if not symbolic else replace(numeric, effects=tuple(
             replace_unchecked(e, symbolic[e.name]) if e.name in symbolic else e for e in numeric.effects))
-        L0 = P[k] * (kp0 + ki0 / (1j * W_OPT))
-        starts = {"c": _first_crossing(W_OPT, np.abs(L0) ** 2 - 1),
-                  "p": _first_crossing(W_OPT, np.where(np.real(L0) < 0, np.imag(L0), np.nan)),
-                  "b": _first_crossing(W_OPT, np.abs(L0) ** 2 - req.level2 * np.abs(1 + L0) ** 2)}
         for kind, w0 in starts.items():
             if w0 is None:
                 continue
-            lw = ca.SX.sym(f"lw_{kind}{k}")
-            xs.append(lw)
             x0.append(math.log(w0))
             lbx.append(max(math.log(w0) - 1.5, math.log(W_OPT[0])))
             ubx.append(min(math.log(w0) + 1.5, math.log(W_OPT[-1])))
+            if kind == "b":
+                t_start.append(math.log(w0))
+            if not build:
+                continue
+            lw = ca.SX.sym(f"lw_{kind}{k}")
+            xs.append(lw)
             w = ca.exp(lw)
             pr, pi_ = _casadi_frd(plant, w, bool(symbolic))
             lr = pr * kp + pi_ * ki / w         # L = P (kp - j ki / w)
@@ -172,7 +186,8 @@ def exact_design(problem: LoopProblem, scenarios: Scenarios, kp0: float, ki0: fl
                 gs += [(1 - g2) * (lr**2 + li**2) - 2 * g2 * lr - g2, lw - t]
                 lbg += [0.0, 0.0]
                 ubg += [0.0, math.inf]
-                t_start.append(math.log(w0))
+        if not build:
+            continue
         # sampled circles |L - centre|^2 >= radius^2: Ms and disk margin on W_OPT; the margin circle
         # from twice the first crossover on (resonances can cross again up there: the exact crossings
         # above track only the first ones)
@@ -192,7 +207,7 @@ def exact_design(problem: LoopProblem, scenarios: Scenarios, kp0: float, ki0: fl
             lbg += [0.0] * wg.size
             ubg += [math.inf] * wg.size
     hf = high_frequency_rows(problem)
-    if hf is not None:      # the noise limit |(kp + ki/jw) F(jw)|^2 <= limit^2, F symbolic where designed
+    if hf is not None and build:    # the noise limit |(kp + ki/jw) F(jw)|^2 <= limit^2, F symbolic where designed
         w_hf, a, _ = hf
         fixed = np.ones(w_hf.size, complex)
         f_sym = Pair(ca.DM(np.ones(w_hf.size)), ca.DM(np.zeros(w_hf.size)))
@@ -211,21 +226,28 @@ def exact_design(problem: LoopProblem, scenarios: Scenarios, kp0: float, ki0: fl
     x0.insert(2, min(t_start))
     lbx.insert(2, math.log(W_OPT[0]))
     ubx.insert(2, math.log(W_OPT[-1]))
-    # the vector: the gains, t, the filter variables, then the crossings
-    nlp = {"x": ca.vertcat(*xs), "f": -t, "g": ca.vertcat(*gs)}
-    if rows:    # the designed filters' circle rows: calls of one row's function mapped over them (_circle_rows)
-        x = ca.MX.sym("x", nlp["x"].numel())
-        z = ca.vertcat(x[0], x[1], x[3:3 + len(variables)])
-        g = ca.Function("rows", [nlp["x"]], [nlp["g"]])(x)
-        nlp = {"x": x, "f": -x[2], "g": ca.vertcat(g, *[f(z, *data).T for f, data in rows])}
-        n = sum(data[0].numel() for _, data in rows)
-        lbg += [0.0] * n
-        ubg += [math.inf] * n
-    options = {"print_level": 0, "sb": "yes", "max_iter": 200, "tol": 1e-9}
-    if symbolic:
-        options["mu_init"] = JOINT_MU_INIT
-    solver = ca.nlpsol("exact_pi", "ipopt", nlp, {"print_time": False, "ipopt": options})
-    sol = solver(x0=x0, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg)
+    if build:
+        # the vector: the gains, t, the filter variables, then the crossings
+        nlp = {"x": ca.vertcat(*xs), "f": -t, "g": ca.vertcat(*gs)}
+        if symbolic:    # the designed filters' circle rows: one row's function mapped over them (_circle_rows)
+            x = ca.MX.sym("x", nlp["x"].numel())
+            z = ca.vertcat(x[0], x[1], x[3:3 + len(variables)])
+            g = ca.Function("rows", [nlp["x"]], [nlp["g"]])(x)
+            nlp = {"x": x, "f": -x[2], "g": ca.vertcat(g, *[f(z, *data).T for f, data in rows])}
+            n = sum(data[0].numel() for _, data in rows)
+            lbg += [0.0] * n
+            ubg += [math.inf] * n
+        else:
+            nlp["p"] = scales
+        options = {"print_level": 0, "sb": "yes", "max_iter": 200, "tol": 1e-9}
+        if symbolic:
+            options["mu_init"] = JOINT_MU_INIT
+        solver = ca.nlpsol("exact_pi", "ipopt", nlp, {"print_time": False, "ipopt": options})
+        if reuse:
+            solvers[key] = (solver, lbg, ubg)
+    else:
+        solver, lbg, ubg = solvers[key]
+    sol = solver(x0=x0, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg, **({} if symbolic else {"p": [kps, kis]}))
     stats = raise_if_interrupted(solver)
     x = np.asarray(sol["x"]).ravel()
     # IPOPT may leave a bound by its relaxation (1e-8 relative): clip onto the box

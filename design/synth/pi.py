@@ -188,8 +188,10 @@ def _solve(problem: LoopProblem, scenarios: Scenarios, dense: Scenarios, method:
         if method == "ccp":     # the circle design alone (the seeds only when it failed)
             cands = cands[-1:]
     if method == "ccp+exact":
+        solvers: dict = {}
+
         def exact(label, kp0, ki0, high):
-            ex = exact_design(problem, scenarios, kp0, ki0, high_circle=high)
+            ex = exact_design(problem, scenarios, kp0, ki0, high_circle=high, solvers=solvers)
             name = f"exact (casadi+IPOPT{', high-frequency circle' if high else ''}) from {label}"
             notes.setdefault("exact_starts", []).append({"design": name, "kp0": kp0, "ki0": ki0, "kp": ex.kp,
                                                          "ki": ex.ki, "ipopt": ex.note})

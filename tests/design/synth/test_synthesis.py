@@ -18,7 +18,7 @@ from design.spec.schema import parse_spec
 from design.synth import ccp
 from design.synth.ccp import ccp_design
 from design.synth.evaluation import margin_circle
-from design.synth.exact import _casadi_frd
+from design.synth.exact import _casadi_frd, exact_design
 from design.synth.pi import synthesise_pi
 from design.synth.scan import W_OPT, scan_gains
 from design.synth.scenarios import Scenarios, design_scenarios
@@ -418,3 +418,16 @@ def test_bad_verification_filter_and_uncertainty_specs_get_one_line(tmp_path, ed
     bad.write_text(text)
     out = gantry("synth", bad)
     assert out.returncode == 2 and key in out.stderr and out.stderr.count("\n") == 1, out.stderr
+
+
+def test_a_second_start_on_a_reused_ipopt_instance_ends_where_it_ends_alone():
+    # the gains' scales are parameters of the NLP, so one instance serves starts with the same crossings
+    spec = spec_with(uncertainty=True)
+    points = design_scenarios(spec)
+    solvers: dict = {}
+    first = exact_design(spec, points, 160.0, 12500.0, solvers=solvers)
+    second = exact_design(spec, points, 127.0, 6950.0, solvers=solvers)
+    alone = exact_design(spec, points, 127.0, 6950.0)
+    assert len(solvers) == 1
+    assert first.success and second.success and alone.success
+    assert [second.kp, second.ki] == pytest.approx([alone.kp, alone.ki], rel=1e-9)

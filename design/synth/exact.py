@@ -154,9 +154,10 @@ def exact_design(problem: LoopProblem, scenarios: Scenarios, kp0: float, ki0: fl
     reuse = solvers is not None and not symbolic and not high_circle
     build = not (reuse and key in solvers)
     for k, starts in enumerate(crossings):
-        numeric = scenarios.plant(base, k)
-        plant = numeric if not symbolic else replace(numeric, effects=tuple(
-            replace_unchecked(e, symbolic[e.name]) if e.name in symbolic else e for e in numeric.effects))
+        if build:
+            numeric = scenarios.plant(base, k)
+            plant = numeric if not symbolic else replace(numeric, effects=tuple(
+                replace_unchecked(e, symbolic[e.name]) if e.name in symbolic else e for e in numeric.effects))
         for kind, w0 in starts.items():
             if w0 is None:
                 continue

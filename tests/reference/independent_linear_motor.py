@@ -51,7 +51,8 @@ class LinearMotorAxis:
 
     def force_n(self, i_a: np.ndarray, x_m: np.ndarray) -> np.ndarray:
         """Force (N) of the motor and the cable for commanded current ``i_a`` at position ``x_m``."""
-        i = i_a if self.current_limit_a is None else np.clip(i_a, -self.current_limit_a, self.current_limit_a)
+        i = i_a if self.current_limit_a is None else np.minimum(np.maximum(i_a, -self.current_limit_a),
+                                                                 self.current_limit_a)
         kt = self.kt_n_per_a * (1.0 - self.kt_droop * (2.0 * x_m / self.travel_m) ** 2)
         f = kt * i
         for k, (a, phi) in enumerate(zip(self.ripple_n, self.ripple_phase_rad or (0.0,) * len(self.ripple_n)), 1):
@@ -62,9 +63,10 @@ class LinearMotorAxis:
             drive=None) -> tuple[np.ndarray, np.ndarray]:
         """Positions (m) and velocities (m/s), each (t_s.size, n), at ``t_s`` (uniform, from 0) of ``n``
         experiments side by side, each from rest at x = 0 under the commanded current ``current(t)`` (a
-        function of time in s giving n currents, A); ``substeps`` Runge-Kutta steps per sample. ``drive``
-        (command A, position m) -> current A: what the drive makes of the command where the carriage is
-        (a compensation table), None: the command itself."""
+        function of time in s giving n currents, A, or one scalar when n = 1); ``substeps`` Runge-Kutta
+        steps per sample. ``drive`` (command A, position m) -> current A: what the drive makes of the command
+        where the carriage is (a compensation table), None: the command itself. One experiment runs on
+        scalars, ten times faster than on arrays of one element."""
         dt = (t_s[1] - t_s[0]) / substeps
         m, b = self.mass_kg, self.damping_n_s_per_m
 
@@ -72,7 +74,7 @@ class LinearMotorAxis:
             i = current(t) if drive is None else drive(current(t), x)
             return v, (self.force_n(i, x) - b * v) / m
 
-        x, v = np.zeros(n), np.zeros(n)
+        x, v = (0.0, 0.0) if n == 1 else (np.zeros(n), np.zeros(n))
         xs, vs = np.empty((t_s.size, n)), np.empty((t_s.size, n))
         t = 0.0
         for k in range(t_s.size):
@@ -117,12 +119,9 @@ def record(axis: LinearMotorAxis, current, duration_s: float, *, sample_rate_hz:
     noise."""
     t = np.arange(int(round(duration_s * sample_rate_hz))) / sample_rate_hz
 
-    def command(s):
-        return np.atleast_1d(current(s))
-
-    x, _ = axis.run(command, t, 1, substeps, drive)
+    x, _ = axis.run(current, t, 1, substeps, drive)
     rng = np.random.default_rng(seed)
-    return (t, command(t) + rng.normal(0.0, current_noise_a, t.size),
+    return (t, current(t) + rng.normal(0.0, current_noise_a, t.size),
             x[:, 0] + rng.normal(0.0, position_noise_m, t.size))
 
 

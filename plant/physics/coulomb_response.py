@@ -24,10 +24,10 @@ from __future__ import annotations
 
 import numpy as np
 
-#: bisection steps on the stop of a slide: the bracket shrinks to 2^-60 of the first grid step
-_BISECTIONS = 60
 #: grid on which the first stop of a slide is bracketed: points t0 + (T/2) (k/K)^2, dense at the start
 _GRID = 96
+#: bisection steps on the stop of a slide: the bracket shrinks to 2^-_BISECTIONS of its grid step
+_BISECTIONS = 60
 
 
 def rigid_body_first_harmonic(mass_kg, damping_n_s_per_m, friction_n, force_amplitude_n, w_rad_s) -> np.ndarray:
@@ -62,24 +62,26 @@ def rigid_body_first_harmonic(mass_kg, damping_n_s_per_m, friction_n, force_ampl
     return np.where(moves, first / (-1j * f_safe), 0.0)
 
 
-def _slide(t, p, w, t0, tau, drop):
-    """Velocity at ``t`` of the slide that starts at rest at ``t0`` (parameters broadcast against ``t``)."""
-    v_p = np.real(p * np.exp(1j * w * t))
-    return v_p - drop + (drop - np.real(p * np.exp(1j * w * t0))) * np.exp(-(t - t0) / tau)
+def _slide(t, pr, pi, w, t0, c0, tau, drop):
+    """Velocity at ``t`` of the slide that starts at rest at ``t0``: v_p(t) - drop + c0 exp(-(t - t0) / tau)
+    with v_p(t) = pr cos(wt) - pi sin(wt) and c0 = drop - v_p(t0) (parameters broadcast against ``t``)."""
+    return pr * np.cos(w * t) - pi * np.sin(w * t) - drop + c0 * np.exp(-(t - t0) / tau)
 
 
 def _first_stop(p, w, t0, half, tau, drop):
     """The first zero of the slide that starts at rest at ``t0`` within half a period, and whether one
     exists (stick-slip). The slide is positive just after ``t0`` (the force exceeds F_c there)."""
+    pr, pi = p.real, p.imag
+    c0 = drop - (pr * np.cos(w * t0) - pi * np.sin(w * t0))
     k = np.arange(1, _GRID + 1) / _GRID
     grid = t0[..., None] + half[..., None] * k**2
-    below = _slide(grid, *(a[..., None] for a in (p, w, t0, tau, drop))) <= 0
+    below = _slide(grid, *(a[..., None] for a in (pr, pi, w, t0, c0, tau, drop))) <= 0
     sticks = below.any(axis=-1)
     first = np.argmax(below, axis=-1)
     hi = np.take_along_axis(grid, first[..., None], axis=-1)[..., 0]
     lo = np.where(first > 0, np.take_along_axis(grid, np.maximum(first - 1, 0)[..., None], axis=-1)[..., 0], t0)
     for _ in range(_BISECTIONS):
         mid = (lo + hi) / 2
-        positive = _slide(mid, p, w, t0, tau, drop) > 0
+        positive = _slide(mid, pr, pi, w, t0, c0, tau, drop) > 0
         lo, hi = np.where(positive, mid, lo), np.where(positive, hi, mid)
     return hi, sticks

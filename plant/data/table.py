@@ -17,7 +17,15 @@ from plant.host.text_io import CHUNK_BYTES, MAX_TEXT_BYTES, read_text
 
 
 def csv_header(path: str | Path) -> list[str]:
-    """The header of a CSV file (its column names, stripped)."""
+    """The header of a CSV file (its column names, stripped): from the first line of a plain UTF-8 file, or else
+    from the whole file as ``read_text`` decodes it."""
+    try:
+        with Path(path).open("rb") as fh:
+            head = fh.read(CHUNK_BYTES)
+        if b"\n" in head and b"\x00" not in head and not any(head.startswith(m) for m in _NOT_PLAIN):
+            return [h.strip() for h in next(csv.reader([head.split(b"\n", 1)[0].decode("utf-8")]))]
+    except (OSError, UnicodeDecodeError):
+        pass
     try:
         return [h.strip() for h in next(csv.reader(read_text(Path(path)).splitlines()[:1]))]
     except StopIteration:

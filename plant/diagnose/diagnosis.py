@@ -170,22 +170,23 @@ def chi2_is_noise(fit: FitResult) -> bool:
     """
     if fit.dof <= 0:
         return False
-    draws = _reference_draws(tuple(np.asarray(fit.variance_dof, float)), fit.residuals.shape[0])
-    draws = draws * (1 - fit.n_params / fit.n_data)
     per_freq = fit.chi2_per_frequency
-    alpha = float(special.ndtr(-NOISE_Z))
     groups = [np.arange(per_freq.size)] + (
         np.array_split(np.arange(per_freq.size), ADEQUACY_BANDS) if per_freq.size >= 2 * ADEQUACY_BANDS else [])
+    sums = _reference_sums(tuple(np.asarray(fit.variance_dof, float)), fit.residuals.shape[0], len(groups))
+    scale = 1 - fit.n_params / fit.n_data
+    alpha = float(special.ndtr(-NOISE_Z))
     for g, idx in enumerate(groups):
         level = alpha if g == 0 else alpha / ADEQUACY_BANDS
-        if np.mean(draws[:, idx].sum(axis=1) >= per_freq[idx].sum()) < level:
+        if np.mean(sums[g] * scale >= per_freq[idx].sum()) < level:
             return False
     return True
 
 
 @functools.lru_cache(maxsize=32)
-def _reference_draws(nu: tuple[float, ...], n_out: int) -> np.ndarray:
-    """``REFERENCE_DRAWS`` draws of each frequency's chi^2 term for a correct model, (draws, n_freq)."""
+def _reference_sums(nu: tuple[float, ...], n_out: int, n_groups: int) -> np.ndarray:
+    """``REFERENCE_DRAWS`` seeded draws of a correct model's chi^2 summed over all frequencies (row 0) and, when
+    ``n_groups`` > 1, over each of the ``ADEQUACY_BANDS`` bands (rows 1...), shape (n_groups, draws)."""
     rng = np.random.default_rng(0)
     nu_arr = np.asarray(nu)
     terms = rng.chisquare(2, (REFERENCE_DRAWS, n_out, nu_arr.size))
@@ -193,7 +194,9 @@ def _reference_draws(nu: tuple[float, ...], n_out: int) -> np.ndarray:
     if finite.any():
         scale = rng.chisquare(nu_arr[finite], (REFERENCE_DRAWS, n_out, int(finite.sum()))) / nu_arr[finite]
         terms[:, :, finite] /= scale
-    return terms.sum(axis=1)
+    draws = terms.sum(axis=1)
+    bands = np.array_split(np.arange(nu_arr.size), ADEQUACY_BANDS) if n_groups > 1 else []
+    return np.stack([draws.sum(axis=1)] + [draws[:, idx].sum(axis=1) for idx in bands])
 
 
 def _step(fit: FitResult, data: MeasuredResponse, ranking, decision) -> Step:

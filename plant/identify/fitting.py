@@ -569,7 +569,8 @@ class _Problem:
     def model(self, values: Mapping[str, float | np.ndarray]) -> np.ndarray:
         """Model at the data outputs, shape (..., n_data_outputs, n_freq)."""
         self.n_evaluations += 1
-        return at_outputs(self.plant.with_values(dict(values), checked=False).frd_outputs(self.w), self.rows)
+        return at_outputs(self.plant.with_values(dict(values), checked=False).frd_outputs(self.w, checked=False),
+                          self.rows)
 
     def _split(self, model: np.ndarray) -> np.ndarray:
         r = (model - self.g) / self.sigma

@@ -301,10 +301,11 @@ class Plant:
                 raise EffectError(f"{e.name} has no frequency-response model (it is fitted from time-domain data); "
                                   "leave it out of a plant whose response is computed")
 
-    def frd_outputs(self, w_rad_s) -> np.ndarray:
-        """Velocity per current at each output, shape (..., n_outputs, n_freq) (m/s per A)."""
+    def frd_outputs(self, w_rad_s, *, checked: bool = True) -> np.ndarray:
+        """Velocity per current at each output, shape (..., n_outputs, n_freq) (m/s per A). ``checked=False``
+        skips validating the grid, for a caller evaluating many plants on one grid it has checked."""
         self._check_frequency_model()
-        w = check_grid(w_rad_s)
+        w = check_grid(w_rad_s) if checked else w_rad_s
         tilt = self._tilt()
         if tilt is None:
             resp = self._chain_frd(w)[..., None, :]

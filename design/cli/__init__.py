@@ -8,11 +8,12 @@ exit status 130, and a genuine bug keeps its traceback.
 from __future__ import annotations
 
 import contextvars
+import functools
 import sys
 
 
 def _register() -> None:
-    """Register every command on the app, explicitly."""
+    """Register every command on the app, explicitly, once per process (``main`` may run many times in one)."""
     from design.cli import (
         diagnose,
         excite,
@@ -26,10 +27,25 @@ def _register() -> None:
     )
     from design.cli.common import app
 
-    for module, name in ((reproduce, "reproduce"), (simulate, "simulate"), (fit, "fit"), (diagnose, "diagnose"),
-                         (excite, "excite"), (synth, "synth"), (sweep, "sweep"), (report, "report"),
-                         (mouse_run, "mouse-run")):
+    commands = ((reproduce, "reproduce"), (simulate, "simulate"), (fit, "fit"), (diagnose, "diagnose"),
+                (excite, "excite"), (synth, "synth"), (sweep, "sweep"), (report, "report"), (mouse_run, "mouse-run"))
+    if [c.name for c in app.registered_commands] == [name for _, name in commands]:
+        return
+    app.registered_commands.clear()     # none, or a registration a Ctrl-C cut short
+    for module, name in commands:
         app.command(name=name)(getattr(module, name.replace("-", "_")))
+
+
+@functools.cache
+def _command():
+    """The app's click command, built once per process: typer builds it from the commands' signatures on every
+    call, which costs tens of milliseconds each time ``main`` runs in one process (tests, scripts)."""
+    import typer.main
+
+    from design.cli.common import app
+
+    _register()
+    return typer.main.get_command(app)
 
 
 def main() -> None:
@@ -82,14 +98,12 @@ def _run():
     os.environ["MPLBACKEND"] = "Agg"    # files only, never a window; read when matplotlib is first imported
     if "matplotlib" in sys.modules:      # already imported (a caller in the same process)
         sys.modules["matplotlib"].use("Agg")
-    from design.cli.common import app
     from plant.host.memory import keep_freed_memory
 
     keep_freed_memory()
 
-    _register()
     try:
-        return app(standalone_mode=False)     # Ctrl-C inside a command comes back as exit code 130
+        return _command()(standalone_mode=False)     # Ctrl-C inside a command comes back as exit code 130
     except typer.Abort:
         _fail("interrupted", 130)
     except GantryError as exc:

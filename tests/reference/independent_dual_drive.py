@@ -16,6 +16,7 @@ current loop; the controllers are python-control transfer functions wired by ``c
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 import control
@@ -84,8 +85,10 @@ def pi(kp: float, ki: float) -> control.TransferFunction:
     return control.tf([kp, ki], [1.0, 0.0])
 
 
+@functools.lru_cache(maxsize=16)
 def controller(structure: str, gains: tuple[float, ...]) -> control.StateSpace:
-    """Rail velocity errors (e1, e2) -> motor current commands (i1, i2)."""
+    """Rail velocity errors (e1, e2) -> motor current commands (i1, i2); built once per structure and gains (a
+    Monte Carlo check closes it around thousands of plants; python-control's products leave it unchanged)."""
     if structure == "per_motor":
         kp, ki = gains
         return control.append(control.ss(pi(kp, ki)), control.ss(pi(kp, ki)))

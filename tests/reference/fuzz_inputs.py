@@ -161,7 +161,7 @@ def _injected(interrupt: Interrupt | None, result: Result):
 def call(args: list[str], *, cwd: Path, timeout: float = 60.0, interrupt: Interrupt | None = None) -> Result:
     """``gantry ARGS`` in this process (``design.cli.main``), from ``cwd``, with Python's default warning filters
     (as the console script has them), ``MEMORY_LIMIT`` and a ``timeout`` in seconds."""
-    from design.cli import main
+    from design.cli import _command, main
     from design.cli.common import app
 
     result = Result(0, "", "", 0.0)
@@ -172,7 +172,9 @@ def call(args: list[str], *, cwd: Path, timeout: float = 60.0, interrupt: Interr
     lost = []
     sys.unraisablehook = lambda u: lost.append(u.exc_value)     # an interrupt raised in a finaliser is lost
     sys.argv = ["gantry", *map(str, args)]
-    app.registered_commands.clear()      # main() registers the commands, as in a fresh process
+    if interrupt is not None:       # a start-up as a fresh process has it: the commands registered and built anew
+        app.registered_commands.clear()
+        _command.cache_clear()
     os.chdir(cwd)
     signal.signal(signal.SIGALRM, _raise_hang)
     signal.signal(signal.SIGINT, signal.default_int_handler)     # as a fresh process has it

@@ -272,11 +272,13 @@ def _regressors(plant: Plant, data: InverseModelData) -> dict[str, np.ndarray]:
     m_per, b_per = _effective_factors(plant)
     cols = {"mass_kg": m_per * data.acceleration_m_per_s2, "damping_n_s_per_m": b_per * data.velocity_m_per_s}
     signals = force_signals(data)
+    full_rate = {}
     for e in plant.effects:
         if e.needs_position and data.position_m is None:
             raise DataError(f"{data.source}: {e.name} depends on the position; the recording has velocity only")
-        for field, signal in e.force_regressors(signals).items():
-            cols[f"{e.name}.{field}"] = data.decimate(signal)
+        full_rate.update({f"{e.name}.{field}": signal for field, signal in e.force_regressors(signals).items()})
+    if full_rate:
+        cols.update(zip(full_rate, data.decimate(np.stack(list(full_rate.values())))))
     return cols
 
 
@@ -540,7 +542,7 @@ def _profiled(plant: Plant, data: InverseModelData, free: Sequence[str]) -> Plan
             def rss(value, effect=effect, field=field, own_names=own_names, U=U, force_left=force_left):
                 trial = dataclasses.replace(effect, **{field: value})
                 regressors = trial.force_regressors(signals)
-                O = np.column_stack([data.decimate(regressors[p.split(".", 1)[1]])[moving] for p in own_names])
+                O = data.decimate(np.stack([regressors[p.split(".", 1)[1]] for p in own_names]))[:, moving].T
                 O = O - U @ (U.T @ O)
                 return float(np.sum((force_left - O @ np.linalg.lstsq(O, force_left, rcond=None)[0]) ** 2))
 

@@ -297,11 +297,12 @@ def _newey_west(X: np.ndarray, e: np.ndarray) -> tuple[np.ndarray, int]:
     acf = acf / acf[0] if acf[0] > 0 else acf
     below = np.flatnonzero(np.abs(acf) < 2 / np.sqrt(n))
     lag = int(min(below[0] if below.size else n // 10, n // 10))
+    # S = sum over |k| <= lag of (1 - |k| / (lag + 1)) sum_t xe_t xe_(t+k)^T: each column convolved once with the
+    # Bartlett window (every lag in one pass), symmetrised against round-off
     xe = X * e[:, None]
-    S = xe.T @ xe
-    for k in range(1, lag + 1):
-        G = xe[k:].T @ xe[:-k]
-        S += (1 - k / (lag + 1)) * (G + G.T)
+    bartlett = 1 - np.abs(np.arange(-lag, lag + 1)) / (lag + 1)
+    S = xe.T @ np.column_stack([np.convolve(c, bartlett, "same") for c in xe.T])
+    S = (S + S.T) / 2
     inv = np.linalg.pinv(X.T @ X)
     return inv @ S @ inv, lag
 

@@ -17,7 +17,7 @@ from typing import NamedTuple
 import numpy as np
 
 from plant.data.recordings import MAX_CURRENT_A, MAX_OUTPUT, Block, Recording
-from plant.data.table import CsvTable, require_columns, streamed_numbers
+from plant.data.table import NumericCsv
 from plant.errors import DataError
 from plant.host.text_io import data_suffix
 
@@ -102,9 +102,8 @@ def _need_map(path: Path, columns):
 
 def _read_csv(path: Path, columns):
     """Columns by header name: frequency_hz, time_s, current_a, velocity* (or a column map of names)."""
-    streamed = streamed_numbers(path)
-    table = None if streamed is not None else CsvTable.read(path)
-    header = streamed[0] if table is None else table.header
+    csv_file = NumericCsv.read(path)
+    header = csv_file.header
     if columns:
         wanted = {"frequency_hz": columns["frequency"][0], "current_a": columns["current"][0]}
         if "time" in columns:
@@ -117,14 +116,8 @@ def _read_csv(path: Path, columns):
             raise DataError(f"{path}: no output column: expected one or more columns whose names start with "
                             f"'velocity' (header: {', '.join(header)})")
     keys = [*wanted.items(), *((o, o) for o in outs)]
-    if table is None:
-        require_columns(path, header, [col for _, col in keys])
-        values = streamed[1]
-        rows = np.arange(2, next(iter(values.values())).size + 2)      # no blank line: row k on line k + 2
-    else:
-        values = table.numbers([col for _, col in keys])
-        rows = table.rows
-    return _Columns({key: values[col] for key, col in keys}, tuple(outs), rows,
+    values = csv_file.numbers([col for _, col in keys])
+    return _Columns({key: values[col] for key, col in keys}, tuple(outs), csv_file.rows,
                     {key: f"column {col!r}" for key, col in keys}, {key: col for key, col in keys})
 
 

@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from plant.data.recordings import SAMPLING_TOLERANCE, TimeRecording
-from plant.data.table import CsvTable, require_columns, streamed_numbers
+from plant.data.table import NumericCsv
 from plant.errors import DataError
 from plant.host.text_io import data_suffix
 
@@ -71,20 +71,13 @@ def _default_map(path: Path, header: list[str]) -> dict[str, list[str]]:
 
 
 def _read_csv(path: Path, columns):
-    streamed = streamed_numbers(path)
-    table = None if streamed is not None else CsvTable.read(path)
-    header = streamed[0] if table is None else table.header
+    csv_file = NumericCsv.read(path)
+    header = csv_file.header
     columns = columns or _default_map(path, header)
     mapped = [c for cols in columns.values() for c in cols]
-    if table is None:
-        require_columns(path, header, mapped)
-        values = streamed[1]
-        rows = np.arange(2, next(iter(values.values())).size + 2)      # no blank line: row k on line k + 2
-    else:
-        values = table.numbers(mapped, optional=header)                # unmapped numeric columns ride along
-        rows = table.rows
+    values = csv_file.numbers(mapped, optional=header)                  # unmapped numeric columns ride along
     labels = {h: f"row {{row}}, column {h!r}" for h in header}
-    return columns, values, rows, labels, {}
+    return columns, values, csv_file.rows, labels, {}
 
 
 def _read_mat(path: Path, columns):

@@ -2,7 +2,7 @@
 row's number in the file, and numeric columns read fast (``numpy.loadtxt``) or, when a cell is not a
 number, cell by cell so that the error names its row and column. ``streamed_numbers`` reads a plain,
 all-numeric CSV straight from the file in numpy's chunks (memory about that of the numbers, below the file's
-size), and leaves every other file to ``CsvTable``."""
+size), and leaves every other file to ``CsvTable``; ``NumericCsv`` puts the two behind one reader."""
 
 from __future__ import annotations
 
@@ -131,3 +131,37 @@ class CsvTable:
             if values is not None:
                 out[name] = values
         return out
+
+
+@dataclass(frozen=True)
+class NumericCsv:
+    """A CSV file's header, its numeric columns and their row numbers in the file: parsed straight from the file
+    when it is plain numbers (``streamed_numbers``), else through ``CsvTable``, whose errors name row and column."""
+
+    header: list[str]
+    _streamed: dict[str, np.ndarray] | None
+    _table: CsvTable | None
+    _path: Path
+
+    @classmethod
+    def read(cls, path: str | Path) -> NumericCsv:
+        streamed = streamed_numbers(path)
+        if streamed is not None:
+            return cls(streamed[0], streamed[1], None, Path(path))
+        table = CsvTable.read(path)
+        return cls(table.header, None, table, Path(path))
+
+    @property
+    def rows(self) -> np.ndarray:
+        """Each data row's line in the file (header = 1)."""
+        if self._table is not None:
+            return self._table.rows
+        return np.arange(2, next(iter(self._streamed.values())).size + 2)    # no blank line: row k on line k + 2
+
+    def numbers(self, names, *, optional=()) -> dict[str, np.ndarray]:
+        """``CsvTable.numbers``: the columns ``names`` as floats, and the ``optional`` ones whose cells all are."""
+        if self._table is not None:
+            return self._table.numbers(names, optional=optional)
+        require_columns(self._path, self.header, list(names) + [o for o in optional if o not in names])
+        return {c: self._streamed[c] for c in dict.fromkeys([*names, *optional])}
+

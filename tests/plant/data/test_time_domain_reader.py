@@ -5,7 +5,7 @@ name the row in the file (blank lines counted)."""
 import numpy as np
 import pytest
 
-from plant.data import read_time_domain
+from plant.data import table
 from plant.data.read_time_domain import read_time_recording
 from plant.data.table import streamed_numbers
 from plant.errors import DataError
@@ -31,7 +31,7 @@ def test_streamed_and_careful_readers_agree(tmp_path, monkeypatch, newline):
     path = _write(tmp_path / "rec.csv", _rows(), newline=newline)
     assert streamed_numbers(path) is not None
     streamed = read_time_recording(path)
-    monkeypatch.setattr(read_time_domain, "streamed_numbers", lambda p: None)
+    monkeypatch.setattr(table, "streamed_numbers", lambda p: None)
     careful = read_time_recording(path)
     np.testing.assert_array_equal(streamed.time_s, careful.time_s)
     np.testing.assert_array_equal(streamed.current_a, careful.current_a)

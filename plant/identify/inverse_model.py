@@ -31,12 +31,14 @@ chain, is computed by passing seeded white noise of those levels through the sam
 from __future__ import annotations
 
 import functools
-from dataclasses import dataclass
+from collections import OrderedDict
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from plant.data.recordings import TimeRecording
 from plant.errors import DataError
+from plant.physics.effect_base import Effect, ForceSignals
 
 #: Butterworth corner (Hz) and order of the reference script
 FILTER_HZ = 100.0
@@ -51,6 +53,8 @@ NOISE_SEED = 20190101
 REST_SIGMAS = 3.0
 #: guard around rest, in periods of the decimation band's upper edge (``InverseModelData.at_rest``)
 REST_GUARD_PERIODS = 2.0
+#: bytes of decimated effect columns one ``InverseModelData`` keeps for reuse (``effect_columns``)
+COLUMN_MEMO_BYTES = 64 * 2**20
 
 
 @dataclass(frozen=True)
@@ -93,6 +97,8 @@ class InverseModelData:
     full_rate_position_m: np.ndarray | None = None
     #: the recording has the reference of a closed loop (``TimeRecording.reference``)
     closed_loop: bool = False
+    _memo: _ColumnMemo = field(default_factory=lambda: _ColumnMemo(COLUMN_MEMO_BYTES), init=False, repr=False,
+                               compare=False)
 
     @property
     def at_rest(self) -> np.ndarray:
@@ -110,11 +116,49 @@ class InverseModelData:
         columns are."""
         return _decimate(signal, self.decimation)
 
+    @property
+    def force_signals(self) -> ForceSignals:
+        """The full-rate signals the effects' force models are formed from."""
+        return ForceSignals(self.full_rate_velocity_m_per_s, self.full_rate_force_n, self.full_rate_position_m)
+
+    def effect_columns(self, effect: Effect) -> dict[str, np.ndarray]:
+        """``effect``'s force regressors (force per unit of each of its parameters, by field name) at the
+        decimated samples, read-only. A diagnosis fits the same effect, at the same trial pitch or span, in many
+        models: the columns of each effect value are kept (the oldest dropped past ``COLUMN_MEMO_BYTES``)."""
+        cols = self._memo.get(effect)
+        if cols is None:
+            full = effect.force_regressors(self.force_signals) or {}
+            # a copy: the decimated samples alone, not a view that keeps the full-rate filtered rows alive
+            cols = dict(zip(full, self.decimate(np.stack(list(full.values()))).copy())) if full else {}
+            for c in cols.values():
+                c.setflags(write=False)
+            self._memo.put(effect, cols)
+        return cols
+
     def residual_noise_std_n(self, mass_kg: float, damping_n_s_per_m: float) -> float:
         """Standard deviation (N) of the regression residual that the measurement noise alone gives."""
         e = self.noise_force_n - mass_kg * self.noise_acceleration_m_per_s2 - damping_n_s_per_m * \
             self.noise_velocity_m_per_s
         return float(np.std(e))
+
+
+class _ColumnMemo:
+    """Least recently used entries of arrays by key, within a byte budget."""
+
+    def __init__(self, budget_bytes: int) -> None:
+        self.budget, self.used, self.entries = budget_bytes, 0, OrderedDict()
+
+    def get(self, key):
+        hit = self.entries.get(key)
+        if hit is not None:
+            self.entries.move_to_end(key)
+        return hit
+
+    def put(self, key, arrays: dict[str, np.ndarray]) -> None:
+        self.entries[key] = arrays
+        self.used += sum(a.nbytes for a in arrays.values())
+        while self.used > self.budget and self.entries:
+            self.used -= sum(a.nbytes for a in self.entries.popitem(last=False)[1].values())
 
 
 def difference_noise_std(x: np.ndarray) -> float:

@@ -69,7 +69,7 @@ from plant.errors import DataError, EffectError, ParameterError
 from plant.estimate.lockin import TEST_P
 from plant.identify.fit_result import PlantFit
 from plant.identify.inverse_model import EDGE_SAMPLES, FILTER_ORDER, InverseModelData, Preprocessing, inverse_model_data
-from plant.physics.effect_base import FitSamples, ForceSignals
+from plant.physics.effect_base import FitSamples
 from plant.physics.models import Plant
 from plant.physics.motor_forces import periodic_pitch
 
@@ -215,11 +215,6 @@ def time_domain_effects(plant: Plant) -> None:
                               "balance); estimate a frequency response from the recording to fit it")
 
 
-def force_signals(data: InverseModelData) -> ForceSignals:
-    """The full-rate signals the effects' force models are formed from."""
-    return ForceSignals(data.full_rate_velocity_m_per_s, data.full_rate_force_n, data.full_rate_position_m)
-
-
 def fit_samples(data: InverseModelData) -> FitSamples:
     """The samples every fit uses (decimated, moving), for ``Effect.configured``."""
     moving = ~data.at_rest
@@ -271,14 +266,10 @@ def _regressors(plant: Plant, data: InverseModelData) -> dict[str, np.ndarray]:
     """Force per unit of each parameter (module doc's model), at the decimated samples."""
     m_per, b_per = _effective_factors(plant)
     cols = {"mass_kg": m_per * data.acceleration_m_per_s2, "damping_n_s_per_m": b_per * data.velocity_m_per_s}
-    signals = force_signals(data)
-    full_rate = {}
     for e in plant.effects:
         if e.needs_position and data.position_m is None:
             raise DataError(f"{data.source}: {e.name} depends on the position; the recording has velocity only")
-        full_rate.update({f"{e.name}.{field}": signal for field, signal in e.force_regressors(signals).items()})
-    if full_rate:
-        cols.update(zip(full_rate, data.decimate(np.stack(list(full_rate.values())))))
+        cols.update({f"{e.name}.{field}": col for field, col in data.effect_columns(e).items()})
     return cols
 
 
@@ -527,7 +518,6 @@ def _profiled(plant: Plant, data: InverseModelData, free: Sequence[str]) -> Plan
     the other parameters enter linearly; only the effect's own columns change)."""
     moving = ~data.at_rest
     force = data.force_n[moving]
-    signals = force_signals(data)
     cols = {name: col[moving] for name, col in _regressors(plant, data).items()}
     for i, effect in enumerate(plant.effects):
         for field, span in effect.profiled.items():
@@ -541,9 +531,8 @@ def _profiled(plant: Plant, data: InverseModelData, free: Sequence[str]) -> Plan
             force_left = force - U @ (U.T @ force)
 
             def rss(value, effect=effect, field=field, own_names=own_names, U=U, force_left=force_left):
-                trial = dataclasses.replace(effect, **{field: value})
-                regressors = trial.force_regressors(signals)
-                O = data.decimate(np.stack([regressors[p.split(".", 1)[1]] for p in own_names]))[:, moving].T
+                regressors = data.effect_columns(dataclasses.replace(effect, **{field: value}))
+                O = np.stack([regressors[p.split(".", 1)[1]] for p in own_names])[:, moving].T
                 O = O - U @ (U.T @ O)
                 return float(np.sum((force_left - O @ np.linalg.lstsq(O, force_left, rcond=None)[0]) ** 2))
 

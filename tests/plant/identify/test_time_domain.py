@@ -121,6 +121,33 @@ def test_ignoring_the_hold_biases_mass_by_about_half_a_sample_of_damping():
     assert first_order <= shift <= 2 * first_order
 
 
+def test_effect_columns_are_scipys_decimation_of_the_ripple_and_stay_within_their_budget(monkeypatch):
+    # a ripple of pitch p: sin / cos of 2 pi x / p and of twice that at the full rate, decimated as
+    # scipy.signal.decimate(ftype="iir", zero_phase=True) does (the reference script's MATLAB decimate)
+    import scipy.signal
+
+    from plant.identify import inverse_model
+    from plant.identify.inverse_model import inverse_model_data
+
+    data = inverse_model_data(_recording(Axis(), 0), Axis().gain_n_per_v, HOLD)
+    ripple = make_effect("force_ripple")
+    cols = data.effect_columns(ripple)
+    phase = 2 * np.pi * data.full_rate_position_m / ripple.pitch_m
+    for name, signal in {"sin1_n": np.sin(phase), "cos1_n": np.cos(phase), "sin2_n": np.sin(2 * phase),
+                         "cos2_n": np.cos(2 * phase)}.items():
+        ref = scipy.signal.decimate(signal, data.decimation, ftype="iir", zero_phase=True)
+        assert np.allclose(cols[name], ref, rtol=0, atol=1e-12), name
+        assert not cols[name].flags.writeable
+        # no view that keeps the full-rate filtered rows alive: the memo's byte count is what it holds
+        assert cols[name].base is None or cols[name].base.size <= 4 * ref.size
+    assert data.effect_columns(ripple) is cols                      # kept
+    one = sum(c.nbytes for c in cols.values())
+    memo = inverse_model._ColumnMemo(2 * one)
+    for k in range(3):
+        memo.put(k, {n: c.copy() for n, c in cols.items()})
+    assert memo.get(0) is None and memo.get(1) is not None and memo.get(2) is not None and memo.used == 2 * one
+
+
 def test_output_error_recovers_the_simulated_axis():
     axis = Axis()
     rec = _recording(axis, 3)

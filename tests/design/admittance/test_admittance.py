@@ -223,12 +223,12 @@ def test_bundled_design_is_verified_sampled_and_judged_by_the_mouse(bundled):
         assert adm["tradeoff"]["hardware_changes"]
 
 
-def _newton_margins(adm, payload, params, mouse, w):
+def _newton_margins(adm, payload, params, mouse, w, forward_euler):
     plant = {**PLANT, "mass_kg": payload, "damping": params["damping_n_s_per_m"],
              "delay_s": params["delay.seconds"], "current_hz": params["current_loop.bandwidth_hz"]}
     path = ref.coupled_path(kp=adm["kp"], ki=adm["ki"], **plant, **mouse)
     loop = ref.sampled_loop(path, m_v=adm["m_v"], b_v=adm["b_v"], period_s=0.01,
-                            forward_euler=load_spec(SPEC).admittance.rig.law == "forward_euler")
+                            forward_euler=forward_euler)
     pm, gm = ref.margins_from_response(w, ref.response(loop, np.exp(1j * w * 0.01)))
     return pm, gm, ref.closed_loop_stable(loop, discrete=True)
 
@@ -241,7 +241,8 @@ def test_bundled_design_holds_its_margins_for_floating_and_braced_mice_by_newton
 
     _, doc = bundled
     adm = doc["admittance"]
-    spec = load_spec(SPEC).problem()
+    loaded = load_spec(SPEC)
+    spec, forward_euler = loaded.problem(), loaded.admittance.rig.law == "forward_euler"
     w = np.geomspace(1e-3, 0.9999 * 50.0, 2500) * 2 * np.pi
     corners = list(itertools.product(*[(u.min, u.max) for u in spec.plant.uncertainty.values()]))
     worst = {"floating": math.inf, "braced": math.inf}
@@ -253,7 +254,7 @@ def test_bundled_design_holds_its_margins_for_floating_and_braced_mice_by_newton
                                                                          ((1.0e4, 0.5), "braced"))):
                 mouse = {"head_kg": head, "body_kg": 0.035, "neck_k": 200.0, "neck_c": 0.2, "leg_k": legs[0],
                          "leg_c": legs[1]}
-                pm, gm, stable = _newton_margins(adm, payload, params, mouse, w)
+                pm, gm, stable = _newton_margins(adm, payload, params, mouse, w, forward_euler)
                 assert stable, (payload, params, mouse)
                 assert pm >= 45.0 - 0.2 and gm >= 6.0 - 0.1, (payload, params, mouse, pm, gm)
                 worst[name] = min(worst[name], pm)

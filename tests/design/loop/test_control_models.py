@@ -32,7 +32,7 @@ def test_thesis_plant_and_pi_are_their_closed_forms():
 def test_delayed_plant_margins_match_python_control_on_the_exact_response():
     plant = stage_x(mass_kg=35.0) * Delay(0.0008) * CurrentLoop(700.0)
     m = loop_models(plant, 178.5, 1.915e4)
-    w = np.geomspace(2 * np.pi * 1e-3, 2 * np.pi * 5e3, 20000)
+    w = np.geomspace(2 * np.pi * 1e-3, 2 * np.pi * 5e3, 5000)    # 20,000: the same margins within 1e-9
     exact = control.frd(plant.frd(w) * (178.5 + 1.915e4 / (1j * w)), w)
     gm, pm, *_ = control.stability_margins(exact)
     gm_db, pm_deg = m.margins()

@@ -85,7 +85,7 @@ def test_discrete_design_meets_the_margins_as_the_drive_runs_it(tmp_path, rate_h
     C = d["kp"] + d["ki_per_sample"] / 2 * (z + 1) / (z - 1)
     F = control.tf([f["b0"], f["b1"], f["b2"]], [1.0, f["a1"], f["a2"]], T)
     d_samples = round(5e-4 / T)
-    w = np.geomspace(2 * math.pi * 0.05, 0.999 * math.pi * rate_hz, 6000)
+    w = np.geomspace(2 * math.pi * 0.05, 0.999 * math.pi * rate_hz, 2000)   # 6,000: the same margins within 1e-9
     for m in np.linspace(5.0, 40.0, 8):
         P = (control.tf([20.0], [m, 440.0]) * control.tf([2 * math.pi * 1000], [1.0, 2 * math.pi * 1000]))
         L = control.c2d(P, T, method="zoh") * z ** (-(d_samples + 1)) * C * F

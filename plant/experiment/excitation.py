@@ -38,13 +38,13 @@ The crest factor is measured on the samples as played (zero-order hold): peak / 
 
 from __future__ import annotations
 
-import io
 import math
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
+from plant.data.writers import csv_rows
 from plant.errors import ParameterError
 from plant.host.files import atomic_write_text
 
@@ -462,18 +462,13 @@ def predicted_variance(multisine: Multisine, *, noise_m_per_s: float, transient_
 def write_stepped_sine_csv(stepped: SteppedSine, path: str | Path) -> None:
     """Write ``frequency_hz,time_s,current_a`` rows (Hz, s, A) of every block atomically, the long format of
     a stepped-sine recording (``docs/formats.md``) without its outputs."""
-    buf = io.StringIO()
-    buf.write("frequency_hz,time_s,current_a\n")
     t = stepped.time_s
-    for k, f in enumerate(stepped.f_hz):
-        np.savetxt(buf, np.column_stack([np.full(t.size, f), t, stepped.block_current_a(k)]),
-                   fmt=["%.9g", "%.9f", "%.9g"], delimiter=",")
-    atomic_write_text(path, buf.getvalue())
+    atomic_write_text(path, "frequency_hz,time_s,current_a\n" + "".join(
+        csv_rows(np.column_stack([np.full(t.size, f), t, stepped.block_current_a(k)]), ["%.9g", "%.9f", "%.9g"])
+        for k, f in enumerate(stepped.f_hz)))
 
 
 def write_excitation_csv(multisine: Multisine, path: str | Path) -> None:
     """Write ``time_s,current_a`` rows (s, A) of every period atomically (never a half-written file)."""
-    buf = io.StringIO()
-    buf.write("time_s,current_a\n")
-    np.savetxt(buf, np.column_stack([multisine.time_s, multisine.current_a]), fmt=["%.9f", "%.9g"], delimiter=",")
-    atomic_write_text(path, buf.getvalue())
+    atomic_write_text(path, "time_s,current_a\n" + csv_rows(np.column_stack([multisine.time_s, multisine.current_a]),
+                                                              ["%.9f", "%.9g"]))

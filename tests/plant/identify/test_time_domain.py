@@ -121,6 +121,19 @@ def test_ignoring_the_hold_biases_mass_by_about_half_a_sample_of_damping():
     assert first_order <= shift <= 2 * first_order
 
 
+@pytest.mark.parametrize("shape", [(61,), (3001,), (4, 25000)])
+@pytest.mark.parametrize("r", [1, 2, 7, 25])
+def test_decimation_is_scipys_for_one_signal_or_several(shape, r):
+    import scipy.signal
+
+    from plant.identify.inverse_model import _decimate
+
+    x = np.cumsum(np.random.default_rng(r).standard_normal(shape), axis=-1)
+    ref = scipy.signal.decimate(x, r, ftype="iir", zero_phase=True) if r > 1 else x
+    assert _decimate(x, r).shape == ref.shape
+    assert np.allclose(_decimate(x, r), ref, rtol=0, atol=1e-12 * np.max(np.abs(x)))
+
+
 def test_effect_columns_are_scipys_decimation_of_the_ripple_and_stay_within_their_budget(monkeypatch):
     # a ripple of pitch p: sin / cos of 2 pi x / p and of twice that at the full rate, decimated as
     # scipy.signal.decimate(ftype="iir", zero_phase=True) does (the reference script's MATLAB decimate)

@@ -78,6 +78,7 @@ def simulate(
     recording."""
     from design.views.console import print_simulation
     from design.views.json import print_json, simulation_to_dict
+    from design.views.progress import LazyProgress
     from design.workflows import simulation_plant
     from plant.data.writers import write_simulation
     from plant.experiment.simulate import check_stepped_sine_plan, simulate_stepped_sine
@@ -102,16 +103,20 @@ def simulate(
         return
     if noise_fraction is None and not (current_noise_a or velocity_noise):
         noise_fraction = DEFAULT_NOISE_FRACTION
+    progress = LazyProgress(enabled=not as_json and sys.stderr.isatty(), label="simulate", unit="steps")
     t0 = time.perf_counter()
-    with options_named("duration_s", "sample_rate_hz", "noise_fraction", "current_noise_a", "current_quantum_a",
-                       "seed", "velocity_noise_m_per_s", "velocity_quantum_m_per_s", f_hz="--f-hz",
-                       current_amplitude_a="--amplitude-a"):
-        check_stepped_sine_plan(f, duration_s, sample_rate_hz)
-        rec = simulate_stepped_sine(plant, f_hz=f, current_amplitude_a=amplitude_a,
-                                    duration_s=duration_s, sample_rate_hz=sample_rate_hz,
-                                    current_noise_a=current_noise_a, velocity_noise_m_per_s=velocity_noise,
-                                    noise_fraction=noise_fraction, velocity_quantum_m_per_s=velocity_quantum,
-                                    current_quantum_a=current_quantum_a, seed=seed)
+    try:
+        with options_named("duration_s", "sample_rate_hz", "noise_fraction", "current_noise_a", "current_quantum_a",
+                           "seed", "velocity_noise_m_per_s", "velocity_quantum_m_per_s", f_hz="--f-hz",
+                           current_amplitude_a="--amplitude-a"):
+            check_stepped_sine_plan(f, duration_s, sample_rate_hz)
+            rec = simulate_stepped_sine(plant, f_hz=f, current_amplitude_a=amplitude_a,
+                                        duration_s=duration_s, sample_rate_hz=sample_rate_hz,
+                                        current_noise_a=current_noise_a, velocity_noise_m_per_s=velocity_noise,
+                                        noise_fraction=noise_fraction, velocity_quantum_m_per_s=velocity_quantum,
+                                        current_quantum_a=current_quantum_a, seed=seed, progress=progress)
+    finally:
+        progress.close()
     elapsed_s = time.perf_counter() - t0
     sidecar = write_simulation(rec, out, spec=spec)
     if as_json:

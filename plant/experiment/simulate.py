@@ -48,10 +48,10 @@ from __future__ import annotations
 
 import itertools
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 from fractions import Fraction
 
-import control
 import numpy as np
 import scipy.linalg
 
@@ -137,6 +137,8 @@ def _chain(plant: Plant) -> _Chain:
     else:
         A_c, b_c, c_c = np.zeros((0, 0)), np.zeros(0), np.zeros(0)
     if sensors:
+        import control  # here: only sensor filters need it, and it takes a second to import
+
         tf = control.tf([1.0], [1.0])
         for e in sensors:
             tf = tf * e.to_tf()
@@ -287,8 +289,9 @@ class _Contacts:
 
 
 def _stepped_response(chain: _Chain, *, w_rad_s, amp_a, n_samples, sample_rate_hz, delay_s,
-                      controller_rate_hz, internal_rate: Fraction) -> np.ndarray:
-    """Velocities (n_blocks, n_outputs, n_samples) by exact-discretisation time stepping (see module doc).
+                      controller_rate_hz, internal_rate: Fraction, progress=None) -> np.ndarray:
+    """Velocities (n_blocks, n_outputs, n_samples) by exact-discretisation time stepping (see module doc);
+    ``progress(done, total)`` hears the internal steps after each chunk of them.
 
     The state is x = p + z: p the analytic steady state of the sine input (zero with ``sampling``,
     whose held input drives z through its exact zero-order-hold integral), z everything else.
@@ -379,6 +382,8 @@ def _stepped_response(chain: _Chain, *, w_rad_s, amp_a, n_samples, sample_rate_h
                 r += 1
                 next_rec = rec_N[r] if r < n_samples else -1
         N = stop
+        if progress is not None:
+            progress(N - n_shift, n_last - n_shift)
     x = np.transpose(Z, (1, 2, 0))                       # (nb, n, n_rec)
     if not held:
         x = x + particular(X, np.array(rec_N[first:]) * h - delay_s)
@@ -497,6 +502,7 @@ def simulate_stepped_sine(
     current_quantum_a: float | None = None,
     friction_rate_hz: float = FRICTION_RATE_HZ,
     seed: int = 0,
+    progress: Callable[[int, int], None] | None = None,
 ) -> Recording:
     """Simulate a stepped-sine experiment: one block per frequency, each from rest (thesis section 4.1).
 
@@ -510,7 +516,8 @@ def simulate_stepped_sine(
     after the noise. The recorded current is the command (before delay, sampling and current loop), the
     input of ``Plant.frd``. ``friction_rate_hz``: minimum internal rate with Coulomb friction; a block in
     which the stage never breaks loose from the friction is a ``ParameterError``. The settings,
-    true parameters, per-block noise levels and ``seed`` are in ``Recording.metadata``.
+    true parameters, per-block noise levels and ``seed`` are in ``Recording.metadata``. ``progress(done, total)``
+    hears the internal steps of the time stepping (with friction or ``sampling``; the closed form needs none).
     """
     check_instance("plant", plant, Plant, "plant.stage_x(...) makes one")
     check_positive("f_hz", f_hz)
@@ -562,7 +569,8 @@ def simulate_stepped_sine(
     else:
         rate = _internal_rate(sample_rate_hz, controller_rate_hz, friction_rate_hz if friction else 0.0)
         velocity = _stepped_response(chain, w_rad_s=w, amp_a=amp, n_samples=n_samples, sample_rate_hz=sample_rate_hz,
-                                     delay_s=delay_s, controller_rate_hz=controller_rate_hz, internal_rate=rate)
+                                     delay_s=delay_s, controller_rate_hz=controller_rate_hz, internal_rate=rate,
+                                     progress=progress)
         method = "exact-discretisation time stepping" + (" with Moreau implicit Coulomb friction" if friction else "")
         internal_rate_hz = float(rate)
     if friction:

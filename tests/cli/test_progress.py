@@ -55,3 +55,12 @@ def test_fit_shows_its_stage_on_a_terminal_only(tmp_path):
     assert status == 0 and "fitting" in terminal
     piped = gantry("fit", rec, "--stage", "x", "--method", "output-error", "--json")
     assert piped.returncode == 0 and piped.stderr == ""
+
+
+def test_simulate_shows_its_time_steps_on_a_terminal_only(tmp_path):
+    # Coulomb friction is simulated step by step (a few seconds for the thesis-size recording)
+    args = ("simulate", "--stage", "x", "--effects", "coulomb_friction.force_n=3", "--out", tmp_path / "rec.csv")
+    status, terminal = _on_a_terminal(*args)
+    assert status == 0 and "simulate" in terminal and "steps" in terminal
+    status, terminal = _on_a_terminal(*args, "--json")
+    assert status == 0 and terminal == ""

@@ -61,7 +61,6 @@ from dataclasses import dataclass
 
 import numpy as np
 import scipy.optimize
-import scipy.signal
 import scipy.special
 
 from plant.data.recordings import TimeRecording
@@ -571,6 +570,8 @@ class _OeData:
 
 
 def _oe_data(rec: TimeRecording, data: InverseModelData, force_constant: float) -> _OeData:
+    import scipy.signal  # here: a stepped-sine fit imports this module and needs none of it (0.5 s)
+
     fs = rec.sample_rate_hz
     q = max(1, int(fs // max(OE_RATE_HZ, 2.5 * data.filter_hz)))
     b, a = scipy.signal.butter(FILTER_ORDER, data.filter_hz / (fs / 2))

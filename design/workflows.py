@@ -98,8 +98,8 @@ def design(problem: DesignProblem, *, method: str = "ccp+exact", schedule: bool 
            progress=None) -> DesignOutcome:
     """The one synthesis driver: PI gains for the spec's plant family (or its measured responses), the
     gain schedule when asked, and the admittance stage when the spec has one (with ``admittance.codesign``
-    and the spec's controller values: the PI gains chosen with it). ``progress(stage)`` hears the
-    admittance stages. ``design.views.json.design_to_dict`` turns the outcome into the ``gantry synth --json``
+    and the spec's controller values: the PI gains chosen with it). ``progress(stage)`` hears each stage of
+    the synthesis begin. ``design.views.json.design_to_dict`` turns the outcome into the ``gantry synth --json``
     contract."""
     check_instance("problem", problem, DesignProblem, "design.workflows.load_problem(spec_path) makes one")
     spec, loop = problem.spec, problem.loop
@@ -116,7 +116,7 @@ def design(problem: DesignProblem, *, method: str = "ccp+exact", schedule: bool 
     given = loop.controller.kp.value is not None and loop.controller.ki.value is not None
     if codesign and given and not schedule:
         return _codesigned(problem, progress)
-    result = synthesise_pi(loop, method=method)
+    result = synthesise_pi(loop, method=method, progress=progress)
     optimal = result.status == "optimal"
     points = None
     if schedule and optimal:
@@ -176,13 +176,15 @@ def measured_plants(problem: DesignProblem):
 
 def report_content(problem: DesignProblem, *, outcome: DesignOutcome | None = None, synthesise: bool = True,
                    data=(), columns: str | None = None, sample_rate_hz: float | None = None,
-                   samples: int | None = None, seed: int | None = None, command: str = "") -> ReportContent:
+                   samples: int | None = None, seed: int | None = None, command: str = "",
+                   progress=None) -> ReportContent:
     """Everything ``design.views.report.design_report`` draws: the gains (of ``outcome``, or synthesised
     when ``synthesise`` and the plant has a phase-limiting effect, else the spec's controller values)
     evaluated on the dense payloads beside the thesis gains, the loop's curves (with the binding scenario),
     one Monte Carlo check over the spec's uncertainty (``samples`` draws of ``seed``, default the spec's
     ``verification``, and the synthesis' own check when they agree; 0: none), and the diagnoses of ``data``
-    (recordings read with the column map ``columns`` and ``sample_rate_hz`` in Hz, as ``measure``)."""
+    (recordings read with the column map ``columns`` and ``sample_rate_hz`` in Hz, as ``measure``).
+    ``progress(stage)`` hears each stage begin."""
     from design.loop.curves import loop_curves, report_payloads
     from design.synth.evaluation import evaluate
     from design.synth.pi import PHASE_LIMITING, THESIS_GAINS, as_designed
@@ -195,8 +197,9 @@ def report_content(problem: DesignProblem, *, outcome: DesignOutcome | None = No
         raise SpecError(f"{problem.spec_path}: plant.uncertainty: no parameter ranges to sample; add some or drop "
                         "--samples")
     measured = [measure(path, columns=columns, sample_rate_hz=sample_rate_hz) for path in data]   # before the work
+    say = progress or (lambda stage: None)
     if outcome is None and synthesise and any(e in PHASE_LIMITING for e in loop.plant.effects):
-        outcome = design(problem)
+        outcome = design(problem, progress=progress)
     if outcome is not None and outcome.synthesis is not None:
         loop = as_designed(loop, outcome.synthesis)
     kp, ki, source = loop.controller.kp.value, loop.controller.ki.value, "from the spec's controller values"
@@ -208,6 +211,7 @@ def report_content(problem: DesignProblem, *, outcome: DesignOutcome | None = No
     if kp is None or ki is None:
         raise SpecError(f"{problem.spec_path}: no gains to report: synthesis did not succeed and "
                         "controller.kp.value / controller.ki.value are not set")
+    say("the gains on the payload range")
     ev = evaluate(loop, kp, ki)
     adm_curves = None
     if outcome is not None and outcome.admittance is not None and outcome.admittance.status in (
@@ -222,11 +226,13 @@ def report_content(problem: DesignProblem, *, outcome: DesignOutcome | None = No
         recordings.append(ComparedRecording(Path(path), response, diagnose(loop.plant.plant(), response)))
     check, comparison, adm_comparison = None, (), None
     if loop.plant.uncertainty and samples != 0:
+        say("Monte Carlo check, and the design for the nominal parameters beside it")
         check, comparison = _robustness(loop, kp, ki, outcome, samples, seed)
         if adm_curves is not None:
             adm_comparison = _admittance_robustness(loop, outcome.admittance)
     binding = ev.worst_scenario if loop.plant.uncertainty or ev.worst_scenario.get("payload_kg") not in \
         report_payloads(loop) else None
+    say("the loop's curves")
     return ReportContent(problem, kp, ki, source, ev, evaluate(loop, *THESIS_GAINS),
                          loop_curves(loop, kp, ki, binding), outcome, adm_curves, tuple(recordings), command, check,
                          comparison, adm_comparison)

@@ -33,6 +33,7 @@ def report(
     plant_from: PlantFromOption = None,
 ) -> None:
     """Write a design report: summary, plant, Bode/Nyquist/step, margins vs payload, data, reproducibility."""
+    from design.views.progress import StageProgress
     from design.views.report import design_report
     from design.workflows import load_problem, report_content
 
@@ -43,26 +44,28 @@ def report(
     keep_inputs({"--out": out, "--pdf": out.with_suffix(".pdf") if pdf else None},
                 [spec_file, plant_from, *(data or [])])
     problem = load_problem(spec_file, plant_from=plant_from)
-    if problem.spec.dual_drive is not None:
-        from design.views.dual_report import dual_report
-        from design.views.progress import StageProgress
-        from design.workflows import design
+    progress = StageProgress(enabled=sys.stderr.isatty())
+    try:
+        if problem.spec.dual_drive is not None:
+            from design.views.dual_report import dual_report
+            from design.workflows import design
 
-        if data:
-            from plant.errors import ParameterError
+            if data:
+                from plant.errors import ParameterError
 
-            raise ParameterError("--data: a [dual_drive] report compares no recordings yet")
-        progress = StageProgress(enabled=sys.stderr.isatty())
-        try:
+                raise ParameterError("--data: a [dual_drive] report compares no recordings yet")
             outcome = design(problem, progress=progress)
-        finally:
-            progress.close()
-        _write(dual_report(outcome, command="gantry " + shlex.join(sys.argv[1:])), out, pdf)
-        return
-    content = report_content(problem, synthesise=synthesise, data=data or (), columns=columns,
-                             sample_rate_hz=sample_rate_hz, samples=samples, seed=seed,
-                             command="gantry " + shlex.join(sys.argv[1:]))
-    _write(design_report(content), out, pdf)
+            progress("drawing the report")
+            report = dual_report(outcome, command="gantry " + shlex.join(sys.argv[1:]))
+        else:
+            content = report_content(problem, synthesise=synthesise, data=data or (), columns=columns,
+                                     sample_rate_hz=sample_rate_hz, samples=samples, seed=seed,
+                                     command="gantry " + shlex.join(sys.argv[1:]), progress=progress)
+            progress("drawing the figures")
+            report = design_report(content)
+    finally:
+        progress.close()
+    _write(report, out, pdf)
 
 
 def _write(report, out: Path, pdf: bool) -> None:

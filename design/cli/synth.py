@@ -32,6 +32,7 @@ def synth(
     plant_from: PlantFromOption = None,
 ) -> None:
     """Synthesise PI gains maximising worst-case bandwidth under margin constraints over the payload range."""
+    from design.views.json import design_to_dict, print_json
     from design.views.progress import StageProgress
     from design.workflows import design, load_problem
 
@@ -45,23 +46,25 @@ def synth(
     progress = StageProgress(enabled=not as_json and sys.stderr.isatty())
     try:
         outcome = design(problem, method=method, schedule=schedule, progress=progress)
+        out = design_to_dict(outcome)
+        reportable = out["status"] in ("optimal", "mouse_cannot_drive")
+        if report is not None and reportable and outcome.dual is not None:
+            from design.views.dual_report import dual_report
+
+            progress("drawing the report")
+            dual_report(outcome, command="gantry " + shlex.join(sys.argv[1:])).write(report)
+        elif report is not None and reportable and not problem.spec.plant.measured:
+            from design.views.report import design_report
+            from design.workflows import report_content
+
+            content = report_content(problem, outcome=outcome, command="gantry " + shlex.join(sys.argv[1:]),
+                                     progress=progress)
+            progress("drawing the figures")
+            design_report(content).write(report)
     finally:
         progress.close()
     from design.views.console import print_synthesis
-    from design.views.json import design_to_dict, print_json
 
-    out = design_to_dict(outcome)
-    reportable = out["status"] in ("optimal", "mouse_cannot_drive")
-    if report is not None and reportable and outcome.dual is not None:
-        from design.views.dual_report import dual_report
-
-        dual_report(outcome, command="gantry " + shlex.join(sys.argv[1:])).write(report)
-    elif report is not None and reportable and not problem.spec.plant.measured:
-        from design.views.report import design_report
-        from design.workflows import report_content
-
-        design_report(report_content(problem, outcome=outcome,
-                                     command="gantry " + shlex.join(sys.argv[1:]))).write(report)
     if as_json:
         print_json(out)
     else:

@@ -40,6 +40,7 @@ from __future__ import annotations
 
 import math
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -268,7 +269,7 @@ def verification_scenarios(points: Scenarios, dense: Scenarios, ev: Evaluation) 
 
 
 def synthesise_pi(problem: LoopProblem, *, method: str = "ccp+exact", max_rounds: int = 6,
-                  nominal: bool = False) -> SynthesisResult:
+                  nominal: bool = False, progress: Callable[[str], None] | None = None) -> SynthesisResult:
     """Robust PI synthesis on ``problem`` (see the module doc). Never reports an unverified design as optimal.
 
     With ``plant.uncertainty`` the design holds on every payload point x corner of the uncertainty box
@@ -276,21 +277,25 @@ def synthesise_pi(problem: LoopProblem, *, method: str = "ccp+exact", max_rounds
     (``problem.verification``: how many, the first seed), and while it finds a violator (at most
     ``MONTE_CARLO_ROUNDS`` times) the worst joins the design scenarios and the design is repeated,
     checked again on fresh draws. ``nominal`` ignores the uncertainty (the design for the nominal
-    parameters, for comparison)."""
+    parameters, for comparison). ``progress(stage)`` hears each stage begin."""
     if nominal:
         problem = replace(problem, plant=replace(problem.plant, uncertainty={}))
     if any(f.designed for f in problem.controller.filters):
-        result = _with_designed_filters(problem, method, max_rounds)
+        result = _with_designed_filters(problem, method, max_rounds, progress or _silent)
     else:
-        result = _robust(problem, method, max_rounds)
+        result = _robust(problem, method, max_rounds, progress or _silent)
     return replace(result, bandwidth_definition=problem.requirements.bandwidth_definition)
 
 
-def _robust(problem: LoopProblem, method: str, max_rounds: int) -> SynthesisResult:
+def _silent(stage: str) -> None:
+    """No progress to show."""
+
+
+def _robust(problem: LoopProblem, method: str, max_rounds: int, say: Callable[[str], None]) -> SynthesisResult:
     """The design on the scenarios, repeated with the Monte Carlo check's worst violators added."""
     extra: list[dict] = []
     for k in range(MONTE_CARLO_ROUNDS + 1):
-        result = _synthesise(problem, method, max_rounds, extra, problem.verification.seed + k)
+        result = _synthesise(problem, method, max_rounds, extra, problem.verification.seed + k, say)
         mc = result.monte_carlo
         if mc is None or mc.violations == 0 or k == MONTE_CARLO_ROUNDS:
             return result
@@ -347,7 +352,8 @@ def as_designed(problem: LoopProblem, result: SynthesisResult) -> LoopProblem:
     return with_filter_values(problem, values)
 
 
-def _with_designed_filters(problem: LoopProblem, method: str, max_rounds: int) -> SynthesisResult:
+def _with_designed_filters(problem: LoopProblem, method: str, max_rounds: int,
+                           say: Callable[[str], None]) -> SynthesisResult:
     """PI gains and filter parameters together: for each start of the filters (``filter_starts``) the gains by
     the pipeline (scan, ccp, exact on the gains; the filters fixed, so the loop is affine in the gains), then
     IPOPT on the gains and the filters together (with the margin circle guarding the re-crossings near a
@@ -358,7 +364,7 @@ def _with_designed_filters(problem: LoopProblem, method: str, max_rounds: int) -
     starts = filter_starts(problem)
     scanned = scan_filters(problem, design_scenarios(problem))
     starts += [values for _, values in scanned if values not in starts]
-    tried = [(values, _robust(with_filter_values(problem, values), method, max_rounds)) for values in starts]
+    tried = [(values, _robust(with_filter_values(problem, values), method, max_rounds, say)) for values in starts]
 
     def bw(r):
         return r.evaluation.worst_bandwidth_hz if r.status == "optimal" and r.evaluation is not None else -1.0
@@ -377,7 +383,7 @@ def _with_designed_filters(problem: LoopProblem, method: str, max_rounds: int) -
             note = {"from": values, "ipopt": ex.note, "filters": list(ex.filter_values)}
             if ex.success:
                 found = list(ex.filter_values)
-                tried.append((found, _robust(with_filter_values(problem, found), method, max_rounds)))
+                tried.append((found, _robust(with_filter_values(problem, found), method, max_rounds, say)))
                 note["worst_bandwidth_hz"] = bw(tried[-1][1])
             notes["joint_exact"].append(note)
     values, best = max(tried, key=lambda vr: bw(vr[1]))
@@ -388,7 +394,7 @@ def _with_designed_filters(problem: LoopProblem, method: str, max_rounds: int) -
 
 
 def _synthesise(problem: LoopProblem, method: str, max_rounds: int, extra: list[dict],
-                seed: int) -> SynthesisResult:
+                seed: int, say: Callable[[str], None]) -> SynthesisResult:
     check_supported(problem)
     if method not in ("ccp", "ccp+exact"):
         raise SpecError(f"method must be 'ccp' or 'ccp+exact', got {method!r}")
@@ -396,6 +402,7 @@ def _synthesise(problem: LoopProblem, method: str, max_rounds: int, extra: list[
         b, names = baselines(problem)
         return SynthesisResult("unbounded", unbounded_message(problem), None, None, method, 0.0, b, names,
                                details={"missing_effects": list(PHASE_LIMITING)})
+    say("loading cvxpy and casadi")
     i0 = time.perf_counter()
     import casadi  # noqa: F401  (the one-off imports are timed apart from the solve)
     import cvxpy  # noqa: F401
@@ -412,6 +419,8 @@ def _synthesise(problem: LoopProblem, method: str, max_rounds: int, extra: list[
     good: list[tuple[str, Evaluation]] = []
     failed: list[Evaluation] = []
     for rounds in range(1, max_rounds + 1):
+        say(f"design on {len(points)} scenarios: gain scan, cvxpy+Clarabel" + (", casadi+IPOPT" if method == "ccp+exact"
+                                                                                else ""))
         cands, scan = _solve(problem, points, dense, method, notes)
         first_scan = first_scan or (scan, points)
         evs = [(label, ev or evaluate(problem, kp, ki, dense)) for label, kp, ki, ev in cands]
@@ -470,6 +479,7 @@ def _synthesise(problem: LoopProblem, method: str, max_rounds: int, extra: list[
         details["polish_evaluations"] = evaluations
         if polished.worst_bandwidth_hz > good[0][1].worst_bandwidth_hz:
             good.insert(0, (f"polished on the dense check from {good[0][0]}", polished))
+    say("independent check of the design (python-control)")
     t1 = time.perf_counter()
     tried = []
     for label, ev in good[:3]:      # the best verified of the three best candidates
@@ -504,6 +514,7 @@ def _synthesise(problem: LoopProblem, method: str, max_rounds: int, extra: list[
     if not dense.parameters:
         return SynthesisResult("optimal", f"verified ({label})", ev, v, method, seconds, base, names, pts, details,
                                discrete=discrete)
+    say("Monte Carlo check over the uncertainty")
     mc = monte_carlo_check(problem, ev.kp, ev.ki, seed=seed)
     details["design_scenarios"] = len(points)
     if mc.violations:

@@ -5,8 +5,11 @@ import os
 import pty
 import subprocess
 import sys
+from pathlib import Path
 
 from in_process import gantry as in_process
+
+ROOT = Path(__file__).resolve().parents[2]
 
 
 def gantry(*args, stderr=subprocess.PIPE):
@@ -64,3 +67,11 @@ def test_simulate_shows_its_time_steps_on_a_terminal_only(tmp_path):
     assert status == 0 and "simulate" in terminal and "steps" in terminal
     status, terminal = _on_a_terminal(*args, "--json")
     assert status == 0 and terminal == ""
+
+
+def test_report_shows_the_stages_of_its_synthesis_and_figures_on_a_terminal(tmp_path):
+    status, terminal = _on_a_terminal("report", ROOT / "specs" / "stage_x_synth.toml", "--samples", "0", "--out",
+                                      tmp_path / "design.html")
+    assert status == 0
+    for stage in ("design on", "independent check of the design (python-control)", "drawing the figures"):
+        assert stage in terminal

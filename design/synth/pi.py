@@ -278,17 +278,14 @@ def synthesise_pi(problem: LoopProblem, *, method: str = "ccp+exact", max_rounds
     ``MONTE_CARLO_ROUNDS`` times) the worst joins the design scenarios and the design is repeated,
     checked again on fresh draws. ``nominal`` ignores the uncertainty (the design for the nominal
     parameters, for comparison). ``progress(stage)`` hears each stage begin."""
+    say = progress or (lambda stage: None)
     if nominal:
         problem = replace(problem, plant=replace(problem.plant, uncertainty={}))
     if any(f.designed for f in problem.controller.filters):
-        result = _with_designed_filters(problem, method, max_rounds, progress or _silent)
+        result = _with_designed_filters(problem, method, max_rounds, say)
     else:
-        result = _robust(problem, method, max_rounds, progress or _silent)
+        result = _robust(problem, method, max_rounds, say)
     return replace(result, bandwidth_definition=problem.requirements.bandwidth_definition)
-
-
-def _silent(stage: str) -> None:
-    """No progress to show."""
 
 
 def _robust(problem: LoopProblem, method: str, max_rounds: int, say: Callable[[str], None]) -> SynthesisResult:
@@ -419,8 +416,8 @@ def _synthesise(problem: LoopProblem, method: str, max_rounds: int, extra: list[
     good: list[tuple[str, Evaluation]] = []
     failed: list[Evaluation] = []
     for rounds in range(1, max_rounds + 1):
-        say(f"design on {len(points)} scenarios: gain scan, cvxpy+Clarabel" + (", casadi+IPOPT" if method == "ccp+exact"
-                                                                                else ""))
+        steps = "cvxpy+Clarabel, casadi+IPOPT" if method == "ccp+exact" else "cvxpy+Clarabel"
+        say(f"design on {len(points)} scenarios: gain scan, {steps}")
         cands, scan = _solve(problem, points, dense, method, notes)
         first_scan = first_scan or (scan, points)
         evs = [(label, ev or evaluate(problem, kp, ki, dense)) for label, kp, ki, ev in cands]

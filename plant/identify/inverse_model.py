@@ -206,8 +206,8 @@ def _decimation_filter(r: int) -> tuple[np.ndarray, np.ndarray, int]:
 def _decimate(x: np.ndarray, r: int) -> np.ndarray:
     """``scipy.signal.decimate(x, r, ftype="iir", zero_phase=True)`` along the last axis, several signals (rows) in
     one call: ``sosfiltfilt``'s steps (odd extension by the edge, a forward and a backward pass started in the
-    steady state of their first sample, the edge cut) with the filter, its initial state and edge made once;
-    the same numbers as scipy's, bit for bit."""
+    steady state of their first sample, the edge cut) with the filter, its initial state and edge made once
+    (bit for bit scipy's numbers with scipy 1.17)."""
     import scipy.signal
 
     x = np.asarray(x, dtype=float)

@@ -19,7 +19,8 @@ from design.admittance.model import (
     check_grid_for,
     interaction_margins,
 )
-from design.admittance.rig import RigTiming
+from design.admittance.rig import RigTiming, force_filter_frd
+from design.admittance.sampled import closed_loop_radius, discretised_paths, law_coefficients, spring_loads
 from design.parallel import thread_map
 from design.problem import LoopProblem
 from design.synth.scenarios import Scenarios
@@ -47,13 +48,19 @@ class ContactLimit:
 
 
 def _stable(scenarios, k_e: np.ndarray, *, loops, m_v, b_v, timing: RigTiming, w: np.ndarray) -> np.ndarray:
-    """Is the loop closed on the spring k_e[j] stable at scenario j?"""
+    """Is the loop closed on the spring k_e[j] stable at scenario j? Sampled with a state space: the coupled
+    discrete loop's poles (``design.admittance.sampled``); else the Nyquist test on ``w``."""
+    if timing.sampled and hasattr(loops, "free_state_space"):
+        alpha, beta = law_coefficients(m_v, b_v, timing.period_s, timing.forward_euler)
+        paths = discretised_paths(loops, scenarios, spring_loads(k_e), timing)
+        return closed_loop_radius(paths, alpha, beta, timing.delay_samples) < 1.0
 
     def path(s, weight):
         loop = loops.at(s, scenarios)
         return loop.reference * weight / (loop.s / k_e[:, None] + loop.sensitivity_mobility)
 
-    gain = timing.sampled_path(path, w)
+    gain = timing.sampled_path(path, w) if timing.sampled else path(1j * w, force_filter_frd(
+        1j * w, timing.filter_hz, timing.filter_order) * np.ones(w.size))
     _, _, stable = interaction_margins(w, timing, gain / timing.impedance(w, m_v, b_v))
     return stable
 

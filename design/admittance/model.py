@@ -46,7 +46,15 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from design.admittance.mouse import MouseModel, mouse_set, stack
-from design.admittance.rig import RigTiming
+from design.admittance.rig import RigTiming, force_filter_frd
+from design.admittance.sampled import (
+    StateSpace,
+    closed_loop_radius,
+    free_gantry,
+    law_coefficients,
+    mice_paths,
+    sampled_gain,
+)
 from design.loop.margins import loop_margins, nyquist_stable, unwrapped_phase_deg
 from design.parallel import thread_map, workers
 from design.problem import AdmittanceProblem, LoopProblem
@@ -185,6 +193,10 @@ class PiLoops:
         """``GantryLoop`` of ``scenarios`` at complex ``s``."""
         return gantry_loop_at(scenarios.plants(self.base), s, scenarios, kp=self.kp, ki=self.ki)
 
+    def free_state_space(self, scenarios: Scenarios):
+        """The free gantries of ``scenarios`` as one state-space batch (``design.admittance.sampled.free_gantry``)."""
+        return free_gantry(scenarios.plants(self.base), len(scenarios), kp=self.kp, ki=self.ki)
+
 
 def gantry_loop(loops, w_rad_s, scenarios) -> GantryLoop:
     """The loops (``PiLoops`` or ``design.admittance.dual.DualLoops``) of ``scenarios`` (for ``PiLoops`` also
@@ -206,6 +218,46 @@ def interaction_gain(loop: GantryLoop, mouse: MouseModel, *, weight=1.0, paired:
     (n_m, n_scenario, n), or with ``paired`` (n_scenario, n), scenario k with mouse k."""
     den = 1.0 / _mouse_impedance(loop, mouse, paired) + loop.sensitivity_mobility
     return np.divide(loop.reference * weight, den, out=den)
+
+
+def coupled_gain(loops, scenarios, mouse: MouseModel, w_rad_s, timing: RigTiming, *, paired: bool = False,
+                 terms: int | None = None) -> np.ndarray:
+    """K_eff, the interaction loop times m_v sigma + b_v rho, of a batch of mice ((n_m, 1) fields) at every
+    scenario, (n_m, n_s, n_f), or ``paired`` (mouse k at scenario k), (n_s, n_f): continuous, H_f K; sampled, the
+    exact discretisation e^(-jwdT) K_d of ``design.admittance.sampled`` for loops with a state space, else
+    ``RigTiming.sampled_path``'s alias sum with ``terms`` terms."""
+    w = np.asarray(w_rad_s, float)
+    if not timing.sampled:
+        s = 1j * w
+        return interaction_gain(loops.at(s, scenarios), mouse,
+                                weight=force_filter_frd(s, timing.filter_hz, timing.filter_order) * np.ones(w.size),
+                                paired=paired)
+    if not hasattr(loops, "free_state_space"):
+        return timing.sampled_path(lambda s, weight: interaction_gain(loops.at(s, scenarios), mouse, weight=weight,
+                                                                      paired=paired), w, terms=terms)
+    n_s = len(scenarios)
+    n_m = n_s if paired else int(np.asarray(mouse.head_mass_kg).size)
+    out = np.empty((n_s if paired else n_m * n_s, w.size), complex)
+    for curves, paths in mice_paths(loops, scenarios, mouse, timing, paired=paired):
+        out[curves] = sampled_gain(paths, w, timing)
+    return out if paired else out.reshape(n_m, n_s, w.size)
+
+
+def paired_margins(loops, scenarios, mouse: MouseModel, w_rad_s, timing: RigTiming, m_v: float, b_v: float):
+    """(PM deg, GM dB, stable) of mouse k at scenario k (a batch of n each) on the grid ``w_rad_s``: grid
+    margins with refined crossings (``interaction_margins``); sampled with a state space, stability from the
+    coupled discrete loop's poles (``design.admittance.sampled.closed_loop_radius``)."""
+    w = np.asarray(w_rad_s, float)
+    z = timing.impedance(w, m_v, b_v)
+    if not (timing.sampled and hasattr(loops, "free_state_space")):
+        return interaction_margins(w, timing, coupled_gain(loops, scenarios, mouse, w, timing, paired=True) / z)
+    n = len(scenarios)
+    pm, gm, st = np.empty(n), np.empty(n), np.empty(n, bool)
+    alpha, beta = law_coefficients(m_v, b_v, timing.period_s, timing.forward_euler)
+    for idx, paths in mice_paths(loops, scenarios, mouse, timing, paired=True):
+        pm[idx], gm[idx], _ = interaction_margins(w, timing, sampled_gain(paths, w, timing) / z)
+        st[idx] = closed_loop_radius(paths, alpha, beta, timing.delay_samples) < 1.0
+    return pm, gm, st
 
 
 def attached_loop(loop: GantryLoop, mouse: MouseModel, *, paired: bool = False) -> np.ndarray:
@@ -306,9 +358,7 @@ def interaction_responses(problem: LoopProblem, scenarios, w_rad_s, *, loops, ti
     batch = stack(corners)
 
     def block(rows: np.ndarray) -> None:
-        part = sc.take(rows)
-        gain[:, rows] = timing.sampled_path(
-            lambda s, weight: interaction_gain(loops.at(s, part), batch, weight=weight), w, terms=terms)
+        gain[:, rows] = coupled_gain(loops, sc.take(rows), batch, w, timing, terms=terms)
 
     thread_map(block, _blocks(len(sc), len(corners) * w.size))
     loop = loops.at(1j * w, sc)
@@ -419,11 +469,6 @@ class AdmittanceCheck:
         return out
 
 
-def paired_gain(loops, scenarios, mouse: MouseModel, s, weight) -> np.ndarray:
-    """K of each scenario with its own mouse (row k with mouse k) times ``weight``, (n, len(s))."""
-    return interaction_gain(loops.at(s, scenarios), mouse, weight=weight, paired=True)
-
-
 class AdmittanceEvaluator:
     """Evaluation of any (m_v, b_v) for fixed velocity loops and rig timing on scenarios x mice: what does not depend
     on (m_v, b_v) is computed once. Every curve (scenario, mouse) is screened by its ray bound on a coarse grid
@@ -475,9 +520,10 @@ class AdmittanceEvaluator:
         self._free = thread_map(attached, self.blocks)
 
     def exact_margins(self, m_v: float, b_v: float, k_idx: np.ndarray, j_idx: np.ndarray):
-        """(PM deg, GM dB, stable) of the curves (mouse k_idx[i], scenario j_idx[i]) on the check grid with every
-        alias term. A curve's K_eff does not depend on (m_v, b_v): the curves computed are kept (up to
-        ``KEPT_CURVES``) for the next evaluations, and each chunk evaluates the loops once per scenario it holds."""
+        """(PM deg, GM dB, stable) of the curves (mouse k_idx[i], scenario j_idx[i]) on the check grid, sampled
+        exactly (``design.admittance.sampled``; stability from the coupled discrete loop's poles). A curve's
+        K_eff does not depend on (m_v, b_v): the curves computed are kept (up to ``KEPT_CURVES``) for the next
+        evaluations."""
         n = k_idx.size
         pm, gm, st = np.empty(n), np.empty(n), np.empty(n, bool)
         z = self.timing.impedance(self.w, m_v, b_v)
@@ -490,24 +536,34 @@ class AdmittanceEvaluator:
         def chunk(start: int) -> None:
             keys = new[start:start + step]
             k, j = np.divmod(keys, len(self.scenarios))
-            rows, where = np.unique(j, return_inverse=True)
-            sc = self.scenarios.take(rows)
             mouse = MouseModel(*(np.asarray(getattr(batch, f))[k] for f in MouseModel.__dataclass_fields__))
-            gain = self.timing.sampled_path(
-                lambda s, weight: interaction_gain(self.loops.at(s, sc).rows(where), mouse, weight=weight,
-                                                   paired=True), self.w)
-            kept.update(zip(keys.tolist(), gain))
+            sc = self.scenarios.take(j)
+            if not (self.timing.sampled and hasattr(self.loops, "free_state_space")):
+                gain = coupled_gain(self.loops, sc, mouse, self.w, self.timing, paired=True)
+                kept.update((c, (g, None)) for c, g in zip(keys.tolist(), gain))
+                return
+            for idx, paths in mice_paths(self.loops, sc, mouse, self.timing, paired=True):
+                gain = sampled_gain(paths, self.w, self.timing)
+                kept.update((int(keys[i]), (gain[r], paths.take(r))) for r, i in enumerate(idx))
 
         thread_map(chunk, range(0, new.size, step))
         lookup = {**self._kept, **kept}
         if len(self._kept) + len(kept) > KEPT_CURVES:
             self._kept.clear()
         self._kept.update(kept)
+        alpha, beta = (law_coefficients(m_v, b_v, self.timing.period_s, self.timing.forward_euler)
+                       if self.timing.sampled else (None, None))
 
         def margins(start: int) -> None:
-            part = slice(start, min(start + step, n))
-            gain = np.stack([lookup[c] for c in key[part].tolist()])
+            part = np.arange(start, min(start + step, n))
+            entries = [lookup[c] for c in key[part].tolist()]
+            gain = np.stack([e[0] for e in entries])
             pm[part], gm[part], st[part] = interaction_margins(self.w, self.timing, gain / z)
+            for order in {e[1].order for e in entries if e[1] is not None}:
+                rows = [i for i, e in enumerate(entries) if e[1] is not None and e[1].order == order]
+                paths = StateSpace(*(np.stack([getattr(entries[i][1], f) for i in rows]) for f in "ABCD"))
+                radius = closed_loop_radius(paths, alpha, beta, self.timing.delay_samples)
+                st[part[rows]] = radius < 1.0
 
         thread_map(margins, range(0, n, step))
         return pm, gm, st

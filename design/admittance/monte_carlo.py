@@ -4,10 +4,10 @@ of them a design scenario, and the violation rate with its exact one-sided 95 % 
 (Clopper-Pearson, ``design.synth.monte_carlo``).
 
 Each draw is one curve (scenario and mouse) evaluated as the screened dense check evaluates one
-(``design.admittance.model.AdmittanceEvaluator.evaluate``): its ray bound, on a coarse grid and with the
-sampled sum cut to ``SCREEN_TERMS`` alias terms, certifies it, or, when the bound comes within
-``SCREEN_RATIO`` of b_v (and for the ``WORST_EXACT`` draws with the largest bounds), its loop is computed
-anew on the check grid with every term and its grid margins and Nyquist stability are read; the hardware
+(``design.admittance.model.AdmittanceEvaluator.evaluate``): its ray bound, on a coarse grid of the exactly
+sampled loop (``design.admittance.sampled``), certifies it, or, when the bound comes within ``SCREEN_RATIO``
+of b_v (and for the ``WORST_EXACT`` draws with the largest bounds), its loop is computed anew on the check
+grid and its grid margins and the coupled discrete loop's poles are read; the hardware
 peaks and the stability of the velocity loop with the mouse attached are computed for every draw. A draw violates
 when a margin falls short by more than ``MARGIN_TOLERANCE`` (grid rounding, as in the python-control
 verification), a hardware peak exceeds its limit by more than ``HARDWARE_TOLERANCE``, or a loop is
@@ -27,11 +27,11 @@ from design.admittance.model import (
     admittance_problem,
     attached_loop,
     check_grid_for,
+    coupled_gain,
     current_path,
-    interaction_margins,
     mice,
     motor_force_peak,
-    paired_gain,
+    paired_margins,
     virtual_impedance,
     with_mode_points,
 )
@@ -110,7 +110,7 @@ def admittance_monte_carlo(problem: LoopProblem, *, loops, m_v: float, b_v: floa
     def screen(start: int) -> None:
         rows = np.arange(start, min(start + CHUNK, samples))
         sc, mouse = batch(rows)
-        gain = timing.sampled_path(lambda s, weight: paired_gain(loops, sc, mouse, s, weight), w, terms=SCREEN_TERMS)
+        gain = coupled_gain(loops, sc, mouse, w, timing, paired=True, terms=SCREEN_TERMS)
         bound[rows] = curve_bounds(*polar(gain), rho + (m_v / b_v) * sigma, adm.phase_margin_deg, g,
                                    timing.sampled)
         loop = loops.at(1j * w, sc)
@@ -129,8 +129,7 @@ def admittance_monte_carlo(problem: LoopProblem, *, loops, m_v: float, b_v: floa
     def exact(start: int) -> None:
         rows = keep[start:start + CHUNK]
         sc, mouse = batch(rows)
-        gain = timing.sampled_path(lambda s, weight: paired_gain(loops, sc, mouse, s, weight), wk)
-        p_, g_, st = interaction_margins(wk, timing, gain / timing.impedance(wk, m_v, b_v))
+        p_, g_, st = paired_margins(loops, sc, mouse, wk, timing, m_v, b_v)
         pm[rows], gm[rows] = p_, g_
         stable[rows] &= st
 

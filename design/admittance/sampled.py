@@ -1,0 +1,442 @@
+"""The exact sampled-data interaction loop: the continuous path between the law's hold and its force
+sampler as a state-space model, discretised exactly (zero-order hold, matrix exponential).
+
+The path from the held velocity reference u to the sensed force, F_s = -K u (``design.admittance.model``),
+is built from its blocks (SI units):
+
+* the free gantry under its PI velocity loop: mechanics (``plant.physics.models.chain_state_space``), the
+  drive's chain E and the sensor's chain H, each effect a rational factor (a delay by its Pade approximant
+  of order ``PADE_ORDER``, whose convergence the tests show), inputs (u, f: the force at the clamp),
+  outputs (v, dv/dt);
+* the load on the clamp: a head mass m_h riding it and a body behind a neck spring and damper, on the
+  ground by its legs or floating (a rigid contact: a spring to the ground), which pushes back
+  f = -(m_h dv/dt + f_b);
+* the force filter H_f in series (continuous, before the sampler).
+
+With x' = A x + B u, y = C x + D u, the held input gives exactly (Astrom & Wittenmark, Computer-Controlled
+Systems, section 2.3) x[k+1] = Phi x[k] + Gamma u[k], Phi = e^(AT), Gamma = int_0^T e^(As) ds B, the
+step-invariant transform K_d(z) = C (zI - Phi)^-1 Gamma + D of ``design.admittance.rig``'s alias sum without
+its truncation. Closed on the law v[k] = alpha v[k-1] + beta F[k] and its computation delay of d samples, the
+coupled loop's poles are the eigenvalues of one matrix (``closed_loop_radius``).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, fields, replace
+
+import numpy as np
+from scipy.linalg import expm, matrix_balance
+
+from design.admittance.mouse import MouseModel
+from design.admittance.rig import force_filter_polys
+from plant.physics.chain import CurrentLoop, Delay
+from plant.physics.effect_base import ChainEffect, replace_unchecked
+from plant.physics.models import Plant, chain_state_space
+
+#: Pade order of a delay inside the velocity loop (the tests show the margins converged at it)
+PADE_ORDER = 8
+#: an eigenvector basis worse conditioned than this is not used for the frequency response (LU solves instead)
+EIG_CONDITION = 1e8
+#: systems whose frequency response is computed together (memory: states x frequencies each)
+RESPONSE_BLOCK = 256
+
+
+@dataclass(frozen=True)
+class StateSpace:
+    """x' = A x + B u, y = C x + D u, batched over leading axes: A (..., n, n), B (..., n, m), C (..., p, n),
+    D (..., p, m)."""
+
+    A: np.ndarray
+    B: np.ndarray
+    C: np.ndarray
+    D: np.ndarray
+
+    @property
+    def order(self) -> int:
+        return self.A.shape[-1]
+
+    def take(self, index) -> StateSpace:
+        return StateSpace(self.A[index], self.B[index], self.C[index], self.D[index])
+
+
+def pade_polys(delay_s: float, order: int) -> tuple[np.ndarray, np.ndarray]:
+    """The [order/order] Pade approximant of e^(-s delay) as numerator / denominator (highest power first)."""
+    n = order
+    c = [math.factorial(2 * n - k) * math.factorial(n) / (math.factorial(2 * n) * math.factorial(k)
+                                                         * math.factorial(n - k)) for k in range(n + 1)]
+    den = np.array([c[k] * delay_s**k for k in range(n, -1, -1)])
+    num = np.array([c[k] * (-delay_s) ** k for k in range(n, -1, -1)])
+    return num / den[0], den / den[0]
+
+
+def tf_ss(num, den) -> StateSpace:
+    """A proper num / den (highest power first) in observable canonical form, its states scaled as MATLAB's
+    ``ssbal`` does (``scipy.linalg.matrix_balance`` of [[A, B], [C, 0]], the input and output unscaled)."""
+    num, den = np.atleast_1d(np.asarray(num, float)), np.atleast_1d(np.asarray(den, float))
+    num, den = num / den[0], den / den[0]
+    n = den.size - 1
+    if num.size > den.size:
+        raise ValueError("improper transfer function")
+    num = np.concatenate([np.zeros(den.size - num.size), num])
+    d = num[0]
+    if n == 0:
+        return StateSpace(np.zeros((0, 0)), np.zeros((0, 1)), np.zeros((1, 0)), np.array([[d]]))
+    A = np.zeros((n, n))
+    A[:, 0] = -den[1:]
+    A[:-1, 1:] = np.eye(n - 1)
+    B = (num[1:] - d * den[1:])[:, None]
+    C = np.zeros((1, n))
+    C[0, 0] = 1.0
+    return balance(StateSpace(A, B, C, np.array([[d]])))
+
+
+def balance(sys: StateSpace) -> StateSpace:
+    """The states of an unbatched single-input single-output system rescaled so that A, B and C are of
+    comparable size (``ssbal``)."""
+    n = sys.order
+    M = np.zeros((n + 1, n + 1))
+    M[:n, :n], M[:n, n:], M[n:, :n] = sys.A, sys.B, sys.C
+    _, (scale, _) = matrix_balance(M, permute=False, separate=True)
+    t = scale[:n] / scale[n]
+    return StateSpace(sys.A * (1 / t)[:, None] * t[None, :], sys.B / t[:, None], sys.C * t[None, :], sys.D)
+
+
+def time_scaled(sys: StateSpace, seconds: float) -> StateSpace:
+    """H(s seconds) of a system H(p) realised in the dimensionless p."""
+    return StateSpace(sys.A / seconds, sys.B / seconds, sys.C, sys.D)
+
+
+def _batched(sys: StateSpace, n: int) -> StateSpace:
+    """``sys`` with a leading batch axis of ``n`` (broadcast when it has none)."""
+    if sys.A.ndim == 3:
+        return sys
+    return StateSpace(*(np.broadcast_to(x, (n, *x.shape)) for x in (sys.A, sys.B, sys.C, sys.D)))
+
+
+def series(first: StateSpace, second: StateSpace) -> StateSpace:
+    """``second`` after ``first``, single-input single-output, batched (n, ...)."""
+    n1, n2 = first.order, second.order
+    batch = first.A.shape[0]
+    A = np.zeros((batch, n1 + n2, n1 + n2))
+    A[:, :n1, :n1] = first.A
+    A[:, n1:, :n1] = second.B @ first.C
+    A[:, n1:, n1:] = second.A
+    B = np.concatenate([first.B, second.B @ first.D], axis=1)
+    C = np.concatenate([second.D @ first.C, second.C], axis=2)
+    return StateSpace(A, B, C, second.D @ first.D)
+
+
+def _column(value, n: int) -> np.ndarray:
+    return np.broadcast_to(np.asarray(value, float).reshape(-1), (n,))
+
+
+def effect_ss(effect: ChainEffect, n: int, pade_order: int = PADE_ORDER) -> StateSpace:
+    """One chain effect of a batch of ``n`` plants as a batched state-space factor (a delay by its Pade
+    approximant, realised once in the dimensionless s tau and scaled)."""
+    if isinstance(effect, Delay):
+        tau = _column(effect.seconds, n)
+        if np.all(tau == 0):
+            return _batched(tf_ss([1.0], [1.0]), n)
+        unit = tf_ss(*pade_polys(1.0, pade_order))
+        t = np.where(tau > 0, tau, 1.0)[:, None, None]
+        A, B = unit.A[None] / t, unit.B[None] / t
+        C = np.broadcast_to(unit.C, (n, *unit.C.shape))
+        D = np.broadcast_to(unit.D, (n, 1, 1)).copy()
+        zero = tau == 0                      # no delay in that plant: the all-pass's feedthrough alone
+        B, C = np.where(zero[:, None, None], 0.0, B), np.where(zero[:, None, None], 0.0, C)
+        D[zero] = 1.0
+        return StateSpace(A, B, C, D)
+    if isinstance(effect, CurrentLoop):
+        wc = 2 * math.pi * _column(effect.bandwidth_hz, n)[:, None, None]
+        return StateSpace(-wc, wc, np.ones((n, 1, 1)), np.zeros((n, 1, 1)))
+    parts = []
+    for j in range(n):
+        one = replace_unchecked(effect, {f.name: float(_column(getattr(effect, f.name), n)[j])
+                                         for f in fields(effect)})
+        tf = one.to_tf(pade_order=pade_order)
+        parts.append(tf_ss(np.asarray(tf.num[0][0], float), np.asarray(tf.den[0][0], float)))
+    return StateSpace(*(np.stack([getattr(p, k) for p in parts]) for k in "ABCD"))
+
+
+def chain_ss(plants: Plant, place: str, n: int, pade_order: int = PADE_ORDER) -> StateSpace:
+    """The product of a batch of ``n`` plants' chain effects at ``place`` ("drive" or "sensor")."""
+    out = _batched(tf_ss([1.0], [1.0]), n)
+    for e in plants.effects:
+        if isinstance(e, ChainEffect) and e.place == place:
+            out = series(out, effect_ss(e, n, pade_order))
+    return out
+
+
+def mechanics_ss(plants: Plant, n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(A, B, C) of a batch of ``n`` plants' mechanics, velocity per motor force (m/s per N): one body in
+    closed form, a chain of bodies plant by plant (``plant.physics.models.chain_state_space``)."""
+    chain = plants.mechanics()
+    if len(chain.masses_kg) == 1:
+        m = _column(chain.masses_kg[0], n)[:, None, None]
+        b = _column(chain.rail_damping_n_s_per_m, n)[:, None, None]
+        return -b / m, 1.0 / m, np.ones((n, 1, 1))
+    parts = []
+    for j in range(n):
+        pick = lambda x: float(_column(x, n)[j])          # noqa: E731
+        one = replace(chain, masses_kg=tuple(map(pick, chain.masses_kg)),
+                      stiffness_n_per_m=tuple(map(pick, chain.stiffness_n_per_m)),
+                      damping_n_s_per_m=tuple(map(pick, chain.damping_n_s_per_m)),
+                      rail_damping_n_s_per_m=pick(chain.rail_damping_n_s_per_m))
+        A, B, C = chain_state_space(one)
+        parts.append((A, B[:, :1], C))
+    return tuple(np.stack([p[i] for p in parts]) for i in range(3))
+
+
+def free_gantry(plants: Plant, n: int, *, kp: float, ki: float, pade_order: int = PADE_ORDER) -> StateSpace:
+    """The free gantries of a batch of ``n`` plants under the PI velocity loop kp + ki/s: inputs (velocity
+    reference u m/s, clamp force f N), outputs (velocity v m/s, acceleration dv/dt m/s^2), batched (n, ...).
+
+    Mechanics x_g' = A_g x_g + B_g (F_m + f), v = C_g x_g; sensor H on v; PI integrator xi' = u - v_m;
+    drive E on c = kp (u - v_m) + ki xi; F_m = K_t E c."""
+    Ag, Bg, Cg = mechanics_ss(plants, n)
+    E, H = chain_ss(plants, "drive", n, pade_order), chain_ss(plants, "sensor", n, pade_order)
+    kt = _column(plants.force_constant_n_per_a, n)[:, None]
+    ng, nh, ne = Ag.shape[-1], H.order, E.order
+    ni = 1 if ki > 0 else 0
+    m = ng + nh + ni + ne
+    g, h, i, e = slice(0, ng), slice(ng, ng + nh), slice(ng + nh, ng + nh + ni), slice(ng + nh + ni, m)
+    eye = np.eye(m + 2)
+    # each signal as rows (n, m + 2): a linear map of [x, u, f]
+    v = np.zeros((n, m + 2))
+    v[:, g] = Cg[:, 0]
+    vm = H.D[:, 0] * v
+    vm[:, h] += H.C[:, 0]
+    err = -vm
+    err[:, m] += 1.0
+    c = kp * err
+    if ni:
+        c[:, i] += ki
+    force = kt * E.D[:, 0] * c
+    force[:, e] += kt * E.C[:, 0]
+    force[:, m + 1] += 1.0
+    M = np.zeros((n, m, m + 2))
+    M[:, g] = Ag @ eye[g] + Bg @ force[:, None, :]
+    M[:, h] = H.A @ eye[h] + H.B @ v[:, None, :]
+    if ni:
+        M[:, i] = err[:, None, :]
+    M[:, e] = E.A @ eye[e] + E.B @ c[:, None, :]
+    out = np.stack([v, (Cg @ M[:, g])[:, 0]], axis=1)
+    return StateSpace(M[:, :, :m], M[:, :, m:], out[:, :, :m], out[:, :, m:])
+
+
+@dataclass(frozen=True)
+class ClampLoad:
+    """Loads on the clamp, a batch (n,): a mass riding it (kg) and the force f_b it pushes back with besides,
+    from its own states (x' = A x + B v, f_b = C x + D v)."""
+
+    head_kg: np.ndarray
+    body: StateSpace
+
+
+def mouse_loads(mice: MouseModel) -> ClampLoad:
+    """A batch of mice of one kind (all grounded or all floating; fields (n, 1) or (n,)): the head on the clamp,
+    the body m_b behind the neck (k_n, c_n) on its legs (k_l, c_l). States (v_b, q = x_b - x, x_b); x_b left out
+    for a floating body. f_b = -(k_n q + c_n (v_b - v)), the neck's pull on the head reversed."""
+    f = {k: np.asarray(getattr(mice, k), float).reshape(-1) for k in MouseModel.__dataclass_fields__}
+    mb, kn, cn = f["body_mass_kg"], f["neck_stiffness_n_per_m"], f["neck_damping_n_s_per_m"]
+    kl, cl = f["leg_stiffness_n_per_m"], f["leg_damping_n_s_per_m"]
+    grounded = (kl > 0) | (cl > 0)
+    if grounded.any() and not grounded.all():
+        raise ValueError("mouse_loads takes mice of one kind (grounded or floating)")
+    n, m = mb.size, 3 if grounded.all() else 2
+    A, B, C, D = np.zeros((n, m, m)), np.zeros((n, m, 1)), np.zeros((n, 1, m)), np.zeros((n, 1, 1))
+    A[:, 0, 0], A[:, 0, 1], B[:, 0, 0] = -(cn + cl) / mb, -kn / mb, cn / mb
+    A[:, 1, 0], B[:, 1, 0] = 1.0, -1.0
+    if m == 3:
+        A[:, 0, 2], A[:, 2, 0] = -kl / mb, 1.0
+    C[:, 0, 0], C[:, 0, 1], D[:, 0, 0] = -cn, -kn, cn
+    return ClampLoad(f["head_mass_kg"], StateSpace(A, B, C, D))
+
+
+def spring_loads(stiffness_n_per_m) -> ClampLoad:
+    """Springs from the clamp to the ground (N/m), a batch: f_b = k x."""
+    k = np.asarray(stiffness_n_per_m, float).reshape(-1)
+    n = k.size
+    return ClampLoad(np.zeros(n), StateSpace(np.zeros((n, 1, 1)), np.ones((n, 1, 1)), k[:, None, None],
+                                             np.zeros((n, 1, 1))))
+
+
+def attach(free: StateSpace, load: ClampLoad) -> StateSpace:
+    """The path u -> K (F_s = -K u) of free gantries (batch (n,) or one) each with its load (batch (n,)): the
+    clamp pushed by f = -(m_h a + f_b), a = C_a x + d_au u + d_af f solved for f."""
+    n = load.head_kg.size
+    if free.A.ndim == 2:
+        free = StateSpace(*(np.broadcast_to(x, (n, *x.shape)) for x in (free.A, free.B, free.C, free.D)))
+    ng, nb = free.order, load.body.order
+    mh = load.head_kg[:, None]
+    Cv, Ca = free.C[:, 0, :], free.C[:, 1, :]
+    dau, daf = free.D[:, 1, 0][:, None], free.D[:, 1, 1][:, None]
+    Cb, Db = load.body.C[:, 0, :], load.body.D[:, 0, 0][:, None]
+    g = 1.0 / (1.0 + mh * daf)
+    # f = Fx [x_g, x_b] + Fu u
+    Fx = np.concatenate([-(mh * Ca + Db * Cv) * g, -Cb * g], axis=1)
+    Fu = -(mh * dau) * g
+    A = np.zeros((n, ng + nb, ng + nb))
+    A[:, :ng, :ng] = free.A
+    A[:, ng:, :ng] = load.body.B @ Cv[:, None, :]
+    A[:, ng:, ng:] = load.body.A
+    Bf = free.B[:, :, 1:2]
+    A[:, :ng, :] += Bf * Fx[:, None, :]
+    B = np.zeros((n, ng + nb, 1))
+    B[:, :ng] = free.B[:, :, :1] + Bf * Fu[:, None, :]
+    return StateSpace(A, B, -Fx[:, None, :], -Fu[:, None, :])
+
+
+def filtered(path: StateSpace, filter_hz: float | None, order: int) -> StateSpace:
+    """The path followed by the force filter (a Butterworth low-pass of ``order`` at ``filter_hz``; None: none)."""
+    if filter_hz is None:
+        return path
+    f = tf_ss(*force_filter_polys(filter_hz, order))
+    n, nf = path.order, f.order
+    batch = path.A.shape[:-2]
+    A = np.zeros((*batch, n + nf, n + nf))
+    A[..., :n, :n] = path.A
+    A[..., n:, :n] = f.B @ path.C
+    A[..., n:, n:] = f.A
+    B = np.concatenate([path.B, f.B @ path.D], axis=-2)
+    C = np.concatenate([f.D @ path.C, np.broadcast_to(f.C, (*batch, 1, nf))], axis=-1)
+    return StateSpace(A, B, C, f.D @ path.D)
+
+
+def zoh(path: StateSpace, period_s: float) -> StateSpace:
+    """The exact zero-order-hold discretisation (Phi, Gamma, C, D) of a batch of single-input paths."""
+    n = path.order
+    batch = path.A.shape[:-2]
+    M = np.zeros((*batch, n + 1, n + 1))
+    M[..., :n, :n] = path.A * period_s
+    M[..., :n, n:] = path.B * period_s
+    E = expm(M)
+    return StateSpace(E[..., :n, :n], E[..., :n, n:], path.C, path.D)
+
+
+
+def discrete_response(sys: StateSpace, z) -> np.ndarray:
+    """C (zI - Phi)^-1 Gamma + D of a batch (n,) of single-input single-output systems at the points ``z``,
+    (n, len(z)): by each Phi's eigenvectors where they are well conditioned (``EIG_CONDITION``), else by LU
+    solves; ``RESPONSE_BLOCK`` systems at a time (memory)."""
+    z = np.asarray(z, complex)
+    out = np.empty((sys.A.shape[0], z.size), complex)
+    for start in range(0, sys.A.shape[0], RESPONSE_BLOCK):
+        part = slice(start, start + RESPONSE_BLOCK)
+        out[part] = _response_block(sys.take(part), z)
+    return out
+
+
+def _response_block(sys: StateSpace, z: np.ndarray) -> np.ndarray:
+    lam, V = np.linalg.eig(sys.A)
+    with np.errstate(all="ignore"):
+        cond = np.linalg.cond(V)
+    out = np.empty((sys.A.shape[0], z.size), complex)
+    good = np.isfinite(cond) & (cond < EIG_CONDITION)
+    if good.any():
+        Vg = V[good]
+        left = (sys.C[good] @ Vg)[:, 0, :]
+        right = np.linalg.solve(Vg, sys.B[good].astype(complex))[:, :, 0]
+        residue, poles = left * right, lam[good]
+        acc = np.broadcast_to(sys.D[good, 0, 0][:, None], (residue.shape[0], z.size)).astype(complex)
+        for m in range(sys.order):            # mode by mode: a 3-D broadcast division is several times slower
+            acc += residue[:, m, None] / (z[None, :] - poles[:, m, None])
+        out[good] = acc
+    eye = np.eye(sys.order)
+    for k in np.flatnonzero(~good):
+        x = np.linalg.solve(z[:, None, None] * eye - sys.A[k], np.broadcast_to(sys.B[k], (z.size, *sys.B[k].shape)))
+        out[k] = (sys.C[k] @ x)[:, 0, 0] + sys.D[k, 0, 0]
+    return out
+
+
+def law_coefficients(m_v, b_v, period_s: float, forward_euler: bool) -> tuple[np.ndarray, np.ndarray]:
+    """(alpha, beta) of the law v[k] = alpha v[k-1] + beta F[k] (``design.admittance.rig``)."""
+    m_v, b_v = np.asarray(m_v, float), np.asarray(b_v, float)
+    if forward_euler:
+        return 1.0 - b_v * period_s / m_v, period_s / m_v
+    return m_v / (m_v + b_v * period_s), period_s / (m_v + b_v * period_s)
+
+
+def closed_loop_radius(sys: StateSpace, alpha, beta, delay_samples: int) -> np.ndarray:
+    """Spectral radius of the coupled discrete loop of a batch of discretised paths (F[k] = -y[k]) under the law
+    (alpha, beta) whose output u[k] = v[k - d]: < 1 is stable. States (x[k], v[k-1], ..., v[k-d])."""
+    n = sys.order
+    batch = sys.A.shape[0]
+    alpha = np.broadcast_to(np.asarray(alpha, float), (batch,))
+    beta = np.broadcast_to(np.asarray(beta, float), (batch,))
+    d = delay_samples
+    size = n + max(d, 1)
+    M = np.zeros((batch, size, size))
+    G, C, D = sys.B[:, :, 0], sys.C[:, 0, :], sys.D[:, 0, 0]
+    if d == 0:
+        # u[k] = v[k] = alpha v[k-1] - beta (C x[k] + D u[k])
+        g = 1.0 / (1.0 + beta * D)
+        ux, uv = -(beta * g)[:, None] * C, alpha * g
+        M[:, :n, :n] = sys.A + G[:, :, None] * ux[:, None, :]
+        M[:, :n, n] = G * uv[:, None]
+        M[:, n, :n], M[:, n, n] = ux, uv
+    else:
+        # u[k] = v[k-d] (the last state); v[k] = alpha v[k-1] - beta (C x[k] + D u[k])
+        last = n + d - 1
+        M[:, :n, :n] = sys.A
+        M[:, :n, last] = G
+        M[:, n, :n] = -beta[:, None] * C
+        M[:, n, n] = alpha
+        M[:, n, last] += -beta * D
+        for j in range(1, d):
+            M[:, n + j, n + j - 1] = 1.0
+    return np.max(np.abs(np.linalg.eigvals(M)), axis=-1)
+
+
+def discretised_paths(loops, scenarios, loads: ClampLoad, timing, rows=None) -> StateSpace:
+    """The exactly sampled paths (Phi, Gamma, C, D) of each load c at scenario ``rows[c]`` (default c), the
+    force filter of ``timing`` included: ``loops.free_state_space(scenarios)`` is the free gantries' batch."""
+    free = loops.free_state_space(scenarios)
+    rows = np.arange(load_count(loads)) if rows is None else np.asarray(rows)
+    path = filtered(attach(free.take(rows), loads), timing.filter_hz, timing.filter_order)
+    return zoh(path, timing.period_s)
+
+
+def load_count(loads: ClampLoad) -> int:
+    return int(loads.head_kg.size)
+
+
+def sampled_gain(paths: StateSpace, w_rad_s, timing) -> np.ndarray:
+    """e^(-jwdT) K_d(e^(jwT)) of discretised paths on the grid ``w_rad_s`` (rad/s), (n, n_f): the interaction
+    loop is this over m_v sigma + b_v rho (``design.admittance.rig``)."""
+    w = np.asarray(w_rad_s, float)
+    z = np.exp(1j * w * timing.period_s)
+    return discrete_response(paths, z) * z ** (-timing.delay_samples)
+
+
+def mouse_kinds(mice: MouseModel) -> list[tuple[np.ndarray, ClampLoad]]:
+    """A batch of mice split by kind (floating, grounded): (indices into the batch, their loads) per kind."""
+    kl = np.asarray(mice.leg_stiffness_n_per_m, float).reshape(-1)
+    cl = np.broadcast_to(np.asarray(mice.leg_damping_n_s_per_m, float).reshape(-1), kl.shape)
+    grounded = (kl > 0) | (cl > 0)
+    out = []
+    for keep in (~grounded, grounded):
+        idx = np.flatnonzero(keep)
+        if idx.size:
+            out.append((idx, mouse_loads(MouseModel(*(np.broadcast_to(np.asarray(getattr(mice, f), float).reshape(-1),
+                                                                                kl.shape)[idx]
+                                                      for f in MouseModel.__dataclass_fields__)))))
+    return out
+
+
+def mice_paths(loops, scenarios, mice: MouseModel, timing, *, paired: bool) -> list[tuple[np.ndarray, StateSpace]]:
+    """Discretised paths of a batch of mice: with ``paired`` mouse k at scenario k, else every mouse at every
+    scenario (curve index mouse * n_scenario + scenario); as (curve indices, paths) per kind of mouse."""
+    n_s = len(scenarios)
+    out = []
+    for idx, loads in mouse_kinds(mice):
+        if paired:
+            out.append((idx, discretised_paths(loops, scenarios, loads, timing, rows=idx)))
+            continue
+        rows = np.tile(np.arange(n_s), idx.size)
+        each = ClampLoad(np.repeat(loads.head_kg, n_s), StateSpace(*(np.repeat(getattr(loads.body, k), n_s, axis=0)
+                                                                     for k in "ABCD")))
+        curves = (idx[:, None] * n_s + np.arange(n_s)[None, :]).ravel()
+        out.append((curves, discretised_paths(loops, scenarios, each, timing, rows=rows)))
+    return out

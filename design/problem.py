@@ -27,6 +27,7 @@ The admittance stage's section of a spec file, every key optional (defaults belo
     travel_m = 0.4
     [admittance.hardware]
     motor_peak_force_n = 300.0
+    motor_force_criterion = "locomotion"      # or "worst_sinusoid": the mouse's peak force at any frequency
     force_sensor_resolution_n = 0.00625
     max_current_per_sensor_step_a = 0.1       # optional
     [admittance.sensor]
@@ -291,8 +292,14 @@ class Locomotion:
 
 @dataclass(frozen=True)
 class Hardware:
+    """The rig's limits. ``motor_force_criterion`` says what the motor's peak force is held to: "locomotion"
+    (the default), its largest force while the spec's mouse runs the spec's locomotion profile, at every
+    payload, uncertainty corner and mouse; "worst_sinusoid", the mouse's peak force as a sinusoid at the worst
+    frequency up to the law's Nyquist frequency (a stricter bound no locomotion needs)."""
+
     __pydantic_config__ = FORBID
     motor_peak_force_n: Annotated[float, Gt(0), Le(1e5)] = 300.0
+    motor_force_criterion: Literal["locomotion", "worst_sinusoid"] = "locomotion"
     #: thesis section 1.2: ATI Nano17, resolution 6.25 mN
     force_sensor_resolution_n: Annotated[float, Gt(0), Le(10)] = 0.00625
     #: optional: motor current one resolution step of the sensed force may cause, at most (A)

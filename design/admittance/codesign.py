@@ -4,7 +4,7 @@ design) chosen together with the virtual dynamics.
 The interaction loop depends on the PI gains through R and S (``design.admittance.model``): a lower
 integral gain, for one, makes the velocity loop softer against a braced mouse. For a candidate
 (Kp, Ki[, f_c]) the score is the peak force the mouse feels on the locomotion profile
-(``design.admittance.feel.FeltForce``) at the best ray of ``design.admittance.ray`` on a reduced set
+(``design.admittance.profile.FeltForce``) at the best ray of ``design.admittance.ray`` on a reduced set
 (four payloads x the uncertainty corners x the mice with legs off, at the ends of their range; a coarse
 grid); a candidate whose velocity loop misses the spec's PI requirements (phase and gain margin at the
 same scenarios) is out. The search is a log grid over the gain bounds around the given gains,
@@ -19,9 +19,10 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from design.admittance.feel import FeltForce, feel_scenarios
+from design.admittance.feel import feel_scenarios
 from design.admittance.model import PiLoops, admittance_problem, interaction_responses, with_mode_points
 from design.admittance.mouse import mouse_set
+from design.admittance.profile import FeltForce
 from design.admittance.ray import best_ray, ray_problem
 from design.admittance.rig import RigTiming
 from design.loop.loops import pi_frd

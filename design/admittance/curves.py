@@ -9,7 +9,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from design.admittance.feel import FeltForce, feel_scenarios
+from design.admittance.feel import feel_scenarios
 from design.admittance.model import (
     AdmittanceEvaluator,
     PiLoops,
@@ -20,6 +20,7 @@ from design.admittance.model import (
     virtual_impedance_frd,
 )
 from design.admittance.mouse_run import MouseRun, mouse_run, run_settings, trapezoid_path
+from design.admittance.profile import FeltForce
 from design.loop.curves import report_payloads
 from design.problem import LoopProblem
 from plant.grid import log_grid_rad_s

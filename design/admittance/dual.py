@@ -34,7 +34,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from design.admittance.feel import FeltForce, MouseFeel, mouse_feel
+from design.admittance.feel import MouseFeel, mouse_feel
 from design.admittance.model import (
     AdmittanceCheck,
     AdmittanceEvaluator,
@@ -46,6 +46,7 @@ from design.admittance.model import (
 )
 from design.admittance.monte_carlo import AdmittanceMonteCarlo
 from design.admittance.mouse import MouseModel
+from design.admittance.profile import FeltForce
 from design.admittance.rig import DiscreteAdmittance, RigTiming
 from design.admittance.synthesis import design_rounds, ray_binding
 from design.loop.dual import Controller
@@ -219,6 +220,9 @@ def synthesise_dual_admittance(problem: LoopProblem, *, structure: str, controll
     if not ray.feasible:
         return _infeasible(problem, ray, structure, controller, dense, dense_set, corners, timing, len(scenarios), t0)
     binding = ray_binding(problem, rounds.rp, ray, corners, rounds.rp_scenarios)
+    if rounds.backed_off is not None:
+        binding = {**rounds.backed_off, "detail": rounds.backed_off["detail"] + " at the ray's design; (m_v, b_v) "
+                   "scaled up the ray until it holds"}
     say("what the mouse feels")
     feel = mouse_feel(problem, loops=loops, m_v=x[0], b_v=x[1], scenarios=feel_set, corners=corners, timing=timing,
                       felt=felt)

@@ -1,19 +1,10 @@
 """What the mouse feels with a design: the force on its locomotion profile, the speed and acceleration its
 force budget reaches, the apparent mass and damping over frequency, and the gantry at rest.
 
-* **Force felt on the profile.** The mouse's body follows the trapezoidal profile (velocity v_b(t)); the
-  head (mass m_h) rides the clamp, whose velocity answers the sensed force through the rendered
-  admittance, v_h = Y_r F_s; the neck (Z_n = c_n + k_n/s) carries the force between body and head. The
-  force the mouse feels is the neck force::
-
-      F_n / v_b = Z_n (1 + m_h s Y_r) / (1 + (Z_n + m_h s) Y_r)
-
-  (m_v a + b_v v at low frequency, and bounded at the profile's acceleration steps: the neck is what
-  a real mouse pushes through). Computed by FFT over the profile padded with rest, with an exponential
-  window (the input times e^(-c t), the response at s = c + jw, the output times e^(c t), c = 8 / the
-  window's length) so the circular convolution's wrap-around is damped by e^-8 and slow modes of the
-  loop (an integral gain far below the proportional one) come out as the response from rest; at every
-  scenario and mouse of the evaluation set; the peak and the RMS over the moving part are reported.
+* **Force felt on the profile.** The neck force while the body runs the trapezoid
+  (``design.admittance.profile``): m_v a + b_v v at low frequency, and bounded at the profile's
+  acceleration steps (the neck is what a real mouse pushes through); at every scenario and mouse of the
+  evaluation set; the peak and the RMS over the moving part are reported.
 * **Reach.** Pushing with its peak force F from rest, the clamp reaches the speed F Y_r(0) = F / b_v, and
   its acceleration peaks at max d/dt of F times the step response of Y_r.
 * **Apparent dynamics.** 1/Y_r = b_app(w) + j w m_app(w): apparent damping and mass over frequency.
@@ -23,7 +14,6 @@ force budget reaches, the apparent mass and damping over frequency, and the gant
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -33,46 +23,10 @@ from design.admittance.model import (
     breakaway_force_n,
     drift_mm_per_s,
 )
-from design.admittance.mouse import stack
+from design.admittance.profile import DT_S, FeltForce, Profile
 from design.admittance.rig import RigTiming
-from design.problem import Locomotion, LoopProblem
+from design.problem import LoopProblem
 from design.synth.scenarios import Scenarios
-
-#: time step (s) and rest before and after the profile (s) of the force computation
-DT_S = 1e-3
-REST_S = 0.6
-
-
-@dataclass(frozen=True)
-class Profile:
-    """A trapezoidal velocity profile: time (s), acceleration (m/s^2), velocity (m/s)."""
-
-    time_s: np.ndarray
-    acceleration_m_per_s2: np.ndarray
-    velocity_m_per_s: np.ndarray
-
-    @property
-    def moving(self) -> np.ndarray:
-        return self.velocity_m_per_s > 0
-
-
-def trapezoid(loc: Locomotion, *, dt_s: float = DT_S, rest_s: float = REST_S) -> Profile:
-    """Accelerate at a_pk to v_pk, run, decelerate, over the travel (a triangle when the travel is too short
-    to reach v_pk), with ``rest_s`` of rest before and after (bsbrl/exoskeleton
-    ``MAIN_generate_trapezoidal_profile.m``, after Dombre & Khalil)."""
-    a, v, d = loc.peak_acceleration_m_per_s2, loc.peak_speed_m_per_s, loc.travel_m
-    t_acc = v / a
-    if a * t_acc**2 > d:                       # triangle: never reaches v_pk
-        t_acc = math.sqrt(d / a)
-        v = a * t_acc
-    t_run = (d - a * t_acc**2) / v
-    total = 2 * t_acc + t_run
-    t = np.arange(0.0, total + 2 * rest_s, dt_s)
-    tau = t - rest_s
-    acc = np.where((tau >= 0) & (tau < t_acc), a, np.where((tau >= t_acc + t_run) & (tau < total), -a, 0.0))
-    vel = np.clip(np.where(tau < t_acc, a * tau, np.where(tau < t_acc + t_run, v, v - a * (tau - t_acc - t_run))),
-                  0.0, v)
-    return Profile(t, acc, np.where((tau >= 0) & (tau <= total), vel, 0.0))
 
 
 @dataclass(frozen=True)
@@ -102,53 +56,6 @@ class MouseFeel:
     profile: Profile
     force_n: np.ndarray
     ideal_force_n: np.ndarray
-
-
-class FeltForce:
-    """The peak force the mouse feels on the locomotion profile for any (m_v, b_v), worst over ``scenarios``
-    x the distinct necks and heads of ``corners`` (module docstring): the parts that do not depend on
-    (m_v, b_v) are computed once on the profile's FFT grid, so a search can call it many times."""
-
-    def __init__(self, problem: LoopProblem, scenarios, corners, *, loops, timing: RigTiming):
-        adm = admittance_problem(problem)
-        self.profile = trapezoid(adm.locomotion)
-        self.n = self.profile.time_s.size
-        self.damping = 8.0 / (self.n * DT_S)
-        f = np.fft.rfftfreq(self.n, DT_S)
-        s = self.damping + 2j * np.pi * f
-        loop = loops.at(s, scenarios)
-        self.scenarios, self.timing = scenarios, timing
-        self.sg = loop.sensitivity_mobility                                 # (n_s, n_f)
-        self.rw = loop.reference * timing.fundamental_at(s)
-        self.sigma, self.rho = timing.sigma_at(s), timing.rho_at(s)
-        self.necks = list({(m.head_mass_kg, m.neck_stiffness_n_per_m, m.neck_damping_n_s_per_m): m
-                           for m in corners}.values())
-        batch = stack(self.necks)
-        self.zn = (batch.neck_damping_n_s_per_m + batch.neck_stiffness_n_per_m / s)[:, None, :]
-        self.mh = (batch.head_mass_kg * s)[:, None, :]
-        self.window = np.exp(-self.damping * self.profile.time_s)
-        self.vb = np.fft.rfft(self.profile.velocity_m_per_s * self.window)
-        self.moving = self.profile.moving
-        # the apparent dynamics and the reach are read on the imaginary axis
-        self.f_hz = f[1:]
-        self.w = 2 * np.pi * self.f_hz
-        free = loops.at(1j * self.w, scenarios)
-        self._sg_jw = free.sensitivity_mobility
-        self._rw_jw = free.reference * timing.fundamental(self.w)
-        self._sigma_jw, self._rho_jw = timing.sigma(self.w), timing.rho(self.w)
-
-    def rendered(self, m_v: float, b_v: float) -> np.ndarray:
-        """Y_r at the FFT frequencies (on the imaginary axis, without DC), (n_s, n_f)."""
-        return self._sg_jw + self._rw_jw / (m_v * self._sigma_jw + b_v * self._rho_jw)
-
-    def forces(self, m_v: float, b_v: float) -> np.ndarray:
-        """The neck force over the profile at every neck and scenario, (n_neck, n_s, n_t)."""
-        yr = self.sg + self.rw / (m_v * self.sigma + b_v * self.rho)
-        h = self.zn * (1 + self.mh * yr) / (1 + (self.zn + self.mh) * yr)
-        return np.fft.irfft(h * self.vb, self.n) / self.window
-
-    def __call__(self, m_v: float, b_v: float) -> float:
-        return float(np.max(np.abs(self.forces(m_v, b_v)[..., self.moving])))
 
 
 def feel_scenarios(problem: LoopProblem) -> Scenarios:

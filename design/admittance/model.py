@@ -46,6 +46,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from design.admittance.mouse import MouseModel, mouse_set, stack
+from design.admittance.profile import FeltForce
 from design.admittance.rig import RigTiming, force_filter_frd
 from design.admittance.sampled import (
     StateSpace,
@@ -423,13 +424,14 @@ class AdmittanceCheck:
     bound_ratio: np.ndarray
     #: motor current per force-sensor step, peak over frequency (A), (n_scenario,)
     sensor_current_a: np.ndarray
-    #: motor force for the spec's peak mouse force, peak over frequency (N), (n_scenario,)
+    #: the motor's peak force (N), (n_scenario,): on the locomotion profile, or for the spec's peak mouse force at
+    #: the worst frequency (``admittance.hardware.motor_force_criterion``)
     motor_force_n: np.ndarray
     #: the rendered admittance stays within 3 dB / 30 deg of the virtual dynamics up to here (Hz)
     rendered_bandwidth_hz: np.ndarray
     #: Re Y_r >= 0 from DC up to here (Hz; inf: on the whole grid), (n_scenario,)
     passive_up_to_hz: np.ndarray
-    #: frequencies (Hz) of the hardware peaks, (n_scenario,)
+    #: frequencies (Hz) of the hardware peaks (the motor's nan on the locomotion profile), (n_scenario,)
     sensor_peak_hz: np.ndarray
     motor_peak_hz: np.ndarray
     #: steady drift at rest (mm/s) under the offset left after taring
@@ -518,6 +520,9 @@ class AdmittanceEvaluator:
             return loop
 
         self._free = thread_map(attached, self.blocks)
+        # the motor on the locomotion profile (``admittance.hardware.motor_force_criterion``)
+        self._profile = (FeltForce(problem, self.scenarios, self.corners, loops=loops, timing=self.timing)
+                         if self.adm.hardware.motor_force_criterion == "locomotion" else None)
 
     def exact_margins(self, m_v: float, b_v: float, k_idx: np.ndarray, j_idx: np.ndarray):
         """(PM deg, GM dB, stable) of the curves (mouse k_idx[i], scenario j_idx[i]) on the check grid, sampled
@@ -606,6 +611,10 @@ class AdmittanceEvaluator:
         z = self.timing.impedance(self.w, m_v, b_v)
         i_resp = self._current_path / np.abs(z) * hw.force_sensor_resolution_n
         f_resp = np.abs(self._motor_force + self._motor_reference_path / z).max(axis=0) * fpk
+        if self._profile is None:
+            motor, motor_hz = f_resp.max(-1), fhz[f_resp.argmax(-1)]
+        else:
+            motor, motor_hz = self._profile.motor_peak_n(m_v, b_v), np.full(n_s, np.nan)
         stable &= self.attached_stable
         bw, passive = np.full(n_s, np.nan), np.empty(n_s)
         for rows, loop in zip(self.blocks, self._free):
@@ -615,8 +624,8 @@ class AdmittanceEvaluator:
                 virtual = 1.0 / virtual_impedance_frd(loop.w_rad_s, m_v, b_v)
                 bw[rows] = admittance_bandwidth_hz(loop.w_rad_s, yr, virtual)
         check = AdmittanceCheck(float(m_v), float(b_v), self.scenarios, self.corners, pm, gm, stable, ratio,
-                                i_resp.max(-1), f_resp.max(-1), bw, passive, fhz[i_resp.argmax(-1)],
-                                fhz[f_resp.argmax(-1)], float(drift_mm_per_s(adm, b_v)), ())
+                                i_resp.max(-1), motor, bw, passive, fhz[i_resp.argmax(-1)], motor_hz,
+                                float(drift_mm_per_s(adm, b_v)), ())
         return replace(check, violations=violations(adm, check))
 
 
@@ -661,10 +670,13 @@ def violations(adm: AdmittanceProblem, c: AdmittanceCheck) -> tuple[dict, ...]:
                 f" A (admittance.hardware.max_current_per_sensor_step_a = {limit:g} A) at {where}, "
                 f"{c.sensor_peak_hz[j]:.3g} Hz")
         if c.motor_force_n[j] > hw.motor_peak_force_n * (1 + 1e-6):
+            loc = adm.locomotion
+            asked = (f"the mouse running the locomotion profile ({loc.peak_speed_m_per_s:g} m/s, "
+                     f"{loc.peak_acceleration_m_per_s2:g} m/s^2)" if hw.motor_force_criterion == "locomotion" else
+                     f"a {adm.mouse.peak_force_n:g} N mouse force at {c.motor_peak_hz[j]:.3g} Hz")
             add("motor_force", j, None, c.motor_force_n[j], hw.motor_peak_force_n,
-                f"a {adm.mouse.peak_force_n:g} N mouse force asks {c.motor_force_n[j]:.4g} N of the motor "
-                f"(admittance.hardware.motor_peak_force_n = {hw.motor_peak_force_n:g} N) at {where}, "
-                f"{c.motor_peak_hz[j]:.3g} Hz")
+                f"{asked} asks {c.motor_force_n[j]:.4g} N of the motor (admittance.hardware.motor_peak_force_n = "
+                f"{hw.motor_peak_force_n:g} N, motor_force_criterion = {hw.motor_force_criterion}) at {where}")
         if adm.passivity is not None:
             top = adm.passivity.up_to_hz
             need = np.inf if top is None else top

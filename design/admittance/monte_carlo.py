@@ -36,6 +36,7 @@ from design.admittance.model import (
     with_mode_points,
 )
 from design.admittance.mouse import FIELDS, MouseModel, random_mice
+from design.admittance.profile import FeltForce
 from design.admittance.ray import curve_bounds, polar
 from design.admittance.rig import RigTiming
 from design.loop.margins import nyquist_stable
@@ -116,7 +117,10 @@ def admittance_monte_carlo(problem: LoopProblem, *, loops, m_v: float, b_v: floa
         loop = loops.at(1j * w, sc)
         W = timing.fundamental(w)
         cur[rows] = np.max(current_path(loop, W) / np.abs(z), axis=-1) * hw.force_sensor_resolution_n
-        force[rows] = motor_force_peak(loop.motor_force, loop.motor_reference * W, z) * adm.mouse.peak_force_n
+        if hw.motor_force_criterion == "locomotion":
+            force[rows] = FeltForce(problem, sc, mouse, loops=loops, timing=timing, paired=True).motor_peak_n(m_v, b_v)
+        else:
+            force[rows] = motor_force_peak(loop.motor_force, loop.motor_reference * W, z) * adm.mouse.peak_force_n
         free = loops.at(1j * wc, sc)
         stable[rows] = nyquist_stable(attached_loop(free, mouse, paired=True))
 

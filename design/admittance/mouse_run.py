@@ -37,6 +37,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from design.admittance.profile import trapezoid
 from design.admittance.rig import DiscreteAdmittance
 
 #: RK4 steps per drive period at least, and the largest w h (w the fastest rate of the continuous part: the
@@ -206,9 +207,7 @@ class IntendedPath:
 
 
 def trapezoid_path(locomotion, rate_hz: float, *, rest_s: float = REST_S) -> IntendedPath:
-    """The spec's trapezoid (``design.admittance.feel.trapezoid``) at ``rate_hz``, with ``rest_s`` before and after."""
-    from design.admittance.feel import trapezoid
-
+    """The spec's trapezoid (``design.admittance.profile.trapezoid``) at ``rate_hz``, ``rest_s`` before and after."""
     prof = trapezoid(locomotion, dt_s=1.0 / rate_hz, rest_s=rest_s)
     v = prof.velocity_m_per_s
     x = np.concatenate([[0.0], np.cumsum(0.5 * (v[1:] + v[:-1]))]) / rate_hz

@@ -12,7 +12,8 @@ at each frequency, scenario and mouse, in closed form:
   the right half plane on the way (it would need L = -1). The window's edges and the -180 deg crossings
   between grid points are interpolated (``curve_bounds``); the curves (scenario x mouse) are visited in
   the order of a cheap upper bound, so a ray costs a few curves' exact bounds;
-* motor force |S - 1 + R W / (G t q)| F_pk <= F_max and passivity Re(S G) + Re(R W / q) / t >= 0 are
+* motor force (``motor_force_criterion = "worst_sinusoid"``; on the locomotion profile the dense check holds
+  it) |S - 1 + R W / (G t q)| F_pk <= F_max and passivity Re(S G) + Re(R W / q) / t >= 0 are
   quadratic and linear in 1/t; the sensor-step current |C S W| res / (t |q|) <= i_max, the drift
   1e3 beta / t <= limit and the bounds of m_v = tau t and b_v = t are bounds on t directly.
 
@@ -112,7 +113,7 @@ class RayProblem:
     current_peak: np.ndarray | None        # max over scenarios of |C S W| res / i_max, (n_f,)
     motor_force: np.ndarray                # motor force per sensed force at b_v = inf (S - 1), (n_motor x n_s, n_f)
     motor_reference: np.ndarray            # and the part over m_v sigma + b_v rho (R W / G), (n_motor x n_s, n_f)
-    force_ratio: float                     # F_max / F_pk
+    force_ratio: float                     # F_max / F_pk (inf: the motor is held on the locomotion profile)
     passive_re_sg: np.ndarray | None       # Re(S G) on the passivity band, (n_s, n_p)
     passive_rw: np.ndarray | None          # R W there
     passive_band: np.ndarray | None        # indices of the band's frequencies
@@ -148,7 +149,8 @@ def ray_problem(resp: InteractionResponses, adm: AdmittanceProblem, *, phase_mar
                       pm + HAIR_PM_DEG, 10 ** ((gm + HAIR_GM_DB) / 20), resp.timing.sampled, current,
                       resp.motor_force.reshape(-1, resp.w_rad_s.size),
                       resp.motor_reference_path.reshape(-1, resp.w_rad_s.size),
-                      hw.motor_peak_force_n * (1 - HAIR_HARDWARE) / adm.mouse.peak_force_n, re_sg, rw, band,
+                      hw.motor_peak_force_n * (1 - HAIR_HARDWARE) / adm.mouse.peak_force_n
+                      if hw.motor_force_criterion == "worst_sinusoid" else math.inf, re_sg, rw, band,
                       t_min, adm.b_v.max, adm.m_v.min, adm.m_v.max, resp.timing.min_tau_s,
                       adm.locomotion.peak_acceleration_m_per_s2,
                       adm.locomotion.peak_speed_m_per_s)

@@ -41,7 +41,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from design.admittance.contact import ContactLimit, stiffest_contact
-from design.admittance.feel import FeltForce, MouseFeel, feel_scenarios, mouse_feel
+from design.admittance.feel import MouseFeel, feel_scenarios, mouse_feel
 from design.admittance.model import (
     AdmittanceCheck,
     AdmittanceEvaluator,
@@ -55,6 +55,7 @@ from design.admittance.model import (
 )
 from design.admittance.monte_carlo import AdmittanceMonteCarlo, admittance_monte_carlo
 from design.admittance.mouse import MouseModel
+from design.admittance.profile import FeltForce
 from design.admittance.ray import RayBound, best_ray, curve_bounds, ray_problem
 from design.admittance.rig import DiscreteAdmittance, RigTiming
 from design.admittance.verify import AdmittanceVerification, verify_admittance
@@ -142,8 +143,8 @@ def check_scenarios(problem: LoopProblem) -> Scenarios:
 
 _HINTS = {"sensor_current": "allow a larger m_v / b_v, a larger admittance.hardware.max_current_per_sensor_step_a, "
                             "or a finer force sensor",
-          "motor_force": "raise admittance.hardware.motor_peak_force_n, lower admittance.mouse.peak_force_n, or "
-                         "allow a larger m_v",
+          "motor_force": "raise admittance.hardware.motor_peak_force_n, slow the locomotion profile "
+                         "(admittance.locomotion) or lighten the payload",
           "margins": "allow a larger m_v / b_v, lower admittance.phase_margin_deg / gain_margin_db, or make the "
                      "velocity loop better damped (codesign = true)",
           "drift": "tare more finely (admittance.sensor.bias_after_tare_n), add a deadband, or accept more drift",
@@ -235,6 +236,9 @@ def synthesise_admittance(problem: LoopProblem, *, kp: float | None = None, ki: 
     say("verification on the rational model (python-control)")
     verification = verify_admittance(problem, check, kp=kp, ki=ki, timing=timing)
     binding = ray_binding(problem, rp, ray, corners, rounds.rp_scenarios)
+    if rounds.backed_off is not None:
+        binding = {**rounds.backed_off, "detail": rounds.backed_off["detail"] + " at the ray's design; (m_v, b_v) "
+                   "scaled up the ray until it holds"}
     say("what the mouse feels")
     feel = mouse_feel(problem, loops=loops, m_v=x[0], b_v=x[1], scenarios=feel_set, corners=corners, timing=timing,
                       felt=felt)
@@ -293,6 +297,9 @@ class Rounds:
     monte_carlo: AdmittanceMonteCarlo | None
     rounds: int
     monte_carlo_rounds: int
+    #: the dense check's worst violation at the ray's design when the design had to be scaled up its ray
+    #: (``back_off``) to hold: the requirement that binds it then
+    backed_off: dict | None = None
 
 
 def design_rounds(problem: LoopProblem, scenarios, *, loops, dense: AdmittanceEvaluator, felt: FeltForce, w_design,
@@ -303,7 +310,7 @@ def design_rounds(problem: LoopProblem, scenarios, *, loops, dense: AdmittanceEv
     ``MONTE_CARLO_ROUNDS`` times). ``dtype``: the rays' responses (``interaction_responses``)."""
     adm = admittance_problem(problem)
     seed = problem.verification.seed
-    n = 0
+    n, backed_off = 0, None
     for mc_round in range(MONTE_CARLO_ROUNDS + 1):
         for _ in range(MAX_ROUNDS):
             n += 1
@@ -313,7 +320,7 @@ def design_rounds(problem: LoopProblem, scenarios, *, loops, dense: AdmittanceEv
                                                    corners=corners, dtype=dtype), adm)
             ray = best_ray(rp, objective=lambda r: felt(r.m_v, r.b_v))
             if not ray.feasible:
-                return Rounds(rp, ray, rp_scenarios, scenarios, None, None, None, n, mc_round)
+                return Rounds(rp, ray, rp_scenarios, scenarios, None, None, None, n, mc_round, None)
             x = np.array([ray.m_v, ray.b_v])
             say(f"dense check ({len(dense.scenarios)} scenarios x {len(corners)} mice)")
             check = dense.evaluate(*x)
@@ -324,6 +331,7 @@ def design_rounds(problem: LoopProblem, scenarios, *, loops, dense: AdmittanceEv
                 break
             scenarios = scenarios.with_row(worst)
         if not check.meets:
+            backed_off = min(check.violations, key=relative_slack)
             x, check = back_off(dense, x, adm)
         say(f"Monte Carlo over {draws_label}, uncertainty and mouse")
         mc = admittance_monte_carlo(problem, loops=loops, m_v=x[0], b_v=x[1], timing=timing, seed=seed + mc_round,
@@ -331,7 +339,7 @@ def design_rounds(problem: LoopProblem, scenarios, *, loops, dense: AdmittanceEv
         if mc.violations == 0 or mc_round == MONTE_CARLO_ROUNDS or scenarios.contains(mc.worst_scenario):
             break
         scenarios = scenarios.with_row(mc.worst_scenario)
-    return Rounds(rp, ray, rp_scenarios, scenarios, x, check, mc, n, mc_round)
+    return Rounds(rp, ray, rp_scenarios, scenarios, x, check, mc, n, mc_round, backed_off)
 
 
 def back_off(dense: AdmittanceEvaluator, x: np.ndarray, adm) -> tuple[np.ndarray, AdmittanceCheck]:

@@ -13,7 +13,6 @@ import numpy as np
 import pytest
 from in_process import gantry
 
-from design.admittance.feel import FeltForce
 from design.admittance.model import (
     AdmittanceEvaluator,
     PiLoops,
@@ -23,6 +22,7 @@ from design.admittance.model import (
     rendered_admittance,
 )
 from design.admittance.mouse import MouseModel, mouse_set
+from design.admittance.profile import FeltForce
 from design.admittance.ray import curve_bounds, polar
 from design.admittance.rig import RigTiming
 from design.admittance.synthesis import synthesise_admittance
@@ -375,12 +375,53 @@ def _toml(v):
 
 def test_a_mouse_too_weak_for_the_profile_gets_its_own_status_and_exit_3(tmp_path):
     data = _fast_data()
-    data["admittance"]["mouse"]["peak_force_n"] = 0.3
+    # with the PI gains synth designs first, the continuous law's lightest design asks 0.075 N: a 0.05 N mouse
+    # cannot drive it
+    data["admittance"]["mouse"]["peak_force_n"] = 0.05
     out = gantry("synth", str(_write(tmp_path, data)))
     assert out.returncode == 3, out.stderr
     first = out.stdout.strip().splitlines()[0]
     assert first.startswith("status: mouse_cannot_drive (admittance: the mouse cannot drive this design")
-    assert "0.3 N" in first and "trade-off" in out.stdout
+    assert "0.05 N" in first and "trade-off" in out.stdout
+
+
+def test_the_motor_is_judged_on_the_locomotion_profile_or_on_the_worst_sinusoid_when_asked():
+    # the default holds the motor to its force while the mouse runs the trapezoid; "worst_sinusoid" to the
+    # mouse's peak force at any frequency, which binds a heavier design on the same spec
+    data = _fast_data()
+    res = synthesise_admittance(parse_spec(data).problem())
+    data["admittance"]["hardware"] = {"motor_peak_force_n": 300.0, "motor_force_criterion": "worst_sinusoid"}
+    strict = synthesise_admittance(parse_spec(data).problem())
+    assert res.status == strict.status == "optimal"
+    assert res.peak_resistance_n < 0.5 * strict.peak_resistance_n
+    assert np.max(res.check.motor_force_n) < 300.0 and np.all(np.isnan(res.check.motor_peak_hz))
+    # a motor too weak to carry 40 kg at 1 m/s^2 (40 N) on the profile: the virtual dynamics are made heavy
+    # enough that the gantry lags the mouse within 30 N, the mouse cannot drive that, and the motor is named
+    data["admittance"]["hardware"] = {"motor_peak_force_n": 30.0}
+    weak = synthesise_admittance(parse_spec(data).problem())
+    assert weak.status == "mouse_cannot_drive" and weak.binding["constraint"] == "motor_force"
+    assert "motor_peak_force_n = 30" in weak.message and np.max(weak.check.motor_force_n) <= 30.0 * (1 + 1e-6)
+
+
+def test_motor_force_on_the_profile_equals_newtons_law():
+    # the motor's force K_t i while the body runs the trapezoid, against a time simulation of Newton's model
+    import control
+
+    spec = parse_spec(_fast_data()).problem()
+    kp, ki, m_v, b_v = 140.0, 15.0, 0.05, 4.0
+    mouse = mice(spec)[0]
+    felt = FeltForce(spec, Scenarios(np.array([40.0])), [mouse], loops=PiLoops.of(spec, kp, ki), timing=RigTiming(None))
+    tool = felt.motor_forces(m_v, b_v)[0, 0, 0]
+    A, B, _, _ = ref.felt_model(**{**PLANT, "mass_kg": 40.0}, kp=kp, ki=ki, head_kg=mouse.head_mass_kg,
+                                neck_k=mouse.neck_stiffness_n_per_m, neck_c=mouse.neck_damping_n_s_per_m, m_v=m_v,
+                                b_v=b_v)
+    C = np.zeros((1, A.shape[0]))
+    C[0, 1] = PLANT["kt"]                                   # states [xi, i, ...]: the motor force K_t i
+    prof = felt.profile
+    out = control.forced_response(control.ss(A, B, C, np.zeros((1, 1))), prof.time_s, prof.velocity_m_per_s)
+    force = np.asarray(out.outputs).ravel()
+    assert np.max(np.abs(tool - force)) < 0.01 * np.max(np.abs(force))
+    assert np.max(np.abs(force)) > 40.0                    # M a_pk = 40 N at the profile's corners
 
 
 def test_infeasible_admittance_names_the_requirement_and_the_bound():

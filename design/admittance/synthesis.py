@@ -26,7 +26,8 @@ Pipeline (``synthesise_admittance``):
 4. **verification** (``design.admittance.verify``): coupled closed-loop poles and python-control margins
    on the rational model, continuous or sampled by ``control.c2d``, at the tightest pairs;
 5. **the mouse** (``design.admittance.feel``, ``design.admittance.contact``): the force felt on the profile,
-   the reach of its force budget, the passive band, the stiffest contact; a design the declared mouse
+   the reach of its force budget, the passive band, the stiffest contact, the latency it tolerates
+   (``design.admittance.latency``); a design the declared mouse
    cannot drive has the status ``mouse_cannot_drive``, and any design that is not optimal gets the
    trade-off front and the hardware changes that would move it (``design.admittance.tradeoff``).
 """
@@ -42,6 +43,7 @@ import numpy as np
 
 from design.admittance.contact import ContactLimit, stiffest_contact
 from design.admittance.feel import MouseFeel, feel_scenarios, mouse_feel
+from design.admittance.latency import LatencyCheck, latency_check
 from design.admittance.model import (
     AdmittanceCheck,
     AdmittanceEvaluator,
@@ -109,6 +111,8 @@ class AdmittanceResult:
     nominal: bool = False
     #: the co-design's record when the PI gains were chosen with the admittance
     codesign: object | None = None
+    #: the latency the design tolerates and its margins with one more sample (``design.admittance.latency``)
+    latency: LatencyCheck | None = None
 
     @property
     def verified(self) -> bool:
@@ -243,6 +247,8 @@ def synthesise_admittance(problem: LoopProblem, *, kp: float | None = None, ki: 
     feel = mouse_feel(problem, loops=loops, m_v=x[0], b_v=x[1], scenarios=feel_set, corners=corners, timing=timing,
                       felt=felt)
     contact = stiffest_contact(problem, design_scenarios(problem), loops=loops, m_v=x[0], b_v=x[1], timing=timing)
+    say("latency margin")
+    latency = latency_check(design_scenarios(problem), corners, loops=loops, timing=timing, m_v=x[0], b_v=x[1])
     r = x[0] * loc.peak_acceleration_m_per_s2 + x[1] * loc.peak_speed_m_per_s
     if not verification.verified:
         status, msg = "infeasible", "NOT verified: " + "; ".join(verification.failures[:3])
@@ -273,7 +279,7 @@ def synthesise_admittance(problem: LoopProblem, *, kp: float | None = None, ki: 
         mc, feel, contact,
         DiscreteAdmittance.of(float(x[0]), float(x[1]), 1.0 / timing.period_s, timing.delay_samples,
                               forward_euler=timing.forward_euler)
-        if timing.sampled else None, None, nominal, record)
+        if timing.sampled else None, None, nominal, record, latency)
     if status != "optimal" and tradeoff and not nominal:
         from design.admittance.tradeoff import trade_off
 

@@ -282,6 +282,16 @@ def _print_admittance(console: Console, adm: dict) -> None:
     contact = ("" if "stiffest_contact_n_per_m" not in adm else
                f"; stable on a grounded spring up to {_num(adm['stiffest_contact_n_per_m'], '.4g')} N/m")
     console.print(f"  passive (Re Y_r >= 0) up to {_num(adm['passive_up_to_hz'], '.3g')} Hz{contact}")
+    lat = adm.get("latency")
+    if lat:
+        more = lat["one_more_sample"]
+        samples = "" if lat["margin_samples"] is None else f" ({lat['margin_samples']:.2f} samples)"
+        extra = "" if more is None else (
+            f"; with {more['computation_delay_samples']} sample(s) of computation delay: "
+            + (f"PM {_num(more['phase_margin_deg'], '.1f')} deg, GM {_num(more['gain_margin_db'], '.1f')} dB"
+               if more["stable"] else "UNSTABLE"))
+        console.print(f"  latency: tolerates {_num(lat['margin_ms'], '.3g')} ms more{samples} (least at "
+                      f"{lat['worst']}){extra}", soft_wrap=True)
     rig = adm["rig"]
     if rig["discrete"]:
         d = rig["discrete"]

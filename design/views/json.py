@@ -432,6 +432,19 @@ def _front(points) -> list[dict]:
              "b_v": finite_or_none(p.b_v)} for p in points]
 
 
+def latency_to_dict(lat) -> dict:
+    """``admittance.latency`` of ``gantry synth --json`` (``design.admittance.latency.LatencyCheck``)."""
+    return {"margin_ms": finite_or_none(1e3 * lat.margin_s), "margin_samples": finite_or_none(lat.margin_samples),
+            "worst": lat.worst, "computation_delay_samples": lat.delay_samples,
+            "one_more_sample": None if lat.delay_samples is None else {
+                "computation_delay_samples": lat.delay_samples + 1,
+                "phase_margin_deg": finite_or_none(lat.one_more_phase_margin_deg),
+                "gain_margin_db": finite_or_none(lat.one_more_gain_margin_db), "stable": lat.one_more_stable},
+            "meaning": "the extra delay in the interaction loop (drive, bus, law) that destabilises its worst "
+                       "scenario and mouse: at each gain crossover the phase to -180 deg over the frequency; and "
+                       "the exact margins and stability with one more sample of computation delay"}
+
+
 def admittance_to_dict(result: AdmittanceResult, problem: LoopProblem) -> dict:
     """``admittance`` of ``gantry synth --json``."""
     from design.admittance.model import admittance_problem
@@ -452,6 +465,7 @@ def admittance_to_dict(result: AdmittanceResult, problem: LoopProblem) -> dict:
         "mouse_can_follow_profile": None if feel is None else feel.can_drive,
         **_admittance_setting(adm, timing, result.discrete),
         "evaluated_at": {"m_v": result.m_v, "b_v": result.b_v},
+        **({"latency": latency_to_dict(result.latency)} if result.latency is not None else {}),
         "mice": [m.as_dict() for m in result.corners],
         "mouse_corners": [m.as_dict() for m in result.corners],
         "per_payload": [{"payload_kg": float(m), "phase_margin_deg": finite_or_none(w["phase_margin_deg"][j]),
@@ -563,6 +577,7 @@ def dual_admittance_to_dict(result: DualAdmittanceResult, problem: LoopProblem) 
         "by_carriage_position": [dataclasses.asdict(r) for r in result.by_position],
         **_admittance_setting(admittance_problem(problem), result.timing, result.discrete),
         "evaluated_at": {"m_v": result.m_v, "b_v": result.b_v},
+        **({"latency": latency_to_dict(result.latency)} if result.latency is not None else {}),
         "mice": [m.as_dict() for m in result.corners],
         "check_scenarios": len(c.scenarios), "design_scenarios": result.design_scenarios,
         "violations": [v["detail"] for v in c.violations],

@@ -228,3 +228,34 @@ def test_every_corner_mouse_is_in_the_spec_set():
     # the two mice these tests single out are corners the design holds for
     corners = {tuple(m.as_dict().values()) for m in mice(load_spec(SPEC).problem())}
     assert tuple(FLOATING.as_dict().values()) in corners and tuple(BRACED.as_dict().values()) in corners
+
+
+def test_delay_margin_of_an_integrator_with_delay_is_its_closed_form():
+    # L = k e^(-s tau) / s crosses |L| = 1 at w = k with phase -90 deg - k tau: the margin is (pi/2) / k - tau
+    from design.admittance.latency import delay_margin_s
+
+    w = np.geomspace(1.0, 1e4, 4000)
+    for k, tau in ((50.0, 0.001), (300.0, 0.002)):
+        L = k * np.exp(-1j * w * tau) / (1j * w)
+        assert abs(delay_margin_s(w, L) - (math.pi / 2 / k - tau)) < 1e-6
+
+
+def test_latency_check_with_one_more_sample_agrees_with_the_reference_loop():
+    # the light design of the bundled spec at its binding corner: with one more sample of computation delay
+    # the reference loop (scipy-discretised Newton model, a unit delay in series) decides stability as the tool
+    from design.admittance.latency import latency_check
+
+    spec = load_spec(SPEC).problem()
+    kp, ki, m_v, b_v = DESIGNS[1]
+    timing = RigTiming(T, forward_euler=True)
+    for mouse in (FLOATING, BRACED):
+        lat = latency_check(_scenario(), [mouse], loops=PiLoops.of(spec, kp, ki), timing=timing, m_v=m_v, b_v=b_v)
+        A, B, C, D = ref.sampled_loop(_newton(kp, ki, mouse), m_v=m_v, b_v=b_v, period_s=T, forward_euler=True)
+        n = A.shape[0]
+        Ad = np.zeros((n + 1, n + 1))
+        Ad[:n, :n], Ad[n, :n] = A, C[0]
+        Bd = np.vstack([B, [[D[0, 0]]]])
+        Cd = np.eye(n + 1)[-1:]
+        stable = bool(np.max(np.abs(np.linalg.eigvals(Ad - Bd @ Cd))) < 1)
+        assert lat.one_more_stable == stable and lat.delay_samples == 0
+        assert lat.margin_samples > 0 and (lat.margin_samples < 1) == (not stable)

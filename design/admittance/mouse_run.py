@@ -302,7 +302,9 @@ def run_settings(problem, *, kp: float, ki: float, m_v: float, b_v: float, timin
     def mid(r):
         return 0.5 * (r.min + r.max)
 
-    return RunSettings(float(plant.mass_kg), float(plant.damping_n_s_per_m), float(plant.force_constant_n_per_a),
+    body = plant.mechanics()          # the rigid body the plant's model has: Stage Y's both rails' damping
+    return RunSettings(float(np.sum(np.asarray(body.masses_kg, float))), float(body.rail_damping_n_s_per_m),
+                       float(plant.force_constant_n_per_a),
                        None if loop is None else float(loop.bandwidth_hz),
                        0 if delay is None else int(round(float(delay.seconds) * rate)), rate, kp, ki,
                        adm.hardware.motor_peak_force_n, friction_n, FRICTION_VELOCITY_M_PER_S, 1.0 / timing.period_s,

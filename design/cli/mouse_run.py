@@ -1,11 +1,16 @@
 """``gantry mouse-run``: a force-limited mouse walking the spec's profile (or a recorded path) through the
 sampled, nonlinear admittance loop of a design; what it feels, how far it falls short, drift and limit cycles.
 
+The run is one payload and one mouse; the setting is also checked at every payload, uncertainty corner and
+mouse of the spec (Stage X: ``design.admittance.corners``), where its coupled loop may be unstable.
+
 Exit status: 0 when the mouse keeps up (peak force within its budget: the run never holds it at its limit
-for long), 3 when it cannot (the profile asks more than the mouse's peak force), 2 for bad input."""
+for long) and the setting is stable at every corner, 3 when it cannot keep up (the profile asks more than the
+mouse's peak force) or a corner is unstable, 2 for bad input."""
 
 from __future__ import annotations
 
+import sys
 from pathlib import Path
 from typing import Annotated, Optional
 
@@ -39,9 +44,11 @@ def mouse_run(
     as_json: Annotated[bool, typer.Option("--json", help="Print JSON.")] = False,
 ) -> None:
     """Simulate a force-limited mouse walking through the sampled admittance loop of a design."""
+    from design.admittance.corners import corner_check
     from design.admittance.mouse_run import mouse_run as run
     from design.admittance.mouse_run import path_from_csv, run_settings, trapezoid_path
     from design.views.json import mouse_run_csv, mouse_run_to_dict, print_json
+    from design.views.progress import StageProgress
     from design.workflows import load_problem
     from plant.host.files import atomic_write_text, is_stdout
 
@@ -66,8 +73,17 @@ def mouse_run(
     adm = problem.admittance
     intended = (path_from_csv(path, settings.drive_rate_hz) if path is not None
                 else trapezoid_path(adm.locomotion, settings.drive_rate_hz))
-    result = run(settings, intended)
-    d = mouse_run_to_dict(result, source)
+    progress = StageProgress(enabled=not as_json and sys.stderr.isatty())
+    try:
+        progress("the mouse walking the path")
+        result = run(settings, intended)
+        corners = None
+        if problem.plant.nominal.stage == "x":
+            progress("the setting at every payload, uncertainty corner and mouse of the spec")
+            corners = corner_check(problem, kp=kp, ki=ki, m_v=m_v, b_v=b_v)
+    finally:
+        progress.close()
+    d = mouse_run_to_dict(result, source, corners)
     if out is not None:                           # the file last, after what is printed
         text = mouse_run_csv(result)
     if as_json:
@@ -81,5 +97,5 @@ def mouse_run(
             console.print(f"run written to {out}")
     if out is not None:
         atomic_write_text(out, text)
-    if not d["mouse_keeps_up"]:
+    if not d["mouse_keeps_up"] or not d.get("stable_at_every_corner", True):
         raise typer.Exit(3)

@@ -702,8 +702,9 @@ def time_simulation_to_dict(rec, out, sidecar, *, simulation_s: float) -> dict:
             "internal_rate_hz": md["internal_rate_hz"], "simulation_s": simulation_s}
 
 
-def mouse_run_to_dict(run, source: str) -> dict:
-    """``gantry mouse-run --json``: the run's figures and a summary in words."""
+def mouse_run_to_dict(run, source: str, corners=None) -> dict:
+    """``gantry mouse-run --json``: the run's figures and a summary in words, and the setting over the spec's
+    corners (``design.admittance.corners.CornerCheck``) when checked."""
     s = run.settings
     keeps_up = bool(run.peak_force_n <= s.mouse_peak_force_n * 1.001 and run.speed_shortfall_m_per_s
                     <= 0.05 * float(np.max(run.path.v_m_per_s)))
@@ -717,7 +718,22 @@ def mouse_run_to_dict(run, source: str) -> dict:
         f"at rest: the free gantry drifts {run.drift_mm_per_s:.3g} mm/s; with the mouse standing it moves "
         f"{run.limit_cycle_um:.3g} um peak to peak (limit cycle)",
         "the mouse keeps up" if keeps_up else "the mouse CANNOT keep up with this path"]
-    return {"design": source, "path": run.path.source, "payload_kg": s.gantry_mass_kg,
+    extra = {}
+    if corners is not None:
+        where = f"{corners.scenarios} scenarios x {corners.mice} mice of the spec"
+        summary.append(
+            f"over {where}: stable at every one, worst interaction PM {corners.worst_phase_margin_deg:.3g} deg, "
+            f"GM {corners.worst_gain_margin_db:.3g} dB" if corners.stable else
+            f"over {where}: UNSTABLE at {corners.unstable} (first: {corners.unstable_at[0]})")
+        if corners.violation_count:
+            summary.append(f"{corners.violation_count} requirement(s) missed there, first: {corners.violations[0]}")
+        extra = {"stable_at_every_corner": corners.stable, "corners": {
+            "scenarios": corners.scenarios, "mice": corners.mice, "unstable": corners.unstable,
+            "unstable_at": list(corners.unstable_at),
+            "worst_phase_margin_deg": finite_or_none(corners.worst_phase_margin_deg),
+            "worst_gain_margin_db": finite_or_none(corners.worst_gain_margin_db),
+            "requirements_missed": corners.violation_count, "first_missed": list(corners.violations)}}
+    return {**extra, "design": source, "path": run.path.source, "payload_kg": s.gantry_mass_kg,
             "drive_rate_hz": s.drive_rate_hz, "admittance_rate_hz": s.admittance_rate_hz,
             "gains": {"kp": s.kp, "ki": s.ki, "m_v": s.m_v, "b_v": s.b_v},
             "mouse": {"head_mass_kg": s.head_mass_kg, "body_mass_kg": s.body_mass_kg,

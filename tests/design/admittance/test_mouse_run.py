@@ -5,6 +5,7 @@ the mouse's force limit."""
 
 import math
 from dataclasses import asdict
+from pathlib import Path
 
 import independent_mouse_run as ref
 import numpy as np
@@ -323,3 +324,15 @@ def test_tool_sampled_law_and_pi_as_stated():
 def test_settings_are_the_reference_keywords():
     """The reference takes exactly the tool's settings (so every test runs both on the same numbers)."""
     assert set(asdict(RunSettings(**BASE))) == set(BASE)
+
+
+def test_stage_y_runs_with_both_rails_damping():
+    # thesis Eq. 3.16: Stage Y's rigid body is m_e = 2 m l / L with the damping of both rails, 2 b
+    from design.admittance.mouse_run import run_settings
+    from design.spec.schema import load_spec
+
+    spec = load_spec(Path(__file__).resolve().parents[3] / "specs" / "stage_y_admittance.toml").problem()
+    plant = spec.plant.plant(spec.plant.payload_kg.max)
+    s = run_settings(spec, kp=200.0, ki=20.0, m_v=0.05, b_v=5.0)
+    assert s.damping_n_s_per_m == 2 * float(plant.damping_n_s_per_m)
+    assert s.gantry_mass_kg == 2 * float(plant.mass_kg) * float(plant.load_position_m) / float(plant.motor_length_m)

@@ -259,3 +259,18 @@ def test_latency_check_with_one_more_sample_agrees_with_the_reference_loop():
         stable = bool(np.max(np.abs(np.linalg.eigvals(Ad - Bd @ Cd))) < 1)
         assert lat.one_more_stable == stable and lat.delay_samples == 0
         assert lat.margin_samples > 0 and (lat.margin_samples < 1) == (not stable)
+
+
+def test_the_labs_setting_is_unstable_where_the_reference_says():
+    # m_v 0.04 kg, b_v 4 N*s/m (bsbrl/exoskeleton's hand-tuned X axis) with the spec's PI: the corner check names
+    # the one unstable corner of the dense set, and the reference loop there has a pole outside the unit circle
+    from design.admittance.corners import corner_check
+
+    spec = load_spec(SPEC).problem()
+    check = corner_check(spec, kp=178.5, ki=19150.0, m_v=0.04, b_v=4.0)
+    assert check.unstable == 1 and not check.stable
+    assert check.unstable_at[0].startswith("40.0 kg, current_loop.bandwidth_hz = 700, damping_n_s_per_m = 330, "
+                                           "delay.seconds = 0.0008 with mouse (head 2 g, body 20 g")
+    mouse = MouseModel(0.002, 0.020, 200.0, 0.2, 0.0, 0.0)
+    assert not _reference_margins(178.5, 19150.0, 0.04, 4.0, mouse)[3]
+    assert _reference_margins(178.5, 19150.0, 0.04, 4.0, FLOATING)[3]        # the 35 g body there is stable

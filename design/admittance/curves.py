@@ -25,7 +25,8 @@ from design.loop.curves import report_payloads
 from design.problem import LoopProblem
 from plant.grid import log_grid_rad_s
 
-W_RENDERED = log_grid_rad_s(0.1, 1000.0, 800)
+#: the rendered admittance's plot: 0.1 Hz to 1 kHz, or to the law's Nyquist frequency when it is sampled
+RENDERED_HZ, RENDERED_POINTS = (0.1, 1000.0), 800
 #: the lab's hand-tuned X-axis setting: bsbrl/exoskeleton, "2. Admittance Controller Tuning/Admittance - 2.
 #: X axis mousetrack/Tuning Data and Figures/M4xx_analysis_newsys_m0p04_c4.fig" (m = 0.04 kg, c = 4 N*s/m)
 LAB_M_V_KG, LAB_B_V_N_S_PER_M = 0.04, 4.0
@@ -45,6 +46,8 @@ class LabComparison:
     force_felt_n: float
     passive_up_to_hz: float
     lab_model_bandwidth_hz: float
+    #: the (scenario, mouse) pairs of the dense check where the lab's setting is unstable, in words
+    unstable_at: tuple[str, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -69,21 +72,25 @@ def lab_comparison(problem: LoopProblem, result) -> LabComparison:
     ev = AdmittanceEvaluator(problem, check_scenarios(problem), loops=loops, timing=result.timing, corners=corners)
     c = ev.evaluate(LAB_M_V_KG, LAB_B_V_N_S_PER_M, bandwidth=False)
     felt = FeltForce(problem, feel_scenarios(problem), corners, loops=loops, timing=result.timing)
+    k, j = np.nonzero(~c.stable)
     return LabComparison(LAB_M_V_KG, LAB_B_V_N_S_PER_M, c.worst_by_legs(), bool(np.all(c.stable)),
                          felt(LAB_M_V_KG, LAB_B_V_N_S_PER_M), float(np.min(c.passive_up_to_hz)),
-                         admittance_bandwidth_hz(LabBandwidthModel.published(1)))
+                         admittance_bandwidth_hz(LabBandwidthModel.published(1)),
+                         tuple(f"{c.scenarios.describe(jj)} with mouse ({c.mice[kk].label()})" for kk, jj in zip(k, j)))
 
 
 def admittance_curves(problem: LoopProblem, result, *, lab: bool = True) -> AdmittanceCurves:
     """The curves of ``result`` (an ``AdmittanceResult``), its mouse run on the spec's profile at the heaviest
     payload when the rig is sampled, and the lab's setting beside it."""
     masses = report_payloads(problem)
-    loop = gantry_loop(PiLoops.of(problem, result.kp, result.ki), W_RENDERED, list(masses))
+    top = RENDERED_HZ[1] if not result.timing.sampled else min(RENDERED_HZ[1], 0.5 / result.timing.period_s)
+    w = log_grid_rad_s(RENDERED_HZ[0], top, RENDERED_POINTS)
+    loop = gantry_loop(PiLoops.of(problem, result.kp, result.ki), w, list(masses))
     run = None
     if result.timing.sampled:
         settings = run_settings(problem, kp=result.kp, ki=result.ki, m_v=result.m_v, b_v=result.b_v,
                                 timing=result.timing)
         run = mouse_run(settings, trapezoid_path(admittance_problem(problem).locomotion, settings.drive_rate_hz))
-    return AdmittanceCurves(masses, W_RENDERED, 1.0 / virtual_impedance_frd(W_RENDERED, result.m_v, result.b_v),
+    return AdmittanceCurves(masses, w, 1.0 / virtual_impedance_frd(w, result.m_v, result.b_v),
                             rendered_admittance(loop, result.m_v, result.b_v, result.timing), run,
                             lab_comparison(problem, result) if lab else None)

@@ -53,7 +53,7 @@ def add_admittance_section(report: Report, problem: LoopProblem, outcome: Design
                f"{len(c.scenarios)} scenarios: {margins}. Binding: {units(r.binding['detail'])}. Passive up to "
                f"{passive_text(c)} Hz; stable on a grounded spring up to "
                f"{num(r.contact.worst_n_per_m, '.4g')} N/m. Rendered admittance within 3 dB / 30° of "
-               f"1/(m_v s + b_v) up to {bandwidth_text(c)} Hz. Verified: {r.verified}.{_mc(r)}</div>")
+               f"1/(m_v s + b_v) up to {bandwidth_text(c)} Hz. {_verified(r)}{_mc(r)}{_latency(r)}</div>")
     report.raw(table(["what the mouse meets", "value", "requirement / budget"], [
         ["force felt on the profile, peak / RMS", f"{feel.peak_force_n:.3g} / {feel.rms_force_n:.3g} N",
          f"{a.mouse.peak_force_n:g} N"],
@@ -64,7 +64,9 @@ def add_admittance_section(report: Report, problem: LoopProblem, outcome: Design
         ["push to start the gantry at rest (deadband + offset)", f"{1e3 * feel.breakaway_force_n:.3g} mN", "—"],
         ["drift at rest", f"{feel.drift_mm_per_s:.3g} mm/s",
          "—" if a.sensor.max_drift_mm_per_s is None else f"{a.sensor.max_drift_mm_per_s:g} mm/s"],
-        ["motor force for the peak mouse force", f"{np.max(c.motor_force_n):.3g} N", f"{hw.motor_peak_force_n:g} N"],
+        ["motor force on the locomotion profile" if hw.motor_force_criterion == "locomotion" else
+         "motor force for the peak mouse force at the worst frequency", f"{np.max(c.motor_force_n):.3g} N",
+         f"{hw.motor_peak_force_n:g} N"],
         ["current per force-sensor step", f"{1e3 * np.max(c.sensor_current_a):.3g} mA",
          "—" if hw.max_current_per_sensor_step_a is None else f"{1e3 * hw.max_current_per_sensor_step_a:g} mA"],
     ]))
@@ -94,8 +96,33 @@ def add_admittance_section(report: Report, problem: LoopProblem, outcome: Design
     if r.discrete is not None:
         d = r.discrete
         report.text(f"The admittance law as the rig runs it at {d.update_rate_hz:g} Hz: v[k] = {d.alpha:.10g} "
-                    f"v[k−1] + {d.beta_m_per_s_per_n:.10g} F[k] (backward Euler of 1/(m_v s + b_v); F in N, v in m/s), "
+                    f"v[k−1] + {d.beta_m_per_s_per_n:.10g} F[k] ({d.rule}; F in N, v in m/s), "
                     f"held until the next update, {d.computation_delay_samples} sample(s) of computation delay.")
+
+
+def _verified(r) -> str:
+    """What was checked independently, in words."""
+    v = r.verification
+    if v is None:
+        return "Not verified."
+    loop = "sampled by c2d" if v.sampled else "continuous"
+    poles = "inside the unit circle" if v.sampled else "in the left half-plane"
+    return (f"python-control checked the rational model ({loop}) at the {v.cases} tightest (scenario, mouse) pairs "
+            f"of the dense check: closed-loop poles {poles}"
+            f" and the margins at the worst of them (PM {num(v.min_phase_margin_deg)}°, GM "
+            f"{num(v.min_gain_margin_db)} dB): {'passed' if v.verified else 'FAILED'}.")
+
+
+def _latency(r) -> str:
+    lat = r.latency
+    if lat is None:
+        return ""
+    samples = "" if lat.margin_samples is None else f", {lat.margin_samples:.2f} samples of the law"
+    more = "" if lat.delay_samples is None else (
+        f" With {lat.delay_samples + 1} sample(s) of computation delay it is "
+        + (f"stable (PM {num(lat.one_more_phase_margin_deg)}°, GM {num(lat.one_more_gain_margin_db)} dB)."
+           if lat.one_more_stable else "<span class=bad>unstable</span>: measure the rig's latency."))
+    return f" Latency: it tolerates {1e3 * lat.margin_s:.3g} ms more{samples} ({units(lat.worst)}).{more}"
 
 
 def _mc(r) -> str:
@@ -128,6 +155,9 @@ def _lab_table(report: Report, r, lab, feel) -> None:
                           float(np.min(r.check.passive_up_to_hz)), bool(np.all(r.check.stable))),
                       row("the lab's hand-tuned setting", lab.m_v, lab.b_v, lab.margins, lab.force_felt_n,
                           lab.passive_up_to_hz, lab.stable)]))
+    if lab.unstable_at:
+        report.text(f"The lab's setting with these loops is unstable at {len(lab.unstable_at)} of the dense check's "
+                    f"(scenario, mouse) pairs, first at {units(lab.unstable_at[0])}.")
     report.text(f"The lab's setting is m = 0.04 kg, c = 4 N·s/m (bsbrl/exoskeleton, X-axis mousetrack tuning). Their "
                 f"bandwidth model of their own robot (post-sensor mass 0.01 kg, 10 ms holds; reproduced from the "
                 f"published live script, design.admittance.lab_model) puts the apparent admittance within 3 dB / 30° "

@@ -434,7 +434,8 @@ def _front(points) -> list[dict]:
 
 def latency_to_dict(lat) -> dict:
     """``admittance.latency`` of ``gantry synth --json`` (``design.admittance.latency.LatencyCheck``)."""
-    return {"margin_ms": finite_or_none(1e3 * lat.margin_s), "margin_samples": finite_or_none(lat.margin_samples),
+    samples = None if lat.margin_samples is None else finite_or_none(lat.margin_samples)
+    return {"margin_ms": finite_or_none(1e3 * lat.margin_s), "margin_samples": samples,
             "worst": lat.worst, "computation_delay_samples": lat.delay_samples,
             "one_more_sample": None if lat.delay_samples is None else {
                 "computation_delay_samples": lat.delay_samples + 1,

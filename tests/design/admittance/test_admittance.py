@@ -489,7 +489,8 @@ def test_mouse_run_with_the_lab_setting_reports_and_exits_by_the_mouse(tmp_path)
     assert out.returncode in (0, 3), out.stderr
     doc = json.loads(out.stdout)
     assert doc["gains"]["m_v"] == 0.04 and doc["gains"]["b_v"] == 4.0
-    assert (out.returncode == 0) == doc["mouse_keeps_up"]
+    assert (out.returncode == 0) == (doc["mouse_keeps_up"] and doc["stable_at_every_corner"])
+    assert doc["corners"]["unstable"] == 1 and doc["corners"]["scenarios"] == 200
     rows = (tmp_path / "run.csv").read_text().splitlines()
     assert rows[0].startswith("time_s,intended_x_m") and len(rows) > 1000
     bad = gantry("mouse-run", str(SPEC))

@@ -518,3 +518,29 @@ def test_mouse_run_bad_input_is_one_line_naming_the_file(tmp_path, option, name,
     assert out.returncode == 2 and name in out.stderr and message in out.stderr
     assert len(out.stderr.strip().splitlines()) == 1 and "Traceback" not in out.stderr
     assert not (tmp_path / "run.csv").exists()
+
+
+@pytest.mark.slow
+def test_hardware_what_ifs_lower_the_force_with_a_faster_law_and_raise_it_with_more_latency():
+    # the bundled spec's co-designed PI and law: each what-if is a new best ray on the exactly sampled loop; x2 and
+    # x10 faster updates ask less of the mouse, one more sample of computation delay more
+    from types import SimpleNamespace
+
+    from design.admittance.model import check_grid_for, with_mode_points
+    from design.admittance.ray import ray_problem
+    from design.admittance.tradeoff import trade_off
+    from design.synth.scenarios import design_scenarios
+
+    spec = load_spec(SPEC).problem()
+    kp, ki, m_v, b_v = 199.94, 18.54, 0.0414, 4.957
+    timing = RigTiming.of(spec.admittance.rig)
+    corners = mice(spec)
+    w = with_mode_points(check_grid_for(timing), corners, timing)
+    rp = ray_problem(interaction_responses(spec, design_scenarios(spec), w, loops=PiLoops.of(spec, kp, ki),
+                                           timing=timing, corners=corners), spec.admittance)
+    result = SimpleNamespace(kp=kp, ki=ki, m_v=m_v, b_v=b_v, timing=timing, corners=corners)
+    changes = {c.change: c for c in trade_off(spec, result, rp).changes}
+    base = next(iter(changes.values())).baseline_n
+    fast2, fast10 = (changes[f"admittance update at {r} Hz instead of 100 Hz"].force_n for r in (200, 1000))
+    late = changes["1 sample(s) of computation delay instead of 0 (the law using the previous force reading)"]
+    assert fast10 < fast2 < base < late.force_n

@@ -468,8 +468,33 @@ def _fit(plant: Plant, data: MeasuredResponse, *, free, start, starts, multistar
         problem.n_evaluations = 0
         sol = _least_squares(problem, sol.x, short=False)
         n_eval += problem.n_evaluations
+    problem.n_evaluations = 0
+    sol = _off_lower_bounds(problem, sol)
+    n_eval += problem.n_evaluations
     return _result(problem, params, sol, s0, data, nu, n_starts=n_candidates, n_eval=n_eval,
                    elapsed=time.perf_counter() - t0)
+
+
+#: a log coordinate this close to its lower bound is moved off it (by _REPOLISH_STEP above the bound) and
+#: polished again
+_NEAR_BOUND = math.log(2)
+_REPOLISH_STEP = math.log(10)
+
+
+def _off_lower_bounds(problem: _Problem, sol):
+    """``sol``, or a polish from it with every log coordinate within ln 2 of its lower bound moved to the
+    bound + ln 10, whichever costs less. In a flat direction of near +-1 correlations (e.g. a lightly damped
+    resonance traded against others) the polish can stop with a damping pinned at its bound, in a worse
+    basin than one it reaches from off the bound."""
+    coords = problem.coords
+    near = np.array([kind == "log" and np.isfinite(lo) and x - lo < _NEAR_BOUND
+                     for kind, lo, x in zip(coords.kinds, coords.lower, sol.x)], dtype=bool)
+    if not near.any():
+        return sol
+    x0 = sol.x.copy()
+    x0[near] = np.minimum(coords.lower[near] + _REPOLISH_STEP, coords.upper[near])
+    again = _least_squares(problem, x0, short=False)
+    return again if again.cost < sol.cost else sol
 
 
 def _least_squares(problem: _Problem, x0: np.ndarray, *, short: bool):

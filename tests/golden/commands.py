@@ -9,7 +9,8 @@ co-design of the PI gains (a new spec and a new design); ``diagnose_*`` when the
 across kinds of data (``docs/formats.md``: the time-domain verdict ``not_explained`` and its dBIC of an added
 effect positive, the key ``domain`` on frequency data), and again when the effect library gained the
 position-dependent motor forces (their candidates in the rankings, one effective sample size from the
-largest model of the larger search, the motor force among the residual tests).
+largest model of the larger search, the motor force among the residual tests); ``diagnose_x`` again when the
+fit re-polished log coordinates stuck at their lower bound (two alternatives' fits leave a bad basin).
 """
 
 from __future__ import annotations

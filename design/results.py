@@ -13,6 +13,7 @@ if TYPE_CHECKING:
     from design.admittance.curves import AdmittanceCurves
     from design.admittance.dual import DualAdmittanceResult
     from design.admittance.monte_carlo import AdmittanceMonteCarlo
+    from design.admittance.schedule import SchedulePoint as AdmittanceSchedulePoint
     from design.admittance.synthesis import AdmittanceResult
     from design.loop.control_models import LoopModels
     from design.loop.curves import LoopCurves
@@ -106,6 +107,8 @@ class DesignOutcome:
     dual: DualDesign | None = None
     #: the admittance on the recommended structure (``[dual_drive]`` with ``[admittance]``)
     dual_admittance: DualAdmittanceResult | None = None
+    #: the admittance designed per payload beside the robust one (``gantry synth --schedule``)
+    admittance_schedule: tuple[AdmittanceSchedulePoint, ...] | None = None
 
     @property
     def status(self) -> str:

@@ -114,8 +114,8 @@ def design(problem: DesignProblem, *, method: str = "ccp+exact", schedule: bool 
 
     codesign = loop.admittance is not None and loop.admittance.codesign
     given = loop.controller.kp.value is not None and loop.controller.ki.value is not None
-    if codesign and given and not schedule:
-        return _codesigned(problem, progress)
+    if codesign and given:
+        return _codesigned(problem, progress, schedule=schedule)
     result = synthesise_pi(loop, method=method, progress=progress)
     optimal = result.status == "optimal"
     points = None
@@ -132,11 +132,22 @@ def design(problem: DesignProblem, *, method: str = "ccp+exact", schedule: bool 
         return DesignOutcome(problem, synthesis=result, schedule=points, admittance_skipped=True)
     from design.admittance.synthesis import synthesise_admittance
 
-    return DesignOutcome(problem, synthesis=result, schedule=points,
-                         admittance=synthesise_admittance(loop, kp=kp, ki=ki, progress=progress))
+    adm = synthesise_admittance(loop, kp=kp, ki=ki, progress=progress)
+    return DesignOutcome(problem, synthesis=result, schedule=points, admittance=adm,
+                         admittance_schedule=_admittance_schedule(loop, adm, progress, kp=kp, ki=ki) if schedule
+                         else None)
 
 
-def _codesigned(problem: DesignProblem, progress) -> DesignOutcome:
+def _admittance_schedule(loop, adm, progress, *, kp=None, ki=None):
+    """The admittance designed per payload beside the robust one (``design.admittance.schedule``)."""
+    from design.admittance.schedule import admittance_schedule
+
+    if adm.status not in ("optimal", "mouse_cannot_drive"):
+        return None
+    return admittance_schedule(loop, adm, kp=kp, ki=ki, progress=progress)
+
+
+def _codesigned(problem: DesignProblem, progress, *, schedule: bool = False) -> DesignOutcome:
     """The admittance co-design from the spec's controller values, and the PI stage reported at the gains it
     chose: evaluated on the dense scenarios and checked with python-control like a synthesised design."""
     import time
@@ -161,7 +172,8 @@ def _codesigned(problem: DesignProblem, progress) -> DesignOutcome:
                   + "; ".join(ver.failures[:2]) if ver.failures else "misses its requirements"))
     pi = SynthesisResult("optimal" if ok else "infeasible", message, ev, ver, "co-design (design.admittance.codesign)",
                          time.perf_counter() - t0, monte_carlo=mc)
-    return DesignOutcome(problem, synthesis=pi, admittance=adm)
+    return DesignOutcome(problem, synthesis=pi, admittance=adm,
+                         admittance_schedule=_admittance_schedule(loop, adm, progress) if schedule else None)
 
 
 def measured_plants(problem: DesignProblem):
@@ -177,14 +189,14 @@ def measured_plants(problem: DesignProblem):
 def report_content(problem: DesignProblem, *, outcome: DesignOutcome | None = None, synthesise: bool = True,
                    data=(), columns: str | None = None, sample_rate_hz: float | None = None,
                    samples: int | None = None, seed: int | None = None, command: str = "",
-                   progress=None) -> ReportContent:
+                   progress=None, schedule: bool = False) -> ReportContent:
     """Everything ``design.views.report.design_report`` draws: the gains (of ``outcome``, or synthesised
     when ``synthesise`` and the plant has a phase-limiting effect, else the spec's controller values)
     evaluated on the dense payloads beside the thesis gains, the loop's curves (with the binding scenario),
     one Monte Carlo check over the spec's uncertainty (``samples`` draws of ``seed``, default the spec's
     ``verification``, and the synthesis' own check when they agree; 0: none), and the diagnoses of ``data``
     (recordings read with the column map ``columns`` and ``sample_rate_hz`` in Hz, as ``measure``).
-    ``progress(stage)`` hears each stage begin."""
+    ``progress(stage)`` hears each stage begin; ``schedule``: the gain (and admittance) schedule too."""
     from design.loop.curves import loop_curves, report_payloads
     from design.synth.evaluation import evaluate
     from design.synth.pi import PHASE_LIMITING, THESIS_GAINS, as_designed
@@ -199,7 +211,7 @@ def report_content(problem: DesignProblem, *, outcome: DesignOutcome | None = No
     measured = [measure(path, columns=columns, sample_rate_hz=sample_rate_hz) for path in data]   # before the work
     say = progress or (lambda stage: None)
     if outcome is None and synthesise and any(e in PHASE_LIMITING for e in loop.plant.effects):
-        outcome = design(problem, progress=progress)
+        outcome = design(problem, progress=progress, schedule=schedule)
     if outcome is not None and outcome.synthesis is not None:
         loop = as_designed(loop, outcome.synthesis)
     kp, ki, source = loop.controller.kp.value, loop.controller.ki.value, "from the spec's controller values"

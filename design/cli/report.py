@@ -30,6 +30,8 @@ def report(
     synthesise: Annotated[bool, typer.Option(
         "--synth/--no-synth", help="Synthesise the gains (default when the plant has a delay, lag, sampling or "
                                    "resonance); otherwise report the spec's controller values.")] = True,
+    schedule: Annotated[bool, typer.Option("--schedule", help="Also the gains per payload (the PI schedule, and "
+                                                              "the admittance designed per payload).")] = False,
     plant_from: PlantFromOption = None,
 ) -> None:
     """Write a design report: summary, plant, Bode/Nyquist/step, margins vs payload, data, reproducibility."""
@@ -60,7 +62,8 @@ def report(
         else:
             content = report_content(problem, synthesise=synthesise, data=data or (), columns=columns,
                                      sample_rate_hz=sample_rate_hz, samples=samples, seed=seed,
-                                     command="gantry " + shlex.join(sys.argv[1:]), progress=progress)
+                                     command="gantry " + shlex.join(sys.argv[1:]), progress=progress,
+                                     schedule=schedule)
             progress("drawing the figures")
             report = design_report(content)
     finally:

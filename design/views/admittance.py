@@ -20,6 +20,7 @@ from design.views.admittance_figures import (
     passive_text,
     rendered_figure,
     run_figures,
+    schedule_figure,
     tradeoff_figures,
 )
 from design.views.html import Report, table, units
@@ -93,6 +94,16 @@ def add_admittance_section(report: Report, problem: LoopProblem, outcome: Design
         _comparison_table(report, r, comparison)
     if r.tradeoff is not None:
         _tradeoff(report, r.tradeoff, admittance_problem(problem))
+    if outcome.admittance_schedule:
+        pts = outcome.admittance_schedule
+        report.figure(schedule_figure(pts, a.mouse.peak_force_n),
+                      "The admittance scheduled over payload: at each design payload the co-design made for it "
+                      "alone (its uncertainty, mice and requirements kept), beside the one robust design, by the peak "
+                      "force the mouse feels on the profile (nominal parameters).")
+        report.raw(table(["payload (kg)", "status", "Kp (A/(m/s))", "Ki (A/m)", "m_v (kg)", "b_v (N·s/m)",
+                          "force felt (N)", "robust design's (N)"],
+                         [[f"{p.payload_kg:g}", p.status, f"{p.kp:.4g}", f"{p.ki:.4g}", f"{p.m_v:.4g}", f"{p.b_v:.4g}",
+                           num(p.force_felt_n, ".3g"), f"{p.robust_force_felt_n:.3g}"] for p in pts]))
     if r.discrete is not None:
         d = r.discrete
         report.text(f"The admittance law as the rig runs it at {d.update_rate_hz:g} Hz: v[k] = {d.alpha:.10g} "

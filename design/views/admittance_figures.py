@@ -213,3 +213,16 @@ def tradeoff_figures(t, adm) -> list:
         _legend_below(fig, ax)
         figs.append(fig)
     return figs
+
+
+def schedule_figure(points, mouse_peak_force_n: float):
+    """The peak force the mouse feels against payload: each payload's own design and the one robust design."""
+    fig, ax = _panel(2)
+    m = [p.payload_kg for p in points]
+    ax.plot(m, [p.force_felt_n for p in points], "o-", label="designed for that payload alone (Kp, Ki, m_v, b_v)")
+    ax.plot(m, [p.robust_force_felt_n for p in points], "s--", label="the one robust design for the whole range")
+    ax.axhline(mouse_peak_force_n, **LIMIT_STYLE, label=force_limit_label(mouse_peak_force_n,
+                                                                          max(p.robust_force_felt_n for p in points)))
+    ax.set(xlabel="payload (kg)", ylabel="peak force felt on the profile (N)")
+    _legend_below(fig, ax)
+    return fig

@@ -298,6 +298,16 @@ def _print_admittance(console: Console, adm: dict) -> None:
         console.print(escape(f"  admittance law at {rig['update_rate_hz']:g} Hz: v[k] = {d['alpha']:.10g} v[k-1] + "
                              f"{d['beta_m_per_s_per_n']:.10g} F[k]"))
     console.print(f"  {adm['message']}; solver {adm['solver']['seconds']:.1f} s", soft_wrap=True)
+    if adm.get("schedule"):
+        rows = [[f"{p['payload_kg']:g}", p["status"], f"{p['kp']:.4g}", f"{p['ki']:.4g}", f"{p['m_v']:.4g}",
+                 f"{p['b_v']:.4g}", _num(p["force_felt_n"], ".3g"), f"{p['robust_force_felt_n']:.3g}"]
+                for p in adm["schedule"]]
+        t = Table(title="Admittance scheduled over payload (each payload designed alone) beside the robust design")
+        for col in ("payload kg", "status", "Kp", "Ki", "m_v kg", "b_v N*s/m", "force felt N", "robust design's N"):
+            t.add_column(col, justify="left" if col == "status" else "right")
+        for row in rows:
+            t.add_row(*row)
+        console.print(t)
     t = adm.get("tradeoff")
     if t:
         front = ", ".join(f"{p['requirement']:g} deg: {_num(p['force_n'], '.3g')} N" for p in t["phase_margin_front"])

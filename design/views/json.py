@@ -638,6 +638,12 @@ def design_to_dict(outcome: DesignOutcome) -> dict:
                                                                  "controller values in the spec)", "verified": False}
         elif outcome.admittance is not None:
             adm = admittance_to_dict(outcome.admittance, problem.loop)
+            if outcome.admittance_schedule is not None:
+                adm["schedule"] = [{"payload_kg": p.payload_kg, "status": p.status, "kp": p.kp, "ki": p.ki,
+                                    "m_v": p.m_v, "b_v": p.b_v, "force_felt_n": finite_or_none(p.force_felt_n),
+                                    "robust_force_felt_n": p.robust_force_felt_n,
+                                    "peak_resistance_n": p.peak_resistance_n}
+                                   for p in outcome.admittance_schedule]
             out = {**out, "admittance": adm, "gains": {**out["gains"], "m_v": adm["m_v"], "b_v": adm["b_v"]},
                    "status": outcome.status, "message": outcome.message, "verified": outcome.verified}
     if problem.plant_from is not None:

@@ -544,3 +544,18 @@ def test_hardware_what_ifs_lower_the_force_with_a_faster_law_and_raise_it_with_m
     fast2, fast10 = (changes[f"admittance update at {r} Hz instead of 100 Hz"].force_n for r in (200, 1000))
     late = changes["1 sample(s) of computation delay instead of 0 (the law using the previous force reading)"]
     assert fast10 < fast2 < base < late.force_n
+
+
+def test_admittance_scheduled_over_payload_never_asks_more_than_the_robust_design(tmp_path):
+    # each payload designed alone: the robust design is one of its candidates, so at that payload the scheduled
+    # design's force felt is at most the robust one's (to the ray scan's resolution)
+    data = _fast_data()
+    data["plant"]["payload_kg"] = {"min": 5.0, "max": 40.0, "points": 2, "nominal": 35.0}
+    out = gantry("synth", str(_write(tmp_path, data)), "--schedule", "--json")
+    assert out.returncode in (0, 3), out.stderr
+    adm = json.loads(out.stdout)["admittance"]
+    points = adm["schedule"]
+    assert [p["payload_kg"] for p in points] == [5.0, 40.0]
+    for p in points:
+        assert p["status"] == "optimal" and p["force_felt_n"] <= 1.02 * p["robust_force_felt_n"], p
+    assert max(p["robust_force_felt_n"] for p in points) == pytest.approx(adm["mouse"]["force_felt_peak_n"], rel=0.05)

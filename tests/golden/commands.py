@@ -10,7 +10,9 @@ across kinds of data (``docs/formats.md``: the time-domain verdict ``not_explain
 effect positive, the key ``domain`` on frequency data), and again when the effect library gained the
 position-dependent motor forces (their candidates in the rankings, one effective sample size from the
 largest model of the larger search, the motor force among the residual tests); ``diagnose_x`` again when the
-fit re-polished log coordinates stuck at their lower bound (two alternatives' fits leave a bad basin).
+fit re-polished log coordinates stuck at their lower bound (two alternatives' fits leave a bad basin);
+``synth_admittance`` again when the interaction loop was sampled exactly and the motor judged on the
+locomotion profile (the design became optimal: no ``tradeoff``, which is given only when it is not).
 """
 
 from __future__ import annotations

@@ -38,6 +38,9 @@ from plant.physics.models import Plant, chain_state_space
 PADE_ORDER = 8
 #: an eigenvector basis worse conditioned than this is not used for the frequency response (LU solves instead)
 EIG_CONDITION = 1e8
+#: a discrete pole this small (a mode that decays within a sample: the current loop, the Pade poles) enters the
+#: response as r / z, exact to its modulus
+FAST_MODE = 1e-10
 #: systems whose frequency response is computed together (memory: states x frequencies each)
 RESPONSE_BLOCK = 256
 
@@ -339,9 +342,15 @@ def _response_block(sys: StateSpace, z: np.ndarray) -> np.ndarray:
         left = (sys.C[good] @ Vg)[:, 0, :]
         right = np.linalg.solve(Vg, sys.B[good].astype(complex))[:, :, 0]
         residue, poles = left * right, lam[good]
+        order = np.argsort(-np.abs(poles), axis=1)             # slowest modes first
+        residue, poles = np.take_along_axis(residue, order, 1), np.take_along_axis(poles, order, 1)
+        fast = np.flatnonzero(np.max(np.abs(poles), axis=0) < FAST_MODE)
+        keep = int(fast[0]) if fast.size else sys.order
         acc = np.broadcast_to(sys.D[good, 0, 0][:, None], (residue.shape[0], z.size)).astype(complex)
-        for m in range(sys.order):            # mode by mode: a 3-D broadcast division is several times slower
+        for m in range(keep):                 # mode by mode: a 3-D broadcast division is several times slower
             acc += residue[:, m, None] / (z[None, :] - poles[:, m, None])
+        if keep < sys.order:                  # modes decayed within a sample: r / (z - p) = r / z to |p|
+            acc += residue[:, keep:].sum(axis=1)[:, None] / z[None, :]
         out[good] = acc
     eye = np.eye(sys.order)
     for k in np.flatnonzero(~good):

@@ -35,6 +35,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from design.admittance.feel import MouseFeel, mouse_feel
+from design.admittance.latency import LatencyCheck, latency_check
 from design.admittance.model import (
     AdmittanceCheck,
     AdmittanceEvaluator,
@@ -48,6 +49,7 @@ from design.admittance.monte_carlo import AdmittanceMonteCarlo
 from design.admittance.mouse import MouseModel
 from design.admittance.profile import FeltForce
 from design.admittance.rig import DiscreteAdmittance, RigTiming
+from design.admittance.sampled import dual_free_gantry, pade_order_for
 from design.admittance.synthesis import design_rounds, ray_binding
 from design.loop.dual import Controller
 from design.problem import LoopProblem
@@ -93,6 +95,12 @@ class DualLoops:
         return GantryLoop(s, scenarios, *(np.concatenate([getattr(p, f) for p in parts], axis=axis) for f, axis in
                                           (("sensitivity_mobility", 0), ("reference", 0), ("current", 1),
                                            ("motor_force", 1), ("motor_reference", 1))))
+
+    def free_state_space(self, scenarios: DualScenarios, *, period_s: float | None = None):
+        """The free gantries of ``scenarios`` as one batch (``design.admittance.sampled.dual_free_gantry``), the
+        delays' Pade order chosen for a path sampled every ``period_s``."""
+        plants = scenarios.plants()
+        return dual_free_gantry(plants, len(scenarios), self.controller, pade_order=pade_order_for(plants, period_s))
 
     def _at(self, s: np.ndarray, scenarios: DualScenarios) -> GantryLoop:
         plants = scenarios.plants()
@@ -156,6 +164,8 @@ class DualAdmittanceResult:
     design_scenarios: int
     seconds: float
     discrete: DiscreteAdmittance | None = None
+    #: the latency the design tolerates and its margins with one more sample (``design.admittance.latency``)
+    latency: LatencyCheck | None = None
 
     @property
     def gains(self) -> dict[str, float]:
@@ -226,6 +236,8 @@ def synthesise_dual_admittance(problem: LoopProblem, *, structure: str, controll
     say("what the mouse feels")
     feel = mouse_feel(problem, loops=loops, m_v=x[0], b_v=x[1], scenarios=feel_set, corners=corners, timing=timing,
                       felt=felt)
+    say("latency margin")
+    latency = latency_check(rounds.rp_scenarios, corners, loops=loops, timing=timing, m_v=x[0], b_v=x[1])
     loc = adm.locomotion
     r = float(x[0] * loc.peak_acceleration_m_per_s2 + x[1] * loc.peak_speed_m_per_s)
     if not check.meets:
@@ -250,7 +262,7 @@ def synthesise_dual_admittance(problem: LoopProblem, *, structure: str, controll
         status, msg, structure, controller, float(x[0]), float(x[1]), r, check, mc, feel, binding,
         by_position(check, dense_set), corners, timing, len(rounds.scenarios), time.perf_counter() - t0,
         DiscreteAdmittance.of(float(x[0]), float(x[1]), 1.0 / timing.period_s, timing.delay_samples,
-                              forward_euler=timing.forward_euler) if timing.sampled else None)
+                              forward_euler=timing.forward_euler) if timing.sampled else None, latency)
 
 
 def _infeasible(problem, ray, structure, controller, dense, dense_set, corners, timing, n_design,

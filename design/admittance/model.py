@@ -54,6 +54,7 @@ from design.admittance.sampled import (
     free_gantry,
     law_coefficients,
     mice_paths,
+    pade_order_for,
     sampled_gain,
 )
 from design.loop.margins import loop_margins, nyquist_stable, unwrapped_phase_deg
@@ -194,9 +195,12 @@ class PiLoops:
         """``GantryLoop`` of ``scenarios`` at complex ``s``."""
         return gantry_loop_at(scenarios.plants(self.base), s, scenarios, kp=self.kp, ki=self.ki)
 
-    def free_state_space(self, scenarios: Scenarios):
-        """The free gantries of ``scenarios`` as one state-space batch (``design.admittance.sampled.free_gantry``)."""
-        return free_gantry(scenarios.plants(self.base), len(scenarios), kp=self.kp, ki=self.ki)
+    def free_state_space(self, scenarios: Scenarios, *, period_s: float | None = None):
+        """The free gantries of ``scenarios`` as one state-space batch (``design.admittance.sampled.free_gantry``),
+        the delays' Pade order chosen for a path sampled every ``period_s``."""
+        plants = scenarios.plants(self.base)
+        return free_gantry(plants, len(scenarios), kp=self.kp, ki=self.ki,
+                           pade_order=pade_order_for(plants, period_s))
 
 
 def gantry_loop(loops, w_rad_s, scenarios) -> GantryLoop:

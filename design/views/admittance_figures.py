@@ -142,6 +142,17 @@ def rendered_figure(curves, check, passivity=None):
     return fig
 
 
+def _checked_value(check, values, binding: dict) -> float:
+    """The check's margin at the binding's scenario and mouse when the check computed it, else the binding's."""
+    sc, row = check.scenarios, binding["scenario"]
+    j = np.flatnonzero(np.isclose(sc.payload_kg, row["payload_kg"]) & np.all(
+        [np.isclose(v, row[n]) for n, v in sc.parameters.items()], axis=0))
+    k = [i for i, m in enumerate(check.mice) if m.as_dict() == binding["mouse"]]
+    if j.size and k and np.isfinite(values[k[0], j[0]]):
+        return float(values[k[0], j[0]])
+    return float(binding["value"])
+
+
 def margin_figures(check, adm, binding: dict) -> list:
     """Worst interaction-loop phase margin (deg) and gain margin (dB) over the uncertainty at each payload (kg),
     floating and braced mice, with the requirement and whether each meets it; the summary's binding scenario
@@ -165,8 +176,9 @@ def margin_figures(check, adm, binding: dict) -> list:
         ax.axhline(limit, **LIMIT_STYLE, label=f"required {limit:g} {unit}")
         if binding.get("constraint") == key and binding.get("payload_kg") is not None:
             mouse = "braced" if MouseModel(**binding["mouse"]).grounded else "floating"
-            ax.plot([binding["payload_kg"]], [binding["value"]], **BINDING_STYLE,
-                    label=f"{scenario_label(binding['scenario'])},\n{mouse} mouse: {binding['value']:.1f} {unit}")
+            value = _checked_value(check, values, binding)
+            ax.plot([binding["payload_kg"]], [value], **BINDING_STYLE,
+                    label=f"{scenario_label(binding['scenario'])},\n{mouse} mouse: {value:.1f} {unit}")
         ax.set(xlabel="payload (kg)", ylabel=f"{what} ({unit})")
         ax.set_title(f"Interaction-loop {what}, worst over the uncertainty" + (" (gaps: ∞)" if unit == "dB" else ""),
                      fontsize=10)

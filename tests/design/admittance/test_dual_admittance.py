@@ -177,3 +177,19 @@ def test_the_report_shows_the_admittance_by_carriage_position(tmp_path):
     for row in adm["by_carriage_position"]:
         assert f">{row['carriage_position_m']:.3g}</td>" in text
     assert text.count("<svg") == 3
+
+
+@pytest.mark.parametrize("structure", list(CONTROLLERS))
+def test_free_state_space_equals_the_loops_frequency_response(structure):
+    # the state space the sampled loop is discretised from, against the 2 x 2 frequency-response algebra the
+    # other tests hold to Newton's model (the delay's Pade approximant exact to 1e-9 below 300 Hz)
+    _, sc = tool(Rig(carriage_position_m=0.25, b2=330.0, delay_s=8e-4, current_loop_hz=700.0, carriage_mass_kg=51.0))
+    s = 1j * np.geomspace(0.1, 300.0, 60) * 2 * np.pi
+    loops = DualLoops(CONTROLLERS[structure])
+    free, loop = loops.free_state_space(sc, period_s=None), loops.at(s, sc)
+    A, B, C, D = free.A[0], free.B[0], free.C[0], free.D[0]
+    x = np.linalg.solve(s[:, None, None] * np.eye(A.shape[0]) - A, np.broadcast_to(B, (s.size, *B.shape)))
+    H = C @ x + D                                            # (n_f, [v, a], [u, f])
+    assert np.allclose(H[:, 0, 0], loop.reference[0], rtol=1e-8)
+    assert np.allclose(H[:, 0, 1], loop.sensitivity_mobility[0], rtol=1e-8)
+    assert np.allclose(H[:, 1, 1], s * loop.sensitivity_mobility[0], rtol=1e-8)

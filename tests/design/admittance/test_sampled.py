@@ -14,7 +14,7 @@ import pytest
 from design.admittance.model import AdmittanceEvaluator, PiLoops, coupled_gain, mice
 from design.admittance.mouse import MouseModel, stack
 from design.admittance.rig import RigTiming
-from design.admittance.sampled import PADE_ORDER, closed_loop_radius, discretised_paths, mouse_loads
+from design.admittance.sampled import closed_loop_radius, discretised_paths, mouse_loads
 from design.spec.schema import load_spec
 from design.synth.scenarios import Scenarios
 
@@ -34,7 +34,7 @@ def _scenario(row=CORNER) -> Scenarios:
     return Scenarios(np.array([row["payload_kg"]]), {k: np.array([v]) for k, v in row.items() if k != "payload_kg"})
 
 
-def _newton(kp, ki, mouse: MouseModel, row=CORNER, pade=PADE_ORDER):
+def _newton(kp, ki, mouse: MouseModel, row=CORNER, pade=8):
     return ref.coupled_path(mass_kg=row["payload_kg"], damping=row["damping_n_s_per_m"], kt=20.0, kp=kp, ki=ki,
                             delay_s=row["delay.seconds"], current_hz=row["current_loop.bandwidth_hz"],
                             head_kg=mouse.head_mass_kg, body_kg=mouse.body_mass_kg,
@@ -103,23 +103,42 @@ def test_a_converged_alias_sum_of_the_continuous_model_reaches_the_exact_discret
     assert errors[1] < errors[0] / 5 and errors[2] < 1e-4, errors
 
 
-def test_pade_order_is_converged():
+@pytest.mark.parametrize("period_s", [T, 0.005], ids=["100 Hz", "200 Hz"])
+@pytest.mark.parametrize("mouse", [FLOATING, BRACED], ids=["floating", "braced"])
+def test_pade_order_is_converged(period_s, mouse):
+    # the delay's Pade order the tool picks for the law's period (0.8 ms: order 4 at 100 Hz, 6 at 200 Hz) against
+    # order 12, up to the law's Nyquist frequency
     from design.admittance import sampled
 
     spec = load_spec(SPEC).problem()
-    w = np.geomspace(2 * math.pi * 1e-3, math.pi / T, 300)
-    timing = RigTiming(T, forward_euler=True)
+    w = np.geomspace(2 * math.pi * 1e-3, math.pi / period_s, 300)
+    timing = RigTiming(period_s, forward_euler=True)
+    plants = _scenario().plants(spec.plant.plant())
     gains = []
-    for order in (PADE_ORDER, PADE_ORDER + 4):
-        free = sampled.free_gantry(_scenario().plants(spec.plant.plant()), 1, kp=178.5, ki=300.0, pade_order=order)
+    for order in (sampled.pade_order_for(plants, period_s), 12):
+        free = sampled.free_gantry(plants, 1, kp=178.5, ki=300.0, pade_order=order)
 
         class Loops:
-            def free_state_space(self, scenarios, free=free):
+            def free_state_space(self, scenarios, *, period_s=None, free=free):
                 return free
 
-        paths = discretised_paths(Loops(), _scenario(), mouse_loads(stack([FLOATING])), timing)
+        paths = discretised_paths(Loops(), _scenario(), mouse_loads(stack([mouse])), timing)
         gains.append(sampled.sampled_gain(paths, w, timing)[0])
-    assert np.max(np.abs(gains[0] / gains[1] - 1)) < 1e-6
+    assert sampled.pade_order_for(plants, period_s) < 12
+    assert np.max(np.abs(gains[0] / gains[1] - 1)) < 1e-7
+
+
+def test_a_law_as_fast_as_the_delay_is_within_three_percent_of_the_exact_delay():
+    # at 1 kHz the 0.8 ms delay is most of a sample: the Pade path (order 8) against the alias sum of the exact
+    # delay's response over 40,000 terms, up to the Nyquist frequency
+    w = np.geomspace(2 * math.pi, 0.999 * math.pi / 0.001, 40)
+    spec = load_spec(SPEC).problem()
+    timing = RigTiming(0.001, forward_euler=True)
+    exact = coupled_gain(PiLoops.of(spec, 178.5, 300.0), _scenario(), stack([FLOATING]), w, timing)[0, 0]
+    k = np.arange(-20001, 20001)
+    s = 1j * (w[None, :] + 2 * math.pi * k[:, None] / 0.001)
+    alias = (_newton_frd(178.5, 300.0, FLOATING, s) * -np.expm1(-s * 0.001) / (s * 0.001)).sum(axis=0)
+    assert np.max(np.abs(exact / alias - 1)) < 0.03
 
 
 def test_margins_agree_with_the_independent_sampled_loop_at_five_designs():

@@ -77,7 +77,9 @@ def test_admittance_report_has_its_section_beside_the_nominal_design(tmp_path):
     assert summary.index("<b>Admittance:</b> the mouse") < summary.index("<b>Gains</b>")
     assert ">Admittance (mouse following)</h2>" in html
     section = html[html.index(">Admittance (mouse following)</h2>"):html.index(">Reproducibility</h2>")]
-    assert "Verified: True" in section and "floating mice: PM" in section and "grounded mice: PM" in section
+    assert "python-control checked the rational model (sampled by c2d)" in section and ": passed." in section
+    assert "floating mice: PM" in section and "grounded mice: PM" in section
+    assert "Latency: it tolerates" in section
     assert "Monte Carlo: 0 of 10000 independent draws over payload, uncertainty and mouse violate" in section
     # force felt, apparent mass, rendered admittance, margins by mouse, the simulated run; the front when the
     # mouse cannot drive the design

@@ -56,9 +56,10 @@ def add_admittance_section(report: Report, problem: LoopProblem, outcome: Design
                f"{num(r.contact.worst_n_per_m, '.4g')} N/m. Rendered admittance within 3 dB / 30° of "
                f"1/(m_v s + b_v) up to {bandwidth_text(c)} Hz. {_verified(r)}{_mc(r)}{_latency(r)}</div>")
     report.raw(table(["what the mouse meets", "value", "requirement / budget"], [
-        ["force felt on the profile, peak / RMS", f"{feel.peak_force_n:.3g} / {feel.rms_force_n:.3g} N",
-         f"{a.mouse.peak_force_n:g} N"],
-        ["force the virtual dynamics ask, m_v a + b_v v", f"{feel.ideal_peak_force_n:.3g} N", "—"],
+        ["force felt: the neck force while the body runs the profile, worst over the payloads and mice, peak / RMS",
+         f"{feel.peak_force_n:.3g} / {feel.rms_force_n:.3g} N", f"{a.mouse.peak_force_n:g} N"],
+        ["what the virtual dynamics alone ask at the profile's corner, m_v a_pk + b_v v_pk (the what-ifs compare "
+         "this figure, on the heaviest payload)", f"{feel.ideal_peak_force_n:.3g} N", "—"],
         ["speed / acceleration reached with its peak force", f"{feel.reachable_speed_m_per_s:.3g} m/s / "
          f"{feel.reachable_acceleration_m_per_s2:.3g} m/s²", f"{loc.peak_speed_m_per_s:g} m/s / "
          f"{loc.peak_acceleration_m_per_s2:g} m/s²"],

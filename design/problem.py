@@ -355,8 +355,9 @@ class Rig:
     force_filter: ForceFilter | None = None
     #: how the law integrates 1/(m_v s + b_v) per update: "backward_euler" v[k] = (m_v v[k-1] + T F[k]) /
     #: (m_v + b_v T), stable for any gains; "forward_euler" v[k] = v[k-1] + T (F[k] - b_v v[k-1]) / m_v, stable
-    #: only for m_v > b_v T / 2
-    law: Literal["backward_euler", "forward_euler"] = "backward_euler"
+    #: only for m_v > b_v T / 2; "tustin" (bilinear) v[k] = ((2 m_v - b_v T) v[k-1] + T (F[k] + F[k-1])) /
+    #: (2 m_v + b_v T), stable for any gains, the virtual dynamics' phase kept to the Nyquist frequency
+    law: Literal["backward_euler", "forward_euler", "tustin"] = "backward_euler"
 
     @property
     def sample_period_s(self) -> float | None:

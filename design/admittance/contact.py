@@ -20,7 +20,7 @@ from design.admittance.model import (
     interaction_margins,
 )
 from design.admittance.rig import RigTiming, force_filter_frd
-from design.admittance.sampled import closed_loop_radius, discretised_paths, law_coefficients, spring_loads
+from design.admittance.sampled import closed_loop_radius, discretised_paths, spring_loads
 from design.parallel import thread_map
 from design.problem import LoopProblem
 from design.synth.scenarios import Scenarios
@@ -51,9 +51,8 @@ def _stable(scenarios, k_e: np.ndarray, *, loops, m_v, b_v, timing: RigTiming, w
     """Is the loop closed on the spring k_e[j] stable at scenario j? Sampled with a state space: the coupled
     discrete loop's poles (``design.admittance.sampled``); else the Nyquist test on ``w``."""
     if timing.sampled and hasattr(loops, "free_state_space"):
-        alpha, beta = law_coefficients(m_v, b_v, timing.period_s, timing.forward_euler)
         paths = discretised_paths(loops, scenarios, spring_loads(k_e), timing)
-        return closed_loop_radius(paths, alpha, beta, timing.delay_samples) < 1.0
+        return closed_loop_radius(paths, timing.law(m_v, b_v), timing.delay_samples) < 1.0
 
     def path(s, weight):
         loop = loops.at(s, scenarios)

@@ -261,8 +261,7 @@ def synthesise_dual_admittance(problem: LoopProblem, *, structure: str, controll
     return DualAdmittanceResult(
         status, msg, structure, controller, float(x[0]), float(x[1]), r, check, mc, feel, binding,
         by_position(check, dense_set), corners, timing, len(rounds.scenarios), time.perf_counter() - t0,
-        DiscreteAdmittance.of(float(x[0]), float(x[1]), 1.0 / timing.period_s, timing.delay_samples,
-                              forward_euler=timing.forward_euler) if timing.sampled else None, latency)
+        DiscreteAdmittance.of_timing(float(x[0]), float(x[1]), timing) if timing.sampled else None, latency)
 
 
 def _infeasible(problem, ray, structure, controller, dense, dense_set, corners, timing, n_design,

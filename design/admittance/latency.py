@@ -21,7 +21,7 @@ import numpy as np
 from design.admittance.model import check_grid_for, coupled_gain, interaction_margins, with_mode_points
 from design.admittance.mouse import stack
 from design.admittance.rig import RigTiming
-from design.admittance.sampled import closed_loop_radius, law_coefficients, mice_paths, sampled_gain
+from design.admittance.sampled import closed_loop_radius, mice_paths, sampled_gain
 
 
 @dataclass(frozen=True)
@@ -84,9 +84,8 @@ def latency_check(scenarios, corners, *, loops, timing: RigTiming, m_v: float, b
     T, d = timing.period_s, timing.delay_samples
     pm, gm, stable = interaction_margins(w, replace(timing, delay_samples=d + 1), L * np.exp(-1j * w * T))
     if exact:
-        alpha, beta = law_coefficients(m_v, b_v, T, timing.forward_euler)
         for curves, part in paths:
-            stable.reshape(-1)[curves] = closed_loop_radius(part, alpha, beta, d + 1) < 1.0
+            stable.reshape(-1)[curves] = closed_loop_radius(part, timing.law(m_v, b_v), d + 1) < 1.0
     ok = stable.astype(bool)
     return LatencyCheck(margin, margin / T, worst, d,
                         float(np.nanmin(np.where(ok, pm, np.nan))) if ok.any() else math.nan,

@@ -52,7 +52,6 @@ from design.admittance.sampled import (
     StateSpace,
     closed_loop_radius,
     free_gantry,
-    law_coefficients,
     mice_paths,
     pade_order_for,
     sampled_gain,
@@ -258,10 +257,10 @@ def paired_margins(loops, scenarios, mouse: MouseModel, w_rad_s, timing: RigTimi
         return interaction_margins(w, timing, coupled_gain(loops, scenarios, mouse, w, timing, paired=True) / z)
     n = len(scenarios)
     pm, gm, st = np.empty(n), np.empty(n), np.empty(n, bool)
-    alpha, beta = law_coefficients(m_v, b_v, timing.period_s, timing.forward_euler)
+    law = timing.law(m_v, b_v)
     for idx, paths in mice_paths(loops, scenarios, mouse, timing, paired=True):
         pm[idx], gm[idx], _ = interaction_margins(w, timing, sampled_gain(paths, w, timing) / z)
-        st[idx] = closed_loop_radius(paths, alpha, beta, timing.delay_samples) < 1.0
+        st[idx] = closed_loop_radius(paths, law, timing.delay_samples) < 1.0
     return pm, gm, st
 
 
@@ -560,8 +559,7 @@ class AdmittanceEvaluator:
         if len(self._kept) + len(kept) > KEPT_CURVES:
             self._kept.clear()
         self._kept.update(kept)
-        alpha, beta = (law_coefficients(m_v, b_v, self.timing.period_s, self.timing.forward_euler)
-                       if self.timing.sampled else (None, None))
+        law = self.timing.law(m_v, b_v) if self.timing.sampled else None
 
         def margins(start: int) -> None:
             part = np.arange(start, min(start + step, n))
@@ -571,7 +569,7 @@ class AdmittanceEvaluator:
             for order in {e[1].order for e in entries if e[1] is not None}:
                 rows = [i for i, e in enumerate(entries) if e[1] is not None and e[1].order == order]
                 paths = StateSpace(*(np.stack([getattr(entries[i][1], f) for i in rows]) for f in "ABCD"))
-                radius = closed_loop_radius(paths, alpha, beta, self.timing.delay_samples)
+                radius = closed_loop_radius(paths, law, self.timing.delay_samples)
                 st[part[rows]] = radius < 1.0
 
         thread_map(margins, range(0, n, step))

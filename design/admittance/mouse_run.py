@@ -22,8 +22,9 @@ in the direction of e[k]); u[k] = k_p e[k] + I[k]; the command clip(u[k], -F_mot
 the current loop ``delay_ticks`` ticks later and is held.
 
 Admittance law at rate f_a, tick j at the drive ticks k = j f_d / f_a: the reading
-r[j] = res round((F_sf(t) + bias) / res); a deadband zeroes |r| <= d; v_a[j] = alpha v_a[j-1] + beta r_db[j]
-(``design.admittance.rig.DiscreteAdmittance``, backward or forward Euler); v_ref = v_a[j - computation_delay]
+r[j] = res round((F_sf(t) + bias) / res); a deadband zeroes |r| <= d;
+v_a[j] = alpha v_a[j-1] + beta r_db[j] + beta_prev r_db[j-1] (``design.admittance.rig.DiscreteAdmittance``, backward or
+forward Euler or Tustin); v_ref = v_a[j - computation_delay]
 from that tick on (held).
 
 Order within a tick: the continuous states are sampled, the admittance law updates (on its ticks), then
@@ -80,6 +81,7 @@ class RunSettings:
     feedforward: bool = True
     #: the law's rule (``design.admittance.rig.DiscreteAdmittance``)
     forward_euler: bool = False
+    tustin: bool = False
 
 
 @dataclass(frozen=True)
@@ -123,8 +125,8 @@ def simulate_mouse_run(settings: RunSettings, time_s, x_d, v_d, a_d) -> RunTrace
     wf = None if s.force_filter_hz is None else 2 * math.pi * s.force_filter_hz
     order = s.force_filter_order
     imax = s.motor_peak_force_n / kt
-    law = DiscreteAdmittance.of(s.m_v, s.b_v, s.admittance_rate_hz, forward_euler=s.forward_euler)
-    alpha, beta = law.alpha, law.beta_m_per_s_per_n
+    law = DiscreteAdmittance.of(s.m_v, s.b_v, s.admittance_rate_hz, forward_euler=s.forward_euler, tustin=s.tustin)
+    alpha, beta, beta_prev = law.alpha, law.beta_m_per_s_per_n, law.beta_prev_m_per_s_per_n
 
     def forces(z, ic, xd, vd, ad):
         x, v, xb, vb, i = z[0], z[1], z[2], z[3], z[4]
@@ -150,14 +152,16 @@ def simulate_mouse_run(settings: RunSettings, time_s, x_d, v_d, a_d) -> RunTrace
     rec = np.empty((9, n))
     queue = [0.0] * (s.computation_delay_samples + 1)
     commands = [0.0] * (s.delay_ticks + 1)
-    v_a = v_ref = integ = e_prev = ic = 0.0
+    v_a = v_ref = integ = e_prev = ic = r_prev = 0.0
     for k in range(n):
         xd, vd, ad = float(xd_[k]), float(vd_[k]), float(ad_[k])
         _, _, fs, fleg = forces(z, ic, xd, vd, ad)
         if k % n_a == 0:
             reading = z[5] if wf is not None else fs
             r = s.resolution_n * float(np.round((reading + s.bias_n) / s.resolution_n))
-            v_a = alpha * v_a + beta * (r if abs(r) > s.deadband_n else 0.0)
+            r_db = r if abs(r) > s.deadband_n else 0.0
+            v_a = alpha * v_a + beta * r_db + beta_prev * r_prev
+            r_prev = r_db
             queue = queue[1:] + [v_a]
             v_ref = queue[0]
         e = v_ref - z[1]
@@ -314,7 +318,7 @@ def run_settings(problem, *, kp: float, ki: float, m_v: float, b_v: float, timin
                        mid(mouse.neck_damping_n_s_per_m),
                        mouse.leg_stiffness_n_per_m.min if leg_stiffness_n_per_m is None else leg_stiffness_n_per_m,
                        mid(mouse.leg_damping_n_s_per_m), mouse.peak_force_n,
-                       forward_euler=timing.forward_euler)
+                       forward_euler=timing.forward_euler, tustin=timing.tustin)
 
 
 def mouse_run(settings: RunSettings, path: IntendedPath) -> MouseRun:

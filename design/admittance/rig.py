@@ -69,6 +69,8 @@ class RigTiming:
     filter_hz: float | None = None
     filter_order: int = 2
     forward_euler: bool = False
+    #: the bilinear (Tustin) rule (``law_coefficients``)
+    tustin: bool = False
 
     @classmethod
     def of(cls, rig, *, filter_hz: float | None = None) -> RigTiming:
@@ -77,8 +79,9 @@ class RigTiming:
         corner = None if f is None else (f.frequency_hz if not f.designed else filter_hz)
         if f is not None and f.designed and corner is None:
             corner = math.sqrt(f.frequency_hz_min * f.frequency_hz_max)
+        sampled = rig.sample_period_s is not None
         return cls(rig.sample_period_s, rig.computation_delay_samples, corner, 2 if f is None else f.order,
-                   rig.law == "forward_euler" and rig.sample_period_s is not None)
+                   rig.law == "forward_euler" and sampled, rig.law == "tustin" and sampled)
 
     @property
     def min_tau_s(self) -> float:
@@ -98,9 +101,21 @@ class RigTiming:
         return self.sigma_at(1j * np.asarray(w_rad_s, float))
 
     def sigma_at(self, s) -> np.ndarray:
-        """``sigma`` at complex frequencies s."""
+        """``sigma`` at complex frequencies s: (1 - z^-1) / T, or for Tustin 2 (1 - z^-1) / (T (1 + z^-1)) (the
+        law's zero at z = -1 held a hair off the Nyquist frequency, where 1 / sigma is 0)."""
         s = np.asarray(s, complex)
-        return s if self.period_s is None else -np.expm1(-s * self.period_s) / self.period_s
+        if self.period_s is None:
+            return s
+        diff = -np.expm1(-s * self.period_s) / self.period_s
+        if not self.tustin:
+            return diff
+        plus = 1.0 + np.exp(-s * self.period_s)
+        plus = np.where(np.abs(plus) < 1e-12, 1e-12, plus)
+        return 2.0 * diff / plus
+
+    def law(self, m_v, b_v) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(alpha, beta, beta_prev) of the sampled law (``law_coefficients``)."""
+        return law_coefficients(m_v, b_v, self.period_s, forward_euler=self.forward_euler, tustin=self.tustin)
 
     def rho(self, w_rad_s) -> np.ndarray | float:
         """The factor beside b_v in 1/Y_v: 1, or e^(-jwT) for forward Euler."""
@@ -169,9 +184,30 @@ def _hold(s, T: float) -> np.ndarray:
     return out
 
 
+def law_coefficients(m_v, b_v, period_s: float, *, forward_euler: bool = False,
+                     tustin: bool = False) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(alpha, beta, beta_prev) of v[k] = alpha v[k-1] + beta F[k] + beta_prev F[k-1], the virtual dynamics
+    1/(m_v s + b_v) by the rule: backward Euler alpha = m_v / (m_v + b_v T), beta = T / (m_v + b_v T); forward
+    Euler alpha = 1 - b_v T / m_v, beta = T / m_v; Tustin (s = 2 (z - 1) / (T (z + 1))) alpha = (2 m_v - b_v T) /
+    (2 m_v + b_v T), beta = beta_prev = T / (2 m_v + b_v T). beta_prev is 0 but for Tustin."""
+    m_v, b_v, T = np.asarray(m_v, float), np.asarray(b_v, float), period_s
+    zero = np.zeros(np.broadcast(m_v, b_v).shape)
+    if tustin:
+        c = T / (2 * m_v + b_v * T)
+        return (2 * m_v - b_v * T) / (2 * m_v + b_v * T), c, c + zero
+    if forward_euler:
+        return 1.0 - b_v * T / m_v, T / m_v + zero, zero
+    return m_v / (m_v + b_v * T), T / (m_v + b_v * T), zero
+
+
+RULES = {"backward_euler": "backward Euler: v[k] = (m_v v[k-1] + T F[k]) / (m_v + b_v T)",
+         "forward_euler": "forward Euler: v[k] = v[k-1] + T (F[k] - b_v v[k-1]) / m_v",
+         "tustin": "Tustin (bilinear): v[k] = ((2 m_v - b_v T) v[k-1] + T (F[k] + F[k-1])) / (2 m_v + b_v T)"}
+
+
 @dataclass(frozen=True)
 class DiscreteAdmittance:
-    """The admittance law per update: v[k] = alpha v[k-1] + beta F[k] (module docstring)."""
+    """The admittance law per update: v[k] = alpha v[k-1] + beta F[k] + beta_prev F[k-1] (``law_coefficients``)."""
 
     update_rate_hz: float
     m_v: float
@@ -180,13 +216,17 @@ class DiscreteAdmittance:
     beta_m_per_s_per_n: float
     computation_delay_samples: int
     rule: str
+    beta_prev_m_per_s_per_n: float = 0.0
 
     @classmethod
     def of(cls, m_v: float, b_v: float, update_rate_hz: float, computation_delay_samples: int = 0, *,
-           forward_euler: bool = False):
-        T = 1.0 / update_rate_hz
-        if forward_euler:
-            return cls(update_rate_hz, m_v, b_v, 1.0 - b_v * T / m_v, T / m_v, computation_delay_samples,
-                       "forward Euler: v[k] = v[k-1] + T (F[k] - b_v v[k-1]) / m_v")
-        return cls(update_rate_hz, m_v, b_v, m_v / (m_v + b_v * T), T / (m_v + b_v * T), computation_delay_samples,
-                   "backward Euler: v[k] = (m_v v[k-1] + T F[k]) / (m_v + b_v T)")
+           forward_euler: bool = False, tustin: bool = False):
+        a, b, b_prev = law_coefficients(m_v, b_v, 1.0 / update_rate_hz, forward_euler=forward_euler, tustin=tustin)
+        rule = "tustin" if tustin else "forward_euler" if forward_euler else "backward_euler"
+        return cls(update_rate_hz, m_v, b_v, float(a), float(b), computation_delay_samples, RULES[rule], float(b_prev))
+
+    @classmethod
+    def of_timing(cls, m_v: float, b_v: float, timing: RigTiming) -> DiscreteAdmittance:
+        """The law of a sampled ``timing``."""
+        return cls.of(m_v, b_v, 1.0 / timing.period_s, timing.delay_samples, forward_euler=timing.forward_euler,
+                      tustin=timing.tustin)

@@ -442,43 +442,41 @@ def _response_block(sys: StateSpace, z: np.ndarray) -> np.ndarray:
     return out
 
 
-def law_coefficients(m_v, b_v, period_s: float, forward_euler: bool) -> tuple[np.ndarray, np.ndarray]:
-    """(alpha, beta) of the law v[k] = alpha v[k-1] + beta F[k] (``design.admittance.rig``)."""
-    m_v, b_v = np.asarray(m_v, float), np.asarray(b_v, float)
-    if forward_euler:
-        return 1.0 - b_v * period_s / m_v, period_s / m_v
-    return m_v / (m_v + b_v * period_s), period_s / (m_v + b_v * period_s)
-
-
-def closed_loop_radius(sys: StateSpace, alpha, beta, delay_samples: int) -> np.ndarray:
+def closed_loop_radius(sys: StateSpace, law, delay_samples: int) -> np.ndarray:
     """Spectral radius of the coupled discrete loop of a batch of discretised paths (F[k] = -y[k]) under the law
-    (alpha, beta) whose output u[k] = v[k - d]: < 1 is stable. States (x[k], v[k-1], ..., v[k-d]). Modes on the unit
-    circle that the loop leaves unmoved (``HIDDEN_MODE``) are not counted."""
+    ``law`` = (alpha, beta, beta_prev), v[k] = alpha v[k-1] + beta F[k] + beta_prev F[k-1]
+    (``design.admittance.rig.law_coefficients``), whose output u[k] = v[k - d]: < 1 is stable. States (x[k],
+    F[k-1], v[k-1], ..., v[k-max(d, 1)]). Modes on the unit circle that the loop leaves unmoved (``HIDDEN_MODE``)
+    are not counted."""
     n = sys.order
     batch = sys.A.shape[0]
-    alpha = np.broadcast_to(np.asarray(alpha, float), (batch,))
-    beta = np.broadcast_to(np.asarray(beta, float), (batch,))
+    alpha, beta, beta_prev = (np.broadcast_to(np.asarray(c, float), (batch,)) for c in law)
     d = delay_samples
-    size = n + max(d, 1)
+    f, v0 = n, n + 1                             # F[k-1], then v[k-1] .. v[k-max(d, 1)]
+    size = n + 1 + max(d, 1)
     M = np.zeros((batch, size, size))
     G, C, D = sys.B[:, :, 0], sys.C[:, 0, :], sys.D[:, 0, 0]
     if d == 0:
-        # u[k] = v[k] = alpha v[k-1] - beta (C x[k] + D u[k])
+        # u[k] = v[k] = alpha v[k-1] + beta F[k] + beta_prev F[k-1], F[k] = -(C x[k] + D u[k])
         g = 1.0 / (1.0 + beta * D)
-        ux, uv = -(beta * g)[:, None] * C, alpha * g
+        ux, uv, uf = -(beta * g)[:, None] * C, alpha * g, beta_prev * g
         M[:, :n, :n] = sys.A + G[:, :, None] * ux[:, None, :]
-        M[:, :n, n] = G * uv[:, None]
-        M[:, n, :n], M[:, n, n] = ux, uv
+        M[:, :n, v0], M[:, :n, f] = G * uv[:, None], G * uf[:, None]
+        M[:, v0, :n], M[:, v0, v0], M[:, v0, f] = ux, uv, uf
+        M[:, f, :n] = -C - D[:, None] * ux
+        M[:, f, v0], M[:, f, f] = -D * uv, -D * uf
     else:
-        # u[k] = v[k-d] (the last state); v[k] = alpha v[k-1] - beta (C x[k] + D u[k])
-        last = n + d - 1
+        # u[k] = v[k-d] (the last state); v[k] = alpha v[k-1] + beta F[k] + beta_prev F[k-1], F[k] = -(C x + D u)
+        last = v0 + d - 1
         M[:, :n, :n] = sys.A
         M[:, :n, last] = G
-        M[:, n, :n] = -beta[:, None] * C
-        M[:, n, n] = alpha
-        M[:, n, last] += -beta * D
+        M[:, v0, :n] = -beta[:, None] * C
+        M[:, v0, v0] = alpha
+        M[:, v0, last] += -beta * D
+        M[:, v0, f] = beta_prev
+        M[:, f, :n], M[:, f, last] = -C, -D
         for j in range(1, d):
-            M[:, n + j, n + j - 1] = 1.0
+            M[:, v0 + j, v0 + j - 1] = 1.0
     closed = np.linalg.eigvals(M)
     # a mode on the unit circle that closing the loop leaves where it was is hidden from it (uncontrollable from the
     # reference or unobservable in the force: Stage Y's velocity integrators against the yaw spring, z = 1); it is

@@ -277,9 +277,8 @@ def synthesise_admittance(problem: LoopProblem, *, kp: float | None = None, ki: 
         {**notes, "design_scenarios": len(scenarios), "monte_carlo_rounds": mc_round, "tau_s": ray.tau_s,
          "payload_points": sorted({float(p) for p in scenarios.payload_kg})},
         mc, feel, contact,
-        DiscreteAdmittance.of(float(x[0]), float(x[1]), 1.0 / timing.period_s, timing.delay_samples,
-                              forward_euler=timing.forward_euler)
-        if timing.sampled else None, None, nominal, record, latency)
+        DiscreteAdmittance.of_timing(float(x[0]), float(x[1]), timing) if timing.sampled else None, None, nominal,
+        record, latency)
     if status != "optimal" and tradeoff and not nominal:
         from design.admittance.tradeoff import trade_off
 

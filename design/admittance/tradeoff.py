@@ -125,6 +125,9 @@ def _variants(problem: LoopProblem, timing: RigTiming):
         d = timing.delay_samples
         yield (f"{d + 1} sample(s) of computation delay instead of {d} (the law using the previous force reading)",
                problem, replace(timing, delay_samples=d + 1))
+        if not timing.tustin:
+            yield (f"the law by Tustin's rule instead of {'forward' if timing.forward_euler else 'backward'} Euler",
+                   problem, replace(timing, forward_euler=False, tustin=True))
     hw = problem.admittance.hardware
     if hw.motor_force_criterion == "worst_sinusoid":
         adm = replace(problem.admittance, hardware=replace(hw, motor_peak_force_n=2 * hw.motor_peak_force_n))

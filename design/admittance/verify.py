@@ -143,8 +143,9 @@ def interaction_loop_model(parts: GantryParts, mouse: MouseModel, *, kp: float, 
     if not timing.sampled:
         return path * control.ss(control.tf([1.0], [m_v, b_v])), path
     T = timing.period_s
-    # 1/Y_v = m_v (1 - z^-1) / T + b_v rho, rho = 1 (backward Euler) or z^-1 (forward Euler)
-    law = control.ss(control.tf([T, 0.0], [m_v, b_v * T - m_v] if timing.forward_euler else [m_v + b_v * T, -m_v], T))
+    # Y_v = (beta z + beta_prev) / (z - alpha) (``design.admittance.rig.law_coefficients``)
+    a, b, b_prev = (float(c) for c in timing.law(m_v, b_v))
+    law = control.ss(control.tf([b, b_prev], [1.0, -a], T))
     delay = control.ss(control.tf([1.0], [1.0] + [0.0] * timing.delay_samples, T))
     return law * delay * control.c2d(path, T, method="zoh"), path
 

@@ -108,7 +108,9 @@ def add_admittance_section(report: Report, problem: LoopProblem, outcome: Design
     if r.discrete is not None:
         d = r.discrete
         report.text(f"The admittance law as the rig runs it at {d.update_rate_hz:g} Hz: v[k] = {d.alpha:.10g} "
-                    f"v[k−1] + {d.beta_m_per_s_per_n:.10g} F[k] ({d.rule}; F in N, v in m/s), "
+                    f"v[k−1] + {d.beta_m_per_s_per_n:.10g} F[k]"
+                    + (f" + {d.beta_prev_m_per_s_per_n:.10g} F[k−1]" if d.beta_prev_m_per_s_per_n else "")
+                    + f" ({d.rule}; F in N, v in m/s), "
                     f"held until the next update, {d.computation_delay_samples} sample(s) of computation delay.")
 
 

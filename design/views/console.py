@@ -296,7 +296,9 @@ def _print_admittance(console: Console, adm: dict) -> None:
     if rig["discrete"]:
         d = rig["discrete"]
         console.print(escape(f"  admittance law at {rig['update_rate_hz']:g} Hz: v[k] = {d['alpha']:.10g} v[k-1] + "
-                             f"{d['beta_m_per_s_per_n']:.10g} F[k]"))
+                             f"{d['beta_m_per_s_per_n']:.10g} F[k]"
+                             + (f" + {d['beta_prev_m_per_s_per_n']:.10g} F[k-1]" if d.get("beta_prev_m_per_s_per_n")
+                                else "")))
     console.print(f"  {adm['message']}; solver {adm['solver']['seconds']:.1f} s", soft_wrap=True)
     if adm.get("schedule"):
         rows = [[f"{p['payload_kg']:g}", p["status"], f"{p['kp']:.4g}", f"{p['ki']:.4g}", f"{p['m_v']:.4g}",

@@ -544,9 +544,10 @@ def _admittance_setting(adm, timing, discrete) -> dict:
                 "force_filter_order": timing.filter_order if timing.filter_hz is not None else None,
                 "discrete": None if discrete is None else {
                     "alpha": discrete.alpha, "beta_m_per_s_per_n": discrete.beta_m_per_s_per_n,
+                    "beta_prev_m_per_s_per_n": discrete.beta_prev_m_per_s_per_n,
                     "rule": discrete.rule,
-                    "form": "v[k] = alpha v[k-1] + beta F[k]; v held until the next update, applied "
-                            f"{timing.delay_samples} sample(s) after F[k] is read"}}}
+                    "form": "v[k] = alpha v[k-1] + beta F[k] + beta_prev F[k-1]; v held until the next update, "
+                            f"applied {timing.delay_samples} sample(s) after F[k] is read"}}}
 
 
 def _feel(feel) -> dict:

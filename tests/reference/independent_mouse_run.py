@@ -98,12 +98,18 @@ def law_coefficients(m_v, b_v, admittance_rate_hz, forward_euler=False):
     return m_v / (m_v + b_v * T), T / (m_v + b_v * T)
 
 
+def tustin_coefficients(m_v, b_v, admittance_rate_hz):
+    """(alpha, c) of Tustin's v[j] = alpha v[j-1] + c (F[j] + F[j-1]): m_v s + b_v with s = 2 (z - 1) / (T (z + 1))."""
+    T = 1.0 / admittance_rate_hz
+    return (2 * m_v - b_v * T) / (2 * m_v + b_v * T), T / (2 * m_v + b_v * T)
+
+
 def simulate(time_s, x_d, v_d, a_d, *, gantry_mass_kg, damping_n_s_per_m, force_constant_n_per_a, current_loop_hz,
              delay_ticks, drive_rate_hz, kp, ki, motor_peak_force_n, friction_n, friction_velocity_m_per_s,
              admittance_rate_hz, computation_delay_samples, m_v, b_v, force_filter_hz, force_filter_order,
              resolution_n, bias_n, deadband_n, head_mass_kg, body_mass_kg, neck_stiffness_n_per_m,
              neck_damping_n_s_per_m, leg_stiffness_n_per_m, leg_damping_n_s_per_m, mouse_peak_force_n,
-             feedforward=True, forward_euler=False, method="DOP853") -> ReferenceTrace:
+             feedforward=True, forward_euler=False, tustin=False, method="DOP853") -> ReferenceTrace:
     """Simulate the model of the module docstring at the drive ticks ``time_s`` (k / drive_rate_hz) with the
     intended path sampled there. Keyword names follow the quantities (SI units; rates in Hz)."""
     t = np.asarray(time_s, float)
@@ -128,6 +134,11 @@ def simulate(time_s, x_d, v_d, a_d, *, gantry_mass_kg, damping_n_s_per_m, force_
     sqrt2 = math.sqrt(2.0)
     imax = motor_peak_force_n / kt
     alpha, beta = law_coefficients(m_v, b_v, admittance_rate_hz, forward_euler)
+    beta_prev = 0.0
+    if tustin:
+        alpha, beta = tustin_coefficients(m_v, b_v, admittance_rate_hz)
+        beta_prev = beta
+    r_prev = 0.0
 
     # state y = [x, v, x_b, v_b, i, f, f'] (i unused when ideal, f' unused for order 1, both filters unused when off)
     def accel(y, ic):
@@ -169,7 +180,8 @@ def simulate(time_s, x_d, v_d, a_d, *, gantry_mass_kg, damping_n_s_per_m, force_
         current = ic if ideal else y[4]
         if k % n_a == 0:
             r = float(reading(f_read, resolution_n, bias_n, deadband_n))
-            v_a = alpha * v_a + beta * r
+            v_a = alpha * v_a + beta * r + beta_prev * r_prev
+            r_prev = r
             v_a_hist = v_a_hist[1:] + [v_a]
             v_ref = v_a_hist[0]
         e = v_ref - y[1]

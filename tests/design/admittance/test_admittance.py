@@ -559,3 +559,16 @@ def test_admittance_scheduled_over_payload_never_asks_more_than_the_robust_desig
     for p in points:
         assert p["status"] == "optimal" and p["force_felt_n"] <= 1.02 * p["robust_force_felt_n"], p
     assert max(p["robust_force_felt_n"] for p in points) == pytest.approx(adm["mouse"]["force_felt_peak_n"], rel=0.05)
+
+
+def test_a_tustin_law_is_designed_verified_and_exported_with_its_rule():
+    # the bundled rig's 100 Hz law by Tustin's rule on the small spec: a verified design (python-control on the
+    # rational model with the law Y_v = (beta z + beta_prev) / (z - alpha)), its difference equation exported
+    data = _fast_data()
+    data["admittance"]["rig"] = {"update_rate_hz": 100.0, "computation_delay_samples": 0, "law": "tustin"}
+    res = synthesise_admittance(parse_spec(data).problem(), kp=140.0, ki=15.0)
+    assert res.status == "optimal" and res.verified, res.message
+    d = res.discrete
+    assert "Tustin" in d.rule and d.beta_prev_m_per_s_per_n == pytest.approx(d.beta_m_per_s_per_n)
+    T = 0.01
+    assert d.alpha == pytest.approx((2 * res.m_v - res.b_v * T) / (2 * res.m_v + res.b_v * T))

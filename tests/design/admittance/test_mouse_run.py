@@ -20,7 +20,7 @@ BASE = dict(gantry_mass_kg=40.0, damping_n_s_per_m=440.0, force_constant_n_per_a
             b_v=9.07, force_filter_hz=None, force_filter_order=2, resolution_n=1e-9, bias_n=0.0, deadband_n=0.0,
             head_mass_kg=0.005, body_mass_kg=0.03, neck_stiffness_n_per_m=100.0, neck_damping_n_s_per_m=0.5,
             leg_stiffness_n_per_m=300.0, leg_damping_n_s_per_m=0.5, mouse_peak_force_n=1.2, feedforward=True,
-            forward_euler=False)
+            forward_euler=False, tustin=False)
 #: case (b): the rig as it is (current loop, delays, filter, quantised and offset sensor, deadband, friction) with
 #: a motor too weak for the payload, so the drive saturates and the integrator's anti-windup acts
 RIG = dict(BASE, current_loop_hz=1000.0, drive_rate_hz=2000.0, delay_ticks=1, computation_delay_samples=1,
@@ -151,6 +151,7 @@ PUSHES = [
     (0.03, dict(resolution_n=6.25e-3, bias_n=0.0, deadband_n=0.025, force_filter_hz=30.0), 0.03125),
     (0.1, dict(force_filter_hz=20.0, force_filter_order=1, forward_euler=True, admittance_rate_hz=1000.0,
                computation_delay_samples=2, delay_ticks=3, current_loop_hz=1000.0), 0.1),
+    (0.1, dict(tustin=True), 0.1),                                                          # Tustin's rule
 ]
 
 
@@ -203,8 +204,9 @@ def test_reference_integrator_agrees_with_another():
 
 
 # --- the tool against the reference ----------------------------------------------------------------------------
-@pytest.mark.parametrize("changes", [dict(), dict(gantry_mass_kg=5.0, m_v=0.05, b_v=8.0, forward_euler=True)],
-                         ids=["backward-40kg", "forward-5kg"])
+@pytest.mark.parametrize("changes", [dict(), dict(gantry_mass_kg=5.0, m_v=0.05, b_v=8.0, forward_euler=True),
+                                     dict(gantry_mass_kg=5.0, m_v=0.05, b_v=8.0, tustin=True)],
+                         ids=["backward-40kg", "forward-5kg", "tustin-5kg"])
 def test_continuous_like_run_matches_reference(changes):
     """(a) No friction, ideal current loop, no filter, a fine quantiser without offset or deadband; 1 kHz drive,
     100 Hz law."""

@@ -205,12 +205,10 @@ def test_gain_margin_and_stability_agree_with_a_fine_step_simulation():
     g = 10 ** (gm_db / 20)
     timing = RigTiming(T, forward_euler=True)
     paths = discretised_paths(PiLoops.of(spec, kp, ki), _scenario(), mouse_loads(stack([FLOATING])), timing)
-    from design.admittance.sampled import law_coefficients
-
     for factor, grows in ((0.8, False), (1.2, True)):
         scale = 1.0 / (g * factor)
         ratio = _simulate_growth(kp, ki, m_v * scale, b_v * scale, FLOATING)
-        radius = closed_loop_radius(paths, *law_coefficients(m_v * scale, b_v * scale, T, True), 0)[0]
+        radius = closed_loop_radius(paths, timing.law(m_v * scale, b_v * scale), 0)[0]
         assert (ratio > 1.0) == grows and (radius > 1.0) == grows, (factor, ratio, radius)
 
 
@@ -220,8 +218,6 @@ def test_closed_loop_radius_with_computation_delay_equals_the_reference_eigenval
     spec = load_spec(SPEC).problem()
     timing = RigTiming(T, forward_euler=True)
     paths = discretised_paths(PiLoops.of(spec, 209.9, 14.12), _scenario(), mouse_loads(stack([FLOATING])), timing)
-    from design.admittance.sampled import law_coefficients
-
     A, B, C, D = ref.sampled_loop(_newton(209.9, 14.12, FLOATING), m_v=0.0436, b_v=5.05, period_s=T,
                                   forward_euler=True)
     for d in (0, 1, 2):
@@ -239,7 +235,7 @@ def test_closed_loop_radius_with_computation_delay_equals_the_reference_eigenval
             Cd, Dd = C, D
         kf = 1.0 / (1.0 + Dd[0, 0])
         expected = np.max(np.abs(np.linalg.eigvals(Ad - kf * Bd @ Cd)))
-        got = closed_loop_radius(paths, *law_coefficients(0.0436, 5.05, T, True), d)[0]
+        got = closed_loop_radius(paths, timing.law(0.0436, 5.05), d)[0]
         assert abs(got - expected) < 1e-7, (d, got, expected)
 
 
@@ -293,3 +289,34 @@ def test_the_labs_setting_is_unstable_where_the_reference_says():
     mouse = MouseModel(0.002, 0.020, 200.0, 0.2, 0.0, 0.0)
     assert not _reference_margins(178.5, 19150.0, 0.04, 4.0, mouse)[3]
     assert _reference_margins(178.5, 19150.0, 0.04, 4.0, FLOATING)[3]        # the 35 g body there is stable
+
+
+def test_tustin_law_is_the_bilinear_transform_and_its_loop_agrees_with_the_reference():
+    # the law's difference equation rebuilt: scipy's bilinear discretisation of 1/(m_v s + b_v) gives the same
+    # coefficients; the coupled loop's radius with it equals the eigenvalues of the reference loop with that law
+    from scipy.signal import cont2discrete
+
+    from design.admittance.rig import DiscreteAdmittance
+
+    m_v, b_v = 0.0436, 5.05
+    timing = RigTiming(T, tustin=True)
+    law = DiscreteAdmittance.of_timing(m_v, b_v, timing)
+    num, den, _ = cont2discrete(([1.0], [m_v, b_v]), T, method="bilinear")
+    num, den = np.ravel(num) / den[0], np.ravel(den) / den[0]
+    assert np.allclose([law.beta_m_per_s_per_n, law.beta_prev_m_per_s_per_n, law.alpha], [num[0], num[1], -den[1]])
+    assert "Tustin" in law.rule
+    spec = load_spec(SPEC).problem()
+    paths = discretised_paths(PiLoops.of(spec, 209.9, 14.12), _scenario(), mouse_loads(stack([FLOATING])), timing)
+    Ad, Bd, Cd, Dd = (np.asarray(x, float) for x in cont2discrete(_newton(209.9, 14.12, FLOATING), T, method="zoh")[:4])
+    # the law as a state space (state s = beta_prev F[k-1] + alpha v[k-1]): v[k] = s + beta F[k]
+    a, b, bp = law.alpha, law.beta_m_per_s_per_n, law.beta_prev_m_per_s_per_n
+    n = Ad.shape[0]
+    # x[k+1] = Ad x + Bd v[k], F[k] = -(Cd x + Dd v[k]); s[k+1] = alpha v[k] + beta_prev F[k]
+    g = 1.0 / (1.0 + b * Dd[0, 0])
+    vx, vs = -b * g * Cd[0], g                               # v[k] = vx x + vs s
+    fx, fs = -Cd[0] - Dd[0, 0] * vx, -Dd[0, 0] * vs          # F[k] = fx x + fs s
+    M = np.zeros((n + 1, n + 1))
+    M[:n, :n], M[:n, n] = Ad + Bd @ vx[None, :], Bd[:, 0] * vs
+    M[n, :n], M[n, n] = a * vx + bp * fx, a * vs + bp * fs
+    expected = np.max(np.abs(np.linalg.eigvals(M)))
+    assert abs(closed_loop_radius(paths, timing.law(m_v, b_v), 0)[0] - expected) < 1e-7

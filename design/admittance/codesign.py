@@ -37,8 +37,6 @@ KP_FACTORS = (0.6, 1.0, 1.5)
 KI_FACTORS = (1.0, 0.1, 0.01, 0.001)
 NELDER_MEAD_EVALUATIONS = 16
 W_PI = log_grid_rad_s(0.01, 3000.0, 500)
-#: alias terms of the sampled sum during the search (the design at the chosen gains takes them all)
-SEARCH_TERMS = 1
 
 
 @dataclass(frozen=True)
@@ -83,8 +81,7 @@ def _scorer(problem: LoopProblem, timing: RigTiming):
             return math.inf, pm, gm
         w = with_mode_points(_coarse(t), corners, t, points=12)
         loops = PiLoops.of(problem, k_p, k_i)
-        resp = interaction_responses(problem, scenarios, w, loops=loops, timing=t, corners=corners,
-                                     terms=SEARCH_TERMS)
+        resp = interaction_responses(problem, scenarios, w, loops=loops, timing=t, corners=corners)
         felt = FeltForce(problem, feel, corners, loops=loops, timing=t)
         ray = best_ray(ray_problem(resp, adm), objective=lambda r: felt(r.m_v, r.b_v), points=16, refine=1)
         return (felt(ray.m_v, ray.b_v) if ray.feasible else math.inf), pm, gm

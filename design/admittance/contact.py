@@ -50,7 +50,7 @@ class ContactLimit:
 def _stable(scenarios, k_e: np.ndarray, *, loops, m_v, b_v, timing: RigTiming, w: np.ndarray) -> np.ndarray:
     """Is the loop closed on the spring k_e[j] stable at scenario j? Sampled with a state space: the coupled
     discrete loop's poles (``design.admittance.sampled``); else the Nyquist test on ``w``."""
-    if timing.sampled and hasattr(loops, "free_state_space"):
+    if timing.sampled:
         paths = discretised_paths(loops, scenarios, spring_loads(k_e), timing)
         return closed_loop_radius(paths, timing.law(m_v, b_v), timing.delay_samples) < 1.0
 
@@ -58,8 +58,7 @@ def _stable(scenarios, k_e: np.ndarray, *, loops, m_v, b_v, timing: RigTiming, w
         loop = loops.at(s, scenarios)
         return loop.reference * weight / (loop.s / k_e[:, None] + loop.sensitivity_mobility)
 
-    gain = timing.sampled_path(path, w) if timing.sampled else path(1j * w, force_filter_frd(
-        1j * w, timing.filter_hz, timing.filter_order) * np.ones(w.size))
+    gain = path(1j * w, force_filter_frd(1j * w, timing.filter_hz, timing.filter_order) * np.ones(w.size))
     _, _, stable = interaction_margins(w, timing, gain / timing.impedance(w, m_v, b_v))
     return stable
 

@@ -65,7 +65,7 @@ def latency_check(scenarios, corners, *, loops, timing: RigTiming, m_v: float, b
     w = with_mode_points(check_grid_for(timing), corners, timing)
     batch = stack(corners)
     z = timing.impedance(w, m_v, b_v)
-    exact = timing.sampled and hasattr(loops, "free_state_space")
+    exact = timing.sampled
     paths = mice_paths(loops, scenarios, batch, timing, paired=False) if exact else None
     if exact:
         gain = np.empty((len(corners) * len(scenarios), w.size), complex)

@@ -78,10 +78,10 @@ SAMPLED_POINTS_PER_DECADE = 120
 #: working at once (memory)
 CHUNK_ELEMENTS = 2_000_000
 #: the screened check computes exact margins for the SCREEN_TOP mice with the largest ray bound at each
-#: scenario and for every curve whose bound is within SCREEN_RATIO of the design's b_v; the screen's grid and
-#: alias terms (its fifth of slack covers their error)
+#: scenario and for every curve whose bound is within SCREEN_RATIO of the design's b_v; the screen's grid (its
+#: fifth of slack covers the interpolation between its points)
 SCREEN_TOP, SCREEN_RATIO = 2, 0.8
-SCREEN_POINTS_PER_DECADE, SCREEN_TERMS = 60, 1
+SCREEN_POINTS_PER_DECADE = 60
 #: curves (mouse x scenario) whose exact K_eff an evaluator keeps between evaluations (memory: each is one grid)
 KEPT_CURVES = 12_000
 
@@ -224,21 +224,17 @@ def interaction_gain(loop: GantryLoop, mouse: MouseModel, *, weight=1.0, paired:
     return np.divide(loop.reference * weight, den, out=den)
 
 
-def coupled_gain(loops, scenarios, mouse: MouseModel, w_rad_s, timing: RigTiming, *, paired: bool = False,
-                 terms: int | None = None) -> np.ndarray:
+def coupled_gain(loops, scenarios, mouse: MouseModel, w_rad_s, timing: RigTiming, *,
+                 paired: bool = False) -> np.ndarray:
     """K_eff, the interaction loop times m_v sigma + b_v rho, of a batch of mice ((n_m, 1) fields) at every
     scenario, (n_m, n_s, n_f), or ``paired`` (mouse k at scenario k), (n_s, n_f): continuous, H_f K; sampled, the
-    exact discretisation e^(-jwdT) K_d of ``design.admittance.sampled`` for loops with a state space, else
-    ``RigTiming.sampled_path``'s alias sum with ``terms`` terms."""
+    exact discretisation e^(-jwdT) K_d of ``design.admittance.sampled`` (``loops.free_state_space``)."""
     w = np.asarray(w_rad_s, float)
     if not timing.sampled:
         s = 1j * w
         return interaction_gain(loops.at(s, scenarios), mouse,
                                 weight=force_filter_frd(s, timing.filter_hz, timing.filter_order) * np.ones(w.size),
                                 paired=paired)
-    if not hasattr(loops, "free_state_space"):
-        return timing.sampled_path(lambda s, weight: interaction_gain(loops.at(s, scenarios), mouse, weight=weight,
-                                                                      paired=paired), w, terms=terms)
     n_s = len(scenarios)
     n_m = n_s if paired else int(np.asarray(mouse.head_mass_kg).size)
     out = np.empty((n_s if paired else n_m * n_s, w.size), complex)
@@ -253,7 +249,7 @@ def paired_margins(loops, scenarios, mouse: MouseModel, w_rad_s, timing: RigTimi
     coupled discrete loop's poles (``design.admittance.sampled.closed_loop_radius``)."""
     w = np.asarray(w_rad_s, float)
     z = timing.impedance(w, m_v, b_v)
-    if not (timing.sampled and hasattr(loops, "free_state_space")):
+    if not timing.sampled:
         return interaction_margins(w, timing, coupled_gain(loops, scenarios, mouse, w, timing, paired=True) / z)
     n = len(scenarios)
     pm, gm, st = np.empty(n), np.empty(n), np.empty(n, bool)
@@ -350,11 +346,11 @@ class InteractionResponses:
 
 
 def interaction_responses(problem: LoopProblem, scenarios, w_rad_s, *, loops, timing: RigTiming, corners=None,
-                          terms: int | None = None, dtype=complex) -> InteractionResponses:
+                          dtype=complex) -> InteractionResponses:
     """K_eff for every mouse of ``corners`` (default: the spec's mouse set) and scenario on ``w_rad_s`` (which
     must end at or below the Nyquist frequency when sampled): the continuous K times the force filter, or
-    the sampled sum (``RigTiming.sampled_path``, ``terms`` alias terms: default ``ALIAS_TERMS``), stored as
-    ``dtype`` (``np.complex64`` halves the memory and keeps the precision of the rays' float32 tables)."""
+    the exactly sampled path (``coupled_gain``), stored as ``dtype`` (``np.complex64`` halves the memory and
+    keeps the precision of the rays' float32 tables)."""
     sc = as_scenarios(scenarios)
     corners = mice(problem) if corners is None else tuple(corners)
     w = check_grid(w_rad_s)
@@ -362,7 +358,7 @@ def interaction_responses(problem: LoopProblem, scenarios, w_rad_s, *, loops, ti
     batch = stack(corners)
 
     def block(rows: np.ndarray) -> None:
-        gain[:, rows] = coupled_gain(loops, sc.take(rows), batch, w, timing, terms=terms)
+        gain[:, rows] = coupled_gain(loops, sc.take(rows), batch, w, timing)
 
     thread_map(block, _blocks(len(sc), len(corners) * w.size))
     loop = loops.at(1j * w, sc)
@@ -477,8 +473,8 @@ class AdmittanceCheck:
 class AdmittanceEvaluator:
     """Evaluation of any (m_v, b_v) for fixed velocity loops and rig timing on scenarios x mice: what does not depend
     on (m_v, b_v) is computed once. Every curve (scenario, mouse) is screened by its ray bound on a coarse grid
-    (``SCREEN_POINTS_PER_DECADE``, the sampled sum cut to ``SCREEN_TERMS`` alias terms); the curves a check
-    must compute exactly are computed anew on the check grid with every term (``evaluate``)."""
+    (``SCREEN_POINTS_PER_DECADE`` points per decade of the exactly sampled loop); the curves a check must compute
+    exactly are computed anew on the check grid (``evaluate``)."""
 
     def __init__(self, problem: LoopProblem, scenarios, *, loops, timing: RigTiming | None = None, corners=None,
                  w_rad_s=None):
@@ -503,7 +499,7 @@ class AdmittanceEvaluator:
 
         def screen(rows):
             r = interaction_responses(problem, self.scenarios.take(rows), coarse, loops=loops, timing=self.timing,
-                                      corners=self.corners, terms=SCREEN_TERMS)
+                                      corners=self.corners)
             return rows, *polar(r.gain.reshape(-1, coarse.size))
 
         self._screen = thread_map(screen, _blocks(len(self.scenarios), len(self.corners) * coarse.size))
@@ -546,7 +542,7 @@ class AdmittanceEvaluator:
             k, j = np.divmod(keys, len(self.scenarios))
             mouse = MouseModel(*(np.asarray(getattr(batch, f))[k] for f in MouseModel.__dataclass_fields__))
             sc = self.scenarios.take(j)
-            if not (self.timing.sampled and hasattr(self.loops, "free_state_space")):
+            if not self.timing.sampled:
                 gain = coupled_gain(self.loops, sc, mouse, self.w, self.timing, paired=True)
                 kept.update((c, (g, None)) for c, g in zip(keys.tolist(), gain))
                 return

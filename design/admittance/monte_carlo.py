@@ -23,7 +23,6 @@ import numpy as np
 from design.admittance.model import (
     SCREEN_POINTS_PER_DECADE,
     SCREEN_RATIO,
-    SCREEN_TERMS,
     admittance_problem,
     attached_loop,
     check_grid_for,
@@ -111,7 +110,7 @@ def admittance_monte_carlo(problem: LoopProblem, *, loops, m_v: float, b_v: floa
     def screen(start: int) -> None:
         rows = np.arange(start, min(start + CHUNK, samples))
         sc, mouse = batch(rows)
-        gain = coupled_gain(loops, sc, mouse, w, timing, paired=True, terms=SCREEN_TERMS)
+        gain = coupled_gain(loops, sc, mouse, w, timing, paired=True)
         bound[rows] = curve_bounds(*polar(gain), rho + (m_v / b_v) * sigma, adm.phase_margin_deg, g,
                                    timing.sampled)
         loop = loops.at(1j * w, sc)

@@ -21,13 +21,11 @@ continuous between a hold and a sampler):
     K_d(e^(jwT)) = (1/T) sum_k H_f(jw_k) K(jw_k) (1 - e^(-jw_k T)) / (jw_k),   w_k = w + 2 pi k / T
 
 (the step-invariant transform of the continuous path K from velocity reference to sensed force, H_f
-the force filter; Astrom & Wittenmark, Computer-Controlled Systems, section 7.6). Loops with a state space
-(one motor) take K_d from its exact zero-order-hold discretisation (``design.admittance.sampled``); the alias
-sum ``sampled_path`` (k = -N-1 .. N, terms paired into complex conjugates at the Nyquist frequency) remains
-for loops known only by their frequency response (the two-motor Stage Y of ``design.admittance.dual``). Its
-terms fall as 1/k only up to the drive's current loop (K is flat there) and as 1/k^2 beyond, with a phase that
-turns with the delay: against the exact discretisation the loop gain near the Nyquist frequency is off by
-11 % with N = 3, 0.4 % with N = 30 and 0.004 % with N = 300 (tests). What the mouse feels at the frequency
+the force filter; Astrom & Wittenmark, Computer-Controlled Systems, section 7.6). The tool takes K_d from the
+exact zero-order-hold discretisation of the path's state space (``design.admittance.sampled``), not from this
+sum: its terms fall as 1/k only up to the drive's current loop (K is flat there) and as 1/k^2 beyond, with a
+phase that turns with the delay, so cut at N = 3 the loop gain near the Nyquist frequency is 11 % off (tests).
+What the mouse feels at the frequency
 it moves at (the fundamental; the sampler adds aliases above the Nyquist frequency) passes the held reference
 (1 - e^(-jwT)) / (jwT) e^(-jwdT) H_f(jw) / (m_v sigma + b_v).
 """
@@ -38,10 +36,6 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-
-#: alias terms on each side of the sampled sum (k = -N-1 .. N) for loops without a state space (the two-motor Stage Y:
-#: 11 % of the loop gain near the Nyquist frequency, the tests show; 30 terms cost Stage Y's synthesis 4x)
-ALIAS_TERMS = 3
 
 
 def force_filter_frd(s, frequency_hz: float | None, order: int) -> np.ndarray | float:
@@ -141,28 +135,6 @@ class RigTiming:
             return h * np.ones_like(s)
         T = self.period_s
         return h * _hold(s, T) * np.exp(-s * T * self.delay_samples)
-
-    def sampled_path(self, path, w_rad_s, *, terms: int | None = None) -> np.ndarray:
-        """The loop gain besides 1/(m_v sigma + b_v) for the continuous path ``path(s, weight)`` (velocity
-        reference to sensed force times ``weight``, a factor over the frequencies; arrays (..., n) for s of
-        shape (n,)): H_f path continuous, else e^(-jwdT) K_d (module docstring). Evaluated for the alias
-        terms one at a time, so memory stays that of one term."""
-        w = np.asarray(w_rad_s, float)
-        if self.period_s is None:
-            s = 1j * w
-            return path(s, force_filter_frd(s, self.filter_hz, self.filter_order) * np.ones(w.size))
-        T = self.period_s
-        terms = ALIAS_TERMS if terms is None else terms
-        total = None
-        for k in range(-terms - 1, terms + 1):
-            s = 1j * (w + 2 * math.pi * k / T)
-            term = path(s, force_filter_frd(s, self.filter_hz, self.filter_order) * _hold(s, T))
-            if total is None:
-                total = term
-            else:
-                total += term
-        total *= np.exp(-1j * w * T * self.delay_samples)
-        return total
 
     def folded_rad_s(self, w_rad_s) -> np.ndarray:
         """Frequencies (rad/s) folded into the band below the Nyquist frequency (where a mode above it

@@ -17,7 +17,6 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, replace
 
-from design.admittance.codesign import SEARCH_TERMS
 from design.admittance.model import (
     PiLoops,
     admittance_problem,
@@ -79,7 +78,7 @@ def trade_off(problem: LoopProblem, result, rp) -> TradeOff:
     heavy = design_scenarios(problem, [problem.plant.payload_kg.max])
     w = with_mode_points(check_grid_for(result.timing), result.corners, result.timing)
     resp = interaction_responses(problem, heavy, w, loops=PiLoops.of(problem, result.kp, result.ki),
-                                 timing=result.timing, corners=result.corners, terms=SEARCH_TERMS)
+                                 timing=result.timing, corners=result.corners)
     passivity_front = thread_map(
         lambda f: _point(ray_problem(resp, replace(adm, passivity=Passivity(up_to_hz=f))), f), PASSIVE_UP_TO_HZ)
     baseline = best_ray(ray_problem(resp, adm), points=20, refine=1).cost_n(rp.a_pk, rp.v_pk)
@@ -89,8 +88,7 @@ def trade_off(problem: LoopProblem, result, rp) -> TradeOff:
         sc = design_scenarios(variant, [variant.plant.payload_kg.max])
         wv = with_mode_points(check_grid_for(timing), result.corners, timing)
         r = interaction_responses(variant, sc, wv, loops=PiLoops.of(variant, result.kp, result.ki), timing=timing,
-                                  corners=result.corners,
-                                  terms=SEARCH_TERMS)
+                                  corners=result.corners)
         return HardwareChange(label, best_ray(ray_problem(r, admittance_problem(variant)), points=20,
                                               refine=1).cost_n(rp.a_pk, rp.v_pk), baseline)
 

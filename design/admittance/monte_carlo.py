@@ -124,8 +124,8 @@ def admittance_monte_carlo(problem: LoopProblem, *, loops, m_v: float, b_v: floa
         stable[rows] = nyquist_stable(attached_loop(free, mouse, paired=True))
 
     thread_map(screen, range(0, samples, CHUNK))
-    # every draw near its bound and the WORST_EXACT largest bounds: their loops anew on the check grid with every
-    # alias term, and their grid margins
+    # every draw near its bound and the WORST_EXACT largest bounds: their loops anew on the check grid, their grid
+    # margins and closed-loop poles
     keep = np.union1d(np.flatnonzero(bound >= SCREEN_RATIO * b_v), np.argsort(-bound)[:WORST_EXACT])
     pm, gm = np.full(samples, np.inf), np.full(samples, np.inf)
     wk = with_mode_points(check_grid_for(timing), corners, timing)

@@ -546,8 +546,10 @@ def _admittance_setting(adm, timing, discrete) -> dict:
                     "alpha": discrete.alpha, "beta_m_per_s_per_n": discrete.beta_m_per_s_per_n,
                     "beta_prev_m_per_s_per_n": discrete.beta_prev_m_per_s_per_n,
                     "rule": discrete.rule,
-                    "form": "v[k] = alpha v[k-1] + beta F[k] + beta_prev F[k-1]; v held until the next update, "
-                            f"applied {timing.delay_samples} sample(s) after F[k] is read"}}}
+                    "form": "v[k] = alpha v[k-1] + beta F[k]" + (" + beta_prev F[k-1]" if
+                                                                         discrete.beta_prev_m_per_s_per_n else "")
+                            + f"; v held until the next update, applied {timing.delay_samples} sample(s) after F[k] "
+                              "is read"}}}
 
 
 def _feel(feel) -> dict:

@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
@@ -95,17 +96,22 @@ class FeltForce:
         self.window = np.exp(-self.damping * self.profile.time_s)
         self.vb = np.fft.rfft(self.profile.velocity_m_per_s * self.window)
         self.moving = self.profile.moving
-        # the apparent dynamics and the reach are read on the imaginary axis
+        # the apparent dynamics and the reach are read on the imaginary axis (``rendered``, when asked)
         self.f_hz = f[1:]
         self.w = 2 * np.pi * self.f_hz
-        free = loops.at(1j * self.w, scenarios)
-        self._sg_jw = free.sensitivity_mobility
-        self._rw_jw = free.reference * timing.fundamental(self.w)
-        self._sigma_jw, self._rho_jw = timing.sigma(self.w), timing.rho(self.w)
+        self._loops = loops
+
+    @cached_property
+    def _on_axis(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """S G, R W, sigma and rho on the imaginary axis at the FFT frequencies."""
+        free = self._loops.at(1j * self.w, self.scenarios)
+        t = self.timing
+        return free.sensitivity_mobility, free.reference * t.fundamental(self.w), t.sigma(self.w), t.rho(self.w)
 
     def rendered(self, m_v: float, b_v: float) -> np.ndarray:
         """Y_r at the FFT frequencies (on the imaginary axis, without DC), (n_s, n_f)."""
-        return self._sg_jw + self._rw_jw / (m_v * self._sigma_jw + b_v * self._rho_jw)
+        sg, rw, sigma, rho = self._on_axis
+        return sg + rw / (m_v * sigma + b_v * rho)
 
     def forces(self, m_v: float, b_v: float) -> np.ndarray:
         """The neck force over the profile at every neck and scenario, (n_neck, n_s, n_t)."""

@@ -432,3 +432,18 @@ def test_a_corrupt_time_value_is_named_with_its_row(tmp_path):
     gapped = tmp_path / "gap.csv"           # ten samples missing: still a recording
     gapped.write_text("\n".join(lines[:first + 50] + lines[first + 60:]) + "\n")
     assert gantry("diagnose", gapped, "--stage", "x", "--json").returncode == 0
+
+
+@pytest.mark.parametrize("old,new,key", [
+    ("motor_peak_force_n = 300.0", 'motor_peak_force_n = 300.0\nmotor_force_criterion = "sine"',
+     "admittance.hardware.motor_force_criterion"),
+    ('law = "forward_euler"', 'law = "zoh"', "admittance.rig.law"),
+])
+def test_an_unknown_admittance_rule_is_one_line_naming_its_key(tmp_path, monkeypatch, capsys, old, new, key):
+    text = (ROOT / "specs" / "stage_x_admittance.toml").read_text()
+    assert old in text
+    spec = tmp_path / "spec.toml"
+    spec.write_text(text.replace(old, new, 1))
+    code, err, _ = in_process(monkeypatch, capsys, "synth", spec)
+    assert code == 2 and err.count("\n") == 1 and err.startswith(f"gantry: error: {spec}: {key}")
+    assert "Traceback" not in err

@@ -353,11 +353,12 @@ class Rig:
     update_rate_hz: Annotated[float, Gt(0), Le(1e6)] | None = None
     computation_delay_samples: Annotated[int, Ge(0), Le(100)] = 0
     force_filter: ForceFilter | None = None
-    #: how the law integrates 1/(m_v s + b_v) per update: "backward_euler" v[k] = (m_v v[k-1] + T F[k]) /
-    #: (m_v + b_v T), stable for any gains; "forward_euler" v[k] = v[k-1] + T (F[k] - b_v v[k-1]) / m_v, stable
-    #: only for m_v > b_v T / 2; "tustin" (bilinear) v[k] = ((2 m_v - b_v T) v[k-1] + T (F[k] + F[k-1])) /
-    #: (2 m_v + b_v T), stable for any gains, the virtual dynamics' phase kept to the Nyquist frequency
-    law: Literal["backward_euler", "forward_euler", "tustin"] = "backward_euler"
+    #: how the law integrates 1/(m_v s + b_v) per update (``design.admittance.rig``): "backward_euler"
+    #: v[k] = (m_v v[k-1] + T F[k]) / (m_v + b_v T), stable for any gains; "forward_euler" v[k] = v[k-1] +
+    #: T (F[k] - b_v v[k-1]) / m_v (the lab's LabVIEW law), stable only for m_v > b_v T / 2; "tustin" (bilinear)
+    #: v[k] = ((2 m_v - b_v T) v[k-1] + T (F[k] + F[k-1])) / (2 m_v + b_v T); "zoh" (step-invariant) v[k] =
+    #: e^(-b_v T / m_v) v[k-1] + (1 - e^(-b_v T / m_v)) F[k] / b_v, exact for a force held over the period
+    law: Literal["backward_euler", "forward_euler", "tustin", "zoh"] = "backward_euler"
 
     @property
     def sample_period_s(self) -> float | None:

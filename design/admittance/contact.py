@@ -1,7 +1,7 @@
 """The stiffest grounded contact an admittance design stays stable with: the clamp held to the ground by
 a spring k_e (a mouse bracing with a rigid neck, a hand, an end stop), Z_e = k_e / s.
 
-For each scenario the coupled loop L_e = W K_e / (m_v sigma + b_v), K_e = Z_e R / (1 + S G Z_e)
+For each scenario the coupled loop L_e = W K_e Y_v, K_e = Z_e R / (1 + S G Z_e)
 (``design.admittance.model``; sampled rigs through their step-invariant sum) is tested for Nyquist
 stability on a log grid of k_e from ``K_MIN`` to ``K_MAX`` N/m, and the boundary is refined by bisection
 between the last stable and the first unstable stiffness. The design's stiffest contact is the least of

@@ -28,6 +28,9 @@ from design.admittance.rig import RigTiming
 from design.problem import LoopProblem
 from design.synth.scenarios import Scenarios
 
+#: a velocity shortfall above this fraction is reported (the PI's integral action too slow for the cruise)
+SHORTFALL_REPORTED = 0.02
+
 
 @dataclass(frozen=True)
 class MouseFeel:
@@ -56,6 +59,13 @@ class MouseFeel:
     profile: Profile
     force_n: np.ndarray
     ideal_force_n: np.ndarray
+    #: how far the velocity loop leaves the gantry short of the law's reference at the end of the profile's
+    #: cruise, worst over the payloads (fraction of the peak speed; ``FeltForce.velocity_shortfall``)
+    velocity_shortfall: float = 0.0
+
+    @property
+    def shortfall_reported(self) -> bool:
+        return self.velocity_shortfall > SHORTFALL_REPORTED
 
 
 def feel_scenarios(problem: LoopProblem) -> Scenarios:
@@ -93,4 +103,4 @@ def mouse_feel(problem: LoopProblem, *, loops, m_v: float, b_v: float, scenarios
                      float(peak[k, j]), float(np.max(rms)), f"{felt.scenarios.describe(j)}, mouse ({mouse.label()})",
                      F / b_v, float(np.max(acc[: felt.n // 2])), bool(peak[k, j] <= F),
                      float(drift_mm_per_s(adm, b_v)), breakaway_force_n(adm), felt.f_hz, payloads, z.imag / felt.w,
-                     z.real, prof, force[k, j], ideal)
+                     z.real, prof, force[k, j], ideal, float(np.max(felt.velocity_shortfall())))

@@ -12,17 +12,17 @@ P = K_t E G H (current in, measured velocity out)::
 
 With S = 1/(1 + P C) and the physical velocity per reference R = K_t E C G S (R = T = P C S when
 H = 1): v = S G F_s + R v_ref. The admittance law turns the sensed force into the reference,
-v_ref = W F_s / (m_v sigma + b_v), with sigma = s (continuous) or the backward-Euler operator of the
-rig's update rate, and W the force filter, hold and computation delay (``design.admittance.rig``).
-The rendered admittance is Y_r = v / F_s = S G + R W / (m_v sigma + b_v) (its fundamental when sampled).
+v_ref = W Y_v F_s, with Y_v = 1/(m_v s + b_v) (continuous) or the law's rule at the rig's update rate, and
+W the force filter, hold and computation delay (``design.admittance.rig``).
+The rendered admittance is Y_r = v / F_s = S G + R W Y_v (its fundamental when sampled).
 
 Mouse at the clamp (``design.admittance.mouse``): F_s = F_mouse - Z_m v. Broken at the force-sensor
 *signal* (the controller's input), a reference u moves the gantry, which, loaded by the mouse,
 returns F_s = -K u with::
 
-    K = Z_m R / (1 + S G Z_m),   L = W K / (m_v sigma + b_v)   (continuous)
+    K = Z_m R / (1 + S G Z_m),   L = W K Y_v   (continuous)
 
-and, sampled, L = e^(-jwdT) K_d / (m_v sigma + b_v) with K_d the step-invariant transform of H_f K.
+and, sampled, L = e^(-jwdT) K_d Y_v with K_d the step-invariant transform of H_f K.
 (1 + P C)(1 + S G Z_m) = 1 + P C + G Z_m is the velocity loop with the mouse attached, which the
 Nyquist test of the interaction loop assumes stable (checked here on the grid and on the rational
 model by ``design.admittance.verify``). Scaling L scales 1/(m_v, b_v): the gain margin is the factor
@@ -31,7 +31,7 @@ by which m_v and b_v could shrink together.
 Hardware and sensor (peaks over frequency, i.e. the steady amplitude at the worst sinusoid):
 * motor force per sensed force F_m / F_s = Y_r / G - 1, times the mouse's peak force, within the
   motor's peak force;
-* a force-reading error n drives the controller but no physical force: i / n = C S W / (m_v sigma + b_v)
+* a force-reading error n drives the controller but no physical force: i / n = C S W Y_v
   (free gantry); times one resolution step, within the optional current limit;
 * drift at rest: an offset beta left after taring, beyond the deadband d (readings within it are
   zero, beyond it pass unchanged), is integrated by the law to the steady speed beta / b_v (the DC
@@ -47,7 +47,7 @@ import numpy as np
 
 from design.admittance.mouse import MouseModel, mouse_set, stack
 from design.admittance.profile import FeltForce
-from design.admittance.rig import RigTiming, force_filter_frd
+from design.admittance.rig import RigTiming, VirtualImpedance, force_filter_frd
 from design.admittance.sampled import (
     StateSpace,
     closed_loop_radius,
@@ -226,7 +226,7 @@ def interaction_gain(loop: GantryLoop, mouse: MouseModel, *, weight=1.0, paired:
 
 def coupled_gain(loops, scenarios, mouse: MouseModel, w_rad_s, timing: RigTiming, *,
                  paired: bool = False) -> np.ndarray:
-    """K_eff, the interaction loop times m_v sigma + b_v rho, of a batch of mice ((n_m, 1) fields) at every
+    """K_eff, the interaction loop over Y_v, of a batch of mice ((n_m, 1) fields) at every
     scenario, (n_m, n_s, n_f), or ``paired`` (mouse k at scenario k), (n_s, n_f): continuous, H_f K; sampled, the
     exact discretisation e^(-jwdT) K_d of ``design.admittance.sampled`` (``loops.free_state_space``)."""
     w = np.asarray(w_rad_s, float)
@@ -266,18 +266,13 @@ def attached_loop(loop: GantryLoop, mouse: MouseModel, *, paired: bool = False) 
     return loop.sensitivity_mobility * _mouse_impedance(loop, mouse, paired)
 
 
-def virtual_impedance(sigma, m_v, b_v, rho=1.0) -> np.ndarray:
-    """z = m_v sigma + b_v rho, the inverse of the virtual dynamics (N*s/m; rho: ``RigTiming.rho``)."""
-    return np.asarray(m_v) * sigma + np.asarray(b_v) * rho
-
-
 def virtual_impedance_frd(w_rad_s, m_v, b_v) -> np.ndarray:
-    """m_v jw + b_v (continuous)."""
-    return virtual_impedance(1j * np.asarray(w_rad_s, float), m_v, b_v)
+    """m_v jw + b_v: the continuous virtual dynamics' inverse (N*s/m)."""
+    return RigTiming(None).impedance(w_rad_s, m_v, b_v)
 
 
 def rendered_admittance(loop: GantryLoop, m_v: float, b_v: float, timing: RigTiming | None = None) -> np.ndarray:
-    """Y_r = v / F_s = S G + R W / (m_v sigma + b_v) (m/s per N): at the input frequency when sampled."""
+    """Y_r = v / F_s = S G + R W Y_v (m/s per N): at the input frequency when sampled."""
     timing = timing or RigTiming(None)
     w = loop.w_rad_s
     return loop.sensitivity_mobility + loop.reference * timing.fundamental(w) / timing.impedance(w, m_v, b_v)
@@ -324,22 +319,21 @@ def breakaway_force_n(adm: AdmittanceProblem) -> float:
 # --- the interaction loop's responses on a set of scenarios and mice ---------------------------------------
 @dataclass(frozen=True)
 class InteractionResponses:
-    """What does not depend on (m_v, b_v), on one grid: K_eff (the interaction loop times m_v sigma + b_v),
-    for every mouse and scenario (n_m, n_s, n_f); sigma (n_f,); and the free gantry's hardware paths."""
+    """What does not depend on (m_v, b_v), on one grid: K_eff (the interaction loop over Y_v), for every mouse
+    and scenario (n_m, n_s, n_f); the law's 1/Y_v there; and the free gantry's hardware paths."""
 
     w_rad_s: np.ndarray
     timing: RigTiming
     scenarios: object
     mice: tuple[MouseModel, ...]
     gain: np.ndarray            # K_eff, (n_m, n_s, n_f)
-    sigma: np.ndarray           # (n_f,)
-    rho: np.ndarray | float     # the factor beside b_v (``RigTiming.rho``)
-    #: the largest motor's |current per force-reading error| times m_v sigma + b_v (|C S W| for one motor), (n_s, n_f)
+    impedance: VirtualImpedance     # 1/Y_v on the grid
+    #: the largest motor's |current per force-reading error| over Y_v (|C S W| for one motor), (n_s, n_f)
     current_path: np.ndarray
     #: R W and S G, (n_s, n_f)
     reference_path: np.ndarray
     sensitivity_mobility: np.ndarray
-    #: per motor, the motor force per sensed force is motor_force + motor_reference_path / (m_v sigma + b_v),
+    #: per motor, the motor force per sensed force is motor_force + motor_reference_path Y_v,
     #: (n_motor, n_s, n_f)
     motor_force: np.ndarray
     motor_reference_path: np.ndarray
@@ -363,7 +357,7 @@ def interaction_responses(problem: LoopProblem, scenarios, w_rad_s, *, loops, ti
     thread_map(block, _blocks(len(sc), len(corners) * w.size))
     loop = loops.at(1j * w, sc)
     W = timing.fundamental(w)
-    return InteractionResponses(w, timing, sc, corners, gain, timing.sigma(w), timing.rho(w),
+    return InteractionResponses(w, timing, sc, corners, gain, timing.impedance_on(1j * w),
                                 current_path(loop, W), loop.reference * W, loop.sensitivity_mobility,
                                 loop.motor_force, loop.motor_reference * W)
 
@@ -495,7 +489,7 @@ class AdmittanceEvaluator:
         # the screen: polar K on a coarse grid, every curve
         coarse = with_mode_points(check_grid_for(self.timing, per_decade=SCREEN_POINTS_PER_DECADE), self.corners,
                                   self.timing, points=8)
-        self._screen_w = coarse
+        self._screen_impedance = self.timing.impedance_on(1j * coarse)
 
         def screen(rows):
             r = interaction_responses(problem, self.scenarios.take(rows), coarse, loops=loops, timing=self.timing,
@@ -588,7 +582,7 @@ class AdmittanceEvaluator:
         pm, gm, ratio = (np.full((n_m, n_s), np.nan) for _ in range(3))
         stable = np.ones((n_m, n_s), bool)
         g = 10 ** (adm.gain_margin_db / 20)
-        q = self.timing.rho(self._screen_w) + (m_v / b_v) * self.timing.sigma(self._screen_w)
+        q = self._screen_impedance.ray(m_v / b_v)
         pick = np.zeros((n_m, n_s), bool)
         for rows, log_mag, psi in self._screen:
             parts = [b.reshape(n_m, len(rows)) for b in curve_bounds(log_mag, psi, q, adm.phase_margin_deg, g,

@@ -31,7 +31,6 @@ from design.admittance.model import (
     mice,
     motor_force_peak,
     paired_margins,
-    virtual_impedance,
     with_mode_points,
 )
 from design.admittance.mouse import FIELDS, MouseModel, random_mice
@@ -98,8 +97,7 @@ def admittance_monte_carlo(problem: LoopProblem, *, loops, m_v: float, b_v: floa
     corners = mice(problem)
     w = with_mode_points(check_grid_for(timing, per_decade=SCREEN_POINTS_PER_DECADE), corners, timing)
     wc = with_mode_points(log_grid_rad_s(1e-3, 3000.0, 500), corners, RigTiming(None))
-    sigma, rho = timing.sigma(w), timing.rho(w)
-    z = virtual_impedance(sigma, m_v, b_v, rho)
+    z = timing.impedance(w, m_v, b_v)
     g = 10 ** (adm.gain_margin_db / 20)
     bound, cur, force = (np.empty(samples) for _ in range(3))
     stable = np.empty(samples, bool)
@@ -111,7 +109,7 @@ def admittance_monte_carlo(problem: LoopProblem, *, loops, m_v: float, b_v: floa
         rows = np.arange(start, min(start + CHUNK, samples))
         sc, mouse = batch(rows)
         gain = coupled_gain(loops, sc, mouse, w, timing, paired=True)
-        bound[rows] = curve_bounds(*polar(gain), rho + (m_v / b_v) * sigma, adm.phase_margin_deg, g,
+        bound[rows] = curve_bounds(*polar(gain), timing.impedance(w, m_v / b_v, 1.0), adm.phase_margin_deg, g,
                                    timing.sampled)
         loop = loops.at(1j * w, sc)
         W = timing.fundamental(w)

@@ -79,9 +79,8 @@ class RunSettings:
     leg_damping_n_s_per_m: float
     mouse_peak_force_n: float
     feedforward: bool = True
-    #: the law's rule (``design.admittance.rig.DiscreteAdmittance``)
-    forward_euler: bool = False
-    tustin: bool = False
+    #: the law's rule (``design.admittance.rig.RULES``)
+    law: str = "backward_euler"
 
 
 @dataclass(frozen=True)
@@ -125,7 +124,7 @@ def simulate_mouse_run(settings: RunSettings, time_s, x_d, v_d, a_d) -> RunTrace
     wf = None if s.force_filter_hz is None else 2 * math.pi * s.force_filter_hz
     order = s.force_filter_order
     imax = s.motor_peak_force_n / kt
-    law = DiscreteAdmittance.of(s.m_v, s.b_v, s.admittance_rate_hz, forward_euler=s.forward_euler, tustin=s.tustin)
+    law = DiscreteAdmittance.of(s.m_v, s.b_v, s.admittance_rate_hz, rule=s.law)
     alpha, beta, beta_prev = law.alpha, law.beta_m_per_s_per_n, law.beta_prev_m_per_s_per_n
 
     def forces(z, ic, xd, vd, ad):
@@ -318,7 +317,7 @@ def run_settings(problem, *, kp: float, ki: float, m_v: float, b_v: float, timin
                        mid(mouse.neck_damping_n_s_per_m),
                        mouse.leg_stiffness_n_per_m.min if leg_stiffness_n_per_m is None else leg_stiffness_n_per_m,
                        mid(mouse.leg_damping_n_s_per_m), mouse.peak_force_n,
-                       forward_euler=timing.forward_euler, tustin=timing.tustin)
+                       law=timing.rule)
 
 
 def mouse_run(settings: RunSettings, path: IntendedPath) -> MouseRun:

@@ -7,7 +7,7 @@ carries the force between body and head::
 
     F_n / v_b = Z_n (1 + m_h s Y_r) / (1 + (Z_n + m_h s) Y_r),   F_s = F_n / (1 + m_h s Y_r)
 
-and each motor's force is F_m = (S - 1 + K_t E C S W / (m_v sigma + b_v rho)) F_s (``design.admittance.model``;
+and each motor's force is F_m = (S - 1 + K_t E C S W Y_v) F_s (``design.admittance.model``;
 M a + b v - F_s for a rigid Stage X). Computed by FFT over the profile padded with rest, with an exponential
 window (the input times e^(-c t), the response at s = c + jw, the output times e^(c t), c = 8 / the window's
 length) so the circular convolution's wrap-around is damped by e^-8 and slow modes of the loop come out as the
@@ -80,9 +80,10 @@ class FeltForce:
         loop = loops.at(s, scenarios)
         self.scenarios, self.timing = scenarios, timing
         self.sg = loop.sensitivity_mobility                                 # (n_s, n_f)
+        self.r = loop.reference
         self.rw = loop.reference * timing.fundamental_at(s)
         self.mf, self.mr = loop.motor_force, loop.motor_reference * timing.fundamental_at(s)     # (n_motor, n_s, n_f)
-        self.sigma, self.rho = timing.sigma_at(s), timing.rho_at(s)
+        self.impedance = timing.impedance_on(s)
         if paired:
             self.necks, batch = None, corners
         else:
@@ -102,26 +103,26 @@ class FeltForce:
         self._loops = loops
 
     @cached_property
-    def _on_axis(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """S G, R W, sigma and rho on the imaginary axis at the FFT frequencies."""
+    def _on_axis(self) -> tuple[np.ndarray, np.ndarray, object]:
+        """S G, R W and the law's 1/Y_v on the imaginary axis at the FFT frequencies."""
         free = self._loops.at(1j * self.w, self.scenarios)
         t = self.timing
-        return free.sensitivity_mobility, free.reference * t.fundamental(self.w), t.sigma(self.w), t.rho(self.w)
+        return free.sensitivity_mobility, free.reference * t.fundamental(self.w), t.impedance_on(1j * self.w)
 
     def rendered(self, m_v: float, b_v: float) -> np.ndarray:
         """Y_r at the FFT frequencies (on the imaginary axis, without DC), (n_s, n_f)."""
-        sg, rw, sigma, rho = self._on_axis
-        return sg + rw / (m_v * sigma + b_v * rho)
+        sg, rw, impedance = self._on_axis
+        return sg + rw / impedance(m_v, b_v)
 
     def forces(self, m_v: float, b_v: float) -> np.ndarray:
         """The neck force over the profile at every neck and scenario, (n_neck, n_s, n_t)."""
-        yr = self.sg + self.rw / (m_v * self.sigma + b_v * self.rho)
+        yr = self.sg + self.rw / self.impedance(m_v, b_v)
         h = self.zn * (1 + self.mh * yr) / (1 + (self.zn + self.mh) * yr)
         return np.fft.irfft(h * self.vb, self.n) / self.window
 
     def motor_forces(self, m_v: float, b_v: float) -> np.ndarray:
         """Each motor's force over the profile at every neck and scenario, (n_motor, n_neck, n_s, n_t) (N)."""
-        z = m_v * self.sigma + b_v * self.rho
+        z = self.impedance(m_v, b_v)
         yr = self.sg + self.rw / z
         sensed = self.zn / (1 + (self.zn + self.mh) * yr) * self.vb            # F_s = F_n / (1 + m_h s Y_r)
         per_sensed = self.mf + self.mr / z
@@ -130,6 +131,15 @@ class FeltForce:
     def motor_peak_n(self, m_v: float, b_v: float) -> np.ndarray:
         """The largest motor force over the profile, motors and necks, per scenario (N), (n_s,)."""
         return np.max(np.abs(self.motor_forces(m_v, b_v)), axis=(0, 1, 3))
+
+    def velocity_shortfall(self) -> np.ndarray:
+        """How far the gantry's velocity falls short of a reference that runs the profile, at the end of its
+        cruise (the last sample at peak speed), as a fraction of the peak speed, per scenario (n_s,): what the
+        velocity loop's integral action has not yet made up (the mouse pushes that much harder to keep up)."""
+        v = np.fft.irfft(self.r * self.vb, self.n) / self.window
+        vel = self.profile.velocity_m_per_s
+        end = int(np.flatnonzero(vel >= vel.max() * (1 - 1e-12))[-1])
+        return (vel[end] - v[..., end]) / vel[end]
 
     def __call__(self, m_v: float, b_v: float) -> float:
         return float(np.max(np.abs(self.forces(m_v, b_v)[..., self.moving])))

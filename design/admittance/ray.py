@@ -1,9 +1,9 @@
 """The lightest admittance that holds every requirement, along rays of the virtual dynamics.
 
-Write m_v sigma + b_v rho = t q, q = rho + tau sigma (``design.admittance.rig``: rho = 1, or e^(-jwT) for a
-forward-Euler law), with tau = m_v / b_v (s) fixing the ray and
-t = b_v its scale. Along a ray every requirement of ``design.admittance.model`` is a bound on t alone,
-at each frequency, scenario and mouse, in closed form:
+Write the law's virtual impedance 1/Y_v = t q(tau) (``design.admittance.rig.VirtualImpedance.ray``: every rule
+scales with (m_v, b_v) together), with tau = m_v / b_v (s) fixing the ray and t = b_v its scale. Along a ray
+every requirement of ``design.admittance.model`` is a bound on t alone, at each frequency, scenario and mouse,
+in closed form:
 
 * margins: with p = K_eff / q the interaction loop is L = p / t. Coming down from t = inf (L = 0, the
   coupled loop stable when the velocity loop with the mouse attached is), the loop keeps phase margin
@@ -30,6 +30,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from design.admittance.model import InteractionResponses
+from design.admittance.rig import VirtualImpedance
 from design.problem import AdmittanceProblem
 
 #: the design keeps this much above the requirements, so the exact check (refined crossings) passes
@@ -102,8 +103,7 @@ def curve_bounds(log_mag: np.ndarray, psi: np.ndarray, q: np.ndarray, phase_marg
 class RayProblem:
     """Everything a ray needs, tabulated once from ``InteractionResponses`` and the spec."""
 
-    sigma: np.ndarray
-    rho: np.ndarray | float
+    impedance: VirtualImpedance            # the law's 1/Y_v on the grid: b_v q(tau) on a ray
     w_rad_s: np.ndarray
     log_mag: np.ndarray                    # log |K_eff| per curve (mouse x scenario), (n_c, n_f), float32
     psi: np.ndarray                        # phase of K_eff relative to -180 deg (deg)
@@ -112,7 +112,7 @@ class RayProblem:
     sampled: bool
     current_peak: np.ndarray | None        # max over scenarios of |C S W| res / i_max, (n_f,)
     motor_force: np.ndarray                # motor force per sensed force at b_v = inf (S - 1), (n_motor x n_s, n_f)
-    motor_reference: np.ndarray            # and the part over m_v sigma + b_v rho (R W / G), (n_motor x n_s, n_f)
+    motor_reference: np.ndarray            # and the part times Y_v (R W / G), (n_motor x n_s, n_f)
     force_ratio: float                     # F_max / F_pk (inf: the motor is held on the locomotion profile)
     passive_re_sg: np.ndarray | None       # Re(S G) on the passivity band, (n_s, n_p)
     passive_rw: np.ndarray | None          # R W there
@@ -145,7 +145,7 @@ def ray_problem(resp: InteractionResponses, adm: AdmittanceProblem, *, phase_mar
     t_min = adm.b_v.min
     if sensor.max_drift_mm_per_s is not None and sensor.bias_after_tare_n > sensor.deadband_n:
         t_min = max(t_min, 1e3 * sensor.bias_after_tare_n / (sensor.max_drift_mm_per_s * (1 - HAIR_HARDWARE)))
-    return RayProblem(resp.sigma, resp.rho, resp.w_rad_s, *polar(resp.gain.reshape(-1, resp.w_rad_s.size)),
+    return RayProblem(resp.impedance, resp.w_rad_s, *polar(resp.gain.reshape(-1, resp.w_rad_s.size)),
                       pm + HAIR_PM_DEG, 10 ** ((gm + HAIR_GM_DB) / 20), resp.timing.sampled, current,
                       resp.motor_force.reshape(-1, resp.w_rad_s.size),
                       resp.motor_reference_path.reshape(-1, resp.w_rad_s.size),
@@ -177,7 +177,7 @@ class RayBound:
 def margin_bounds(rp: RayProblem, tau_s: float, curves=None) -> np.ndarray:
     """``curve_bounds`` of the curves ``curves`` (indices; default all) on the ray ``tau_s``."""
     rows = np.arange(len(rp.log_mag)) if curves is None else np.asarray(curves, int)
-    q = rp.rho + tau_s * rp.sigma
+    q = rp.impedance.ray(tau_s)
     return np.concatenate([np.zeros(0)] + [
         curve_bounds(rp.log_mag[block], rp.psi[block], q, rp.phase_margin_deg, rp.gain_margin, rp.sampled)
         for block in _row_blocks(rows, q.size)])
@@ -192,7 +192,7 @@ def _row_blocks(rows: np.ndarray, n_f: int) -> list[np.ndarray]:
 def _upper_bounds(rp: RayProblem, tau_s: float) -> np.ndarray:
     """An upper bound of each curve's ``curve_bounds`` on the ray ``tau_s``: max |p| times max(g, 1) (the
     interpolated points lie between grid points), for one pass over the table instead of ``curve_bounds``'s."""
-    lq = np.log(np.abs(rp.rho + tau_s * rp.sigma)).astype(np.float32)
+    lq = np.log(np.abs(rp.impedance.ray(tau_s))).astype(np.float32)
     top = np.concatenate([np.max(rp.log_mag[block] - lq, axis=-1).astype(float)
                           for block in _row_blocks(np.arange(len(rp.log_mag)), lq.size)])
     return HAIR_SCALE * np.exp(top) * max(rp.gain_margin, 1.0)
@@ -233,7 +233,7 @@ def ray_bounds(rp: RayProblem, taus, curves=None) -> list[RayBound]:
     vectorised over the rays in batches of ``RAY_BATCH_VALUES`` grid values."""
     taus = np.asarray(taus, float)
     rows = max(len(rp.log_mag) if curves is None else len(curves), len(rp.motor_force))
-    step = max(1, RAY_BATCH_VALUES // max(rows * rp.sigma.size, 1))
+    step = max(1, RAY_BATCH_VALUES // max(rows * rp.w_rad_s.size, 1))
     out = []
     for i in range(0, taus.size, step):
         out += _ray_bounds(rp, taus[i:i + step], curves)
@@ -247,7 +247,7 @@ def ray_bound(rp: RayProblem, tau_s: float, curves=None) -> RayBound:
 
 def _ray_bounds(rp: RayProblem, taus: np.ndarray, curves) -> list[RayBound]:
     rows = slice(None) if curves is None else curves
-    q = rp.rho + taus[:, None] * rp.sigma                                   # (n_tau, n_f)
+    q = rp.impedance.ray(taus[:, None])                                     # (n_tau, n_f)
     aq = np.abs(q)
     t_margin = curve_bounds(rp.log_mag[rows], rp.psi[rows], q[:, None, :], rp.phase_margin_deg, rp.gain_margin,
                             rp.sampled)

@@ -2,22 +2,29 @@
 dynamics as a difference equation, a computation delay and a zero-order hold on the velocity
 reference it hands to the drive's velocity loop.
 
-The virtual dynamics 1/(m_v s + b_v) are run per update of period T by one of two rules::
+The virtual dynamics 1/(m_v s + b_v) are run per update of period T by a rule (``law_coefficients``), every
+one a first-order difference equation v[k] = alpha v[k-1] + beta F[k] + beta_prev F[k-1] driven by the
+newest force sample::
 
-    backward Euler:  v[k] = alpha v[k-1] + beta F[k],  alpha = m_v / (m_v + b_v T),  beta = T / (m_v + b_v T)
-    forward Euler:   v[k] = v[k-1] + T (F[k] - b_v v[k-1]) / m_v   (the mouse lab's LabVIEW law,
-                     ``a = inv(m)*(F' - c*v_1)``: alpha = 1 - b_v T / m_v, beta = T / m_v)
+    backward Euler:  alpha = m_v / (m_v + b_v T),  beta = T / (m_v + b_v T)
+    forward Euler:   alpha = 1 - b_v T / m_v,  beta = T / m_v   (the mouse lab's LabVIEW law,
+                     ``a = inv(m)*(F' - c*v_1)``)
+    Tustin:          alpha = (2 m_v - b_v T) / (2 m_v + b_v T),  beta = beta_prev = T / (2 m_v + b_v T)
+    exact ZOH:       alpha = e^(-b_v T / m_v),  beta = (1 - alpha) / b_v   (the step-invariant transform,
+                     scipy's ``cont2discrete(..., method="zoh")``, without its one sample of delay: the
+                     force held over the last period at its newest sample)
 
-i.e. 1/Y_v(z) = m_v (1 - z^-1) / T + b_v rho, rho = 1 (backward) or z^-1 (forward): affine in (m_v, b_v)
-as the continuous m_v s + b_v is, with ``sigma`` = (1 - e^(-jwT)) / T in place of s = jw and ``rho`` = 1
-or e^(-jwT) beside b_v. Backward Euler is stable for any gains; forward Euler only for m_v > b_v T / 2
-(|alpha| < 1), which the synthesis keeps. The velocity output is held (zero-order hold) and
-reaches the drive ``computation_delay_samples`` samples after the force sample that caused it.
+so the virtual impedance is 1/Y_v(z) = (1 - alpha z^-1) / (beta + beta_prev z^-1) (``VirtualImpedance``),
+m_v s + b_v when continuous. Every rule scales with (m_v, b_v) together: on a ray m_v / b_v = tau,
+1/Y_v = b_v q(tau) (``VirtualImpedance.ray``), which is what the synthesis's rays use
+(``design.admittance.ray``). Backward Euler, Tustin and the exact ZOH are stable for any gains; forward Euler
+only for m_v > b_v T / 2 (|alpha| < 1), which the synthesis keeps. The velocity output is held (zero-order
+hold) and reaches the drive ``computation_delay_samples`` samples after the force sample that caused it.
 
 Broken at the sampled force signal the coupled loop is exactly a discrete-time loop (the rest is
 continuous between a hold and a sampler):
 
-    L(e^(jwT)) = e^(-jwdT) / (m_v sigma + b_v) * K_d(e^(jwT)),
+    L(e^(jwT)) = e^(-jwdT) Y_v(e^(jwT)) K_d(e^(jwT)),
     K_d(e^(jwT)) = (1/T) sum_k H_f(jw_k) K(jw_k) (1 - e^(-jw_k T)) / (jw_k),   w_k = w + 2 pi k / T
 
 (the step-invariant transform of the continuous path K from velocity reference to sensed force, H_f
@@ -27,7 +34,7 @@ sum: its terms fall as 1/k only up to the drive's current loop (K is flat there)
 phase that turns with the delay, so cut at N = 3 the loop gain near the Nyquist frequency is 11 % off (tests).
 What the mouse feels at the frequency
 it moves at (the fundamental; the sampler adds aliases above the Nyquist frequency) passes the held reference
-(1 - e^(-jwT)) / (jwT) e^(-jwdT) H_f(jw) / (m_v sigma + b_v).
+(1 - e^(-jwT)) / (jwT) e^(-jwdT) H_f(jw) Y_v(e^(jwT)).
 """
 
 from __future__ import annotations
@@ -62,9 +69,12 @@ class RigTiming:
     delay_samples: int = 0
     filter_hz: float | None = None
     filter_order: int = 2
-    forward_euler: bool = False
-    #: the bilinear (Tustin) rule (``law_coefficients``)
-    tustin: bool = False
+    #: the law's rule (``RULES``; ``law_coefficients``)
+    rule: str = "backward_euler"
+
+    def __post_init__(self):
+        if self.rule not in RULES:
+            raise ValueError(f"unknown admittance law rule {self.rule!r} (one of {', '.join(RULES)})")
 
     @classmethod
     def of(cls, rig, *, filter_hz: float | None = None) -> RigTiming:
@@ -73,9 +83,12 @@ class RigTiming:
         corner = None if f is None else (f.frequency_hz if not f.designed else filter_hz)
         if f is not None and f.designed and corner is None:
             corner = math.sqrt(f.frequency_hz_min * f.frequency_hz_max)
-        sampled = rig.sample_period_s is not None
         return cls(rig.sample_period_s, rig.computation_delay_samples, corner, 2 if f is None else f.order,
-                   rig.law == "forward_euler" and sampled, rig.law == "tustin" and sampled)
+                   rig.law if rig.sample_period_s is not None else "backward_euler")
+
+    @property
+    def forward_euler(self) -> bool:
+        return self.rule == "forward_euler" and self.sampled
 
     @property
     def min_tau_s(self) -> float:
@@ -90,40 +103,21 @@ class RigTiming:
     def nyquist_rad_s(self) -> float:
         return math.inf if self.period_s is None else math.pi / self.period_s
 
-    def sigma(self, w_rad_s) -> np.ndarray:
-        """The 's' of the virtual impedance m_v sigma + b_v: jw, or (1 - e^(-jwT)) / T (backward Euler)."""
-        return self.sigma_at(1j * np.asarray(w_rad_s, float))
-
-    def sigma_at(self, s) -> np.ndarray:
-        """``sigma`` at complex frequencies s: (1 - z^-1) / T, or for Tustin 2 (1 - z^-1) / (T (1 + z^-1)) (the
-        law's zero at z = -1 held a hair off the Nyquist frequency, where 1 / sigma is 0)."""
-        s = np.asarray(s, complex)
-        if self.period_s is None:
-            return s
-        diff = -np.expm1(-s * self.period_s) / self.period_s
-        if not self.tustin:
-            return diff
-        plus = 1.0 + np.exp(-s * self.period_s)
-        plus = np.where(np.abs(plus) < 1e-12, 1e-12, plus)
-        return 2.0 * diff / plus
-
     def law(self, m_v, b_v) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(alpha, beta, beta_prev) of the sampled law (``law_coefficients``)."""
-        return law_coefficients(m_v, b_v, self.period_s, forward_euler=self.forward_euler, tustin=self.tustin)
+        return law_coefficients(m_v, b_v, self.period_s, self.rule)
 
-    def rho(self, w_rad_s) -> np.ndarray | float:
-        """The factor beside b_v in 1/Y_v: 1, or e^(-jwT) for forward Euler."""
-        return self.rho_at(1j * np.asarray(w_rad_s, float))
-
-    def rho_at(self, s) -> np.ndarray | float:
-        return np.exp(-np.asarray(s, complex) * self.period_s) if self.forward_euler else 1.0
+    def impedance_on(self, s) -> VirtualImpedance:
+        """1/Y_v at the complex frequencies ``s``, for any (m_v, b_v)."""
+        s = np.asarray(s, complex)
+        return VirtualImpedance(self, s if self.period_s is None else np.exp(-s * self.period_s))
 
     def impedance(self, w_rad_s, m_v, b_v) -> np.ndarray:
-        """1/Y_v = m_v sigma + b_v rho on a grid (N*s/m)."""
-        return np.asarray(m_v) * self.sigma(w_rad_s) + np.asarray(b_v) * self.rho(w_rad_s)
+        """1/Y_v on a grid of w (rad/s) (N*s/m)."""
+        return self.impedance_on(1j * np.asarray(w_rad_s, float))(m_v, b_v)
 
     def fundamental(self, w_rad_s) -> np.ndarray:
-        """What passes from the sensed force to the velocity reference besides 1/(m_v sigma + b_v), at the
+        """What passes from the sensed force to the velocity reference besides Y_v, at the
         input frequency: H_f, times the hold (1 - e^(-jwT)) / (jwT) and e^(-jwdT) when sampled."""
         return self.fundamental_at(1j * np.asarray(w_rad_s, float))
 
@@ -156,25 +150,55 @@ def _hold(s, T: float) -> np.ndarray:
     return out
 
 
-def law_coefficients(m_v, b_v, period_s: float, *, forward_euler: bool = False,
-                     tustin: bool = False) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def law_coefficients(m_v, b_v, period_s: float, rule: str = "backward_euler") -> tuple[np.ndarray, np.ndarray,
+                                                                                         np.ndarray]:
     """(alpha, beta, beta_prev) of v[k] = alpha v[k-1] + beta F[k] + beta_prev F[k-1], the virtual dynamics
-    1/(m_v s + b_v) by the rule: backward Euler alpha = m_v / (m_v + b_v T), beta = T / (m_v + b_v T); forward
-    Euler alpha = 1 - b_v T / m_v, beta = T / m_v; Tustin (s = 2 (z - 1) / (T (z + 1))) alpha = (2 m_v - b_v T) /
-    (2 m_v + b_v T), beta = beta_prev = T / (2 m_v + b_v T). beta_prev is 0 but for Tustin."""
+    1/(m_v s + b_v) by ``rule`` (module docstring; ``RULES``). beta_prev is 0 but for Tustin."""
     m_v, b_v, T = np.asarray(m_v, float), np.asarray(b_v, float), period_s
     zero = np.zeros(np.broadcast(m_v, b_v).shape)
-    if tustin:
+    if rule == "tustin":
         c = T / (2 * m_v + b_v * T)
         return (2 * m_v - b_v * T) / (2 * m_v + b_v * T), c, c + zero
-    if forward_euler:
+    if rule == "forward_euler":
         return 1.0 - b_v * T / m_v, T / m_v + zero, zero
+    if rule == "zoh":
+        x = b_v * T / m_v
+        return np.exp(-x) + zero, -np.expm1(-x) / b_v + zero, zero
     return m_v / (m_v + b_v * T), T / (m_v + b_v * T), zero
 
 
 RULES = {"backward_euler": "backward Euler: v[k] = (m_v v[k-1] + T F[k]) / (m_v + b_v T)",
          "forward_euler": "forward Euler: v[k] = v[k-1] + T (F[k] - b_v v[k-1]) / m_v",
-         "tustin": "Tustin (bilinear): v[k] = ((2 m_v - b_v T) v[k-1] + T (F[k] + F[k-1])) / (2 m_v + b_v T)"}
+         "tustin": "Tustin (bilinear): v[k] = ((2 m_v - b_v T) v[k-1] + T (F[k] + F[k-1])) / (2 m_v + b_v T)",
+         "zoh": "exact ZOH (step-invariant): v[k] = e^(-b_v T / m_v) v[k-1] + (1 - e^(-b_v T / m_v)) F[k] / b_v"}
+
+#: the rules in words
+RULE_NAMES = {"backward_euler": "backward Euler", "forward_euler": "forward Euler", "tustin": "Tustin's rule",
+              "zoh": "the exact zero-order-hold rule"}
+
+
+@dataclass(frozen=True)
+class VirtualImpedance:
+    """1/Y_v of a law at fixed frequencies: m_v s + b_v (continuous) or (1 - alpha z^-1) / (beta + beta_prev
+    z^-1) with z^-1 = e^(-sT) tabulated once (``RigTiming.impedance_on``); (m_v, b_v) broadcast against it."""
+
+    timing: RigTiming
+    #: s (continuous) or z^-1 = e^(-sT)
+    at: np.ndarray
+
+    def __call__(self, m_v, b_v) -> np.ndarray:
+        m_v, b_v = np.asarray(m_v, float), np.asarray(b_v, float)
+        if self.timing.period_s is None:
+            return m_v * self.at + b_v
+        alpha, beta, beta_prev = self.timing.law(m_v, b_v)
+        den = beta + beta_prev * self.at
+        # Tustin's zero at z = -1: 1/Y_v is 0 at the Nyquist frequency; held a hair off it, as its limit
+        den = np.where(np.abs(den) < 1e-12 * np.abs(beta), 1e-12 * beta, den)
+        return (1.0 - alpha * self.at) / den
+
+    def ray(self, tau_s) -> np.ndarray:
+        """q(tau) of 1/Y_v = b_v q on the ray m_v / b_v = tau (s)."""
+        return self(tau_s, 1.0)
 
 
 @dataclass(frozen=True)
@@ -192,13 +216,11 @@ class DiscreteAdmittance:
 
     @classmethod
     def of(cls, m_v: float, b_v: float, update_rate_hz: float, computation_delay_samples: int = 0, *,
-           forward_euler: bool = False, tustin: bool = False):
-        a, b, b_prev = law_coefficients(m_v, b_v, 1.0 / update_rate_hz, forward_euler=forward_euler, tustin=tustin)
-        rule = "tustin" if tustin else "forward_euler" if forward_euler else "backward_euler"
+           rule: str = "backward_euler"):
+        a, b, b_prev = law_coefficients(m_v, b_v, 1.0 / update_rate_hz, rule)
         return cls(update_rate_hz, m_v, b_v, float(a), float(b), computation_delay_samples, RULES[rule], float(b_prev))
 
     @classmethod
     def of_timing(cls, m_v: float, b_v: float, timing: RigTiming) -> DiscreteAdmittance:
         """The law of a sampled ``timing``."""
-        return cls.of(m_v, b_v, 1.0 / timing.period_s, timing.delay_samples, forward_euler=timing.forward_euler,
-                      tustin=timing.tustin)
+        return cls.of(m_v, b_v, 1.0 / timing.period_s, timing.delay_samples, rule=timing.rule)

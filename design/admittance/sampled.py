@@ -502,7 +502,7 @@ def load_count(loads: ClampLoad) -> int:
 
 def sampled_gain(paths: StateSpace, w_rad_s, timing) -> np.ndarray:
     """e^(-jwdT) K_d(e^(jwT)) of discretised paths on the grid ``w_rad_s`` (rad/s), (n, n_f): the interaction
-    loop is this over m_v sigma + b_v rho (``design.admittance.rig``)."""
+    loop is this times the law's Y_v (``design.admittance.rig``)."""
     w = np.asarray(w_rad_s, float)
     z = np.exp(1j * w * timing.period_s)
     return discrete_response(paths, z) * z ** (-timing.delay_samples)

@@ -180,7 +180,7 @@ def ray_binding(problem: LoopProblem, rp, ray: RayBound, corners, scenarios: Sce
                    "passivity": "passivity (admittance.passivity) sets the scale of (m_v, b_v)"}
         name = "drift" if ray.binding == "b_v_min" and rp.t_min > adm.b_v.min else ray.binding
         return {"constraint": name, **base, "detail": details.get(name, name)}
-    q = rp.rho + ray.tau_s * rp.sigma
+    q = rp.impedance.ray(ray.tau_s)
     t_pm, t_gm = (np.concatenate(p) for p in zip(*(
         curve_bounds(rp.log_mag[i:i + BINDING_ROWS], rp.psi[i:i + BINDING_ROWS], q, rp.phase_margin_deg,
                      rp.gain_margin, rp.sampled, parts=True) for i in range(0, len(rp.log_mag), BINDING_ROWS))))

@@ -25,7 +25,7 @@ from design.admittance.model import (
     with_mode_points,
 )
 from design.admittance.ray import ACTIVE_ADD, HAIR_PM_DEG, best_ray, ray_problem, top_curves
-from design.admittance.rig import RigTiming
+from design.admittance.rig import RULE_NAMES, RigTiming
 from design.parallel import thread_map
 from design.problem import LoopProblem, Passivity
 from design.synth.scenarios import design_scenarios
@@ -123,9 +123,10 @@ def _variants(problem: LoopProblem, timing: RigTiming):
         d = timing.delay_samples
         yield (f"{d + 1} sample(s) of computation delay instead of {d} (the law using the previous force reading)",
                problem, replace(timing, delay_samples=d + 1))
-        if not timing.tustin:
-            yield (f"the law by Tustin's rule instead of {'forward' if timing.forward_euler else 'backward'} Euler",
-                   problem, replace(timing, forward_euler=False, tustin=True))
+        for rule in ("tustin", "zoh"):
+            if timing.rule != rule:
+                yield (f"the law by {RULE_NAMES[rule]} instead of {RULE_NAMES[timing.rule]}", problem,
+                       replace(timing, rule=rule))
     hw = problem.admittance.hardware
     if hw.motor_force_criterion == "worst_sinusoid":
         adm = replace(problem.admittance, hardware=replace(hw, motor_peak_force_n=2 * hw.motor_peak_force_n))

@@ -57,6 +57,9 @@ def main() -> None:
     library's context manager (numpy's ``errstate`` between setting its state and its ``with`` block) cannot
     leave that state behind for an in-process caller."""
     try:
+        from design.parallel import one_blas_thread
+
+        one_blas_thread()
         from plant.host import interrupts
         previous = interrupts.install()
     except KeyboardInterrupt:      # before the handlers (SIGTERM's default action ends the process quietly)

@@ -64,6 +64,9 @@ def add_admittance_section(report: Report, problem: LoopProblem, outcome: Design
          f"{feel.reachable_acceleration_m_per_s2:.3g} m/s²", f"{loc.peak_speed_m_per_s:g} m/s / "
          f"{loc.peak_acceleration_m_per_s2:g} m/s²"],
         ["push to start the gantry at rest (deadband + offset)", f"{1e3 * feel.breakaway_force_n:.3g} mN", "—"],
+        ["velocity loop short of the law's reference at the end of the cruise (the PI's integral action not "
+         "yet caught up: the mouse pushes that much harder)", f"{100 * feel.velocity_shortfall:.3g} %"
+         + (f" (Ki = {r.ki:.4g} A/m too slow for the cruise)" if feel.shortfall_reported else ""), "—"],
         ["drift at rest", f"{feel.drift_mm_per_s:.3g} mm/s",
          "—" if a.sensor.max_drift_mm_per_s is None else f"{a.sensor.max_drift_mm_per_s:g} mm/s"],
         ["motor force on the locomotion profile" if hw.motor_force_criterion == "locomotion" else

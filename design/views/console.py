@@ -276,6 +276,11 @@ def _print_admittance(console: Console, adm: dict) -> None:
                       f"{m['reachable_acceleration_m_per_s2']:.3g} m/s^2; it must push "
                       f"{1e3 * m['breakaway_force_n']:.3g} mN to start the gantry, which drifts "
                       f"{m['drift_mm_per_s']:.3g} mm/s at rest", soft_wrap=True)
+        short = m.get("velocity_shortfall_at_cruise_end", 0.0)
+        if m.get("velocity_shortfall_reported"):
+            console.print(f"  the velocity loop still leaves the gantry {100 * short:.3g} % short of the law's "
+                          f"reference at the end of the cruise (Ki = {adm.get('ki', math.nan):.4g} A/m integrates "
+                          "too slowly for it): the mouse pushes that much harder than m_v a + b_v v", soft_wrap=True)
     for name, v in adm["margins_by_mouse"].items():
         console.print(f"  interaction loop, {name} mice: worst PM {_num(v['phase_margin_deg'], '.1f')} deg, "
                       f"GM {_num(v['gain_margin_db'], '.1f')} dB")

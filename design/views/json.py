@@ -559,6 +559,10 @@ def _feel(feel) -> dict:
             "reachable_acceleration_m_per_s2": feel.reachable_acceleration_m_per_s2,
             "can_drive": feel.can_drive, "breakaway_force_n": feel.breakaway_force_n,
             "drift_mm_per_s": feel.drift_mm_per_s,
+            "velocity_shortfall_at_cruise_end": feel.velocity_shortfall,
+            "velocity_shortfall_reported": feel.shortfall_reported,
+            "velocity_shortfall": "how far the velocity loop leaves the gantry short of the law's reference at the "
+                                  "end of the profile's cruise, worst over the payloads (fraction of the peak speed)",
             "force_felt": "the neck force when the body follows the profile and the head rides the clamp"}
 
 

@@ -437,7 +437,7 @@ def test_a_corrupt_time_value_is_named_with_its_row(tmp_path):
 @pytest.mark.parametrize("old,new,key", [
     ("motor_peak_force_n = 300.0", 'motor_peak_force_n = 300.0\nmotor_force_criterion = "sine"',
      "admittance.hardware.motor_force_criterion"),
-    ('law = "forward_euler"', 'law = "zoh"', "admittance.rig.law"),
+    ('law = "forward_euler"', 'law = "bilinear"', "admittance.rig.law"),
 ])
 def test_an_unknown_admittance_rule_is_one_line_naming_its_key(tmp_path, monkeypatch, capsys, old, new, key):
     text = (ROOT / "specs" / "stage_x_admittance.toml").read_text()

@@ -85,16 +85,20 @@ def response(ss, x) -> np.ndarray:
         + D[0, 0]
 
 
-def sampled_loop(path, *, m_v, b_v, period_s, forward_euler=False):
+def sampled_loop(path, *, m_v, b_v, period_s, forward_euler=False, zoh=False):
     """(Ad, Bd, Cd, Dd) of the discrete interaction loop: the path sampled with a zero-order hold (scipy
-    ``cont2discrete``) after the law: backward Euler y[k] = (m_v y[k-1] + T F[k]) / (m_v + b_v T), or forward
-    Euler y[k] = y[k-1] + T (F[k] - b_v y[k-1]) / m_v."""
+    ``cont2discrete``) after the law: backward Euler y[k] = (m_v y[k-1] + T F[k]) / (m_v + b_v T), forward
+    Euler y[k] = y[k-1] + T (F[k] - b_v y[k-1]) / m_v, or (``zoh``) scipy's zero-order-hold discretisation of
+    1/(m_v s + b_v) advanced by its one sample of delay."""
     from scipy.signal import cont2discrete
 
     Ad, Bd, Cd, Dd, _ = cont2discrete(path, period_s, method="zoh")
     # law: y[k] = a y[k-1] + c F[k]; as a state space in series before Kd
     if forward_euler:
         a, c = 1.0 - b_v * period_s / m_v, period_s / m_v
+    elif zoh:
+        num, den, _ = cont2discrete(([1.0], [m_v, b_v]), period_s, method="zoh")   # c z^-1 / (1 - a z^-1)
+        a, c = -den[1] / den[0], num[0][-1] / den[0]
     else:
         a, c = m_v / (m_v + b_v * period_s), period_s / (m_v + b_v * period_s)
     n = Ad.shape[0]

@@ -90,11 +90,15 @@ def reading(force, res, bias, deadband):
     return np.where(np.abs(r) <= deadband, 0.0, r)
 
 
-def law_coefficients(m_v, b_v, admittance_rate_hz, forward_euler=False):
-    """(alpha, beta) of v[j] = alpha v[j-1] + beta F[j]."""
+def law_coefficients(m_v, b_v, admittance_rate_hz, law="backward_euler"):
+    """(alpha, beta) of v[j] = alpha v[j-1] + beta F[j] (``law``: backward_euler, forward_euler, or zoh: the
+    exact response of 1/(m_v s + b_v) over one period to the force held at F[j])."""
     T = 1.0 / admittance_rate_hz
-    if forward_euler:
+    if law == "forward_euler":
         return 1.0 - b_v * T / m_v, T / m_v
+    if law == "zoh":
+        a = math.exp(-b_v * T / m_v)
+        return a, (1.0 - a) / b_v
     return m_v / (m_v + b_v * T), T / (m_v + b_v * T)
 
 
@@ -109,7 +113,7 @@ def simulate(time_s, x_d, v_d, a_d, *, gantry_mass_kg, damping_n_s_per_m, force_
              admittance_rate_hz, computation_delay_samples, m_v, b_v, force_filter_hz, force_filter_order,
              resolution_n, bias_n, deadband_n, head_mass_kg, body_mass_kg, neck_stiffness_n_per_m,
              neck_damping_n_s_per_m, leg_stiffness_n_per_m, leg_damping_n_s_per_m, mouse_peak_force_n,
-             feedforward=True, forward_euler=False, tustin=False, method="DOP853") -> ReferenceTrace:
+             feedforward=True, law="backward_euler", method="DOP853") -> ReferenceTrace:
     """Simulate the model of the module docstring at the drive ticks ``time_s`` (k / drive_rate_hz) with the
     intended path sampled there. Keyword names follow the quantities (SI units; rates in Hz)."""
     t = np.asarray(time_s, float)
@@ -133,9 +137,9 @@ def simulate(time_s, x_d, v_d, a_d, *, gantry_mass_kg, damping_n_s_per_m, force_
     wf = 2.0 * math.pi * force_filter_hz if filtered else 0.0
     sqrt2 = math.sqrt(2.0)
     imax = motor_peak_force_n / kt
-    alpha, beta = law_coefficients(m_v, b_v, admittance_rate_hz, forward_euler)
+    alpha, beta = law_coefficients(m_v, b_v, admittance_rate_hz, law)
     beta_prev = 0.0
-    if tustin:
+    if law == "tustin":
         alpha, beta = tustin_coefficients(m_v, b_v, admittance_rate_hz)
         beta_prev = beta
     r_prev = 0.0

@@ -20,7 +20,7 @@ BASE = dict(gantry_mass_kg=40.0, damping_n_s_per_m=440.0, force_constant_n_per_a
             b_v=9.07, force_filter_hz=None, force_filter_order=2, resolution_n=1e-9, bias_n=0.0, deadband_n=0.0,
             head_mass_kg=0.005, body_mass_kg=0.03, neck_stiffness_n_per_m=100.0, neck_damping_n_s_per_m=0.5,
             leg_stiffness_n_per_m=300.0, leg_damping_n_s_per_m=0.5, mouse_peak_force_n=1.2, feedforward=True,
-            forward_euler=False, tustin=False)
+            law="backward_euler")
 #: case (b): the rig as it is (current loop, delays, filter, quantised and offset sensor, deadband, friction) with
 #: a motor too weak for the payload, so the drive saturates and the integrator's anti-windup acts
 RIG = dict(BASE, current_loop_hz=1000.0, drive_rate_hz=2000.0, delay_ticks=1, computation_delay_samples=1,
@@ -81,7 +81,7 @@ def _rebuild(settings, F_read, v, v_ref):
     s = settings
     n = len(v)
     n_a = int(round(s["drive_rate_hz"] / s["admittance_rate_hz"]))
-    alpha, beta = ref.law_coefficients(s["m_v"], s["b_v"], s["admittance_rate_hz"], s["forward_euler"])
+    alpha, beta = ref.law_coefficients(s["m_v"], s["b_v"], s["admittance_rate_hz"], s["law"])
     res, bias, band = s["resolution_n"], s["bias_n"], s["deadband_n"]
     imax = s["motor_peak_force_n"] / s["force_constant_n_per_a"]
     T = 1.0 / s["drive_rate_hz"]
@@ -127,7 +127,7 @@ def test_reference_reading_rounds_as_numpy_and_deadband_is_inclusive():
 def test_reference_law_coefficients():
     a, b = ref.law_coefficients(0.0057, 9.07, 100.0)
     assert a == pytest.approx(0.0057 / (0.0057 + 0.0907)) and b == pytest.approx(0.01 / (0.0057 + 0.0907))
-    a, b = ref.law_coefficients(0.05, 8.0, 100.0, forward_euler=True)
+    a, b = ref.law_coefficients(0.05, 8.0, 100.0, "forward_euler")
     assert a == pytest.approx(1 - 8.0 * 0.01 / 0.05) and b == pytest.approx(0.01 / 0.05)
 
 
@@ -149,9 +149,10 @@ PUSHES = [
     (0.1, dict(friction_n=3.0, resolution_n=6.25e-3, bias_n=0.004), 0.10625),               # 16.64 -> 17
     (0.02, dict(resolution_n=6.25e-3, bias_n=0.0, deadband_n=0.025), 0.0),                  # inside the deadband
     (0.03, dict(resolution_n=6.25e-3, bias_n=0.0, deadband_n=0.025, force_filter_hz=30.0), 0.03125),
-    (0.1, dict(force_filter_hz=20.0, force_filter_order=1, forward_euler=True, admittance_rate_hz=1000.0,
+    (0.1, dict(force_filter_hz=20.0, force_filter_order=1, law="forward_euler", admittance_rate_hz=1000.0,
                computation_delay_samples=2, delay_ticks=3, current_loop_hz=1000.0), 0.1),
-    (0.1, dict(tustin=True), 0.1),                                                          # Tustin's rule
+    (0.1, dict(law="tustin"), 0.1),                                                          # Tustin's rule
+    (0.1, dict(law="zoh"), 0.1),                                                             # the exact ZOH rule
 ]
 
 
@@ -204,9 +205,10 @@ def test_reference_integrator_agrees_with_another():
 
 
 # --- the tool against the reference ----------------------------------------------------------------------------
-@pytest.mark.parametrize("changes", [dict(), dict(gantry_mass_kg=5.0, m_v=0.05, b_v=8.0, forward_euler=True),
-                                     dict(gantry_mass_kg=5.0, m_v=0.05, b_v=8.0, tustin=True)],
-                         ids=["backward-40kg", "forward-5kg", "tustin-5kg"])
+@pytest.mark.parametrize("changes", [dict(), dict(gantry_mass_kg=5.0, m_v=0.05, b_v=8.0, law="forward_euler"),
+                                     dict(gantry_mass_kg=5.0, m_v=0.05, b_v=8.0, law="tustin"),
+                                     dict(gantry_mass_kg=5.0, m_v=0.05, b_v=8.0, law="zoh")],
+                         ids=["backward-40kg", "forward-5kg", "tustin-5kg", "zoh-5kg"])
 def test_continuous_like_run_matches_reference(changes):
     """(a) No friction, ideal current loop, no filter, a fine quantiser without offset or deadband; 1 kHz drive,
     100 Hz law."""
@@ -286,7 +288,7 @@ def test_at_rest_everything_stays_exactly_zero():
 
 
 @pytest.mark.parametrize("changes", [dict(), dict(friction_n=3.0, force_filter_hz=30.0, force_filter_order=1,
-                                                  forward_euler=True, m_v=0.05, b_v=8.0, current_loop_hz=400.0)],
+                                                  law="forward_euler", m_v=0.05, b_v=8.0, current_loop_hz=400.0)],
                          ids=["plain", "friction-filter-forward"])
 def test_floating_mouse_drifts_at_offset_over_b_v(changes):
     """(c) A floating mouse (nothing on the ground) under the sensor's offset: the free gantry drifts at exactly

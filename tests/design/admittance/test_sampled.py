@@ -44,16 +44,17 @@ def _newton(kp, ki, mouse: MouseModel, row=CORNER, pade=8):
 
 def _tool_gain(kp, ki, mouse, w, row=CORNER):
     spec = load_spec(SPEC).problem()
-    timing = RigTiming(T, forward_euler=True)
+    timing = RigTiming(T, rule="forward_euler")
     return coupled_gain(PiLoops.of(spec, kp, ki), _scenario(row), stack([mouse]), w, timing)[0, 0]
 
 
-def _reference_margins(kp, ki, m_v, b_v, mouse, row=CORNER):
+def _reference_margins(kp, ki, m_v, b_v, mouse, row=CORNER, law="forward_euler"):
     """python-control's margins of the scipy-discretised Newton loop on a dense grid to the Nyquist frequency,
-    with the phase-crossover frequency (Hz) of the gain margin."""
+    with the phase-crossover frequency (Hz) of the gain margin (the law forward Euler, or "zoh")."""
     import control
 
-    loop = ref.sampled_loop(_newton(kp, ki, mouse, row), m_v=m_v, b_v=b_v, period_s=T, forward_euler=True)
+    loop = ref.sampled_loop(_newton(kp, ki, mouse, row), m_v=m_v, b_v=b_v, period_s=T,
+                            forward_euler=law == "forward_euler", zoh=law == "zoh")
     w = np.geomspace(2 * math.pi * 1e-3, math.pi / T, 8000)
     L = ref.response(loop, np.exp(1j * w * T))
     gm, pm, _, wpc, _, _ = control.stability_margins(control.frd(L, w))
@@ -112,7 +113,7 @@ def test_pade_order_is_converged(period_s, mouse):
 
     spec = load_spec(SPEC).problem()
     w = np.geomspace(2 * math.pi * 1e-3, math.pi / period_s, 300)
-    timing = RigTiming(period_s, forward_euler=True)
+    timing = RigTiming(period_s, rule="forward_euler")
     plants = _scenario().plants(spec.plant.plant())
     gains = []
     for order in (sampled.pade_order_for(plants, period_s), 12):
@@ -133,7 +134,7 @@ def test_a_law_as_fast_as_the_delay_is_within_three_percent_of_the_exact_delay()
     # delay's response over 40,000 terms, up to the Nyquist frequency
     w = np.geomspace(2 * math.pi, 0.999 * math.pi / 0.001, 40)
     spec = load_spec(SPEC).problem()
-    timing = RigTiming(0.001, forward_euler=True)
+    timing = RigTiming(0.001, rule="forward_euler")
     exact = coupled_gain(PiLoops.of(spec, 178.5, 300.0), _scenario(), stack([FLOATING]), w, timing)[0, 0]
     k = np.arange(-20001, 20001)
     s = 1j * (w[None, :] + 2 * math.pi * k[:, None] / 0.001)
@@ -203,7 +204,7 @@ def test_gain_margin_and_stability_agree_with_a_fine_step_simulation():
     ev = AdmittanceEvaluator(spec, _scenario(), loops=PiLoops.of(spec, kp, ki), corners=[FLOATING])
     gm_db = float(ev.evaluate(m_v, b_v, screen=False).gain_margin_db[0, 0])
     g = 10 ** (gm_db / 20)
-    timing = RigTiming(T, forward_euler=True)
+    timing = RigTiming(T, rule="forward_euler")
     paths = discretised_paths(PiLoops.of(spec, kp, ki), _scenario(), mouse_loads(stack([FLOATING])), timing)
     for factor, grows in ((0.8, False), (1.2, True)):
         scale = 1.0 / (g * factor)
@@ -216,7 +217,7 @@ def test_closed_loop_radius_with_computation_delay_equals_the_reference_eigenval
     # the law's output d samples late: the tool's spectral radius against the eigenvalues of the reference loop
     # with d unit delays in series
     spec = load_spec(SPEC).problem()
-    timing = RigTiming(T, forward_euler=True)
+    timing = RigTiming(T, rule="forward_euler")
     paths = discretised_paths(PiLoops.of(spec, 209.9, 14.12), _scenario(), mouse_loads(stack([FLOATING])), timing)
     A, B, C, D = ref.sampled_loop(_newton(209.9, 14.12, FLOATING), m_v=0.0436, b_v=5.05, period_s=T,
                                   forward_euler=True)
@@ -262,7 +263,7 @@ def test_latency_check_with_one_more_sample_agrees_with_the_reference_loop():
 
     spec = load_spec(SPEC).problem()
     kp, ki, m_v, b_v = DESIGNS[1]
-    timing = RigTiming(T, forward_euler=True)
+    timing = RigTiming(T, rule="forward_euler")
     for mouse in (FLOATING, BRACED):
         lat = latency_check(_scenario(), [mouse], loops=PiLoops.of(spec, kp, ki), timing=timing, m_v=m_v, b_v=b_v)
         A, B, C, D = ref.sampled_loop(_newton(kp, ki, mouse), m_v=m_v, b_v=b_v, period_s=T, forward_euler=True)
@@ -299,7 +300,7 @@ def test_tustin_law_is_the_bilinear_transform_and_its_loop_agrees_with_the_refer
     from design.admittance.rig import DiscreteAdmittance
 
     m_v, b_v = 0.0436, 5.05
-    timing = RigTiming(T, tustin=True)
+    timing = RigTiming(T, rule="tustin")
     law = DiscreteAdmittance.of_timing(m_v, b_v, timing)
     num, den, _ = cont2discrete(([1.0], [m_v, b_v]), T, method="bilinear")
     num, den = np.ravel(num) / den[0], np.ravel(den) / den[0]
@@ -320,3 +321,36 @@ def test_tustin_law_is_the_bilinear_transform_and_its_loop_agrees_with_the_refer
     M[n, :n], M[n, n] = a * vx + bp * fx, a * vs + bp * fs
     expected = np.max(np.abs(np.linalg.eigvals(M)))
     assert abs(closed_loop_radius(paths, timing.law(m_v, b_v), 0)[0] - expected) < 1e-7
+
+
+def test_zoh_law_is_the_step_invariant_transform_and_its_loop_agrees_with_the_reference():
+    # the law's difference equation rebuilt: scipy's zero-order-hold discretisation of 1/(m_v s + b_v) is
+    # c z^-1 / (1 - a z^-1); the law is the same without the z^-1 (driven by the newest force sample). The coupled
+    # loop's radius and its margins with that law equal the reference loop's (scipy-discretised Newton model)
+    from scipy.signal import cont2discrete
+
+    from design.admittance.rig import DiscreteAdmittance
+
+    m_v, b_v = 0.0436, 5.05
+    timing = RigTiming(T, rule="zoh")
+    law = DiscreteAdmittance.of_timing(m_v, b_v, timing)
+    num, den, _ = cont2discrete(([1.0], [m_v, b_v]), T, method="zoh")
+    num, den = np.ravel(num) / den[0], np.ravel(den) / den[0]
+    assert num[0] == pytest.approx(0.0, abs=1e-15)
+    assert np.allclose([law.beta_m_per_s_per_n, law.beta_prev_m_per_s_per_n, law.alpha], [num[1], 0.0, -den[1]],
+                       rtol=1e-12)
+    assert "ZOH" in law.rule
+    spec = load_spec(SPEC).problem()
+    for mouse in (FLOATING, BRACED):
+        paths = discretised_paths(PiLoops.of(spec, 209.9, 14.12), _scenario(), mouse_loads(stack([mouse])), timing)
+        loop = ref.sampled_loop(_newton(209.9, 14.12, mouse), m_v=m_v, b_v=b_v, period_s=T, zoh=True)
+        A, B, C, D = loop
+        expected = np.max(np.abs(np.linalg.eigvals(A - B @ C / (1.0 + D[0, 0]))))
+        assert abs(closed_loop_radius(paths, timing.law(m_v, b_v), 0)[0] - expected) < 1e-7
+        pm, gm_db, _, stable = _reference_margins(209.9, 14.12, m_v, b_v, mouse, law="zoh")
+        ev = AdmittanceEvaluator(spec, _scenario(), loops=PiLoops.of(spec, 209.9, 14.12), timing=timing,
+                                 corners=[mouse])
+        check = ev.evaluate(m_v, b_v, screen=False)
+        assert stable and bool(check.stable[0, 0])
+        assert float(check.phase_margin_deg[0, 0]) == pytest.approx(pm, abs=0.2)
+        assert float(check.gain_margin_db[0, 0]) == pytest.approx(gm_db, abs=0.2)

@@ -344,14 +344,27 @@ class ForceFilter:
 
 
 @dataclass(frozen=True)
+class DelayRange:
+    """Whole samples of computation delay from ``min`` to ``max`` (the rig's timing not measured)."""
+
+    __pydantic_config__ = FORBID
+    min: Annotated[int, Ge(0), Le(100)]
+    max: Annotated[int, Ge(0), Le(100)]
+
+    def __post_init__(self):
+        check_ordered(self.min, self.max)
+
+
+@dataclass(frozen=True)
 class Rig:
     """The admittance law as the rig runs it: sampled at ``update_rate_hz`` (None: continuous) with a
     zero-order hold on its velocity output and ``computation_delay_samples`` whole samples between the
-    force sample and the output it causes, after an optional force filter; ``law`` is its integration rule."""
+    force sample and the output it causes (or a range of them, every one of which the design holds at), after
+    an optional force filter; ``law`` is its integration rule."""
 
     __pydantic_config__ = FORBID
     update_rate_hz: Annotated[float, Gt(0), Le(1e6)] | None = None
-    computation_delay_samples: Annotated[int, Ge(0), Le(100)] = 0
+    computation_delay_samples: Annotated[int, Ge(0), Le(100)] | DelayRange = 0
     force_filter: ForceFilter | None = None
     #: how the law integrates 1/(m_v s + b_v) per update (``design.admittance.rig``): "backward_euler"
     #: v[k] = (m_v v[k-1] + T F[k]) / (m_v + b_v T), stable for any gains; "forward_euler" v[k] = v[k-1] +
@@ -363,6 +376,12 @@ class Rig:
     @property
     def sample_period_s(self) -> float | None:
         return None if self.update_rate_hz is None else 1.0 / self.update_rate_hz
+
+    @property
+    def delay_range(self) -> tuple[int, int]:
+        """(least, largest) computation delay in samples."""
+        d = self.computation_delay_samples
+        return (d.min, d.max) if isinstance(d, DelayRange) else (d, d)
 
 
 @dataclass(frozen=True)

@@ -8,7 +8,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from design.admittance.model import AdmittanceEvaluator, PiLoops
+from design.admittance.delays import evaluator
+from design.admittance.model import PiLoops, admittance_problem
+from design.admittance.rig import RigTiming
 from design.admittance.synthesis import check_scenarios
 from design.problem import LoopProblem
 
@@ -34,9 +36,11 @@ class CornerCheck:
 
 
 def corner_check(problem: LoopProblem, *, kp: float, ki: float, m_v: float, b_v: float, shown: int = 3) -> CornerCheck:
-    """``CornerCheck`` of the one-motor setting (kp, ki, m_v, b_v) at the dense check's scenarios x the spec's mice."""
+    """``CornerCheck`` of the one-motor setting (kp, ki, m_v, b_v) at the dense check's scenarios x the spec's mice
+    (at every computation delay of the spec's range)."""
     scenarios = check_scenarios(problem)
-    check = AdmittanceEvaluator(problem, scenarios, loops=PiLoops.of(problem, kp, ki)).evaluate(m_v, b_v)
+    timing = RigTiming.of(admittance_problem(problem).rig)
+    check = evaluator(problem, scenarios, loops=PiLoops.of(problem, kp, ki), timing=timing).evaluate(m_v, b_v)
     k, j = np.nonzero(~check.stable)
     where = tuple(f"{scenarios.describe(jj)} with mouse ({check.mice[kk].label()})" for kk, jj in zip(k, j))
     return CornerCheck(len(scenarios), len(check.mice), int(k.size), where[:shown],

@@ -34,11 +34,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from design.admittance.delays import WorstFelt, evaluator
 from design.admittance.feel import MouseFeel, mouse_feel
 from design.admittance.latency import LatencyCheck, latency_check
 from design.admittance.model import (
     AdmittanceCheck,
-    AdmittanceEvaluator,
     GantryLoop,
     admittance_problem,
     check_grid_for,
@@ -47,7 +47,6 @@ from design.admittance.model import (
 )
 from design.admittance.monte_carlo import AdmittanceMonteCarlo
 from design.admittance.mouse import MouseModel
-from design.admittance.profile import FeltForce
 from design.admittance.rig import DiscreteAdmittance, RigTiming
 from design.admittance.sampled import dual_free_gantry, pade_order_for
 from design.admittance.synthesis import design_rounds, ray_binding
@@ -217,8 +216,8 @@ def synthesise_dual_admittance(problem: LoopProblem, *, structure: str, controll
                        if pr.max > pr.min else [pr.min], ranges)
     feel_set = plants(np.unique([lo, 0.5 * (lo + hi), hi]), np.unique([pr.min, pr.max]), {})
     say("dense check set up")
-    felt = FeltForce(problem, feel_set, corners, loops=loops, timing=timing)
-    dense = AdmittanceEvaluator(problem, dense_set, loops=loops, timing=timing, corners=corners)
+    felt = WorstFelt(problem, feel_set, corners, loops=loops, timing=timing)
+    dense = evaluator(problem, dense_set, loops=loops, timing=timing, corners=corners)
     w_design = with_mode_points(check_grid_for(timing), corners, timing, points=RAY_MODE_POINTS)
     samples, seed = problem.verification.monte_carlo_samples, problem.verification.seed
     masses = (stage_x_mass_kg + pr.min, stage_x_mass_kg + pr.max)
@@ -229,15 +228,17 @@ def synthesise_dual_admittance(problem: LoopProblem, *, structure: str, controll
     ray, x, check, mc = rounds.ray, rounds.x, rounds.check, rounds.monte_carlo
     if not ray.feasible:
         return _infeasible(problem, ray, structure, controller, dense, dense_set, corners, timing, len(scenarios), t0)
-    binding = ray_binding(problem, rounds.rp, ray, corners, rounds.rp_scenarios)
+    binding = ray_binding(problem, rounds.rp, ray, corners, rounds.rp_scenarios, timing.delays)
     if rounds.backed_off is not None:
         binding = {**rounds.backed_off, "detail": rounds.backed_off["detail"] + " at the ray's design; (m_v, b_v) "
                    "scaled up the ray until it holds"}
     say("what the mouse feels")
-    feel = mouse_feel(problem, loops=loops, m_v=x[0], b_v=x[1], scenarios=feel_set, corners=corners, timing=timing,
-                      felt=felt)
+    worst_felt = felt.worst(*x)
+    feel = mouse_feel(problem, loops=loops, m_v=x[0], b_v=x[1], scenarios=feel_set, corners=corners,
+                      timing=worst_felt.timing, felt=worst_felt)
     say("latency margin")
-    latency = latency_check(rounds.rp_scenarios, corners, loops=loops, timing=timing, m_v=x[0], b_v=x[1])
+    latency = latency_check(rounds.rp_scenarios, corners, loops=loops, timing=timing.at_delay(timing.delays[-1]),
+                            m_v=x[0], b_v=x[1])
     loc = adm.locomotion
     r = float(x[0] * loc.peak_acceleration_m_per_s2 + x[1] * loc.peak_speed_m_per_s)
     if not check.meets:

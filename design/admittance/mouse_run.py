@@ -288,7 +288,8 @@ def run_settings(problem, *, kp: float, ki: float, m_v: float, b_v: float, timin
                  friction_n: float = 0.0, leg_stiffness_n_per_m: float | None = None,
                  drive_rate_hz: float | None = None) -> RunSettings:
     """``RunSettings`` of the spec's plant (at ``payload_kg``, default the heaviest) and its nominal mouse
-    (mid-range masses and neck, the legs at their least stiffness unless given) with the design's gains."""
+    (mid-range masses and neck, the legs at their least stiffness unless given) with the design's gains, at the
+    largest computation delay of a range."""
     from design.admittance.model import admittance_problem
     from design.admittance.rig import RigTiming
 
@@ -311,7 +312,7 @@ def run_settings(problem, *, kp: float, ki: float, m_v: float, b_v: float, timin
                        None if loop is None else float(loop.bandwidth_hz),
                        0 if delay is None else int(round(float(delay.seconds) * rate)), rate, kp, ki,
                        adm.hardware.motor_peak_force_n, friction_n, FRICTION_VELOCITY_M_PER_S, 1.0 / timing.period_s,
-                       timing.delay_samples, m_v, b_v, timing.filter_hz, timing.filter_order,
+                       timing.delays[-1], m_v, b_v, timing.filter_hz, timing.filter_order,
                        adm.hardware.force_sensor_resolution_n, adm.sensor.bias_after_tare_n, adm.sensor.deadband_n,
                        mid(mouse.head_mass_kg), mid(mouse.body_mass_kg), mid(mouse.neck_stiffness_n_per_m),
                        mid(mouse.neck_damping_n_s_per_m),

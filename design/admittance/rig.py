@@ -40,7 +40,7 @@ it moves at (the fundamental; the sampler adds aliases above the Nyquist frequen
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -71,10 +71,30 @@ class RigTiming:
     filter_order: int = 2
     #: the law's rule (``RULES``; ``law_coefficients``)
     rule: str = "backward_euler"
+    #: with a range of computation delay, its largest (samples; ``delay_samples`` its least)
+    delay_samples_max: int | None = None
 
     def __post_init__(self):
         if self.rule not in RULES:
             raise ValueError(f"unknown admittance law rule {self.rule!r} (one of {', '.join(RULES)})")
+
+    @property
+    def delays(self) -> tuple[int, ...]:
+        """Every computation delay (samples) the design must hold at."""
+        top = self.delay_samples if self.delay_samples_max is None else self.delay_samples_max
+        return tuple(range(self.delay_samples, max(top, self.delay_samples) + 1))
+
+    def at_delay(self, d: int) -> RigTiming:
+        """The same rig with exactly ``d`` samples of computation delay."""
+        return replace(self, delay_samples=int(d), delay_samples_max=None)
+
+    def per_delay(self) -> list[RigTiming]:
+        return [self.at_delay(d) for d in self.delays]
+
+    def shifted(self, extra: int) -> RigTiming:
+        """The same rig with ``extra`` more samples of computation delay over the whole range."""
+        return replace(self, delay_samples=self.delay_samples + extra,
+                       delay_samples_max=None if self.delay_samples_max is None else self.delay_samples_max + extra)
 
     @classmethod
     def of(cls, rig, *, filter_hz: float | None = None) -> RigTiming:
@@ -83,8 +103,9 @@ class RigTiming:
         corner = None if f is None else (f.frequency_hz if not f.designed else filter_hz)
         if f is not None and f.designed and corner is None:
             corner = math.sqrt(f.frequency_hz_min * f.frequency_hz_max)
-        return cls(rig.sample_period_s, rig.computation_delay_samples, corner, 2 if f is None else f.order,
-                   rig.law if rig.sample_period_s is not None else "backward_euler")
+        lo, hi = rig.delay_range
+        return cls(rig.sample_period_s, lo, corner, 2 if f is None else f.order,
+                   rig.law if rig.sample_period_s is not None else "backward_euler", hi if hi > lo else None)
 
     @property
     def forward_euler(self) -> bool:

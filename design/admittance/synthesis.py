@@ -42,11 +42,18 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from design.admittance.contact import ContactLimit, stiffest_contact
+from design.admittance.delays import (
+    WorstFelt,
+    evaluator,
+    join_monte_carlo,
+    join_verifications,
+    samples_text,
+    span_ray_problem,
+)
 from design.admittance.feel import MouseFeel, feel_scenarios, mouse_feel
 from design.admittance.latency import LatencyCheck, latency_check
 from design.admittance.model import (
     AdmittanceCheck,
-    AdmittanceEvaluator,
     PiLoops,
     admittance_problem,
     check_grid_for,
@@ -57,7 +64,6 @@ from design.admittance.model import (
 )
 from design.admittance.monte_carlo import AdmittanceMonteCarlo, admittance_monte_carlo
 from design.admittance.mouse import MouseModel
-from design.admittance.profile import FeltForce
 from design.admittance.ray import RayBound, best_ray, curve_bounds, ray_problem
 from design.admittance.rig import DiscreteAdmittance, RigTiming
 from design.admittance.verify import AdmittanceVerification, verify_admittance
@@ -165,9 +171,9 @@ _NAMES = {"margins": "the interaction-loop margins (admittance.phase_margin_deg,
           "m_v_min": "admittance.m_v.min"}
 
 
-def ray_binding(problem: LoopProblem, rp, ray: RayBound, corners, scenarios: Scenarios) -> dict:
+def ray_binding(problem: LoopProblem, rp, ray: RayBound, corners, scenarios: Scenarios, delays=(0,)) -> dict:
     """The requirement that sets the design's scale, with the scenario and mouse where it binds (``rp`` built on
-    the mice ``corners`` x ``scenarios``)."""
+    the mice ``corners`` x ``scenarios`` at each computation delay of ``delays``)."""
     adm = admittance_problem(problem)
     base = {"payload_kg": None, "scenario": None, "mouse": None, "value": ray.b_v, "limit": ray.b_v}
     if ray.binding != "margins":
@@ -186,15 +192,16 @@ def ray_binding(problem: LoopProblem, rp, ray: RayBound, corners, scenarios: Sce
                      rp.gain_margin, rp.sampled, parts=True) for i in range(0, len(rp.log_mag), BINDING_ROWS))))
     gm_binds = t_gm.max() >= t_pm.max()
     c = int(np.argmax(t_gm if gm_binds else t_pm))
-    k, j = np.unravel_index(c, (len(corners), len(scenarios)))
+    i, k, j = np.unravel_index(c, (len(delays), len(corners), len(scenarios)))
     mouse = corners[k]
     name = "gain_margin" if gm_binds else "phase_margin"
     limit = adm.gain_margin_db if gm_binds else adm.phase_margin_deg
+    at_delay = "" if len(delays) == 1 else f" with {samples_text(delays[i])}"
     return {"constraint": name, "payload_kg": float(scenarios.payload_kg[j]), "scenario": scenarios.row(j),
             "mouse": mouse.as_dict(), "value": limit, "limit": limit,
             "detail": f"interaction-loop {name.replace('_', ' ')} (admittance.{name}_"
                       f"{'db' if gm_binds else 'deg'} = {limit:g}) at {scenarios.describe(j)} with mouse "
-                      f"({mouse.label()})"}
+                      f"({mouse.label()}){at_delay}"}
 
 
 def synthesise_admittance(problem: LoopProblem, *, kp: float | None = None, ki: float | None = None,
@@ -218,16 +225,18 @@ def synthesise_admittance(problem: LoopProblem, *, kp: float | None = None, ki: 
         from design.admittance.codesign import codesign
 
         say("co-design of the PI gains, force filter and virtual dynamics")
-        record = codesign(problem, kp=kp, ki=ki, timing=timing)
-        kp, ki, timing = record.kp, record.ki, record.timing
+        # at the range's largest delay (the checks below cover every delay of it)
+        record = codesign(problem, kp=kp, ki=ki, timing=timing.at_delay(timing.delays[-1]))
+        kp, ki = record.kp, record.ki
+        timing = replace(record.timing, delay_samples=timing.delay_samples, delay_samples_max=timing.delay_samples_max)
     corners = mice(problem)
     loops = PiLoops.of(problem, kp, ki)
     loc = adm.locomotion
     w_design = with_mode_points(check_grid_for(timing), corners, timing)
     say("dense check set up")
     feel_set = feel_scenarios(problem)
-    felt = FeltForce(problem, feel_set, corners, loops=loops, timing=timing)
-    dense = AdmittanceEvaluator(problem, check_scenarios(problem), loops=loops, timing=timing, corners=corners)
+    felt = WorstFelt(problem, feel_set, corners, loops=loops, timing=timing)
+    dense = evaluator(problem, check_scenarios(problem), loops=loops, timing=timing, corners=corners)
     scenarios = design_scenarios(problem)
     rounds = design_rounds(problem, scenarios, loops=loops, dense=dense, felt=felt, w_design=w_design, timing=timing,
                            corners=corners, say=say)
@@ -238,17 +247,21 @@ def synthesise_admittance(problem: LoopProblem, *, kp: float | None = None, ki: 
     notes = {"rounds": rounds.rounds}
     del dense
     say("verification on the rational model (python-control)")
-    verification = verify_admittance(problem, check, kp=kp, ki=ki, timing=timing)
-    binding = ray_binding(problem, rp, ray, corners, rounds.rp_scenarios)
+    verification = join_verifications([verify_admittance(problem, check, kp=kp, ki=ki, timing=t)
+                                       for t in timing.per_delay()], timing.delays)
+    binding = ray_binding(problem, rp, ray, corners, rounds.rp_scenarios, timing.delays)
     if rounds.backed_off is not None:
         binding = {**rounds.backed_off, "detail": rounds.backed_off["detail"] + " at the ray's design; (m_v, b_v) "
                    "scaled up the ray until it holds"}
     say("what the mouse feels")
-    feel = mouse_feel(problem, loops=loops, m_v=x[0], b_v=x[1], scenarios=feel_set, corners=corners, timing=timing,
-                      felt=felt)
-    contact = stiffest_contact(problem, design_scenarios(problem), loops=loops, m_v=x[0], b_v=x[1], timing=timing)
+    worst_felt = felt.worst(*x)
+    feel = mouse_feel(problem, loops=loops, m_v=x[0], b_v=x[1], scenarios=feel_set, corners=corners,
+                      timing=worst_felt.timing, felt=worst_felt)
+    contact = min((stiffest_contact(problem, design_scenarios(problem), loops=loops, m_v=x[0], b_v=x[1], timing=t)
+                   for t in timing.per_delay()), key=lambda c: c.worst_n_per_m)
     say("latency margin")
-    latency = latency_check(design_scenarios(problem), corners, loops=loops, timing=timing, m_v=x[0], b_v=x[1])
+    latency = latency_check(design_scenarios(problem), corners, loops=loops, timing=timing.at_delay(timing.delays[-1]),
+                            m_v=x[0], b_v=x[1])
     r = x[0] * loc.peak_acceleration_m_per_s2 + x[1] * loc.peak_speed_m_per_s
     if not verification.verified:
         status, msg = "infeasible", "NOT verified: " + "; ".join(verification.failures[:3])
@@ -266,8 +279,10 @@ def synthesise_admittance(problem: LoopProblem, *, kp: float | None = None, ki: 
                f"{_HINTS.get(_HINT_OF.get(binding['constraint'], binding['constraint']), '')}")
     else:
         status = "optimal"
-        msg = (f"verified on {len(scenarios)} design scenarios x {len(corners)} mice; 0 of {mc.samples} Monte Carlo "
-               f"draws over payload, uncertainty and mouse violate (95 % upper bound "
+        span = ("" if len(timing.delays) == 1 else
+                f" at every computation delay from {timing.delays[0]} to {timing.delays[-1]} samples")
+        msg = (f"verified on {len(scenarios)} design scenarios x {len(corners)} mice{span}; 0 of {mc.samples} "
+               f"Monte Carlo draws over payload, uncertainty and mouse violate (95 % upper bound "
                f"{100 * mc.rate_upper_bound:.2g} %); the mouse feels at most {feel.peak_force_n:.3g} N of its "
                f"{adm.mouse.peak_force_n:g} N on the locomotion profile")
     active = tuple(sorted({binding["constraint"]} | {v["constraint"] for v in check.violations}))
@@ -307,7 +322,7 @@ class Rounds:
     backed_off: dict | None = None
 
 
-def design_rounds(problem: LoopProblem, scenarios, *, loops, dense: AdmittanceEvaluator, felt: FeltForce, w_design,
+def design_rounds(problem: LoopProblem, scenarios, *, loops, dense, felt, w_design,
                   timing: RigTiming, corners, say, draws=None, dtype=complex, draws_label: str = "payload") -> Rounds:
     """Rays on ``scenarios`` x ``corners`` (the force ``felt`` their objective), the ``dense`` check adding its worst
     violator (at most ``MAX_ROUNDS`` rays), the back-off when it still fails, then the Monte Carlo (``draws(k)``: the
@@ -321,8 +336,9 @@ def design_rounds(problem: LoopProblem, scenarios, *, loops, dense: AdmittanceEv
             n += 1
             say(f"rays on {len(scenarios)} scenarios x {len(corners)} mice")
             rp_scenarios = scenarios
-            rp = ray_problem(interaction_responses(problem, scenarios, w_design, loops=loops, timing=timing,
-                                                   corners=corners, dtype=dtype), adm)
+            rp = span_ray_problem([ray_problem(interaction_responses(problem, scenarios, w_design, loops=loops,
+                                                                     timing=t, corners=corners, dtype=dtype), adm)
+                                   for t in timing.per_delay()])
             ray = best_ray(rp, objective=lambda r: felt(r.m_v, r.b_v))
             if not ray.feasible:
                 return Rounds(rp, ray, rp_scenarios, scenarios, None, None, None, n, mc_round, None)
@@ -339,15 +355,16 @@ def design_rounds(problem: LoopProblem, scenarios, *, loops, dense: AdmittanceEv
             backed_off = min(check.violations, key=relative_slack)
             x, check = back_off(dense, x, adm)
         say(f"Monte Carlo over {draws_label}, uncertainty and mouse")
-        mc = admittance_monte_carlo(problem, loops=loops, m_v=x[0], b_v=x[1], timing=timing, seed=seed + mc_round,
-                                    draws=None if draws is None else draws(mc_round))
+        drawn = None if draws is None else draws(mc_round)
+        mc = join_monte_carlo([admittance_monte_carlo(problem, loops=loops, m_v=x[0], b_v=x[1], timing=t,
+                                                      seed=seed + mc_round, draws=drawn) for t in timing.per_delay()])
         if mc.violations == 0 or mc_round == MONTE_CARLO_ROUNDS or scenarios.contains(mc.worst_scenario):
             break
         scenarios = scenarios.with_row(mc.worst_scenario)
     return Rounds(rp, ray, rp_scenarios, scenarios, x, check, mc, n, mc_round, backed_off)
 
 
-def back_off(dense: AdmittanceEvaluator, x: np.ndarray, adm) -> tuple[np.ndarray, AdmittanceCheck]:
+def back_off(dense, x: np.ndarray, adm) -> tuple[np.ndarray, AdmittanceCheck]:
     """The nearest point up the ray from ``x`` that the dense check passes: the first passing scale of
     1.002, 1.006, 1.018, ... (x3 in log each step) up to the bounds, then bisection to 0.1 %."""
     top = math.log(max(min(adm.m_v.max / x[0], adm.b_v.max / x[1]), 1.0))
@@ -379,7 +396,7 @@ def _infeasible(problem, ray: RayBound, rp, scenarios, kp, ki, timing, corners, 
            f"{hi[1]:g} N*s/m holds every requirement: the least scale along the best ray (m_v / b_v = "
            f"{ray.tau_s:.3g} s) is set by {_NAMES.get(need, need)} at b_v = {ray.b_v:.4g} N*s/m, above what the "
            f"upper bounds {'and passivity ' if adm.passivity is not None else ''}allow; {_HINTS.get(need, '')}")
-    ev = AdmittanceEvaluator(problem, scenarios, loops=PiLoops.of(problem, kp, ki), timing=timing, corners=corners)
+    ev = evaluator(problem, scenarios, loops=PiLoops.of(problem, kp, ki), timing=timing, corners=corners)
     x = np.minimum(np.array([ray.m_v, ray.b_v]), hi) if math.isfinite(ray.b_v) else hi
     check = ev.evaluate(*x)
     binding = {"constraint": need, "payload_kg": None, "scenario": None, "mouse": None, "value": ray.b_v,

@@ -76,9 +76,10 @@ def trade_off(problem: LoopProblem, result, rp) -> TradeOff:
     margin_front = tuple(thread_map(lambda m: _point(replace(rp, phase_margin_deg=m + HAIR_PM_DEG), m, seed),
                                     MARGINS_DEG))
     heavy = design_scenarios(problem, [problem.plant.payload_kg.max])
-    w = with_mode_points(check_grid_for(result.timing), result.corners, result.timing)
+    worst = result.timing.at_delay(result.timing.delays[-1])    # the what-ifs at a range's largest delay
+    w = with_mode_points(check_grid_for(worst), result.corners, worst)
     resp = interaction_responses(problem, heavy, w, loops=PiLoops.of(problem, result.kp, result.ki),
-                                 timing=result.timing, corners=result.corners)
+                                 timing=worst, corners=result.corners)
     passivity_front = thread_map(
         lambda f: _point(ray_problem(resp, replace(adm, passivity=Passivity(up_to_hz=f))), f), PASSIVE_UP_TO_HZ)
     baseline = best_ray(ray_problem(resp, adm), points=20, refine=1).cost_n(rp.a_pk, rp.v_pk)
@@ -92,7 +93,7 @@ def trade_off(problem: LoopProblem, result, rp) -> TradeOff:
         return HardwareChange(label, best_ray(ray_problem(r, admittance_problem(variant)), points=20,
                                               refine=1).cost_n(rp.a_pk, rp.v_pk), baseline)
 
-    changes = thread_map(change, _variants(problem, result.timing))
+    changes = thread_map(change, _variants(problem, worst))
     return TradeOff(adm.mouse.peak_force_n, margin_front, tuple(passivity_front), tuple(changes))
 
 

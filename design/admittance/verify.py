@@ -152,12 +152,22 @@ def interaction_loop_model(parts: GantryParts, mouse: MouseModel, *, kp: float, 
 
 def frequency_response(sys, x) -> np.ndarray:
     """C (x I - A)^-1 B + D of a single-input single-output state-space model at the points ``x`` (s, or z
-    when discrete), by the eigendecomposition of A (a dense grid in one pass)."""
+    when discrete), by the eigendecomposition of A (a dense grid in one pass), or point by point by LU when
+    A is defective (a chain of unit delays: a Jordan block at z = 0)."""
     A, B, C, D = (np.asarray(m, float) for m in (sys.A, sys.B, sys.C, sys.D))
+    x = np.asarray(x)
     lam, V = np.linalg.eig(A)
-    left = (C @ V).ravel()
-    right = np.linalg.solve(V, B).ravel()
-    return (left * right) @ (1.0 / (np.asarray(x)[None, :] - lam[:, None])) + D[0, 0]
+    if np.linalg.cond(V) < 1e10:
+        left = (C @ V).ravel()
+        right = np.linalg.solve(V, B).ravel()
+        return (left * right) @ (1.0 / (x[None, :] - lam[:, None])) + D[0, 0]
+    eye = np.eye(A.shape[0])
+    out = np.empty(x.size, complex)
+    for i in range(0, x.size, 512):
+        xs = x[i:i + 512]
+        out[i:i + 512] = (C @ np.linalg.solve(xs[:, None, None] * eye - A, np.broadcast_to(B, (xs.size, *B.shape))))[
+            :, 0, 0]
+    return out + D[0, 0]
 
 
 def _margins(L, timing: RigTiming) -> tuple[float, float]:

@@ -114,7 +114,13 @@ def add_admittance_section(report: Report, problem: LoopProblem, outcome: Design
                     f"v[k−1] + {d.beta_m_per_s_per_n:.10g} F[k]"
                     + (f" + {d.beta_prev_m_per_s_per_n:.10g} F[k−1]" if d.beta_prev_m_per_s_per_n else "")
                     + f" ({d.rule}; F in N, v in m/s), "
-                    f"held until the next update, {d.computation_delay_samples} sample(s) of computation delay.")
+                    f"held until the next update, {_delays(r.timing)} sample(s) of computation delay"
+                    + (" (the design holds at every one)." if len(r.timing.delays) > 1 else "."))
+
+
+def _delays(timing) -> str:
+    d = timing.delays
+    return f"{d[0]}" if len(d) == 1 else f"{d[0]} to {d[-1]}"
 
 
 def _verified(r) -> str:

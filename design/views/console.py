@@ -304,6 +304,10 @@ def _print_admittance(console: Console, adm: dict) -> None:
                              f"{d['beta_m_per_s_per_n']:.10g} F[k]"
                              + (f" + {d['beta_prev_m_per_s_per_n']:.10g} F[k-1]" if d.get("beta_prev_m_per_s_per_n")
                                 else "")))
+        span = rig["computation_delay_samples"]
+        if isinstance(span, dict):
+            console.print(f"  computation delay {span['min']} to {span['max']} samples: the design holds at every one "
+                          "(the latency figures at the largest)", soft_wrap=True)
     console.print(f"  {adm['message']}; solver {adm['solver']['seconds']:.1f} s", soft_wrap=True)
     if adm.get("schedule"):
         rows = [[f"{p['payload_kg']:g}", p["status"], f"{p['kp']:.4g}", f"{p['ki']:.4g}", f"{p['m_v']:.4g}",

@@ -540,7 +540,8 @@ def _admittance_setting(adm, timing, discrete) -> dict:
                    "passive_up_to_hz": None if adm.passivity is None else
                    (adm.passivity.up_to_hz if adm.passivity.up_to_hz is not None else "everywhere")},
         "rig": {"update_rate_hz": None if timing.period_s is None else 1.0 / timing.period_s,
-                "computation_delay_samples": timing.delay_samples, "force_filter_hz": timing.filter_hz,
+                "computation_delay_samples": timing.delay_samples if len(timing.delays) == 1 else
+                {"min": timing.delays[0], "max": timing.delays[-1]}, "force_filter_hz": timing.filter_hz,
                 "force_filter_order": timing.filter_order if timing.filter_hz is not None else None,
                 "discrete": None if discrete is None else {
                     "alpha": discrete.alpha, "beta_m_per_s_per_n": discrete.beta_m_per_s_per_n,

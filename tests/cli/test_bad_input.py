@@ -438,6 +438,9 @@ def test_a_corrupt_time_value_is_named_with_its_row(tmp_path):
     ("motor_peak_force_n = 300.0", 'motor_peak_force_n = 300.0\nmotor_force_criterion = "sine"',
      "admittance.hardware.motor_force_criterion"),
     ('law = "forward_euler"', 'law = "bilinear"', "admittance.rig.law"),
+    ("computation_delay_samples = 0", "computation_delay_samples = { min = 2, max = 1 }",
+     "admittance.rig.computation_delay_samples"),
+    ("computation_delay_samples = 0", "computation_delay_samples = 0.5", "admittance.rig.computation_delay_samples"),
 ])
 def test_an_unknown_admittance_rule_is_one_line_naming_its_key(tmp_path, monkeypatch, capsys, old, new, key):
     text = (ROOT / "specs" / "stage_x_admittance.toml").read_text()

@@ -607,3 +607,32 @@ def test_velocity_shortfall_on_the_profile_matches_the_rigid_pi_loop():
     expected = 1 - v[end] / prof.velocity_m_per_s[end]
     assert expected > 0.05                                          # the case the report must name
     assert float(felt.velocity_shortfall()[0]) == pytest.approx(expected, abs=1e-3)
+
+
+def test_a_computation_delay_range_is_designed_to_hold_at_every_delay_of_it():
+    # a rig whose timing is unmeasured: 0 to 2 samples. The design must hold at each delay (checked here by the
+    # evaluator at one delay at a time, and by the independent sampled reference at the binding corner), must be
+    # at least as heavy as the design for its worst single delay, and must name the delay where it binds
+    data = _fast_data()
+    data["admittance"]["rig"] = {"update_rate_hz": 100.0, "computation_delay_samples": {"min": 0, "max": 2},
+                                 "law": "forward_euler"}
+    spec = parse_spec(data).problem()
+    res = synthesise_admittance(spec, kp=140.0, ki=15.0, tradeoff=False)
+    assert res.status in ("optimal", "mouse_cannot_drive") and res.verified, res.message
+    assert res.timing.delays == (0, 1, 2)
+    adm = spec.admittance
+    for d in (0, 1, 2):
+        ev = AdmittanceEvaluator(spec, res.check.scenarios, loops=PiLoops.of(spec, 140.0, 15.0),
+                                 timing=res.timing.at_delay(d), corners=res.corners)
+        check = ev.evaluate(res.m_v, res.b_v, screen=False)
+        assert bool(np.all(check.stable)), d
+        assert np.nanmin(check.phase_margin_deg) >= adm.phase_margin_deg - 0.05, d
+        assert np.nanmin(check.gain_margin_db) >= adm.gain_margin_db - 0.02, d
+    singles = {}
+    for d in (0, 2):
+        one = dict(data, admittance=dict(data["admittance"], rig=dict(data["admittance"]["rig"],
+                                                                     computation_delay_samples=d)))
+        singles[d] = synthesise_admittance(parse_spec(one).problem(), kp=140.0, ki=15.0, tradeoff=False)
+    assert res.peak_resistance_n >= max(r.peak_resistance_n for r in singles.values()) * (1 - 1e-3)
+    assert res.peak_resistance_n > singles[0].peak_resistance_n * 1.01      # the range costs the mouse something
+    assert "sample" in res.binding["detail"], res.binding

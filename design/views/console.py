@@ -247,15 +247,16 @@ def print_synthesis(console: Console, out: dict) -> None:
         _print_admittance(console, adm)
     elif adm:
         console.print(f"[bold]admittance[/]: {adm['status']}: {adm['message']}", soft_wrap=True)
-    t = Table(title="Baselines on the same spec")
-    for col in ("baseline", "Kp", "Ki", "worst BW Hz", "worst PM deg", "worst GM dB", "meets"):
-        t.add_column(col, justify="left" if col == "baseline" else "right")
-    for b in out["baselines"]:
-        t.add_row(b["name"].split(" (")[0], f"{b['kp']:.4g}", f"{b['ki']:.4g}",
-                  _num(b["worst_bandwidth_hz"]) if b.get("stable", True) else "unstable",
-                  _num(b["worst_phase_margin_deg"], ".1f"), _num(b["worst_gain_margin_db"], ".1f"),
-                  "yes" if b["meets_requirements"] else "NO")
-    console.print(t)
+    if out["baselines"]:        # none for a co-designed admittance spec (its gains are not the PI loop's alone)
+        t = Table(title="Baselines on the same spec")
+        for col in ("baseline", "Kp", "Ki", "worst BW Hz", "worst PM deg", "worst GM dB", "meets"):
+            t.add_column(col, justify="left" if col == "baseline" else "right")
+        for b in out["baselines"]:
+            t.add_row(b["name"].split(" (")[0], f"{b['kp']:.4g}", f"{b['ki']:.4g}",
+                      _num(b["worst_bandwidth_hz"]) if b.get("stable", True) else "unstable",
+                      _num(b["worst_phase_margin_deg"], ".1f"), _num(b["worst_gain_margin_db"], ".1f"),
+                      "yes" if b["meets_requirements"] else "NO")
+        console.print(t)
     s = out["solver"]
     console.print(f"solver: {s['method']}, {s['seconds']:.2f} s" + (f" ({s['cpu_seconds']:.2f} s CPU)"
                                                                     if "cpu_seconds" in s else ""))

@@ -1,4 +1,6 @@
-"""Control design for the exoskeleton gantry: loops, margins, synthesis, sweeps, reports, CLI."""
+"""Control design for the exoskeleton gantry: loops, margins, synthesis, sweeps, reports, CLI.
+
+May import: ``plant`` (the version, on first use)."""
 
 __all__ = ["__version__"]
 

@@ -1,4 +1,6 @@
-"""``python -m design`` runs the ``gantry`` command line."""
+"""``python -m design`` runs the ``gantry`` command line.
+
+May import: ``design.cli``."""
 
 try:
     from design.cli import main

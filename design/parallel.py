@@ -10,6 +10,8 @@ The tool's matrices are small (a state space of tens of states, batches of them)
 the environment sets the BLAS's threads itself). Measured on
 ``gantry synth specs/stage_x_admittance.toml`` (2 cores): 21.2 s wall, 32.0 s CPU with OpenBLAS's threads,
 17.9 s wall, 22.3 s CPU without.
+
+May import: nothing of the tool.
 """
 
 from __future__ import annotations

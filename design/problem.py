@@ -42,6 +42,8 @@ The admittance stage's section of a spec file, every key optional (defaults belo
 The records are frozen dataclasses; their ``Annotated`` bounds are what ``design.spec.schema``
 checks when it reads a spec file (pydantic validates dataclasses field by field), so the limits
 live in one place and apply to every command.
+
+May import: ``plant``.
 """
 
 from __future__ import annotations

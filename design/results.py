@@ -1,4 +1,6 @@
-"""Typed results of the workflows (``design.workflows``) that views and the JSON writer read."""
+"""Typed results of the workflows (``design.workflows``) that views and the JSON writer read.
+
+May import: ``design.admittance``, ``design.synth``, ``design.spec``, ``design.loop``, ``design.problem``, ``plant``."""
 
 from __future__ import annotations
 

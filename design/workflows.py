@@ -5,6 +5,9 @@ spec, optionally with the plant of a fit), design it, measure a recording.
     problem = load_problem("specs/stage_x_synth.toml", plant_from="fit.json")
     outcome = design(problem)                   # typed; design_to_dict(outcome) is ``gantry synth --json``
     response = measure("run.csv")               # a MeasuredResponse from any recording
+
+May import: ``design.results``, ``design.admittance``, ``design.synth``, ``design.spec``, ``design.loop``,
+``design.problem``, ``design.parallel``, ``plant``.
 """
 
 from __future__ import annotations

@@ -3,6 +3,8 @@
 The names below are imported on first use (PEP 562), so that importing a light submodule such as
 ``plant.host.interrupts`` or ``plant.errors`` does not load numpy and the models first: the command line
 installs its signal handlers before anything heavy is imported.
+
+May import: ``plant`` (its names load from the floors on first use).
 """
 
 from __future__ import annotations

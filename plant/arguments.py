@@ -1,5 +1,8 @@
 """Checks of a public function's arguments at its boundary: each raises ``ArgumentError`` (a ``GantryError``
-and a ``TypeError``) naming the argument, before anything is computed with it."""
+and a ``TypeError``) naming the argument, before anything is computed with it.
+
+May import: ``plant.errors``.
+"""
 
 from __future__ import annotations
 

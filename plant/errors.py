@@ -2,6 +2,8 @@
 
 ``GantryError`` is a ``ValueError`` so callers that already catch ``ValueError``
 keep working; the command line turns it into one line on stderr and exit status 2.
+
+May import: nothing of the tool.
 """
 
 

@@ -1,4 +1,6 @@
-"""Frequency grids: validation and the default log-spaced grids (rad/s inside the library)."""
+"""Frequency grids: validation and the default log-spaced grids (rad/s inside the library).
+
+May import: ``plant.errors``."""
 
 from __future__ import annotations
 

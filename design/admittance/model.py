@@ -45,6 +45,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from design.admittance.bounds import curve_bounds, polar
 from design.admittance.mouse import MouseModel, mouse_set, stack
 from design.admittance.profile import FeltForce
 from design.admittance.rig import RigTiming, VirtualImpedance, force_filter_frd
@@ -472,8 +473,6 @@ class AdmittanceEvaluator:
 
     def __init__(self, problem: LoopProblem, scenarios, *, loops, timing: RigTiming | None = None, corners=None,
                  w_rad_s=None):
-        from design.admittance.ray import polar
-
         self.problem = problem
         self.adm = admittance_problem(problem)
         self.timing = timing or RigTiming.of(self.adm.rig)
@@ -575,8 +574,6 @@ class AdmittanceEvaluator:
         the gain margin's orders the curves exactly as their gain margins) and every curve whose bound is within
         ``SCREEN_RATIO`` of b_v; the others are certified by their bound (margins and stability hold all along
         the ray down to it) and their entries are nan."""
-        from design.admittance.ray import curve_bounds
-
         adm = self.adm
         n_m, n_s = len(self.corners), len(self.scenarios)
         pm, gm, ratio = (np.full((n_m, n_s), np.nan) for _ in range(3))

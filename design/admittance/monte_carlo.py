@@ -20,6 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from design.admittance.bounds import curve_bounds, polar
 from design.admittance.model import (
     SCREEN_POINTS_PER_DECADE,
     SCREEN_RATIO,
@@ -35,7 +36,6 @@ from design.admittance.model import (
 )
 from design.admittance.mouse import FIELDS, MouseModel, random_mice
 from design.admittance.profile import FeltForce
-from design.admittance.ray import curve_bounds, polar
 from design.admittance.rig import RigTiming
 from design.loop.margins import nyquist_stable
 from design.parallel import thread_map

@@ -41,6 +41,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from design.admittance.bounds import curve_bounds
 from design.admittance.contact import ContactLimit, stiffest_contact
 from design.admittance.delays import (
     WorstFelt,
@@ -64,7 +65,7 @@ from design.admittance.model import (
 )
 from design.admittance.monte_carlo import AdmittanceMonteCarlo, admittance_monte_carlo
 from design.admittance.mouse import MouseModel
-from design.admittance.ray import RayBound, best_ray, curve_bounds, ray_problem
+from design.admittance.ray import RayBound, best_ray, ray_problem
 from design.admittance.rig import DiscreteAdmittance, RigTiming
 from design.admittance.verify import AdmittanceVerification, verify_admittance
 from design.problem import LoopProblem

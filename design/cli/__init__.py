@@ -3,6 +3,9 @@ here by name.
 
 ``main`` is the one error boundary: bad input becomes one line on stderr and exit status 2, Ctrl-C
 exit status 130, and a genuine bug keeps its traceback.
+
+May import: ``design.workflows``, ``design.views``, ``design.results``, ``design.admittance``, ``design.synth``,
+``design.spec``, ``design.loop``, ``design.problem``, ``design.parallel``, ``plant``.
 """
 
 from __future__ import annotations

@@ -1,2 +1,5 @@
 """Velocity loops and their numbers: open loops, margins (exact and fast paths), payload sweeps,
-the thesis reproduction."""
+the thesis reproduction.
+
+May import: ``design.problem``, ``design.parallel``, ``plant``.
+"""

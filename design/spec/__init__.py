@@ -1,1 +1,3 @@
-"""The spec file: its pydantic schema and the admittance problem it declares."""
+"""The spec file: its pydantic schema and the admittance problem it declares.
+
+May import: ``design.problem``, ``plant``."""

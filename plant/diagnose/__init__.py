@@ -1,2 +1,3 @@
 """Diagnosis: which effect the model misses, by model search on the fits, and its shared evidence vocabulary.
-May import every floor below: ``plant.identify`` down to ``plant.host`` and the base modules."""
+May import: ``plant.identify``, ``plant.experiment``, ``plant.estimate``, ``plant.data``, ``plant.physics``,
+``plant.host``, ``plant.errors``, ``plant.grid``, ``plant.arguments``."""

@@ -1,2 +1,3 @@
 """Identification: the frequency-domain, time-domain (inverse model) and rational fits, residuals, report text.
-May import every floor below: ``plant.estimate`` down to ``plant.host`` and the base modules."""
+May import: ``plant.experiment``, ``plant.estimate``, ``plant.data``, ``plant.physics``, ``plant.host``,
+``plant.errors``, ``plant.grid``, ``plant.arguments``."""

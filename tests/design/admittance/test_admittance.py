@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 from in_process import gantry
 
+from design.admittance.bounds import curve_bounds, polar
 from design.admittance.model import (
     AdmittanceEvaluator,
     PiLoops,
@@ -23,7 +24,6 @@ from design.admittance.model import (
 )
 from design.admittance.mouse import MouseModel, mouse_set
 from design.admittance.profile import FeltForce
-from design.admittance.ray import curve_bounds, polar
 from design.admittance.rig import RigTiming
 from design.admittance.synthesis import synthesise_admittance
 from design.loop.loops import rendered_admittance_frd, virtual_admittance_frd
@@ -174,7 +174,7 @@ def _bounds_by_definition(K, q, pm_deg, g, sampled):
 def test_ray_bounds_of_a_batch_follow_their_definition():
     # curves with resonances, wraps through +-180 deg and phase jumps of tens of degrees between neighbours,
     # in batches of several shapes, against the bound read off point by point
-    from design.admittance.ray import HAIR_SCALE
+    from design.admittance.bounds import HAIR_SCALE
 
     rng = np.random.default_rng(7)
     w = np.geomspace(1.0, 300.0, 160)

@@ -23,6 +23,7 @@ from design.admittance.mouse_run import MouseRun, mouse_run, run_settings, trape
 from design.admittance.profile import FeltForce
 from design.loop.curves import report_payloads
 from design.problem import LoopProblem
+from plant.errors import SpecError
 from plant.grid import log_grid_rad_s
 
 #: the rendered admittance's plot: 0.1 Hz to 1 kHz, or to the law's Nyquist frequency when it is sampled
@@ -60,6 +61,8 @@ class AdmittanceCurves:
     rendered: np.ndarray
     run: MouseRun | None
     lab: LabComparison | None
+    #: why there is no mouse run (an effect of the plant it cannot simulate), in words
+    run_refused: str | None = None
 
 
 def lab_comparison(problem: LoopProblem, result) -> LabComparison:
@@ -86,11 +89,15 @@ def admittance_curves(problem: LoopProblem, result, *, lab: bool = True) -> Admi
     top = RENDERED_HZ[1] if not result.timing.sampled else min(RENDERED_HZ[1], 0.5 / result.timing.period_s)
     w = log_grid_rad_s(RENDERED_HZ[0], top, RENDERED_POINTS)
     loop = gantry_loop(PiLoops.of(problem, result.kp, result.ki), w, list(masses))
-    run = None
+    run = refused = None
     if result.timing.sampled:
-        settings = run_settings(problem, kp=result.kp, ki=result.ki, m_v=result.m_v, b_v=result.b_v,
-                                timing=result.timing)
-        run = mouse_run(settings, trapezoid_path(admittance_problem(problem).locomotion, settings.drive_rate_hz))
+        try:
+            settings = run_settings(problem, kp=result.kp, ki=result.ki, m_v=result.m_v, b_v=result.b_v,
+                                    timing=result.timing)
+        except SpecError as exc:
+            refused = str(exc)
+        else:
+            run = mouse_run(settings, trapezoid_path(admittance_problem(problem).locomotion, settings.drive_rate_hz))
     return AdmittanceCurves(masses, w, 1.0 / virtual_impedance_frd(w, result.m_v, result.b_v),
                             rendered_admittance(loop, result.m_v, result.b_v, result.timing), run,
-                            lab_comparison(problem, result) if lab else None)
+                            lab_comparison(problem, result) if lab else None, refused)

@@ -40,6 +40,7 @@ import numpy as np
 
 from design.admittance.profile import trapezoid
 from design.admittance.rig import DiscreteAdmittance
+from plant.errors import SpecError
 
 #: RK4 steps per drive period at least, and the largest w h (w the fastest rate of the continuous part: the
 #: current loop, the force filter, the body on neck and legs) a step may take (RK4 is stable to 2.79)
@@ -196,6 +197,8 @@ DEFAULT_DRIVE_RATE_HZ = 4000.0
 REST_S = 1.0
 #: the friction model's velocity scale (m/s): F_c tanh(v / v_s)
 FRICTION_VELOCITY_M_PER_S = 1e-3
+#: the plant's effects a run simulates (any other is refused by name, never dropped)
+SIMULATED_EFFECTS = ("sampling", "delay", "current_loop")
 
 
 @dataclass(frozen=True)
@@ -298,6 +301,11 @@ def run_settings(problem, *, kp: float, ki: float, m_v: float, b_v: float, timin
     if not timing.sampled:
         raise ValueError("admittance.rig.update_rate_hz: a mouse run simulates the sampled law; declare the rate")
     plant = problem.plant.plant(problem.plant.payload_kg.max if payload_kg is None else payload_kg)
+    dropped = [e.name for e in plant.effects if e.name not in SIMULATED_EFFECTS]
+    if dropped:
+        raise SpecError(f"plant.effects: the mouse run simulates {', '.join(SIMULATED_EFFECTS)} and the rigid body; "
+                        f"it cannot simulate {', '.join(dropped)}: remove {'it' if len(dropped) == 1 else 'them'} "
+                        "for the run, or check the design with the frequency-domain figures of gantry synth")
     sampling, delay, loop = plant.effect("sampling"), plant.effect("delay"), plant.effect("current_loop")
     rate = drive_rate_hz or (float(sampling.rate_hz) if sampling is not None else DEFAULT_DRIVE_RATE_HZ)
     rate = round(rate * timing.period_s) / timing.period_s

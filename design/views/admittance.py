@@ -92,6 +92,8 @@ def add_admittance_section(report: Report, problem: LoopProblem, outcome: Design
                    "(circled).")
     if curves.run is not None:
         _run_figure(report, curves.run)
+    elif curves.run_refused:
+        report.text(f"No mouse run: {curves.run_refused}.")
     if curves.lab is not None:
         _lab_table(report, r, curves.lab, feel)
     if comparison is not None:

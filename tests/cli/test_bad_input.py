@@ -450,3 +450,16 @@ def test_an_unknown_admittance_rule_is_one_line_naming_its_key(tmp_path, monkeyp
     code, err, _ = in_process(monkeypatch, capsys, "synth", spec)
     assert code == 2 and err.count("\n") == 1 and err.startswith(f"gantry: error: {spec}: {key}")
     assert "Traceback" not in err
+
+
+def test_a_mouse_run_refuses_an_effect_it_cannot_simulate_by_name(tmp_path, monkeypatch, capsys):
+    # the run simulates the drive's delay, current loop and sampling on a rigid body; a resonance it would drop
+    # is refused in one line that names it (never simulated without it)
+    text = (ROOT / "specs" / "stage_x_admittance.toml").read_text()
+    old = "current_loop = { bandwidth_hz = 1000.0 }"
+    assert old in text
+    spec = tmp_path / "spec.toml"
+    spec.write_text(text.replace(old, old + "\nresonance = { frequency_hz = 60.0, antiresonance_hz = 42.0, "
+                                        "damping_ratio = 0.02 }", 1))
+    code, err, _ = in_process(monkeypatch, capsys, "mouse-run", spec, "--lab")
+    assert code == 2 and err.count("\n") == 1 and "plant.effects" in err and "resonance" in err, err

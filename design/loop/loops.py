@@ -13,7 +13,6 @@ import numpy as np
 from plant.errors import ParameterError
 from plant.grid import check_grid
 from plant.physics.models import Plant
-from plant.physics.parameters import check_positive
 
 if TYPE_CHECKING:
     import control
@@ -80,38 +79,3 @@ def closed_loop_tf(plant: Plant, kp: float, ki: float) -> control.TransferFuncti
     import control
 
     return control.feedback(open_loop_tf(plant, kp, ki), 1)
-
-
-def virtual_admittance_frd(w_rad_s, m_v, b_v, k_v=0.0) -> np.ndarray:
-    """Admittance virtual dynamics, velocity per external force (m/s per N), thesis Eq. 3.23:
-    Y_v = s / (m_v s^2 + b_v s + k_v).
-
-    With k_v = 0 this is 1 / (m_v s + b_v). The thesis's Eq. 3.24 prints 1/(m_v s^2 + b_v),
-    a typo: dividing Eq. 3.23 by s with k_v = 0 gives 1/(m_v s + b_v), implemented here.
-    """
-    check_positive("m_v", m_v, allow_zero=True)
-    check_positive("b_v", b_v, allow_zero=True)
-    check_positive("k_v", k_v, allow_zero=True)
-    s = 1j * np.asarray(w_rad_s)
-    return s / (np.asarray(m_v) * s**2 + np.asarray(b_v) * s + np.asarray(k_v))
-
-
-def rendered_admittance_frd(plant: Plant, w_rad_s, *, kp, ki, m_v, b_v, force_pushes_plant: bool = True) -> np.ndarray:
-    """Velocity per sensed force of the nested loop of thesis Figure 3.22 (m/s per N).
-
-    force -> Y_v = 1/(m_v s + b_v) -> velocity reference -> PI -> current loop -> plant.
-    With ``force_pushes_plant`` the sensed force also acts on the moving mass directly
-    (it is a physical force on the gantry): v = (P/K_t F + P C (Y_v F - v)) ->
-    v/F = (P_F + P C Y_v) / (1 + P C), where P_F = P / (K_t * electrical effects) is the
-    mechanical velocity-per-force response.
-    """
-    w = check_grid(w_rad_s)
-    P = plant.frd(w)
-    C = pi_frd(w, kp, ki)
-    Yv = virtual_admittance_frd(w, m_v, b_v)
-    num = P * C * Yv
-    if force_pushes_plant:
-        electrical = plant.chain_response(1j * w, "drive")
-        kt = np.asarray(plant.force_constant_n_per_a, float)
-        num = num + P / (kt * electrical)
-    return num / (1 + P * C)

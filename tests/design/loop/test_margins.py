@@ -32,7 +32,6 @@ from design.loop.loops import (
     open_loop_tf,
     pi_frd,
     pi_tf,
-    virtual_admittance_frd,
 )
 from design.loop.margins import closed_loop_bandwidth_hz, loop_margins, phase_change
 from plant import CurrentLoop, Delay, Resonance, stage_x, stage_y
@@ -311,15 +310,6 @@ def test_open_and_closed_loop_are_eq_3_17_to_3_20(stage):
     assert np.allclose(T(s), closed_ref, rtol=1e-10)
     # its poles are the roots of the Eq. 3.19 / 3.20 denominator
     assert np.allclose(np.sort_complex(T.poles()), np.sort_complex(np.roots(den)), rtol=1e-8)
-
-
-def test_virtual_admittance_is_eq_3_23_with_the_eq_3_24_typo_corrected():
-    s = 1j * W
-    m_v, b_v, k_v = 2.0, 30.0, 500.0
-    # Eq. 3.21-3.23: F = m_v x'' + b_v x' + k_v x -> velocity per force s / (m_v s^2 + b_v s + k_v)
-    assert np.allclose(virtual_admittance_frd(W, m_v, b_v, k_v), s / (m_v * s**2 + b_v * s + k_v), rtol=1e-13)
-    # k_v = 0: 1 / (m_v s + b_v) (the thesis prints 1 / (m_v s^2 + b_v) in Eq. 3.24)
-    assert np.allclose(virtual_admittance_frd(W, m_v, b_v), 1 / (m_v * s + b_v), rtol=1e-13)
 
 
 @pytest.mark.parametrize("kp,ki", [(275.0, 4.46e4), (1500.0, 2e5), (2000.0, 1e6), (3000.0, 1e6), (600.0, 5e5)])

@@ -14,12 +14,13 @@ newest force sample::
                      scipy's ``cont2discrete(..., method="zoh")``, without its one sample of delay: the
                      force held over the last period at its newest sample)
 
-so the virtual impedance is 1/Y_v(z) = (1 - alpha z^-1) / (beta + beta_prev z^-1) (``VirtualImpedance``),
-m_v s + b_v when continuous (thesis Eq. 3.23 with k_v = 0; its Eq. 3.24 prints 1/(m_v s^2 + b_v), a typo).
-Every rule scales with (m_v, b_v) together: on a ray m_v / b_v = tau, 1/Y_v = b_v q(tau) (``VirtualImpedance.ray``), which is what the synthesis's rays use
-(``design.admittance.ray``). Backward Euler, Tustin and the exact ZOH are stable for any gains; forward Euler
-only for m_v > b_v T / 2 (|alpha| < 1), which the synthesis keeps. The velocity output is held (zero-order
-hold) and reaches the drive ``computation_delay_samples`` samples after the force sample that caused it.
+so the virtual impedance is 1/Y_v(z) = (1 - alpha z^-1) / (beta + beta_prev z^-1) (``VirtualImpedance``), m_v s
++ b_v when continuous (thesis Eq. 3.23 with k_v = 0; its Eq. 3.24 prints 1/(m_v s^2 + b_v), a typo). Every rule
+scales with (m_v, b_v) together: on a ray m_v / b_v = tau, 1/Y_v = b_v q(tau) (``VirtualImpedance.ray``), which
+is what the synthesis's rays use (``design.admittance.ray``). Backward Euler, Tustin and the exact ZOH are
+stable for any gains; forward Euler only for m_v > b_v T / 2 (|alpha| < 1), which the synthesis keeps. The
+velocity output is held (zero-order hold) and reaches the drive ``computation_delay_samples`` samples after the
+force sample that caused it.
 
 Broken at the sampled force signal the coupled loop is exactly a discrete-time loop (the rest is
 continuous between a hold and a sampler):

@@ -53,7 +53,7 @@ def excite(
     as_json: Annotated[bool, typer.Option("--json", help="Print JSON.")] = False,
 ) -> None:
     """Design the thesis stepped sine and an odd log-spaced multisine over one band at one peak current, predict
-    the FRF variance each gives per second of machine time, and write the better one (``--form auto``) or the
+    the FRF variance each gives per second of machine time, and write the better one (--form auto) or the
     one named."""
     from design.views.console import excitation_text
     from design.views.json import excitation_to_dict, json_text

@@ -24,7 +24,7 @@ LAB_M_V_KG, LAB_B_V_N_S_PER_M = 0.04, 4.0
 
 
 def mouse_run(
-    spec_file: Annotated[Path, typer.Argument(metavar="SPEC", help="Spec file (TOML) with an [admittance] section "
+    spec_file: Annotated[Path, typer.Argument(metavar="SPEC", help="Spec file (TOML) with an \\[admittance] section "
                                               "and admittance.rig.update_rate_hz.")],
     design_file: Annotated[Optional[Path], typer.Option("--design", help="The design: the JSON of gantry synth "
                                                         "--json (its gains kp, ki, m_v, b_v).")] = None,

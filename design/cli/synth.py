@@ -28,7 +28,7 @@ def synth(
     method: Annotated[str, typer.Option(help="ccp (cvxpy + Clarabel) or ccp+exact (then casadi + IPOPT).")]
     = "ccp+exact",
     schedule: Annotated[bool, typer.Option("--schedule", help="Also per-payload gains (a gain schedule) and the "
-                                                              "bandwidth they gain; with [admittance], the "
+                                                              "bandwidth they gain; with \\[admittance], the "
                                                               "admittance designed per payload and the force the "
                                                               "mouse feels with it.")] = False,
     plant_from: PlantFromOption = None,

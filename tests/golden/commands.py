@@ -12,7 +12,9 @@ position-dependent motor forces (their candidates in the rankings, one effective
 largest model of the larger search, the motor force among the residual tests); ``diagnose_x`` again when the
 fit re-polished log coordinates stuck at their lower bound (two alternatives' fits leave a bad basin);
 ``synth_admittance`` again when the interaction loop was sampled exactly and the motor judged on the
-locomotion profile (the design became optimal: no ``tradeoff``, which is given only when it is not).
+locomotion profile (the design became optimal: no ``tradeoff``, which is given only when it is not), and when
+the motor's force on the profile took the held reference's staircase (``motor_force_n`` 109-128 -> 139-154 N, the
+design the same) and the mouse figures took the velocity shortfall.
 """
 
 from __future__ import annotations

@@ -60,35 +60,47 @@ def delay_margin_s(w_rad_s, loop) -> np.ndarray:
     return np.min(np.where(cross, d, np.inf), axis=-1)
 
 
-def latency_check(scenarios, corners, *, loops, timing: RigTiming, m_v: float, b_v: float) -> LatencyCheck:
-    """``LatencyCheck`` of (m_v, b_v) on ``scenarios`` x the mice ``corners`` (exactly sampled when the law is)."""
-    w = with_mode_points(check_grid_for(timing), corners, timing)
-    batch = stack(corners)
-    z = timing.impedance(w, m_v, b_v)
-    exact = timing.sampled
-    paths = mice_paths(loops, scenarios, batch, timing, paired=False) if exact else None
-    if exact:
-        gain = np.empty((len(corners) * len(scenarios), w.size), complex)
-        for curves, part in paths:
-            gain[curves] = sampled_gain(part, w, timing)
-        gain = gain.reshape(len(corners), len(scenarios), w.size)
-    else:
-        gain = coupled_gain(loops, scenarios, batch, w, timing)          # (n_m, n_s, n_f)
-    L = gain / z
-    dm = delay_margin_s(w, L)
-    k, j = np.unravel_index(int(np.argmin(dm)), dm.shape)
-    worst = f"{scenarios.describe(j)} with mouse ({corners[k].label()})"
-    margin = float(dm[k, j])
-    if not timing.sampled:
-        return LatencyCheck(margin, None, worst, None, None, None, None)
-    T, d = timing.period_s, timing.delay_samples
-    pm, gm, stable = interaction_margins(w, replace(timing, delay_samples=d + 1), L * np.exp(-1j * w * T))
-    if exact:
-        for curves, part in paths:
-            stable.reshape(-1)[curves] = closed_loop_radius(part, timing.law(m_v, b_v), d + 1) < 1.0
-    ok = stable.astype(bool)
-    return LatencyCheck(margin, margin / T, worst, d,
-                        float(np.nanmin(np.where(ok, pm, np.nan))) if ok.any() else math.nan,
-                        float(np.nanmin(np.where(ok, gm, np.nan))) if ok.any() else math.nan,
-                        bool(ok.all()))
+#: curves whose frequency responses one block of the check holds (memory: a few complex arrays of this x the grid)
+BLOCK_CURVES = 256
 
+
+def latency_check(scenarios, corners, *, loops, timing: RigTiming, m_v: float, b_v: float) -> LatencyCheck:
+    """``LatencyCheck`` of (m_v, b_v) on ``scenarios`` x the mice ``corners`` (exactly sampled when the law is),
+    ``BLOCK_CURVES`` curves at a time."""
+    w = with_mode_points(check_grid_for(timing), corners, timing)
+    n_m, n_s = len(corners), len(scenarios)
+    z = timing.impedance(w, m_v, b_v)
+    margin, pm, gm = (np.full(n_m * n_s, np.nan) for _ in range(3))
+    stable = np.ones(n_m * n_s, bool)
+    T, d = timing.period_s, timing.delay_samples
+    one_more = None if not timing.sampled else np.exp(-1j * w * T)
+
+    def judge(curves, L, radius=None):
+        margin[curves] = delay_margin_s(w, L)
+        if one_more is None:
+            return
+        p, g, st = interaction_margins(w, replace(timing, delay_samples=d + 1), L * one_more)
+        pm[curves], gm[curves] = p, g
+        stable[curves] = st if radius is None else radius < 1.0
+
+    if timing.sampled:
+        law = timing.law(m_v, b_v)
+        for curves, part in mice_paths(loops, scenarios, stack(corners), timing, paired=False):
+            for i in range(0, curves.size, BLOCK_CURVES):
+                block = part.take(slice(i, i + BLOCK_CURVES))
+                judge(curves[i:i + BLOCK_CURVES], sampled_gain(block, w, timing) / z,
+                      closed_loop_radius(block, law, d + 1))
+    else:
+        for j in range(0, n_s, max(1, BLOCK_CURVES // n_m)):
+            rows = np.arange(j, min(j + max(1, BLOCK_CURVES // n_m), n_s))
+            gain = coupled_gain(loops, scenarios.take(rows), stack(corners), w, timing)       # (n_m, n_rows, n_f)
+            judge((np.arange(n_m)[:, None] * n_s + rows[None, :]).ravel(), gain.reshape(-1, w.size) / z)
+    k, j = np.unravel_index(int(np.argmin(margin)), (n_m, n_s))
+    worst = f"{scenarios.describe(j)} with mouse ({corners[k].label()})"
+    least = float(margin[k * n_s + j])
+    if not timing.sampled:
+        return LatencyCheck(least, None, worst, None, None, None, None)
+    return LatencyCheck(least, least / T, worst, d,
+                        float(np.nanmin(np.where(stable, pm, np.nan))) if stable.any() else math.nan,
+                        float(np.nanmin(np.where(stable, gm, np.nan))) if stable.any() else math.nan,
+                        bool(stable.all()))

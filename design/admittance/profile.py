@@ -32,6 +32,8 @@ from design.problem import Locomotion, LoopProblem
 #: time step (s) and rest before and after the profile (s) of the force computation
 DT_S = 1e-3
 REST_S = 0.6
+#: scenarios per block of the motor-force computation (memory: a few complex arrays of necks x block x FFT grid)
+MOTOR_BLOCK = 32
 
 
 @dataclass(frozen=True)
@@ -122,18 +124,29 @@ class FeltForce:
         h = self.zn * (1 + self.mh * yr) / (1 + (self.zn + self.mh) * yr)
         return np.fft.irfft(h * self.vb, self.n) / self.window
 
-    def motor_forces(self, m_v: float, b_v: float) -> np.ndarray:
-        """Each motor's force over the profile at every neck and scenario, (n_motor, n_neck, n_s, n_t) (N)."""
+    def _sensed(self, z: np.ndarray, rows: slice) -> np.ndarray:
+        """The sensed force's spectrum F_s = F_n / (1 + m_h s Y_r) at every neck and the scenarios ``rows``."""
+        yr = self.sg[rows] + self.rw[rows] / z
+        zn, mh = (a if a.shape[-2] == 1 else a[..., rows, :] for a in (self.zn, self.mh))
+        return zn / (1 + (zn + mh) * yr) * self.vb
+
+    def motor_forces(self, m_v: float, b_v: float, rows: slice = slice(None)) -> np.ndarray:
+        """Each motor's force over the profile at every neck and the scenarios ``rows``, (n_motor, n_neck, n_s,
+        n_t) (N)."""
         z = self.impedance(m_v, b_v)
-        yr = self.sg + self.rw / z
-        sensed = self.zn / (1 + (self.zn + self.mh) * yr) * self.vb            # F_s = F_n / (1 + m_h s Y_r)
-        per_sensed = self.mf + self.mr / z
-        return np.fft.irfft(per_sensed[:, None] * sensed[None], self.n) / self.window
+        per_sensed = self.mf[:, rows] + self.mr[:, rows] / z
+        return np.fft.irfft(per_sensed[:, None] * self._sensed(z, rows)[None], self.n) / self.window
 
     def motor_peak_n(self, m_v: float, b_v: float) -> np.ndarray:
         """The largest motor force over the profile, motors and necks, per scenario (N), (n_s,): the fundamental's
-        peak plus the held reference's staircase (``staircase_n``)."""
-        return np.max(np.abs(self.motor_forces(m_v, b_v)), axis=(0, 1, 3)) + self.staircase_n(m_v, b_v)
+        peak plus the held reference's staircase (``staircase_n``), ``MOTOR_BLOCK`` scenarios at a time."""
+        n_s = len(self.scenarios)
+        out = np.empty(n_s)
+        for start in range(0, n_s, MOTOR_BLOCK):
+            rows = slice(start, start + MOTOR_BLOCK)
+            out[rows] = (np.max(np.abs(self.motor_forces(m_v, b_v, rows)), axis=(0, 1, 3))
+                         + self.staircase_n(m_v, b_v, rows))
+        return out
 
     @cached_property
     def _reference_gain_above_nyquist(self) -> np.ndarray:
@@ -143,28 +156,27 @@ class FeltForce:
         w = np.geomspace(t.nyquist_rad_s, 100 * t.nyquist_rad_s, 200)
         return np.max(np.abs(self._loops.at(1j * w, self.scenarios).motor_reference), axis=-1)
 
-    def staircase_n(self, m_v: float, b_v: float) -> np.ndarray:
+    def staircase_n(self, m_v: float, b_v: float, rows: slice = slice(None)) -> np.ndarray:
         """What the held reference's steps add to the motor force, per scenario (N), (n_s,): a sampled law's output
         is a staircase whose steps dv the velocity loop answers at once (K_t Kp dv through the drive); about the
         staircase's fundamental (what ``motor_forces`` carries) it swings by dv / 2, so the estimate is
         sup |R / G| above the Nyquist frequency times half the largest step of the law's output on the profile (the
-        law run on the sensed force sampled at its rate). Against a time simulation of the sampled loop it is
-        0-4 % above the true peak (tests); 0 for a continuous law or a rate that is not a whole number of the
-        profile's steps."""
+        law run on the sensed force sampled at its rate), at the scenarios ``rows``. Against a time simulation of
+        the sampled loop it is 0-4 % above the true peak (tests); 0 for a continuous law or a rate that is not a
+        whole number of the profile's steps."""
         t = self.timing
         n_a = None if not t.sampled else round(t.period_s / DT_S)
         if n_a is None or n_a < 1 or abs(n_a * DT_S - t.period_s) > 1e-9 * t.period_s:
-            return np.zeros(len(self.scenarios))
+            return np.zeros(len(self.scenarios))[rows]
         from scipy.signal import lfilter
 
-        yr = self.sg + self.rw / self.impedance(m_v, b_v)
-        sensed = self.zn / (1 + (self.zn + self.mh) * yr) * self.vb
+        sensed = self._sensed(self.impedance(m_v, b_v), rows)
         filtered = sensed * force_filter_frd(self.s, t.filter_hz, t.filter_order)
         reading = (np.fft.irfft(filtered, self.n) / self.window)[..., ::n_a]
         alpha, beta, beta_prev = (float(c) for c in t.law(m_v, b_v))
         v_law = lfilter([beta, beta_prev], [1.0, -alpha], reading, axis=-1)
         step = np.max(np.abs(np.diff(v_law, axis=-1)), axis=(0, -1))          # (n_neck, n_s, n_samples) -> (n_s,)
-        return np.max(self._reference_gain_above_nyquist, axis=0) * step / 2
+        return np.max(self._reference_gain_above_nyquist[:, rows], axis=0) * step / 2
 
     def velocity_shortfall(self) -> np.ndarray:
         """How far the gantry's velocity falls short of a reference that runs the profile, at the end of its

@@ -54,9 +54,7 @@ def join_checks(checks: list[AdmittanceCheck], delays: tuple[int, ...]) -> Admit
     def stack(name):
         return np.stack([getattr(c, name) for c in checks])
 
-    with np.errstate(invalid="ignore"):
-        pm, gm = (np.where(np.all(np.isnan(stack(n)), axis=0), np.nan, np.nanmin(stack(n), axis=0))
-                  for n in ("phase_margin_deg", "gain_margin_db"))
+    pm, gm = (np.fmin.reduce(stack(n), axis=0) for n in ("phase_margin_deg", "gain_margin_db"))   # nan: none computed
     violations = tuple({**v, "detail": f"{v['detail']} with {samples_text(d)}", "delay_samples": d}
                        for c, d in zip(checks, delays) for v in c.violations)
     return replace(checks[0], phase_margin_deg=pm, gain_margin_db=gm, stable=np.all(stack("stable"), axis=0),

@@ -11,8 +11,8 @@ import numpy as np
 from design.admittance.delays import evaluator
 from design.admittance.model import PiLoops, admittance_problem
 from design.admittance.rig import RigTiming
-from design.admittance.synthesis import check_scenarios
 from design.problem import LoopProblem
+from design.synth.scenarios import admittance_check_scenarios
 
 
 @dataclass(frozen=True)
@@ -38,7 +38,7 @@ class CornerCheck:
 def corner_check(problem: LoopProblem, *, kp: float, ki: float, m_v: float, b_v: float, shown: int = 3) -> CornerCheck:
     """``CornerCheck`` of the one-motor setting (kp, ki, m_v, b_v) at the dense check's scenarios x the spec's mice
     (at every computation delay of the spec's range)."""
-    scenarios = check_scenarios(problem)
+    scenarios = admittance_check_scenarios(problem)
     timing = RigTiming.of(admittance_problem(problem).rig)
     check = evaluator(problem, scenarios, loops=PiLoops.of(problem, kp, ki), timing=timing).evaluate(m_v, b_v)
     k, j = np.nonzero(~check.stable)

@@ -9,9 +9,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from design.admittance.delays import WorstFelt, evaluator
 from design.admittance.feel import feel_scenarios
 from design.admittance.model import (
-    AdmittanceEvaluator,
     PiLoops,
     admittance_problem,
     gantry_loop,
@@ -20,9 +20,9 @@ from design.admittance.model import (
     virtual_impedance_frd,
 )
 from design.admittance.mouse_run import MouseRun, mouse_run, run_settings, trapezoid_path
-from design.admittance.profile import FeltForce
 from design.loop.curves import report_payloads
 from design.problem import LoopProblem
+from design.synth.scenarios import admittance_check_scenarios
 from plant.errors import SpecError
 from plant.grid import log_grid_rad_s
 
@@ -66,15 +66,14 @@ class AdmittanceCurves:
 
 
 def lab_comparison(problem: LoopProblem, result) -> LabComparison:
-    """``LabComparison`` of the lab's setting with ``result``'s PI gains and rig timing."""
+    """``LabComparison`` of the lab's setting with ``result``'s PI gains and rig timing (every delay of a range)."""
     from design.admittance.lab_model import LabBandwidthModel, admittance_bandwidth_hz
-    from design.admittance.synthesis import check_scenarios
 
     corners = mice(problem)
     loops = PiLoops.of(problem, result.kp, result.ki)
-    ev = AdmittanceEvaluator(problem, check_scenarios(problem), loops=loops, timing=result.timing, corners=corners)
+    ev = evaluator(problem, admittance_check_scenarios(problem), loops=loops, timing=result.timing, corners=corners)
     c = ev.evaluate(LAB_M_V_KG, LAB_B_V_N_S_PER_M, bandwidth=False)
-    felt = FeltForce(problem, feel_scenarios(problem), corners, loops=loops, timing=result.timing)
+    felt = WorstFelt(problem, feel_scenarios(problem), corners, loops=loops, timing=result.timing)
     k, j = np.nonzero(~c.stable)
     return LabComparison(LAB_M_V_KG, LAB_B_V_N_S_PER_M, c.worst_by_legs(), bool(np.all(c.stable)),
                          felt(LAB_M_V_KG, LAB_B_V_N_S_PER_M), float(np.min(c.passive_up_to_hz)),

@@ -69,14 +69,7 @@ from design.admittance.ray import RayBound, best_ray, ray_problem
 from design.admittance.rig import DiscreteAdmittance, RigTiming
 from design.admittance.verify import AdmittanceVerification, verify_admittance
 from design.problem import LoopProblem
-from design.synth.scenarios import (
-    Scenarios,
-    describe_row,
-    design_scenarios,
-    grid,
-    parameter_sets,
-    uncertainty_ranges,
-)
+from design.synth.scenarios import Scenarios, admittance_check_scenarios, describe_row, design_scenarios
 from plant.errors import SpecError
 
 #: rounds of the dense check adding its worst violator, and of the Monte Carlo check
@@ -138,18 +131,8 @@ def _gains(problem: LoopProblem, kp, ki) -> tuple[float, float]:
     return float(kp), float(ki)
 
 
-#: payloads of the dense check
-CHECK_PAYLOADS = 25
 #: curves whose bounds ``ray_binding`` computes together (memory: a few float arrays of rows x frequencies)
 BINDING_ROWS = 2048
-
-
-def check_scenarios(problem: LoopProblem) -> Scenarios:
-    """The dense check: ``CHECK_PAYLOADS`` payloads x the corners of the uncertainty box (random draws are
-    left to the Monte Carlo, which also draws the mouse)."""
-    pr = problem.plant.payload_kg
-    payloads = np.linspace(pr.min, pr.max, CHECK_PAYLOADS) if pr.max > pr.min else np.array([pr.min])
-    return grid(payloads, parameter_sets(uncertainty_ranges(problem), draws=0))
 
 
 _HINTS = {"sensor_current": "allow a larger m_v / b_v, a larger admittance.hardware.max_current_per_sensor_step_a, "
@@ -237,7 +220,7 @@ def synthesise_admittance(problem: LoopProblem, *, kp: float | None = None, ki: 
     say("dense check set up")
     feel_set = feel_scenarios(problem)
     felt = WorstFelt(problem, feel_set, corners, loops=loops, timing=timing)
-    dense = evaluator(problem, check_scenarios(problem), loops=loops, timing=timing, corners=corners)
+    dense = evaluator(problem, admittance_check_scenarios(problem), loops=loops, timing=timing, corners=corners)
     scenarios = design_scenarios(problem)
     rounds = design_rounds(problem, scenarios, loops=loops, dense=dense, felt=felt, w_design=w_design, timing=timing,
                            corners=corners, say=say)

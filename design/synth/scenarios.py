@@ -21,6 +21,9 @@ from plant.physics.models import Plant
 CHECK_DRAWS = 24
 #: more uncertain parameters than this: the corners (2^n) are replaced by the draws alone
 MAX_CORNER_PARAMETERS = 6
+#: payloads of the admittance's dense check (each of its curves is an exactly sampled loop per mouse, so fewer than
+#: the PI loop's ``PayloadRange.check_points``)
+ADMITTANCE_CHECK_PAYLOADS = 25
 
 
 @dataclass(frozen=True)
@@ -128,6 +131,14 @@ def check_scenarios(problem: LoopProblem, payload_kg=None) -> Scenarios:
     m = problem.plant.payload_kg.check_points() if payload_kg is None else payload_kg
     ranges = uncertainty_ranges(problem)
     return grid(m, parameter_sets(ranges, draws=CHECK_DRAWS if ranges else 0))
+
+
+def admittance_check_scenarios(problem: LoopProblem) -> Scenarios:
+    """The admittance's dense check: ``ADMITTANCE_CHECK_PAYLOADS`` payloads evenly over the range x the corners
+    of the uncertainty box (random draws are left to its Monte Carlo, which also draws the mouse)."""
+    pr = problem.plant.payload_kg
+    payloads = np.linspace(pr.min, pr.max, ADMITTANCE_CHECK_PAYLOADS) if pr.max > pr.min else np.array([pr.min])
+    return grid(payloads, parameter_sets(uncertainty_ranges(problem), draws=0))
 
 
 def random_scenarios(problem: LoopProblem, samples: int, *, seed: int) -> Scenarios:

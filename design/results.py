@@ -13,7 +13,7 @@ from plant.physics.effect_base import PADE_ORDER
 
 if TYPE_CHECKING:
     from design.admittance.curves import AdmittanceCurves
-    from design.admittance.dual import DualAdmittanceResult
+    from design.admittance.dual import DualAdmittanceResult, RenderedByPosition
     from design.admittance.monte_carlo import AdmittanceMonteCarlo
     from design.admittance.schedule import SchedulePoint as AdmittanceSchedulePoint
     from design.admittance.synthesis import AdmittanceResult
@@ -22,6 +22,7 @@ if TYPE_CHECKING:
     from design.problem import LoopProblem
     from design.spec.schema import Spec
     from design.synth.dual import DualDesign
+    from design.synth.dual_curves import StructureCurves
     from design.synth.evaluation import Evaluation
     from design.synth.measured import MeasuredDesign
     from design.synth.monte_carlo import MonteCarloCheck
@@ -228,3 +229,14 @@ class ReportContent:
     comparison: tuple[DesignOnPlants, ...] = ()
     #: the same for the admittance design
     admittance_comparison: AdmittanceComparison | None = None
+
+
+@dataclass(frozen=True)
+class DualReportContent:
+    """Everything ``design.views.dual_report.dual_report`` draws of a two-motor Stage Y design: the outcome, each
+    structure's map and steps, and the rendered admittance by carriage position when there is an admittance."""
+
+    outcome: DesignOutcome
+    structures: tuple[StructureCurves, ...]
+    rendered: RenderedByPosition | None
+    command: str = ""

@@ -22,6 +22,7 @@ from design.results import (
     DesignOutcome,
     DesignProblem,
     DiagnosisOutcome,
+    DualReportContent,
     FitOutcome,
     PlantFromFit,
     ReportContent,
@@ -187,6 +188,20 @@ def measured_plants(problem: DesignProblem):
     paths = [Path(e.file) if Path(e.file).is_absolute() else problem.spec_dir / e.file for e in entries]
     return MeasuredPlants.from_responses([e.payload_kg for e in entries],
                                          [measure(p, columns=e.columns) for p, e in zip(paths, entries)])
+
+
+def dual_report_content(outcome: DesignOutcome, *, command: str = "", progress=None) -> DualReportContent:
+    """Everything the report of a ``[dual_drive]`` design draws (``design.results.DualReportContent``)."""
+    from design.admittance.dual import rendered_by_position
+    from design.synth.dual_curves import structure_curves
+
+    (progress or (lambda stage: None))("the structures over the travel")
+    spec = outcome.problem.spec
+    rendered = None
+    r = outcome.dual_admittance
+    if r is not None and r.status in ("optimal", "mouse_cannot_drive"):
+        rendered = rendered_by_position(r, spec)
+    return DualReportContent(outcome, structure_curves(outcome.dual, spec), rendered, command)
 
 
 def report_content(problem: DesignProblem, *, outcome: DesignOutcome | None = None, synthesise: bool = True,

@@ -43,6 +43,8 @@ from design.admittance.model import (
     admittance_problem,
     check_grid_for,
     mice,
+    rendered_admittance,
+    virtual_impedance_frd,
     with_mode_points,
 )
 from design.admittance.monte_carlo import AdmittanceMonteCarlo
@@ -282,3 +284,32 @@ def _infeasible(problem, ray, structure, controller, dense, dense_set, corners, 
                                 float(x[0] * loc.peak_acceleration_m_per_s2 + x[1] * loc.peak_speed_m_per_s), check,
                                 None, None, binding, by_position(check, dense_set), corners, timing, n_design,
                                 time.perf_counter() - t0)
+
+
+@dataclass(frozen=True)
+class RenderedByPosition:
+    """The rendered admittance a mouse meets on the recommended structure, at the heaviest payload and nominal
+    parameters with the carriage at the travel's ends and middle, beside the virtual one (m/s per N)."""
+
+    frequency_hz: np.ndarray
+    carriage_position_m: tuple[float, ...]
+    payload_kg: float
+    virtual: np.ndarray
+    #: (n_positions, n_f): the fundamental under a sampled law
+    rendered: np.ndarray
+
+
+def rendered_by_position(result: DualAdmittanceResult, spec) -> RenderedByPosition:
+    """``RenderedByPosition`` of ``result`` on ``spec``'s two-motor model (to 0.49 of the law's rate when
+    sampled, else to 300 Hz)."""
+    d = spec.dual_drive
+    travel = d.carriage_position_m
+    places = (travel.min, (travel.min + travel.max) / 2, travel.max)
+    heavy = dual_scenarios(spec.dual_model(), list(places), [d.stage_x_mass_kg + spec.plant.payload_kg.max], {},
+                           d.stage_x_mass_kg)
+    top = 0.49 / result.timing.period_s if result.timing.sampled else 300.0
+    f = np.geomspace(0.1, top, 600)
+    w = 2 * np.pi * f
+    yr = rendered_admittance(DualLoops(result.controller).at(1j * w, heavy), result.m_v, result.b_v, result.timing)
+    return RenderedByPosition(f, places, float(spec.plant.payload_kg.max),
+                              1.0 / virtual_impedance_frd(w, result.m_v, result.b_v), yr)

@@ -50,15 +50,16 @@ def report(
     try:
         if problem.spec.dual_drive is not None:
             from design.views.dual_report import dual_report
-            from design.workflows import design
+            from design.workflows import design, dual_report_content
 
             if data:
                 from plant.errors import ParameterError
 
                 raise ParameterError("--data: a [dual_drive] report compares no recordings yet")
             outcome = design(problem, progress=progress)
+            content = dual_report_content(outcome, command="gantry " + shlex.join(sys.argv[1:]), progress=progress)
             progress("drawing the report")
-            report = dual_report(outcome, command="gantry " + shlex.join(sys.argv[1:]))
+            report = dual_report(content)
         else:
             content = report_content(problem, synthesise=synthesise, data=data or (), columns=columns,
                                      sample_rate_hz=sample_rate_hz, samples=samples, seed=seed,

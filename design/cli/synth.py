@@ -52,9 +52,11 @@ def synth(
         reportable = out["status"] in ("optimal", "mouse_cannot_drive")
         if report is not None and reportable and outcome.dual is not None:
             from design.views.dual_report import dual_report
+            from design.workflows import dual_report_content
 
+            content = dual_report_content(outcome, command="gantry " + shlex.join(sys.argv[1:]), progress=progress)
             progress("drawing the report")
-            dual_report(outcome, command="gantry " + shlex.join(sys.argv[1:])).write(report)
+            dual_report(content).write(report)
         elif report is not None and reportable and not problem.spec.plant.measured:
             from design.views.report import design_report
             from design.workflows import report_content

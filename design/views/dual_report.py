@@ -1,22 +1,19 @@
 """The HTML report of a two-motor Stage Y design (``[dual_drive]``): the structures side by side, each one's
 bandwidth and margins over carriage position x payload (worst over the uncertainty corners), and the
-yaw error a translation step leaves (python-control, the delays as Pade approximants)."""
+yaw error a translation step leaves (python-control, the delays as Pade approximants); the numbers come
+computed (``design.workflows.dual_report_content``), this module only draws them."""
 
 from __future__ import annotations
 
 import numpy as np
 from matplotlib.figure import Figure
 
-from design.loop.dual import translation_step
-from design.results import DesignOutcome
-from design.synth.dual import DesignMap, DualRequirements, design_map
+from design.loop.margins import unwrapped_phase_deg
+from design.results import DualReportContent
+from design.synth.dual import DesignMap, DualRequirements
+from design.synth.dual_curves import rail_gap_m
 from design.views.html import Report, table
 from design.views.plots import fixed_margins
-
-#: the map's grid: carriage positions and payloads
-MAP_POSITIONS, MAP_PAYLOADS = 17, 11
-#: the step response: duration (s), samples
-STEP_S, STEP_SAMPLES = 0.25, 2501
 
 
 def _map_figure(name: str, m: DesignMap, req: DualRequirements) -> Figure:
@@ -39,12 +36,6 @@ def _map_figure(name: str, m: DesignMap, req: DualRequirements) -> Figure:
     return fig
 
 
-def _rail_gap(y: np.ndarray, t: np.ndarray) -> np.ndarray:
-    """y2 - y1 (m per m/s of command) over time: the rails' velocity difference integrated (trapezoids)."""
-    d = y[1] - y[0]
-    return np.concatenate([[0.0], np.cumsum((d[1:] + d[:-1]) / 2) * (t[1] - t[0])])
-
-
 def _step_figure(name: str, steps: list[tuple[float, np.ndarray]], t: np.ndarray) -> Figure:
     fig = Figure(figsize=(10, 3.6))
     axes = fig.subplots(1, 2)
@@ -52,7 +43,7 @@ def _step_figure(name: str, steps: list[tuple[float, np.ndarray]], t: np.ndarray
     for position, y in steps:
         line, = axes[0].plot(t * 1e3, y[0], label=f"Y1, carriage at {position:.2f} m")
         axes[0].plot(t * 1e3, y[1], "--", color=line.get_color(), label=f"Y2, carriage at {position:.2f} m")
-        axes[1].plot(t * 1e3, _rail_gap(y, t) * 1e3, color=line.get_color(), label=f"carriage at {position:.2f} m")
+        axes[1].plot(t * 1e3, rail_gap_m(y, t) * 1e3, color=line.get_color(), label=f"carriage at {position:.2f} m")
     axes[0].set_ylabel("rail velocity per command (m/s per m/s)")
     axes[1].set_ylabel("y2 - y1 per command (mm per m/s)")
     for ax in axes:
@@ -64,41 +55,28 @@ def _step_figure(name: str, steps: list[tuple[float, np.ndarray]], t: np.ndarray
     return fig
 
 
-def _admittance_section(rep: Report, r, model, spec) -> None:
+def _admittance_section(rep: Report, r, curves) -> None:
     """The virtual dynamics on the recommended structure: the design, its margins and rendered bandwidth by
-    carriage position, and the rendered admittance against the virtual one at the travel's ends and middle."""
-    from design.admittance.dual import DualLoops
-    from design.admittance.model import rendered_admittance, virtual_impedance_frd
-    from design.loop.margins import unwrapped_phase_deg
-    from design.synth.dual import dual_scenarios
-
+    carriage position, and the rendered admittance against the virtual one at the travel's ends and middle
+    (``curves``: ``design.admittance.dual.RenderedByPosition``)."""
     rep.heading("Admittance for the mouse")
     rep.text(f"{r.status}: {r.message}", cls="summary")
-    if r.status not in ("optimal", "mouse_cannot_drive"):
+    if curves is None:
         return
     rep.text(f"On the {r.structure} loops: m_v = {r.m_v:.4g} kg, b_v = {r.b_v:.4g} N*s/m (m_v a + b_v v = "
              f"{r.peak_resistance_n:.3g} N on the locomotion profile). Binding: {r.binding['detail']}.")
     rep.raw(table(["carriage position m", "PM deg", "GM dB", "rendered bandwidth Hz", "motor force N"],
                   [[f"{p.carriage_position_m:.3g}", f"{p.phase_margin_deg:.2f}", f"{p.gain_margin_db:.2f}",
                     f"{p.rendered_bandwidth_hz:.2f}", f"{p.motor_force_n:.4g}"] for p in r.by_position]))
-    loops = DualLoops(r.controller)
-    d = spec.dual_drive
-    travel = d.carriage_position_m
-    places = [travel.min, (travel.min + travel.max) / 2, travel.max]
-    heavy = dual_scenarios(model, places, [d.stage_x_mass_kg + spec.plant.payload_kg.max], {}, d.stage_x_mass_kg)
-    top = 0.49 / r.timing.period_s if r.timing.sampled else 300.0
-    w = 2 * np.pi * np.geomspace(0.1, top, 600)
-    yr = rendered_admittance(loops.at(1j * w, heavy), r.m_v, r.b_v, r.timing)
-    yv = 1.0 / virtual_impedance_frd(w, r.m_v, r.b_v)
     fig = Figure(figsize=(10, 3.6))
     axes = fig.subplots(1, 2)
     fixed_margins(fig, wspace=0.3)
-    f = w / (2 * np.pi)
-    axes[0].loglog(f, np.abs(yv), "k--", label="virtual 1/(m_v s + b_v)")
-    axes[1].semilogx(f, unwrapped_phase_deg(yv), "k--")
-    for k, p in enumerate(places):
-        axes[0].loglog(f, np.abs(yr[k]), label=f"rendered, carriage at {p:.2f} m")
-        axes[1].semilogx(f, unwrapped_phase_deg(yr[k]))
+    f = curves.frequency_hz
+    axes[0].loglog(f, np.abs(curves.virtual), "k--", label="virtual 1/(m_v s + b_v)")
+    axes[1].semilogx(f, unwrapped_phase_deg(curves.virtual), "k--")
+    for p, yr in zip(curves.carriage_position_m, curves.rendered):
+        axes[0].loglog(f, np.abs(yr), label=f"rendered, carriage at {p:.2f} m")
+        axes[1].semilogx(f, unwrapped_phase_deg(yr))
     axes[0].set_ylabel("|velocity / force| (m/s per N)")
     axes[1].set_ylabel("phase (deg)")
     for ax in axes:
@@ -107,17 +85,15 @@ def _admittance_section(rep: Report, r, model, spec) -> None:
     axes[0].legend(fontsize=7)
     axes[0].set_title("admittance the mouse meets, heaviest payload", fontsize=10)
     rep.figure(fig, f"the rendered admittance (its fundamental under the {1 / r.timing.period_s:g} Hz law) against "
-                    f"the virtual one at {spec.plant.payload_kg.max:g} kg and nominal parameters"
+                    f"the virtual one at {curves.payload_kg:g} kg and nominal parameters"
                if r.timing.sampled else "the rendered admittance against the virtual one at the heaviest payload")
 
 
-def dual_report(outcome: DesignOutcome, *, command: str = "") -> Report:
-    """The report of ``outcome`` (a ``[dual_drive]`` design)."""
+def dual_report(content: DualReportContent) -> Report:
+    """The report of a ``[dual_drive]`` design from its computed ``content``."""
+    outcome = content.outcome
     problem, dual = outcome.problem, outcome.dual
     spec = problem.spec
-    d, payload = spec.dual_drive, spec.plant.payload_kg
-    ranges = {k: (v.min, v.max) for k, v in d.uncertainty.items()}
-    model = spec.dual_model()
     rep = Report(f"{spec.name}: two-motor Stage Y design")
     rep.text(f"{dual.status}: {dual.message}", cls="summary")
     rows = []
@@ -141,33 +117,24 @@ def dual_report(outcome: DesignOutcome, *, command: str = "") -> Report:
                 else "; the simultaneous disk margin at both motors is reported, not required") + ".")
     rep.raw(table(["structure", "gains (A/(m/s), A/m)", "bandwidth Hz", "PM deg", "GM dB", "disk margin",
                    "yaw coupling", "lowest bandwidth at", "Monte Carlo"], rows, left=2))
-    positions = np.linspace(d.carriage_position_m.min, d.carriage_position_m.max, MAP_POSITIONS)
-    payloads = np.linspace(payload.min, payload.max, MAP_PAYLOADS)
     rep.heading("Over the carriage travel")
-    t = np.linspace(0.0, STEP_S, STEP_SAMPLES)
-    for s in dual.structures:
-        if s.controller is None:
-            continue
-        m = design_map(s.controller, model, positions, payloads, d.stage_x_mass_kg, ranges, dual.requirements)
+    for c in content.structures:
+        m = c.design_map
         i, j = np.unravel_index(int(np.argmin(m.bandwidth_hz)), m.bandwidth_hz.shape)
-        rep.figure(_map_figure(s.structure, m, dual.requirements),
-                   f"{s.structure}: each point the worst over the uncertainty corners; lowest bandwidth "
-                   f"{m.bandwidth_hz[i, j]:.3g} Hz with the carriage at {positions[i]:.3g} m and {payloads[j]:.3g} kg"
+        rep.figure(_map_figure(c.structure, m, dual.requirements),
+                   f"{c.structure}: each point the worst over the uncertainty corners; lowest bandwidth "
+                   f"{m.bandwidth_hz[i, j]:.3g} Hz with the carriage at {m.carriage_position_m[i]:.3g} m and "
+                   f"{m.payload_kg[j]:.3g} kg"
                    + ("" if m.holds.all() else f"; requirements missed at {int((~m.holds).sum())} of {m.holds.size} "
                       "map points (between the design points)"))
-        heavy = model.with_values(carriage_mass_kg=d.stage_x_mass_kg + payload.max)
-        places = (d.carriage_position_m.min, (d.carriage_position_m.min + d.carriage_position_m.max) / 2,
-                  d.carriage_position_m.max)
-        steps = [(p, translation_step(heavy.with_values(carriage_position_m=p), s.controller, t)) for p in places]
-        gap = max(float(np.abs(_rail_gap(y, t)).max()) for _, y in steps)
-        rep.figure(_step_figure(s.structure, steps, t),
-                   f"{s.structure}: a 1 m/s step of the translation command at {payload.max:g} kg and nominal "
+        rep.figure(_step_figure(c.structure, list(c.steps), c.time_s),
+                   f"{c.structure}: a 1 m/s step of the translation command at {c.payload_kg:g} kg and nominal "
                    f"parameters (python-control, delays as Pade approximants of order 6); largest rail position "
-                   f"difference {gap * 1e3:.3g} mm per m/s")
+                   f"difference {c.largest_rail_gap_m * 1e3:.3g} mm per m/s")
     if outcome.dual_admittance is not None:
-        _admittance_section(rep, outcome.dual_admittance, model, spec)
+        _admittance_section(rep, outcome.dual_admittance, content.rendered)
     rep.heading("Reproduce")
-    if command:
-        rep.pre(command)
+    if content.command:
+        rep.pre(content.command)
     rep.pre(problem.spec_path.read_text(encoding="utf-8"))
     return rep

@@ -3,7 +3,7 @@
 May import: ``design.cli``."""
 
 try:
-    from design.cli import main
+    from design.cli import entry
 except KeyboardInterrupt:       # Ctrl-C while the entry module itself loads, before main's handlers
     import sys
 
@@ -11,7 +11,7 @@ except KeyboardInterrupt:       # Ctrl-C while the entry module itself loads, be
     sys.exit(130)
 
 try:
-    main()
+    entry()
 finally:
     # CPython records a KeyboardInterrupt that escaped any string passed to exec or eval (dataclasses and
     # namedtuple build their methods that way while modules import) and, under ``python -m``, ends the

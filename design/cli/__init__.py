@@ -88,6 +88,27 @@ def main() -> None:
     sys.exit(code if isinstance(code, int) else 0)
 
 
+def entry() -> None:
+    """The program's entry (the ``gantry`` script, ``python -m design``): ``main``, and once a signal has stopped
+    it, out at once with its status, past the interpreter's finalization: a solver's own threads may still hold
+    Python state then, and clean-up at exit has ended the process with a fatal error instead of the documented
+    status (once in CI, SIGINT 2 s into a synthesis). The one line is written and the outputs committed or
+    removed before this point; in-process callers use ``main``."""
+    import os
+
+    try:
+        main()
+    except SystemExit as stop:
+        if stop.code in (130, 143):
+            for stream in (sys.stdout, sys.stderr):
+                try:
+                    stream.flush()
+                except (OSError, ValueError):      # a closed pipe: nothing more can be said anyway
+                    pass
+            os._exit(stop.code)
+        raise
+
+
 def _run():
     """Parse and run the command; expected failures end in ``_fail``."""
     import os

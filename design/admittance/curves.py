@@ -11,6 +11,7 @@ import numpy as np
 
 from design.admittance.delays import WorstFelt, evaluator
 from design.admittance.feel import feel_scenarios
+from design.admittance.lab_model import LabBandwidthModel, admittance_bandwidth_hz
 from design.admittance.model import (
     PiLoops,
     admittance_problem,
@@ -67,8 +68,6 @@ class AdmittanceCurves:
 
 def lab_comparison(problem: LoopProblem, result) -> LabComparison:
     """``LabComparison`` of the lab's setting with ``result``'s PI gains and rig timing (every delay of a range)."""
-    from design.admittance.lab_model import LabBandwidthModel, admittance_bandwidth_hz
-
     corners = mice(problem)
     loops = PiLoops.of(problem, result.kp, result.ki)
     ev = evaluator(problem, admittance_check_scenarios(problem), loops=loops, timing=result.timing, corners=corners)

@@ -35,12 +35,15 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
+from design.admittance.model import admittance_problem
 from design.admittance.profile import trapezoid
-from design.admittance.rig import DiscreteAdmittance
-from plant.errors import SpecError
+from design.admittance.rig import DiscreteAdmittance, RigTiming
+from plant.errors import DataError, SpecError
+from plant.host.text_io import read_text
 
 #: RK4 steps per drive period at least, and the largest w h (w the fastest rate of the continuous part: the
 #: current loop, the force filter, the body on neck and legs) a step may take (RK4 is stable to 2.79)
@@ -226,11 +229,6 @@ def path_from_csv(path, rate_hz: float, *, rest_s: float = REST_S) -> IntendedPa
     """A recorded path (CSV with columns ``time_s`` and ``position_m``), resampled to ``rate_hz`` by
     interpolation after a 5 ms moving average (the differentiation to velocity and acceleration would
     otherwise amplify the recording's steps), with ``rest_s`` of rest before and after."""
-    from pathlib import Path
-
-    from plant.errors import DataError
-    from plant.host.text_io import read_text
-
     p = Path(path)
     lines = [ln for ln in read_text(p, what="path file").splitlines() if ln.strip()]
     if not lines:
@@ -293,9 +291,6 @@ def run_settings(problem, *, kp: float, ki: float, m_v: float, b_v: float, timin
     """``RunSettings`` of the spec's plant (at ``payload_kg``, default the heaviest) and its nominal mouse
     (mid-range masses and neck, the legs at their least stiffness unless given) with the design's gains, at the
     largest computation delay of a range."""
-    from design.admittance.model import admittance_problem
-    from design.admittance.rig import RigTiming
-
     adm = admittance_problem(problem)
     timing = timing or RigTiming.of(adm.rig)
     if not timing.sampled:

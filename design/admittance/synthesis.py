@@ -42,6 +42,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from design.admittance.bounds import curve_bounds
+from design.admittance.codesign import codesign
 from design.admittance.contact import ContactLimit, stiffest_contact
 from design.admittance.delays import (
     WorstFelt,
@@ -67,6 +68,7 @@ from design.admittance.monte_carlo import AdmittanceMonteCarlo, admittance_monte
 from design.admittance.mouse import MouseModel
 from design.admittance.ray import RayBound, best_ray, ray_problem
 from design.admittance.rig import DiscreteAdmittance, RigTiming
+from design.admittance.tradeoff import trade_off
 from design.admittance.verify import AdmittanceVerification, verify_admittance
 from design.problem import LoopProblem
 from design.synth.scenarios import Scenarios, admittance_check_scenarios, describe_row, design_scenarios
@@ -206,8 +208,6 @@ def synthesise_admittance(problem: LoopProblem, *, kp: float | None = None, ki: 
     timing = RigTiming.of(adm.rig)
     record = None
     if adm.codesign and not nominal:
-        from design.admittance.codesign import codesign
-
         say("co-design of the PI gains, force filter and virtual dynamics")
         # at the range's largest delay (the checks below cover every delay of it)
         record = codesign(problem, kp=kp, ki=ki, timing=timing.at_delay(timing.delays[-1]))
@@ -279,8 +279,6 @@ def synthesise_admittance(problem: LoopProblem, *, kp: float | None = None, ki: 
         DiscreteAdmittance.of_timing(float(x[0]), float(x[1]), timing) if timing.sampled else None, None, nominal,
         record, latency)
     if status != "optimal" and tradeoff and not nominal:
-        from design.admittance.tradeoff import trade_off
-
         say("trade-off front and hardware changes")
         result = replace(result, tradeoff=trade_off(problem, result, rp), seconds=time.perf_counter() - t0)
     return result
@@ -388,6 +386,4 @@ def _infeasible(problem, ray: RayBound, rp, scenarios, kp, ki, timing, corners, 
     r = float(x[0] * adm.locomotion.peak_acceleration_m_per_s2 + x[1] * adm.locomotion.peak_speed_m_per_s)
     result = AdmittanceResult("infeasible", msg, float(x[0]), float(x[1]), kp, ki, r, check, None, binding, (need,),
                               corners, time.perf_counter() - t0, timing, {"tau_s": ray.tau_s}, codesign=record)
-    from design.admittance.tradeoff import trade_off
-
     return replace(result, tradeoff=trade_off(problem, result, rp))

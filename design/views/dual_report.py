@@ -8,12 +8,11 @@ from __future__ import annotations
 import numpy as np
 from matplotlib.figure import Figure
 
-from design.loop.margins import unwrapped_phase_deg
 from design.results import DualReportContent
 from design.synth.dual import DesignMap, DualRequirements
 from design.synth.dual_curves import rail_gap_m
 from design.views.html import Report, table
-from design.views.plots import fixed_margins
+from design.views.plots import bode, fixed_margins
 
 
 def _map_figure(name: str, m: DesignMap, req: DualRequirements) -> Figure:
@@ -68,22 +67,13 @@ def _admittance_section(rep: Report, r, curves) -> None:
     rep.raw(table(["carriage position m", "PM deg", "GM dB", "rendered bandwidth Hz", "motor force N"],
                   [[f"{p.carriage_position_m:.3g}", f"{p.phase_margin_deg:.2f}", f"{p.gain_margin_db:.2f}",
                     f"{p.rendered_bandwidth_hz:.2f}", f"{p.motor_force_n:.4g}"] for p in r.by_position]))
-    fig = Figure(figsize=(10, 3.6))
-    axes = fig.subplots(1, 2)
-    fixed_margins(fig, wspace=0.3)
-    f = curves.frequency_hz
-    axes[0].loglog(f, np.abs(curves.virtual), "k--", label="virtual 1/(m_v s + b_v)")
-    axes[1].semilogx(f, unwrapped_phase_deg(curves.virtual), "k--")
-    for p, yr in zip(curves.carriage_position_m, curves.rendered):
-        axes[0].loglog(f, np.abs(yr), label=f"rendered, carriage at {p:.2f} m")
-        axes[1].semilogx(f, unwrapped_phase_deg(yr))
-    axes[0].set_ylabel("|velocity / force| (m/s per N)")
-    axes[1].set_ylabel("phase (deg)")
-    for ax in axes:
-        ax.set_xlabel("frequency (Hz)")
-        ax.grid(True, which="both", alpha=0.3)
-    axes[0].legend(fontsize=7)
-    axes[0].set_title("admittance the mouse meets, heaviest payload", fontsize=10)
+    fig = Figure(figsize=(6.8, 6.0))
+    axes = fig.subplots(2, 1, sharex=True)
+    fixed_margins(fig, left_in=0.85, right_in=0.25, hspace=0.1)
+    bode(2 * np.pi * curves.frequency_hz, [curves.virtual, *curves.rendered],
+         ["virtual 1/(m_v s + b_v)", *[f"rendered, carriage at {p:.2f} m" for p in curves.carriage_position_m]],
+         axes=axes, styles=["k--", *["-"] * len(curves.rendered)], unit="(m/s)/N",
+         title="admittance the mouse meets, heaviest payload")
     rep.figure(fig, f"the rendered admittance (its fundamental under the {1 / r.timing.period_s:g} Hz law) against "
                     f"the virtual one at {curves.payload_kg:g} kg and nominal parameters"
                if r.timing.sampled else "the rendered admittance against the virtual one at the heaviest payload")

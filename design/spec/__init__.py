@@ -1,3 +1,3 @@
 """The spec file: its pydantic schema and the admittance problem it declares.
 
-May import: ``design.problem``, ``plant``."""
+May import: ``design.loop``, ``design.problem``, ``plant``."""

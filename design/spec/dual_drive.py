@@ -5,10 +5,9 @@ rail damping and force constant, the requirements, the gain box (``[controller]`
 
 from __future__ import annotations
 
-from typing import Literal
-
 from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
 
+from design.loop.dual import BY_NAME
 from plant.physics.dual_drive import DualDriveStageY
 
 #: the parameters a ``[dual_drive.uncertainty]`` range may name besides ``effect.parameter`` of a drive effect
@@ -55,10 +54,18 @@ class DualDriveSpec(_Strict):
     damping2_n_s_per_m: float | None = Field(None, gt=0, le=1e6)
     force_constant1_n_per_a: float | None = Field(None, gt=0, le=1e4)
     force_constant2_n_per_a: float | None = Field(None, gt=0, le=1e4)
-    structures: list[Literal["per_motor", "common_differential", "master_slave"]] = Field(
-        default_factory=lambda: ["per_motor", "common_differential", "master_slave"], min_length=1)
+    #: the loop structures compared (``design.loop.dual.BY_NAME``: one class each)
+    structures: list[str] = Field(default_factory=lambda: list(BY_NAME), min_length=1)
     #: ranges (min, max) of the parameters above or of ``effect.parameter`` of the plant's drive effects
     uncertainty: dict[str, ParameterRange] = Field(default_factory=dict)
+
+    @field_validator("structures")
+    @classmethod
+    def _structures(cls, v):
+        for name in v:
+            if name not in BY_NAME:
+                raise ValueError(f"unknown structure {name!r}; known: {', '.join(BY_NAME)}")
+        return v
 
     @field_validator("uncertainty")
     @classmethod

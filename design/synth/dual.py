@@ -322,31 +322,43 @@ class StructureDesign:
     at_bound: tuple[str, ...] = ()
 
 
+def _one_pi(cls):
+    """The search of a structure with one (kp, ki) pair: the scan of ``_scan``."""
+    def search(scenarios, req, kp_box, ki_box, progress):
+        kp, ki, bw = _scan(cls, scenarios, req, kp_box, ki_box, progress=progress)
+        return cls(kp, ki) if np.isfinite(bw) else None
+
+    return search
+
+
+def _common_differential(scenarios, req, kp_box, ki_box, progress):
+    """Common and differential PIs: both equal first, then the differential one for the yaw coupling, then the
+    common one for the bandwidth under the yaw coupling found (kept only when it is no slower)."""
+    kp, ki, bw = _scan(lambda a, b: CommonDifferential(a, b, a, b), scenarios, req, kp_box, ki_box,
+                       progress=progress)
+    if not np.isfinite(bw):
+        return None
+    dp, di, yaw = _scan(lambda a, b: CommonDifferential(kp, ki, a, b), scenarios, req, kp_box, ki_box,
+                        _Objective(yaw=True), progress)
+    bound = _Objective(max_yaw_coupling=YAW_SLACK * -yaw)
+    cp, ci, bw2 = _scan(lambda a, b: CommonDifferential(a, b, dp, di), scenarios, req, kp_box, ki_box, bound,
+                        progress)
+    return CommonDifferential(cp, ci, dp, di) if np.isfinite(bw2) and bw2 >= bw else CommonDifferential(kp, ki, kp, ki)
+
+
+#: each structure's gain search by its name (``design.loop.dual.BY_NAME``): a new structure is its class there and
+#: its search here
+SEARCHES = {PerMotor.name: _one_pi(PerMotor), MasterSlave.name: _one_pi(MasterSlave),
+            CommonDifferential.name: _common_differential}
+
+
 def synthesise_structure(structure: str, scenarios: DualScenarios, req: DualRequirements, *,
                          kp_box=(1.0, 1e4), ki_box=(1.0, 1e6), progress=None) -> StructureDesign:
     """Gains of ``structure`` (a name of ``design.loop.dual.BY_NAME``) maximising the worst-case translation bandwidth
     on ``scenarios`` under ``req`` (not yet judged on a Monte Carlo: ``monte_carlo`` None)."""
-    found = np.isfinite
-    if structure == "per_motor":
-        kp, ki, bw = _scan(PerMotor, scenarios, req, kp_box, ki_box, progress=progress)
-        ctrl = PerMotor(kp, ki) if found(bw) else None
-    elif structure == "master_slave":
-        kp, ki, bw = _scan(MasterSlave, scenarios, req, kp_box, ki_box, progress=progress)
-        ctrl = MasterSlave(kp, ki) if found(bw) else None
-    elif structure == "common_differential":
-        kp, ki, bw = _scan(lambda a, b: CommonDifferential(a, b, a, b), scenarios, req, kp_box, ki_box,
-                           progress=progress)
-        ctrl = None
-        if found(bw):
-            dp, di, yaw = _scan(lambda a, b: CommonDifferential(kp, ki, a, b), scenarios, req, kp_box, ki_box,
-                                _Objective(yaw=True), progress)
-            bound = _Objective(max_yaw_coupling=YAW_SLACK * -yaw)
-            cp, ci, bw2 = _scan(lambda a, b: CommonDifferential(a, b, dp, di), scenarios, req, kp_box, ki_box,
-                                bound, progress)
-            ctrl = CommonDifferential(cp, ci, dp, di) if found(bw2) and bw2 >= bw else \
-                CommonDifferential(kp, ki, kp, ki)
-    else:
-        raise SpecError(f"unknown structure {structure!r}; known: per_motor, common_differential, master_slave")
+    if structure not in SEARCHES:
+        raise SpecError(f"unknown structure {structure!r}; known: {', '.join(SEARCHES)}")
+    ctrl = SEARCHES[structure](scenarios, req, kp_box, ki_box, progress)
     if ctrl is None:
         return StructureDesign(structure, None, None, None)
     boxes = {"kp": kp_box, "ki": ki_box}

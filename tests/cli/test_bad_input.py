@@ -463,3 +463,19 @@ def test_a_mouse_run_refuses_an_effect_it_cannot_simulate_by_name(tmp_path, monk
                                         "damping_ratio = 0.02 }", 1))
     code, err, _ = in_process(monkeypatch, capsys, "mouse-run", spec, "--lab")
     assert code == 2 and err.count("\n") == 1 and "plant.effects" in err and "resonance" in err, err
+
+
+def test_an_unknown_loop_structure_is_one_line_naming_the_known_ones(tmp_path, monkeypatch, capsys):
+    # the structures a spec may name are the classes of design.loop.dual (each with its gain search)
+    from design.loop.dual import BY_NAME
+    from design.synth.dual import SEARCHES
+
+    assert set(SEARCHES) == set(BY_NAME)
+    text = (ROOT / "specs" / "stage_y_dual.toml").read_text()
+    spec = tmp_path / "spec.toml"
+    old = 'structures = ["per_motor", "common_differential", "master_slave"]'
+    assert old in text
+    spec.write_text(text.replace(old, 'structures = ["per_motor", "crossed"]', 1))
+    code, err, _ = in_process(monkeypatch, capsys, "synth", spec)
+    assert code == 2 and err.count("\n") == 1 and "dual_drive.structures" in err and "'crossed'" in err, err
+    assert all(name in err for name in BY_NAME), err

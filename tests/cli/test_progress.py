@@ -13,8 +13,9 @@ ROOT = Path(__file__).resolve().parents[2]
 
 
 def gantry(*args, stderr=subprocess.PIPE):
+    # progress from the first stage on (design.views.progress): the test does not hang on how fast the machine is
     return subprocess.run([sys.executable, "-m", "design", *map(str, args)], stdout=subprocess.PIPE,
-                          stderr=stderr, text=True, timeout=600)
+                          stderr=stderr, text=True, timeout=600, env={**os.environ, "GANTRY_PROGRESS_AFTER_S": "0"})
 
 
 def _on_a_terminal(*args) -> tuple[int, str]:

@@ -92,11 +92,6 @@ class RigTiming:
     def per_delay(self) -> list[RigTiming]:
         return [self.at_delay(d) for d in self.delays]
 
-    def shifted(self, extra: int) -> RigTiming:
-        """The same rig with ``extra`` more samples of computation delay over the whole range."""
-        return replace(self, delay_samples=self.delay_samples + extra,
-                       delay_samples_max=None if self.delay_samples_max is None else self.delay_samples_max + extra)
-
     @classmethod
     def of(cls, rig, *, filter_hz: float | None = None) -> RigTiming:
         """From the spec's ``admittance.rig`` (``filter_hz`` chooses a designed filter's corner)."""

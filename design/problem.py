@@ -25,6 +25,7 @@ The admittance stage's section of a spec file, every key optional (defaults belo
     peak_speed_m_per_s = 0.2
     peak_acceleration_m_per_s2 = 1.0
     travel_m = 0.4
+    force_record = "mouse_force.csv"          # optional: columns time_s, force_n (relative to the spec)
     [admittance.hardware]
     motor_peak_force_n = 300.0
     motor_force_criterion = "locomotion"      # or "worst_sinusoid": the mouse's peak force at any frequency
@@ -281,15 +282,43 @@ class Mouse:
 
 
 @dataclass(frozen=True)
+class ForceRecord:
+    """A force the mouse put on the head clamp, as recorded: ``time_s`` increasing (s), ``force_n`` (N) at those
+    times, linear between them; ``file`` where it came from (the spec's path, or "inline")."""
+
+    __pydantic_config__ = FORBID
+    file: str
+    time_s: tuple[float, ...]
+    force_n: tuple[float, ...]
+
+    def __post_init__(self):
+        if len(self.time_s) != len(self.force_n):
+            raise ValueError(f"time_s has {len(self.time_s)} values and force_n {len(self.force_n)}")
+        if len(self.time_s) < 2:
+            raise ValueError("a force record needs at least 2 samples")
+        if any(b <= a for a, b in zip(self.time_s, self.time_s[1:])):
+            k = next(k for k, (a, b) in enumerate(zip(self.time_s, self.time_s[1:])) if b <= a)
+            raise ValueError(f"time_s must increase: sample {k + 2} ({self.time_s[k + 1]:g} s) does not follow "
+                             f"{self.time_s[k]:g} s")
+
+    @property
+    def duration_s(self) -> float:
+        return self.time_s[-1] - self.time_s[0]
+
+
+@dataclass(frozen=True)
 class Locomotion:
     """The trapezoidal locomotion profile the mouse should be able to perform: accelerate at
     ``peak_acceleration_m_per_s2`` to ``peak_speed_m_per_s``, run, decelerate, over ``travel_m``
-    (bsbrl/exoskeleton ``MAIN_generate_trapezoidal_profile.m``)."""
+    (bsbrl/exoskeleton ``MAIN_generate_trapezoidal_profile.m``); optionally a recorded force the motor must also
+    follow (``force_record``: in a spec file a CSV file with columns ``time_s`` and ``force_n``, relative to the
+    spec, or a table ``{ time_s = [...], force_n = [...] }``)."""
 
     __pydantic_config__ = FORBID
     peak_speed_m_per_s: Annotated[float, Gt(0), Le(10)] = 0.2
     peak_acceleration_m_per_s2: Annotated[float, Gt(0), Le(200)] = 1.0
     travel_m: Annotated[float, Gt(0), Le(100)] = 0.4
+    force_record: ForceRecord | None = None
 
 
 @dataclass(frozen=True)

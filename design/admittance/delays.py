@@ -57,7 +57,14 @@ def join_checks(checks: list[AdmittanceCheck], delays: tuple[int, ...]) -> Admit
     pm, gm = (np.fmin.reduce(stack(n), axis=0) for n in ("phase_margin_deg", "gain_margin_db"))   # nan: none computed
     violations = tuple({**v, "detail": f"{v['detail']} with {samples_text(d)}", "delay_samples": d}
                        for c, d in zip(checks, delays) for v in c.violations)
-    return replace(checks[0], phase_margin_deg=pm, gain_margin_db=gm, stable=np.all(stack("stable"), axis=0),
+    recorded = {}
+    if checks[0].recorded_motor_force_n is not None:
+        peaks = stack("recorded_motor_force_n")
+        worst = np.argmax(peaks, axis=0)
+        recorded = {"recorded_motor_force_n": np.max(peaks, axis=0),
+                    "recorded_motor_at_s": np.take_along_axis(stack("recorded_motor_at_s"), worst[None], 0)[0]}
+    return replace(checks[0], **recorded, phase_margin_deg=pm, gain_margin_db=gm,
+                   stable=np.all(stack("stable"), axis=0),
                    bound_ratio=np.max(stack("bound_ratio"), axis=0),
                    sensor_current_a=np.max(stack("sensor_current_a"), axis=0),
                    motor_force_n=np.max(stack("motor_force_n"), axis=0),

@@ -48,6 +48,7 @@ import numpy as np
 from design.admittance.bounds import curve_bounds, polar
 from design.admittance.mouse import MouseModel, mouse_set, stack
 from design.admittance.profile import FeltForce
+from design.admittance.recorded import RecordedMotor
 from design.admittance.rig import RigTiming, VirtualImpedance, force_filter_frd
 from design.admittance.sampled import (
     StateSpace,
@@ -195,12 +196,13 @@ class PiLoops:
         """``GantryLoop`` of ``scenarios`` at complex ``s``."""
         return gantry_loop_at(scenarios.plants(self.base), s, scenarios, kp=self.kp, ki=self.ki)
 
-    def free_state_space(self, scenarios: Scenarios, *, period_s: float | None = None):
-        """The free gantries of ``scenarios`` as one state-space batch (``design.admittance.sampled.free_gantry``),
-        the delays' Pade order chosen for a path sampled every ``period_s``."""
+    def free_state_space(self, scenarios: Scenarios, *, period_s: float | None = None, motor: bool = False):
+        """The free gantries of ``scenarios`` as one state-space batch (``design.admittance.sampled.free_gantry``;
+        ``motor``: the motor's force as a third output), the delays' Pade order chosen for a path sampled every
+        ``period_s``."""
         plants = scenarios.plants(self.base)
         return free_gantry(plants, len(scenarios), kp=self.kp, ki=self.ki,
-                           pade_order=pade_order_for(plants, period_s))
+                           pade_order=pade_order_for(plants, period_s), motor=motor)
 
 
 def gantry_loop(loops, w_rad_s, scenarios) -> GantryLoop:
@@ -432,6 +434,10 @@ class AdmittanceCheck:
     drift_mm_per_s: float
     #: each violated requirement as {"constraint", "payload_kg", "scenario", "mouse", "value", "limit", "detail"}
     violations: tuple[dict, ...]
+    #: the motor's peak force on the spec's force record (N) and when in the record it comes (s), (n_scenario,);
+    #: None without a record (``design.admittance.recorded``)
+    recorded_motor_force_n: np.ndarray | None = None
+    recorded_motor_at_s: np.ndarray | None = None
 
     @property
     def meets(self) -> bool:
@@ -453,6 +459,14 @@ class AdmittanceCheck:
                  "passive_up_to_hz": (self.passive_up_to_hz, np.min),
                  "sensor_current_a": (self.sensor_current_a, np.max), "motor_force_n": (self.motor_force_n, np.max)}
         return m, {name: np.array([f(v[i]) for i in idx]) for name, (v, f) in worst.items()}
+
+    def recorded_worst(self) -> tuple[float, float, int] | None:
+        """(peak N, time into the record s, scenario index) of the motor's largest force on the force record; None
+        without one."""
+        if self.recorded_motor_force_n is None:
+            return None
+        j = int(np.argmax(self.recorded_motor_force_n))
+        return float(self.recorded_motor_force_n[j]), float(self.recorded_motor_at_s[j]), j
 
     def worst_by_legs(self) -> dict[str, tuple[float, float]]:
         """Worst (phase margin deg, gain margin dB) over the scenarios of the floating and of the grounded mice."""
@@ -515,6 +529,7 @@ class AdmittanceEvaluator:
         # the motor on the locomotion profile (``admittance.hardware.motor_force_criterion``)
         self._profile = (FeltForce(problem, self.scenarios, self.corners, loops=loops, timing=self.timing)
                          if self.adm.hardware.motor_force_criterion == "locomotion" else None)
+        self._recorded: RecordedMotor | None = None
 
     def exact_margins(self, m_v: float, b_v: float, k_idx: np.ndarray, j_idx: np.ndarray):
         """(PM deg, GM dB, stable) of the curves (mouse k_idx[i], scenario j_idx[i]) on the check grid, sampled
@@ -564,8 +579,19 @@ class AdmittanceEvaluator:
         thread_map(margins, range(0, n, step))
         return pm, gm, st
 
-    def evaluate(self, m_v: float, b_v: float, *, bandwidth: bool = True, screen: bool = True) -> AdmittanceCheck:
-        """Margins, stability, hardware peaks, passivity band, rendered bandwidth and drift of (m_v, b_v).
+    @property
+    def recorded_motor(self) -> RecordedMotor | None:
+        """The motor on the spec's force record at these scenarios (``design.admittance.recorded``; None without
+        one), set up when first asked."""
+        record = self.adm.locomotion.force_record
+        if self._recorded is None and record is not None and self.timing.sampled:
+            self._recorded = RecordedMotor(record, self.scenarios, loops=self.loops, timing=self.timing)
+        return self._recorded
+
+    def evaluate(self, m_v: float, b_v: float, *, bandwidth: bool = True, screen: bool = True,
+                 recorded: bool = False) -> AdmittanceCheck:
+        """Margins, stability, hardware peaks, passivity band, rendered bandwidth and drift of (m_v, b_v); with
+        ``recorded`` also the motor on the spec's force record (``recorded_motor``).
 
         The margins are computed exactly (``loop_margins``, Nyquist; ``exact_margins``) for every curve without
         ``screen``, and with it for the curves (mouse x scenario) nearest their limits: at each scenario the
@@ -612,9 +638,11 @@ class AdmittanceEvaluator:
             if bandwidth:
                 virtual = 1.0 / virtual_impedance_frd(loop.w_rad_s, m_v, b_v)
                 bw[rows] = admittance_bandwidth_hz(loop.w_rad_s, yr, virtual)
+        recorded = self.recorded_motor.peaks(m_v, b_v) if recorded and self.recorded_motor is not None else None
         check = AdmittanceCheck(float(m_v), float(b_v), self.scenarios, self.corners, pm, gm, stable, ratio,
                                 i_resp.max(-1), motor, bw, passive, fhz[i_resp.argmax(-1)], motor_hz,
-                                float(drift_mm_per_s(adm, b_v)), ())
+                                float(drift_mm_per_s(adm, b_v)), (), None if recorded is None else recorded.peak_n,
+                                None if recorded is None else recorded.at_s)
         return replace(check, violations=violations(adm, check))
 
 
@@ -637,11 +665,11 @@ def violations(adm: AdmittanceProblem, c: AdmittanceCheck) -> tuple[dict, ...]:
     """Every requirement ``c`` misses, each naming its spec key, scenario and mouse."""
     hw, out = adm.hardware, []
 
-    def add(constraint, j, mouse, value, limit, detail):
+    def add(constraint, j, mouse, value, limit, detail, **extra):
         out.append({"constraint": constraint, "payload_kg": None if j is None else float(c.payload_kg[j]),
                     "scenario": None if j is None else c.scenarios.row(j),
                     "mouse": None if mouse is None else mouse.as_dict(), "value": float(value),
-                    "limit": float(limit), "detail": detail})
+                    "limit": float(limit), "detail": detail, **extra})
 
     drift_limit = adm.sensor.max_drift_mm_per_s
     if drift_limit is not None and c.drift_mm_per_s > drift_limit * (1 + 1e-6):
@@ -666,6 +694,13 @@ def violations(adm: AdmittanceProblem, c: AdmittanceCheck) -> tuple[dict, ...]:
             add("motor_force", j, None, c.motor_force_n[j], hw.motor_peak_force_n,
                 f"{asked} asks {c.motor_force_n[j]:.4g} N of the motor (admittance.hardware.motor_peak_force_n = "
                 f"{hw.motor_peak_force_n:g} N, motor_force_criterion = {hw.motor_force_criterion}) at {where}")
+        if c.recorded_motor_force_n is not None and c.recorded_motor_force_n[j] > hw.motor_peak_force_n * (1 + 1e-6):
+            record = adm.locomotion.force_record
+            add("motor_force", j, None, c.recorded_motor_force_n[j], hw.motor_peak_force_n,
+                f"the recorded force (admittance.locomotion.force_record = {record.file}, {record.duration_s:g} s) "
+                f"asks {c.recorded_motor_force_n[j]:.4g} N of the motor at {c.recorded_motor_at_s[j]:.4g} s into "
+                f"it (admittance.hardware.motor_peak_force_n = {hw.motor_peak_force_n:g} N) at {where}",
+                source="force_record")
         if adm.passivity is not None:
             top = adm.passivity.up_to_hz
             need = np.inf if top is None else top

@@ -209,9 +209,11 @@ def mechanics_ss(plants: Plant, n: int) -> tuple[np.ndarray, np.ndarray, np.ndar
     return tuple(np.stack([p[i] for p in parts]) for i in range(3))
 
 
-def free_gantry(plants: Plant, n: int, *, kp: float, ki: float, pade_order: int = PADE_ORDER) -> StateSpace:
+def free_gantry(plants: Plant, n: int, *, kp: float, ki: float, pade_order: int = PADE_ORDER,
+                motor: bool = False) -> StateSpace:
     """The free gantries of a batch of ``n`` plants under the PI velocity loop kp + ki/s: inputs (velocity
-    reference u m/s, clamp force f N), outputs (velocity v m/s, acceleration dv/dt m/s^2), batched (n, ...).
+    reference u m/s, clamp force f N), outputs (velocity v m/s, acceleration dv/dt m/s^2) and with ``motor``
+    the motor's force F_m (N), batched (n, ...).
 
     Mechanics x_g' = A_g x_g + B_g (F_m + f), v = C_g x_g; sensor H on v; PI integrator xi' = u - v_m;
     drive E on c = kp (u - v_m) + ki xi; F_m = K_t E c."""
@@ -242,7 +244,10 @@ def free_gantry(plants: Plant, n: int, *, kp: float, ki: float, pade_order: int 
     if ni:
         M[:, i] = err[:, None, :]
     M[:, e] = E.A @ eye[e] + E.B @ c[:, None, :]
-    out = np.stack([v, (Cg @ M[:, g])[:, 0]], axis=1)
+    rows = [v, (Cg @ M[:, g])[:, 0]]
+    if motor:
+        rows.append(force - eye[m + 1])
+    out = np.stack(rows, axis=1)
     return StateSpace(M[:, :, :m], M[:, :, m:], out[:, :, :m], out[:, :, m:])
 
 

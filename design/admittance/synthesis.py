@@ -313,6 +313,7 @@ def design_rounds(problem: LoopProblem, scenarios, *, loops, dense, felt, w_desi
     adm = admittance_problem(problem)
     seed = problem.verification.seed
     n, backed_off = 0, None
+    record = "" if adm.locomotion.force_record is None else ", the motor on the force record"
     for mc_round in range(MONTE_CARLO_ROUNDS + 1):
         for _ in range(MAX_ROUNDS):
             n += 1
@@ -325,14 +326,15 @@ def design_rounds(problem: LoopProblem, scenarios, *, loops, dense, felt, w_desi
             if not ray.feasible:
                 return Rounds(rp, ray, rp_scenarios, scenarios, None, None, None, n, mc_round, None)
             x = np.array([ray.m_v, ray.b_v])
-            say(f"dense check ({len(dense.scenarios)} scenarios x {len(corners)} mice)")
-            check = dense.evaluate(*x)
+            say(f"dense check ({len(dense.scenarios)} scenarios x {len(corners)} mice{record})")
+            check = dense.evaluate(*x, recorded=True)
             if check.meets:
                 break
-            worst = min(check.violations, key=relative_slack)["scenario"]
-            if worst is None or scenarios.contains(worst):
+            worst = min(check.violations, key=relative_slack)
+            if worst["scenario"] is None or worst.get("source") == "force_record" or \
+                    scenarios.contains(worst["scenario"]):
                 break
-            scenarios = scenarios.with_row(worst)
+            scenarios = scenarios.with_row(worst["scenario"])
         if not check.meets:
             backed_off = min(check.violations, key=relative_slack)
             x, check = back_off(dense, x, adm)
@@ -353,20 +355,20 @@ def back_off(dense, x: np.ndarray, adm) -> tuple[np.ndarray, AdmittanceCheck]:
     lo, hi, step = 0.0, None, math.log(1.002)
     while hi is None and lo < top:
         trial = min(lo + step, top)
-        if dense.evaluate(*(x * math.exp(trial)), bandwidth=False).meets:
+        if dense.evaluate(*(x * math.exp(trial)), bandwidth=False, recorded=True).meets:
             hi = trial
         else:
             lo, step = trial, 3 * step
     if hi is None:
-        return x * math.exp(top), dense.evaluate(*(x * math.exp(top)))
+        return x * math.exp(top), dense.evaluate(*(x * math.exp(top)), recorded=True)
     while hi - lo > 1e-3:
         mid = 0.5 * (lo + hi)
-        if dense.evaluate(*(x * math.exp(mid)), bandwidth=False).meets:
+        if dense.evaluate(*(x * math.exp(mid)), bandwidth=False, recorded=True).meets:
             hi = mid
         else:
             lo = mid
     x = x * math.exp(hi)
-    return x, dense.evaluate(*x)
+    return x, dense.evaluate(*x, recorded=True)
 
 
 def _infeasible(problem, ray: RayBound, rp, scenarios, kp, ki, timing, corners, t0, record) -> AdmittanceResult:

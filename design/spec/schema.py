@@ -60,7 +60,8 @@ from design.problem import (
     with_filters,
 )
 from design.spec.dual_drive import DualDriveSpec, ParameterRange
-from plant.errors import GantryError, SpecError
+from plant.data.table import CsvTable
+from plant.errors import DataError, GantryError, SpecError
 from plant.host.text_io import read_text
 from plant.physics.drive_filters import KINDS
 from plant.physics.effects import EFFECTS, make_effect
@@ -292,6 +293,19 @@ class Spec(_Strict):
             raise ValueError("admittance: needs the plant model (the mechanical mobility and responses at every "
                              "frequency), not plant.measured; design the PI gains from the data in a spec of their "
                              "own, then give them as controller.kp.value / controller.ki.value here")
+        return self
+
+    @model_validator(mode="after")
+    def _force_record_needs_a_sampled_one_motor_law(self):
+        adm = self.admittance
+        if adm is None or adm.locomotion.force_record is None:
+            return self
+        if self.dual_drive is not None:
+            raise ValueError("admittance.locomotion.force_record: the recorded force is checked on Stage X's one "
+                             "motor; the two-motor Stage Y is judged on the locomotion profile")
+        if adm.rig.update_rate_hz is None:
+            raise ValueError("admittance.locomotion.force_record: the motor on a recorded force is computed for a "
+                             "sampled law: give admittance.rig.update_rate_hz")
         return self
 
     def problem(self) -> LoopProblem:
@@ -537,14 +551,16 @@ def _no_booleans(data, path: str = "") -> None:
             _no_booleans(v, f"{path}.{i}")
 
 
-def parse_spec(data: dict, *, source: str = "spec") -> Spec:
+def parse_spec(data: dict, *, source: str = "spec", folder: str | Path = ".") -> Spec:
     """Validate a spec mapping; ``SpecError`` names the first failing key path (an unknown key first, with
-    the closest known one) and, for a value out of bounds, the value as written."""
+    the closest known one) and, for a value out of bounds, the value as written. Files the spec names are
+    relative to ``folder``."""
     try:
         if not data:
             raise SpecError("the spec is empty: it needs at least a [plant] table with stage = \"x\" or \"y\" "
                             "(see specs/stage_x_synth.toml)")
         _check_nesting(data)
+        data = _with_force_record(data, Path(folder))
         _no_booleans(data)
         _booleans(data)
         unknown = _unknown_key(data, Spec)
@@ -558,6 +574,34 @@ def parse_spec(data: dict, *, source: str = "spec") -> Spec:
     except SpecError as exc:
         raise SpecError(f"{source}: {exc}") from None
     return spec
+
+
+def _with_force_record(data: dict, folder: Path) -> dict:
+    """``data`` with ``admittance.locomotion.force_record`` read: a file name (relative to ``folder``) becomes the
+    record's columns ``time_s`` and ``force_n``; an inline table is marked "inline"."""
+    adm = data.get("admittance")
+    loc = adm.get("locomotion") if isinstance(adm, dict) else None
+    record = loc.get("force_record") if isinstance(loc, dict) else None
+    if isinstance(record, dict) and "file" not in record:
+        record = {"file": "inline", **record}
+    elif isinstance(record, str):
+        path = folder / record
+        try:
+            table = CsvTable.read(path)
+            columns = table.numbers(["time_s", "force_n"])
+        except DataError as exc:
+            raise SpecError(f"admittance.locomotion.force_record: {exc}") from None
+        bad = next((k for k in range(columns["time_s"].size - 1)
+                    if not columns["time_s"][k + 1] > columns["time_s"][k]), None)
+        if bad is not None:
+            raise SpecError(f"admittance.locomotion.force_record: {path}: row {table.rows[bad + 1]}, column 'time_s': "
+                            f"{columns['time_s'][bad + 1]:g} does not follow {columns['time_s'][bad]:g} (time must "
+                            "increase)")
+        record = {"file": record, "time_s": tuple(map(float, columns["time_s"])),
+                  "force_n": tuple(map(float, columns["force_n"]))}
+    else:
+        return data
+    return {**data, "admittance": {**adm, "locomotion": {**loc, "force_record": record}}}
 
 
 #: tables and arrays of a spec nest at most this deep (the deepest, [[controller.filters]] ranges, takes 4)
@@ -592,4 +636,4 @@ def load_spec(path: str | Path, *, plant: Mapping[str, Any] | None = None) -> Sp
         if not isinstance(data.get("plant", {}), dict):
             raise SpecError(f"{path}: plant: must be a table")
         data.setdefault("plant", {}).update(plant)
-    return parse_spec(data, source=str(path))
+    return parse_spec(data, source=str(path), folder=path.parent)

@@ -72,6 +72,7 @@ def add_admittance_section(report: Report, problem: LoopProblem, outcome: Design
         ["motor force on the locomotion profile" if hw.motor_force_criterion == "locomotion" else
          "motor force for the peak mouse force at the worst frequency", f"{np.max(c.motor_force_n):.3g} N",
          f"{hw.motor_peak_force_n:g} N"],
+        *_recorded_rows(c, a),
         ["current per force-sensor step", f"{1e3 * np.max(c.sensor_current_a):.3g} mA",
          "—" if hw.max_current_per_sensor_step_a is None else f"{1e3 * hw.max_current_per_sensor_step_a:g} mA"],
     ]))
@@ -156,6 +157,17 @@ def _mc(r) -> str:
         return ""
     return (f" Monte Carlo: {mc.violations} of {mc.samples} independent draws over payload, uncertainty and mouse "
             f"violate (95 % upper bound {100 * mc.rate_upper_bound:.2g} %).")
+
+
+def _recorded_rows(c, a) -> list[list[str]]:
+    """The motor on the spec's force record, when it has one."""
+    record, worst = a.locomotion.force_record, c.recorded_worst()
+    if record is None or worst is None:
+        return []
+    peak, at_s, j = worst
+    return [[f"motor force on the recorded force ({record.file}, {record.duration_s:g} s, taken as given; "
+             f"worst {at_s:.4g} s into it at {c.scenarios.describe(j)}; over the {len(c.scenarios)} dense scenarios)",
+             f"{peak:.3g} N", f"{a.hardware.motor_peak_force_n:g} N"]]
 
 
 def _run_figure(report: Report, run) -> None:

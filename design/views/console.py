@@ -282,6 +282,15 @@ def _print_admittance(console: Console, adm: dict) -> None:
             console.print(f"  the velocity loop still leaves the gantry {100 * short:.3g} % short of the law's "
                           f"reference at the end of the cruise (Ki = {adm.get('ki', math.nan):.4g} A/m integrates "
                           "too slowly for it): the mouse pushes that much harder than m_v a + b_v v", soft_wrap=True)
+    rec = adm.get("recorded_force")
+    limits = adm["limits"]
+    motor = (f"  motor: {adm['worst_motor_force_n']:.4g} N of {limits['motor_peak_force_n']:g} N "
+             + ("on the locomotion profile" if limits.get("motor_force_criterion") == "locomotion" else
+                "for the mouse's peak force at the worst frequency"))
+    if rec and rec.get("motor_peak_force_n") is not None:
+        motor += (f"; {rec['motor_peak_force_n']:.4g} N on the recorded force ({rec['file']}, {rec['duration_s']:g} "
+                  f"s; worst {rec['at_s']:.4g} s into it, at {rec['where']}), {rec['checked']}")
+    console.print(motor, soft_wrap=True)
     for name, v in adm["margins_by_mouse"].items():
         console.print(f"  interaction loop, {name} mice: worst PM {_num(v['phase_margin_deg'], '.1f')} deg, "
                       f"GM {_num(v['gain_margin_db'], '.1f')} dB")

@@ -446,6 +446,26 @@ def latency_to_dict(lat) -> dict:
                        "the exact margins and stability with one more sample of computation delay"}
 
 
+def recorded_force_to_dict(c, adm) -> dict | None:
+    """The motor on the spec's force record (``admittance.locomotion.force_record``) at the design: None without a
+    record."""
+    record, worst = adm.locomotion.force_record, c.recorded_worst()
+    if record is None:
+        return None
+    out = {"file": record.file, "duration_s": record.duration_s, "samples": len(record.time_s),
+           "motor_limit_n": adm.hardware.motor_peak_force_n}
+    if worst is None:
+        return {**out, "motor_peak_force_n": None, "checked": "not computed (a continuous law)"}
+    peak, at_s, j = worst
+    return {**out, "motor_peak_force_n": peak, "at_s": at_s, "scenario": c.scenarios.row(j),
+            "where": c.scenarios.describe(j),
+            "checked": f"on the dense check's {len(c.scenarios)} scenarios (payload points x uncertainty corners) at "
+                       "every computation delay; the Monte Carlo draws are checked on the locomotion profile only",
+            "model": "the record taken as given (the mouse pushes as recorded whatever the gantry does), linear "
+                     "between the law's instants; the gantry from the steady state of its first value; the motor's "
+                     "force read every 0.1 ms after each law instant (design.admittance.recorded)"}
+
+
 def admittance_to_dict(result: AdmittanceResult, problem: LoopProblem) -> dict:
     """``admittance`` of ``gantry synth --json``."""
     from design.admittance.model import admittance_problem
@@ -467,6 +487,7 @@ def admittance_to_dict(result: AdmittanceResult, problem: LoopProblem) -> dict:
         **_admittance_setting(adm, timing, result.discrete),
         "evaluated_at": {"m_v": result.m_v, "b_v": result.b_v},
         **({"latency": latency_to_dict(result.latency)} if result.latency is not None else {}),
+        "recorded_force": recorded_force_to_dict(c, adm),
         "mice": [m.as_dict() for m in result.corners],
         "mouse_corners": [m.as_dict() for m in result.corners],
         "per_payload": [{"payload_kg": float(m), "phase_margin_deg": finite_or_none(w["phase_margin_deg"][j]),
@@ -532,7 +553,7 @@ def _admittance_setting(adm, timing, discrete) -> dict:
                        "peak_speed_m_per_s": loc.peak_speed_m_per_s,
                        "peak_acceleration_m_per_s2": loc.peak_acceleration_m_per_s2, "travel_m": loc.travel_m},
         "limits": {"phase_margin_deg": adm.phase_margin_deg, "gain_margin_db": adm.gain_margin_db,
-                   "motor_peak_force_n": hw.motor_peak_force_n,
+                   "motor_peak_force_n": hw.motor_peak_force_n, "motor_force_criterion": hw.motor_force_criterion,
                    "max_current_per_sensor_step_a": hw.max_current_per_sensor_step_a,
                    "force_sensor_resolution_n": hw.force_sensor_resolution_n,
                    "mouse_peak_force_n": adm.mouse.peak_force_n,

@@ -18,6 +18,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from bundled_specs import admittance_text
 from in_process import gantry
 
 from plant import Delay, stage_x
@@ -443,7 +444,7 @@ def test_a_corrupt_time_value_is_named_with_its_row(tmp_path):
     ("computation_delay_samples = 0", "computation_delay_samples = 0.5", "admittance.rig.computation_delay_samples"),
 ])
 def test_an_unknown_admittance_rule_is_one_line_naming_its_key(tmp_path, monkeypatch, capsys, old, new, key):
-    text = (ROOT / "specs" / "stage_x_admittance.toml").read_text()
+    text = admittance_text()
     assert old in text
     spec = tmp_path / "spec.toml"
     spec.write_text(text.replace(old, new, 1))
@@ -455,7 +456,7 @@ def test_an_unknown_admittance_rule_is_one_line_naming_its_key(tmp_path, monkeyp
 def test_a_mouse_run_refuses_an_effect_it_cannot_simulate_by_name(tmp_path, monkeypatch, capsys):
     # the run simulates the drive's delay, current loop and sampling on a rigid body; a resonance it would drop
     # is refused in one line that names it (never simulated without it)
-    text = (ROOT / "specs" / "stage_x_admittance.toml").read_text()
+    text = admittance_text()
     old = "current_loop = { bandwidth_hz = 1000.0 }"
     assert old in text
     spec = tmp_path / "spec.toml"

@@ -5,12 +5,12 @@ exit codes, bad keys named."""
 
 import json
 import math
-import tomllib
 from pathlib import Path
 
 import independent_admittance as ref
 import numpy as np
 import pytest
+from bundled_specs import admittance_data, admittance_text
 from in_process import gantry
 
 from design.admittance.bounds import curve_bounds, polar
@@ -36,7 +36,7 @@ W = np.geomspace(0.5, 500, 200)
 
 
 def _data(**admittance):
-    data = tomllib.loads(SPEC.read_text())
+    data = admittance_data()
     for key, value in admittance.items():
         data["admittance"][key] = value
     return data
@@ -50,6 +50,7 @@ def _fast_data(**admittance):
     data["plant"]["payload_kg"] = {"min": 5.0, "max": 40.0, "points": 3, "nominal": 35.0}
     data["admittance"]["codesign"] = False
     data["admittance"].pop("rig")
+    data["admittance"]["locomotion"].pop("force_record")
     data["admittance"]["mouse"].update({"head_mass_kg": 0.005, "body_mass_kg": 0.03, "neck_stiffness_n_per_m": 100.0,
                                         "neck_damping_n_s_per_m": 0.5, "leg_stiffness_n_per_m": 1000.0})
     data["verification"] = {"monte_carlo_samples": 400}
@@ -466,7 +467,7 @@ def test_rendered_admittance_of_the_sampled_law_at_the_input_frequency():
 ])
 def test_bad_admittance_key_is_named(tmp_path, old, new, key):
     bad = tmp_path / "bad.toml"
-    text = SPEC.read_text()
+    text = admittance_text()
     assert old in text
     bad.write_text(text.replace(old, new))
     out = gantry("synth", str(bad))
@@ -477,7 +478,7 @@ def test_bad_admittance_key_is_named(tmp_path, old, new, key):
 def test_admittance_with_measured_plant_is_refused_with_a_reason():
     from plant.errors import SpecError
 
-    data = tomllib.loads(SPEC.read_text())
+    data = admittance_data()
     data["plant"]["measured"] = [{"payload_kg": 5.0, "file": "x5.csv"}]
     with pytest.raises(SpecError, match="admittance: needs the plant model"):
         parse_spec(data, source="dd.toml")

@@ -4,13 +4,13 @@ drive ticks on the lab's trapezoid, closed-form steady states, the sampled law a
 the mouse's force limit."""
 
 import math
-import tomllib
 from dataclasses import asdict
 from pathlib import Path
 
 import independent_mouse_run as ref
 import numpy as np
 import pytest
+from bundled_specs import admittance_data
 
 from design.admittance.mouse_run import RunSettings, simulate_mouse_run
 
@@ -358,7 +358,7 @@ def test_force_felt_and_motor_force_on_the_profile_match_a_time_simulation_of_th
     from design.spec.schema import parse_spec
     from design.synth.scenarios import Scenarios
 
-    data = tomllib.loads((Path(__file__).resolve().parents[3] / "specs" / "stage_x_admittance.toml").read_text())
+    data = admittance_data()
     data["plant"]["effects"] = {"delay": {"seconds": 0.0005}, "current_loop": {"bandwidth_hz": 1000.0}}
     data["plant"].pop("uncertainty")
     spec = parse_spec(data).problem()

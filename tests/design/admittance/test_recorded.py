@@ -131,3 +131,17 @@ def test_the_command_refuses_a_bad_record_with_exit_2_and_one_line(tmp_path):
     out = subprocess.run([sys.executable, "-m", "design", "synth", str(path)], capture_output=True, text=True)
     assert out.returncode == 2
     assert out.stderr.count("\n") == 1 and "row 3, column 'time_s'" in out.stderr and "Traceback" not in out.stderr
+
+
+@pytest.mark.slow
+def test_a_record_that_asks_too_much_moves_the_design_until_the_motor_holds_it_and_is_named():
+    from bundled_specs import admittance_data
+
+    from design.admittance.synthesis import synthesise_admittance
+
+    data = admittance_data()
+    data["admittance"]["hardware"]["motor_peak_force_n"] = 240.0
+    res = synthesise_admittance(parse_spec(data).problem(), tradeoff=False)
+    peak, _, _ = res.check.recorded_worst()
+    assert res.status == "optimal" and peak <= 240.0 * (1 + 1e-6)
+    assert "force_record" in res.binding["detail"] and res.b_v > 4.96

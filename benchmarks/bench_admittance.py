@@ -32,6 +32,8 @@ from pathlib import Path
 
 import numpy as np
 
+from design.loop.controller import PI
+
 ROOT = Path(__file__).resolve().parents[1]
 SPEC = ROOT / "specs" / "stage_x_admittance.toml"
 QUICK = "--quick" in sys.argv
@@ -136,7 +138,7 @@ def virtual_grid(doc: dict) -> None:
     spec = load_spec(SPEC).problem()
     timing = RigTiming.of(spec.admittance.rig, filter_hz=adm["rig"]["force_filter_hz"])
     corners = mice(spec)
-    loops = PiLoops.of(spec, adm["kp"], adm["ki"])
+    loops = PiLoops.of(spec, PI(adm["kp"], adm["ki"]))
     felt = FeltForce(spec, feel_scenarios(spec), corners, loops=loops, timing=timing)
     scenarios = design_scenarios(spec)
     T = timing.period_s
@@ -180,7 +182,8 @@ def pi_grid(doc: dict) -> None:
     kp_f = (0.7, 1.0, 1.4) if QUICK else (0.5, 0.7, 1.0, 1.4, 2.0)
     ki_f = (0.1, 1.0, 10.0) if QUICK else (1e-2, 0.1, 1.0, 10.0, 100.0)
     t0 = time.perf_counter()
-    scores = {(fp, fi): codesign_score(spec, kp=adm["kp"] * fp, ki=adm["ki"] * fi) for fp in kp_f for fi in ki_f}
+    scores = {(fp, fi): codesign_score(spec, controller=PI(adm["kp"] * fp, adm["ki"] * fi))
+              for fp in kp_f for fi in ki_f}
     (fp, fi), best = min(scores.items(), key=lambda kv: kv[1])
     chosen = scores[(1.0, 1.0)]
     print(f"  PI grid around the co-design ({len(scores)} points, {time.perf_counter() - t0:.0f} s, the co-design's "

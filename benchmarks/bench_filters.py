@@ -29,6 +29,7 @@ from pathlib import Path
 
 import numpy as np
 
+from design.loop.controller import PI
 from design.loop.fast import fast_analyse_loop
 from design.problem import with_filter_values
 from design.spec.schema import load_spec, parse_spec
@@ -44,7 +45,7 @@ def best_gains(problem, payload_kg, kp_grid, ki_grid):
     plant = problem.plant.plant().with_values({"mass_kg": np.asarray(payload_kg, float).reshape(1, -1, 1)})
     req = problem.requirements
     KP, KI = np.meshgrid(kp_grid, ki_grid, indexing="ij")
-    n = fast_analyse_loop(plant, KP.reshape(-1, 1), KI.reshape(-1, 1))
+    n = fast_analyse_loop(plant, PI(KP.reshape(-1, 1), KI.reshape(-1, 1)))
     ok = np.all((n.phase_margin_deg >= req.phase_margin_deg) & (n.gain_margin_db >= req.gain_margin_db)
                 & n.stable, axis=1)
     bw = np.where(ok, np.min(np.nan_to_num(n.closed_loop_bandwidth_hz, nan=0.0), axis=1), -np.inf)
@@ -139,12 +140,12 @@ def main():
                     brute_f = (bw, kp, ki, local)
         t_brute = time.perf_counter() - t0
         print(f"== {name}")
-        print(f"  PI alone:      synthesis {bw_pi:.3f} Hz ({t_pi:.1f} s; kp {pi.evaluation.kp:.1f}, ki "
-              f"{pi.evaluation.ki:.0f}, binding {pi.evaluation.binding['constraint']}); brute force "
+        print(f"  PI alone:      synthesis {bw_pi:.3f} Hz ({t_pi:.1f} s; kp {pi.evaluation.controller.kp:.1f}, ki "
+              f"{pi.evaluation.controller.ki:.0f}, binding {pi.evaluation.binding['constraint']}); brute force "
               f"{brute_pi[0]:.3f} Hz; ratio {bw_pi / brute_pi[0]:.4f}")
         used = [f for f in flt.filters if f["used"]]
-        print(f"  PI + filters:  synthesis {bw_f:.3f} Hz ({t_f:.1f} s; kp {flt.evaluation.kp:.1f}, ki "
-              f"{flt.evaluation.ki:.0f}; " + "; ".join(
+        print(f"  PI + filters:  synthesis {bw_f:.3f} Hz ({t_f:.1f} s; kp {flt.evaluation.controller.kp:.1f}, ki "
+              f"{flt.evaluation.controller.ki:.0f}; " + "; ".join(
                   f"{f['kind']} " + ", ".join(f"{k} {f[k]:.4g}" for k in ("frequency_hz", "damping_ratio", "depth")
                                               if k in f) for f in used) + f"); brute force {brute_f[0]:.3f} Hz "
               f"({len(first)} filter settings, then local grids around the best; {t_brute:.0f} s in all); ratio "

@@ -23,8 +23,8 @@ import control
 import numpy as np
 
 from design.loop.analysis import payload_sweep
+from design.loop.controller import PI
 from design.loop.fast import fast_analyse_loop
-from design.loop.loops import pi_tf
 from plant import CurrentLoop, Delay, stage_x
 
 KP, KI = 236.0, 47.0                      # thesis Appendix A
@@ -44,17 +44,17 @@ def best_time(fn, repeats):
 
 
 def ours():
-    return payload_sweep(PLANT, KP, KI, PAYLOADS_KG)
+    return payload_sweep(PLANT, PI(KP, KI), PAYLOADS_KG)
 
 
 def fast():
-    return fast_analyse_loop(PLANT.with_payload(PAYLOADS_KG), KP, KI)
+    return fast_analyse_loop(PLANT.with_payload(PAYLOADS_KG), PI(KP, KI))
 
 
 def python_control_loop():
     pm, gm, bw = [], [], []
     for m in PAYLOADS_KG:
-        L = PLANT.with_payload(float(m)).to_control() * pi_tf(KP, KI)
+        L = PLANT.with_payload(float(m)).to_control() * PI(KP, KI).tf()
         g, p, _, _, _, _ = control.stability_margins(L)
         T = control.feedback(L, 1)
         bw.append(control.bandwidth(T, dbdrop=DBDROP) / (2 * math.pi))
@@ -64,8 +64,8 @@ def python_control_loop():
 
 
 def main():
-    payload_sweep(PLANT, KP, KI, PAYLOADS_KG[:2])      # warm-up: imports and caches
-    fast_analyse_loop(PLANT.with_payload(PAYLOADS_KG[:2]), KP, KI)
+    payload_sweep(PLANT, PI(KP, KI), PAYLOADS_KG[:2])      # warm-up: imports and caches
+    fast_analyse_loop(PLANT.with_payload(PAYLOADS_KG[:2]), PI(KP, KI))
     t_ours, r = best_time(ours, 7)
     t_fast, f = best_time(fast, 7)
     t_pc, (pm, gm, bw) = best_time(python_control_loop, 2)

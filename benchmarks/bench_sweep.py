@@ -17,6 +17,7 @@ import time
 import numpy as np
 
 from design.loop.analysis import analyse_loop
+from design.loop.controller import PI
 from design.loop.sweep import batch_plant, monte_carlo_sweep
 from design.spec.schema import parse_spec
 from plant.grid import log_grid_rad_s
@@ -70,21 +71,21 @@ def main() -> int:
           f"wall time best {best:.2f} s, median {median:.2f} s of {len(times)} runs "
           f"(target < 10 s: {'met' if median < 10 else 'MISSED'})")
 
-    kp, ki = result.kp, result.ki
+    kp, ki = result.controller.kp, result.controller.ki
     rng = np.random.default_rng(1)
     rows = np.sort(rng.choice(PAYLOADS.size * SAMPLES, SUBSET, replace=False))
     fast = {q: d.samples.ravel()[rows] for q, d in
             zip(("closed_loop_bandwidth_hz", "phase_margin_deg", "gain_margin_db"), result.distributions)}
     plants = batch_plant(SPEC.problem().plant.plant(), PAYLOADS, result.parameter_samples, rows=rows)
-    err = _errors(fast, analyse_loop(plants, kp, ki))
+    err = _errors(fast, analyse_loop(plants, PI(kp, ki)))
     print(f"accuracy on {SUBSET} random plants (max over the subset):")
     _show("fast path vs default grid (3000 points)", err)
 
     few = rows[:TRUTH_SUBSET]
     fine = log_grid_rad_s(1e-3, 1e4, 30000)
     few_plants = batch_plant(SPEC.problem().plant.plant(), PAYLOADS, result.parameter_samples, rows=few)
-    truth = analyse_loop(few_plants, kp, ki, w_rad_s=fine)
-    default = analyse_loop(few_plants, kp, ki)
+    truth = analyse_loop(few_plants, PI(kp, ki), w_rad_s=fine)
+    default = analyse_loop(few_plants, PI(kp, ki))
     _show(f"fast path vs 30000-point grid ({TRUTH_SUBSET} plants)",
           _errors({q: v[:TRUTH_SUBSET] for q, v in fast.items()}, truth))
     _show(f"default grid vs 30000-point grid ({TRUTH_SUBSET} plants)",

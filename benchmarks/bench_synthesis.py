@@ -26,6 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
+from design.loop.controller import PI
 from design.loop.fast import fast_analyse_loop
 from design.spec.schema import load_spec
 from design.synth.evaluation import evaluate
@@ -45,7 +46,7 @@ def brute_force(spec, kp_grid, ki_grid):
     req = spec.requirements
     best = (-np.inf, None, None)
     for kp in kp_grid:
-        n = fast_analyse_loop(plant, np.full((ki_grid.size, 1), kp), ki_grid[:, None])
+        n = fast_analyse_loop(plant, PI(np.full((ki_grid.size, 1), kp), ki_grid[:, None]))
         ok = np.all((n.phase_margin_deg >= req.phase_margin_deg) & (n.gain_margin_db >= req.gain_margin_db)
                     & n.stable, axis=1)
         bw = np.where(ok, np.min(np.nan_to_num(n.closed_loop_bandwidth_hz, nan=0.0), axis=1), -np.inf)
@@ -75,7 +76,7 @@ def main():
             dk, di = (kp_grid[1] / kp_grid[0]) ** 2, (ki_grid[1] / ki_grid[0]) ** 2
             kp_grid, ki_grid = np.geomspace(kp / dk, kp * dk, nz), np.geomspace(ki / di, ki * di, nz)
         brute_s = time.perf_counter() - t0
-        brute_bw = evaluate(spec, kp, ki).worst_bandwidth_hz
+        brute_bw = evaluate(spec, PI(kp, ki)).worst_bandwidth_hz
         ours = d["worst_case"]["bandwidth_hz"]
         print(f"== {name} ({len(check_scenarios(spec))} check scenarios)")
         print(f"  synthesis (ccp+exact): {d['status']}, verified {d['verified']}, kp {d['gains']['kp']:.2f}, "
@@ -95,12 +96,13 @@ def main():
             nominal = synthesise_pi(spec, nominal=True)
             from design.synth.monte_carlo import monte_carlo_check
 
-            nmc = monte_carlo_check(spec, nominal.evaluation.kp, nominal.evaluation.ki)
+            nmc = monte_carlo_check(spec, nominal.evaluation.controller)
             print(f"  Monte Carlo ({mc['samples']} draws over payload x plant.uncertainty, seed {mc['seed']}): robust "
                   f"design {mc['violations']} violations (95 % upper bound {100 * mc['rate_upper_bound_95']:.3f} %), "
                   f"worst PM {mc['worst_phase_margin_deg']:.2f} deg, GM {mc['worst_gain_margin_db']:.2f} dB")
-            print(f"  nominal design (uncertainty ignored): kp {nominal.evaluation.kp:.2f}, ki "
-                  f"{nominal.evaluation.ki:.1f}, bandwidth {nominal.evaluation.worst_bandwidth_hz:.3f} Hz on the "
+            print(f"  nominal design (uncertainty ignored): kp {nominal.evaluation.controller.kp:.2f}, ki "
+                  f"{nominal.evaluation.controller.ki:.1f}, bandwidth {nominal.evaluation.worst_bandwidth_hz:.3f} Hz "
+                  "on the "
                   f"nominal plant; on the same draws {nmc.violations} violations ({100 * nmc.rate:.1f} %), worst PM "
                   f"{nmc.worst_phase_margin_deg:.1f} deg, GM {nmc.worst_gain_margin_db:.1f} dB")
         for b in d["baselines"]:

@@ -6,8 +6,9 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING, NamedTuple
+from typing import TYPE_CHECKING
 
+from design.loop.controller import PI
 from plant.errors import ParameterError
 from plant.physics.effect_base import PADE_ORDER
 
@@ -85,13 +86,6 @@ class DiagnosisOutcome:
         return self.measured is None
 
 
-class Gains(NamedTuple):
-    """PI gains of the velocity loop: ``kp`` in A per (m/s), ``ki`` in A per m (unpacks as ``kp, ki``)."""
-
-    kp: float
-    ki: float
-
-
 @dataclass(frozen=True)
 class DesignOutcome:
     """What ``design.workflows.design`` found: the PI synthesis on the plant family (or the design from
@@ -155,26 +149,25 @@ class DesignOutcome:
         return pi and (self.admittance is None or self.admittance.verified)
 
     @property
-    def gains(self) -> Gains | None:
-        """The designed gains when the PI design succeeded."""
+    def controller(self) -> PI | None:
+        """The designed PI (``design.loop.controller.PI``) when the PI design succeeded."""
         if self.measured is not None:
-            return None if self.measured.kp is None else Gains(self.measured.kp, self.measured.ki)
+            return self.measured.controller
         if self.dual is not None:
             return None
         e = self.synthesis.evaluation
-        return Gains(e.kp, e.ki) if self.synthesis.status == "optimal" and e is not None else None
+        return e.controller if self.synthesis.status == "optimal" and e is not None else None
 
     def loop_models(self, payload_kg: float | None = None, *, pade_order: int = PADE_ORDER) -> LoopModels:
         """P, C, L, S, T as python-control models (``design.loop.control_models``) at the designed gains, on
         the spec's plant at ``payload_kg`` (default: its nominal payload)."""
         from design.loop.control_models import loop_models
 
-        g = self.gains
-        if g is None:
+        if self.controller is None:
             raise ParameterError(f"no designed gains to build the loop from (status {self.status})")
         family = self.problem.loop.plant
         m = family.payload_kg.nominal_kg if payload_kg is None else payload_kg
-        return loop_models(family.plant(m), g.kp, g.ki, pade_order=pade_order)
+        return loop_models(family.plant(m), self.controller, pade_order=pade_order)
 
 
 @dataclass(frozen=True)
@@ -213,8 +206,7 @@ class ReportContent:
     and the recordings with their diagnoses."""
 
     problem: DesignProblem
-    kp: float
-    ki: float
+    controller: PI
     gains_source: str
     evaluation: Evaluation
     thesis: Evaluation

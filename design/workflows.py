@@ -21,6 +21,7 @@ import math
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from design.loop.controller import PI
 from design.results import (
     ComparedRecording,
     DesignOutcome,
@@ -130,29 +131,28 @@ def design(problem: DesignProblem, *, method: str = "ccp+exact", schedule: bool 
     if schedule and optimal:
         from design.synth.schedule import gain_schedule
 
-        points = tuple(gain_schedule(as_designed(loop, result), result.evaluation.kp, result.evaluation.ki))
+        points = tuple(gain_schedule(as_designed(loop, result), result.evaluation.controller))
     if loop.admittance is None:
         return DesignOutcome(problem, synthesis=result, schedule=points)
     loop = as_designed(loop, result)
-    kp = result.evaluation.kp if optimal else loop.controller.kp.value
-    ki = result.evaluation.ki if optimal else loop.controller.ki.value
-    if kp is None or ki is None:
+    controller = result.evaluation.controller if optimal else PI.given(loop.controller)
+    if controller is None:
         return DesignOutcome(problem, synthesis=result, schedule=points, admittance_skipped=True)
     from design.admittance.synthesis import synthesise_admittance
 
-    adm = synthesise_admittance(loop, kp=kp, ki=ki, progress=progress)
+    adm = synthesise_admittance(loop, controller=controller, progress=progress)
     return DesignOutcome(problem, synthesis=result, schedule=points, admittance=adm,
-                         admittance_schedule=_admittance_schedule(loop, adm, progress, kp=kp, ki=ki) if schedule
-                         else None)
+                         admittance_schedule=_admittance_schedule(loop, adm, progress, controller=controller)
+                         if schedule else None)
 
 
-def _admittance_schedule(loop, adm, progress, *, kp=None, ki=None):
+def _admittance_schedule(loop, adm, progress, *, controller=None):
     """The admittance designed per payload beside the robust one (``design.admittance.schedule``)."""
     from design.admittance.schedule import admittance_schedule
 
     if adm.status not in ("optimal", "mouse_cannot_drive"):
         return None
-    return admittance_schedule(loop, adm, kp=kp, ki=ki, progress=progress)
+    return admittance_schedule(loop, adm, controller=controller, progress=progress)
 
 
 def _codesigned(problem: DesignProblem, progress, *, schedule: bool = False) -> DesignOutcome:
@@ -171,8 +171,8 @@ def _codesigned(problem: DesignProblem, progress, *, schedule: bool = False) -> 
     adm = synthesise_admittance(loop, progress=progress)
     t0 = time.perf_counter()
     ev, ver, mc = thread_map(lambda check: check(), (
-        lambda: evaluate(loop, adm.kp, adm.ki), lambda: verify(loop, adm.kp, adm.ki),
-        lambda: monte_carlo_check(loop, adm.kp, adm.ki) if loop.plant.uncertainty else None))
+        lambda: evaluate(loop, adm.controller), lambda: verify(loop, adm.controller),
+        lambda: monte_carlo_check(loop, adm.controller) if loop.plant.uncertainty else None))
     ok = ev.meets and ver.verified and (mc is None or mc.violations == 0)
     message = (f"PI gains chosen with the admittance (co-design from Kp = {loop.controller.kp.value:g}, Ki = "
                f"{loop.controller.ki.value:g}); the velocity loop alone "
@@ -236,17 +236,17 @@ def report_content(problem: DesignProblem, *, outcome: DesignOutcome | None = No
         outcome = design(problem, progress=progress, schedule=schedule)
     if outcome is not None and outcome.synthesis is not None:
         loop = as_designed(loop, outcome.synthesis)
-    kp, ki, source = loop.controller.kp.value, loop.controller.ki.value, "from the spec's controller values"
-    if outcome is not None and outcome.gains is not None:
-        (kp, ki), source = outcome.gains, "synthesised" + (", independently verified" if outcome.verified
-                                                           else ", NOT verified")
+    controller, source = PI.given(loop.controller), "from the spec's controller values"
+    if outcome is not None and outcome.controller is not None:
+        controller, source = outcome.controller, "synthesised" + (", independently verified" if outcome.verified
+                                                                  else ", NOT verified")
     elif outcome is not None:
         source += f" (synthesis {outcome.status}: {outcome.message})"
-    if kp is None or ki is None:
+    if controller is None:
         raise SpecError(f"{problem.spec_path}: no gains to report: synthesis did not succeed and "
                         "controller.kp.value / controller.ki.value are not set")
     say("the gains on the payload range")
-    ev = evaluate(loop, kp, ki)
+    ev = evaluate(loop, controller)
     adm_curves = None
     if outcome is not None and outcome.admittance is not None and outcome.admittance.status in (
             "optimal", "mouse_cannot_drive"):
@@ -261,14 +261,14 @@ def report_content(problem: DesignProblem, *, outcome: DesignOutcome | None = No
     check, comparison, adm_comparison = None, (), None
     if loop.plant.uncertainty and samples != 0:
         say("Monte Carlo check, and the design for the nominal parameters beside it")
-        check, comparison = _robustness(loop, kp, ki, outcome, samples, seed)
+        check, comparison = _robustness(loop, controller, outcome, samples, seed)
         if adm_curves is not None:
             adm_comparison = _admittance_robustness(loop, outcome.admittance)
     binding = ev.worst_scenario if loop.plant.uncertainty or ev.worst_scenario.get("payload_kg") not in \
         report_payloads(loop) else None
     say("the loop's curves")
-    return ReportContent(problem, kp, ki, source, ev, evaluate(loop, *THESIS_GAINS),
-                         loop_curves(loop, kp, ki, binding), outcome, adm_curves, tuple(recordings), command, check,
+    return ReportContent(problem, controller, source, ev, evaluate(loop, THESIS_GAINS),
+                         loop_curves(loop, controller, binding), outcome, adm_curves, tuple(recordings), command, check,
                          comparison, adm_comparison)
 
 
@@ -280,15 +280,15 @@ def _admittance_robustness(loop, robust):
     from design.admittance.synthesis import synthesise_admittance
     from design.results import AdmittanceComparison
 
-    nominal = synthesise_admittance(loop, kp=robust.kp, ki=robust.ki, nominal=True)
+    nominal = synthesise_admittance(loop, controller=robust.controller, nominal=True)
     mc = None
     if nominal.status in ("optimal", "mouse_cannot_drive"):
-        mc = admittance_monte_carlo(loop, loops=PiLoops.of(loop, robust.kp, robust.ki), m_v=nominal.m_v,
+        mc = admittance_monte_carlo(loop, loops=PiLoops.of(loop, robust.controller), m_v=nominal.m_v,
                                     b_v=nominal.b_v, timing=robust.timing)
     return AdmittanceComparison(nominal, mc)
 
 
-def _robustness(loop, kp: float, ki: float, outcome: DesignOutcome | None, samples: int | None = None,
+def _robustness(loop, controller: PI, outcome: DesignOutcome | None, samples: int | None = None,
                 seed: int | None = None):
     """The reported gains on the Monte Carlo draws (the synthesis' own check, or ``samples`` draws of ``seed``
     when given: the one Monte Carlo of the report); and, when they were synthesised, the robust design beside
@@ -304,17 +304,17 @@ def _robustness(loop, kp: float, ki: float, outcome: DesignOutcome | None, sampl
     robust_synthesised = s is not None and s.status == "optimal" and s.monte_carlo is not None
     own = robust_synthesised and (samples is None or samples == s.monte_carlo.samples) and (
         seed is None or seed == s.monte_carlo.seed)
-    check = s.monte_carlo if own else monte_carlo_check(loop, kp, ki, samples=samples, seed=seed)
+    check = s.monte_carlo if own else monte_carlo_check(loop, controller, samples=samples, seed=seed)
     if not robust_synthesised:
         return check, ()
     nominal_problem = replace(loop, plant=replace(loop.plant, uncertainty={}))
     nominal = synthesise_pi(loop, nominal=True)
-    rows = [DesignOnPlants("robust (this design)", evaluate(nominal_problem, kp, ki), s.evaluation, check)]
+    rows = [DesignOnPlants("robust (this design)", evaluate(nominal_problem, controller), s.evaluation, check)]
     if nominal.status == "optimal":
         n = nominal.evaluation
-        rows.append(DesignOnPlants("nominal parameters only", evaluate(nominal_problem, n.kp, n.ki),
-                                   evaluate(loop, n.kp, n.ki),
-                                   monte_carlo_check(loop, n.kp, n.ki, samples=check.samples, seed=check.seed)))
+        rows.append(DesignOnPlants("nominal parameters only", evaluate(nominal_problem, n.controller),
+                                   evaluate(loop, n.controller),
+                                   monte_carlo_check(loop, n.controller, samples=check.samples, seed=check.seed)))
     return check, tuple(rows)
 
 

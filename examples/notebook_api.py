@@ -46,8 +46,8 @@ print("fit: " + ", ".join(f"{n} = {fit.values[n]:.4g} +/- {fit.stderr[n]:.2g}" f
 # 5. Robust PI gains for the bundled Stage X spec (5-40 kg, its uncertainty), verified.
 problem = load_problem(ROOT / "specs" / "stage_x_synth.toml")
 outcome = design(problem)
-kp, ki = outcome.gains
-print(f"design: {outcome.status}, Kp = {kp:.4g} A/(m/s), Ki = {ki:.4g} A/m, verified: {outcome.verified}")
+controller = outcome.controller          # a design.loop.controller.PI: .kp, .ki, .frd(w), .tf(), .discrete(T)
+print(f"design: {outcome.status}, {controller}, verified: {outcome.verified}")
 
 # 6. The loop as python-control models (P, C, L, S, T; balanced state space, the delay a Pade of order 6).
 loops = outcome.loop_models()

@@ -11,6 +11,7 @@ from pathlib import Path
 import numpy as np
 
 from design.loop.analysis import payload_sweep
+from design.loop.controller import PI
 from design.loop.loops import closed_loop_frd, open_loop_frd
 from design.loop.reproduce import table_3_1
 from design.spec.schema import load_spec
@@ -32,11 +33,11 @@ for stage, spec in specs.items():
     plant = spec.plant.plant()
     kp, ki = spec.controller.kp.value, spec.controller.ki.value
     payloads = np.array([5.0, 20.0, 35.0])
-    L = open_loop_frd(plant.with_payload(payloads), w, kp, ki)
+    L = open_loop_frd(plant.with_payload(payloads), w, PI(kp, ki))
     fig = bode(w, [*L, *closed_loop_frd(L)],
                [f"loop, {m:g} kg" for m in payloads] + [f"closed loop, {m:g} kg" for m in payloads],
                styles=["-"] * 3 + ["--"] * 3, title=f"Stage {stage.upper()}: PI loop (thesis gains)")
     fig.savefig(out / f"bode_stage_{stage}.png", dpi=110)
-    sweeps.append(payload_sweep(plant, kp, ki, np.linspace(5, 40, 36)))
+    sweeps.append(payload_sweep(plant, PI(kp, ki), np.linspace(5, 40, 36)))
 payload_sweep_figure(sweeps).savefig(out / "payload_sweep.png", dpi=110)
 print(f"figures written to {out}/")

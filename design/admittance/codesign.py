@@ -25,7 +25,7 @@ from design.admittance.mouse import mouse_set
 from design.admittance.profile import FeltForce
 from design.admittance.ray import best_ray, ray_problem
 from design.admittance.rig import RigTiming
-from design.loop.loops import pi_frd
+from design.loop.controller import PI
 from design.loop.margins import loop_margins
 from design.parallel import thread_map
 from design.problem import LoopProblem
@@ -41,30 +41,28 @@ W_PI = log_grid_rad_s(0.01, 3000.0, 500)
 
 @dataclass(frozen=True)
 class CodesignRecord:
-    kp: float
-    ki: float
+    controller: PI
     timing: RigTiming
     #: least force on the profile at the chosen gains and at the given ones, on the reduced set (N)
     force_n: float
     given_force_n: float
-    given_kp: float
-    given_ki: float
+    given: PI
     evaluations: int
     #: the velocity loop's worst margins at the chosen gains over the reduced scenarios
     pi_phase_margin_deg: float
     pi_gain_margin_db: float
 
 
-def codesign_score(problem: LoopProblem, *, kp: float, ki: float) -> float:
-    """The co-design's score of the gains (kp, ki) with the spec's rig (the force filter at its middle when
+def codesign_score(problem: LoopProblem, *, controller: PI) -> float:
+    """The co-design's score of the PI ``controller`` with the spec's rig (the force filter at its middle when
     designed): the force felt at the best ray on the reduced set, inf when the velocity loop misses its
     requirements."""
     adm = admittance_problem(problem)
-    return _scorer(problem, RigTiming.of(adm.rig))(kp, ki, None)[0]
+    return _scorer(problem, RigTiming.of(adm.rig))(controller, None)[0]
 
 
 def _scorer(problem: LoopProblem, timing: RigTiming):
-    """score(kp, ki, filter_hz) -> (force felt N, worst velocity-loop PM deg, GM dB) on the reduced set."""
+    """score(controller, filter_hz) -> (force felt N, worst velocity-loop PM deg, GM dB) on the reduced set."""
     adm = admittance_problem(problem)
     pr = problem.plant.payload_kg
     scenarios = design_scenarios(problem, pr.grid(4) if pr.max > pr.min else None)
@@ -73,14 +71,14 @@ def _scorer(problem: LoopProblem, timing: RigTiming):
     P = scenarios.plants(problem.plant.plant()).frd(W_PI)
     req = problem.requirements
 
-    def score(k_p: float, k_i: float, filter_hz: float | None):
+    def score(controller: PI, filter_hz: float | None):
         t = timing if filter_hz is None else replace(timing, filter_hz=filter_hz)
-        mg = loop_margins(W_PI, P * pi_frd(W_PI, k_p, k_i))
+        mg = loop_margins(W_PI, P * controller.frd(W_PI))
         pm, gm = float(np.min(mg.phase_margin_deg)), float(np.min(mg.gain_margin_db))
         if not (np.all(mg.closed_loop_stable) and pm >= req.phase_margin_deg and gm >= req.gain_margin_db):
             return math.inf, pm, gm
         w = with_mode_points(_coarse(t), corners, t, points=12)
-        loops = PiLoops.of(problem, k_p, k_i)
+        loops = PiLoops.of(problem, controller)
         resp = interaction_responses(problem, scenarios, w, loops=loops, timing=t, corners=corners)
         felt = FeltForce(problem, feel, corners, loops=loops, timing=t)
         ray = best_ray(ray_problem(resp, adm), objective=lambda r: felt(r.m_v, r.b_v), points=16, refine=1)
@@ -89,8 +87,9 @@ def _scorer(problem: LoopProblem, timing: RigTiming):
     return score
 
 
-def codesign(problem: LoopProblem, *, kp: float, ki: float, timing: RigTiming) -> CodesignRecord:
-    """``CodesignRecord`` of the best (Kp, Ki[, f_c]) from (kp, ki) (module docstring)."""
+def codesign(problem: LoopProblem, *, controller: PI, timing: RigTiming) -> CodesignRecord:
+    """``CodesignRecord`` of the best (Kp, Ki[, f_c]) from ``controller`` (module docstring)."""
+    kp, ki = float(controller.kp), float(controller.ki)
     from scipy.optimize import minimize
 
     adm = admittance_problem(problem)
@@ -113,7 +112,7 @@ def codesign(problem: LoopProblem, *, kp: float, ki: float, timing: RigTiming) -
         key = tuple(np.round(v, 6))
         if key not in cache:
             k_p, k_i, t = unpack(v)
-            cache[key] = score(k_p, k_i, t.filter_hz if designed else None)
+            cache[key] = score(PI(k_p, k_i), t.filter_hz if designed else None)
         return cache[key][0]
 
     start = [math.log(kp), math.log(max(ki, 1e-9))] + ([math.log(math.sqrt(filt.frequency_hz_min *
@@ -142,7 +141,7 @@ def codesign(problem: LoopProblem, *, kp: float, ki: float, timing: RigTiming) -
             best_v, best_f = np.array(v0), f0
     k_p, k_i, t = unpack(best_v)
     _, pm, gm = cache[tuple(np.round(best_v, 6))]
-    return CodesignRecord(k_p, k_i, t, best_f, given, kp, ki, len(cache), pm, gm)
+    return CodesignRecord(PI(k_p, k_i), t, best_f, given, controller, len(cache), pm, gm)
 
 
 def _coarse(timing: RigTiming) -> np.ndarray:

@@ -11,6 +11,7 @@ import numpy as np
 from design.admittance.delays import evaluator
 from design.admittance.model import PiLoops, admittance_problem
 from design.admittance.rig import RigTiming
+from design.loop.controller import PI
 from design.problem import LoopProblem
 from design.synth.scenarios import admittance_check_scenarios
 
@@ -35,12 +36,13 @@ class CornerCheck:
         return self.unstable == 0
 
 
-def corner_check(problem: LoopProblem, *, kp: float, ki: float, m_v: float, b_v: float, shown: int = 3) -> CornerCheck:
-    """``CornerCheck`` of the one-motor setting (kp, ki, m_v, b_v) at the dense check's scenarios x the spec's mice
-    (at every computation delay of the spec's range)."""
+def corner_check(problem: LoopProblem, *, controller: PI, m_v: float, b_v: float,
+                 shown: int = 3) -> CornerCheck:
+    """``CornerCheck`` of the one-motor setting (the PI ``controller``, m_v, b_v) at the dense check's scenarios x
+    the spec's mice (at every computation delay of the spec's range)."""
     scenarios = admittance_check_scenarios(problem)
     timing = RigTiming.of(admittance_problem(problem).rig)
-    check = evaluator(problem, scenarios, loops=PiLoops.of(problem, kp, ki), timing=timing).evaluate(m_v, b_v)
+    check = evaluator(problem, scenarios, loops=PiLoops.of(problem, controller), timing=timing).evaluate(m_v, b_v)
     k, j = np.nonzero(~check.stable)
     where = tuple(f"{scenarios.describe(jj)} with mouse ({check.mice[kk].label()})" for kk, jj in zip(k, j))
     return CornerCheck(len(scenarios), len(check.mice), int(k.size), where[:shown],

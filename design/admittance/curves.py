@@ -69,7 +69,7 @@ class AdmittanceCurves:
 def lab_comparison(problem: LoopProblem, result) -> LabComparison:
     """``LabComparison`` of the lab's setting with ``result``'s PI gains and rig timing (every delay of a range)."""
     corners = mice(problem)
-    loops = PiLoops.of(problem, result.kp, result.ki)
+    loops = PiLoops.of(problem, result.controller)
     ev = evaluator(problem, admittance_check_scenarios(problem), loops=loops, timing=result.timing, corners=corners)
     c = ev.evaluate(LAB_M_V_KG, LAB_B_V_N_S_PER_M, bandwidth=False)
     felt = WorstFelt(problem, feel_scenarios(problem), corners, loops=loops, timing=result.timing)
@@ -86,11 +86,11 @@ def admittance_curves(problem: LoopProblem, result, *, lab: bool = True) -> Admi
     masses = report_payloads(problem)
     top = RENDERED_HZ[1] if not result.timing.sampled else min(RENDERED_HZ[1], 0.5 / result.timing.period_s)
     w = log_grid_rad_s(RENDERED_HZ[0], top, RENDERED_POINTS)
-    loop = gantry_loop(PiLoops.of(problem, result.kp, result.ki), w, list(masses))
+    loop = gantry_loop(PiLoops.of(problem, result.controller), w, list(masses))
     run = refused = None
     if result.timing.sampled:
         try:
-            settings = run_settings(problem, kp=result.kp, ki=result.ki, m_v=result.m_v, b_v=result.b_v,
+            settings = run_settings(problem, controller=result.controller, m_v=result.m_v, b_v=result.b_v,
                                     timing=result.timing)
         except SpecError as exc:
             refused = str(exc)

@@ -58,6 +58,7 @@ from design.admittance.sampled import (
     pade_order_for,
     sampled_gain,
 )
+from design.loop.controller import PI
 from design.loop.margins import loop_margins, nyquist_stable, unwrapped_phase_deg
 from design.parallel import thread_map, workers
 from design.problem import AdmittanceProblem, LoopProblem
@@ -166,13 +167,13 @@ class GantryLoop:
                        motor_reference=self.motor_reference[:, index])
 
 
-def gantry_loop_at(plants: Plant, s, scenarios: Scenarios, *, kp: float, ki: float) -> GantryLoop:
-    """``GantryLoop`` of a (n, 1) batch of plants under the PI kp + ki/s at complex ``s``."""
+def gantry_loop_at(plants: Plant, s, scenarios: Scenarios, *, controller: PI) -> GantryLoop:
+    """``GantryLoop`` of a (n, 1) batch of plants under the PI ``controller`` at complex ``s``."""
     s = np.asarray(s, complex)
     kt = np.asarray(plants.force_constant_n_per_a, float)
     G = plants.mechanics().velocity_per_force(s)
     E, H = plants.chain_response(s, "drive"), plants.chain_response(s, "sensor")
-    C = kp + ki / s
+    C = float(controller.kp) + float(controller.ki) / s
     shape = (len(scenarios), s.size)
     G = np.broadcast_to(G, shape)
     force = np.broadcast_to(kt * E * C, shape)
@@ -182,26 +183,25 @@ def gantry_loop_at(plants: Plant, s, scenarios: Scenarios, *, kp: float, ki: flo
 
 @dataclass(frozen=True)
 class PiLoops:
-    """The spec's one-motor plant under the PI velocity loop kp + ki/s (A per m/s, A per m)."""
+    """The spec's one-motor plant under the PI velocity loop ``controller``."""
 
     base: Plant
-    kp: float
-    ki: float
+    controller: PI
 
     @classmethod
-    def of(cls, problem: LoopProblem, kp: float, ki: float) -> PiLoops:
-        return cls(problem.plant.plant(), float(kp), float(ki))
+    def of(cls, problem: LoopProblem, controller: PI) -> PiLoops:
+        return cls(problem.plant.plant(), controller)
 
     def at(self, s, scenarios: Scenarios) -> GantryLoop:
         """``GantryLoop`` of ``scenarios`` at complex ``s``."""
-        return gantry_loop_at(scenarios.plants(self.base), s, scenarios, kp=self.kp, ki=self.ki)
+        return gantry_loop_at(scenarios.plants(self.base), s, scenarios, controller=self.controller)
 
     def free_state_space(self, scenarios: Scenarios, *, period_s: float | None = None, motor: bool = False):
         """The free gantries of ``scenarios`` as one state-space batch (``design.admittance.sampled.free_gantry``;
         ``motor``: the motor's force as a third output), the delays' Pade order chosen for a path sampled every
         ``period_s``."""
         plants = scenarios.plants(self.base)
-        return free_gantry(plants, len(scenarios), kp=self.kp, ki=self.ki,
+        return free_gantry(plants, len(scenarios), controller=self.controller,
                            pade_order=pade_order_for(plants, period_s), motor=motor)
 
 

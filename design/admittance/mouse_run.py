@@ -42,6 +42,7 @@ import numpy as np
 from design.admittance.model import admittance_problem
 from design.admittance.profile import trapezoid
 from design.admittance.rig import DiscreteAdmittance, RigTiming
+from design.loop.controller import PI
 from plant.errors import DataError, SpecError
 from plant.host.text_io import read_text
 
@@ -285,7 +286,7 @@ class MouseRun:
     limit_cycle_um: float
 
 
-def run_settings(problem, *, kp: float, ki: float, m_v: float, b_v: float, timing=None, payload_kg: float | None = None,
+def run_settings(problem, *, controller: PI, m_v: float, b_v: float, timing=None, payload_kg: float | None = None,
                  friction_n: float = 0.0, leg_stiffness_n_per_m: float | None = None,
                  drive_rate_hz: float | None = None) -> RunSettings:
     """``RunSettings`` of the spec's plant (at ``payload_kg``, default the heaviest) and its nominal mouse
@@ -313,7 +314,8 @@ def run_settings(problem, *, kp: float, ki: float, m_v: float, b_v: float, timin
     return RunSettings(float(np.sum(np.asarray(body.masses_kg, float))), float(body.rail_damping_n_s_per_m),
                        float(plant.force_constant_n_per_a),
                        None if loop is None else float(loop.bandwidth_hz),
-                       0 if delay is None else int(round(float(delay.seconds) * rate)), rate, kp, ki,
+                       0 if delay is None else int(round(float(delay.seconds) * rate)), rate,
+                       float(controller.kp), float(controller.ki),
                        adm.hardware.motor_peak_force_n, friction_n, FRICTION_VELOCITY_M_PER_S, 1.0 / timing.period_s,
                        timing.delays[-1], m_v, b_v, timing.filter_hz, timing.filter_order,
                        adm.hardware.force_sensor_resolution_n, adm.sensor.bias_after_tare_n, adm.sensor.deadband_n,

@@ -30,6 +30,7 @@ from scipy.linalg import expm, matrix_balance
 
 from design.admittance.mouse import MouseModel
 from design.admittance.rig import force_filter_polys
+from design.loop.controller import PI
 from plant.physics.chain import CurrentLoop, Delay
 from plant.physics.effect_base import ChainEffect, replace_unchecked
 from plant.physics.models import Plant, chain_state_space
@@ -209,9 +210,9 @@ def mechanics_ss(plants: Plant, n: int) -> tuple[np.ndarray, np.ndarray, np.ndar
     return tuple(np.stack([p[i] for p in parts]) for i in range(3))
 
 
-def free_gantry(plants: Plant, n: int, *, kp: float, ki: float, pade_order: int = PADE_ORDER,
+def free_gantry(plants: Plant, n: int, *, controller: PI, pade_order: int = PADE_ORDER,
                 motor: bool = False) -> StateSpace:
-    """The free gantries of a batch of ``n`` plants under the PI velocity loop kp + ki/s: inputs (velocity
+    """The free gantries of a batch of ``n`` plants under the PI velocity loop ``controller``: inputs (velocity
     reference u m/s, clamp force f N), outputs (velocity v m/s, acceleration dv/dt m/s^2) and with ``motor``
     the motor's force F_m (N), batched (n, ...).
 
@@ -221,6 +222,7 @@ def free_gantry(plants: Plant, n: int, *, kp: float, ki: float, pade_order: int 
     E, H = chain_ss(plants, "drive", n, pade_order), chain_ss(plants, "sensor", n, pade_order)
     kt = _column(plants.force_constant_n_per_a, n)[:, None]
     ng, nh, ne = Ag.shape[-1], H.order, E.order
+    kp, ki = float(controller.kp), float(controller.ki)
     ni = 1 if ki > 0 else 0
     m = ng + nh + ni + ne
     g, h, i, e = slice(0, ng), slice(ng, ng + nh), slice(ng + nh, ng + nh + ni), slice(ng + nh + ni, m)
@@ -266,7 +268,7 @@ def dual_free_gantry(plants, n: int, controller, *, pade_order: int = PADE_ORDER
     e = _column(plants.carriage_position_m, n) - l1
     k = plants.force_constants().reshape(-1, 2) * np.ones((n, 1))
     E, H = chain_ss(plants, "drive", n, pade_order), chain_ss(plants, "sensor", n, pade_order)
-    gains = controller.channel_gains()
+    gains = [(c.kp, c.ki) for c in controller.channels()]
     t_in, t_out = np.asarray(controller.t_in, float), np.asarray(controller.t_out, float)
     integral = [j for j, (_, ki) in enumerate(gains) if ki > 0]
     nh, ne = H.order, E.order

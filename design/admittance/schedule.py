@@ -14,6 +14,7 @@ import numpy as np
 from design.admittance.model import PiLoops
 from design.admittance.profile import FeltForce
 from design.admittance.synthesis import AdmittanceResult, synthesise_admittance
+from design.loop.controller import PI
 from design.problem import LoopProblem, PayloadRange
 from design.synth.scenarios import Scenarios
 
@@ -24,8 +25,7 @@ class SchedulePoint:
 
     payload_kg: float
     status: str
-    kp: float
-    ki: float
+    controller: PI
     m_v: float
     b_v: float
     #: the peak force the mouse feels on the profile at this payload (N, nominal parameters): with the scheduled
@@ -36,8 +36,7 @@ class SchedulePoint:
     peak_resistance_n: float
 
 
-def admittance_schedule(problem: LoopProblem, robust: AdmittanceResult, *, kp: float | None = None,
-                        ki: float | None = None,
+def admittance_schedule(problem: LoopProblem, robust: AdmittanceResult, *, controller: PI | None = None,
                         progress: Callable[[str], None] | None = None) -> tuple[SchedulePoint, ...]:
     """A ``SchedulePoint`` at each of the spec's design payloads (``plant.payload_kg.points``)."""
     say = progress or (lambda stage: None)
@@ -46,11 +45,11 @@ def admittance_schedule(problem: LoopProblem, robust: AdmittanceResult, *, kp: f
     for i, p in enumerate(payloads):
         say(f"admittance schedule: payload {p:g} kg ({i + 1} of {payloads.size})")
         one = replace(problem, plant=replace(problem.plant, payload_kg=PayloadRange.fixed(float(p))))
-        r = synthesise_admittance(one, kp=kp, ki=ki, tradeoff=False)
+        r = synthesise_admittance(one, controller=controller, tradeoff=False)
         here = Scenarios(np.array([float(p)]))
-        felt = FeltForce(one, here, robust.corners, loops=PiLoops.of(one, robust.kp, robust.ki), timing=robust.timing)
+        felt = FeltForce(one, here, robust.corners, loops=PiLoops.of(one, robust.controller), timing=robust.timing)
         designed = r.status in ("optimal", "mouse_cannot_drive")
-        out.append(SchedulePoint(float(p), r.status, r.kp, r.ki, r.m_v, r.b_v,
+        out.append(SchedulePoint(float(p), r.status, r.controller, r.m_v, r.b_v,
                                  r.feel.peak_force_n if designed else float("nan"),
                                  felt(robust.m_v, robust.b_v), r.peak_resistance_n))
     return tuple(out)

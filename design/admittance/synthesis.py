@@ -70,6 +70,7 @@ from design.admittance.ray import RayBound, best_ray, ray_problem
 from design.admittance.rig import DiscreteAdmittance, RigTiming
 from design.admittance.tradeoff import trade_off
 from design.admittance.verify import AdmittanceVerification, verify_admittance
+from design.loop.controller import PI
 from design.problem import LoopProblem
 from design.synth.scenarios import Scenarios, admittance_check_scenarios, describe_row, design_scenarios
 from plant.errors import SpecError
@@ -89,8 +90,7 @@ class AdmittanceResult:
     message: str
     m_v: float
     b_v: float
-    kp: float
-    ki: float
+    controller: PI
     #: m_v a_pk + b_v v_pk (N)
     peak_resistance_n: float
     check: AdmittanceCheck
@@ -122,15 +122,17 @@ class AdmittanceResult:
                     and self.verification.verified)
 
 
-def _gains(problem: LoopProblem, kp, ki) -> tuple[float, float]:
-    kp = problem.controller.kp.value if kp is None else kp
-    ki = problem.controller.ki.value if ki is None else ki
-    for name, v in (("kp", kp), ("ki", ki)):
+def _controller(problem: LoopProblem, controller: PI | None) -> PI:
+    """``controller``, or the spec's ``controller`` values."""
+    if controller is not None:
+        return controller
+    for name in ("kp", "ki"):
+        v = getattr(problem.controller, name).value
         if v is None:
-            raise SpecError(f"controller.{name}.value is needed for admittance synthesis (or pass {name}=...)")
+            raise SpecError(f"controller.{name}.value is needed for admittance synthesis (or pass a controller)")
         if not (math.isfinite(v) and v >= 0):
             raise SpecError(f"controller.{name}: must be finite and >= 0, got {v}")
-    return float(kp), float(ki)
+    return PI(float(problem.controller.kp.value), float(problem.controller.ki.value))
 
 
 #: curves whose bounds ``ray_binding`` computes together (memory: a few float arrays of rows x frequencies)
@@ -190,7 +192,7 @@ def ray_binding(problem: LoopProblem, rp, ray: RayBound, corners, scenarios: Sce
                       f"({mouse.label()}){at_delay}"}
 
 
-def synthesise_admittance(problem: LoopProblem, *, kp: float | None = None, ki: float | None = None,
+def synthesise_admittance(problem: LoopProblem, *, controller: PI | None = None,
                           nominal: bool = False, progress: Callable[[str], None] | None = None,
                           tradeoff: bool = True) -> AdmittanceResult:
     """Choose (m_v, b_v) (and with ``codesign`` the PI gains and force filter) as the module docstring says.
@@ -204,17 +206,17 @@ def synthesise_admittance(problem: LoopProblem, *, kp: float | None = None, ki: 
     if problem.plant.nominal.stage != "x":
         raise SpecError("plant.stage: the one-motor admittance design is Stage X's; Stage Y's two motors and yaw "
                         "mode are designed with a [dual_drive] section (specs/stage_y_admittance.toml)")
-    kp, ki = _gains(problem, kp, ki)
+    controller = _controller(problem, controller)
     timing = RigTiming.of(adm.rig)
     record = None
     if adm.codesign and not nominal:
         say("co-design of the PI gains, force filter and virtual dynamics")
         # at the range's largest delay (the checks below cover every delay of it)
-        record = codesign(problem, kp=kp, ki=ki, timing=timing.at_delay(timing.delays[-1]))
-        kp, ki = record.kp, record.ki
+        record = codesign(problem, controller=controller, timing=timing.at_delay(timing.delays[-1]))
+        controller = record.controller
         timing = replace(record.timing, delay_samples=timing.delay_samples, delay_samples_max=timing.delay_samples_max)
     corners = mice(problem)
-    loops = PiLoops.of(problem, kp, ki)
+    loops = PiLoops.of(problem, controller)
     loc = adm.locomotion
     w_design = with_mode_points(check_grid_for(timing), corners, timing)
     say("dense check set up")
@@ -226,12 +228,12 @@ def synthesise_admittance(problem: LoopProblem, *, kp: float | None = None, ki: 
                            corners=corners, say=say)
     rp, ray, x, check, mc = rounds.rp, rounds.ray, rounds.x, rounds.check, rounds.monte_carlo
     if not ray.feasible:
-        return _infeasible(problem, ray, rp, rounds.rp_scenarios, kp, ki, timing, corners, t0, record)
+        return _infeasible(problem, ray, rp, rounds.rp_scenarios, controller, timing, corners, t0, record)
     scenarios, mc_round = rounds.scenarios, rounds.monte_carlo_rounds
     notes = {"rounds": rounds.rounds}
     del dense
     say("verification on the rational model (python-control)")
-    verification = join_verifications([verify_admittance(problem, check, kp=kp, ki=ki, timing=t)
+    verification = join_verifications([verify_admittance(problem, check, controller=controller, timing=t)
                                        for t in timing.per_delay()], timing.delays)
     binding = ray_binding(problem, rp, ray, corners, rounds.rp_scenarios, timing.delays)
     if rounds.backed_off is not None:
@@ -271,7 +273,7 @@ def synthesise_admittance(problem: LoopProblem, *, kp: float | None = None, ki: 
                f"{adm.mouse.peak_force_n:g} N on the locomotion profile")
     active = tuple(sorted({binding["constraint"]} | {v["constraint"] for v in check.violations}))
     result = AdmittanceResult(
-        status, msg, float(x[0]), float(x[1]), kp, ki, float(r), check, verification, binding, active, corners,
+        status, msg, float(x[0]), float(x[1]), controller, float(r), check, verification, binding, active, corners,
         time.perf_counter() - t0, timing,
         {**notes, "design_scenarios": len(scenarios), "monte_carlo_rounds": mc_round, "tau_s": ray.tau_s,
          "payload_points": sorted({float(p) for p in scenarios.payload_kg})},
@@ -371,7 +373,7 @@ def back_off(dense, x: np.ndarray, adm) -> tuple[np.ndarray, AdmittanceCheck]:
     return x, dense.evaluate(*x, recorded=True)
 
 
-def _infeasible(problem, ray: RayBound, rp, scenarios, kp, ki, timing, corners, t0, record) -> AdmittanceResult:
+def _infeasible(problem, ray: RayBound, rp, scenarios, controller: PI, timing, corners, t0, record) -> AdmittanceResult:
     """No ray holds every requirement within the bounds: name the requirement and the bound that conflict."""
     adm = admittance_problem(problem)
     hi = np.array([adm.m_v.max, adm.b_v.max])
@@ -380,12 +382,12 @@ def _infeasible(problem, ray: RayBound, rp, scenarios, kp, ki, timing, corners, 
            f"{hi[1]:g} N*s/m holds every requirement: the least scale along the best ray (m_v / b_v = "
            f"{ray.tau_s:.3g} s) is set by {_NAMES.get(need, need)} at b_v = {ray.b_v:.4g} N*s/m, above what the "
            f"upper bounds {'and passivity ' if adm.passivity is not None else ''}allow; {_HINTS.get(need, '')}")
-    ev = evaluator(problem, scenarios, loops=PiLoops.of(problem, kp, ki), timing=timing, corners=corners)
+    ev = evaluator(problem, scenarios, loops=PiLoops.of(problem, controller), timing=timing, corners=corners)
     x = np.minimum(np.array([ray.m_v, ray.b_v]), hi) if math.isfinite(ray.b_v) else hi
     check = ev.evaluate(*x)
     binding = {"constraint": need, "payload_kg": None, "scenario": None, "mouse": None, "value": ray.b_v,
                "limit": float(hi[1]), "detail": msg}
     r = float(x[0] * adm.locomotion.peak_acceleration_m_per_s2 + x[1] * adm.locomotion.peak_speed_m_per_s)
-    result = AdmittanceResult("infeasible", msg, float(x[0]), float(x[1]), kp, ki, r, check, None, binding, (need,),
+    result = AdmittanceResult("infeasible", msg, float(x[0]), float(x[1]), controller, r, check, None, binding, (need,),
                               corners, time.perf_counter() - t0, timing, {"tau_s": ray.tau_s}, codesign=record)
     return replace(result, tradeoff=trade_off(problem, result, rp))

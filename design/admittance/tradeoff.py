@@ -78,7 +78,7 @@ def trade_off(problem: LoopProblem, result, rp) -> TradeOff:
     heavy = design_scenarios(problem, [problem.plant.payload_kg.max])
     worst = result.timing.at_delay(result.timing.delays[-1])    # the what-ifs at a range's largest delay
     w = with_mode_points(check_grid_for(worst), result.corners, worst)
-    resp = interaction_responses(problem, heavy, w, loops=PiLoops.of(problem, result.kp, result.ki),
+    resp = interaction_responses(problem, heavy, w, loops=PiLoops.of(problem, result.controller),
                                  timing=worst, corners=result.corners)
     passivity_front = thread_map(
         lambda f: _point(ray_problem(resp, replace(adm, passivity=Passivity(up_to_hz=f))), f), PASSIVE_UP_TO_HZ)
@@ -88,7 +88,7 @@ def trade_off(problem: LoopProblem, result, rp) -> TradeOff:
         label, variant, timing = case
         sc = design_scenarios(variant, [variant.plant.payload_kg.max])
         wv = with_mode_points(check_grid_for(timing), result.corners, timing)
-        r = interaction_responses(variant, sc, wv, loops=PiLoops.of(variant, result.kp, result.ki), timing=timing,
+        r = interaction_responses(variant, sc, wv, loops=PiLoops.of(variant, result.controller), timing=timing,
                                   corners=result.corners)
         return HardwareChange(label, best_ray(ray_problem(r, admittance_problem(variant)), points=20,
                                               refine=1).cost_n(rp.a_pk, rp.v_pk), baseline)

@@ -21,6 +21,7 @@ import numpy as np
 from design.admittance.model import AdmittanceCheck, admittance_problem
 from design.admittance.mouse import MouseModel
 from design.admittance.rig import RigTiming, force_filter_polys
+from design.loop.controller import PI
 from design.loop.loops import balanced
 from design.parallel import thread_map
 from design.problem import LoopProblem
@@ -104,7 +105,7 @@ def mouse_parts(mouse: MouseModel):
     return mouse.head_mass_kg, control.tf(num, den)
 
 
-def interaction_path(parts: GantryParts, mouse: MouseModel, *, kp: float, ki: float, timing: RigTiming):
+def interaction_path(parts: GantryParts, mouse: MouseModel, *, controller: PI, timing: RigTiming):
     """The path from velocity reference u to the filtered sensed force (H_f K, sign: force the gantry feels
     against the motion), a state-space model interconnected from its blocks (``control.interconnect``):
     the head mass rides the clamp, v = G_h (F_m - f_b) with G_h = G / (1 + m_h s G) and f_b = Z_b' v the
@@ -118,9 +119,7 @@ def interaction_path(parts: GantryParts, mouse: MouseModel, *, kp: float, ki: fl
     blocks = [control.ss(A, B, np.vstack([C, C @ A]), np.vstack([D, C @ B]), inputs="F", outputs=["v", "a"],
                          name="gantry"),
               control.ss(zb, inputs="v", outputs="fb", name="body"),
-              control.ss(parts.kt * parts.drive * control.ss(control.tf([kp, ki], [1.0, 0.0]) if ki > 0 else
-                                                              control.tf([kp], [1.0])),
-                         inputs="e", outputs="Fm", name="drive"),
+              control.ss(parts.kt * parts.drive * control.ss(controller.tf()), inputs="e", outputs="Fm", name="drive"),
               control.ss(parts.sensor, inputs="v", outputs="vm", name="sensor"),
               control.summing_junction(["u", "-vm"], "e", name="error"),
               control.summing_junction(["Fm", "-fb"], "F", name="force"),
@@ -132,14 +131,14 @@ def interaction_path(parts: GantryParts, mouse: MouseModel, *, kp: float, ki: fl
     return balanced(control.interconnect(blocks, inplist="u", outlist="K"))
 
 
-def interaction_loop_model(parts: GantryParts, mouse: MouseModel, *, kp: float, ki: float, m_v: float, b_v: float,
+def interaction_loop_model(parts: GantryParts, mouse: MouseModel, *, controller: PI, m_v: float, b_v: float,
                            timing: RigTiming):
     """(L, path): the interaction loop, continuous K_F / (m_v s + b_v) or discrete
     T z / ((m_v + b_v T) z - m_v) z^-d c2d(K_F) (zero-order hold), and the continuous path K_F, whose state
     matrix is the velocity loop with the mouse attached."""
     import control
 
-    path = interaction_path(parts, mouse, kp=kp, ki=ki, timing=timing)
+    path = interaction_path(parts, mouse, controller=controller, timing=timing)
     if not timing.sampled:
         return path * control.ss(control.tf([1.0], [m_v, b_v])), path
     T = timing.period_s
@@ -207,7 +206,7 @@ def tightest_pairs(check: AdmittanceCheck, n: int = VERIFY_PAIRS) -> list[tuple[
     return sorted(pairs | worst_pairs(check))
 
 
-def verify_admittance(problem: LoopProblem, check: AdmittanceCheck, *, kp: float, ki: float,
+def verify_admittance(problem: LoopProblem, check: AdmittanceCheck, *, controller: PI,
                       timing: RigTiming | None = None, pairs=None) -> AdmittanceVerification:
     """Poles of the coupled closed loop and of the attached velocity loop at the (mouse, scenario) index
     ``pairs`` of ``check`` (default ``tightest_pairs``), and python-control's margins at the
@@ -225,7 +224,7 @@ def verify_admittance(problem: LoopProblem, check: AdmittanceCheck, *, kp: float
         """(closed-loop pole measure, attached-loop max real part, PM, GM, failures) of one pair."""
         k, j = kj
         mouse, scenarios = check.mice[k], check.scenarios
-        L, attached = interaction_loop_model(parts[j], mouse, kp=kp, ki=ki, m_v=check.m_v, b_v=check.b_v,
+        L, attached = interaction_loop_model(parts[j], mouse, controller=controller, m_v=check.m_v, b_v=check.b_v,
                                              timing=timing)
         roots = np.linalg.eigvals(np.asarray(attached.A, float))
         roots = roots[np.abs(roots) > ORIGIN] if mouse.grounded else roots

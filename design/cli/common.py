@@ -103,14 +103,17 @@ def keep_inputs(outputs: dict[str, Path | None], inputs: list[Path | None], *, j
             raise ParameterError(f"{option} {path}: is an input of this command; write the output to another file")
 
 
-def read_design(path: Path, problem, *, need: tuple[str, ...] = ("kp", "ki")):
-    """A design as ``gantry synth --json`` writes it: (the problem with the design's drive filters, its gains
-    ``need`` as floats); ParameterError naming the file and what is missing."""
+def read_design(path: Path, problem, *, admittance: bool = False):
+    """A design as ``gantry synth --json`` writes it: (the problem with the design's drive filters, its PI
+    controller, and with ``admittance`` its virtual dynamics (m_v kg, b_v N*s/m), else None); ParameterError naming
+    the file and what is missing."""
     import json
 
+    from design.loop.controller import PI
     from design.problem import with_filter_values
     from plant.host.text_io import read_text
 
+    need = ("kp", "ki", "m_v", "b_v") if admittance else ("kp", "ki")
     what = f"{path}: not the JSON of gantry synth --json with gains {', '.join(need)}"
     try:
         design = json.loads(read_text(path, what="design file"))
@@ -128,7 +131,7 @@ def read_design(path: Path, problem, *, need: tuple[str, ...] = ("kp", "ki")):
             raise ParameterError(f"{path}: its drive filters ({', '.join(kinds)}) are not the spec's "
                                  f"controller.filters ({', '.join(f.kind for f in problem.controller.filters)})")
         problem = with_filter_values(problem, values)
-    return problem, gains
+    return problem, PI(gains["kp"], gains["ki"]), (gains["m_v"], gains["b_v"]) if admittance else None
 
 
 def bundled_spec(name: str) -> Path:

@@ -47,6 +47,7 @@ def mouse_run(
     from design.admittance.corners import corner_check
     from design.admittance.mouse_run import mouse_run as run
     from design.admittance.mouse_run import path_from_csv, run_settings, trapezoid_path
+    from design.loop.controller import PI
     from design.views.json import mouse_run_csv, mouse_run_to_dict, print_json
     from design.views.progress import StageProgress
     from design.workflows import load_problem
@@ -57,17 +58,16 @@ def mouse_run(
         raise ParameterError("give exactly one of --design FILE (the JSON of gantry synth --json) or --lab")
     problem = load_problem(spec_file).loop
     if lab:
-        kp, ki = problem.controller.kp.value, problem.controller.ki.value
-        if kp is None or ki is None:
+        controller = PI.given(problem.controller)
+        if controller is None:
             raise SpecError(f"{spec_file}: --lab uses controller.kp.value and controller.ki.value; set them")
         m_v, b_v, source = LAB_M_V_KG, LAB_B_V_N_S_PER_M, "the lab's hand-tuned setting (bsbrl/exoskeleton)"
     else:
-        problem, gains = read_design(design_file, problem, need=("kp", "ki", "m_v", "b_v"))
-        kp, ki, m_v, b_v = (gains[k] for k in ("kp", "ki", "m_v", "b_v"))
+        problem, controller, (m_v, b_v) = read_design(design_file, problem, admittance=True)
         source = str(design_file)
     try:
-        settings = run_settings(problem, kp=kp, ki=ki, m_v=m_v, b_v=b_v, payload_kg=payload_kg, friction_n=friction_n,
-                                leg_stiffness_n_per_m=legs)
+        settings = run_settings(problem, controller=controller, m_v=m_v, b_v=b_v, payload_kg=payload_kg,
+                                friction_n=friction_n, leg_stiffness_n_per_m=legs)
     except ValueError as exc:
         raise SpecError(f"{spec_file}: {exc}") from None
     adm = problem.admittance
@@ -80,7 +80,7 @@ def mouse_run(
         corners = None
         if problem.plant.nominal.stage == "x":
             progress("the setting at every payload, uncertainty corner and mouse of the spec")
-            corners = corner_check(problem, kp=kp, ki=ki, m_v=m_v, b_v=b_v)
+            corners = corner_check(problem, controller=controller, m_v=m_v, b_v=b_v)
     finally:
         progress.close()
     d = mouse_run_to_dict(result, source, corners)
@@ -90,7 +90,7 @@ def mouse_run(
         print_json(d)
     else:
         console.print(f"[bold]mouse run[/] ({intended.source}; {source}: m_v = {m_v:.4g} kg, b_v = {b_v:.4g} N*s/m, "
-                      f"Kp = {kp:.4g}, Ki = {ki:.4g}) at {settings.gantry_mass_kg:g} kg", soft_wrap=True)
+                      f"{controller}) at {settings.gantry_mass_kg:g} kg", soft_wrap=True)
         for line in d["summary"]:
             console.print(f"  {line}", soft_wrap=True)
         if out is not None and not is_stdout(out):

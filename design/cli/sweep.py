@@ -42,7 +42,7 @@ def sweep(
     problem = load_problem(spec, plant_from=plant_from).loop
     source = "the spec's controller values"
     if design_file is not None:
-        problem, gains = read_design(design_file, problem)
+        problem, controller, _ = read_design(design_file, problem)
         source = f"the design {design_file}"
     if payload is not None:
         masses = parse_payload(payload)
@@ -52,7 +52,7 @@ def sweep(
     progress = LazyProgress(enabled=not as_json and sys.stderr.isatty())
     try:
         result = monte_carlo_sweep(problem, payload_kg=masses, samples=samples, seed=seed, progress=progress,
-                                   **(gains if design_file is not None else {}))
+                                   controller=controller if design_file is not None else None)
     except SpecError as exc:
         raise SpecError(f"{spec}: {exc}") from None
     finally:

@@ -6,6 +6,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from design.loop.controller import PI
 from design.loop.loops import open_loop_frd, plant_frd
 from design.loop.margins import Margins, first_drop_hz, loop_margins
 from plant.grid import check_grid, log_grid_rad_s
@@ -30,7 +31,7 @@ class LoopAnalysis:
 EXTEND_DECADES = (4, 3)
 
 
-def extended_grid(plant: Plant, kp, ki, w_rad_s) -> np.ndarray:
+def extended_grid(plant: Plant, controller: PI, w_rad_s) -> np.ndarray:
     """``w_rad_s`` extended by whole decades (same points per decade, at most ``EXTEND_DECADES``) until
     |L| > 1 at its lowest and |L| < 1 at its highest frequency for every plant of the batch, so that no
     crossover lies outside it (a PI loop's |L| grows without bound towards 0 rad/s)."""
@@ -38,11 +39,11 @@ def extended_grid(plant: Plant, kp, ki, w_rad_s) -> np.ndarray:
     per_decade = (w.size - 1) / np.log10(w[-1] / w[0])
     lo, hi = w[0], w[-1]
     for _ in range(EXTEND_DECADES[0]):
-        if np.all(np.abs(open_loop_frd(plant, np.array([lo]), kp, ki)) > 1):
+        if np.all(np.abs(open_loop_frd(plant, np.array([lo]), controller)) > 1):
             break
         lo /= 10
     for _ in range(EXTEND_DECADES[1]):
-        if np.all(np.abs(open_loop_frd(plant, np.array([hi]), kp, ki)) < 1):
+        if np.all(np.abs(open_loop_frd(plant, np.array([hi]), controller)) < 1):
             break
         hi *= 10
     if lo == w[0] and hi == w[-1]:
@@ -50,14 +51,14 @@ def extended_grid(plant: Plant, kp, ki, w_rad_s) -> np.ndarray:
     return np.geomspace(lo, hi, int(round(per_decade * np.log10(hi / lo))) + 1)
 
 
-def analyse_loop(plant, kp, ki, *, w_rad_s=ANALYSIS_GRID_RAD_S, level2: float = 0.5) -> LoopAnalysis:
+def analyse_loop(plant, controller: PI, *, w_rad_s=ANALYSIS_GRID_RAD_S, level2: float = 0.5) -> LoopAnalysis:
     """Analyse the loop for a ``Plant`` (possibly a payload batch; the grid then grows until it holds every
     crossover, ``extended_grid``) or a measured response array (``margins.crossings_on_grid`` says
     whether it does). Check ``margins.closed_loop_stable`` before trusting a margin. ``level2``: the
     bandwidth definition, |T(w_b)|^2 / |T(0)|^2 (``design.loop.margins.BANDWIDTH_LEVELS2``)."""
-    w = extended_grid(plant, kp, ki, w_rad_s) if isinstance(plant, Plant) else check_grid(w_rad_s)
+    w = extended_grid(plant, controller, w_rad_s) if isinstance(plant, Plant) else check_grid(w_rad_s)
     P = plant_frd(plant, w)
-    L = open_loop_frd(P, w, kp, ki)
+    L = open_loop_frd(P, w, controller)
     margins = loop_margins(w, L)
     # |T|^2 = |L|^2 / |1 + L|^2 of T = L / (1 + L) (Eq. 3.19/3.20), in real arithmetic; the bandwidth against
     # the reference |T| = 1 (T(0) = 1 with integral action; a P-only loop's |T(0)| < 1 is not rewarded)
@@ -82,10 +83,10 @@ class PayloadSweep:
 
 
 
-def payload_sweep(plant: Plant, kp: float, ki: float, payload_kg, *, w_rad_s=ANALYSIS_GRID_RAD_S,
+def payload_sweep(plant: Plant, controller: PI, payload_kg, *, w_rad_s=ANALYSIS_GRID_RAD_S,
                   level2: float = 0.5) -> PayloadSweep:
     """Evaluate all payloads at once (one vectorised call); ``level2`` as in ``analyse_loop``."""
     m = np.asarray(payload_kg, dtype=float).ravel()
-    a = analyse_loop(plant.with_payload(m), kp, ki, w_rad_s=w_rad_s, level2=level2)
+    a = analyse_loop(plant.with_payload(m), controller, w_rad_s=w_rad_s, level2=level2)
     return PayloadSweep(plant.stage, m, a.open_loop_corner_hz, a.closed_loop_bandwidth_hz,
                         a.margins.phase_margin_deg, a.margins.gain_margin_db, a.margins.closed_loop_stable)

@@ -15,8 +15,9 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from design.loop.loops import balanced, pi_tf
-from plant.arguments import check_instance, check_number
+from design.loop.controller import PI
+from design.loop.loops import balanced
+from plant.arguments import check_instance
 from plant.physics.effect_base import PADE_ORDER, ChainEffect
 from plant.physics.models import Plant
 
@@ -27,11 +28,10 @@ if TYPE_CHECKING:
 
 @dataclass(frozen=True)
 class LoopModels:
-    """P, C, L, S, T of one plant (SI units: A, m/s) under the gains (``kp`` A per (m/s), ``ki`` A per m)."""
+    """P, C, L, S, T of one plant (SI units: A, m/s) under the PI ``controller``."""
 
     payload_kg: float
-    kp: float
-    ki: float
+    controller: PI
     pade_order: int
     P: control.StateSpace
     C: control.StateSpace
@@ -62,7 +62,7 @@ class LoopModels:
         mag.axhline(0.0, color="0.6", lw=0.8)
         mag.set_ylabel("magnitude (dB)")
         mag.legend()
-        mag.set_title(f"{self.payload_kg:g} kg, Kp = {self.kp:.4g} A/(m/s), Ki = {self.ki:.4g} A/m")
+        mag.set_title(f"{self.payload_kg:g} kg, {self.controller}")
         ph.semilogx(f, np.degrees(np.unwrap(np.angle(_response(self.L, s)))), label="L")
         ph.axhline(-180.0, color="0.6", lw=0.8)
         ph.set_ylabel("phase of L (deg)")
@@ -86,16 +86,16 @@ def plant_ss(plant: Plant, *, pade_order: int = PADE_ORDER) -> control.StateSpac
     return balanced(out)
 
 
-def loop_models(plant: Plant, kp: float, ki: float, *, pade_order: int = PADE_ORDER) -> LoopModels:
-    """``LoopModels`` of one plant under (kp, ki) (A/(m/s), A/m, finite and >= 0)."""
+def loop_models(plant: Plant, controller: PI, *, pade_order: int = PADE_ORDER) -> LoopModels:
+    """``LoopModels`` of one plant under the PI ``controller``."""
     import control
 
     check_instance("plant", plant, Plant, "plant.stage_x(mass_kg=...) makes one")
-    kp, ki = check_number("kp", kp, minimum=0.0), check_number("ki", ki, minimum=0.0)
+    check_instance("controller", controller, PI, "design.loop.controller.PI(kp, ki) makes one")
 
     P = plant_ss(plant, pade_order=pade_order)
-    C = control.ss(pi_tf(kp, ki))
+    C = control.ss(controller.tf())
     L = balanced(P * C)
     S = balanced(control.feedback(control.ss([], [], [], [[1.0]]), L))
     T = balanced(control.feedback(L, 1))
-    return LoopModels(float(np.asarray(plant.mass_kg).reshape(())), float(kp), float(ki), pade_order, P, C, L, S, T)
+    return LoopModels(float(np.asarray(plant.mass_kg).reshape(())), controller, pade_order, P, C, L, S, T)

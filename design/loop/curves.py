@@ -9,6 +9,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from design.loop.controller import PI
 from design.loop.loops import balanced, closed_loop_tf, open_loop_frd
 from design.problem import LoopProblem
 from plant.grid import log_grid_rad_s
@@ -57,7 +58,7 @@ def scenario_label(row: dict) -> str:
                                                            if k != "payload_kg")
 
 
-def loop_curves(problem: LoopProblem, kp: float, ki: float, binding: dict | None = None) -> LoopCurves:
+def loop_curves(problem: LoopProblem, controller: PI, binding: dict | None = None) -> LoopCurves:
     """The curves at the report payloads and, with ``binding`` (``payload_kg`` and uncertain parameter
     values, as ``Evaluation.worst_scenario``), at that scenario."""
     import control
@@ -74,11 +75,11 @@ def loop_curves(problem: LoopProblem, kp: float, ki: float, binding: dict | None
         labels.append(scenario_label(binding))
     P = np.array([p.frd(W_BODE) for p in plants])
     with np.errstate(over="ignore", invalid="ignore"):        # an unstable loop's response diverges
-        steps = [np.squeeze(control.step_response(balanced(closed_loop_tf(p, kp, ki)), STEP_TIME_S).outputs)
+        steps = [np.squeeze(control.step_response(balanced(closed_loop_tf(p, controller)), STEP_TIME_S).outputs)
                  for p in plants]
-    L = open_loop_frd(P, W_BODE, kp, ki)
+    L = open_loop_frd(P, W_BODE, controller)
     m = loop_margins(W_BODE, L)
     return LoopCurves(masses, tuple(labels), W_BODE, P, L, W_NYQUIST,
-                      np.array([open_loop_frd(p, W_NYQUIST, kp, ki) for p in plants]), STEP_TIME_S, np.array(steps),
+                      np.array([open_loop_frd(p, W_NYQUIST, controller) for p in plants]), STEP_TIME_S, np.array(steps),
                       m.gain_crossover_hz, m.phase_margin_deg, m.phase_crossover_hz, m.gain_margin_db,
                       len(plants) - 1 if binding is not None else None)

@@ -23,6 +23,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from design.loop.controller import PI
 from plant.errors import SpecError
 from plant.physics.models import Plant
 
@@ -73,8 +74,8 @@ def tustin_biquad(num_s, den_s, rate_hz: float, prewarp_hz: float) -> tuple[floa
     return b[0] / a[0], b[1] / a[0], b[2] / a[0], a[1] / a[0], a[2] / a[0]
 
 
-def discretise(plant: Plant, kp: float, ki: float, loop_rate_hz: float) -> DiscreteDesign:
-    """The drive's numbers for gains (kp, ki) and the plant's drive filters at ``loop_rate_hz``."""
+def discretise(plant: Plant, controller: PI, loop_rate_hz: float) -> DiscreteDesign:
+    """The drive's numbers for the PI ``controller`` and the plant's drive filters at ``loop_rate_hz``."""
     filters = []
     for e in plant.effects:
         if e.name == "sensor_filter":
@@ -86,7 +87,8 @@ def discretise(plant: Plant, kp: float, ki: float, loop_rate_hz: float) -> Discr
             f = float(e.frequency_hz)
             coef = tustin_biquad(*e.polynomials(), loop_rate_hz, f)
             filters.append(DiscreteBiquad(e.name, f, float(e.damping_ratio), *coef))
-    return DiscreteDesign(float(loop_rate_hz), float(kp), float(ki) / loop_rate_hz, tuple(filters))
+    return DiscreteDesign(float(loop_rate_hz), float(controller.kp), float(controller.ki) / loop_rate_hz,
+                          tuple(filters))
 
 
 def zoh_with_delay(system, T: float, delay_s: float):

@@ -32,6 +32,7 @@ from typing import ClassVar
 
 import numpy as np
 
+from design.loop.controller import PI
 from design.loop.margins import closed_loop_bandwidth_hz, crossover_margins
 
 #: T_out: rail velocities -> (mean, half difference); T_in: (total, differential current) -> motor currents
@@ -46,8 +47,8 @@ class _Structure:
     t_in: ClassVar[np.ndarray]
     t_out: ClassVar[np.ndarray]
 
-    def channel_gains(self) -> tuple[tuple[float, float], ...]:
-        """(kp, ki) of each channel, A/(m/s) and A/m."""
+    def channels(self) -> tuple[PI, ...]:
+        """Each channel's PI (A/(m/s), A/m)."""
         raise NotImplementedError
 
     def gains(self) -> dict[str, float]:
@@ -61,7 +62,7 @@ class _Structure:
     def channel_at(self, s) -> np.ndarray:
         """diag(PI_j(s)) at complex ``s`` (``channel_frd``)."""
         s = np.asarray(s, complex)
-        k = [np.asarray(kp)[..., None] + np.asarray(ki)[..., None] / s for kp, ki in self.channel_gains()]
+        k = [c.at(s) for c in self.channels()]
         shape = np.broadcast_shapes(*(c.shape for c in k))
         out = np.zeros(shape[:-1] + (len(k), len(k), shape[-1]), dtype=complex)
         for j, c in enumerate(k):
@@ -87,8 +88,8 @@ class PerMotor(_Structure):
     t_in: ClassVar[np.ndarray] = np.eye(2)
     t_out: ClassVar[np.ndarray] = np.eye(2)
 
-    def channel_gains(self):
-        return ((self.kp, self.ki), (self.kp, self.ki))
+    def channels(self):
+        return (PI(self.kp, self.ki),) * 2
 
 
 @dataclass(frozen=True)
@@ -104,8 +105,8 @@ class CommonDifferential(_Structure):
     t_in: ClassVar[np.ndarray] = T_IN
     t_out: ClassVar[np.ndarray] = T_OUT
 
-    def channel_gains(self):
-        return ((self.kp_common, self.ki_common), (self.kp_differential, self.ki_differential))
+    def channels(self):
+        return PI(self.kp_common, self.ki_common), PI(self.kp_differential, self.ki_differential)
 
 
 @dataclass(frozen=True)
@@ -118,8 +119,8 @@ class MasterSlave(_Structure):
     t_in: ClassVar[np.ndarray] = np.array([[0.5], [0.5]])
     t_out: ClassVar[np.ndarray] = np.array([[1.0, 0.0]])
 
-    def channel_gains(self):
-        return ((self.kp, self.ki),)
+    def channels(self):
+        return (PI(self.kp, self.ki),)
 
 
 Controller = PerMotor | CommonDifferential | MasterSlave
@@ -228,7 +229,7 @@ def loop_figures(w_rad_s, plant_frd: np.ndarray, controller: Controller, *, disk
     t_in, t_out = controller.t_in, controller.t_out
     B = matmul(t_out, P)
     Q = matmul(B, t_in)
-    d = [np.asarray(kp)[..., None] + np.asarray(ki)[..., None] / (1j * w) for kp, ki in controller.channel_gains()]
+    d = [c.frd(w) for c in controller.channels()]
     r = t_out.sum(axis=1)                                       # T_out [1, 1]^T: the command per channel
     move = matmul(matmul(T_OUT, P), t_in)                       # channel efforts -> (mean, half difference)
     if len(d) == 1:
@@ -276,14 +277,14 @@ def translation_step(plant, controller: Controller, t_s: np.ndarray, *, pade_ord
     ``pade_order``); the yaw error is their difference."""
     import control
 
-    from design.loop.loops import balanced, pi_tf
+    from design.loop.loops import balanced
 
     chain = control.tf([1.0], [1.0])
     for e in plant.effects:
         chain = chain * e.to_tf(pade_order=pade_order)
     drive = control.ss(chain)
     P = plant.state_space() * control.append(drive, drive)
-    channels = [control.ss(pi_tf(kp, ki)) for kp, ki in controller.channel_gains()]
+    channels = [control.ss(c.tf()) for c in controller.channels()]
     core = channels[0] if len(channels) == 1 else control.append(*channels)
     C = control.ss([], [], [], controller.t_in) * core * control.ss([], [], [], controller.t_out)
     loop = balanced(control.feedback(P * C, np.eye(2)) * control.ss([], [], [], np.ones((2, 1))))

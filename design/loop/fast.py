@@ -30,6 +30,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from design.loop.controller import PI
 from design.loop.loops import open_loop_frd
 from design.loop.margins import nyquist_stable
 from plant.errors import GridError
@@ -199,13 +200,13 @@ def _first_below(L: np.ndarray, level2: float = 0.5):
     return np.where(below[np.arange(L.shape[0]), i] & ~starts_below, i, 0), mag2, one_plus2, dc2
 
 
-def fast_analyse_loop(plant, kp, ki, *, points_per_decade: int = POINTS_PER_DECADE,
+def fast_analyse_loop(plant, controller: PI, *, points_per_decade: int = POINTS_PER_DECADE,
                       level2: float = 0.5, coarse_response: np.ndarray | None = None) -> LoopNumbers:
-    """Margins and closed-loop bandwidth of a ``Plant`` (batch) under PI gains ``kp`` (A per m/s) and
-    ``ki`` (A per m); agrees with ``design.loop.analysis.analyse_loop`` to about 1e-5 (relative).
-    ``coarse_response``: the plant's response on ``coarse_grid_rad_s(points_per_decade)`` when already known."""
+    """Margins and closed-loop bandwidth of a ``Plant`` (batch) under the PI ``controller``; agrees with
+    ``design.loop.analysis.analyse_loop`` to about 1e-5 (relative). ``coarse_response``: the plant's response on
+    ``coarse_grid_rad_s(points_per_decade)`` when already known."""
     w = coarse_grid_rad_s(points_per_decade)
-    L = open_loop_frd(plant if coarse_response is None else coarse_response, w, kp, ki)
+    L = open_loop_frd(plant if coarse_response is None else coarse_response, w, controller)
     batch = L.shape[:-1]
     L = L.reshape(-1, w.size)
     first_below, mag2, one_plus2, dc2 = _first_below(L, level2)
@@ -219,7 +220,7 @@ def fast_analyse_loop(plant, kp, ki, *, points_per_decade: int = POINTS_PER_DECA
         merged = np.empty((L.shape[0], grid.size), complex)
         merged[:, at[:w.size]] = L
         del L
-        merged[:, at[w.size:]] = open_loop_frd(plant, extra, kp, ki).reshape(merged.shape[0], -1)
+        merged[:, at[w.size:]] = open_loop_frd(plant, extra, controller).reshape(merged.shape[0], -1)
         w, L = np.sort(grid), merged
         first_below, mag2, one_plus2, dc2 = _first_below(L, level2)
     x = np.log(w)

@@ -1,7 +1,7 @@
 """Velocity PI loop (thesis Eq. 3.17-3.20) and admittance control (Eq. 3.21-3.23, Figure 3.22).
 
 Frequency-response functions take a grid ``w_rad_s`` and broadcast gains and plant batches:
-``(..., n_freq)`` in, ``(..., n_freq)`` out. Gains: ``kp`` in A per (m/s), ``ki`` in A per m.
+``(..., n_freq)`` in, ``(..., n_freq)`` out; the controller is a ``design.loop.controller.PI``.
 """
 
 from __future__ import annotations
@@ -10,24 +10,13 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from design.loop.controller import PI
 from plant.errors import ParameterError
 from plant.grid import check_grid
 from plant.physics.models import Plant
 
 if TYPE_CHECKING:
     import control
-
-
-def pi_frd(w_rad_s, kp, ki) -> np.ndarray:
-    """PI controller Kp + Ki/(jw)."""
-    return np.asarray(kp)[..., None] + np.asarray(ki)[..., None] / (1j * np.asarray(w_rad_s))
-
-
-def pi_tf(kp: float, ki: float) -> control.TransferFunction:
-    """PI controller (Kp s + Ki)/s as a python-control transfer function."""
-    import control
-
-    return control.tf([kp, ki], [1.0, 0.0])
 
 
 def plant_frd(plant, w_rad_s) -> np.ndarray:
@@ -41,9 +30,9 @@ def plant_frd(plant, w_rad_s) -> np.ndarray:
     return resp
 
 
-def open_loop_frd(plant, w_rad_s, kp, ki) -> np.ndarray:
-    """Loop gain L = P(jw) (Kp + Ki/jw) (thesis Eq. 3.17/3.18) for a model or measured plant."""
-    return plant_frd(plant, w_rad_s) * pi_frd(w_rad_s, kp, ki)
+def open_loop_frd(plant, w_rad_s, controller: PI) -> np.ndarray:
+    """Loop gain L = P(jw) C(jw) (thesis Eq. 3.17/3.18) for a model or measured plant."""
+    return plant_frd(plant, w_rad_s) * controller.frd(w_rad_s)
 
 
 def closed_loop_frd(loop) -> np.ndarray:
@@ -69,13 +58,13 @@ def balanced(sys) -> control.StateSpace:
                       inputs=s.input_labels, outputs=s.output_labels)
 
 
-def open_loop_tf(plant: Plant, kp: float, ki: float) -> control.TransferFunction:
-    """Rational loop P(s)(Kp + Ki/s) (Pade for delays)."""
-    return plant.to_control() * pi_tf(kp, ki)
+def open_loop_tf(plant: Plant, controller: PI) -> control.TransferFunction:
+    """Rational loop P(s) C(s) (Pade for delays)."""
+    return plant.to_control() * controller.tf()
 
 
-def closed_loop_tf(plant: Plant, kp: float, ki: float) -> control.TransferFunction:
+def closed_loop_tf(plant: Plant, controller: PI) -> control.TransferFunction:
     """Rational closed velocity loop; for the thesis plants it equals Eq. 3.19 / 3.20."""
     import control
 
-    return control.feedback(open_loop_tf(plant, kp, ki), 1)
+    return control.feedback(open_loop_tf(plant, controller), 1)

@@ -20,6 +20,7 @@ from design.loop.analysis import (
     analyse_loop,
     payload_sweep,
 )
+from design.loop.controller import PI
 from design.loop.margins import closed_loop_bandwidth_hz
 from design.problem import LoopProblem
 
@@ -60,7 +61,7 @@ def _explain(stage: str, quantity: str, problem: LoopProblem, computed: float, r
         thesis_dc = THESIS_TABLE_3_1[stage]["open_loop_dc_gain"]
         w = ANALYSIS_GRID_RAD_S
         P = problem.plant.plant().frd(w)
-        L = P * (problem.controller.kp.value + problem.controller.ki.value / (1j * w))
+        L = P * PI.given(problem.controller).frd(w)
         alt = float(closed_loop_bandwidth_hz(w, L, dc_gain=10 ** (thesis_dc / 20)))
         return (f"{100 * rel:+.1f} %: no standard definition gives {THESIS_TABLE_3_1[stage][quantity]} Hz with the "
                 f"stated parameters (the corner b/(2 pi M) is {computed:.2f} Hz). Measuring -3 dB from the thesis's "
@@ -74,8 +75,9 @@ def table_3_1(problems: dict[str, LoopProblem]) -> list[TableRow]:
     rows = []
     for stage, problem in problems.items():
         plant = problem.plant.plant()
-        kp, ki = problem.controller.kp.value, problem.controller.ki.value
-        a = analyse_loop(plant, kp, ki)
+        controller = PI.given(problem.controller)
+        kp = float(controller.kp)
+        a = analyse_loop(plant, controller)
         p0 = abs(plant.frd(np.array([1e-6]))[0])
         computed = {
             "closed_loop_bandwidth": float(a.closed_loop_bandwidth_hz),
@@ -97,5 +99,5 @@ def sweeps(problems: dict[str, LoopProblem], *, points: int = 36) -> list[Payloa
     for problem in problems.values():
         rng = problem.plant.payload_kg
         grid = np.linspace(rng.min, rng.max, points) if rng.max > rng.min else np.array([rng.min])
-        out.append(payload_sweep(problem.plant.plant(), problem.controller.kp.value, problem.controller.ki.value, grid))
+        out.append(payload_sweep(problem.plant.plant(), PI.given(problem.controller), grid))
     return out

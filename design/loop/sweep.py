@@ -16,6 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from design.loop.analysis import PayloadSweep, payload_sweep
+from design.loop.controller import PI
 from design.loop.fast import fast_analyse_loop
 from design.loop.margins import BANDWIDTH_LEVELS2
 from design.problem import LoopProblem, Uncertainty
@@ -105,8 +106,7 @@ class SweepResult:
     """
 
     stage: str
-    kp: float
-    ki: float
+    controller: PI
     payload_kg: np.ndarray
     seed: int
     samples: int
@@ -204,15 +204,15 @@ def batch_plant(plant: Plant, payload_kg, parameters: Mapping[str, np.ndarray], 
     return plant.with_values(values)
 
 
-def monte_carlo_sweep(source: LoopProblem | Plant, *, payload_kg=None, samples: int = 0, seed: int = 0, kp=None,
-                      ki=None, uncertainty: Mapping | None = None, percentiles=DEFAULT_PERCENTILES,
+def monte_carlo_sweep(source: LoopProblem | Plant, *, payload_kg=None, samples: int = 0, seed: int = 0,
+                      controller: PI | None = None, uncertainty: Mapping | None = None, percentiles=DEFAULT_PERCENTILES,
                       progress: Callable[[int, int], None] | None = None) -> SweepResult:
     """Sweep the velocity loop P (Kp + Ki/s) over ``payload_kg`` with ``samples`` Monte Carlo draws.
 
     ``source`` is a ``LoopProblem`` (plant, uncertainty, gains and payload range default to it) or a
-    ``Plant`` (then ``payload_kg``, ``kp``, ``ki`` are required). ``uncertainty`` maps parameter
+    ``Plant`` (then ``payload_kg`` and ``controller`` are required). ``uncertainty`` maps parameter
     names (``damping_n_s_per_m``, ``delay.seconds``) to ``(min, max)``; ``progress(done, total)``
-    is called after each chunk of plants. Gains: ``kp`` in A per (m/s), ``ki`` in A per m.
+    is called after each chunk of plants. ``controller``: the PI (default the spec's ``controller`` values).
     """
     definition = "half_power"
     if isinstance(source, LoopProblem):
@@ -220,15 +220,15 @@ def monte_carlo_sweep(source: LoopProblem | Plant, *, payload_kg=None, samples: 
         plant = source.plant.plant()
         uncertainty = source.plant.uncertainty if uncertainty is None else uncertainty
         payload_kg = source.plant.payload_kg.grid() if payload_kg is None else payload_kg
-        kp = source.controller.kp.value if kp is None else kp
-        ki = source.controller.ki.value if ki is None else ki
-        for key, value in (("kp", kp), ("ki", ki)):
-            if value is None:
-                raise SpecError(f"controller.{key}.value is needed for a sweep (or pass {key})")
+        if controller is None:
+            for key in ("kp", "ki"):
+                if getattr(source.controller, key).value is None:
+                    raise SpecError(f"controller.{key}.value is needed for a sweep (or pass a controller)")
+            controller = PI(source.controller.kp.value, source.controller.ki.value)
     elif isinstance(source, Plant):
         plant = source
-        if payload_kg is None or kp is None or ki is None:
-            raise ParameterError("a sweep of a Plant needs payload_kg, kp and ki")
+        if payload_kg is None or controller is None:
+            raise ParameterError("a sweep of a Plant needs payload_kg and a controller")
     else:
         raise ParameterError(f"source must be a LoopProblem or a Plant, got {type(source).__name__}")
     m = np.asarray(payload_kg, float).ravel()
@@ -244,10 +244,10 @@ def monte_carlo_sweep(source: LoopProblem | Plant, *, payload_kg=None, samples: 
         raise SpecError("plant.uncertainty: no parameter ranges to sample; add some or drop --samples")
 
     level2 = BANDWIDTH_LEVELS2[definition]
-    nominal = payload_sweep(plant, kp, ki, m, level2=level2)
+    nominal = payload_sweep(plant, controller, m, level2=level2)
     if samples:
         params = draw_samples(ranges, int(samples), seed=seed)
-        raw = _fast_samples(plant, m, params, kp, ki, progress, level2)
+        raw = _fast_samples(plant, m, params, controller, progress, level2)
         unstable = np.sum(~raw.pop("stable"), axis=1)
     else:
         params = {name: np.array([plant.parameters()[name].value]) for name in sorted(ranges)}
@@ -257,17 +257,17 @@ def monte_carlo_sweep(source: LoopProblem | Plant, *, payload_kg=None, samples: 
             progress(m.size, m.size)
     dists = {q: Distribution(q, unit, raw[q], levels, percentiles_inf(raw[q], levels), np.fmin.reduce(raw[q], axis=1))
              for q, unit in QUANTITIES.items()}
-    return SweepResult(plant.stage, float(kp), float(ki), m, int(seed), int(samples), SAMPLING, ranges, params,
+    return SweepResult(plant.stage, controller, m, int(seed), int(samples), SAMPLING, ranges, params,
                        nominal, **dists, unstable_samples=unstable, bandwidth_definition=definition)
 
 
-def _fast_samples(plant, m, params, kp, ki, progress, level2: float) -> dict[str, np.ndarray]:
+def _fast_samples(plant, m, params, controller: PI, progress, level2: float) -> dict[str, np.ndarray]:
     n_s = len(next(iter(params.values())))
     total = m.size * n_s
     out = {q: np.empty(total) for q in (*QUANTITIES, "stable")}
     for start in range(0, total, CHUNK_PLANTS):
         idx = np.arange(start, min(start + CHUNK_PLANTS, total))
-        numbers = fast_analyse_loop(batch_plant(plant, m, params, rows=idx), kp, ki, level2=level2)
+        numbers = fast_analyse_loop(batch_plant(plant, m, params, rows=idx), controller, level2=level2)
         for q in (*QUANTITIES, "stable"):
             out[q][idx] = np.ravel(getattr(numbers, q))
         if progress is not None:

@@ -9,6 +9,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from design.loop.controller import PI
 from design.loop.fast import F_LOW_HZ, coarse_grid_rad_s, fast_analyse_loop
 from design.problem import LoopProblem
 from design.synth.scenarios import Scenarios, check_scenarios
@@ -35,8 +36,7 @@ class Evaluation:
     """Gains evaluated on a set of scenarios (cubic-refined grid margins of ``design.loop.fast``); the
     per-payload arrays are the worst over the scenarios of each payload."""
 
-    kp: float
-    ki: float
+    controller: PI
     payload_kg: np.ndarray
     bandwidth_hz: np.ndarray
     phase_margin_deg: np.ndarray
@@ -61,13 +61,14 @@ class Evaluation:
         return np.union1d(np.argsort(self.row_relative_slack, kind="stable")[:k], [np.argmin(self.row_bandwidth_hz)])
 
 
-def evaluate(problem: LoopProblem, kp: float, ki: float, scenarios: Scenarios | None = None) -> Evaluation:
-    """Margins and bandwidth of (kp, ki) on every scenario (default: the check scenarios)."""
+def evaluate(problem: LoopProblem, controller: PI, scenarios: Scenarios | None = None) -> Evaluation:
+    """Margins and bandwidth of the PI ``controller`` on every scenario (default: the check scenarios)."""
+    kp, ki = float(controller.kp), float(controller.ki)
     s = check_scenarios(problem) if scenarios is None else scenarios
     base = problem.plant.plant()
     plant = s.plants(base)
     req = problem.requirements
-    n = fast_analyse_loop(plant, kp, ki, level2=req.level2, coarse_response=s.response(base, coarse_grid_rad_s()))
+    n = fast_analyse_loop(plant, controller, level2=req.level2, coarse_response=s.response(base, coarse_grid_rad_s()))
     pm, gm = np.ravel(n.phase_margin_deg), np.ravel(n.gain_margin_db)
     # a bandwidth at the grid's lowest frequency is below the grid: unknown, counted as 0
     bw = np.ravel(np.where(n.closed_loop_bandwidth_hz > 1.01 * F_LOW_HZ, n.closed_loop_bandwidth_hz, 0.0))
@@ -77,7 +78,7 @@ def evaluate(problem: LoopProblem, kp: float, ki: float, scenarios: Scenarios | 
     if req.peak_sensitivity is not None or req.disk_margin is not None:
         from design.loop.analysis import analyse_loop
 
-        margins = analyse_loop(plant, kp, ki).margins
+        margins = analyse_loop(plant, controller).margins
         if req.peak_sensitivity is not None:
             slack["peak_sensitivity"] = req.peak_sensitivity - np.ravel(margins.peak_sensitivity)
             scale["peak_sensitivity"] = req.peak_sensitivity
@@ -88,7 +89,7 @@ def evaluate(problem: LoopProblem, kp: float, ki: float, scenarios: Scenarios | 
         slack["integral_action"] = np.full(len(s), np.inf if ki > 0 else -1.0)
         scale["integral_action"] = 1.0
     stable = bool(np.all(n.stable) and np.all(pm > 0) and np.all(gm > 0))
-    hf = high_frequency_gain(problem, kp, ki)
+    hf = high_frequency_gain(problem, controller)
     if hf is not None:
         slack["high_frequency_gain"] = np.full(len(s), req.max_high_frequency_gain - hf)
         scale["high_frequency_gain"] = req.max_high_frequency_gain
@@ -114,7 +115,7 @@ def evaluate(problem: LoopProblem, kp: float, ki: float, scenarios: Scenarios | 
         np.minimum.at(out, inverse, np.where(np.isnan(v), -np.inf, v))
         per[key] = np.where(out == -np.inf, np.nan, out)
     row_rel = np.min([v / scale[k] for k, v in slack.items()], axis=0)
-    return Evaluation(float(kp), float(ki), m, per["bw"], per["pm"], per["gm"], meets, stable, float(np.min(bw)),
+    return Evaluation(controller, m, per["bw"], per["pm"], per["gm"], meets, stable, float(np.min(bw)),
                       binding, rel[name], worst, row_rel, bw)
 
 
@@ -152,8 +153,9 @@ def high_frequency_rows(problem: LoopProblem) -> tuple[np.ndarray, np.ndarray, n
     return w, F, F / (1j * w)
 
 
-def high_frequency_gain(problem: LoopProblem, kp: float, ki: float) -> float | None:
+def high_frequency_gain(problem: LoopProblem, controller: PI) -> float | None:
     """max |(kp + ki/jw) F(jw)| above ``requirements.high_frequency_hz`` (A per m/s), or None."""
+    kp, ki = float(controller.kp), float(controller.ki)
     rows = high_frequency_rows(problem)
     return None if rows is None else float(np.max(np.abs(kp * rows[1] + ki * rows[2])))
 

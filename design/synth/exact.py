@@ -9,6 +9,7 @@ from functools import lru_cache
 
 import numpy as np
 
+from design.loop.controller import PI
 from design.problem import LoopProblem
 from design.synth.evaluation import MARGIN_HAIR, high_frequency_rows, requirement_circles
 from design.synth.scan import W_OPT
@@ -88,17 +89,16 @@ def _circle_rows(numeric: Plant, plant: Plant, symbolic: dict, circles, kp, ki, 
 
 
 class ExactDesign:
-    kp: float
-    ki: float
+    controller: PI
     success: bool
     note: str
     #: the designed filters' parameters, one dict per filter of ``problem.controller.filters`` (None: left out)
     filter_values: tuple[dict | None, ...] = ()
 
 
-def exact_design(problem: LoopProblem, scenarios: Scenarios, kp0: float, ki0: float, *,
+def exact_design(problem: LoopProblem, scenarios: Scenarios, start: PI, *,
                  high_circle: bool = False, design_filters: bool = False, solvers: dict | None = None) -> ExactDesign:
-    """IPOPT on the exact crossings from the start (kp0, ki0); ``high_circle`` also keeps the Nyquist curve
+    """IPOPT on the exact crossings from the PI ``start``; ``high_circle`` also keeps the Nyquist curve
     outside the margin circle above twice the first crossover (see the module doc). ``design_filters``:
     the parameters with ranges of ``problem.controller.filters`` are variables too, started from the values
     the problem's plant carries. ``solvers``: a dict kept by the caller across starts on the same problem and
@@ -109,6 +109,7 @@ def exact_design(problem: LoopProblem, scenarios: Scenarios, kp0: float, ki0: fl
     from plant.physics.effect_base import replace_unchecked
 
     req, c = problem.requirements, problem.controller
+    kp0, ki0 = float(start.kp), float(start.ki)
     g = 10 ** ((req.gain_margin_db + MARGIN_HAIR) / 20)
     cos_phi = math.cos(math.radians(req.phase_margin_deg + MARGIN_HAIR))
     base = problem.plant.plant()
@@ -223,7 +224,7 @@ def exact_design(problem: LoopProblem, scenarios: Scenarios, kp0: float, ki0: fl
         lbg += [0.0] * w_hf.size
         ubg += [(req.max_high_frequency_gain * (1 - MARGIN_HAIR / 100)) ** 2] * w_hf.size
     if not t_start:
-        return ExactDesign(kp0, ki0, False, "no bandwidth crossing at the start")
+        return ExactDesign(start, False, "no bandwidth crossing at the start")
     x0.insert(2, min(t_start))
     lbx.insert(2, math.log(W_OPT[0]))
     ubx.insert(2, math.log(W_OPT[-1]))
@@ -258,5 +259,6 @@ def exact_design(problem: LoopProblem, scenarios: Scenarios, kp0: float, ki0: fl
     for j, (i, field, scale) in enumerate(variables):
         lo, hi = c.filters[i].ranges[field]
         values[i][field] = float(np.clip(x[3 + j] * scale, lo, hi))
-    return ExactDesign(float(np.clip(x[0] * kps, c.kp.min, c.kp.max)), float(np.clip(x[1] * kis, c.ki.min, c.ki.max)),
-                       bool(stats["success"]), stats["return_status"], tuple(values))
+    return ExactDesign(PI(float(np.clip(x[0] * kps, c.kp.min, c.kp.max)),
+                          float(np.clip(x[1] * kis, c.ki.min, c.ki.max))), bool(stats["success"]),
+                       stats["return_status"], tuple(values))

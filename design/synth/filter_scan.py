@@ -18,7 +18,7 @@ import itertools
 
 import numpy as np
 
-from design.loop.loops import pi_frd
+from design.loop.controller import PI
 from design.loop.margins import closed_loop_bandwidth_hz, crossover_margins, nyquist_stable
 from design.problem import LoopProblem
 from design.synth.scan import GAIN_CHUNK
@@ -63,7 +63,7 @@ def scan_filters(problem: LoopProblem, scenarios: Scenarios, *, top: int = 3) ->
     kp = np.geomspace(max(c.kp.min, 1e-4 * c.kp.max), c.kp.max, SCAN_GAINS)
     ki = np.geomspace(max(c.ki.min, 1e-4 * c.ki.max), c.ki.max, SCAN_GAINS)
     KP, KI = (g.ravel() for g in np.meshgrid(kp, ki, indexing="ij"))
-    C = pi_frd(W_SCAN, KP, KI)                                          # (n_gain, n_freq)
+    C = PI(KP, KI).frd(W_SCAN)                                          # (n_gain, n_freq)
     s = 1j * W_SCAN
     extremes = np.isin(scenarios.payload_kg, [np.min(scenarios.payload_kg), np.max(scenarios.payload_kg)])
     scored = []

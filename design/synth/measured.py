@@ -16,6 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from design.loop.controller import PI
 from design.loop.margins import closed_loop_bandwidth_hz, loop_margins
 from design.problem import LoopProblem
 from plant.data.frequency_response import MeasuredResponse
@@ -50,8 +51,7 @@ class MeasuredDesign:
 
     status: str
     message: str
-    kp: float | None
-    ki: float | None
+    controller: PI | None
     payload_kg: np.ndarray
     bandwidth_hz: np.ndarray
     phase_margin_deg: np.ndarray
@@ -65,8 +65,8 @@ class MeasuredDesign:
     band_hz: tuple[float, float]
 
 
-def _numbers(w, G, kp, ki, problem: LoopProblem):
-    L = G * (kp + ki / (1j * w))
+def _numbers(w, G, controller: PI, problem: LoopProblem):
+    L = G * controller.frd(w)
     m = loop_margins(w, L)
     bw = closed_loop_bandwidth_hz(w, L / (1 + L), dc_gain=1.0, level2=problem.requirements.level2)
     req = problem.requirements
@@ -86,13 +86,13 @@ def _binding(payload, pm, gm, problem: LoopProblem) -> tuple[str, float, float]:
     return name, float(payload[i]), float(slack[name][0][i])
 
 
-def _independent_failures(payload, w, G, kp, ki, problem: LoopProblem) -> list[str]:
+def _independent_failures(payload, w, G, controller: PI, problem: LoopProblem) -> list[str]:
     """python-control's margins of every measured loop, against the requirements."""
     import control
 
     req, failures = problem.requirements, []
     for k, p in enumerate(payload):
-        gm, pm, *_ = control.stability_margins(control.frd(G[k] * (kp + ki / (1j * w)), w))
+        gm, pm, *_ = control.stability_margins(control.frd(G[k] * controller.frd(w), w))
         if pm < req.phase_margin_deg - 0.05:
             failures.append(f"phase margin {pm:.2f} deg at {p:g} kg (python-control, FRD)")
         if np.isfinite(gm) and 20 * math.log10(gm) < req.gain_margin_db - 0.05:
@@ -127,16 +127,16 @@ def synthesise_from_data(problem: LoopProblem, data: MeasuredPlants) -> Measured
     empty = np.array([])
     if best is None:
         return MeasuredDesign("infeasible", "no gains meet the requirements on the measured data even at the lowest "
-                              "bandwidth target in the measured band", None, None, payload, empty, empty, empty,
+                              "bandwidth target in the measured band", None, payload, empty, empty, empty,
                               None, False, (), seconds, solves, band)
-    kp, ki = (best * ccp.scale).tolist()
-    m, bw, ok = _numbers(w, G, kp, ki, problem)
-    failures = _independent_failures(payload, w, G, kp, ki, problem)
+    controller = PI.of(best * ccp.scale)
+    m, bw, ok = _numbers(w, G, controller, problem)
+    failures = _independent_failures(payload, w, G, controller, problem)
     if not np.all(np.isfinite(m.gain_crossover_hz)):
         failures.append("a gain crossover lies outside the measured band: measure to higher frequency")
     verified = ok and not failures
     return MeasuredDesign("optimal" if verified else "infeasible",
                           "verified on the data" if verified else "; ".join(failures or ["margins not met"]),
-                          kp, ki, payload, bw, m.phase_margin_deg, m.gain_margin_db,
+                          controller, payload, bw, m.phase_margin_deg, m.gain_margin_db,
                           _binding(payload, m.phase_margin_deg, m.gain_margin_db, problem), verified,
                           tuple(failures), seconds, solves, band)

@@ -13,6 +13,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from design.loop.controller import PI
 from design.loop.fast import fast_analyse_loop
 from design.problem import LoopProblem
 from design.synth.scenarios import random_scenarios
@@ -66,9 +67,9 @@ def draw_settings(problem: LoopProblem, samples: int | None, seed: int | None) -
     return int(samples), int(seed)
 
 
-def monte_carlo_check(problem: LoopProblem, kp: float, ki: float, *, samples: int | None = None,
+def monte_carlo_check(problem: LoopProblem, controller: PI, *, samples: int | None = None,
                       seed: int | None = None) -> MonteCarloCheck:
-    """Phase and gain margin, stability and bandwidth of (kp, ki) on ``samples`` uniform draws over
+    """Phase and gain margin, stability and bandwidth of the PI ``controller`` on ``samples`` uniform draws over
     payload x ``plant.uncertainty`` (default: the problem's ``verification`` settings); a draw violates
     when a margin falls short of its requirement by more than ``MARGIN_TOLERANCE`` or its closed loop
     is unstable."""
@@ -78,7 +79,7 @@ def monte_carlo_check(problem: LoopProblem, kp: float, ki: float, *, samples: in
     pm, gm, bw, stable = (np.empty(len(s)) for _ in range(4))
     for start in range(0, len(s), CHUNK):
         rows = np.arange(start, min(start + CHUNK, len(s)))
-        n = fast_analyse_loop(s.plants(base, rows), kp, ki, level2=req.level2)
+        n = fast_analyse_loop(s.plants(base, rows), controller, level2=req.level2)
         pm[rows], gm[rows] = np.ravel(n.phase_margin_deg), np.ravel(n.gain_margin_db)
         bw[rows], stable[rows] = np.ravel(n.closed_loop_bandwidth_hz), np.ravel(n.stable)
     slack = np.minimum((pm - req.phase_margin_deg) / max(req.phase_margin_deg, 1.0),

@@ -45,6 +45,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from design.loop.controller import PI
 from design.loop.discrete import DiscreteCheck, DiscreteDesign
 from design.problem import LoopProblem
 from design.synth.ccp import ccp_design
@@ -60,7 +61,7 @@ from plant.grid import log_grid_rad_s
 from plant.physics.effects import EFFECTS
 
 #: the thesis's hand-tuned gains (Kp A/(m/s), Ki A/m), a baseline
-THESIS_GAINS = (236.0, 47.0)
+THESIS_GAINS = PI(236.0, 47.0)
 
 #: effects that limit the achievable bandwidth (phase lag growing with frequency)
 PHASE_LIMITING = tuple(n for n, cls in EFFECTS.items() if cls.limits_bandwidth and cls.in_synthesis and cls.searched)
@@ -113,14 +114,13 @@ def classical_rule(problem: LoopProblem, *, phase_margin_deg: float = 60.0) -> t
     i = int(np.argmax(phase < target)) if np.any(phase < target) else len(P) - 1
     wc = ANALYSIS_GRID_RAD_S[i]
     kp = min(1.0 / abs(P[i]) / math.sqrt(1 + 0.01), problem.controller.kp.max)
-    return float(kp), float(min(kp * wc / 10, problem.controller.ki.max))
+    return PI(float(kp), float(min(kp * wc / 10, problem.controller.ki.max)))
 
 
 def baselines(problem: LoopProblem) -> tuple[tuple[Evaluation, ...], tuple[str, ...]]:
     """The thesis gains and the classical single-model rule, evaluated on the problem."""
-    kp, ki = classical_rule(problem)
     checks = check_scenarios(problem)
-    return ((evaluate(problem, *THESIS_GAINS, checks), evaluate(problem, kp, ki, checks)),
+    return ((evaluate(problem, THESIS_GAINS, checks), evaluate(problem, classical_rule(problem), checks)),
             ("thesis gains", "classical rule (PM 60 deg at nominal payload, PI zero a decade below crossover)"))
 
 
@@ -169,8 +169,8 @@ def unbounded_message(problem: LoopProblem) -> str:
 
 
 def _solve(problem: LoopProblem, scenarios: Scenarios, dense: Scenarios, method: str,
-           notes: dict) -> tuple[list[tuple[str, float, float, Evaluation | None]], Scan]:
-    """Candidate designs (label, kp, ki, their evaluation on ``dense`` when already made) for the design
+           notes: dict) -> tuple[list[tuple[str, PI, Evaluation | None]], Scan]:
+    """Candidate designs (label, PI, its evaluation on ``dense`` when already made) for the design
     scenarios: the best scan seeds, the ccp design and the exact refinements from the ccp design and the best
     seeds (method "ccp": the ccp design); and the scan."""
     P = scenarios.response(problem.plant.plant(), W_OPT)
@@ -179,35 +179,37 @@ def _solve(problem: LoopProblem, scenarios: Scenarios, dense: Scenarios, method:
     seeds = scan.best(scan.meets, scan.worst_bandwidth_hz, EXTRA_STARTS)
     if not seeds:   # nothing meets the requirements: start from the least violating gains
         seeds = scan.best(np.ones(scan.kp.size, bool), scan.relative_slack, 1)
-    cands = [(f"scan seed {k + 1}", float(scan.kp[i]), float(scan.ki[i]), None) for k, i in enumerate(seeds)]
+    cands = [(f"scan seed {k + 1}", PI(float(scan.kp[i]), float(scan.ki[i])), None) for k, i in enumerate(seeds)]
     ccp = ccp_design(problem, P, scan)
     notes["lp_solves"] = notes.get("lp_solves", 0) + ccp.lp_solves
     starts = list(cands)
     if math.isfinite(ccp.kp):
-        cands.append(("ccp (cvxpy+CLARABEL)", ccp.kp, ccp.ki, None))
+        cands.append(("ccp (cvxpy+CLARABEL)", PI(ccp.kp, ccp.ki), None))
         starts.insert(0, cands[-1])
         if method == "ccp":     # the circle design alone (the seeds only when it failed)
             cands = cands[-1:]
     if method == "ccp+exact":
         solvers: dict = {}
 
-        def exact(label, kp0, ki0, high):
-            ex = exact_design(problem, scenarios, kp0, ki0, high_circle=high, solvers=solvers)
+        def exact(label, start: PI, high):
+            ex = exact_design(problem, scenarios, start, high_circle=high, solvers=solvers)
             name = f"exact (casadi+IPOPT{', high-frequency circle' if high else ''}) from {label}"
-            notes.setdefault("exact_starts", []).append({"design": name, "kp0": kp0, "ki0": ki0, "kp": ex.kp,
-                                                         "ki": ex.ki, "ipopt": ex.note})
+            notes.setdefault("exact_starts", []).append({"design": name, "kp0": start.kp, "ki0": start.ki,
+                                                         "kp": ex.controller.kp, "ki": ex.controller.ki,
+                                                         "ipopt": ex.note})
             if ex.success:
                 # starts that converge to the same gains (to 12 digits) share one dense evaluation
-                same = [ev for _, kp, ki, ev in cands if ev is not None and math.isclose(kp, ex.kp, rel_tol=1e-12)
-                        and math.isclose(ki, ex.ki, rel_tol=1e-12)]
-                ev = replace(same[0], kp=ex.kp, ki=ex.ki) if same else evaluate(problem, ex.kp, ex.ki, dense)
-                cands.append((name, ex.kp, ex.ki, ev))
+                same = [ev for _, c, ev in cands if ev is not None and np.allclose(c.parameters,
+                                                                                   ex.controller.parameters,
+                                                                                   rtol=1e-12, atol=0.0)]
+                ev = replace(same[0], controller=ex.controller) if same else evaluate(problem, ex.controller, dense)
+                cands.append((name, ex.controller, ev))
                 return ev.meets
             return False
 
-        met = [exact(*start[:3], False) for start in starts]
+        met = [exact(*start[:2], False) for start in starts]
         if not any(met):      # e.g. a resonance crossing again above the tracked crossover
-            exact(*starts[0][:3], True)
+            exact(*starts[0][:2], True)
     return cands, scan
 
 
@@ -221,17 +223,17 @@ def polish(problem: LoopProblem, ev: Evaluation, dense: Scenarios, *, outer: Eva
     c = problem.controller
     lo = np.log([max(c.kp.min, 1e-12), max(c.ki.min, 1e-12)])
     hi = np.log([c.kp.max, c.ki.max])
-    x, best, used = np.log(np.maximum([ev.kp, ev.ki], 1e-12)), ev, 0
+    x, best, used = np.log(np.maximum(ev.controller.parameters, 1e-12)), ev, 0
 
     def trial(y):
         nonlocal used
         used += 1
         y = np.clip(y, lo, hi)
-        return y, evaluate(problem, *np.exp(y), dense)
+        return y, evaluate(problem, PI.of(np.exp(y)), dense)
 
     if outer is not None:
         a, b = 0.0, 1.0
-        target = np.log(np.maximum([outer.kp, outer.ki], 1e-12))      # a gain of 0: its lower bound
+        target = np.log(np.maximum(outer.controller.parameters, 1e-12))      # a gain of 0: its lower bound
         for _ in range(POLISH_BISECTIONS):
             t = 0.5 * (a + b)
             _, e = trial(x + t * (target - x))
@@ -239,7 +241,7 @@ def polish(problem: LoopProblem, ev: Evaluation, dense: Scenarios, *, outer: Eva
                 a, best = t, e
             else:
                 b = t
-        x = np.log(np.maximum([best.kp, best.ki], 1e-12))
+        x = np.log(np.maximum(best.controller.parameters, 1e-12))
     step = 0.04
     directions = [np.array(d, float) / np.hypot(*d) for d in ((1, 0), (0, 1), (-1, 0), (0, -1), (1, 1), (-1, -1),
                                                               (1, -1), (-1, 1))]
@@ -375,7 +377,7 @@ def _with_designed_filters(problem: LoopProblem, method: str, max_rounds: int,
         with_filters = sorted(designed, key=lambda vr: -bw(vr[1]))
         for values, r in with_filters[:2]:
             p = with_filter_values(problem, values)
-            ex = exact_design(p, design_scenarios(p), r.evaluation.kp, r.evaluation.ki, design_filters=True,
+            ex = exact_design(p, design_scenarios(p), r.evaluation.controller, design_filters=True,
                               high_circle=True)
             note = {"from": values, "ipopt": ex.note, "filters": list(ex.filter_values)}
             if ex.success:
@@ -420,7 +422,7 @@ def _synthesise(problem: LoopProblem, method: str, max_rounds: int, extra: list[
         say(f"design on {len(points)} scenarios: gain scan, {steps}")
         cands, scan = _solve(problem, points, dense, method, notes)
         first_scan = first_scan or (scan, points)
-        evs = [(label, ev or evaluate(problem, kp, ki, dense)) for label, kp, ki, ev in cands]
+        evs = [(label, ev or evaluate(problem, c, dense)) for label, c, ev in cands]
         good += [(label, ev) for label, ev in evs if ev.meets]
         bad = [(label, ev) for label, ev in evs if not ev.meets]
         failed += [ev for _, ev in bad if ev.stable]
@@ -462,7 +464,7 @@ def _synthesise(problem: LoopProblem, method: str, max_rounds: int, extra: list[
                    f"each payload alone can meet the requirements, but no single pair of gains within the controller "
                    f"bounds meets them at every payload: the {what} at {where} binds (the least violating gains "
                    f"{short})")
-        ev = evaluate(problem, d["kp"], d["ki"], dense)
+        ev = evaluate(problem, PI(d["kp"], d["ki"]), dense)
         return SynthesisResult("infeasible", message, ev, None, method, seconds, base, names, pts,
                                {**details, "diagnosis": d},
                                binding={"constraint": d["constraint"], "payload_kg": d["payload_kg"],
@@ -480,13 +482,13 @@ def _synthesise(problem: LoopProblem, method: str, max_rounds: int, extra: list[
     t1 = time.perf_counter()
     tried = []
     for label, ev in good[:3]:      # the best verified of the three best candidates
-        v = verify(problem, ev.kp, ev.ki, verification_scenarios(points, dense, ev),
+        v = verify(problem, ev.controller, verification_scenarios(points, dense, ev),
                    claimed_worst_bandwidth_hz=ev.worst_bandwidth_hz)
         tried.append({"design": label, "verified": v.verified})
         if v.verified:
             break
     details.update(verification_seconds=time.perf_counter() - t1, chosen=label, verified_candidates=tried,
-                   candidates=[{"design": lb, "kp": e.kp, "ki": e.ki, "worst_bandwidth_hz": e.worst_bandwidth_hz}
+                   candidates=[{"design": lb, **e.controller.gains(), "worst_bandwidth_hz": e.worst_bandwidth_hz}
                                for lb, e in good])
     if not v.verified:
         return SynthesisResult("infeasible", "the optimised designs failed the independent check: "
@@ -498,7 +500,8 @@ def _synthesise(problem: LoopProblem, method: str, max_rounds: int, extra: list[
         where = "" if b["payload_kg"] is None else f" at {b['payload_kg']:.1f} kg"
         return SynthesisResult(
             "infeasible", f"the best worst-case bandwidth is {ev.worst_bandwidth_hz:.2f} Hz at {ev.payload_kg[i]:.1f} "
-            f"kg (kp = {ev.kp:.4g}, ki = {ev.ki:.4g}), below requirements.min_bandwidth_hz = {req_bw:g}; "
+            f"kg (kp = {ev.controller.kp:.4g}, ki = {ev.controller.ki:.4g}), below requirements.min_bandwidth_hz = "
+            f"{req_bw:g}; "
             f"the {b['constraint'].replace('_', ' ')}{where} "
             "limits it", ev, v, method, seconds, base, names, pts, details)
     discrete = None
@@ -512,7 +515,7 @@ def _synthesise(problem: LoopProblem, method: str, max_rounds: int, extra: list[
         return SynthesisResult("optimal", f"verified ({label})", ev, v, method, seconds, base, names, pts, details,
                                discrete=discrete)
     say("Monte Carlo check over the uncertainty")
-    mc = monte_carlo_check(problem, ev.kp, ev.ki, seed=seed)
+    mc = monte_carlo_check(problem, ev.controller, seed=seed)
     details["design_scenarios"] = len(points)
     if mc.violations:
         return SynthesisResult("infeasible", f"verified on the {len(points)} design scenarios ({label}), but "
@@ -535,7 +538,7 @@ def _discrete(problem: LoopProblem, ev: Evaluation, points: Scenarios, dense: Sc
     for i in ev.tightest(DISCRETE_TIGHTEST):
         if not rows.contains(dense.row(int(i))):
             rows = rows.with_row(dense.row(int(i)))
-    design = discretise(base, ev.kp, ev.ki, problem.controller.loop_rate_hz)
+    design = discretise(base, ev.controller, problem.controller.loop_rate_hz)
     req = problem.requirements
     check = check_discrete([(rows.describe(k), rows.plant(base, k)) for k in range(len(rows))], design,
                            phase_margin_deg=req.phase_margin_deg, gain_margin_db=req.gain_margin_db)

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from design.loop.controller import PI
 from design.problem import LoopProblem
 from design.synth.evaluation import evaluate
 from design.synth.exact import exact_design
@@ -26,8 +27,7 @@ from design.synth.verify import verify
 
 class SchedulePoint:
     payload_kg: float
-    kp: float
-    ki: float
+    controller: PI
     bandwidth_hz: float
     phase_margin_deg: float
     gain_margin_db: float
@@ -37,26 +37,26 @@ class SchedulePoint:
     failures: tuple[str, ...]
 
 
-def gain_schedule(problem: LoopProblem, kp: float, ki: float) -> list[SchedulePoint]:
-    """Per-payload optimum gains at the problem's payload points, each robust to its uncertainty; (kp, ki) is
-    the design for the whole range."""
+def gain_schedule(problem: LoopProblem, controller: PI) -> list[SchedulePoint]:
+    """Per-payload optimum gains at the problem's payload points, each robust to its uncertainty; ``controller``
+    is the design for the whole range."""
     plant = problem.plant.plant()
     out = []
     for m in problem.plant.payload_kg.design_points():
         corners, check = design_scenarios(problem, [m]), check_scenarios(problem, [m])
-        robust = evaluate(problem, kp, ki, check)
+        robust = evaluate(problem, controller, check)
         scan = scan_gains(problem, corners.plants(plant).frd(W_OPT))
-        starts = [(kp, ki)] + [(scan.kp[i], scan.ki[i]) for i in scan.best(scan.meets, scan.worst_bandwidth_hz, 1)]
+        starts = [controller] + [PI(scan.kp[i], scan.ki[i]) for i in scan.best(scan.meets, scan.worst_bandwidth_hz, 1)]
         best = robust
-        for kp0, ki0 in starts:
-            ex = exact_design(problem, corners, float(kp0), float(ki0))
+        for start in starts:
+            ex = exact_design(problem, corners, start)
             if ex.success:
-                ev = evaluate(problem, ex.kp, ex.ki, check)
+                ev = evaluate(problem, ex.controller, check)
                 if ev.meets and ev.worst_bandwidth_hz > best.worst_bandwidth_hz:
                     best = ev
-        v = verify(problem, best.kp, best.ki, verification_scenarios(corners, check, best),
+        v = verify(problem, best.controller, verification_scenarios(corners, check, best),
                    claimed_worst_bandwidth_hz=best.worst_bandwidth_hz)
-        out.append(SchedulePoint(float(m), best.kp, best.ki, float(best.bandwidth_hz[0]),
+        out.append(SchedulePoint(float(m), best.controller, float(best.bandwidth_hz[0]),
                                  float(best.phase_margin_deg[0]), float(best.gain_margin_db[0]),
                                  float(robust.bandwidth_hz[0]), v.verified, v.failures))
     return out

@@ -19,6 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from design.loop.controller import PI
 from design.problem import LoopProblem
 from design.synth.scenarios import Scenarios
 from plant.physics.drive_filters import FILTERS
@@ -80,9 +81,9 @@ def _bandwidth_hz(T, level2: float, integral: bool) -> float:
     return brentq(lambda w: abs(T(1j * w)) - level, lo, hi, xtol=1e-12 * hi) / (2 * math.pi)
 
 
-def verify(problem: LoopProblem, kp: float, ki: float, scenarios: Scenarios | None = None, *,
+def verify(problem: LoopProblem, controller: PI, scenarios: Scenarios | None = None, *,
            claimed_worst_bandwidth_hz: float | None = None, pade_order: int = 6) -> Verification:
-    """python-control check of (kp, ki) on every scenario (default: the dense payloads of
+    """python-control check of the PI ``controller`` on every scenario (default: the dense payloads of
     ``PayloadRange.check_points`` at the nominal parameters); ``claimed_worst_bandwidth_hz`` is compared
     with the lowest ``control.bandwidth`` over them."""
     import control
@@ -91,7 +92,7 @@ def verify(problem: LoopProblem, kp: float, ki: float, scenarios: Scenarios | No
     if scenarios is None:
         scenarios = Scenarios(problem.plant.payload_kg.check_points())
     base = problem.plant.plant()
-    C = control.tf([kp, ki], [1.0, 0.0]) if ki > 0 else control.tf([kp], [1.0])   # no s/s without integral
+    C = controller.tf()
     failures: list[str] = []
     max_re, pms, gms, bws, errs = -math.inf, [], [], [], [0.0]
     for k in range(len(scenarios)):
@@ -112,7 +113,7 @@ def verify(problem: LoopProblem, kp: float, ki: float, scenarios: Scenarios | No
             failures.append(f"unstable closed loop at {m} (pole real part {re:.3g})")
             bws.append(math.nan)
             continue
-        bw = _bandwidth_hz(T, req.level2, ki > 0)
+        bw = _bandwidth_hz(T, req.level2, controller.ki > 0)
         bws.append(bw)
         if pm < req.phase_margin_deg - MARGIN_TOLERANCE:
             failures.append(f"phase margin {pm:.2f} deg < {req.phase_margin_deg:g} at {m}")

@@ -49,7 +49,7 @@ def add_admittance_section(report: Report, problem: LoopProblem, outcome: Design
     report.raw(f"<div class='summary'>{verdict}: it feels {feel.peak_force_n:.3g} N peak ({feel.rms_force_n:.3g} N "
                f"RMS) on the locomotion profile ({loc.travel_m:g} m at {loc.peak_speed_m_per_s:g} m/s, "
                f"{loc.peak_acceleration_m_per_s2:g} m/s²) and can push {a.mouse.peak_force_n:g} N. "
-               f"m_v = {r.m_v:.4g} kg, b_v = {r.b_v:.4g} N·s/m with Kp = {r.kp:.4g} A/(m/s), Ki = {r.ki:.4g} A/m "
+               f"m_v = {r.m_v:.4g} kg, b_v = {r.b_v:.4g} N·s/m with {r.controller} "
                f"(admittance law {rig}). Interaction loop (broken at the force-sensor signal), worst over "
                f"{len(c.scenarios)} scenarios: {margins}. Binding: {units(r.binding['detail'])}. Passive up to "
                f"{passive_text(c)} Hz; stable on a grounded spring up to "
@@ -66,7 +66,7 @@ def add_admittance_section(report: Report, problem: LoopProblem, outcome: Design
         ["push to start the gantry at rest (deadband + offset)", f"{1e3 * feel.breakaway_force_n:.3g} mN", "—"],
         ["velocity loop short of the law's reference at the end of the cruise (the PI's integral action not "
          "yet caught up: the mouse pushes that much harder)", f"{100 * feel.velocity_shortfall:.3g} %"
-         + (f" (Ki = {r.ki:.4g} A/m too slow for the cruise)" if feel.shortfall_reported else ""), "—"],
+         + (f" (Ki = {r.controller.ki:.4g} A/m too slow for the cruise)" if feel.shortfall_reported else ""), "—"],
         ["drift at rest", f"{feel.drift_mm_per_s:.3g} mm/s",
          "—" if a.sensor.max_drift_mm_per_s is None else f"{a.sensor.max_drift_mm_per_s:g} mm/s"],
         ["motor force on the locomotion profile" if hw.motor_force_criterion == "locomotion" else
@@ -109,7 +109,8 @@ def add_admittance_section(report: Report, problem: LoopProblem, outcome: Design
                       "force the mouse feels on the profile (nominal parameters).")
         report.raw(table(["payload (kg)", "status", "Kp (A/(m/s))", "Ki (A/m)", "m_v (kg)", "b_v (N·s/m)",
                           "force felt (N)", "robust design's (N)"],
-                         [[f"{p.payload_kg:g}", p.status, f"{p.kp:.4g}", f"{p.ki:.4g}", f"{p.m_v:.4g}", f"{p.b_v:.4g}",
+                         [[f"{p.payload_kg:g}", p.status, f"{p.controller.kp:.4g}", f"{p.controller.ki:.4g}",
+                           f"{p.m_v:.4g}", f"{p.b_v:.4g}",
                            num(p.force_felt_n, ".3g"), f"{p.robust_force_felt_n:.3g}"] for p in pts]))
     if r.discrete is not None:
         d = r.discrete

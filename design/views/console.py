@@ -396,7 +396,7 @@ def print_sweep(console: Console, result, check=None, source: str | None = None)
     """The text of ``gantry sweep``: the gains swept and where they come from, the table, with samples the
     ranges and the worst cases, and the verdict against the requirements (``check``)."""
     if source is not None:
-        console.print(f"Gains: Kp = {result.kp:.4g} A/(m/s), Ki = {result.ki:.4g} A/m ({source})", soft_wrap=True)
+        console.print(f"Gains: {result.controller} ({source})", soft_wrap=True)
     console.print(sweep_table(result))
     unstable = int(np.sum(result.unstable_samples))
     if unstable:

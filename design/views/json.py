@@ -287,7 +287,7 @@ def sweep_to_dict(result: SweepResult) -> dict:
         payloads.append(entry)
     worst = {name: {"value": finite_or_none(w.value), "payload_kg": w.payload_kg, "sample_index": w.sample_index,
                     "parameters": w.parameters} for name, w in result.worst_case().items()}
-    return {"stage": result.stage, "kp": result.kp, "ki": result.ki, "seed": result.seed, "samples": result.samples,
+    return {"stage": result.stage, **result.controller.gains(), "seed": result.seed, "samples": result.samples,
             "sampling": result.sampling,
             "uncertainty": {k: {"min": lo, "max": hi} for k, (lo, hi) in result.uncertainty.items()},
             "percentiles": list(result.levels), "payloads": payloads, "worst_case": worst,
@@ -297,7 +297,7 @@ def sweep_to_dict(result: SweepResult) -> dict:
 
 def evaluation_to_dict(ev: Evaluation, label: str) -> dict:
     """A design or baseline evaluated on the spec (``baselines`` of ``gantry synth --json``)."""
-    return {"name": label, "kp": ev.kp, "ki": ev.ki,
+    return {"name": label, **ev.controller.gains(),
             "worst_bandwidth_hz": finite_or_none(ev.worst_bandwidth_hz) if ev.stable else None,
             "worst_phase_margin_deg": finite_or_none(np.min(ev.phase_margin_deg)),
             "worst_gain_margin_db": finite_or_none(np.min(ev.gain_margin_db)),
@@ -311,7 +311,7 @@ def synthesis_to_dict(result: SynthesisResult) -> dict:
     ok = result.status == "optimal"
     return {
         "status": result.status, "message": result.message,
-        "gains": {"kp": e.kp, "ki": e.ki} if e and ok else {"kp": None, "ki": None},
+        "gains": e.controller.gains() if e and ok else {"kp": None, "ki": None},
         "worst_case": ({"bandwidth_hz": finite_or_none(e.worst_bandwidth_hz),
                         "phase_margin_deg": finite_or_none(np.min(e.phase_margin_deg)),
                         "gain_margin_db": finite_or_none(np.min(e.gain_margin_db))} if e else None),
@@ -378,7 +378,7 @@ def verification_to_dict(v: Verification) -> dict:
 
 def schedule_point_to_dict(p: SchedulePoint) -> dict:
     """One point of a gain schedule."""
-    return {"payload_kg": p.payload_kg, "kp": p.kp, "ki": p.ki,
+    return {"payload_kg": p.payload_kg, **p.controller.gains(),
             "bandwidth_hz": finite_or_none(p.bandwidth_hz),
             "phase_margin_deg": finite_or_none(p.phase_margin_deg),
             "gain_margin_db": finite_or_none(p.gain_margin_db),
@@ -478,7 +478,7 @@ def admittance_to_dict(result: AdmittanceResult, problem: LoopProblem) -> dict:
     out = {
         "status": result.status, "message": result.message,
         "m_v": result.m_v if designed else None, "b_v": result.b_v if designed else None,
-        "kp": result.kp, "ki": result.ki,
+        **result.controller.gains(),
         "peak_resistance_n": result.peak_resistance_n if designed else None,
         **_check_figures(c),
         "binding": result.binding, "active": list(result.active),
@@ -513,8 +513,9 @@ def admittance_to_dict(result: AdmittanceResult, problem: LoopProblem) -> dict:
         out["stiffest_contact_at"] = result.contact.worst_scenario
     if result.codesign is not None:
         r = result.codesign
-        out["codesign"] = {"kp": r.kp, "ki": r.ki, "force_filter_hz": r.timing.filter_hz, "given_kp": r.given_kp,
-                           "given_ki": r.given_ki, "force_felt_n": finite_or_none(r.force_n),
+        out["codesign"] = {**r.controller.gains(), "force_filter_hz": r.timing.filter_hz,
+                           "given_kp": float(r.given.kp), "given_ki": float(r.given.ki),
+                           "force_felt_n": finite_or_none(r.force_n),
                            "given_force_felt_n": finite_or_none(r.given_force_n), "evaluations": r.evaluations,
                            "pi_phase_margin_deg": finite_or_none(r.pi_phase_margin_deg),
                            "pi_gain_margin_db": finite_or_none(r.pi_gain_margin_db),
@@ -627,11 +628,11 @@ def measured_design_to_dict(d: MeasuredDesign) -> dict:
                       "lp_solves": d.lp_solves, "payload_points": d.payload_kg.tolist(),
                       "frequency_band_hz": list(d.band_hz)},
            "baselines": [], "data_driven": True}
-    if d.kp is None:
+    if d.controller is None:
         return {**out, "status": d.status, "message": d.message, "gains": {"kp": None, "ki": None},
                 "worst_case": None, "per_payload": [], "binding": None, "verified": False}
     gm_all_finite = bool(np.all(np.isfinite(d.gain_margin_db)))
-    return {**out, "gains": {"kp": d.kp, "ki": d.ki},
+    return {**out, "gains": d.controller.gains(),
             "worst_case": {"bandwidth_hz": finite_or_none(np.min(d.bandwidth_hz)),
                            "phase_margin_deg": finite_or_none(np.min(d.phase_margin_deg)),
                            "gain_margin_db": float(np.min(d.gain_margin_db)) if gm_all_finite else None},
@@ -668,7 +669,7 @@ def design_to_dict(outcome: DesignOutcome) -> dict:
         elif outcome.admittance is not None:
             adm = admittance_to_dict(outcome.admittance, problem.loop)
             if outcome.admittance_schedule is not None:
-                adm["schedule"] = [{"payload_kg": p.payload_kg, "status": p.status, "kp": p.kp, "ki": p.ki,
+                adm["schedule"] = [{"payload_kg": p.payload_kg, "status": p.status, **p.controller.gains(),
                                     "m_v": p.m_v, "b_v": p.b_v, "force_felt_n": finite_or_none(p.force_felt_n),
                                     "robust_force_felt_n": p.robust_force_felt_n,
                                     "peak_resistance_n": p.peak_resistance_n}

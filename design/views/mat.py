@@ -31,7 +31,8 @@ def write_design_mat(outcome: DesignOutcome, path: str | Path, *, payload_kg: fl
     check_instance("outcome", outcome, DesignOutcome, "design.workflows.design(problem) makes one")
     models = outcome.loop_models(payload_kg, pade_order=pade_order)
     gm_db, pm_deg = models.margins()
-    content = {"status": outcome.status, "kp_a_per_m_per_s": models.kp, "ki_a_per_m": models.ki,
+    content = {"status": outcome.status, "kp_a_per_m_per_s": float(models.controller.kp),
+               "ki_a_per_m": float(models.controller.ki),
                "payload_kg": models.payload_kg, "pade_order": models.pade_order,
                "gain_margin_db": gm_db, "phase_margin_deg": pm_deg}
     for name in ("P", "C", "L", "S", "T"):

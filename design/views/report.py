@@ -167,7 +167,8 @@ def thesis_verdict(ev: Evaluation) -> str:
 def verdict_label(name: str, ev: Evaluation, requirements) -> str:
     """'thesis gains (Kp 236, Ki 47): FAILS (worst PM 40.0 deg, GM 5.0 dB)' or '...: meets ...'."""
     gm = float(np.min(ev.gain_margin_db))
-    return (f"{name} (Kp {ev.kp:.4g}, Ki {ev.ki:.4g}): {'meets' if ev.meets else 'FAILS'} (worst PM "
+    c = ev.controller
+    return (f"{name} (Kp {c.kp:.4g}, Ki {c.ki:.4g}): {'meets' if ev.meets else 'FAILS'} (worst PM "
             f"{np.min(ev.phase_margin_deg):.1f}°, GM " + ("∞" if not np.isfinite(gm) else f"{gm:.1f} dB") + ")")
 
 
@@ -222,7 +223,7 @@ def design_report(content: ReportContent) -> Report:
     rng = loop.plant.payload_kg
     over = (f"{ev.payload_kg.size} payloads x {len(ev.row_bandwidth_hz) // ev.payload_kg.size} sets of the "
             "uncertain parameters" if loop.plant.uncertainty else f"{ev.payload_kg.size} payloads")
-    lines = [f"<b>Gains</b> ({c.gains_source}): Kp = {c.kp:.4g} A/(m/s), Ki = {c.ki:.4g} A/m.",
+    lines = [f"<b>Gains</b> ({c.gains_source}): {c.controller}.",
              f"<b>Worst case over {rng.min:g}-{rng.max:g} kg</b> ({over}, recomputed here): "
              f"bandwidth {ev.worst_bandwidth_hz:.2f} Hz, phase margin {np.min(ev.phase_margin_deg):.1f} deg, gain "
              "margin " + ("infinite" if not np.isfinite(worst_gm) else f"{worst_gm:.1f} dB") + f": {status}.",
@@ -303,7 +304,8 @@ def design_report(content: ReportContent) -> Report:
         report.raw(table(["design", "Kp A/(m/s)", "Ki A/m", "bandwidth, nominal parameters Hz",
                           "bandwidth over the uncertainty Hz", "Monte Carlo violations", "95 % bound",
                           "Monte Carlo: worst PM deg", "Monte Carlo: worst GM dB"],
-                         [[r.name, f"{r.nominal.kp:.4g}", f"{r.nominal.ki:.4g}", f"{r.nominal.worst_bandwidth_hz:.2f}",
+                         [[r.name, f"{r.nominal.controller.kp:.4g}", f"{r.nominal.controller.ki:.4g}",
+                           f"{r.nominal.worst_bandwidth_hz:.2f}",
                            f"{r.robust.worst_bandwidth_hz:.2f}",
                            f"{r.monte_carlo.violations} / {r.monte_carlo.samples}",
                            f"{100 * r.monte_carlo.rate_upper_bound:.2g} %",

@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 
 from design.loop.analysis import analyse_loop
+from design.loop.controller import PI
 from design.loop.fast import fast_analyse_loop
 from design.spec.schema import parse_spec
 from design.synth.evaluation import evaluate
@@ -132,8 +133,8 @@ def test_a_p_only_loop_is_measured_against_the_reference_it_does_not_reach():
         k = kp * kt
         w = math.sqrt(2 * k * k - (b + k) ** 2) / m if 2 * k * k > (b + k) ** 2 else math.nan
         assert math.isnan(w) == (kp == 20.0)
-        for bw in (analyse_loop(plant, kp, 0.0).closed_loop_bandwidth_hz,
-                   fast_analyse_loop(plant, kp, 0.0).closed_loop_bandwidth_hz):
+        for bw in (analyse_loop(plant, PI(kp, 0.0)).closed_loop_bandwidth_hz,
+                   fast_analyse_loop(plant, PI(kp, 0.0)).closed_loop_bandwidth_hz):
             if math.isnan(w):
                 assert np.isnan(bw)
             else:
@@ -142,11 +143,11 @@ def test_a_p_only_loop_is_measured_against_the_reference_it_does_not_reach():
 
 def test_a_pi_design_requires_integral_action_unless_the_spec_admits_p_only():
     required = thesis_problem()
-    ev = evaluate(required, 1500.0, 0.0)
+    ev = evaluate(required, PI(1500.0, 0.0))
     assert not ev.meets and ev.binding["constraint"] == "integral_action"
     optional = thesis_problem(integral="optional")
-    assert evaluate(optional, 1500.0, 0.0).binding["constraint"] != "integral_action"
-    assert evaluate(required, 1500.0, 47.0).binding["constraint"] != "integral_action"
+    assert evaluate(optional, PI(1500.0, 0.0)).binding["constraint"] != "integral_action"
+    assert evaluate(required, PI(1500.0, 47.0)).binding["constraint"] != "integral_action"
 
 
 def test_a_stepped_sine_without_its_frequency_column_or_with_one_block_is_named_with_the_file(tmp_path):

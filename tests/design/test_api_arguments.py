@@ -9,6 +9,7 @@ import pytest
 
 from design import workflows
 from design.loop.control_models import loop_models
+from design.loop.controller import PI
 from design.views.mat import write_design_mat, write_response_mat
 from design.views.report import design_report
 from plant import Delay, Plant, make_effect, stage_x
@@ -48,9 +49,9 @@ CASES = [
     ("content", lambda tmp, a: design_report(a), [None, {}]),
     ("outcome", lambda tmp, a: write_design_mat(a, tmp / "d.mat"), [None, "synth.json"]),
     ("measured", lambda tmp, a: write_response_mat(a, tmp / "r.mat"), [None, np.ones(3)]),
-    ("plant", lambda tmp, a: loop_models(a, 200.0, 10.0), [None, "x", 40.0]),
-    ("kp", lambda tmp, a: loop_models(stage_x(), a, 10.0), [None, "200", math.nan, True, -1.0, [200.0]]),
-    ("ki", lambda tmp, a: loop_models(stage_x(), 200.0, a), [math.inf, -5.0]),
+    ("plant", lambda tmp, a: loop_models(a, PI(200.0, 10.0)), [None, "x", 40.0]),
+    ("kp", lambda tmp, a: loop_models(stage_x(), PI(a, 10.0)), [None, "200", math.nan, True, -1.0, [200.0]]),
+    ("ki", lambda tmp, a: loop_models(stage_x(), PI(200.0, a)), [math.inf, -5.0]),
     ("plant", lambda tmp, a: simulate_stepped_sine(a, f_hz=[1.0], current_amplitude_a=0.5), [None, "x"]),
     ("f_hz", lambda tmp, a: simulate_stepped_sine(stage_x(), f_hz=a, current_amplitude_a=0.5), ["1", True, [np.nan]]),
     ("current_amplitude_a", lambda tmp, a: simulate_stepped_sine(stage_x(), f_hz=[1.0, 2.0], current_amplitude_a=a),

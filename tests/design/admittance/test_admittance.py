@@ -26,6 +26,7 @@ from design.admittance.mouse import MouseModel, mouse_set
 from design.admittance.profile import FeltForce
 from design.admittance.rig import RigTiming
 from design.admittance.synthesis import synthesise_admittance
+from design.loop.controller import PI
 from design.spec.schema import load_spec, parse_spec
 from design.synth.scenarios import Scenarios
 from plant import stage_x
@@ -61,7 +62,7 @@ def _fast_data(**admittance):
 def test_ideal_velocity_loop_renders_the_virtual_admittance():
     # closed form: with a very stiff velocity loop v/F -> 1/(m_v s + b_v) (thesis Eq. 3.23 with k_v = 0; its
     # Eq. 3.24 prints 1/(m_v s^2 + b_v), a typo)
-    loop = gantry_loop(PiLoops(stage_x(), 1e7, 1e9), W, [20.0])
+    loop = gantry_loop(PiLoops(stage_x(), PI(1e7, 1e9)), W, [20.0])
     assert np.allclose(rendered_admittance(loop, 2.0, 5.0)[0], 1 / (2.0 * 1j * W + 5.0), rtol=1e-3)
 
 
@@ -109,7 +110,7 @@ def _tool_gain(kp, ki, w, timing, **mouse):
     m = {**MOUSE, **mouse}
     sc = Scenarios(np.array([40.0]))
     corner = MouseModel(m["head_kg"], m["body_kg"], m["neck_k"], m["neck_c"], m["leg_k"], m["leg_c"])
-    loops = PiLoops.of(spec, kp, ki)
+    loops = PiLoops.of(spec, PI(kp, ki))
     return interaction_responses(spec, sc, w, loops=loops, timing=timing, corners=[corner]).gain[0, 0]
 
 
@@ -286,7 +287,8 @@ def test_force_felt_equals_a_time_simulation_of_newtons_model():
     spec = parse_spec(_fast_data()).problem()
     kp, ki, m_v, b_v = 140.0, 15.0, 0.05, 8.0
     mouse = mice(spec)[0]
-    felt = FeltForce(spec, Scenarios(np.array([40.0])), [mouse], loops=PiLoops.of(spec, kp, ki), timing=RigTiming(None))
+    felt = FeltForce(spec, Scenarios(np.array([40.0])), [mouse], loops=PiLoops.of(spec, PI(kp, ki)),
+                     timing=RigTiming(None))
     tool = felt.forces(m_v, b_v)[0, 0]
     A, B, C, D = ref.felt_model(**{**PLANT, "mass_kg": 40.0}, kp=kp, ki=ki, head_kg=mouse.head_mass_kg,
                                 neck_k=mouse.neck_stiffness_n_per_m, neck_c=mouse.neck_damping_n_s_per_m, m_v=m_v,
@@ -304,7 +306,7 @@ def test_stiffest_contact_is_the_stability_boundary_of_newtons_model():
 
     spec = parse_spec(_fast_data()).problem()
     kp, ki, m_v, b_v = 140.0, 15.0, 0.01, 3.0
-    lim = stiffest_contact(spec, Scenarios(np.array([40.0])), loops=PiLoops.of(spec, kp, ki), m_v=m_v, b_v=b_v,
+    lim = stiffest_contact(spec, Scenarios(np.array([40.0])), loops=PiLoops.of(spec, PI(kp, ki)), m_v=m_v, b_v=b_v,
                            timing=RigTiming(None)).stiffness_n_per_m[0]
     assert 10 < lim < 1e7
 
@@ -329,7 +331,7 @@ def test_stiffest_contact_is_the_stability_boundary_of_newtons_model():
 
 def test_passive_band_against_the_rendered_admittance_of_newtons_model():
     spec = parse_spec(_fast_data()).problem()
-    ev = AdmittanceEvaluator(spec, Scenarios(np.array([40.0])), loops=PiLoops.of(spec, 140.0, 15.0),
+    ev = AdmittanceEvaluator(spec, Scenarios(np.array([40.0])), loops=PiLoops.of(spec, PI(140.0, 15.0)),
                              timing=RigTiming(None))
     c = ev.evaluate(0.05, 8.0)
     w = np.geomspace(0.01, 3000.0, 20000) * 2 * np.pi
@@ -410,7 +412,8 @@ def test_motor_force_on_the_profile_equals_newtons_law():
     spec = parse_spec(_fast_data()).problem()
     kp, ki, m_v, b_v = 140.0, 15.0, 0.05, 4.0
     mouse = mice(spec)[0]
-    felt = FeltForce(spec, Scenarios(np.array([40.0])), [mouse], loops=PiLoops.of(spec, kp, ki), timing=RigTiming(None))
+    felt = FeltForce(spec, Scenarios(np.array([40.0])), [mouse], loops=PiLoops.of(spec, PI(kp, ki)),
+                     timing=RigTiming(None))
     tool = felt.motor_forces(m_v, b_v)[0, 0, 0]
     A, B, _, _ = ref.felt_model(**{**PLANT, "mass_kg": 40.0}, kp=kp, ki=ki, head_kg=mouse.head_mass_kg,
                                 neck_k=mouse.neck_stiffness_n_per_m, neck_c=mouse.neck_damping_n_s_per_m, m_v=m_v,
@@ -426,7 +429,7 @@ def test_motor_force_on_the_profile_equals_newtons_law():
 
 def test_infeasible_admittance_names_the_requirement_and_the_bound():
     spec = parse_spec(_fast_data(b_v={"min": 0.01, "max": 0.5}, m_v={"min": 0.005, "max": 0.01})).problem()
-    res = synthesise_admittance(spec, kp=140.0, ki=15.0)
+    res = synthesise_admittance(spec, controller=PI(140.0, 15.0))
     assert res.status == "infeasible" and not res.verified
     assert "admittance.b_v.max = 0.5" in res.message and "admittance.m_v.max = 0.01" in res.message
     assert "admittance.hardware.motor_peak_force_n" in res.message or "admittance.phase_margin_deg" in res.message
@@ -435,7 +438,7 @@ def test_infeasible_admittance_names_the_requirement_and_the_bound():
 
 def test_passivity_requirement_is_held_or_reported():
     spec = parse_spec(_fast_data(passivity={"up_to_hz": 2.0})).problem()
-    res = synthesise_admittance(spec, kp=140.0, ki=15.0)
+    res = synthesise_admittance(spec, controller=PI(140.0, 15.0))
     assert res.status in ("optimal", "mouse_cannot_drive") and res.verified
     assert np.min(res.check.passive_up_to_hz) >= 2.0
 
@@ -446,7 +449,7 @@ def test_rendered_admittance_of_the_sampled_law_at_the_input_frequency():
     spec = parse_spec(_fast_data()).problem()
     T, m, b = 0.01, 0.05, 8.0
     timing = RigTiming(T, 1, 30.0, 2)
-    loop = gantry_loop(PiLoops.of(spec, 1e9, 1e11), W[W < 300], [40.0])
+    loop = gantry_loop(PiLoops.of(spec, PI(1e9, 1e11)), W[W < 300], [40.0])
     w = loop.w_rad_s
     s = 1j * w
     hold = (1 - np.exp(-s * T)) / (s * T)
@@ -536,7 +539,7 @@ def test_hardware_what_ifs_lower_the_force_with_a_faster_law_and_raise_it_with_m
     timing = RigTiming.of(spec.admittance.rig)
     corners = mice(spec)
     w = with_mode_points(check_grid_for(timing), corners, timing)
-    rp = ray_problem(interaction_responses(spec, design_scenarios(spec), w, loops=PiLoops.of(spec, kp, ki),
+    rp = ray_problem(interaction_responses(spec, design_scenarios(spec), w, loops=PiLoops.of(spec, PI(kp, ki)),
                                            timing=timing, corners=corners), spec.admittance)
     result = SimpleNamespace(kp=kp, ki=ki, m_v=m_v, b_v=b_v, timing=timing, corners=corners)
     changes = {c.change: c for c in trade_off(spec, result, rp).changes}
@@ -566,7 +569,7 @@ def test_a_tustin_law_is_designed_verified_and_exported_with_its_rule():
     # rational model with the law Y_v = (beta z + beta_prev) / (z - alpha)), its difference equation exported
     data = _fast_data()
     data["admittance"]["rig"] = {"update_rate_hz": 100.0, "computation_delay_samples": 0, "law": "tustin"}
-    res = synthesise_admittance(parse_spec(data).problem(), kp=140.0, ki=15.0)
+    res = synthesise_admittance(parse_spec(data).problem(), controller=PI(140.0, 15.0))
     assert res.status == "optimal" and res.verified, res.message
     d = res.discrete
     assert "Tustin" in d.rule and d.beta_prev_m_per_s_per_n == pytest.approx(d.beta_m_per_s_per_n)
@@ -579,7 +582,7 @@ def test_an_exact_zoh_law_is_designed_verified_and_exported_with_its_rule():
     # a verified design whose exported coefficients are the exact response of 1/(m_v s + b_v) over one period
     data = _fast_data()
     data["admittance"]["rig"] = {"update_rate_hz": 100.0, "computation_delay_samples": 0, "law": "zoh"}
-    res = synthesise_admittance(parse_spec(data).problem(), kp=140.0, ki=15.0)
+    res = synthesise_admittance(parse_spec(data).problem(), controller=PI(140.0, 15.0))
     assert res.status == "optimal" and res.verified, res.message
     d, T = res.discrete, 0.01
     assert "ZOH" in d.rule and d.beta_prev_m_per_s_per_n == 0.0
@@ -597,7 +600,7 @@ def test_velocity_shortfall_on_the_profile_matches_the_rigid_pi_loop():
 
     spec = load_spec(SPEC).problem()
     kp, ki, payload = 199.9, 18.54, 40.0
-    felt = FeltForce(spec, Scenarios(np.array([payload])), [mice(spec)[0]], loops=PiLoops.of(spec, kp, ki),
+    felt = FeltForce(spec, Scenarios(np.array([payload])), [mice(spec)[0]], loops=PiLoops.of(spec, PI(kp, ki)),
                      timing=RigTiming(None))
     plant = spec.plant.plant(payload)
     M, b, kt = float(np.sum(plant.mechanics().masses_kg)), float(plant.damping_n_s_per_m), 20.0
@@ -617,12 +620,12 @@ def test_a_computation_delay_range_is_designed_to_hold_at_every_delay_of_it():
     data["admittance"]["rig"] = {"update_rate_hz": 100.0, "computation_delay_samples": {"min": 0, "max": 2},
                                  "law": "forward_euler"}
     spec = parse_spec(data).problem()
-    res = synthesise_admittance(spec, kp=140.0, ki=15.0, tradeoff=False)
+    res = synthesise_admittance(spec, controller=PI(140.0, 15.0), tradeoff=False)
     assert res.status in ("optimal", "mouse_cannot_drive") and res.verified, res.message
     assert res.timing.delays == (0, 1, 2)
     adm = spec.admittance
     for d in (0, 1, 2):
-        ev = AdmittanceEvaluator(spec, res.check.scenarios, loops=PiLoops.of(spec, 140.0, 15.0),
+        ev = AdmittanceEvaluator(spec, res.check.scenarios, loops=PiLoops.of(spec, PI(140.0, 15.0)),
                                  timing=res.timing.at_delay(d), corners=res.corners)
         check = ev.evaluate(res.m_v, res.b_v, screen=False)
         assert bool(np.all(check.stable)), d
@@ -632,7 +635,7 @@ def test_a_computation_delay_range_is_designed_to_hold_at_every_delay_of_it():
     for d in (0, 2):
         one = dict(data, admittance=dict(data["admittance"], rig=dict(data["admittance"]["rig"],
                                                                      computation_delay_samples=d)))
-        singles[d] = synthesise_admittance(parse_spec(one).problem(), kp=140.0, ki=15.0, tradeoff=False)
+        singles[d] = synthesise_admittance(parse_spec(one).problem(), controller=PI(140.0, 15.0), tradeoff=False)
     assert res.peak_resistance_n >= max(r.peak_resistance_n for r in singles.values()) * (1 - 1e-3)
     assert res.peak_resistance_n > singles[0].peak_resistance_n * 1.01      # the range costs the mouse something
     assert "sample" in res.binding["detail"], res.binding

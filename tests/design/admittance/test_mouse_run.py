@@ -13,6 +13,7 @@ import pytest
 from bundled_specs import admittance_data
 
 from design.admittance.mouse_run import RunSettings, simulate_mouse_run
+from design.loop.controller import PI
 
 #: realistic rig and mouse (SI units): 40 kg payload, the lab's PI, the bundled virtual dynamics
 BASE = dict(gantry_mass_kg=40.0, damping_n_s_per_m=440.0, force_constant_n_per_a=20.0, current_loop_hz=None,
@@ -338,7 +339,7 @@ def test_stage_y_runs_with_both_rails_damping():
 
     spec = load_spec(Path(__file__).resolve().parents[3] / "specs" / "stage_y_admittance.toml").problem()
     plant = spec.plant.plant(spec.plant.payload_kg.max)
-    s = run_settings(spec, kp=200.0, ki=20.0, m_v=0.05, b_v=5.0)
+    s = run_settings(spec, controller=PI(200.0, 20.0), m_v=0.05, b_v=5.0)
     assert s.damping_n_s_per_m == 2 * float(plant.damping_n_s_per_m)
     assert s.gantry_mass_kg == 2 * float(plant.mass_kg) * float(plant.load_position_m) / float(plant.motor_length_m)
 
@@ -364,7 +365,7 @@ def test_force_felt_and_motor_force_on_the_profile_match_a_time_simulation_of_th
     spec = parse_spec(data).problem()
     kp, ki, m_v, b_v = 199.9, 18.54, 0.0414, 4.957
     mouse = MouseModel(0.005, 0.03, 100.0, 0.5, 1e5, 100.0)
-    felt = FeltForce(spec, Scenarios(np.array([40.0])), [mouse], loops=PiLoops.of(spec, kp, ki),
+    felt = FeltForce(spec, Scenarios(np.array([40.0])), [mouse], loops=PiLoops.of(spec, PI(kp, ki)),
                      timing=RigTiming(0.01, rule=rule))
     t, x, v, a = ref.trapezoid_path(0.4, 0.2, 1.0, 2000.0, 0.3, 1.0)
     r = ref.simulate(t, x, v, a, **dict(BASE, gantry_mass_kg=40.0, current_loop_hz=1000.0, delay_ticks=1,

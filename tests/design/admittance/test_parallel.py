@@ -9,6 +9,7 @@ import pytest
 from design.admittance.model import PiLoops, admittance_problem
 from design.admittance.monte_carlo import admittance_monte_carlo
 from design.admittance.rig import RigTiming
+from design.loop.controller import PI
 from design.parallel import thread_map, workers
 from design.spec.schema import load_spec
 
@@ -32,7 +33,7 @@ def test_thread_map_keeps_order_and_raises(monkeypatch):
 def test_monte_carlo_on_two_threads_equals_one(monkeypatch):
     spec = load_spec(SPEC).problem()
     timing = RigTiming.of(admittance_problem(spec).rig)
-    kw = dict(loops=PiLoops.of(spec, 210.0, 14.0), m_v=0.33, b_v=7.6, timing=timing, samples=1200, seed=3)
+    kw = dict(loops=PiLoops.of(spec, PI(210.0, 14.0)), m_v=0.33, b_v=7.6, timing=timing, samples=1200, seed=3)
     runs = []
     for n in ("1", "2"):
         monkeypatch.setenv("GANTRY_THREADS", n)

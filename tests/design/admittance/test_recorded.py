@@ -14,6 +14,7 @@ import pytest
 from design.admittance.model import PiLoops
 from design.admittance.recorded import RecordedMotor
 from design.admittance.rig import RigTiming
+from design.loop.controller import PI
 from design.problem import ForceRecord
 from design.spec.schema import load_spec, parse_spec
 from design.synth.scenarios import Scenarios
@@ -39,7 +40,8 @@ def _row(payload, damping, delay, current):
 
 def _tool(record, row, timing, m_v=M_V, b_v=B_V):
     sc = Scenarios(np.array([row["payload_kg"]]), {k: np.array([v]) for k, v in row.items() if k != "payload_kg"})
-    return RecordedMotor(record, sc, loops=PiLoops.of(load_spec(SPEC).problem(), KP, KI), timing=timing).peaks(m_v, b_v)
+    loops = PiLoops.of(load_spec(SPEC).problem(), PI(KP, KI))
+    return RecordedMotor(record, sc, loops=loops, timing=timing).peaks(m_v, b_v)
 
 
 @pytest.mark.parametrize("row, rule, delay_samples, filter_hz", [

@@ -15,6 +15,7 @@ from design.admittance.model import AdmittanceEvaluator, PiLoops, coupled_gain, 
 from design.admittance.mouse import MouseModel, stack
 from design.admittance.rig import RigTiming
 from design.admittance.sampled import closed_loop_radius, discretised_paths, mouse_loads
+from design.loop.controller import PI
 from design.spec.schema import load_spec
 from design.synth.scenarios import Scenarios
 
@@ -45,7 +46,7 @@ def _newton(kp, ki, mouse: MouseModel, row=CORNER, pade=8):
 def _tool_gain(kp, ki, mouse, w, row=CORNER):
     spec = load_spec(SPEC).problem()
     timing = RigTiming(T, rule="forward_euler")
-    return coupled_gain(PiLoops.of(spec, kp, ki), _scenario(row), stack([mouse]), w, timing)[0, 0]
+    return coupled_gain(PiLoops.of(spec, PI(kp, ki)), _scenario(row), stack([mouse]), w, timing)[0, 0]
 
 
 def _reference_margins(kp, ki, m_v, b_v, mouse, row=CORNER, law="forward_euler"):
@@ -117,7 +118,7 @@ def test_pade_order_is_converged(period_s, mouse):
     plants = _scenario().plants(spec.plant.plant())
     gains = []
     for order in (sampled.pade_order_for(plants, period_s), 12):
-        free = sampled.free_gantry(plants, 1, kp=178.5, ki=300.0, pade_order=order)
+        free = sampled.free_gantry(plants, 1, controller=PI(178.5, 300.0), pade_order=order)
 
         class Loops:
             def free_state_space(self, scenarios, *, period_s=None, free=free):
@@ -135,7 +136,7 @@ def test_a_law_as_fast_as_the_delay_is_within_three_percent_of_the_exact_delay()
     w = np.geomspace(2 * math.pi, 0.999 * math.pi / 0.001, 40)
     spec = load_spec(SPEC).problem()
     timing = RigTiming(0.001, rule="forward_euler")
-    exact = coupled_gain(PiLoops.of(spec, 178.5, 300.0), _scenario(), stack([FLOATING]), w, timing)[0, 0]
+    exact = coupled_gain(PiLoops.of(spec, PI(178.5, 300.0)), _scenario(), stack([FLOATING]), w, timing)[0, 0]
     k = np.arange(-20001, 20001)
     s = 1j * (w[None, :] + 2 * math.pi * k[:, None] / 0.001)
     alias = (_newton_frd(178.5, 300.0, FLOATING, s) * -np.expm1(-s * 0.001) / (s * 0.001)).sum(axis=0)
@@ -153,7 +154,7 @@ def test_margins_agree_with_the_independent_sampled_loop_at_five_designs():
         "current_loop.bandwidth_hz": np.tile([700.0, 1300.0], 8)})
     near_nyquist = False
     for kp, ki, m_v, b_v in DESIGNS:
-        ev = AdmittanceEvaluator(spec, sc, loops=PiLoops.of(spec, kp, ki))
+        ev = AdmittanceEvaluator(spec, sc, loops=PiLoops.of(spec, PI(kp, ki)))
         check = ev.evaluate(m_v, b_v, screen=False)
         for arr in (check.phase_margin_deg, check.gain_margin_db):
             k, j = np.unravel_index(np.nanargmin(arr), arr.shape)
@@ -201,11 +202,11 @@ def test_gain_margin_and_stability_agree_with_a_fine_step_simulation():
     # discrete closed-loop poles say the same
     spec = load_spec(SPEC).problem()
     kp, ki, m_v, b_v = DESIGNS[0]
-    ev = AdmittanceEvaluator(spec, _scenario(), loops=PiLoops.of(spec, kp, ki), corners=[FLOATING])
+    ev = AdmittanceEvaluator(spec, _scenario(), loops=PiLoops.of(spec, PI(kp, ki)), corners=[FLOATING])
     gm_db = float(ev.evaluate(m_v, b_v, screen=False).gain_margin_db[0, 0])
     g = 10 ** (gm_db / 20)
     timing = RigTiming(T, rule="forward_euler")
-    paths = discretised_paths(PiLoops.of(spec, kp, ki), _scenario(), mouse_loads(stack([FLOATING])), timing)
+    paths = discretised_paths(PiLoops.of(spec, PI(kp, ki)), _scenario(), mouse_loads(stack([FLOATING])), timing)
     for factor, grows in ((0.8, False), (1.2, True)):
         scale = 1.0 / (g * factor)
         ratio = _simulate_growth(kp, ki, m_v * scale, b_v * scale, FLOATING)
@@ -218,7 +219,7 @@ def test_closed_loop_radius_with_computation_delay_equals_the_reference_eigenval
     # with d unit delays in series
     spec = load_spec(SPEC).problem()
     timing = RigTiming(T, rule="forward_euler")
-    paths = discretised_paths(PiLoops.of(spec, 209.9, 14.12), _scenario(), mouse_loads(stack([FLOATING])), timing)
+    paths = discretised_paths(PiLoops.of(spec, PI(209.9, 14.12)), _scenario(), mouse_loads(stack([FLOATING])), timing)
     A, B, C, D = ref.sampled_loop(_newton(209.9, 14.12, FLOATING), m_v=0.0436, b_v=5.05, period_s=T,
                                   forward_euler=True)
     for d in (0, 1, 2):
@@ -265,7 +266,7 @@ def test_latency_check_with_one_more_sample_agrees_with_the_reference_loop():
     kp, ki, m_v, b_v = DESIGNS[1]
     timing = RigTiming(T, rule="forward_euler")
     for mouse in (FLOATING, BRACED):
-        lat = latency_check(_scenario(), [mouse], loops=PiLoops.of(spec, kp, ki), timing=timing, m_v=m_v, b_v=b_v)
+        lat = latency_check(_scenario(), [mouse], loops=PiLoops.of(spec, PI(kp, ki)), timing=timing, m_v=m_v, b_v=b_v)
         A, B, C, D = ref.sampled_loop(_newton(kp, ki, mouse), m_v=m_v, b_v=b_v, period_s=T, forward_euler=True)
         n = A.shape[0]
         Ad = np.zeros((n + 1, n + 1))
@@ -283,7 +284,7 @@ def test_the_labs_setting_is_unstable_where_the_reference_says():
     from design.admittance.corners import corner_check
 
     spec = load_spec(SPEC).problem()
-    check = corner_check(spec, kp=178.5, ki=19150.0, m_v=0.04, b_v=4.0)
+    check = corner_check(spec, controller=PI(178.5, 19150.0), m_v=0.04, b_v=4.0)
     assert check.unstable == 1 and not check.stable
     assert check.unstable_at[0].startswith("40.0 kg, current_loop.bandwidth_hz = 700, damping_n_s_per_m = 330, "
                                            "delay.seconds = 0.0008 with mouse (head 2 g, body 20 g")
@@ -307,7 +308,7 @@ def test_tustin_law_is_the_bilinear_transform_and_its_loop_agrees_with_the_refer
     assert np.allclose([law.beta_m_per_s_per_n, law.beta_prev_m_per_s_per_n, law.alpha], [num[0], num[1], -den[1]])
     assert "Tustin" in law.rule
     spec = load_spec(SPEC).problem()
-    paths = discretised_paths(PiLoops.of(spec, 209.9, 14.12), _scenario(), mouse_loads(stack([FLOATING])), timing)
+    paths = discretised_paths(PiLoops.of(spec, PI(209.9, 14.12)), _scenario(), mouse_loads(stack([FLOATING])), timing)
     Ad, Bd, Cd, Dd = (np.asarray(x, float) for x in cont2discrete(_newton(209.9, 14.12, FLOATING), T, method="zoh")[:4])
     # the law as a state space (state s = beta_prev F[k-1] + alpha v[k-1]): v[k] = s + beta F[k]
     a, b, bp = law.alpha, law.beta_m_per_s_per_n, law.beta_prev_m_per_s_per_n
@@ -342,13 +343,13 @@ def test_zoh_law_is_the_step_invariant_transform_and_its_loop_agrees_with_the_re
     assert "ZOH" in law.rule
     spec = load_spec(SPEC).problem()
     for mouse in (FLOATING, BRACED):
-        paths = discretised_paths(PiLoops.of(spec, 209.9, 14.12), _scenario(), mouse_loads(stack([mouse])), timing)
+        paths = discretised_paths(PiLoops.of(spec, PI(209.9, 14.12)), _scenario(), mouse_loads(stack([mouse])), timing)
         loop = ref.sampled_loop(_newton(209.9, 14.12, mouse), m_v=m_v, b_v=b_v, period_s=T, zoh=True)
         A, B, C, D = loop
         expected = np.max(np.abs(np.linalg.eigvals(A - B @ C / (1.0 + D[0, 0]))))
         assert abs(closed_loop_radius(paths, timing.law(m_v, b_v), 0)[0] - expected) < 1e-7
         pm, gm_db, _, stable = _reference_margins(209.9, 14.12, m_v, b_v, mouse, law="zoh")
-        ev = AdmittanceEvaluator(spec, _scenario(), loops=PiLoops.of(spec, 209.9, 14.12), timing=timing,
+        ev = AdmittanceEvaluator(spec, _scenario(), loops=PiLoops.of(spec, PI(209.9, 14.12)), timing=timing,
                                  corners=[mouse])
         check = ev.evaluate(m_v, b_v, screen=False)
         assert stable and bool(check.stable[0, 0])

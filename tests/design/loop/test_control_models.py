@@ -10,6 +10,7 @@ import pytest
 from scipy.io import loadmat
 
 from design.loop.control_models import loop_models
+from design.loop.controller import PI
 from plant import CurrentLoop, Delay, stage_x
 
 W = np.geomspace(2 * np.pi * 0.05, 2 * np.pi * 300.0, 400)
@@ -21,7 +22,7 @@ def _resp(sys, w=W):
 
 def test_thesis_plant_and_pi_are_their_closed_forms():
     p = stage_x(mass_kg=20.0)
-    m = loop_models(p, 236.0, 47.0)
+    m = loop_models(p, PI(236.0, 47.0))
     M, b, kt = 20.0, float(p.damping_n_s_per_m), float(p.force_constant_n_per_a)   # thesis Eq. 3.17: K_t/(M s + b)
     assert np.allclose(_resp(m.P), kt / (M * 1j * W + b), rtol=1e-10)
     assert np.allclose(_resp(m.C), 236.0 + 47.0 / (1j * W), rtol=1e-12)
@@ -31,7 +32,7 @@ def test_thesis_plant_and_pi_are_their_closed_forms():
 
 def test_delayed_plant_margins_match_python_control_on_the_exact_response():
     plant = stage_x(mass_kg=35.0) * Delay(0.0008) * CurrentLoop(700.0)
-    m = loop_models(plant, 178.5, 1.915e4)
+    m = loop_models(plant, PI(178.5, 1.915e4))
     w = np.geomspace(2 * np.pi * 1e-3, 2 * np.pi * 5e3, 5000)    # 20,000: the same margins within 1e-9
     exact = control.frd(plant.frd(w) * (178.5 + 1.915e4 / (1j * w)), w)
     gm, pm, *_ = control.stability_margins(exact)
@@ -51,7 +52,7 @@ def test_mat_file_rebuilds_the_same_models(tmp_path):
     write_design_mat(outcome, tmp_path / "design.mat")
     d = loadmat(tmp_path / "design.mat")
     m = outcome.loop_models()
-    assert d["kp_a_per_m_per_s"].item() == outcome.gains.kp and d["ki_a_per_m"].item() == outcome.gains.ki
+    assert d["kp_a_per_m_per_s"].item() == outcome.controller.kp and d["ki_a_per_m"].item() == outcome.controller.ki
     for name in ("P", "L", "T"):
         rebuilt = control.ss(*(d[f"{name}_{part}"] for part in "ABCD"))
         assert np.allclose(_resp(rebuilt), _resp(getattr(m, name)), rtol=1e-12)
@@ -67,11 +68,12 @@ def test_figures_leave_the_session_backend_alone(tmp_path):
     code = ("import sys, matplotlib\n"
             "matplotlib.use('svg')\n"
             "from design.loop.control_models import loop_models\n"
+            "from design.loop.controller import PI\n"
             "from plant import stage_x\n"
             "from plant.experiment.simulate import simulate_stepped_sine\n"
             "from plant.estimate.response import estimate\n"
             "p = stage_x(mass_kg=20.0)\n"
-            "loop_models(p, 236.0, 47.0).plot().savefig(sys.argv[1] + '/l.png')\n"
+            "loop_models(p, PI(236.0, 47.0)).plot().savefig(sys.argv[1] + '/l.png')\n"
             "rec = simulate_stepped_sine(p, f_hz=[2.0, 10.0, 50.0], current_amplitude_a=0.5, duration_s=1.5,\n"
             "                            noise_fraction=0.01)\n"
             "fig = estimate(rec).plot(); fig.savefig(sys.argv[1] + '/r.png')\n"

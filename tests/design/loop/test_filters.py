@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 from in_process import gantry
 
+from design.loop.controller import PI
 from design.loop.fast import fast_analyse_loop
 from design.loop.margins import closed_loop_bandwidth_hz, loop_margins
 from design.problem import with_filter_values
@@ -169,12 +170,12 @@ def test_the_joint_step_ends_in_one_place_whatever_the_last_bits_of_its_start():
     problem = parse_spec(tomllib.loads(RESONANT.read_text())).problem()
     p = with_filter_values(problem, [{"frequency_hz": 66.28908034679976, "damping_ratio": 2.0, "depth": 0.0},
                                      {"frequency_hz": 2000.0, "damping_ratio": 0.7071}])
-    start = synthesise_pi(p).evaluation
-    ends = [exact_design(p, design_scenarios(p), start.kp * (1 + e), start.ki * (1 + e), design_filters=True,
+    start = synthesise_pi(p).evaluation.controller
+    ends = [exact_design(p, design_scenarios(p), PI(start.kp * (1 + e), start.ki * (1 + e)), design_filters=True,
                          high_circle=True) for e in (0.0, 1e-12, -1e-12)]
     assert all(end.success for end in ends), [end.note for end in ends]
     for end in ends[1:]:
-        assert (end.kp, end.ki) == pytest.approx((ends[0].kp, ends[0].ki), rel=1e-6)
+        assert end.controller.parameters == pytest.approx(ends[0].controller.parameters, rel=1e-6)
         for got, first in zip(end.filter_values, ends[0].filter_values):
             assert got == pytest.approx(first, rel=1e-6)
 
@@ -186,7 +187,7 @@ def _best_grid_bandwidth(problem) -> float:
     kp, ki, best = np.geomspace(1, 1e4, 24), np.geomspace(1, 1e7, 24), (-np.inf, None, None)
     for _ in range(3):
         KP, KI = np.meshgrid(kp, ki, indexing="ij")
-        n = fast_analyse_loop(plant, KP.reshape(-1, 1), KI.reshape(-1, 1))
+        n = fast_analyse_loop(plant, PI(KP.reshape(-1, 1), KI.reshape(-1, 1)))
         ok = np.all((n.phase_margin_deg >= 45.0) & (n.gain_margin_db >= 6.0) & n.stable, axis=1)
         bw = np.where(ok, np.min(np.nan_to_num(n.closed_loop_bandwidth_hz, nan=0.0), axis=1), -np.inf)
         i = int(np.argmax(bw))

@@ -25,13 +25,12 @@ import scipy.optimize
 
 from design.loop.analysis import ANALYSIS_GRID_RAD_S as W
 from design.loop.analysis import analyse_loop, payload_sweep
+from design.loop.controller import PI
 from design.loop.loops import (
     closed_loop_frd,
     closed_loop_tf,
     open_loop_frd,
     open_loop_tf,
-    pi_frd,
-    pi_tf,
 )
 from design.loop.margins import closed_loop_bandwidth_hz, loop_margins, phase_change
 from plant import CurrentLoop, Delay, Resonance, stage_x, stage_y
@@ -76,7 +75,7 @@ def approx(ref, rel=1e-3):
 @pytest.mark.parametrize("k", range(N_LOOPS))
 def test_margins_and_bandwidth_match_python_control_on_the_pade_loop(k):
     plant, kp, ki = LOOPS[k]
-    L = plant.to_control(pade_order=6) * pi_tf(kp, ki)
+    L = plant.to_control(pade_order=6) * PI(kp, ki).tf()
     resp = L(1j * W)
     ours = loop_margins(W, resp)
     gm, pm, _, wpc, wgc, _ = control.stability_margins(L)           # python-control 0.10.2
@@ -94,7 +93,7 @@ def test_the_random_loops_cover_hard_cases():
     # the comparison above is only as good as its loops: unstable ones, small margins, resonances
     pms = []
     for plant, kp, ki in LOOPS:
-        _, pm, _, _, _, _ = control.stability_margins(plant.to_control(pade_order=6) * pi_tf(kp, ki))
+        _, pm, _, _, _, _ = control.stability_margins(plant.to_control(pade_order=6) * PI(kp, ki).tf())
         pms.append(pm)
     pms = np.array(pms)
     assert (pms < 0).sum() >= 3 and ((pms > 0) & (pms < 30)).sum() >= 5 and (pms > 60).sum() >= 10
@@ -104,7 +103,7 @@ def test_the_random_loops_cover_hard_cases():
 @pytest.mark.parametrize("k", range(0, N_LOOPS, 6))
 def test_disk_margin_matches_python_control(k):
     plant, kp, ki = LOOPS[k]
-    L = plant.to_control(pade_order=6) * pi_tf(kp, ki)
+    L = plant.to_control(pade_order=6) * PI(kp, ki).tf()
     resp = L(1j * W)
     ours = loop_margins(W, resp)
     # python-control 0.10.2, balanced (skew 0): on the same grid, and on a 10x denser one (the reference)
@@ -133,7 +132,7 @@ def exact_crossings(plant, kp, ki, near_wc, near_wpc):
     frequency, bracketed within +-1 % of the given frequencies."""
     def L(w):
         w = np.atleast_1d(w)
-        return (plant.frd(w) * pi_frd(w, kp, ki))[0]
+        return (plant.frd(w) * PI(kp, ki).frd(w))[0]
     wc = scipy.optimize.brentq(lambda w: abs(L(w)) - 1, 0.99 * near_wc, 1.01 * near_wc, xtol=1e-13, rtol=1e-14)
     wp = scipy.optimize.brentq(lambda w: L(w).imag, 0.99 * near_wpc, 1.01 * near_wpc, xtol=1e-13, rtol=1e-14)
     assert L(wp).real < 0
@@ -143,7 +142,7 @@ def exact_crossings(plant, kp, ki, near_wc, near_wpc):
 def test_exact_delay_margins_match_the_exact_model():
     worst = 0.0
     for plant, kp, ki in LOOPS:
-        resp = plant.frd(W) * pi_frd(W, kp, ki)
+        resp = plant.frd(W) * PI(kp, ki).frd(W)
         ours = loop_margins(W, resp)
         pm, gm = exact_crossings(plant, kp, ki, 2 * math.pi * ours.gain_crossover_hz,
                                  2 * math.pi * ours.phase_crossover_hz)
@@ -155,7 +154,7 @@ def test_exact_delay_margins_match_the_exact_model():
 def check_against_python_control_frd(k):
     plant, kp, ki = LOOPS[k]
     w = log_grid_rad_s(0.1, 1e4, 1200)       # a shorter grid than the default: python-control is slow
-    resp = plant.frd(w) * pi_frd(w, kp, ki)
+    resp = plant.frd(w) * PI(kp, ki).frd(w)
     ours = loop_margins(w, resp)
     gm, pm, _, wpc, wgc, _ = control.stability_margins(control.frd(resp, w, smooth=True))
     assert ours.phase_margin_deg == approx(pm)
@@ -191,7 +190,7 @@ def test_thesis_loop_margins_and_bandwidth_closed_forms(stage, w_grid):
     xb = max(np.roots([m_e**2, (b_e + KT * KP) ** 2 - 2 * m_e * KT * KI - 2 * (KT * KP) ** 2,
                        -((KT * KI) ** 2)]).real)
     plant = stage_x() if stage == "x" else stage_y()
-    a = analyse_loop(plant, KP, KI, w_rad_s=w_grid)
+    a = analyse_loop(plant, PI(KP, KI), w_rad_s=w_grid)
     # the cubic refinement keeps 1e-6 even on the 40-points-per-decade grid
     assert a.margins.phase_margin_deg == pytest.approx(pm, rel=1e-6)
     assert a.margins.gain_crossover_hz == pytest.approx(wc / (2 * math.pi), rel=1e-6)
@@ -234,7 +233,7 @@ def test_integrator_disk_margin_closed_form():
 # --- batches -------------------------------------------------------------------------------------
 
 def test_batch_equals_one_by_one():
-    resp = np.array([p.frd(W) * pi_frd(W, kp, ki) for p, kp, ki in LOOPS[:12]])
+    resp = np.array([p.frd(W) * PI(kp, ki).frd(W) for p, kp, ki in LOOPS[:12]])
     batch = loop_margins(W, resp.reshape(3, 4, -1))
     assert batch.phase_margin_deg.shape == (3, 4)
     for k in range(12):
@@ -250,9 +249,9 @@ def test_batch_equals_one_by_one():
 def test_payload_sweep_equals_analysis_per_payload():
     plant = stage_y() * Delay(0.0005) * CurrentLoop(300.0)
     payloads = np.linspace(5.0, 40.0, 8)
-    sweep = payload_sweep(plant, KP, KI, payloads)
+    sweep = payload_sweep(plant, PI(KP, KI), payloads)
     for k, m in enumerate(payloads):
-        a = analyse_loop(plant.with_payload(m), KP, KI)
+        a = analyse_loop(plant.with_payload(m), PI(KP, KI))
         assert sweep.phase_margin_deg[k] == a.margins.phase_margin_deg
         assert sweep.gain_margin_db[k] == a.margins.gain_margin_db
         assert sweep.closed_loop_bandwidth_hz[k] == a.closed_loop_bandwidth_hz
@@ -302,11 +301,11 @@ def test_open_and_closed_loop_are_eq_3_17_to_3_20(stage):
         closed_ref = KT * L_M * (KP * s + KI) / (2 * M * L_POS * s**2 + s * (2 * B * L_M + KT * KP * L_M)
                                                  + KT * L_M * KI)                              # Eq. 3.20
         den = [2 * M * L_POS, 2 * B * L_M + KT * KP * L_M, KT * L_M * KI]
-    L = open_loop_frd(plant, W, KP, KI)
+    L = open_loop_frd(plant, W, PI(KP, KI))
     assert np.allclose(L, open_ref, rtol=1e-12)
     assert np.allclose(closed_loop_frd(L), closed_ref, rtol=1e-12)
-    assert np.allclose(open_loop_tf(plant, KP, KI)(s), open_ref, rtol=1e-10)
-    T = closed_loop_tf(plant, KP, KI)
+    assert np.allclose(open_loop_tf(plant, PI(KP, KI))(s), open_ref, rtol=1e-10)
+    T = closed_loop_tf(plant, PI(KP, KI))
     assert np.allclose(T(s), closed_ref, rtol=1e-10)
     # its poles are the roots of the Eq. 3.19 / 3.20 denominator
     assert np.allclose(np.sort_complex(T.poles()), np.sort_complex(np.roots(den)), rtol=1e-8)
@@ -316,7 +315,7 @@ def test_open_and_closed_loop_are_eq_3_17_to_3_20(stage):
 def test_closed_loop_stability_agrees_with_the_closed_loop_poles(kp, ki):
     # an unstable loop can show a large positive PM (3000, 1e6: +179 deg): the verdict must not trust it
     plant = stage_x(mass_kg=5.0) * Delay(0.0005) * CurrentLoop(1000.0)
-    a = analyse_loop(plant, kp, ki)
+    a = analyse_loop(plant, PI(kp, ki))
     L = plant.to_control(pade_order=8) * control.tf([kp, ki], [1, 0])
     poles_stable = bool(np.all(np.real(control.poles(control.feedback(L, 1))) < 0))   # python-control 0.10.2
     assert bool(a.margins.closed_loop_stable) == poles_stable
@@ -326,9 +325,9 @@ def test_the_grid_grows_to_hold_a_crossover_below_it():
     # L ~ ki P(0) / (j w) at low frequency: crossover at ki kt / b = 2e-3 x 20 / 440 = 9.09e-5 rad/s, below the
     # default grid's 1 mHz; on the fixed grid the margin reads infinite
     plant = stage_x(mass_kg=5.0) * Delay(0.0005) * CurrentLoop(1000.0)
-    fixed = loop_margins(W, open_loop_frd(plant, W, 5e-4, 2e-3))
+    fixed = loop_margins(W, open_loop_frd(plant, W, PI(5e-4, 2e-3)))
     assert np.isinf(fixed.phase_margin_deg) and not fixed.crossings_on_grid
-    a = analyse_loop(plant, 5e-4, 2e-3)
+    a = analyse_loop(plant, PI(5e-4, 2e-3))
     assert a.margins.crossings_on_grid
     assert 2 * np.pi * a.margins.gain_crossover_hz == pytest.approx(2e-3 * 20.0 / 440.0, rel=2e-3)
     gm, pm, _, _ = control.margin(plant.to_control(pade_order=8) * control.tf([5e-4, 2e-3], [1, 0]))
@@ -360,8 +359,9 @@ def test_bandwidth_definitions_match_python_control(definition):
     plant = stage_x(mass_kg=20.0) * Delay(0.0005) * CurrentLoop(1000.0)
     T = control.feedback(plant.to_control(pade_order=8) * control.tf([275.0, 4.46e4], [1, 0]), 1)
     ref = control.bandwidth(T, dbdrop=10 * math.log10(level2)) / (2 * math.pi)   # python-control 0.10.2
-    assert analyse_loop(plant, 275.0, 4.46e4, level2=level2).closed_loop_bandwidth_hz == pytest.approx(ref, rel=1e-5)
-    assert fast_analyse_loop(plant, 275.0, 4.46e4, level2=level2).closed_loop_bandwidth_hz == pytest.approx(ref,
+    controller = PI(275.0, 4.46e4)
+    assert analyse_loop(plant, controller, level2=level2).closed_loop_bandwidth_hz == pytest.approx(ref, rel=1e-5)
+    assert fast_analyse_loop(plant, PI(275.0, 4.46e4), level2=level2).closed_loop_bandwidth_hz == pytest.approx(ref,
                                                                                                            rel=1e-5)
 
 

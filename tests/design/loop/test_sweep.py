@@ -16,6 +16,7 @@ from in_process import gantry
 
 from design.cli import main
 from design.loop.analysis import analyse_loop
+from design.loop.controller import PI
 from design.loop.fast import fast_analyse_loop
 from design.loop.loops import closed_loop_tf, open_loop_tf
 from design.loop.sweep import batch_plant, monte_carlo_sweep, percentiles_inf
@@ -76,9 +77,9 @@ def test_fast_analysis_matches_python_control(mass_kg):
     # python-control 0.10.2 stability_margins / bandwidth (at -10 log10 2 dB = 1/sqrt 2) on the
     # rational model (Pade(6) delay: its phase error at the 400 Hz phase crossover is < 1e-9 rad)
     plant = stage_x(mass_kg=mass_kg) * CurrentLoop(1000.0) * Delay(5e-4)
-    gm, pm, _, wpc, wgc, _ = control.stability_margins(open_loop_tf(plant, KP, KI))
-    bw_hz = control.bandwidth(closed_loop_tf(plant, KP, KI), dbdrop=-10 * np.log10(2)) / (2 * np.pi)
-    f = fast_analyse_loop(plant, KP, KI)
+    gm, pm, _, wpc, wgc, _ = control.stability_margins(open_loop_tf(plant, PI(KP, KI)))
+    bw_hz = control.bandwidth(closed_loop_tf(plant, PI(KP, KI)), dbdrop=-10 * np.log10(2)) / (2 * np.pi)
+    f = fast_analyse_loop(plant, PI(KP, KI))
     assert f.gain_margin_db == pytest.approx(20 * np.log10(gm), abs=1e-4)
     assert f.phase_margin_deg == pytest.approx(pm, abs=1e-4)
     assert f.phase_crossover_hz == pytest.approx(wpc / (2 * np.pi), rel=1e-5)
@@ -110,8 +111,8 @@ def _batches():
 @pytest.mark.parametrize("gains", [(KP, KI), (2000.0, 20000.0)])
 def test_fast_analysis_matches_fine_grid(name, gains):
     plants = _batches()[name]
-    ref = analyse_loop(plants, *gains, w_rad_s=FINE_GRID)
-    f = fast_analyse_loop(plants, *gains)
+    ref = analyse_loop(plants, PI(*gains), w_rad_s=FINE_GRID)
+    f = fast_analyse_loop(plants, PI(*gains))
     np.testing.assert_allclose(f.closed_loop_bandwidth_hz, ref.closed_loop_bandwidth_hz, rtol=1e-4)
     np.testing.assert_allclose(f.phase_margin_deg, ref.margins.phase_margin_deg, atol=5e-3)
     np.testing.assert_allclose(f.gain_margin_db, ref.margins.gain_margin_db, atol=5e-3)
@@ -126,7 +127,7 @@ def test_nominal_sweep_is_python_controls_margins_and_its_own_worst_case():
     masses = np.linspace(5, 40, 6)
     r = monte_carlo_sweep(spec, payload_kg=masses)
     for k, m in enumerate(masses):
-        gm, pm, *_ = control.stability_margins(open_loop_tf(spec.plant.plant().with_payload(m), KP, KI))
+        gm, pm, *_ = control.stability_margins(open_loop_tf(spec.plant.plant().with_payload(m), PI(KP, KI)))
         assert r.nominal.phase_margin_deg[k] == pytest.approx(pm, abs=1e-3)
         assert r.nominal.gain_margin_db[k] == pytest.approx(20 * np.log10(gm) if np.isfinite(gm) else np.inf,
                                                             abs=1e-3)
@@ -152,7 +153,7 @@ def test_percentiles_bracket_nominal_and_worst_is_minimum(mc_spec):
     for name, w in r.worst_case().items():
         assert w.value == getattr(r, name).samples.min()
         plant = spec.plant.plant(w.payload_kg).with_values(w.parameters)
-        a = analyse_loop(plant, KP, KI)
+        a = analyse_loop(plant, PI(KP, KI))
         recomputed = {"closed_loop_bandwidth_hz": a.closed_loop_bandwidth_hz,
                       "phase_margin_deg": a.margins.phase_margin_deg, "gain_margin_db": a.margins.gain_margin_db}
         assert w.value == pytest.approx(float(recomputed[name]), rel=1e-4, abs=1e-3)
@@ -235,20 +236,20 @@ def test_batch_plant_order():
 ])
 def test_bad_uncertainty_names_the_key(uncertainty, message):
     with pytest.raises(SpecError, match=message):
-        monte_carlo_sweep(stage_x() * Delay(5e-4), payload_kg=[10.0], kp=KP, ki=KI, samples=10,
+        monte_carlo_sweep(stage_x() * Delay(5e-4), payload_kg=[10.0], controller=PI(KP, KI), samples=10,
                           uncertainty=uncertainty)
 
 
 def test_bad_arguments():
     plant = stage_x()
     with pytest.raises(ParameterError):
-        monte_carlo_sweep(plant, payload_kg=[10.0], kp=KP, ki=KI, samples=-1)
+        monte_carlo_sweep(plant, payload_kg=[10.0], controller=PI(KP, KI), samples=-1)
     with pytest.raises(ParameterError):
-        monte_carlo_sweep(plant, payload_kg=[0.0], kp=KP, ki=KI)
+        monte_carlo_sweep(plant, payload_kg=[0.0], controller=PI(KP, KI))
     with pytest.raises(ParameterError):
         monte_carlo_sweep(plant, payload_kg=[10.0])  # no gains for a bare Plant
     with pytest.raises(SpecError, match="plant.uncertainty"):
-        monte_carlo_sweep(plant, payload_kg=[10.0], kp=KP, ki=KI, samples=10)  # nothing to sample
+        monte_carlo_sweep(plant, payload_kg=[10.0], controller=PI(KP, KI), samples=10)  # nothing to sample
 
 
 def test_percentiles_inf():

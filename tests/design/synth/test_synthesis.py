@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 from in_process import gantry
 
+from design.loop.controller import PI
 from design.loop.fast import fast_analyse_loop
 from design.spec.schema import parse_spec
 from design.synth import ccp
@@ -87,7 +88,7 @@ def test_the_nominal_design_violates_on_the_uncertainty_the_robust_one_holds_on(
     assert nominal.status == "optimal" and nominal.monte_carlo is None
     # the nominal design is faster on the nominal plant, and it is what the robustness costs
     assert nominal.evaluation.worst_bandwidth_hz > 1.3 * synth_x["worst_case"]["bandwidth_hz"]
-    mc = monte_carlo_check(spec, nominal.evaluation.kp, nominal.evaluation.ki, samples=4000, seed=7)
+    mc = monte_carlo_check(spec, nominal.evaluation.controller, samples=4000, seed=7)
     assert mc.rate > 0.05 and mc.worst_phase_margin_deg < 40.0
 
 
@@ -168,7 +169,7 @@ def test_stage_x_bandwidth_is_within_one_percent_of_brute_force():
 
     def brute(kp, ki):
         """Best worst-case bandwidth among the gain pairs meeting PM and GM at 50 payloads."""
-        n = fast_analyse_loop(dense, kp[:, None], ki[:, None])
+        n = fast_analyse_loop(dense, PI(kp[:, None], ki[:, None]))
         ok = np.all((n.phase_margin_deg >= 45.0) & (n.gain_margin_db >= 6.0), axis=1)
         return np.max(np.where(ok, np.nanmin(n.closed_loop_bandwidth_hz, axis=1), 0.0))
 
@@ -267,14 +268,14 @@ def test_screened_lp_rows_give_the_lp_of_every_row(monkeypatch):
 def test_verification_catches_bad_designs():
     spec = spec_with()
     # stable but with too little phase margin at 5 kg (kp 40 % above the optimum's ~275)
-    v = verify(spec, 390.0, 44596.0)
+    v = verify(spec, PI(390.0, 44596.0))
     assert not v.verified and v.max_pole_real_part < 0
     assert any("phase margin" in f and "5.0 kg" in f for f in v.failures)
     # unstable
-    v = verify(spec, 3000.0, 1.0e6)
+    v = verify(spec, PI(3000.0, 1.0e6))
     assert not v.verified and any("unstable" in f for f in v.failures)
     # a wrong bandwidth claim is caught too
-    v = verify(spec, 236.0, 47.0, Scenarios(np.array([5.0, 40.0])), claimed_worst_bandwidth_hz=30.0)
+    v = verify(spec, PI(236.0, 47.0), Scenarios(np.array([5.0, 40.0])), claimed_worst_bandwidth_hz=30.0)
     assert not v.verified and "claimed worst-case bandwidth" in v.failures[0]
 
 
@@ -337,7 +338,7 @@ def test_unsupported_and_bad_specs_name_the_key(tmp_path):
 
 def test_gain_schedule_gains_bandwidth_at_each_point():
     spec = spec_with(plant={"payload_kg": {"min": 5.0, "max": 40.0, "points": 2}})
-    points = gain_schedule(spec, 275.04, 44596.0)
+    points = gain_schedule(spec, PI(275.04, 44596.0))
     assert [p.payload_kg for p in points] == [5.0, 40.0]
     for p in points:
         assert p.verified and p.phase_margin_deg >= 45.0 - 0.05 and p.gain_margin_db >= 6.0 - 0.05
@@ -353,8 +354,7 @@ def test_peak_sensitivity_and_disk_margin_requirements_hold():
     res = synthesise_pi(spec)
     assert res.status == "optimal" and res.verification.verified
     # recomputed on the 3000-point analysis grid at 71 payloads
-    m = analyse_loop(spec.plant.plant().with_payload(np.linspace(5, 40, 71)), res.evaluation.kp,
-                     res.evaluation.ki).margins
+    m = analyse_loop(spec.plant.plant().with_payload(np.linspace(5, 40, 71)), res.evaluation.controller).margins
     assert np.max(m.peak_sensitivity) <= 1.6 + 1e-3 and np.min(m.disk_margin) >= 0.6 - 1e-3
     # Ms = 1.6 shapes the design: it is active, and the bandwidth falls below the PM/GM-only optimum (45.2 Hz)
     assert "peak_sensitivity" in res.evaluation.binding["active"]
@@ -369,7 +369,7 @@ def test_resonant_plant_exact_step_keeps_the_margins_at_every_crossing():
                                                       "damping_ratio": 0.05}}})
     res = synthesise_pi(spec)
     assert res.status == "optimal" and res.verification.verified
-    kp, ki = res.evaluation.kp, res.evaluation.ki
+    kp, ki = res.evaluation.controller.kp, res.evaluation.controller.ki
     plant = spec.plant.plant()
     for m in np.linspace(5.0, 40.0, 30):     # python-control 0.10.2, Pade order 10
         L = plant.with_payload(m).to_control(pade_order=10) * control.tf([kp, ki], [1, 0])
@@ -394,7 +394,7 @@ def test_sampled_loop_exact_design_is_verified():
     # 4,000 points they agree with those on 20,000 within 1e-9 deg and dB)
     w = np.geomspace(1.0, 2e4, 4000)
     for m in (5.0, 40.0):
-        L = spec.plant.plant().with_payload(m).frd(w) * (res.evaluation.kp + res.evaluation.ki / (1j * w))
+        L = spec.plant.plant().with_payload(m).frd(w) * res.evaluation.controller.frd(w)
         gm, pm, *_ = control.stability_margins(control.frd(L, w))
         assert pm >= 45.0 - 0.05 and 20 * math.log10(gm) >= 6.0 - 0.05, (m, pm, gm)
 
@@ -426,9 +426,9 @@ def test_a_second_start_on_a_reused_ipopt_instance_ends_where_it_ends_alone():
     spec = spec_with(uncertainty=True)
     points = design_scenarios(spec)
     solvers: dict = {}
-    first = exact_design(spec, points, 160.0, 12500.0, solvers=solvers)
-    second = exact_design(spec, points, 127.0, 6950.0, solvers=solvers)
-    alone = exact_design(spec, points, 127.0, 6950.0)
+    first = exact_design(spec, points, PI(160.0, 12500.0), solvers=solvers)
+    second = exact_design(spec, points, PI(127.0, 6950.0), solvers=solvers)
+    alone = exact_design(spec, points, PI(127.0, 6950.0))
     assert len(solvers) == 1
     assert first.success and second.success and alone.success
-    assert [second.kp, second.ki] == pytest.approx([alone.kp, alone.ki], rel=1e-9)
+    assert second.controller.parameters == pytest.approx(alone.controller.parameters, rel=1e-9)

@@ -241,3 +241,23 @@ class DiscreteAdmittance:
     def of_timing(cls, m_v: float, b_v: float, timing: RigTiming) -> DiscreteAdmittance:
         """The law of a sampled ``timing``."""
         return cls.of(m_v, b_v, 1.0 / timing.period_s, timing.delay_samples, rule=timing.rule)
+
+    @property
+    def parameters(self) -> np.ndarray:
+        """(m_v kg, b_v N*s/m): what the design chooses."""
+        return np.array([self.m_v, self.b_v])
+
+    def tf(self):
+        """The law with its computation delay as a python-control discrete transfer function, velocity reference
+        per sensed force (m/s per N): (beta + beta_prev z^-1) / (1 - alpha z^-1) z^-d."""
+        import control
+
+        T = 1.0 / self.update_rate_hz
+        d = self.computation_delay_samples
+        return control.tf([self.beta_m_per_s_per_n, self.beta_prev_m_per_s_per_n], [1.0, -self.alpha, *[0.0] * d], T)
+
+    def frd(self, w_rad_s) -> np.ndarray:
+        """Its response on ``w_rad_s`` (rad/s)."""
+        z = np.exp(1j * np.asarray(w_rad_s, float) / self.update_rate_hz)
+        return ((self.beta_m_per_s_per_n + self.beta_prev_m_per_s_per_n / z) / (1 - self.alpha / z)
+                * z ** (-self.computation_delay_samples))

@@ -55,6 +55,21 @@ class _Structure:
         """The gains by name (A/(m/s), A/m)."""
         return {f.name: float(getattr(self, f.name)) for f in dataclasses.fields(self)}
 
+    @property
+    def parameters(self) -> np.ndarray:
+        """The gains in field order, what a synthesis searches over."""
+        return np.array(list(self.gains().values()))
+
+    def tf(self, period_s: float | None = None):
+        """C as a python-control state-space model, motor currents (2) per rail velocity error (2): T_in, each
+        channel's PI (``PI.tf``, or with ``period_s`` the drive's discrete ``PI.discrete``), T_out."""
+        import control
+
+        parts = [control.ss(c.tf() if period_s is None else c.discrete(period_s)) for c in self.channels()]
+        core = parts[0] if len(parts) == 1 else control.append(*parts)
+        dt = 0 if period_s is None else period_s
+        return control.ss([], [], [], self.t_in, dt) * core * control.ss([], [], [], self.t_out, dt)
+
     def channel_frd(self, w_rad_s) -> np.ndarray:
         """diag(PI_j(jw)) as (..., n, n, n_freq); gains given as arrays give a batch of controllers."""
         return self.channel_at(1j * np.asarray(w_rad_s, float))
@@ -284,8 +299,6 @@ def translation_step(plant, controller: Controller, t_s: np.ndarray, *, pade_ord
         chain = chain * e.to_tf(pade_order=pade_order)
     drive = control.ss(chain)
     P = plant.state_space() * control.append(drive, drive)
-    channels = [control.ss(c.tf()) for c in controller.channels()]
-    core = channels[0] if len(channels) == 1 else control.append(*channels)
-    C = control.ss([], [], [], controller.t_in) * core * control.ss([], [], [], controller.t_out)
+    C = controller.tf()
     loop = balanced(control.feedback(P * C, np.eye(2)) * control.ss([], [], [], np.ones((2, 1))))
     return control.forced_response(loop, t_s, np.ones_like(t_s)).outputs

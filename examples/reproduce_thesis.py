@@ -15,7 +15,8 @@ from design.loop.controller import PI
 from design.loop.loops import closed_loop_frd, open_loop_frd
 from design.loop.reproduce import table_3_1
 from design.spec.schema import load_spec
-from design.views.plots import bode, payload_sweep_figure
+from design.views.plots import payload_sweep_figure
+from plant.bode import bode
 from plant.grid import log_grid_rad_s
 
 ROOT = Path(__file__).resolve().parents[1]

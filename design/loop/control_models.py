@@ -51,22 +51,17 @@ class LoopModels:
         """Bode magnitude of L, S and T and the phase of L (a ``matplotlib.figure.Figure``: no pyplot, so an
         interactive session's backend is left as it is; show it in a notebook by leaving it as the cell's
         value, or save it with ``savefig``)."""
-        from matplotlib.figure import Figure
+        from plant.bode import bode
 
         f = np.geomspace(0.1, 1000.0, 600) if f_hz is None else np.asarray(f_hz, float)
         s = 2j * np.pi * f
-        fig = Figure(figsize=(7.0, 5.0), layout="constrained")
-        mag, ph = fig.subplots(2, 1, sharex=True)
-        for name in ("L", "S", "T"):
-            mag.semilogx(f, 20 * np.log10(np.abs(_response(getattr(self, name), s))), label=name)
+        fig = bode(2 * np.pi * f, [_response(getattr(self, name), s) for name in ("L", "S", "T")], ["L", "S", "T"],
+                   phase_of=[True, False, False], title=f"{self.payload_kg:g} kg, {self.controller}",
+                   figsize=(7.0, 5.0))
+        mag, ph = fig.axes
         mag.axhline(0.0, color="0.6", lw=0.8)
-        mag.set_ylabel("magnitude (dB)")
-        mag.legend()
-        mag.set_title(f"{self.payload_kg:g} kg, {self.controller}")
-        ph.semilogx(f, np.degrees(np.unwrap(np.angle(_response(self.L, s)))), label="L")
         ph.axhline(-180.0, color="0.6", lw=0.8)
         ph.set_ylabel("phase of L (deg)")
-        ph.set_xlabel("frequency (Hz)")
         return fig
 
 

@@ -11,7 +11,8 @@ import numpy as np
 
 from design.admittance.mouse import MouseModel
 from design.loop.curves import scenario_label
-from design.views.plots import bode, fixed_margins
+from design.views.plots import fixed_margins
+from plant.bode import bode
 
 #: one panel: width and height of the axes' figure (in), before the legend's rows below it
 PANEL_IN = (6.4, 3.2)

@@ -10,7 +10,7 @@ import numpy as np
 
 from design.results import DiagnosisOutcome
 from design.views.html import Report, table, units
-from design.views.plots import bode
+from plant.bode import bode
 from plant.data.frequency_response import MeasuredResponse
 from plant.diagnose.diagnosis import Diagnosis
 from plant.diagnose.evidence import ACCEPT_DELTA_BIC

@@ -12,7 +12,8 @@ from design.results import DualReportContent
 from design.synth.dual import DesignMap, DualRequirements
 from design.synth.dual_curves import rail_gap_m
 from design.views.html import Report, table
-from design.views.plots import bode, fixed_margins
+from design.views.plots import fixed_margins
+from plant.bode import bode
 
 
 def _map_figure(name: str, m: DesignMap, req: DualRequirements) -> Figure:

@@ -19,9 +19,10 @@ from design.loop.curves import LoopCurves
 from design.results import ReportContent
 from design.synth.evaluation import Evaluation
 from design.views.html import Report, table
-from design.views.plots import bode, fixed_margins
+from design.views.plots import fixed_margins
 from plant import __version__
 from plant.arguments import check_instance
+from plant.bode import bode
 from plant.host.text_io import read_text
 
 

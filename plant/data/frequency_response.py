@@ -92,23 +92,10 @@ class MeasuredResponse:
     def plot(self):
         """Bode plot of every output with its 2-sigma band (from ``variance``), a ``matplotlib.figure.Figure``
         made without pyplot (an interactive session's backend is left as it is)."""
-        from matplotlib.figure import Figure
+        from plant.bode import bode
 
-        fig = Figure(figsize=(7.0, 5.0), layout="constrained")
-        mag, ph = fig.subplots(2, 1, sharex=True)
-        f = np.asarray(self.f_hz, float)
-        for name, g, var in zip(self.output_names, np.atleast_2d(self.response), np.atleast_2d(self.variance)):
-            a = np.abs(g)
-            rel = 2 * np.sqrt(np.asarray(var, float)) / np.maximum(a, 1e-300)        # 2 sigma, relative
-            line, = mag.semilogx(f, 20 * np.log10(a), "o-", ms=3, label=name)
-            mag.fill_between(f, 20 * np.log10(np.maximum(1 - rel, 1e-6)), 20 * np.log10(1 + rel),
-                             color=line.get_color(), alpha=0.2, lw=0)
-            ph.semilogx(f, np.degrees(np.unwrap(np.angle(g))), "o-", ms=3, color=line.get_color())
-            ph.fill_between(f, *(np.degrees(np.unwrap(np.angle(g)) + k * np.arcsin(np.minimum(rel, 1.0)))
-                                 for k in (-1, 1)), color=line.get_color(), alpha=0.2, lw=0)
-        mag.set_ylabel("|G| (dB re 1 m/s per A)")
-        mag.legend()
-        mag.set_title(f"{Path(self.source).name}: {self.method}")
-        ph.set_ylabel("phase (deg)")
-        ph.set_xlabel("frequency (Hz)")
-        return fig
+        responses = list(np.atleast_2d(self.response))
+        bands = [2 * np.sqrt(np.asarray(v, float)) for v in np.atleast_2d(self.variance)]      # 2 sigma
+        return bode(self.w_rad_s, responses, list(self.output_names), bands=bands, styles=["o-"] * len(responses),
+                    marker_size=3, unit="(m/s)/A", title=f"{Path(self.source).name}: {self.method}",
+                    figsize=(7.0, 5.0))

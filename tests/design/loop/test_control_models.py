@@ -84,3 +84,22 @@ def test_figures_leave_the_session_backend_alone(tmp_path):
     out = subprocess.run([sys.executable, "-c", code, str(tmp_path)], capture_output=True, text=True)
     assert out.returncode == 0, out.stderr[-2000:]
     assert (tmp_path / "l.png").stat().st_size > 0 and (tmp_path / "r.png").stat().st_size > 0
+
+
+def test_a_measured_response_is_drawn_with_its_band_around_it():
+    """The 2-sigma band of each magnitude point lies around that point (|G| -+ 2 sigma), not around 0 dB."""
+    from plant import stage_x
+    from plant.estimate.response import estimate
+    from plant.experiment.simulate import simulate_stepped_sine
+
+    rec = simulate_stepped_sine(stage_x(mass_kg=20.0), f_hz=[2.0, 10.0, 50.0], current_amplitude_a=0.5,
+                                duration_s=1.5, noise_fraction=0.2, seed=1)
+    measured = estimate(rec)
+    mag = measured.plot().axes[0]
+    line_db = mag.lines[0].get_ydata()
+    band = mag.collections[0].get_paths()[0].vertices[:, 1]
+    a = np.abs(measured.response[0])
+    two_sigma = 2 * np.sqrt(measured.variance[0])
+    assert band.min() == pytest.approx(np.min(20 * np.log10(np.maximum(a - two_sigma, a * 1e-3))), abs=1e-9)
+    assert band.max() == pytest.approx(np.max(20 * np.log10(a + two_sigma)), abs=1e-9)
+    assert band.min() < np.min(line_db) and band.max() > np.max(line_db)

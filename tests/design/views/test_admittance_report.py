@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 from in_process import gantry
 
-from design.views.plots import wrapped_phase_deg
 from plant import stage_x
+from plant.bode import wrapped_phase_deg
 from plant.experiment.simulate import simulate_stepped_sine
 
 ROOT = Path(__file__).resolve().parents[3]

@@ -152,3 +152,69 @@ def random_scenarios(problem: LoopProblem, samples: int, *, seed: int) -> Scenar
 def describe_row(row: dict[str, float]) -> str:
     """A scenario's row (``Scenarios.row``) as 'payload_kg = 40, damping_n_s_per_m = 330, ...'."""
     return ", ".join(f"{k} = {v:.4g}" for k, v in row.items())
+
+
+@dataclass(frozen=True)
+class Coverage:
+    """How much of the declared box (payload range x ``plant.uncertainty``) each stage of a design covers: the
+    design set, the dense check, python-control's re-check and the Monte Carlo (this module's policy, stated
+    once for every report and the JSON)."""
+
+    payload_range_kg: tuple[float, float]
+    uncertain: tuple[str, ...]
+    #: corners of the uncertainty box used (2^n; 1 without uncertainty, 0 beyond ``MAX_CORNER_PARAMETERS``)
+    corners: int
+    design_payloads: int
+    dense_payloads: int
+    dense_draws: int
+    admittance_payloads: int
+    monte_carlo_samples: int
+    monte_carlo_seed: int
+    #: the problem has an admittance stage (its dense check is stated too)
+    admittance: bool = False
+
+    @property
+    def design_scenarios(self) -> int:
+        return self.design_payloads * max(self.corners, 1)
+
+    @property
+    def dense_scenarios(self) -> int:
+        return self.dense_payloads * (max(self.corners, 1) + self.dense_draws)
+
+    def text(self) -> str:
+        """The policy in words."""
+        box = ("the nominal parameters (no plant.uncertainty)" if not self.uncertain else
+               f"{self.corners} corners of the uncertainty box ({', '.join(self.uncertain)})" if self.corners else
+               f"{self.dense_draws} seeded draws of the uncertainty box ({', '.join(self.uncertain)})")
+        lo, hi = self.payload_range_kg
+        draws = f" and {self.dense_draws} seeded draws" if self.uncertain and self.corners and self.dense_draws else ""
+        return (f"designed on {self.design_payloads} payloads x {box}; checked on {self.dense_payloads} payloads "
+                f"evenly over {lo:g}-{hi:g} kg x the same{draws} ({self.dense_scenarios} scenarios) and by "
+                f"python-control on the design scenarios and the tightest checked ones; between these points only "
+                f"the Monte Carlo covers the box ({self.monte_carlo_samples} uniform draws over payload x "
+                f"uncertainty, seed {self.monte_carlo_seed})")
+
+    def as_dict(self) -> dict:
+        return {"payload_range_kg": list(self.payload_range_kg), "uncertain_parameters": list(self.uncertain),
+                "corners": self.corners, "design": {"payloads": self.design_payloads,
+                                                    "scenarios": self.design_scenarios},
+                "dense_check": {"payloads": self.dense_payloads, "seeded_draws": self.dense_draws,
+                                "scenarios": self.dense_scenarios},
+                **({"admittance_dense_check": {"payloads": self.admittance_payloads,
+                                               "scenarios": self.admittance_payloads * max(self.corners, 1),
+                                               "with": "every mouse of admittance.mouse (its corners)"}}
+                   if self.admittance else {}),
+                "monte_carlo": {"samples": self.monte_carlo_samples, "seed": self.monte_carlo_seed},
+                "text": self.text()}
+
+
+def coverage(problem: LoopProblem) -> Coverage:
+    """The ``Coverage`` of ``problem`` under this module's policy."""
+    ranges = uncertainty_ranges(problem)
+    corners = (int(np.prod([len({lo, hi}) for lo, hi in ranges.values()])) if len(ranges) <= MAX_CORNER_PARAMETERS
+               else 0)
+    pr = problem.plant.payload_kg
+    return Coverage((float(pr.min), float(pr.max)), tuple(ranges), corners, len(pr.design_points()),
+                    len(pr.check_points()), CHECK_DRAWS if ranges else 0,
+                    ADMITTANCE_CHECK_PAYLOADS if pr.max > pr.min else 1, problem.verification.monte_carlo_samples,
+                    problem.verification.seed, problem.admittance is not None)

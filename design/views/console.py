@@ -257,6 +257,8 @@ def print_synthesis(console: Console, out: dict) -> None:
                       _num(b["worst_phase_margin_deg"], ".1f"), _num(b["worst_gain_margin_db"], ".1f"),
                       "yes" if b["meets_requirements"] else "NO")
         console.print(t)
+    if "coverage" in out:
+        console.print(f"coverage: {out['coverage']['text']}", soft_wrap=True)
     s = out["solver"]
     console.print(f"solver: {s['method']}, {s['seconds']:.2f} s" + (f" ({s['cpu_seconds']:.2f} s CPU)"
                                                                     if "cpu_seconds" in s else ""))

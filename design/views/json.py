@@ -676,6 +676,10 @@ def design_to_dict(outcome: DesignOutcome) -> dict:
                                    for p in outcome.admittance_schedule]
             out = {**out, "admittance": adm, "gains": {**out["gains"], "m_v": adm["m_v"], "b_v": adm["b_v"]},
                    "status": outcome.status, "message": outcome.message, "verified": outcome.verified}
+    if outcome.dual is None and outcome.measured is None:
+        from design.synth.scenarios import coverage
+
+        out["coverage"] = coverage(problem.loop).as_dict()
     if problem.plant_from is not None:
         out["plant_from"] = {"file": problem.plant_from.file, "left_out": list(problem.plant_from.left_out),
                              "damping_n_s_per_m": spec.plant.damping_n_s_per_m,

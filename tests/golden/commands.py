@@ -15,7 +15,8 @@ fit re-polished log coordinates stuck at their lower bound (two alternatives' fi
 locomotion profile (the design became optimal: no ``tradeoff``, which is given only when it is not), and when
 the motor's force on the profile took the held reference's staircase (``motor_force_n`` 109-128 -> 139-154 N, the
 design the same) and the mouse figures took the velocity shortfall, and when the bundled spec took the lab's
-recorded force (``recorded_force`` and ``limits.motor_force_criterion`` added, the design the same).
+recorded force (``recorded_force`` and ``limits.motor_force_criterion`` added, the design the same); the
+``synth_*`` files again when the one-motor designs stated their coverage (``coverage`` added, nothing else changed).
 """
 
 from __future__ import annotations

@@ -15,7 +15,7 @@ from in_process import gantry
 
 from design.loop.controller import PI
 from design.loop.fast import fast_analyse_loop
-from design.spec.schema import parse_spec
+from design.spec.schema import load_spec, parse_spec
 from design.synth import ccp
 from design.synth.ccp import ccp_design
 from design.synth.evaluation import margin_circle
@@ -432,3 +432,21 @@ def test_a_second_start_on_a_reused_ipopt_instance_ends_where_it_ends_alone():
     assert len(solvers) == 1
     assert first.success and second.success and alone.success
     assert second.controller.parameters == pytest.approx(alone.controller.parameters, rel=1e-9)
+
+
+@pytest.mark.parametrize("name", ["stage_x_synth.toml", "stage_x_admittance.toml", "thesis_stage_x.toml"])
+def test_the_stated_coverage_counts_the_scenarios_the_checks_use(name):
+    """The coverage the JSON states is counted from the policy; the scenario sets are built by their own code."""
+    from design.synth.scenarios import admittance_check_scenarios, check_scenarios, coverage, design_scenarios
+
+    problem = load_spec(ROOT / "specs" / name).problem()
+    c = coverage(problem)
+    assert c.design_scenarios == len(design_scenarios(problem))
+    assert c.dense_scenarios == len(check_scenarios(problem))
+    d = c.as_dict()
+    assert d["monte_carlo"]["samples"] == problem.verification.monte_carlo_samples
+    if problem.admittance is not None:
+        assert d["admittance_dense_check"]["scenarios"] == len(admittance_check_scenarios(problem))
+    else:
+        assert "admittance_dense_check" not in d
+    assert f"{c.dense_payloads} payloads" in d["text"]

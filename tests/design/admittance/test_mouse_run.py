@@ -379,3 +379,29 @@ def test_force_felt_and_motor_force_on_the_profile_match_a_time_simulation_of_th
     true_peak = 20.0 * np.max(np.abs(r.i))
     assert true_peak <= float(felt.motor_peak_n(m_v, b_v)[0]) <= 1.04 * true_peak
     assert float(np.max(np.abs(felt.motor_forces(m_v, b_v)))) < 0.9 * true_peak
+
+
+#: effects a spec can only hold beside another
+NEEDS = {"second_resonance": ("resonance",), "stribeck_friction": ("coulomb_friction",)}
+
+
+@pytest.mark.parametrize("name", list(__import__("plant.physics.effects", fromlist=["EFFECTS"]).EFFECTS))
+def test_the_mouse_run_simulates_an_effect_or_refuses_it_by_name(name):
+    from design.admittance.mouse_run import SIMULATED_EFFECTS, run_settings
+    from design.loop.controller import PI
+    from design.spec.schema import parse_spec
+    from plant.errors import EffectError, SpecError
+
+    data = admittance_data()
+    data["plant"]["effects"] = {n: {"force_n": 3.0} if n == "offset" else {} for n in (*NEEDS.get(name, ()), name)}
+    data["plant"].pop("uncertainty")
+    try:
+        problem = parse_spec(data).problem()
+        problem.plant.plant()
+    except (SpecError, EffectError):
+        pytest.skip(f"{name}: not an effect a Stage X spec designs with")
+    if name in SIMULATED_EFFECTS:
+        run_settings(problem, controller=PI(200.0, 20.0), m_v=0.05, b_v=5.0)
+        return
+    with pytest.raises(SpecError, match=name):
+        run_settings(problem, controller=PI(200.0, 20.0), m_v=0.05, b_v=5.0)

@@ -131,6 +131,18 @@ class PlantSpec(_Strict):
                              f"({self.motor_length_m})")
         return self
 
+    @model_validator(mode="after")
+    def _effects_fit_the_stage(self):
+        """The effects together on this stage (one that needs another, or a Stage Y effect on Stage X, is refused
+        here rather than by the first command that builds the plant)."""
+        effects = tuple(make_effect(name, **params) for name, params in self.effects.items())
+        nonlinear = any(not EFFECTS[n].linear for n in self.effects)
+        try:
+            Plant(self.stage, effects=effects, **self.base_values(), excitation_current_a=1.0 if nonlinear else None)
+        except GantryError as exc:
+            raise ValueError(f"effects: {exc}") from None
+        return self
+
     def family(self) -> PlantFamily:
         """The plant model at the nominal payload, with the payload range and the uncertainty."""
         nonlinear = [n for n in self.effects if not EFFECTS[n].linear]

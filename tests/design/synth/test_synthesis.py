@@ -450,3 +450,14 @@ def test_the_stated_coverage_counts_the_scenarios_the_checks_use(name):
     else:
         assert "admittance_dense_check" not in d
     assert f"{c.dense_payloads} payloads" in d["text"]
+
+
+@pytest.mark.parametrize("effect, needle", [("tilt_coupling", "tilt_coupling applies to Stage Y only"),
+                                            ("second_resonance", "second_resonance needs one of resonance")])
+def test_effects_that_do_not_fit_the_stage_are_refused_when_the_spec_is_read(tmp_path, effect, needle):
+    text = (ROOT / "specs" / "stage_x_synth.toml").read_text()
+    text = text.replace("[plant.effects]", f"[plant.effects]\n{effect} = {{}}", 1)
+    path = tmp_path / "s.toml"
+    path.write_text(text)
+    out = gantry("synth", path)
+    assert out.returncode == 2 and needle in out.stderr and "plant" in out.stderr and out.stderr.count("\n") == 1

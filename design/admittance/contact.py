@@ -17,10 +17,10 @@ import numpy as np
 from design.admittance.model import (
     admittance_problem,
     check_grid_for,
-    interaction_margins,
 )
 from design.admittance.rig import RigTiming, force_filter_frd
 from design.admittance.sampled import closed_loop_radius, discretised_paths, spring_loads
+from design.loop.margins import loop_margins
 from design.parallel import thread_map
 from design.problem import LoopProblem
 from design.synth.scenarios import Scenarios
@@ -59,7 +59,7 @@ def _stable(scenarios, k_e: np.ndarray, *, loops, m_v, b_v, timing: RigTiming, w
         return loop.reference * weight / (loop.s / k_e[:, None] + loop.sensitivity_mobility)
 
     gain = path(1j * w, force_filter_frd(1j * w, timing.filter_hz, timing.filter_order) * np.ones(w.size))
-    _, _, stable = interaction_margins(w, timing, gain / timing.impedance(w, m_v, b_v))
+    stable = loop_margins(w, gain / timing.impedance(w, m_v, b_v), sampled=timing.sampled).closed_loop_stable
     return stable
 
 

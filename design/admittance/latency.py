@@ -14,14 +14,15 @@ worst curve (scenario x mouse) to instability, and the margins with one more sam
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 import numpy as np
 
-from design.admittance.model import check_grid_for, coupled_gain, interaction_margins, with_mode_points
+from design.admittance.model import check_grid_for, coupled_gain, with_mode_points
 from design.admittance.mouse import stack
 from design.admittance.rig import RigTiming
 from design.admittance.sampled import closed_loop_radius, mice_paths, sampled_gain
+from design.loop.margins import loop_margins
 
 
 @dataclass(frozen=True)
@@ -79,7 +80,8 @@ def latency_check(scenarios, corners, *, loops, timing: RigTiming, m_v: float, b
         margin[curves] = delay_margin_s(w, L)
         if one_more is None:
             return
-        p, g, st = interaction_margins(w, replace(timing, delay_samples=d + 1), L * one_more)
+        m = loop_margins(w, L * one_more, sampled=timing.sampled)
+        p, g, st = m.phase_margin_deg, m.gain_margin_db, m.closed_loop_stable
         pm[curves], gm[curves] = p, g
         stable[curves] = st if radius is None else radius < 1.0
 

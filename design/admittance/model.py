@@ -248,17 +248,19 @@ def coupled_gain(loops, scenarios, mouse: MouseModel, w_rad_s, timing: RigTiming
 
 def paired_margins(loops, scenarios, mouse: MouseModel, w_rad_s, timing: RigTiming, m_v: float, b_v: float):
     """(PM deg, GM dB, stable) of mouse k at scenario k (a batch of n each) on the grid ``w_rad_s``: grid
-    margins with refined crossings (``interaction_margins``); sampled with a state space, stability from the
-    coupled discrete loop's poles (``design.admittance.sampled.closed_loop_radius``)."""
+    margins with refined crossings (``design.loop.margins.loop_margins``); sampled with a state space, stability
+    from the coupled discrete loop's poles (``design.admittance.sampled.closed_loop_radius``)."""
     w = np.asarray(w_rad_s, float)
     z = timing.impedance(w, m_v, b_v)
     if not timing.sampled:
-        return interaction_margins(w, timing, coupled_gain(loops, scenarios, mouse, w, timing, paired=True) / z)
+        m = loop_margins(w, coupled_gain(loops, scenarios, mouse, w, timing, paired=True) / z)
+        return m.phase_margin_deg, m.gain_margin_db, m.closed_loop_stable
     n = len(scenarios)
     pm, gm, st = np.empty(n), np.empty(n), np.empty(n, bool)
     law = timing.law(m_v, b_v)
     for idx, paths in mice_paths(loops, scenarios, mouse, timing, paired=True):
-        pm[idx], gm[idx], _ = interaction_margins(w, timing, sampled_gain(paths, w, timing) / z)
+        m = loop_margins(w, sampled_gain(paths, w, timing) / z, sampled=True)
+        pm[idx], gm[idx] = m.phase_margin_deg, m.gain_margin_db
         st[idx] = closed_loop_radius(paths, law, timing.delay_samples) < 1.0
     return pm, gm, st
 
@@ -373,31 +375,6 @@ def current_path(loop: GantryLoop, W) -> np.ndarray:
 def motor_force_peak(motor_force, motor_reference_path, z) -> np.ndarray:
     """Peak over frequency and motors of |motor force per sensed force| for the virtual impedance ``z``, (n_s,)."""
     return np.abs(motor_force + motor_reference_path / z).max(axis=(0, -1))
-
-
-def sampled_nyquist_stable(loop: np.ndarray) -> np.ndarray:
-    """Stability of a discrete-time loop sampled from low frequency up to the Nyquist frequency, where it
-    is real (open loop without poles outside the unit circle): the phase of 1 + L changes by -90 to
-    +90 deg over the grid and 1 + L > 0 at the Nyquist frequency."""
-    a = 1 + np.asarray(loop)
-    turn = np.angle(a[..., 1:] / a[..., :-1]).sum(axis=-1)
-    return (turn > -math.pi / 4) & (a[..., -1].real > 0)
-
-
-def interaction_margins(w_rad_s, timing: RigTiming, L: np.ndarray):
-    """(phase margin deg, gain margin dB, stable) of loops L on the grid ``w_rad_s`` (batch shape): grid
-    margins with refined crossings (``loop_margins``); sampled, the gain margin also at the Nyquist frequency,
-    where a real L below -1 / g is a phase crossover the grid's end holds."""
-    mg = loop_margins(w_rad_s, L)
-    pm, gm = mg.phase_margin_deg, mg.gain_margin_db
-    if timing.sampled:
-        end = L[..., -1].real
-        at_nyquist = np.where(end < 0, -20 * np.log10(np.maximum(-end, 1e-300)), np.inf)
-        gm = np.where(np.abs(at_nyquist) < np.abs(gm), at_nyquist, gm)
-        stable = sampled_nyquist_stable(L)
-    else:
-        stable = mg.closed_loop_stable
-    return pm, gm, stable
 
 
 # --- exact evaluation ------------------------------------------------------------------------------
@@ -569,7 +546,8 @@ class AdmittanceEvaluator:
             part = np.arange(start, min(start + step, n))
             entries = [lookup[c] for c in key[part].tolist()]
             gain = np.stack([e[0] for e in entries])
-            pm[part], gm[part], st[part] = interaction_margins(self.w, self.timing, gain / z)
+            m = loop_margins(self.w, gain / z, sampled=self.timing.sampled)
+            pm[part], gm[part], st[part] = m.phase_margin_deg, m.gain_margin_db, m.closed_loop_stable
             for order in {e[1].order for e in entries if e[1] is not None}:
                 rows = [i for i, e in enumerate(entries) if e[1] is not None and e[1].order == order]
                 paths = StateSpace(*(np.stack([getattr(entries[i][1], f) for i in rows]) for f in "ABCD"))

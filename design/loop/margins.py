@@ -48,6 +48,15 @@ def unwrapped_phase_deg(resp: np.ndarray) -> np.ndarray:
     return np.degrees(np.unwrap(np.angle(resp), axis=-1))
 
 
+def sampled_nyquist_stable(loop: np.ndarray) -> np.ndarray:
+    """Stability of a discrete-time loop sampled from low frequency up to the Nyquist frequency, where it
+    is real (open loop without poles outside the unit circle): the phase of 1 + L changes by -90 to
+    +90 deg over the grid and 1 + L > 0 at the Nyquist frequency."""
+    a = 1 + np.asarray(loop)
+    turn = np.angle(a[..., 1:] / a[..., :-1]).sum(axis=-1)
+    return (turn > -math.pi / 4) & (a[..., -1].real > 0)
+
+
 def nyquist_stable(loop: np.ndarray) -> np.ndarray:
     """Closed-loop stability of loops ``(..., n_freq)`` sampled on a rising grid from where an integrator
     (or the DC gain) dominates to where |L| < 1, for open loops without right-half-plane poles (the
@@ -140,11 +149,14 @@ def _interpolate(x: np.ndarray, y: np.ndarray, at: np.ndarray) -> np.ndarray:
     return np.where(np.isfinite(cubic), cubic, linear)
 
 
-def loop_margins(w_rad_s, loop) -> Margins:
+def loop_margins(w_rad_s, loop, *, sampled: bool = False) -> Margins:
     """Gain, phase and disk margins and peak sensitivity of loops ``loop`` = L(jw), shape (..., n).
 
     Gain and phase margins as ``crossover_margins``. |S| and |S - 1/2| have their extremes refined
     between grid points on the complex quadratic through L at them and their neighbours (in log w).
+    ``sampled``: L is a discrete-time loop on a grid that ends at its Nyquist frequency, where it is real: the
+    gain margin is also read there (a real L below -1 / g is a phase crossover the grid's end holds) and the
+    stability is the discrete loop's (``sampled_nyquist_stable``).
     """
     w = check_grid(w_rad_s)
     L = np.asarray(loop, dtype=complex)
@@ -169,7 +181,14 @@ def loop_margins(w_rad_s, loop) -> Margins:
     with np.errstate(divide="ignore", invalid="ignore"):
         dgm = np.where(half < 1, 20 * np.log10((1 + half) / (1 - half)), np.inf)
     dpm = np.degrees(2 * np.arctan(half))
-    stable = nyquist_stable(L2)
+    if sampled:
+        end = L2[:, -1].real
+        at_nyquist = np.where(end < 0, -20 * np.log10(np.maximum(-end, 1e-300)), np.inf)
+        there = np.abs(at_nyquist) < np.abs(gm_db)
+        gm_db, wpc = np.where(there, at_nyquist, gm_db), np.where(there, w[-1], wpc)
+        stable = sampled_nyquist_stable(L2)
+    else:
+        stable = nyquist_stable(L2)
     on_grid = (mag2[:, 0] > 1.0) & (mag2[:, -1] < 1.0)
     return Margins(*(x.reshape(batch) for x in (gm_db, pm, wpc / (2 * np.pi), wc / (2 * np.pi), alpha, dgm,
                                                   dpm, ms, stable, on_grid)))

@@ -33,7 +33,7 @@ def sweep(
     """Margins and bandwidth across payloads, with Monte Carlo over the spec's uncertainty ranges."""
     from design.loop.sweep import monte_carlo_sweep
     from design.views.console import print_sweep
-    from design.views.json import print_json, sweep_csv, sweep_to_dict
+    from design.views.json import print_json, sweep_check_to_dict, sweep_csv, sweep_to_dict
     from design.views.progress import LazyProgress
     from design.workflows import load_problem
     from plant.host.files import atomic_write_text, is_stdout
@@ -59,7 +59,7 @@ def sweep(
         progress.close()
     check = result.check(problem.requirements)
     if as_json:
-        print_json({**sweep_to_dict(result), "gains_source": source, **check.to_dict()})
+        print_json({**sweep_to_dict(result), "gains_source": source, **sweep_check_to_dict(check, result)})
     else:
         print_sweep(console, result, check, source)
     if csv is not None:         # the file last: a stop while the tables print leaves no file behind

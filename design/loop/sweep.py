@@ -91,11 +91,6 @@ class SweepCheck:
     def meets(self) -> bool:
         return not self.violations
 
-    def to_dict(self) -> dict:
-        return {"requirements": {"phase_margin_deg": self.phase_margin_deg, "gain_margin_db": self.gain_margin_db,
-                                 "min_bandwidth_hz": self.min_bandwidth_hz},
-                "meets_requirements": self.meets, "violations": list(self.violations)}
-
 
 @dataclass(frozen=True)
 class SweepResult:

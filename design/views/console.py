@@ -414,11 +414,13 @@ def print_sweep(console: Console, result, check=None, source: str | None = None)
     if check is not None:
         need = f"PM >= {check.phase_margin_deg:g} deg, GM >= {check.gain_margin_db:g} dB" + (
             f", bandwidth >= {check.min_bandwidth_hz:g} Hz" if check.min_bandwidth_hz is not None else "")
+        covered = (f"at every payload swept and each of its {result.samples} Monte Carlo samples of the uncertainty"
+                   if result.samples else "at every payload swept, at the nominal parameters only (--samples N "
+                   "draws the uncertainty)")
         if check.meets:
-            console.print(f"[bold green]meets the requirements[/] ({need}) at every payload"
-                          + (" and sample" if result.samples else ""))
+            console.print(f"[bold green]meets the requirements[/] ({need}) {covered}", soft_wrap=True)
         else:
-            console.print(f"[bold red]VIOLATES the requirements[/] ({need}):", soft_wrap=True)
+            console.print(f"[bold red]VIOLATES the requirements[/] ({need}) {covered}:", soft_wrap=True)
             for line in check.violations:
                 console.print(f"  {line}", soft_wrap=True)
 

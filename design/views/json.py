@@ -273,6 +273,15 @@ def sweep_csv(result: SweepResult) -> str:
     lines += [",".join([*(repr(v) for v in row.values()), *(str(v) for v in extra.values())]) for row in rows]
     return "\n".join(lines) + "\n"
 
+def sweep_check_to_dict(check, result: SweepResult) -> dict:
+    """A sweep's verdict against the spec's requirements, with what it covered."""
+    return {"requirements": {"phase_margin_deg": check.phase_margin_deg, "gain_margin_db": check.gain_margin_db,
+                             "min_bandwidth_hz": check.min_bandwidth_hz},
+            "meets_requirements": check.meets, "violations": list(check.violations),
+            "covered": "every payload swept x the Monte Carlo samples" if result.samples else
+                       "every payload swept, nominal parameters only"}
+
+
 def sweep_to_dict(result: SweepResult) -> dict:
     """``gantry sweep --json`` (infinite or undefined values are ``None``)."""
     payloads = []

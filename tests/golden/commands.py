@@ -16,7 +16,8 @@ locomotion profile (the design became optimal: no ``tradeoff``, which is given o
 the motor's force on the profile took the held reference's staircase (``motor_force_n`` 109-128 -> 139-154 N, the
 design the same) and the mouse figures took the velocity shortfall, and when the bundled spec took the lab's
 recorded force (``recorded_force`` and ``limits.motor_force_criterion`` added, the design the same); the
-``synth_*`` files again when the one-motor designs stated their coverage (``coverage`` added, nothing else changed).
+``synth_*`` files again when the one-motor designs stated their coverage (``coverage`` added, nothing else changed),
+and ``sweep_x`` when the sweep's verdict did (``covered`` added).
 """
 
 from __future__ import annotations

@@ -8,6 +8,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from design.loop.control_models import loop_models
 from design.loop.controller import PI
 from plant.errors import ParameterError
 from plant.physics.effect_base import PADE_ORDER
@@ -161,7 +162,6 @@ class DesignOutcome:
     def loop_models(self, payload_kg: float | None = None, *, pade_order: int = PADE_ORDER) -> LoopModels:
         """P, C, L, S, T as python-control models (``design.loop.control_models``) at the designed gains, on
         the spec's plant at ``payload_kg`` (default: its nominal payload)."""
-        from design.loop.control_models import loop_models
 
         if self.controller is None:
             raise ParameterError(f"no designed gains to build the loop from (status {self.status})")

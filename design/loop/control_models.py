@@ -18,6 +18,7 @@ import numpy as np
 from design.loop.controller import PI
 from design.loop.loops import balanced
 from plant.arguments import check_instance
+from plant.bode import bode
 from plant.physics.effect_base import PADE_ORDER, ChainEffect
 from plant.physics.models import Plant
 
@@ -51,7 +52,6 @@ class LoopModels:
         """Bode magnitude of L, S and T and the phase of L (a ``matplotlib.figure.Figure``: no pyplot, so an
         interactive session's backend is left as it is; show it in a notebook by leaving it as the cell's
         value, or save it with ``savefig``)."""
-        from plant.bode import bode
 
         f = np.geomspace(0.1, 1000.0, 600) if f_hz is None else np.asarray(f_hz, float)
         s = 2j * np.pi * f

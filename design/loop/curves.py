@@ -11,6 +11,7 @@ import numpy as np
 
 from design.loop.controller import PI
 from design.loop.loops import balanced, closed_loop_tf, open_loop_frd
+from design.loop.margins import loop_margins
 from design.problem import LoopProblem
 from plant.grid import log_grid_rad_s
 
@@ -63,7 +64,6 @@ def loop_curves(problem: LoopProblem, controller: PI, binding: dict | None = Non
     values, as ``Evaluation.worst_scenario``), at that scenario."""
     import control
 
-    from design.loop.margins import loop_margins
 
     masses = report_payloads(problem)
     base = problem.plant.plant()

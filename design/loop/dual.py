@@ -33,6 +33,7 @@ from typing import ClassVar
 import numpy as np
 
 from design.loop.controller import PI
+from design.loop.loops import balanced
 from design.loop.margins import closed_loop_bandwidth_hz, crossover_margins
 
 #: T_out: rail velocities -> (mean, half difference); T_in: (total, differential current) -> motor currents
@@ -292,7 +293,6 @@ def translation_step(plant, controller: Controller, t_s: np.ndarray, *, pade_ord
     ``pade_order``); the yaw error is their difference."""
     import control
 
-    from design.loop.loops import balanced
 
     chain = control.tf([1.0], [1.0])
     for e in plant.effects:

@@ -9,6 +9,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from design.loop.analysis import analyse_loop
 from design.loop.controller import PI
 from design.loop.fast import F_LOW_HZ, coarse_grid_rad_s, fast_analyse_loop
 from design.problem import LoopProblem
@@ -76,8 +77,6 @@ def evaluate(problem: LoopProblem, controller: PI, scenarios: Scenarios | None =
              "gain_margin": np.where(np.isfinite(gm), gm - req.gain_margin_db, np.inf)}
     scale = {"phase_margin": max(req.phase_margin_deg, 1.0), "gain_margin": max(req.gain_margin_db, 1.0)}
     if req.peak_sensitivity is not None or req.disk_margin is not None:
-        from design.loop.analysis import analyse_loop
-
         margins = analyse_loop(plant, controller).margins
         if req.peak_sensitivity is not None:
             slack["peak_sensitivity"] = req.peak_sensitivity - np.ravel(margins.peak_sensitivity)

@@ -17,6 +17,7 @@ from design.synth.scenarios import Scenarios
 from design.synth.solvers import raise_if_interrupted
 from plant.physics.algebra import CASADI, Pair
 from plant.physics.drive_filters import FILTERS, KINDS
+from plant.physics.effect_base import replace_unchecked
 from plant.physics.models import Plant
 
 #: IPOPT's initial barrier parameter when the filters are variables too. The joint step starts from a design
@@ -106,7 +107,6 @@ def exact_design(problem: LoopProblem, scenarios: Scenarios, start: PI, *,
     scales are parameters)."""
     import casadi as ca
 
-    from plant.physics.effect_base import replace_unchecked
 
     req, c = problem.requirements, problem.controller
     kp0, ki0 = float(start.kp), float(start.ki)

@@ -19,6 +19,7 @@ import numpy as np
 from design.loop.controller import PI
 from design.loop.margins import closed_loop_bandwidth_hz, loop_margins
 from design.problem import LoopProblem
+from design.synth.ccp import _CCP
 from plant.data.frequency_response import MeasuredResponse
 from plant.errors import DataError
 
@@ -103,7 +104,6 @@ def _independent_failures(payload, w, G, controller: PI, problem: LoopProblem) -
 def synthesise_from_data(problem: LoopProblem, data: MeasuredPlants) -> MeasuredDesign:
     """Largest bandwidth target the convex-concave procedure meets on every measured response
     (bisection on its log), then an independent check of the design on the data."""
-    from design.synth.ccp import _CCP
 
     payload, w, G = data.payload_kg, data.w_rad_s, data.response
     t0 = time.perf_counter()

@@ -45,9 +45,10 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from design.loop.analysis import ANALYSIS_GRID_RAD_S
 from design.loop.controller import PI
-from design.loop.discrete import DiscreteCheck, DiscreteDesign
-from design.problem import LoopProblem
+from design.loop.discrete import DiscreteCheck, DiscreteDesign, check_discrete, discretise
+from design.problem import LoopProblem, with_filter_values
 from design.synth.ccp import ccp_design
 from design.synth.evaluation import Evaluation, evaluate
 from design.synth.exact import exact_design
@@ -105,7 +106,6 @@ MONTE_CARLO_ROUNDS = 2
 def classical_rule(problem: LoopProblem, *, phase_margin_deg: float = 60.0) -> tuple[float, float]:
     """Single-model rule at the nominal payload: crossover where the plant phase is
     -180 + PM + 5.7 deg, kp = 1/|P| there, PI zero a decade below (costing 5.7 deg)."""
-    from design.loop.analysis import ANALYSIS_GRID_RAD_S
 
     plant = problem.plant.plant()
     P = plant.frd(ANALYSIS_GRID_RAD_S)
@@ -342,7 +342,6 @@ def filter_starts(problem: LoopProblem) -> list[list[dict | None]]:
 
 def as_designed(problem: LoopProblem, result: SynthesisResult) -> LoopProblem:
     """The problem with its drive filters as the synthesis chose them (itself when it designed none)."""
-    from design.problem import with_filter_values
 
     if not result.filters:
         return problem
@@ -357,7 +356,6 @@ def _with_designed_filters(problem: LoopProblem, method: str, max_rounds: int,
     the pipeline (scan, ccp, exact on the gains; the filters fixed, so the loop is affine in the gains), then
     IPOPT on the gains and the filters together (with the margin circle guarding the re-crossings near a
     mode) from the best two starts with filters, and the pipeline once more at the filters it found."""
-    from design.problem import with_filter_values
 
     t0 = time.perf_counter()
     starts = filter_starts(problem)
@@ -530,7 +528,6 @@ def _synthesise(problem: LoopProblem, method: str, max_rounds: int, extra: list[
 def _discrete(problem: LoopProblem, ev: Evaluation, points: Scenarios, dense: Scenarios):
     """The design as the drive runs it at ``controller.loop_rate_hz``, checked with python-control on the
     discrete loop at the payload points (nominal parameters) and the ``DISCRETE_TIGHTEST`` tightest checks."""
-    from design.loop.discrete import check_discrete, discretise
 
     base = problem.plant.plant()
     payloads = np.unique(points.payload_kg)

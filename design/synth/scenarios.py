@@ -14,6 +14,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from design.loop.sweep import checked_ranges
 from design.problem import LoopProblem
 from plant.physics.models import Plant
 
@@ -93,7 +94,6 @@ class Scenarios:
 
 def uncertainty_ranges(problem: LoopProblem) -> dict[str, tuple[float, float]]:
     """The problem's uncertain parameters and their (min, max), checked against the plant (sorted by name)."""
-    from design.loop.sweep import checked_ranges
 
     return dict(sorted(checked_ranges(problem.plant.uncertainty, problem.plant.plant()).items()))
 

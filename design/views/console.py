@@ -11,6 +11,10 @@ from rich.console import Console
 from rich.markup import escape
 from rich.table import Table
 
+from design.views.json import payload_sweep_rows
+from plant.experiment.simulate_time import travel_notes
+from plant.physics.effects import EFFECTS
+
 if TYPE_CHECKING:
     from design.loop.analysis import PayloadSweep
     from design.loop.reproduce import TableRow
@@ -86,7 +90,6 @@ def print_diagnosis(console: Console, diag: Diagnosis) -> None:
 def _print_values(console: Console, fit) -> None:
     """A fit's parameters with their standard errors; a held one says whether the recording set it (the shape
     of a position-dependent force: a ripple's pitch, a profile's span)."""
-    from plant.physics.effects import EFFECTS
 
     for name, value in fit.values.items():
         err = fit.stderr.get(name)
@@ -427,7 +430,6 @@ def print_sweep(console: Console, result, check=None, source: str | None = None)
 
 def print_reproduction(console: Console, rows: list[TableRow], sweeps: list[PayloadSweep]) -> None:
     """``gantry reproduce``: thesis Table 3.1 against the model, definitions, explanations, payload sweeps."""
-    from design.views.json import payload_sweep_rows
 
     t = Table(title="Thesis Table 3.1 (and section 3.1 phase margins) against this model")
     for col in ("quantity", "stage", "unit", "thesis", "computed", "rel. diff."):
@@ -458,7 +460,6 @@ def print_reproduction(console: Console, rows: list[TableRow], sweeps: list[Payl
 def print_time_simulation(console: Console, rec, out, sidecar) -> None:
     """``gantry simulate --form continuous|chirp``: what was written, how far the carriage went, and what that
     travel cannot show."""
-    from plant.experiment.simulate_time import travel_notes
 
     md = rec.metadata
     ex = md["excitation"]

@@ -10,7 +10,14 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from design.admittance.model import admittance_problem
 from design.admittance.verify import PADE_ORDER
+from design.synth.scenarios import coverage
+from plant.data.writers import csv_rows
+from plant.diagnose.diagnosis import failing_bands
+from plant.diagnose.evidence import ACCEPT_DELTA_BIC
+from plant.experiment.simulate_time import travel_notes
+from plant.identify.time_fit import TimeFitResult, bic
 
 if TYPE_CHECKING:
     from design.admittance.dual import DualAdmittanceResult
@@ -35,7 +42,6 @@ if TYPE_CHECKING:
     from plant.experiment.excitation import Multisine, SteppedSine, VariancePrediction
     from plant.identify.fitting import FitResult
     from plant.identify.rational_fit import RationalFit
-    from plant.identify.time_fit import TimeFitResult
 
 #: the closed-loop bandwidth definitions (``requirements.bandwidth_definition``)
 BANDWIDTH_DEFINITIONS = {
@@ -79,7 +85,6 @@ def _strict(obj):
 
 def fit_outcome_to_dict(outcome: FitOutcome) -> dict:
     """``gantry fit --json``: a frequency-domain fit (with its rational fit) or a time-domain one."""
-    from plant.identify.time_fit import TimeFitResult
 
     if isinstance(outcome.result, TimeFitResult):
         return time_fit_to_dict(outcome.result)
@@ -138,7 +143,6 @@ def time_fit_to_dict(result: TimeFitResult) -> dict:
 
 def diagnosis_to_dict(diag: Diagnosis) -> dict:
     """Strict-JSON-ready dict: the ``gantry diagnose --json`` contract."""
-    from plant.diagnose.diagnosis import failing_bands
 
     first = diag.steps[0]
     final = diag.final
@@ -187,7 +191,6 @@ def diagnosis_to_dict(diag: Diagnosis) -> dict:
 
 def time_diagnosis_to_dict(diag: TimeDiagnosis) -> dict:
     """Strict-JSON-ready dict with the keys of the stepped-sine diagnosis where they mean the same."""
-    from plant.diagnose.evidence import ACCEPT_DELTA_BIC
 
     final = diag.final
     best_bic = min(s.bic for s in diag.steps)
@@ -229,7 +232,6 @@ def time_diagnosis_to_dict(diag: TimeDiagnosis) -> dict:
 
 
 def _bic(diag: TimeDiagnosis, combo) -> float:
-    from plant.identify.time_fit import bic
 
     return bic(diag.models[combo], diag.n_effective)
 
@@ -477,7 +479,6 @@ def recorded_force_to_dict(c, adm) -> dict | None:
 
 def admittance_to_dict(result: AdmittanceResult, problem: LoopProblem) -> dict:
     """``admittance`` of ``gantry synth --json``."""
-    from design.admittance.model import admittance_problem
 
     adm = admittance_problem(problem)
     c = result.check
@@ -601,7 +602,6 @@ def _feel(feel) -> dict:
 def dual_admittance_to_dict(result: DualAdmittanceResult, problem: LoopProblem) -> dict:
     """``admittance`` of ``gantry synth --json`` on a two-motor Stage Y: the virtual dynamics on the recommended
     structure, worst over carriage position x payload x uncertainty x mouse, and per carriage position."""
-    from design.admittance.model import admittance_problem
 
     c = result.check
     designed = result.status in ("optimal", "mouse_cannot_drive")
@@ -686,8 +686,6 @@ def design_to_dict(outcome: DesignOutcome) -> dict:
             out = {**out, "admittance": adm, "gains": {**out["gains"], "m_v": adm["m_v"], "b_v": adm["b_v"]},
                    "status": outcome.status, "message": outcome.message, "verified": outcome.verified}
     if outcome.dual is None and outcome.measured is None:
-        from design.synth.scenarios import coverage
-
         out["coverage"] = coverage(problem.loop).as_dict()
     if problem.plant_from is not None:
         out["plant_from"] = {"file": problem.plant_from.file, "left_out": list(problem.plant_from.left_out),
@@ -741,7 +739,6 @@ def simulation_to_dict(rec: Recording, out, sidecar, *, amplitude_a: float, simu
 def time_simulation_to_dict(rec, out, sidecar, *, simulation_s: float) -> dict:
     """``gantry simulate --form continuous|chirp --json``: where the run went, how it was simulated, how far the
     carriage went and what that travel cannot show."""
-    from plant.experiment.simulate_time import travel_notes
 
     md = rec.metadata
     return {"out": str(out), "sidecar": str(sidecar), "stage": md["stage"], "effects": md["effects"],
@@ -799,7 +796,6 @@ def mouse_run_to_dict(run, source: str, corners=None) -> dict:
 
 def mouse_run_csv(run) -> str:
     """The run, one row per drive tick, units in the column names."""
-    from plant.data.writers import csv_rows
 
     t = run.trace
     cols = {"time_s": t.time_s, "intended_x_m": t.intended_x_m, "intended_v_m_per_s": t.intended_v_m_per_s,

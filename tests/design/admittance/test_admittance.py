@@ -541,7 +541,7 @@ def test_hardware_what_ifs_lower_the_force_with_a_faster_law_and_raise_it_with_m
     w = with_mode_points(check_grid_for(timing), corners, timing)
     rp = ray_problem(interaction_responses(spec, design_scenarios(spec), w, loops=PiLoops.of(spec, PI(kp, ki)),
                                            timing=timing, corners=corners), spec.admittance)
-    result = SimpleNamespace(kp=kp, ki=ki, m_v=m_v, b_v=b_v, timing=timing, corners=corners)
+    result = SimpleNamespace(controller=PI(kp, ki), m_v=m_v, b_v=b_v, timing=timing, corners=corners)
     changes = {c.change: c for c in trade_off(spec, result, rp).changes}
     base = next(iter(changes.values())).baseline_n
     fast2, fast10 = (changes[f"admittance update at {r} Hz instead of 100 Hz"].force_n for r in (200, 1000))

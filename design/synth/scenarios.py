@@ -190,9 +190,12 @@ class Coverage:
         draws = f" and {self.dense_draws} seeded draws" if self.uncertain and self.corners and self.dense_draws else ""
         return (f"designed on {self.design_payloads} payloads x {box}; checked on {self.dense_payloads} payloads "
                 f"evenly over {lo:g}-{hi:g} kg x the same{draws} ({self.dense_scenarios} scenarios) and by "
-                f"python-control on the design scenarios and the tightest checked ones; between these points only "
-                f"the Monte Carlo covers the box ({self.monte_carlo_samples} uniform draws over payload x "
-                f"uncertainty, seed {self.monte_carlo_seed})")
+                f"python-control on the design scenarios and the tightest checked ones"
+                + (f"; the admittance on {self.admittance_payloads} payloads x the corners x every mouse corner"
+                   if self.admittance else "")
+                + f"; between these points only the Monte Carlo covers the box ({self.monte_carlo_samples} uniform "
+                  f"draws over payload x uncertainty{' x mouse' if self.admittance else ''}, seed "
+                  f"{self.monte_carlo_seed})")
 
     def as_dict(self) -> dict:
         return {"payload_range_kg": list(self.payload_range_kg), "uncertain_parameters": list(self.uncertain),

@@ -450,6 +450,7 @@ def test_the_stated_coverage_counts_the_scenarios_the_checks_use(name):
     else:
         assert "admittance_dense_check" not in d
     assert f"{c.dense_payloads} payloads" in d["text"]
+    assert (f"the admittance on {c.admittance_payloads} payloads" in d["text"]) == (problem.admittance is not None)
 
 
 @pytest.mark.parametrize("effect, needle", [("tilt_coupling", "tilt_coupling applies to Stage Y only"),

@@ -72,9 +72,9 @@ def at_instants(record: ForceRecord, period_s: float) -> np.ndarray:
     return np.interp(t[0] + period_s * np.arange(n), t, np.asarray(record.force_n, float))
 
 
-def filtered_readings(force: np.ndarray, timing: RigTiming) -> np.ndarray:
-    """The force filter's output at the law's instants for a force linear between them (its exact discretisation
-    for that force), from the steady state of the first value."""
+def filtered_readings(force: np.ndarray, slope: np.ndarray, timing: RigTiming) -> np.ndarray:
+    """The force filter's output at the law's instants for a force linear between them (``slope`` N/s over each
+    period; its exact discretisation for that force), from the steady state of the first value."""
     if timing.filter_hz is None:
         return force.copy()
     f = tf_ss(*force_filter_polys(timing.filter_hz, timing.filter_order))
@@ -82,8 +82,7 @@ def filtered_readings(force: np.ndarray, timing: RigTiming) -> np.ndarray:
     E, G0, G1 = E[0], G0[0], G1[0]
     x = np.linalg.solve(np.eye(f.order) - E, G0 * force[0])
     out = np.empty(force.size)
-    slopes = np.append(np.diff(force), 0.0) / timing.period_s
-    for k, (fk, gk) in enumerate(zip(force, slopes)):
+    for k, (fk, gk) in enumerate(zip(force, slope)):
         out[k] = f.C[0] @ x + f.D[0, 0] * fk
         x = E @ x + G0 * fk + G1 * gk
     return out
@@ -106,11 +105,11 @@ class RecordedMotor:
     def __init__(self, record: ForceRecord, scenarios, *, loops, timing: RigTiming):
         if not timing.sampled:
             raise ValueError("the recorded-force motor check needs a sampled law (admittance.rig.update_rate_hz)")
-        self.record, self.timing = record, timing
+        self.timing = timing
         T = timing.period_s
         self.force_n = at_instants(record, T)
         self.slope = np.append(np.diff(self.force_n), 0.0) / T
-        self.readings = filtered_readings(self.force_n, timing)
+        self.readings = filtered_readings(self.force_n, self.slope, timing)
         self.offsets_s = offsets(T)
         free = loops.free_state_space(scenarios, motor=True)          # the Pade order for a transient
         A, Bu, Bf = free.A, free.B[:, :, 0:1], free.B[:, :, 1:2]

@@ -11,6 +11,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from design.admittance.model import admittance_problem
+from design.admittance.recorded import FINE_STEP_S
 from design.admittance.verify import PADE_ORDER
 from design.synth.scenarios import coverage
 from plant.data.writers import csv_rows
@@ -474,7 +475,7 @@ def recorded_force_to_dict(c, adm) -> dict | None:
                        "every computation delay; the Monte Carlo draws are checked on the locomotion profile only",
             "model": "the record taken as given (the mouse pushes as recorded whatever the gantry does), linear "
                      "between the law's instants; the gantry from the steady state of its first value; the motor's "
-                     "force read every 0.1 ms after each law instant (design.admittance.recorded)"}
+                     f"force read every {1e3 * FINE_STEP_S:g} ms after each law instant (design.admittance.recorded)"}
 
 
 def admittance_to_dict(result: AdmittanceResult, problem: LoopProblem) -> dict:

@@ -51,7 +51,7 @@ from design.admittance.profile import FeltForce
 from design.admittance.recorded import RecordedMotor
 from design.admittance.rig import RigTiming, VirtualImpedance, force_filter_frd
 from design.admittance.sampled import (
-    StateSpace,
+    SampledPaths,
     closed_loop_radius,
     free_gantry,
     mice_paths,
@@ -550,7 +550,7 @@ class AdmittanceEvaluator:
             pm[part], gm[part], st[part] = m.phase_margin_deg, m.gain_margin_db, m.closed_loop_stable
             for order in {e[1].order for e in entries if e[1] is not None}:
                 rows = [i for i, e in enumerate(entries) if e[1] is not None and e[1].order == order]
-                paths = StateSpace(*(np.stack([getattr(entries[i][1], f) for i in rows]) for f in "ABCD"))
+                paths = SampledPaths.stack(entries[i][1] for i in rows)
                 radius = closed_loop_radius(paths, law, self.timing.delay_samples)
                 st[part[rows]] = radius < 1.0
 

@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, fields, replace
+from functools import cached_property
 
 import numpy as np
 from scipy.linalg import expm, matrix_balance
@@ -408,53 +409,92 @@ def zoh(path: StateSpace, period_s: float) -> StateSpace:
     return StateSpace(E[..., :n, :n], E[..., :n, n:], path.C, path.D)
 
 
+@dataclass(frozen=True)
+class SampledPaths:
+    """A batch (n,) of continuous single-input single-output paths sampled exactly every ``period_s`` under a
+    zero-order hold. The frequency response K_d(z) = C (zI - Phi)^-1 Gamma + D is read from the continuous modes
+    (A = V diag(lambda) V^-1: Phi = V diag(e^(lambda T)) V^-1, Gamma = V diag((e^(lambda T) - 1) / lambda) V^-1 B,
+    Astrom & Wittenmark section 2.3), so no matrix exponential is needed for it; where the eigenvector basis is
+    worse conditioned than ``EIG_CONDITION`` (1-norm), by LU solves on the discrete form. The discrete form
+    (``discrete``, ``zoh``: the closed loop's poles) is computed when asked."""
 
-def discrete_response(sys: StateSpace, z) -> np.ndarray:
-    """C (zI - Phi)^-1 Gamma + D of a batch (n,) of single-input single-output systems at the points ``z``,
-    (n, len(z)): by each Phi's eigenvectors where they are well conditioned (``EIG_CONDITION``), else by LU
-    solves; ``RESPONSE_BLOCK`` systems at a time (memory)."""
-    z = np.asarray(z, complex)
-    out = np.empty((sys.A.shape[0], z.size), complex)
-    for start in range(0, sys.A.shape[0], RESPONSE_BLOCK):
-        part = slice(start, start + RESPONSE_BLOCK)
-        out[part] = _response_block(sys.take(part), z)
-    return out
+    path: StateSpace
+    period_s: float
+
+    @property
+    def order(self) -> int:
+        return self.path.order
+
+    def __len__(self) -> int:
+        return self.path.A.shape[0]
+
+    def take(self, index) -> SampledPaths:
+        return SampledPaths(self.path.take(index), self.period_s)
+
+    @staticmethod
+    def stack(parts) -> SampledPaths:
+        """One batch of single paths (``take`` of one row each) of equal order and period."""
+        parts = list(parts)
+        return SampledPaths(StateSpace(*(np.stack([getattr(p.path, f) for p in parts]) for f in "ABCD")),
+                            parts[0].period_s)
+
+    @cached_property
+    def discrete(self) -> StateSpace:
+        return zoh(self.path, self.period_s)
+
+    def response(self, z) -> np.ndarray:
+        """K_d at the points ``z`` of the unit circle, (n, len(z)), ``RESPONSE_BLOCK`` paths at a time (memory)."""
+        z = np.asarray(z, complex)
+        out = np.empty((len(self), z.size), complex)
+        for start in range(0, len(self), RESPONSE_BLOCK):
+            out[start:start + RESPONSE_BLOCK] = _response_block(self.take(slice(start, start + RESPONSE_BLOCK)), z)
+        return out
 
 
-def _response_block(sys: StateSpace, z: np.ndarray) -> np.ndarray:
+def _response_block(paths: SampledPaths, z: np.ndarray) -> np.ndarray:
+    sys, T = paths.path, paths.period_s
     lam, V = np.linalg.eig(sys.A)
     with np.errstate(all="ignore"):
-        cond = np.linalg.cond(V)
+        Vinv = np.linalg.inv(V)
+        cond = np.abs(V).sum(axis=-2).max(axis=-1) * np.abs(Vinv).sum(axis=-2).max(axis=-1)
     out = np.empty((sys.A.shape[0], z.size), complex)
     good = np.isfinite(cond) & (cond < EIG_CONDITION)
     if good.any():
-        Vg = V[good]
-        left = (sys.C[good] @ Vg)[:, 0, :]
-        right = np.linalg.solve(Vg, sys.B[good].astype(complex))[:, :, 0]
-        residue, poles = left * right, lam[good]
+        lt = lam[good] * T
+        small = np.abs(lt) < 1e-6
+        hold = np.where(small, T * (1 + lt / 2), np.expm1(lt) / np.where(small, 1.0, lam[good]))
+        left = (sys.C[good] @ V[good])[:, 0, :]
+        right = (Vinv[good] @ sys.B[good])[:, :, 0] * hold
+        residue, poles = left * right, np.exp(lt)
         order = np.argsort(-np.abs(poles), axis=1)             # slowest modes first
         residue, poles = np.take_along_axis(residue, order, 1), np.take_along_axis(poles, order, 1)
         fast = np.flatnonzero(np.max(np.abs(poles), axis=0) < FAST_MODE)
         keep = int(fast[0]) if fast.size else sys.order
         acc = np.broadcast_to(sys.D[good, 0, 0][:, None], (residue.shape[0], z.size)).astype(complex)
-        for m in range(keep):                 # mode by mode: a 3-D broadcast division is several times slower
-            acc += residue[:, m, None] / (z[None, :] - poles[:, m, None])
+        term = np.empty_like(acc)
+        for m in range(keep):       # mode by mode, in place: 2x faster than temporaries, 4x than a 3-D broadcast
+            np.subtract(z[None, :], poles[:, m, None], out=term)
+            acc += np.divide(residue[:, m, None], term, out=term)
         if keep < sys.order:                  # modes decayed within a sample: r / (z - p) = r / z to |p|
-            acc += residue[:, keep:].sum(axis=1)[:, None] / z[None, :]
+            acc += np.multiply(residue[:, keep:].sum(axis=1)[:, None], 1.0 / z[None, :], out=term)
         out[good] = acc
-    eye = np.eye(sys.order)
-    for k in np.flatnonzero(~good):
-        x = np.linalg.solve(z[:, None, None] * eye - sys.A[k], np.broadcast_to(sys.B[k], (z.size, *sys.B[k].shape)))
-        out[k] = (sys.C[k] @ x)[:, 0, 0] + sys.D[k, 0, 0]
+    bad = np.flatnonzero(~good)
+    if bad.size:
+        d = paths.take(bad).discrete
+        eye = np.eye(sys.order)
+        for i, k in enumerate(bad):
+            x = np.linalg.solve(z[:, None, None] * eye - d.A[i], np.broadcast_to(d.B[i], (z.size, *d.B[i].shape)))
+            out[k] = (d.C[i] @ x)[:, 0, 0] + d.D[i, 0, 0]
     return out
 
 
-def closed_loop_radius(sys: StateSpace, law, delay_samples: int) -> np.ndarray:
-    """Spectral radius of the coupled discrete loop of a batch of discretised paths (F[k] = -y[k]) under the law
+def closed_loop_radius(paths: SampledPaths, law, delay_samples: int) -> np.ndarray:
+    """Spectral radius of the coupled discrete loop of a batch of sampled paths (F[k] = -y[k]) under the law
     ``law`` = (alpha, beta, beta_prev), v[k] = alpha v[k-1] + beta F[k] + beta_prev F[k-1]
     (``design.admittance.rig.law_coefficients``), whose output u[k] = v[k - d]: < 1 is stable. States (x[k],
     F[k-1], v[k-1], ..., v[k-max(d, 1)]). Modes on the unit circle that the loop leaves unmoved (``HIDDEN_MODE``)
     are not counted."""
+    sys = paths.discrete
     n = sys.order
     batch = sys.A.shape[0]
     alpha, beta, beta_prev = (np.broadcast_to(np.asarray(c, float), (batch,)) for c in law)
@@ -494,25 +534,25 @@ def closed_loop_radius(sys: StateSpace, law, delay_samples: int) -> np.ndarray:
     return np.max(np.where(hidden, 0.0, np.abs(closed)), axis=-1)
 
 
-def discretised_paths(loops, scenarios, loads: ClampLoad, timing, rows=None) -> StateSpace:
-    """The exactly sampled paths (Phi, Gamma, C, D) of each load c at scenario ``rows[c]`` (default c), the
+def discretised_paths(loops, scenarios, loads: ClampLoad, timing, rows=None) -> SampledPaths:
+    """The exactly sampled paths (``SampledPaths``) of each load c at scenario ``rows[c]`` (default c), the
     force filter of ``timing`` included (``loops.free_state_space(scenarios, period_s=T)``: the free gantries)."""
     free = loops.free_state_space(scenarios, period_s=timing.period_s)
     rows = np.arange(load_count(loads)) if rows is None else np.asarray(rows)
     path = filtered(attach(free.take(rows), loads), timing.filter_hz, timing.filter_order)
-    return zoh(path, timing.period_s)
+    return SampledPaths(path, timing.period_s)
 
 
 def load_count(loads: ClampLoad) -> int:
     return int(loads.head_kg.size)
 
 
-def sampled_gain(paths: StateSpace, w_rad_s, timing) -> np.ndarray:
+def sampled_gain(paths: SampledPaths, w_rad_s, timing) -> np.ndarray:
     """e^(-jwdT) K_d(e^(jwT)) of discretised paths on the grid ``w_rad_s`` (rad/s), (n, n_f): the interaction
     loop is this times the law's Y_v (``design.admittance.rig``)."""
     w = np.asarray(w_rad_s, float)
     z = np.exp(1j * w * timing.period_s)
-    return discrete_response(paths, z) * z ** (-timing.delay_samples)
+    return paths.response(z) * z ** (-timing.delay_samples)
 
 
 def mouse_kinds(mice: MouseModel) -> list[tuple[np.ndarray, ClampLoad]]:

@@ -32,8 +32,8 @@ from scipy.linalg import expm
 from scipy.signal import lfilter
 
 from design.admittance.rig import RigTiming, force_filter_polys
-from design.admittance.sampled import tf_ss
 from design.problem import ForceRecord
+from plant.physics.state_space import tf_ss
 
 #: the offsets within a period at which the motor's force is read (module docstring)
 PEAK_WINDOW_S = 4e-3

@@ -22,19 +22,19 @@ coupled loop's poles are the eigenvalues of one matrix (``closed_loop_radius``).
 
 from __future__ import annotations
 
-import math
-from dataclasses import dataclass, fields, replace
+from dataclasses import dataclass, replace
 from functools import cached_property
 
 import numpy as np
-from scipy.linalg import expm, matrix_balance
+from scipy.linalg import expm
 
 from design.admittance.mouse import MouseModel
 from design.admittance.rig import force_filter_polys
 from design.loop.controller import PI
-from plant.physics.chain import CurrentLoop, Delay
-from plant.physics.effect_base import ChainEffect, replace_unchecked
+from plant.physics.chain import Delay
+from plant.physics.effect_base import effects_state_space
 from plant.physics.models import Plant, chain_state_space
+from plant.physics.state_space import StateSpace, column, tf_ss
 
 #: Pade order of a delay inside the velocity loop, by the law's period over the delay (``pade_order_for``): the
 #: sampled path is then within 1e-8 of order 12 for T >= 5 tau (a 100 or 200 Hz law and a drive delay of 0.3-0.8
@@ -65,143 +65,17 @@ HIDDEN_MODE = 1e-7
 RESPONSE_BLOCK = 256
 
 
-@dataclass(frozen=True)
-class StateSpace:
-    """x' = A x + B u, y = C x + D u, batched over leading axes: A (..., n, n), B (..., n, m), C (..., p, n),
-    D (..., p, m)."""
-
-    A: np.ndarray
-    B: np.ndarray
-    C: np.ndarray
-    D: np.ndarray
-
-    @property
-    def order(self) -> int:
-        return self.A.shape[-1]
-
-    def take(self, index) -> StateSpace:
-        return StateSpace(self.A[index], self.B[index], self.C[index], self.D[index])
-
-
-def pade_polys(delay_s: float, order: int) -> tuple[np.ndarray, np.ndarray]:
-    """The [order/order] Pade approximant of e^(-s delay) as numerator / denominator (highest power first)."""
-    n = order
-    c = [math.factorial(2 * n - k) * math.factorial(n) / (math.factorial(2 * n) * math.factorial(k)
-                                                         * math.factorial(n - k)) for k in range(n + 1)]
-    den = np.array([c[k] * delay_s**k for k in range(n, -1, -1)])
-    num = np.array([c[k] * (-delay_s) ** k for k in range(n, -1, -1)])
-    return num / den[0], den / den[0]
-
-
-def tf_ss(num, den) -> StateSpace:
-    """A proper num / den (highest power first) in observable canonical form, its states scaled as MATLAB's
-    ``ssbal`` does (``scipy.linalg.matrix_balance`` of [[A, B], [C, 0]], the input and output unscaled)."""
-    num, den = np.atleast_1d(np.asarray(num, float)), np.atleast_1d(np.asarray(den, float))
-    num, den = num / den[0], den / den[0]
-    n = den.size - 1
-    if num.size > den.size:
-        raise ValueError("improper transfer function")
-    num = np.concatenate([np.zeros(den.size - num.size), num])
-    d = num[0]
-    if n == 0:
-        return StateSpace(np.zeros((0, 0)), np.zeros((0, 1)), np.zeros((1, 0)), np.array([[d]]))
-    A = np.zeros((n, n))
-    A[:, 0] = -den[1:]
-    A[:-1, 1:] = np.eye(n - 1)
-    B = (num[1:] - d * den[1:])[:, None]
-    C = np.zeros((1, n))
-    C[0, 0] = 1.0
-    return balance(StateSpace(A, B, C, np.array([[d]])))
-
-
-def balance(sys: StateSpace) -> StateSpace:
-    """The states of an unbatched single-input single-output system rescaled so that A, B and C are of
-    comparable size (``ssbal``)."""
-    n = sys.order
-    M = np.zeros((n + 1, n + 1))
-    M[:n, :n], M[:n, n:], M[n:, :n] = sys.A, sys.B, sys.C
-    _, (scale, _) = matrix_balance(M, permute=False, separate=True)
-    t = scale[:n] / scale[n]
-    return StateSpace(sys.A * (1 / t)[:, None] * t[None, :], sys.B / t[:, None], sys.C * t[None, :], sys.D)
-
-
-def time_scaled(sys: StateSpace, seconds: float) -> StateSpace:
-    """H(s seconds) of a system H(p) realised in the dimensionless p."""
-    return StateSpace(sys.A / seconds, sys.B / seconds, sys.C, sys.D)
-
-
-def _batched(sys: StateSpace, n: int) -> StateSpace:
-    """``sys`` with a leading batch axis of ``n`` (broadcast when it has none)."""
-    if sys.A.ndim == 3:
-        return sys
-    return StateSpace(*(np.broadcast_to(x, (n, *x.shape)) for x in (sys.A, sys.B, sys.C, sys.D)))
-
-
-def series(first: StateSpace, second: StateSpace) -> StateSpace:
-    """``second`` after ``first``, single-input single-output, batched (n, ...)."""
-    n1, n2 = first.order, second.order
-    batch = first.A.shape[0]
-    A = np.zeros((batch, n1 + n2, n1 + n2))
-    A[:, :n1, :n1] = first.A
-    A[:, n1:, :n1] = second.B @ first.C
-    A[:, n1:, n1:] = second.A
-    B = np.concatenate([first.B, second.B @ first.D], axis=1)
-    C = np.concatenate([second.D @ first.C, second.C], axis=2)
-    return StateSpace(A, B, C, second.D @ first.D)
-
-
-def _column(value, n: int) -> np.ndarray:
-    return np.broadcast_to(np.asarray(value, float).reshape(-1), (n,))
-
-
-def effect_ss(effect: ChainEffect, n: int, pade_order: int = PADE_ORDER) -> StateSpace:
-    """One chain effect of a batch of ``n`` plants as a batched state-space factor (a delay by its Pade
-    approximant, realised once in the dimensionless s tau and scaled)."""
-    if isinstance(effect, Delay):
-        tau = _column(effect.seconds, n)
-        if np.all(tau == 0):
-            return _batched(tf_ss([1.0], [1.0]), n)
-        unit = tf_ss(*pade_polys(1.0, pade_order))
-        t = np.where(tau > 0, tau, 1.0)[:, None, None]
-        A, B = unit.A[None] / t, unit.B[None] / t
-        C = np.broadcast_to(unit.C, (n, *unit.C.shape))
-        D = np.broadcast_to(unit.D, (n, 1, 1)).copy()
-        zero = tau == 0                      # no delay in that plant: the all-pass's feedthrough alone
-        B, C = np.where(zero[:, None, None], 0.0, B), np.where(zero[:, None, None], 0.0, C)
-        D[zero] = 1.0
-        return StateSpace(A, B, C, D)
-    if isinstance(effect, CurrentLoop):
-        wc = 2 * math.pi * _column(effect.bandwidth_hz, n)[:, None, None]
-        return StateSpace(-wc, wc, np.ones((n, 1, 1)), np.zeros((n, 1, 1)))
-    parts = []
-    for j in range(n):
-        one = replace_unchecked(effect, {f.name: float(_column(getattr(effect, f.name), n)[j])
-                                         for f in fields(effect)})
-        tf = one.to_tf(pade_order=pade_order)
-        parts.append(tf_ss(np.asarray(tf.num[0][0], float), np.asarray(tf.den[0][0], float)))
-    return StateSpace(*(np.stack([getattr(p, k) for p in parts]) for k in "ABCD"))
-
-
-def chain_ss(plants: Plant, place: str, n: int, pade_order: int = PADE_ORDER) -> StateSpace:
-    """The product of a batch of ``n`` plants' chain effects at ``place`` ("drive" or "sensor")."""
-    out = _batched(tf_ss([1.0], [1.0]), n)
-    for e in plants.effects:
-        if isinstance(e, ChainEffect) and e.place == place:
-            out = series(out, effect_ss(e, n, pade_order))
-    return out
-
-
 def mechanics_ss(plants: Plant, n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(A, B, C) of a batch of ``n`` plants' mechanics, velocity per motor force (m/s per N): one body in
     closed form, a chain of bodies plant by plant (``plant.physics.models.chain_state_space``)."""
     chain = plants.mechanics()
     if len(chain.masses_kg) == 1:
-        m = _column(chain.masses_kg[0], n)[:, None, None]
-        b = _column(chain.rail_damping_n_s_per_m, n)[:, None, None]
+        m = column(chain.masses_kg[0], n)[:, None, None]
+        b = column(chain.rail_damping_n_s_per_m, n)[:, None, None]
         return -b / m, 1.0 / m, np.ones((n, 1, 1))
     parts = []
     for j in range(n):
-        pick = lambda x: float(_column(x, n)[j])          # noqa: E731
+        pick = lambda x: float(column(x, n)[j])          # noqa: E731
         one = replace(chain, masses_kg=tuple(map(pick, chain.masses_kg)),
                       stiffness_n_per_m=tuple(map(pick, chain.stiffness_n_per_m)),
                       damping_n_s_per_m=tuple(map(pick, chain.damping_n_s_per_m)),
@@ -220,8 +94,9 @@ def free_gantry(plants: Plant, n: int, *, controller: PI, pade_order: int = PADE
     Mechanics x_g' = A_g x_g + B_g (F_m + f), v = C_g x_g; sensor H on v; PI integrator xi' = u - v_m;
     drive E on c = kp (u - v_m) + ki xi; F_m = K_t E c."""
     Ag, Bg, Cg = mechanics_ss(plants, n)
-    E, H = chain_ss(plants, "drive", n, pade_order), chain_ss(plants, "sensor", n, pade_order)
-    kt = _column(plants.force_constant_n_per_a, n)[:, None]
+    E = effects_state_space(plants.effects, "drive", n, pade_order=pade_order)
+    H = effects_state_space(plants.effects, "sensor", n, pade_order=pade_order)
+    kt = column(plants.force_constant_n_per_a, n)[:, None]
     ng, nh, ne = Ag.shape[-1], H.order, E.order
     kp, ki = float(controller.kp), float(controller.ki)
     ni = 1 if ki > 0 else 0
@@ -263,12 +138,13 @@ def dual_free_gantry(plants, n: int, controller, *, pade_order: int = PADE_ORDER
     b2) v_g - c omega, J omega' = -l1 F1 + l2 F2 + e f - c v_g - (b1 l1^2 + b2 l2^2) omega - K_a alpha, c = b2 l2
     - b1 l1, e the carriage's arm (the point mobility of the module doc there); each rail's sensor H, the
     channels' PI integrators on T_out (u - v_m), each motor's drive E on its share of T_in c, F_m = k_m E i_m."""
-    M, J, l1, l2 = (_column(v, n) for v in plants.mass_geometry())
-    b1, b2 = _column(plants.damping1_n_s_per_m, n), _column(plants.damping2_n_s_per_m, n)
-    ka = _column(plants.yaw_stiffness_n_m_per_rad, n)
-    e = _column(plants.carriage_position_m, n) - l1
+    M, J, l1, l2 = (column(v, n) for v in plants.mass_geometry())
+    b1, b2 = column(plants.damping1_n_s_per_m, n), column(plants.damping2_n_s_per_m, n)
+    ka = column(plants.yaw_stiffness_n_m_per_rad, n)
+    e = column(plants.carriage_position_m, n) - l1
     k = plants.force_constants().reshape(-1, 2) * np.ones((n, 1))
-    E, H = chain_ss(plants, "drive", n, pade_order), chain_ss(plants, "sensor", n, pade_order)
+    E = effects_state_space(plants.effects, "drive", n, pade_order=pade_order)
+    H = effects_state_space(plants.effects, "sensor", n, pade_order=pade_order)
     gains = [(c.kp, c.ki) for c in controller.channels()]
     t_in, t_out = np.asarray(controller.t_in, float), np.asarray(controller.t_out, float)
     integral = [j for j, (_, ki) in enumerate(gains) if ki > 0]

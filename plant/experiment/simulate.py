@@ -58,8 +58,8 @@ import scipy.linalg
 from plant.arguments import check_instance, check_number
 from plant.data.recordings import Block, Recording
 from plant.errors import EffectError, ParameterError
-from plant.physics.effect_base import ChainEffect
-from plant.physics.effects import CurrentLoop, TiltCoupling
+from plant.physics.effect_base import ChainEffect, effects_state_space
+from plant.physics.effects import TiltCoupling
 from plant.physics.gantry_models import xie_wang_ss
 from plant.physics.models import Plant, chain_state_space
 from plant.physics.parameters import check_finite, check_positive
@@ -131,21 +131,13 @@ def _chain(plant: Plant) -> _Chain:
         raise EffectError("effect encoder_velocity (plant.effects.encoder_velocity of the spec, or --effects) is "
                           "not simulated as a filter: record quantised positions (velocity_quantum_m_per_s) instead")
     if loop is not None:
-        assert isinstance(loop, CurrentLoop)
-        wc = 2 * math.pi * _scalar("current_loop.bandwidth_hz", loop.bandwidth_hz)
-        A_c, b_c, c_c = np.array([[-wc]]), np.array([wc]), np.array([1.0])
+        _scalar("current_loop.bandwidth_hz", loop.bandwidth_hz)
+        c = loop.state_space(1).take(0)
+        A_c, b_c, c_c = c.A, c.B[:, 0], c.C[0]
     else:
         A_c, b_c, c_c = np.zeros((0, 0)), np.zeros(0), np.zeros(0)
-    if sensors:
-        import control  # here: only sensor filters need it, and it takes a second to import
-
-        tf = control.tf([1.0], [1.0])
-        for e in sensors:
-            tf = tf * e.to_tf()
-        r = control.ss(tf)
-        A_r, b_r, c_r, d_r = r.A, r.B[:, 0], r.C[0], float(r.D[0, 0])
-    else:
-        A_r, b_r, c_r, d_r = np.zeros((0, 0)), np.zeros(0), np.zeros(0), 1.0
+    r = effects_state_space(sensors, "sensor", 1).take(0)
+    A_r, b_r, c_r, d_r = r.A, r.B[:, 0], r.C[0], float(r.D[0, 0])
     n_c, n_r = A_c.shape[0], A_r.shape[0]
     n = n_c + n_m + n_out * n_r
     A = np.zeros((n, n))

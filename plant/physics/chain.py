@@ -16,6 +16,7 @@ import numpy as np
 from plant.physics.algebra import NUMPY
 from plant.physics.effect_base import PADE_ORDER, ChainEffect, phase_delay_s, scalar, series_tf
 from plant.physics.parameters import check_batch, check_positive
+from plant.physics.state_space import StateSpace, column, pade_polys, tf_ss, unity
 
 if TYPE_CHECKING:
     import control
@@ -66,6 +67,22 @@ class Delay(ChainEffect):
     def to_tf(self, *, pade_order: int = PADE_ORDER) -> control.TransferFunction:
         return _pade_tf(scalar(self, "seconds"), pade_order)
 
+    def state_space(self, n: int, *, pade_order: int = PADE_ORDER) -> StateSpace:
+        """The Pade approximant realised once in the dimensionless s tau and scaled by each plant's tau (a plant
+        without delay: the all-pass's feedthrough alone)."""
+        tau = column(self.seconds, n)
+        if np.all(tau == 0):
+            return unity(n)
+        unit = tf_ss(*pade_polys(1.0, pade_order))
+        t = np.where(tau > 0, tau, 1.0)[:, None, None]
+        A, B = unit.A[None] / t, unit.B[None] / t
+        C = np.broadcast_to(unit.C, (n, *unit.C.shape))
+        D = np.broadcast_to(unit.D, (n, 1, 1)).copy()
+        zero = tau == 0
+        B, C = np.where(zero[:, None, None], 0.0, B), np.where(zero[:, None, None], 0.0, C)
+        D[zero] = 1.0
+        return StateSpace(A, B, C, D)
+
     def guesses(self, w_rad_s, ratio) -> list[dict[str, float]]:
         return [{"seconds": t} for t in _delay_starts(w_rad_s, ratio)]
 
@@ -112,6 +129,11 @@ class CurrentLoop(ChainEffect):
 
         wc = 2 * np.pi * scalar(self, "bandwidth_hz")
         return control.tf([wc], [1.0, wc])
+
+    def state_space(self, n: int, *, pade_order: int = PADE_ORDER) -> StateSpace:
+        """x' = w_c (u - x), y = x, per plant of the batch."""
+        wc = 2 * math.pi * column(self.bandwidth_hz, n)[:, None, None]
+        return StateSpace(-wc, wc, np.ones((n, 1, 1)), np.zeros((n, 1, 1)))
 
     def guesses(self, w_rad_s, ratio) -> list[dict[str, float]]:
         return [{"bandwidth_hz": 1.0 / (2 * np.pi * t)} for t in _delay_starts(w_rad_s, ratio)]

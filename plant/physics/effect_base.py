@@ -34,6 +34,7 @@ import numpy as np
 from plant.errors import EffectError
 from plant.physics.algebra import NUMPY
 from plant.physics.parameters import Parameter, check_batch, check_positive
+from plant.physics.state_space import StateSpace, column, series, tf_ss, unity
 
 if TYPE_CHECKING:
     import control
@@ -166,6 +167,27 @@ class ChainEffect(Effect):
     @abc.abstractmethod
     def to_tf(self, *, pade_order: int = PADE_ORDER) -> control.TransferFunction:
         """A rational python-control realisation (Pade for pure delays)."""
+
+    def state_space(self, n: int, *, pade_order: int = PADE_ORDER) -> StateSpace:
+        """The factor of a batch of ``n`` plants as a batched state-space model, (n, ...): ``to_tf`` of each
+        plant's values realised by ``plant.physics.state_space.tf_ss`` (a delay by its Pade approximant)."""
+        parts = []
+        for j in range(n):
+            one = replace_unchecked(self, {f.name: float(column(getattr(self, f.name), n)[j])
+                                           for f in dataclasses.fields(self)})
+            tf = one.to_tf(pade_order=pade_order)
+            parts.append(tf_ss(np.asarray(tf.num[0][0], float), np.asarray(tf.den[0][0], float)))
+        return StateSpace(*(np.stack([getattr(p, k) for p in parts]) for k in "ABCD"))
+
+
+def effects_state_space(effects, place: str, n: int, *, pade_order: int = PADE_ORDER) -> StateSpace:
+    """The product of the chain effects of ``effects`` at ``place`` ("drive" or "sensor") of a batch of ``n``
+    plants as one batched state-space model (each effect's ``state_space``; a unit gain when there are none)."""
+    out = unity(n)
+    for e in effects:
+        if isinstance(e, ChainEffect) and e.place == place:
+            out = series(out, e.state_space(n, pade_order=pade_order))
+    return out
 
 
 class MechanicalEffect(Effect):

@@ -3,23 +3,29 @@
 Model (SI units; every rate an integer multiple of the admittance rate is required):
 
 Continuous part (integrated by fixed-step RK4, at least ``SUBSTEPS`` steps per drive period and as many
-more as keep w h <= ``MAX_W_H`` for the fastest rate w of the continuous part):
+more as keep w h <= ``MAX_W_H`` for the fastest rate w of the continuous part), the plant's own linear model
+(``gantry_model``: every effect the run simulates enters by the realisation the frequency-domain design uses):
 
-* gantry with the head on its clamp: (M + m_h) dv/dt = F_m + F_n - b v - F_f,  dx/dt = v;
-  Coulomb friction regularised F_f = F_c tanh(v / v_s);
+* the drive chain E (the current loop, any rational drive factor; the delay and the drive's sampling act on
+  the discrete part below) from the current command i_c to the motor current i, motor force F_m = K_t i;
+* the mechanics (``plant.physics.models.chain_state_space``: the rails' body, a payload or carriage mode, Stage
+  Y's both rails' damping) driven by F_m - F_f + F_s at the motor's body, the clamp's velocity v the chain's
+  sensed velocity (as ``design.admittance.sampled.free_gantry``), dx/dt = v; Coulomb friction of the rails
+  regularised F_f = F_c tanh(v_0 / v_s) on the motor's body velocity v_0;
+* the head (m_h) rides the clamp: F_s = F_n - m_h dv/dt (with the mechanics' instantaneous dv/dt, solved);
+  for a rigid Stage X that is (M + m_h) dv/dt = F_m + F_n - b v - F_f;
+* the sensor chain H (a sensor filter) from v to the velocity the drive measures, v_m;
 * mouse body: m_b dv_b/dt = F_leg - F_n,  dx_b/dt = v_b;
   neck force on the head F_n = k_n (x_b - x) + c_n (v_b - v);
 * the mouse's legs, a force-limited walker tracking its intended path (x_d, v_d, a_d):
   F_leg = clip(m_b a_d + F_ff + k_l (x_d - x_b) + c_l (v_d - v_b), -F_max, F_max), with the feed-forward
   F_ff = m_v a_d + b_v v_d of a mouse that has learned the virtual dynamics (0 when ``feedforward`` is off);
-* sensed force (head on gantry) F_s = F_n - m_h dv/dt;
-* current loop di/dt = w_c (i_c - i) (i = i_c when ideal), motor force F_m = K_t i;
 * force filter (optional) on F_s: Butterworth of order 1 or 2 at f_f, its output F_sf.
 
-Drive (velocity loop) at rate f_d, tick k at t_k = k / f_d: e[k] = v_ref(t_k) - v(t_k);
+Drive (velocity loop) at rate f_d, tick k at t_k = k / f_d: e[k] = v_ref(t_k) - v_m(t_k);
 I[k] = I[k-1] + (k_i / f_d) (e[k] + e[k-1]) / 2 (trapezoidal, not updated while the output is saturated
 in the direction of e[k]); u[k] = k_p e[k] + I[k]; the command clip(u[k], -F_mot / K_t, F_mot / K_t) reaches
-the current loop ``delay_ticks`` ticks later and is held.
+the drive chain ``delay_ticks`` ticks later and is held.
 
 Admittance law at rate f_a, tick j at the drive ticks k = j f_d / f_a: the reading
 r[j] = res round((F_sf(t) + bias) / res); a deadband zeroes |r| <= d;
@@ -42,9 +48,12 @@ import numpy as np
 from design.admittance.model import admittance_problem
 from design.admittance.profile import trapezoid
 from design.admittance.rig import DiscreteAdmittance, RigTiming
+from design.admittance.sampled import mechanics_ss
 from design.loop.controller import PI
 from plant.errors import DataError, SpecError
 from plant.host.text_io import read_text
+from plant.physics.effect_base import effects_state_space
+from plant.physics.models import Plant
 
 #: RK4 steps per drive period at least, and the largest w h (w the fastest rate of the continuous part: the
 #: current loop, the force filter, the body on neck and legs) a step may take (RK4 is stable to 2.79)
@@ -54,12 +63,10 @@ MAX_W_H = 0.5
 
 @dataclass(frozen=True)
 class RunSettings:
-    """Everything a mouse run needs (SI units)."""
+    """Everything a mouse run needs (SI units): the plant (one plant, its payload applied) and the rig, the
+    design and the mouse."""
 
-    gantry_mass_kg: float
-    damping_n_s_per_m: float
-    force_constant_n_per_a: float
-    current_loop_hz: float | None
+    plant: Plant
     delay_ticks: int
     drive_rate_hz: float
     kp: float
@@ -87,6 +94,15 @@ class RunSettings:
     #: the law's rule (``design.admittance.rig.RULES``)
     law: str = "backward_euler"
 
+    @property
+    def gantry_mass_kg(self) -> float:
+        """The moving mass of the plant's bodies (kg)."""
+        return float(np.sum(np.asarray(self.plant.mechanics().masses_kg, float)))
+
+    @property
+    def force_constant_n_per_a(self) -> float:
+        return float(self.plant.force_constant_n_per_a)
+
 
 @dataclass(frozen=True)
 class RunTrace:
@@ -106,6 +122,82 @@ class RunTrace:
     intended_v_m_per_s: np.ndarray
 
 
+@dataclass(frozen=True)
+class GantryModel:
+    """The run's continuous linear part (module docstring) as dz/dt = A z + b_c i_c + b_f F_f + b_l F_leg +
+    b_p p (p = m_b a_d + F_ff + k_l x_d + c_l v_d, the legs' drive before their clip), states z = (drive chain,
+    mechanics, sensor chain, clamp position x, body position x_b, body velocity v_b, force filter); each
+    signal a row over (z, i_c, F_f, F_leg)."""
+
+    A: np.ndarray
+    inputs: np.ndarray          # columns: i_c, F_f, F_leg
+    legs: np.ndarray            # row over z: the legs' drive without the path's terms
+    velocity: np.ndarray        # clamp velocity v (row over z)
+    measured: np.ndarray        # the drive's measured velocity v_m (row over z)
+    rail: np.ndarray            # the motor body's velocity v_0 (row over z)
+    sensed: np.ndarray          # F_s, row over (z, i_c, F_f, F_leg)
+    current: np.ndarray         # motor current i, row over (z, i_c)
+    reading: np.ndarray         # the force the law reads (F_sf, or F_s without filter), row over (z, i_c, F_f, F_leg)
+    position: int
+    body: tuple[int, int]
+    fastest_rad_s: float
+
+
+def gantry_model(s: RunSettings) -> GantryModel:
+    """``GantryModel`` of the settings' plant, mouse and force filter (module docstring)."""
+    plant = s.plant
+    drive = [e for e in plant.effects if e.name not in ("delay", "sampling")]
+    E = effects_state_space(drive, "drive", 1).take(0)
+    H = effects_state_space(plant.effects, "sensor", 1).take(0)
+    Ag, Bg, Cg = (x[0] for x in mechanics_ss(plant, 1))
+    kt = float(plant.force_constant_n_per_a)
+    ne, ng, nh = E.order, Ag.shape[0], H.order
+    nf = 0 if s.force_filter_hz is None else s.force_filter_order
+    e, g, h = slice(0, ne), slice(ne, ne + ng), slice(ne + ng, ne + ng + nh)
+    ix, ixb, ivb = ne + ng + nh, ne + ng + nh + 1, ne + ng + nh + 2
+    f0 = ivb + 1
+    n = f0 + nf
+    IC, FF, FL = n, n + 1, n + 2          # columns of the inputs after the states
+    eye = np.eye(n + 3)
+    v = np.zeros(n + 3)
+    v[g] = Cg[0]
+    fm = np.zeros(n + 3)
+    fm[e], fm[IC] = kt * E.C[0], kt * E.D[0, 0]
+    fn = s.neck_stiffness_n_per_m * (eye[ixb] - eye[ix]) + s.neck_damping_n_s_per_m * (eye[ivb] - v)
+    beta = float(Cg[0] @ Bg[:, 0])          # dv/dt per force at the motor's body (1 / M for a rigid body)
+    free = np.zeros(n + 3)
+    free[g] = Cg[0] @ Ag
+    accel = (free + beta * (fm - eye[FF] + fn)) / (1 + beta * s.head_mass_kg)
+    fs = fn - s.head_mass_kg * accel
+    rows = np.zeros((n, n + 3))
+    rows[e] = E.A @ eye[e] + E.B @ eye[IC][None]
+    rows[g] = Ag @ eye[g] + Bg @ (fm - eye[FF] + fs)[None]
+    rows[h] = H.A @ eye[h] + H.B @ v[None]
+    rows[ix], rows[ixb] = v, eye[ivb]
+    rows[ivb] = (eye[FL] - fn) / s.body_mass_kg
+    if nf:
+        wf = 2 * math.pi * s.force_filter_hz
+        if nf == 1:
+            rows[f0] = wf * (fs - eye[f0])
+        else:
+            rows[f0], rows[f0 + 1] = eye[f0 + 1], wf * wf * (fs - eye[f0]) - math.sqrt(2.0) * wf * eye[f0 + 1]
+    measured = np.zeros(n + 3)
+    measured[h] = H.C[0]
+    measured += H.D[0, 0] * v
+    current = np.zeros(n + 3)
+    current[e], current[IC] = E.C[0], E.D[0, 0]
+    legs = -s.leg_stiffness_n_per_m * eye[ixb] - s.leg_damping_n_s_per_m * eye[ivb]
+    rail = np.zeros(n + 3)
+    rail[ne] = 1.0                           # the chain's first state: the motor body's velocity
+    parts = [np.abs(np.linalg.eigvals(m)) for m in (E.A, Ag, H.A) if m.size]
+    fastest = max([float(np.max(p)) for p in parts] + [
+        2 * math.pi * (s.force_filter_hz or 0.0),
+        math.sqrt((s.neck_stiffness_n_per_m + s.leg_stiffness_n_per_m) / s.body_mass_kg),
+        (s.neck_damping_n_s_per_m + s.leg_damping_n_s_per_m) / s.body_mass_kg])
+    return GantryModel(rows[:, :n], rows[:, n:], legs[:n], v[:n], measured[:n], rail[:n], fs, current,
+                       eye[f0] if nf else fs, ix, (ixb, ivb), fastest)
+
+
 def simulate_mouse_run(settings: RunSettings, time_s, x_d, v_d, a_d) -> RunTrace:
     """Run the loop over the drive ticks ``time_s`` (uniform, 1 / drive_rate_hz apart, from 0) with the
     intended path (x_d, v_d, a_d) given at those ticks (held between them)."""
@@ -114,61 +206,53 @@ def simulate_mouse_run(settings: RunSettings, time_s, x_d, v_d, a_d) -> RunTrace
     t = np.asarray(time_s, float)
     xd_, vd_, ad_ = (np.asarray(a, float) for a in (x_d, v_d, a_d))
     T = 1.0 / s.drive_rate_hz
-    fastest = max(2 * math.pi * (s.current_loop_hz or 0.0), 2 * math.pi * (s.force_filter_hz or 0.0),
-                  math.sqrt((s.neck_stiffness_n_per_m + s.leg_stiffness_n_per_m) / s.body_mass_kg),
-                  (s.neck_damping_n_s_per_m + s.leg_damping_n_s_per_m) / s.body_mass_kg)
-    substeps = max(SUBSTEPS, math.ceil(fastest * T / MAX_W_H))
+    g = gantry_model(s)
+    substeps = max(SUBSTEPS, math.ceil(g.fastest_rad_s * T / MAX_W_H))
     h = T / substeps
-    m_total = s.gantry_mass_kg + s.head_mass_kg
-    mh, mb = s.head_mass_kg, s.body_mass_kg
-    kn, cn = s.neck_stiffness_n_per_m, s.neck_damping_n_s_per_m
-    kl, cl = s.leg_stiffness_n_per_m, s.leg_damping_n_s_per_m
-    b, kt, fc, vs = s.damping_n_s_per_m, s.force_constant_n_per_a, s.friction_n, s.friction_velocity_m_per_s
-    fmax = s.mouse_peak_force_n
-    wc = None if s.current_loop_hz is None else 2 * math.pi * s.current_loop_hz
-    wf = None if s.force_filter_hz is None else 2 * math.pi * s.force_filter_hz
-    order = s.force_filter_order
-    imax = s.motor_peak_force_n / kt
+    kl, cl, mb = s.leg_stiffness_n_per_m, s.leg_damping_n_s_per_m, s.body_mass_kg
+    fc, vs, fmax = s.friction_n, s.friction_velocity_m_per_s, s.mouse_peak_force_n
+    imax = s.motor_peak_force_n / s.force_constant_n_per_a
     law = DiscreteAdmittance.of(s.m_v, s.b_v, s.admittance_rate_hz, rule=s.law)
     alpha, beta, beta_prev = law.alpha, law.beta_m_per_s_per_n, law.beta_prev_m_per_s_per_n
+    b_c, b_f, b_l = g.inputs[:, 0], g.inputs[:, 1], g.inputs[:, 2]
+    n_z = g.A.shape[0]
+    # one product gives the linear part and both nonlinearities' arguments (small arrays: calls dominate)
+    AR = np.vstack([g.A, g.rail, g.legs])
 
-    def forces(z, ic, xd, vd, ad):
-        x, v, xb, vb, i = z[0], z[1], z[2], z[3], z[4]
-        fn = kn * (xb - x) + cn * (vb - v)
-        fm = kt * (i if wc is not None else ic)
-        ff = fc * math.tanh(v / vs) if fc > 0 else 0.0
-        dv = (fm + fn - b * v - ff) / m_total
-        push = mb * ad + kl * (xd - xb) + cl * (vd - vb) + ((s.m_v * ad + s.b_v * vd) if s.feedforward else 0.0)
-        return fn, dv, fn - mh * dv, min(max(push, -fmax), fmax)
+    def nonlinear(z, drive):
+        ff = fc * math.tanh(float(g.rail @ z) / vs) if fc > 0 else 0.0
+        return ff, min(max(float(g.legs @ z) + drive, -fmax), fmax)
 
-    def deriv(z, ic, xd, vd, ad):
-        fn, dv, fs, fleg = forces(z, ic, xd, vd, ad)
-        out = [z[1], dv, z[3], (fleg - fn) / mb, 0.0 if wc is None else wc * (ic - z[4]), 0.0, 0.0]
-        if wf is not None:
-            if order == 1:
-                out[5] = wf * (fs - z[5])
-            else:
-                out[5], out[6] = z[6], wf * wf * (fs - z[5]) - math.sqrt(2.0) * wf * z[6]
-        return out
+    def deriv(z, held, drive):
+        y = AR @ z
+        ff = fc * math.tanh(y[n_z] / vs) if fc > 0 else 0.0
+        fleg = min(max(y[n_z + 1] + drive, -fmax), fmax)
+        return y[:n_z] + held + b_f * ff + b_l * fleg
+
+    def signal(row, z, ic, ff, fleg):
+        return float(row[:n_z] @ z + row[n_z] * ic + row[n_z + 1] * ff + row[n_z + 2] * fleg)
 
     n = t.size
-    z = [float(xd_[0]), 0.0, float(xd_[0]), 0.0, 0.0, 0.0, 0.0]
+    z = np.zeros(n_z)
+    z[g.position] = z[g.body[0]] = float(xd_[0])
     rec = np.empty((9, n))
     queue = [0.0] * (s.computation_delay_samples + 1)
     commands = [0.0] * (s.delay_ticks + 1)
     v_a = v_ref = integ = e_prev = ic = r_prev = 0.0
     for k in range(n):
         xd, vd, ad = float(xd_[k]), float(vd_[k]), float(ad_[k])
-        _, _, fs, fleg = forces(z, ic, xd, vd, ad)
+        drive = mb * ad + kl * xd + cl * vd + ((s.m_v * ad + s.b_v * vd) if s.feedforward else 0.0)
+        ff, fleg = nonlinear(z, drive)
+        fs = signal(g.sensed, z, ic, ff, fleg)
         if k % n_a == 0:
-            reading = z[5] if wf is not None else fs
+            reading = signal(g.reading, z, ic, ff, fleg)
             r = s.resolution_n * float(np.round((reading + s.bias_n) / s.resolution_n))
             r_db = r if abs(r) > s.deadband_n else 0.0
             v_a = alpha * v_a + beta * r_db + beta_prev * r_prev
             r_prev = r_db
             queue = queue[1:] + [v_a]
             v_ref = queue[0]
-        e = v_ref - z[1]
+        e = v_ref - float(g.measured @ z)
         trial = integ + s.ki * T * (e + e_prev) / 2
         u = s.kp * e + trial
         if (u > imax and e > 0) or (u < -imax and e < 0):
@@ -176,14 +260,16 @@ def simulate_mouse_run(settings: RunSettings, time_s, x_d, v_d, a_d) -> RunTrace
             u = s.kp * e + trial
         integ, e_prev = trial, e
         commands = commands[1:] + [min(max(u, -imax), imax)]
-        rec[:, k] = (z[0], z[1], z[2], z[3], fs, fleg, z[4] if wc is not None else ic, v_ref, 0.0)
+        rec[:, k] = (z[g.position], float(g.velocity @ z), z[g.body[0]], z[g.body[1]], fs, fleg,
+                     signal(g.current, z, ic, 0.0, 0.0), v_ref, 0.0)
         ic = commands[0]
+        held = b_c * ic
         for _ in range(substeps):
-            k1 = deriv(z, ic, xd, vd, ad)
-            k2 = deriv([a + 0.5 * h * d for a, d in zip(z, k1)], ic, xd, vd, ad)
-            k3 = deriv([a + 0.5 * h * d for a, d in zip(z, k2)], ic, xd, vd, ad)
-            k4 = deriv([a + h * d for a, d in zip(z, k3)], ic, xd, vd, ad)
-            z = [a + h / 6 * (d1 + 2 * d2 + 2 * d3 + d4) for a, d1, d2, d3, d4 in zip(z, k1, k2, k3, k4)]
+            k1 = deriv(z, held, drive)
+            k2 = deriv(z + 0.5 * h * k1, held, drive)
+            k3 = deriv(z + 0.5 * h * k2, held, drive)
+            k4 = deriv(z + h * k3, held, drive)
+            z = z + h / 6 * (k1 + 2 * (k2 + k3) + k4)
     return RunTrace(t, rec[0], rec[1], rec[2], rec[3], rec[4], rec[5], rec[6], rec[7], xd_, vd_)
 
 
@@ -201,8 +287,10 @@ DEFAULT_DRIVE_RATE_HZ = 4000.0
 REST_S = 1.0
 #: the friction model's velocity scale (m/s): F_c tanh(v / v_s)
 FRICTION_VELOCITY_M_PER_S = 1e-3
-#: the plant's effects a run simulates (any other is refused by name, never dropped)
-SIMULATED_EFFECTS = ("sampling", "delay", "current_loop")
+#: the plant's effects a run simulates (any other is refused by name, never dropped): the drive's rate and delay
+#: on the discrete part, the rest by the plant's own linear model (``gantry_model``), the friction regularised
+SIMULATED_EFFECTS = ("sampling", "delay", "current_loop", "sensor_filter", "resonance", "payload_resonance",
+                     "second_resonance", "coulomb_friction")
 
 
 @dataclass(frozen=True)
@@ -287,11 +375,12 @@ class MouseRun:
 
 
 def run_settings(problem, *, controller: PI, m_v: float, b_v: float, timing=None, payload_kg: float | None = None,
-                 friction_n: float = 0.0, leg_stiffness_n_per_m: float | None = None,
+                 friction_n: float | None = None, leg_stiffness_n_per_m: float | None = None,
                  drive_rate_hz: float | None = None) -> RunSettings:
     """``RunSettings`` of the spec's plant (at ``payload_kg``, default the heaviest) and its nominal mouse
     (mid-range masses and neck, the legs at their least stiffness unless given) with the design's gains, at the
-    largest computation delay of a range."""
+    largest computation delay of a range. ``friction_n``: the rails' Coulomb force (N), default the plant's
+    ``coulomb_friction`` (0 without one)."""
     adm = admittance_problem(problem)
     timing = timing or RigTiming.of(adm.rig)
     if not timing.sampled:
@@ -302,19 +391,17 @@ def run_settings(problem, *, controller: PI, m_v: float, b_v: float, timing=None
         raise SpecError(f"plant.effects: the mouse run simulates {', '.join(SIMULATED_EFFECTS)} and the rigid body; "
                         f"it cannot simulate {', '.join(dropped)}: remove {'it' if len(dropped) == 1 else 'them'} "
                         "for the run, or check the design with the frequency-domain figures of gantry synth")
-    sampling, delay, loop = plant.effect("sampling"), plant.effect("delay"), plant.effect("current_loop")
+    sampling, delay, coulomb = plant.effect("sampling"), plant.effect("delay"), plant.effect("coulomb_friction")
     rate = drive_rate_hz or (float(sampling.rate_hz) if sampling is not None else DEFAULT_DRIVE_RATE_HZ)
     rate = round(rate * timing.period_s) / timing.period_s
+    if friction_n is None:
+        friction_n = 0.0 if coulomb is None else float(coulomb.force_n)
     mouse = adm.mouse
 
     def mid(r):
         return 0.5 * (r.min + r.max)
 
-    body = plant.mechanics()          # the rigid body the plant's model has: Stage Y's both rails' damping
-    return RunSettings(float(np.sum(np.asarray(body.masses_kg, float))), float(body.rail_damping_n_s_per_m),
-                       float(plant.force_constant_n_per_a),
-                       None if loop is None else float(loop.bandwidth_hz),
-                       0 if delay is None else int(round(float(delay.seconds) * rate)), rate,
+    return RunSettings(plant, 0 if delay is None else int(round(float(delay.seconds) * rate)), rate,
                        float(controller.kp), float(controller.ki),
                        adm.hardware.motor_peak_force_n, friction_n, FRICTION_VELOCITY_M_PER_S, 1.0 / timing.period_s,
                        timing.delays[-1], m_v, b_v, timing.filter_hz, timing.filter_order,

@@ -34,8 +34,9 @@ def mouse_run(
                                                  "default the spec's trapezoidal locomotion profile.")] = None,
     payload_kg: Annotated[Optional[float], typer.Option("--payload-kg", callback=finite_positive,
                                                         help="Payload (default the heaviest of the spec).")] = None,
-    friction_n: Annotated[float, typer.Option("--friction-n", callback=finite_non_negative,
-                                              help="Coulomb friction of the rails (N).")] = 0.0,
+    friction_n: Annotated[Optional[float], typer.Option("--friction-n", callback=finite_non_negative,
+                                                        help="Coulomb friction of the rails (N; default the "
+                                                        "plant's coulomb_friction, 0 without one).")] = None,
     legs: Annotated[Optional[float], typer.Option("--legs-n-per-m", callback=finite_non_negative,
                                                   help="The walking mouse's stance stiffness (default the least of "
                                                   "admittance.mouse.leg_stiffness_n_per_m).")] = None,

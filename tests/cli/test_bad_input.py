@@ -454,16 +454,15 @@ def test_an_unknown_admittance_rule_is_one_line_naming_its_key(tmp_path, monkeyp
 
 
 def test_a_mouse_run_refuses_an_effect_it_cannot_simulate_by_name(tmp_path, monkeypatch, capsys):
-    # the run simulates the drive's delay, current loop and sampling on a rigid body; a resonance it would drop
-    # is refused in one line that names it (never simulated without it)
+    # the run simulates the plant's linear model; an encoder's differencing, which it would replace by a rational
+    # approximation, is refused in one line that names it (never simulated without it)
     text = admittance_text()
     old = "current_loop = { bandwidth_hz = 1000.0 }"
     assert old in text
     spec = tmp_path / "spec.toml"
-    spec.write_text(text.replace(old, old + "\nresonance = { frequency_hz = 60.0, antiresonance_hz = 42.0, "
-                                        "damping_ratio = 0.02 }", 1))
+    spec.write_text(text.replace(old, old + "\nencoder_velocity = { rate_hz = 4000.0 }", 1))
     code, err, _ = in_process(monkeypatch, capsys, "mouse-run", spec, "--lab")
-    assert code == 2 and err.count("\n") == 1 and "plant.effects" in err and "resonance" in err, err
+    assert code == 2 and err.count("\n") == 1 and "plant.effects" in err and "encoder_velocity" in err, err
 
 
 def test_an_unknown_loop_structure_is_one_line_naming_the_known_ones(tmp_path, monkeypatch, capsys):

@@ -15,6 +15,11 @@ Model (SI units), written out from the forces on each body:
   F_ff = m_v a_d + b_v v_d with ``feedforward``, else 0;
 * sensed force F_s = F_n - m_h dv/dt (algebraic: dv/dt from the gantry equation at the same instant);
 * motor force F_m = K_t i; current loop di/dt = w_c (i_c - i), w_c = 2 pi f_c, or i = i_c (ideal, f_c None);
+* a payload mode (optional, ``payload_mass_kg`` > 0): a second body m_2 on a spring k_2 and damper c_2 to the
+  gantry (mass ``gantry_mass_kg`` the gantry's own, the head on it), its force k_2 (x - x_2) + c_2 (v - v_2) added
+  to the gantry's equation with a minus sign, m_2 dv_2/dt = k_2 (x - x_2) + c_2 (v - v_2);
+* a sensor filter (optional) on the velocity the drive measures, v_m'' = w_s^2 (v - v_m) - 2 zeta_s w_s v_m'
+  (none: v_m = v);
 * force filter (optional) on F_s, output F_sf, extra continuous states:
   order 1  H(s) = 1 / (1 + s/w_f):                  dF_sf/dt = w_f (F_s - F_sf);
   order 2  H(s) = 1 / (1 + sqrt2 s/w_f + (s/w_f)^2): F_sf'' = w_f^2 (F_s - F_sf) - sqrt2 w_f F_sf'.
@@ -41,7 +46,7 @@ Timing choices (where the model's statement leaves room), all at tick k:
 2. the sensed force F_s(t_k) is computed from those states with the inputs held over the interval just ended
    (the current command i_c in force before this tick's update; it matters only for an ideal current loop,
    where dv/dt jumps at a tick). The admittance reads this F_s(t_k) (or the filter state F_sf(t_k));
-3. the admittance updates (on its ticks), giving v_ref for this tick; then the PI reads v(t_k) (the sampled
+3. the admittance updates (on its ticks), giving v_ref for this tick; then the PI reads v_m(t_k) (the sampled
    state, before anything is integrated) and the command queue advances;
 4. recorded at tick k: x, v, x_b, v_b, F_s from step 2, the current i(t_k) (ideal loop: the command held over
    the interval just ended, i.e. the one F_s used), v_ref after this tick's update, and F_leg evaluated with
@@ -113,7 +118,9 @@ def simulate(time_s, x_d, v_d, a_d, *, gantry_mass_kg, damping_n_s_per_m, force_
              admittance_rate_hz, computation_delay_samples, m_v, b_v, force_filter_hz, force_filter_order,
              resolution_n, bias_n, deadband_n, head_mass_kg, body_mass_kg, neck_stiffness_n_per_m,
              neck_damping_n_s_per_m, leg_stiffness_n_per_m, leg_damping_n_s_per_m, mouse_peak_force_n,
-             feedforward=True, law="backward_euler", method="DOP853") -> ReferenceTrace:
+             feedforward=True, law="backward_euler", payload_mass_kg=0.0, payload_stiffness_n_per_m=0.0,
+             payload_damping_n_s_per_m=0.0, sensor_filter_hz=None, sensor_damping_ratio=0.7,
+             method="DOP853") -> ReferenceTrace:
     """Simulate the model of the module docstring at the drive ticks ``time_s`` (k / drive_rate_hz) with the
     intended path sampled there. Keyword names follow the quantities (SI units; rates in Hz)."""
     t = np.asarray(time_s, float)
@@ -144,13 +151,24 @@ def simulate(time_s, x_d, v_d, a_d, *, gantry_mass_kg, damping_n_s_per_m, force_
         beta_prev = beta
     r_prev = 0.0
 
-    # state y = [x, v, x_b, v_b, i, f, f'] (i unused when ideal, f' unused for order 1, both filters unused when off)
+    m2, k2, c2 = payload_mass_kg, payload_stiffness_n_per_m, payload_damping_n_s_per_m
+    ws = 2.0 * math.pi * sensor_filter_hz if sensor_filter_hz is not None else 0.0
+    zs = sensor_damping_ratio
+
+    # state y = [x, v, x_b, v_b, i, f, f', v_2, x - x_2, v_m, v_m'] (i unused when ideal, f' unused for order 1,
+    # the filters unused when off, v_2 and x - x_2 without a payload mode)
+    def payload_force(y):
+        return k2 * y[8] + c2 * (y[1] - y[7]) if m2 > 0 else 0.0
+
     def accel(y, ic):
         x, v, xb, vb, i = y[0], y[1], y[2], y[3], y[4]
         fn = kn * (xb - x) + cn * (vb - v)
         fm = kt * (ic if ideal else i)
         friction = fc * math.tanh(v / vs) if fc != 0.0 else 0.0
-        return fn, (fm + fn - b * v - friction) / M
+        return fn, (fm + fn - b * v - friction - payload_force(y)) / M
+
+    def measured(y):
+        return y[9] if sensor_filter_hz is not None else y[1]
 
     def leg(y, xd, vd, ad):
         push = mb * ad + kl * (xd - y[2]) + cl * (vd - y[3])
@@ -161,7 +179,9 @@ def simulate(time_s, x_d, v_d, a_d, *, gantry_mass_kg, damping_n_s_per_m, force_
     def rhs(_t, y, ic, xd, vd, ad):
         fn, dv = accel(y, ic)
         fs = fn - mh * dv
-        out = [y[1], dv, y[3], (leg(y, xd, vd, ad) - fn) / mb, 0.0 if ideal else wc * (ic - y[4]), 0.0, 0.0]
+        out = [y[1], dv, y[3], (leg(y, xd, vd, ad) - fn) / mb, 0.0 if ideal else wc * (ic - y[4]), 0.0, 0.0,
+               payload_force(y) / m2 if m2 > 0 else 0.0, y[1] - y[7] if m2 > 0 else 0.0,
+               y[10], ws * ws * (y[1] - y[9]) - 2 * zs * ws * y[10] if sensor_filter_hz is not None else 0.0]
         if filtered:
             if force_filter_order == 1:
                 out[5] = wf * (fs - y[5])
@@ -170,7 +190,7 @@ def simulate(time_s, x_d, v_d, a_d, *, gantry_mass_kg, damping_n_s_per_m, force_
                 out[6] = wf * wf * (fs - y[5]) - sqrt2 * wf * y[6]
         return out
 
-    y = np.array([xd_[0], 0.0, xd_[0], 0.0, 0.0, 0.0, 0.0])
+    y = np.array([xd_[0], 0.0, xd_[0], 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0])
     rec = np.zeros((12, n))
     v_a_hist = [0.0] * (computation_delay_samples + 1)      # v_a[j - d], ..., v_a[j]
     cmd_queue = [0.0] * delay_ticks                          # commands issued, not yet arrived
@@ -188,7 +208,7 @@ def simulate(time_s, x_d, v_d, a_d, *, gantry_mass_kg, damping_n_s_per_m, force_
             r_prev = r
             v_a_hist = v_a_hist[1:] + [v_a]
             v_ref = v_a_hist[0]
-        e = v_ref - y[1]
+        e = v_ref - measured(y)
         trial = integ + ki * T * (e + e_prev) / 2.0
         u = kp * e + trial
         if (u > imax and e > 0) or (u < -imax and e < 0):

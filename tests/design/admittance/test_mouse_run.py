@@ -4,7 +4,7 @@ drive ticks on the lab's trapezoid, closed-form steady states, the sampled law a
 the mouse's force limit."""
 
 import math
-from dataclasses import asdict
+from dataclasses import asdict, replace
 from pathlib import Path
 
 import independent_mouse_run as ref
@@ -14,6 +14,7 @@ from bundled_specs import admittance_data
 
 from design.admittance.mouse_run import RunSettings, simulate_mouse_run
 from design.loop.controller import PI
+from plant.physics.models import build_plant
 
 #: realistic rig and mouse (SI units): 40 kg payload, the lab's PI, the bundled virtual dynamics
 BASE = dict(gantry_mass_kg=40.0, damping_n_s_per_m=440.0, force_constant_n_per_a=20.0, current_loop_hz=None,
@@ -44,8 +45,23 @@ def _path(rate_hz, rest_s=0.3, rest_after_s=1.5, t_max_s=None):
     return t, x, v, a
 
 
+#: the reference's plant keywords; the tool takes a Plant built from them instead
+PLANT_KEYS = ("gantry_mass_kg", "damping_n_s_per_m", "force_constant_n_per_a", "current_loop_hz")
+
+
+def tool_settings(settings):
+    """The tool's ``RunSettings`` for the reference's keywords: a rigid Stage X of that mass, damping and force
+    constant, with a current loop when the reference has one."""
+    rest = {k: v for k, v in settings.items() if k not in PLANT_KEYS}
+    fc = settings["current_loop_hz"]
+    plant = build_plant("x", mass_kg=settings["gantry_mass_kg"], damping_n_s_per_m=settings["damping_n_s_per_m"],
+                        force_constant_n_per_a=settings["force_constant_n_per_a"],
+                        effects={} if fc is None else {"current_loop": {"bandwidth_hz": fc}})
+    return RunSettings(plant=plant, **rest)
+
+
 def _tool(settings, t, x, v, a):
-    return simulate_mouse_run(RunSettings(**settings), t, x, v, a)
+    return simulate_mouse_run(tool_settings(settings), t, x, v, a)
 
 
 def _close(name, tool, reference, rtol, atol):
@@ -328,20 +344,28 @@ def test_tool_sampled_law_and_pi_as_stated():
 
 
 def test_settings_are_the_reference_keywords():
-    """The reference takes exactly the tool's settings (so every test runs both on the same numbers)."""
-    assert set(asdict(RunSettings(**BASE))) == set(BASE)
+    """The reference takes exactly the tool's settings, the plant as its parameters (so every test runs both on the
+    same numbers)."""
+    tool = tool_settings(BASE)
+    assert set(asdict(tool)) - {"plant"} == set(BASE) - set(PLANT_KEYS)
+    assert tool.gantry_mass_kg == BASE["gantry_mass_kg"]
+    assert tool.force_constant_n_per_a == BASE["force_constant_n_per_a"]
 
 
 def test_stage_y_runs_with_both_rails_damping():
     # thesis Eq. 3.16: Stage Y's rigid body is m_e = 2 m l / L with the damping of both rails, 2 b
-    from design.admittance.mouse_run import run_settings
+    from design.admittance.mouse_run import gantry_model, run_settings
     from design.spec.schema import load_spec
 
     spec = load_spec(Path(__file__).resolve().parents[3] / "specs" / "stage_y_admittance.toml").problem()
     plant = spec.plant.plant(spec.plant.payload_kg.max)
     s = run_settings(spec, controller=PI(200.0, 20.0), m_v=0.05, b_v=5.0)
-    assert s.damping_n_s_per_m == 2 * float(plant.damping_n_s_per_m)
-    assert s.gantry_mass_kg == 2 * float(plant.mass_kg) * float(plant.load_position_m) / float(plant.motor_length_m)
+    m_e = 2 * float(plant.mass_kg) * float(plant.load_position_m) / float(plant.motor_length_m)
+    assert s.gantry_mass_kg == pytest.approx(m_e, rel=1e-12)
+    # the gantry alone (no head, no neck) coasts down at the rate of both rails' damping over that mass
+    alone = replace(s, head_mass_kg=0.0, neck_stiffness_n_per_m=0.0, neck_damping_n_s_per_m=0.0)
+    poles = np.linalg.eigvals(gantry_model(alone).A)
+    assert np.min(np.abs(poles + 2 * float(plant.damping_n_s_per_m) / m_e)) < 1e-9 * abs(poles).max()
 
 
 @pytest.mark.parametrize("rule", ["forward_euler", pytest.param("backward_euler", marks=pytest.mark.slow)])
@@ -405,3 +429,29 @@ def test_the_mouse_run_simulates_an_effect_or_refuses_it_by_name(name):
         return
     with pytest.raises(SpecError, match=name):
         run_settings(problem, controller=PI(200.0, 20.0), m_v=0.05, b_v=5.0)
+
+
+def test_a_payload_mode_and_a_sensor_filter_are_simulated_as_the_plant_has_them():
+    # the run's continuous part is the plant's own linear model: a two-body chain (the resonance's masses, spring
+    # and damper as the plant splits them) and the sensor filter the drive reads through, against the reference
+    # with those bodies and that filter written out from the forces
+    plant = build_plant("x", mass_kg=40.0, damping_n_s_per_m=440.0, force_constant_n_per_a=20.0,
+                        effects={"current_loop": {"bandwidth_hz": 1000.0},
+                                 "resonance": {"frequency_hz": 80.0, "antiresonance_hz": 60.0, "damping_ratio": 0.05},
+                                 "sensor_filter": {"frequency_hz": 300.0, "damping_ratio": 0.6}})
+    chain = plant.mechanics()
+    (m0, m1), (k,), (c,) = chain.masses_kg, chain.stiffness_n_per_m, chain.damping_n_s_per_m
+    settings = dict(RIG, gantry_mass_kg=float(m0), damping_n_s_per_m=float(chain.rail_damping_n_s_per_m),
+                    current_loop_hz=1000.0, motor_peak_force_n=1e4)
+    t, x, v, a = _path(settings["drive_rate_hz"], t_max_s=1.5)
+    rest = {key: val for key, val in settings.items() if key not in PLANT_KEYS}
+    tool = simulate_mouse_run(RunSettings(plant=plant, **rest), t, x, v, a)
+    r = ref.simulate(t, x, v, a, **settings, payload_mass_kg=float(m1), payload_stiffness_n_per_m=float(k),
+                     payload_damping_n_s_per_m=float(c), sensor_filter_hz=300.0, sensor_damping_ratio=0.6)
+    _close("sensed force", tool.sensed_force_n, r.F_s, 1e-3, 1e-6)
+    _close("velocity", tool.v_m_per_s, r.v, 1e-3, 1e-7)
+    _close("current", tool.current_a, r.i, 1e-3, 1e-6)
+    # and the mode matters: without it the run differs by far more than that tolerance
+    rigid = ref.simulate(t, x, v, a, **dict(settings, gantry_mass_kg=float(m0 + m1)), sensor_filter_hz=300.0,
+                         sensor_damping_ratio=0.6)
+    assert np.max(np.abs(rigid.i - r.i)) > 10 * (1e-3 * np.max(np.abs(r.i)) + 1e-6)

@@ -128,26 +128,9 @@ def add_diagnosis_section(report: Report, diag: Diagnosis, data: MeasuredRespons
         report.text(f"Note: {note}")
 
 
-def story_items(diag: Diagnosis) -> list[str]:
-    """The diagnosis in sentences: the base model, each effect added on the path to the selected model (ΔBIC:
-    BIC before minus after, positive favours the addition), and the verdict; the tables above hold the rest."""
-    first = diag.steps[0]
-    items = [f"The base model ({', '.join(first.effects) or 'no effects'}) fits with reduced χ² "
-             f"{first.fit.reduced_chi2:.3g}, RMS error {first.rms_magnitude_error_db:.3g} dB / "
-             f"{first.rms_phase_error_deg:.3g}°."]
-    for before, step in zip(diag.steps, diag.steps[1:]):
-        added = ", ".join(e for e in step.effects if e not in before.effects)
-        items.append(f"Adding {added}: ΔBIC {before.fit.bic - step.fit.bic:+.1f}, reduced χ² "
-                     f"{before.fit.reduced_chi2:.3g} → {step.fit.reduced_chi2:.3g}.")
-    others = (f"; {len(diag.alternatives)} other model(s) lie within ΔBIC {ACCEPT_DELTA_BIC:g} of the selected one"
-              if diag.alternatives else "")
-    items.append(f"{len(diag.models)} models searched{others}. Verdict: {diag.explanation.rstrip('.')}.")
-    return items
-
-
 def story_html(diag: Diagnosis) -> str:
-    """``story_items`` as an ordered list."""
-    return "<ol>" + "".join(f"<li>{html.escape(t)}</li>" for t in story_items(diag)) + "</ol>"
+    """``Diagnosis.story`` as an ordered list."""
+    return "<ol>" + "".join(f"<li>{html.escape(t)}</li>" for t in diag.story()) + "</ol>"
 
 
 def diagnosis_report(diag: Diagnosis, data: MeasuredResponse, *, title: str, provenance: str) -> Report:

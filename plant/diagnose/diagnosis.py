@@ -128,32 +128,22 @@ class Diagnosis:
     def added(self) -> tuple[str, ...]:
         return self.final_effects[len(self.steps[0].effects):]
 
-    def story(self) -> str:
-        """The diagnosis in words, step by step, with its numbers."""
+    def story(self) -> tuple[str, ...]:
+        """The diagnosis in sentences: the base model, each effect added on the path to the selected model (dBIC:
+        BIC before minus after, positive favours the addition), and the verdict (the tables of a report hold the
+        candidates, the alternatives and the error by step)."""
         first = self.steps[0]
-        lines = [f"Verdict: {self.explanation}",
-                 f"1. Compare: base model ({', '.join(first.effects) or 'no effects'}), reduced chi-square "
-                 f"{first.fit.reduced_chi2:.3g}, RMS error {first.rms_magnitude_error_db:.3f} dB / "
-                 f"{first.rms_phase_error_deg:.2f} deg.",
-                 f"2. Where it fails: {first.residuals.description}",
-                 f"   Nonlinearity: {self.nonlinearity.description}",
-                 f"3. Model search: {len(self.models)} models of up to {MAX_EFFECTS} effects fitted."]
-        for k, step in enumerate(self.steps):
-            tried = ", ".join(f"{c.effect} (dBIC {c.delta_bic:+.1f})" for c in step.ranking if not c.skipped)
-            if tried:
-                lines.append(f"{k + 4}. Additions to [{', '.join(step.effects) or 'base'}]: {tried}")
-            lines.append(f"   -> {step.decision}")
-        if self.alternatives:
-            lines.append(f"Models within dBIC {ACCEPT_DELTA_BIC:g} of the selected one:")
-            lines += [f"   {' + '.join(a.effects) or 'base':40s} dBIC {a.delta_bic:+6.1f}  reduced chi2 "
-                      f"{a.reduced_chi2:8.3g}  {a.note}" for a in self.alternatives]
-        lines.append("Error by step:")
-        for step in self.steps:
-            lines.append(f"   {' + '.join(('base',) + step.effects[len(self.steps[0].effects):]):40s} "
-                         f"reduced chi2 {step.fit.reduced_chi2:10.3g}  RMS {step.rms_magnitude_error_db:7.3f} dB "
-                         f"{step.rms_phase_error_deg:7.2f} deg  BIC {step.fit.bic:12.1f}")
-        lines += [f"Note: {n}" for n in self.notes]
-        return "\n".join(lines)
+        items = [f"The base model ({', '.join(first.effects) or 'no effects'}) fits with reduced χ² "
+                 f"{first.fit.reduced_chi2:.3g}, RMS error {first.rms_magnitude_error_db:.3g} dB / "
+                 f"{first.rms_phase_error_deg:.3g}°."]
+        for before, step in zip(self.steps, self.steps[1:]):
+            added = ", ".join(e for e in step.effects if e not in before.effects)
+            items.append(f"Adding {added}: ΔBIC {before.fit.bic - step.fit.bic:+.1f}, reduced χ² "
+                         f"{before.fit.reduced_chi2:.3g} → {step.fit.reduced_chi2:.3g}.")
+        others = (f"; {len(self.alternatives)} other model(s) lie within ΔBIC {ACCEPT_DELTA_BIC:g} of the selected "
+                  "one" if self.alternatives else "")
+        items.append(f"{len(self.models)} models searched{others}. Verdict: {self.explanation.rstrip('.')}.")
+        return tuple(items)
 
 
 def chi2_is_noise(fit: FitResult) -> bool:

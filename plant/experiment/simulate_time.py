@@ -10,7 +10,8 @@ Signal chain, starting from rest at x = 0::
       -> current_limit  the drive clips its command: force K_f u - c (K_f u - clip(K_f u, +-F_L))
       -> sampling       zero-order hold at rate_hz, one controller period of computation delay
       -> current_loop, mechanics (the chain of bodies), sensor filters: exact discretisation
-      -> forces on the rails (body 0): K_f (K(x)/K_f - 1) i + ripple(x) + offset, and the friction
+      -> forces on the rails (body 0): each effect's ``rail_force_n`` at the position and the motor force
+         (a force-constant profile K_f (K(x)/K_f - 1) i, a ripple, an offset), and the friction
       -> positions: the integrals of the recorded velocities (sampled at sample_rate_hz, with noise)
 
 Method: fixed internal steps of h (a common multiple of the recording's and the controller's rates).
@@ -175,14 +176,13 @@ def simulate_time_domain(plant: Plant, excitation: Excitation, *, sample_rate_hz
     Phi, G0, G1 = _discretise_foh(A, np.column_stack([b_u, b_f]), h)
     g_u0, g_u1 = G0[:, 0], (G1[:, 0] if controller_hz is None else np.zeros(A.shape[0]))
     g_f = G0[:, 1]
-    ripple, profile, offset = (plant.effect(k) for k in ("force_ripple", "force_constant_profile", "offset"))
-    offset_n = 0.0 if offset is None else _scalar("offset.force_n", offset.force_n)
+    forces = [e for e in plant.effects if e.rail_force]
     coulomb, stribeck = plant.effect("coulomb_friction"), plant.effect("stribeck_friction")
     fc = 0.0 if coulomb is None else _scalar("coulomb_friction.force_n", coulomb.force_n)
     fs = 0.0 if stribeck is None else float(stribeck.excess_n)
     vs = 1.0 if stribeck is None else float(stribeck.velocity_m_per_s)
     g_contact = float(c_contact @ g_f)                 # contact velocity per unit friction force over a step
-    smooth = ripple is not None or profile is not None or offset_n != 0.0
+    smooth = bool(forces)
     friction = fc > 0 or fs > 0
 
     # the rails' position and the motor current at a step's midpoint, predicted from its start: rows dotted with z
@@ -203,12 +203,8 @@ def simulate_time_domain(plant: Plant, excitation: Excitation, *, sample_rate_hz
                     progress(k // q, n_samples - 1)
             if smooth:
                 x_mid = float(r_x @ z)
-                f = -offset_n
-                if ripple is not None:
-                    f -= float(ripple.force(x_mid))
-                if profile is not None:
-                    i_mid = 0.5 * (u[k] + u[k + 1]) if r_i is None else float(r_i @ z) + i_u * u[k]
-                    f += kt * i_mid * (float(profile.factor(x_mid)) - 1.0)
+                i_mid = 0.5 * (u[k] + u[k + 1]) if r_i is None else float(r_i @ z) + i_u * u[k]
+                f = sum(e.rail_force_n(x_mid, kt * i_mid) for e in forces)
                 z = Phi @ z + drive[k - start] + g_f * f
             else:
                 z = Phi @ z + drive[k - start]

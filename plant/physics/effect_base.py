@@ -117,6 +117,15 @@ class Effect(abc.ABC):
     #: ``variable`` of a ``plant.identify.time_fit.Structure``), None: BIC decides alone
     residual_signature: ClassVar[str | None] = None
 
+    #: it adds a force on the rails that the continuous time-domain simulation applies (``rail_force_n``)
+    rail_force: ClassVar[bool] = False
+
+    def rail_force_n(self, position_m: float, motor_force_n: float) -> float:
+        """The force (N, in the direction of motion's positive axis) the effect adds on the rails at the rails'
+        position and the motor's force, as the continuous time-domain simulation applies it (effects with
+        ``rail_force``; chain factors, modes and friction act through the model instead)."""
+        return 0.0
+
     def force_regressors(self, signals: ForceSignals) -> dict[str, np.ndarray] | None:
         """The effect's force (N) needed on top of the rigid body as sum(p * signal): field -> signal
         (the time-domain inverse model is linear in these parameters; the effect's other fields, held in

@@ -362,6 +362,11 @@ class Offset(MechanicalEffect):
 
     time_domain: ClassVar[bool] = True
 
+    rail_force: ClassVar[bool] = True
+
+    def rail_force_n(self, position_m: float, motor_force_n: float) -> float:
+        return -float(self.force_n)
+
     def force_regressors(self, signals: ForceSignals) -> dict[str, np.ndarray]:
         return {"force_n": np.ones_like(np.asarray(signals.velocity_m_per_s, dtype=float))}
 

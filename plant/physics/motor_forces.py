@@ -110,6 +110,11 @@ class ForceRipple(MechanicalEffect):
         """Amplitude (N) of harmonic 1 or 2."""
         return float(np.hypot(*((self.sin1_n, self.cos1_n) if harmonic == 1 else (self.sin2_n, self.cos2_n))))
 
+    rail_force: ClassVar[bool] = True
+
+    def rail_force_n(self, position_m: float, motor_force_n: float) -> float:
+        return -float(self.force(position_m))
+
     def force(self, position_m) -> np.ndarray:
         """F_r (N) at ``position_m``: the force the motor must supply there (module doc)."""
         phase = 2 * np.pi * np.asarray(position_m, float) / self.pitch_m
@@ -155,6 +160,12 @@ class ForceConstantProfile(MechanicalEffect):
         check_positive("force_constant_profile.half_span_m", self.half_span_m)
         for field in ("centre_m", "slope", "curvature"):
             check_finite(f"force_constant_profile.{field}", getattr(self, field))
+
+    rail_force: ClassVar[bool] = True
+
+    def rail_force_n(self, position_m: float, motor_force_n: float) -> float:
+        """The motor's force K i (with the nominal K) scaled by the profile: the difference K i (K(x) / K - 1)."""
+        return motor_force_n * (float(self.factor(position_m)) - 1.0)
 
     def factor(self, position_m) -> np.ndarray:
         """K(x) / K at ``position_m``."""

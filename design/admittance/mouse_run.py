@@ -214,20 +214,12 @@ def simulate_mouse_run(settings: RunSettings, time_s, x_d, v_d, a_d) -> RunTrace
     imax = s.motor_peak_force_n / s.force_constant_n_per_a
     law = DiscreteAdmittance.of(s.m_v, s.b_v, s.admittance_rate_hz, rule=s.law)
     alpha, beta, beta_prev = law.alpha, law.beta_m_per_s_per_n, law.beta_prev_m_per_s_per_n
-    b_c, b_f, b_l = g.inputs[:, 0], g.inputs[:, 1], g.inputs[:, 2]
     n_z = g.A.shape[0]
-    # one product gives the linear part and both nonlinearities' arguments (small arrays: calls dominate)
-    AR = np.vstack([g.A, g.rail, g.legs])
+    stages, step = _rk4_maps(g, h)
 
     def nonlinear(z, drive):
         ff = fc * math.tanh(float(g.rail @ z) / vs) if fc > 0 else 0.0
         return ff, min(max(float(g.legs @ z) + drive, -fmax), fmax)
-
-    def deriv(z, held, drive):
-        y = AR @ z
-        ff = fc * math.tanh(y[n_z] / vs) if fc > 0 else 0.0
-        fleg = min(max(y[n_z + 1] + drive, -fmax), fmax)
-        return y[:n_z] + held + b_f * ff + b_l * fleg
 
     def signal(row, z, ic, ff, fleg):
         return float(row[:n_z] @ z + row[n_z] * ic + row[n_z + 1] * ff + row[n_z + 2] * fleg)
@@ -263,14 +255,39 @@ def simulate_mouse_run(settings: RunSettings, time_s, x_d, v_d, a_d) -> RunTrace
         rec[:, k] = (z[g.position], float(g.velocity @ z), z[g.body[0]], z[g.body[1]], fs, fleg,
                      signal(g.current, z, ic, 0.0, 0.0), v_ref, 0.0)
         ic = commands[0]
-        held = b_c * ic
+        q = np.zeros(step.shape[1])
         for _ in range(substeps):
-            k1 = deriv(z, held, drive)
-            k2 = deriv(z + 0.5 * h * k1, held, drive)
-            k3 = deriv(z + 0.5 * h * k2, held, drive)
-            k4 = deriv(z + h * k3, held, drive)
-            z = z + h / 6 * (k1 + 2 * (k2 + k3) + k4)
+            q[:n_z], q[n_z], q[n_z + 1:] = z, ic, 0.0
+            for i, stage in enumerate(stages):       # the stage's rail velocity and legs' drive, then its forces
+                rail, legs = stage @ q
+                q[n_z + 1 + 2 * i] = fc * math.tanh(rail / vs) if fc > 0 else 0.0
+                q[n_z + 2 + 2 * i] = min(max(legs + drive, -fmax), fmax)
+            z = step @ q
     return RunTrace(t, rec[0], rec[1], rec[2], rec[3], rec[4], rec[5], rec[6], rec[7], xd_, vd_)
+
+
+def _rk4_maps(g: GantryModel, h: float) -> tuple[list[np.ndarray], np.ndarray]:
+    """One classical RK4 step of dz/dt = A z + b_c i_c + b_f F_f + b_l F_leg as linear maps of q = (z, i_c, the
+    forces (F_f, F_leg) at the four stage points): the rows giving (v_0, the legs' drive) at each stage point
+    (the forces there follow from them), and the step's end. The same arithmetic as the four stages written out,
+    in a few products of small arrays instead of many."""
+    n = g.A.shape[0]
+    size = n + 1 + 8
+    z = np.eye(n, size)
+    forces = [np.eye(size)[n + 1 + 2 * i:n + 3 + 2 * i] for i in range(4)]      # (2, size) each
+    held = np.outer(g.inputs[:, 0], np.eye(size)[n])
+    push = g.inputs[:, 1:]                                                         # (n, 2): F_f, F_leg
+
+    def k(point, i):
+        return g.A @ point + held + push @ forces[i]
+
+    k1 = k(z, 0)
+    k2 = k(z + 0.5 * h * k1, 1)
+    k3 = k(z + 0.5 * h * k2, 2)
+    k4 = k(z + h * k3, 3)
+    points = (z, z + 0.5 * h * k1, z + 0.5 * h * k2, z + h * k3)
+    read = np.vstack([g.rail, g.legs])
+    return [read @ p for p in points], z + h / 6 * (k1 + 2 * (k2 + k3) + k4)
 
 
 def _check_rates(s: RunSettings) -> int:

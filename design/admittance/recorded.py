@@ -148,16 +148,14 @@ class RecordedMotor:
         inputs = np.stack([u, f, g], axis=1)                                          # (k, 3)
         for start in range(0, n_s, BLOCK):
             rows = slice(start, start + BLOCK)
-            Eb = E[rows]
-            drive = (Gu[rows, None] * u[None, :, None] + G0[rows, None] * f[None, :, None]
-                     + G1[rows, None] * g[None, :, None])                        # (s, k, n)
-            x = np.linalg.solve(np.eye(n) - Eb, (Gu[rows] * u[0] + G0[rows] * f[0])[..., None])
-            states = np.empty((drive.shape[0], u.size, n + 3))
+            Eb, Gub, G0b, G1b = E[rows], Gu[rows], G0[rows], G1[rows]
+            x = np.linalg.solve(np.eye(n) - Eb, (Gub * u[0] + G0b * f[0])[..., None])[..., 0]
+            states = np.empty((Eb.shape[0], u.size, n + 3))
             states[:, :, n:] = inputs
             for k in range(u.size):
-                states[:, k, :n] = x[..., 0]
-                x = Eb @ x + drive[:, k, :, None]
-            for i, j in enumerate(range(start, start + drive.shape[0])):
+                states[:, k, :n] = x
+                x = np.einsum("snm,sm->sn", Eb, x) + Gub * u[k] + G0b * f[k] + G1b * g[k]
+            for i, j in enumerate(range(start, start + Eb.shape[0])):
                 force = np.abs(states[i] @ self.out[j])                               # (k, n_theta)
                 best = int(np.argmax(force))
                 k, o = divmod(best, force.shape[1])

@@ -77,7 +77,7 @@ def reference_curves(spec, kp: float, ki: float, scenarios, corners, w):
     z = np.exp(1j * w * T)
     paths, responses = [], []
     for j in range(len(scenarios)):
-        row = scenarios.row(j)
+        row = scenarios.row(j).as_dict()
         for m in corners:
             path = ref.coupled_path(mass_kg=row["payload_kg"], damping=row["damping_n_s_per_m"], kt=20.0, kp=kp, ki=ki,
                                     delay_s=row["delay.seconds"], current_hz=row["current_loop.bandwidth_hz"],

@@ -141,7 +141,7 @@ def main():
         t_brute = time.perf_counter() - t0
         print(f"== {name}")
         print(f"  PI alone:      synthesis {bw_pi:.3f} Hz ({t_pi:.1f} s; kp {pi.evaluation.controller.kp:.1f}, ki "
-              f"{pi.evaluation.controller.ki:.0f}, binding {pi.evaluation.binding['constraint']}); brute force "
+              f"{pi.evaluation.controller.ki:.0f}, binding {pi.evaluation.binding.constraint}); brute force "
               f"{brute_pi[0]:.3f} Hz; ratio {bw_pi / brute_pi[0]:.4f}")
         used = [f for f in flt.filters if f["used"]]
         print(f"  PI + filters:  synthesis {bw_f:.3f} Hz ({t_f:.1f} s; kp {flt.evaluation.controller.kp:.1f}, ki "

@@ -264,7 +264,7 @@ def report_content(problem: DesignProblem, *, outcome: DesignOutcome | None = No
         check, comparison = _robustness(loop, controller, outcome, samples, seed)
         if adm_curves is not None:
             adm_comparison = _admittance_robustness(loop, outcome.admittance)
-    binding = ev.worst_scenario if loop.plant.uncertainty or ev.worst_scenario.get("payload_kg") not in \
+    binding = ev.worst_scenario if loop.plant.uncertainty or ev.worst_scenario.payload_kg not in \
         report_payloads(loop) else None
     say("the loop's curves")
     return ReportContent(problem, controller, source, ev, evaluate(loop, THESIS_GAINS),

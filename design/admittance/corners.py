@@ -48,7 +48,7 @@ def corner_check(problem: LoopProblem, *, controller: PI, m_v: float, b_v: float
     return CornerCheck(len(scenarios), len(check.mice), int(k.size), where[:shown],
                        float(np.nanmin(np.where(check.stable, check.phase_margin_deg, np.nan))),
                        float(np.nanmin(np.where(check.stable, check.gain_margin_db, np.nan))),
-                       *_first([v["detail"] for v in check.violations if v["constraint"] != "stability"], shown))
+                       *_first([v.detail for v in check.violations if v.constraint != "stability"], shown))
 
 
 def _first(items: list[str], shown: int) -> tuple[int, tuple[str, ...]]:

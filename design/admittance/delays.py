@@ -55,7 +55,7 @@ def join_checks(checks: list[AdmittanceCheck], delays: tuple[int, ...]) -> Admit
         return np.stack([getattr(c, name) for c in checks])
 
     pm, gm = (np.fmin.reduce(stack(n), axis=0) for n in ("phase_margin_deg", "gain_margin_db"))   # nan: none computed
-    violations = tuple({**v, "detail": f"{v['detail']} with {samples_text(d)}", "delay_samples": d}
+    violations = tuple(replace(v, detail=f"{v.detail} with {samples_text(d)}", delay_samples=d)
                        for c, d in zip(checks, delays) for v in c.violations)
     recorded = {}
     if checks[0].recorded_motor_force_n is not None:

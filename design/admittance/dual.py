@@ -51,8 +51,9 @@ from design.admittance.monte_carlo import AdmittanceMonteCarlo
 from design.admittance.mouse import MouseModel
 from design.admittance.rig import DiscreteAdmittance, RigTiming
 from design.admittance.sampled import dual_free_gantry, pade_order_for
-from design.admittance.synthesis import design_rounds, ray_binding
+from design.admittance.synthesis import design_rounds
 from design.loop.dual import Controller
+from design.loop.requirement import Binding
 from design.problem import LoopProblem
 from design.synth.dual import DualScenarios, dual_scenarios, monte_carlo_scenarios
 from design.synth.scenarios import describe_row
@@ -158,7 +159,8 @@ class DualAdmittanceResult:
     check: AdmittanceCheck
     monte_carlo: AdmittanceMonteCarlo | None
     feel: MouseFeel | None
-    binding: dict
+    #: the tightest requirement at the design, where it binds and in words
+    binding: Binding[MouseModel]
     by_position: tuple[PositionRow, ...]
     corners: tuple[MouseModel, ...]
     timing: RigTiming
@@ -230,10 +232,7 @@ def synthesise_dual_admittance(problem: LoopProblem, *, structure: str, controll
     ray, x, check, mc = rounds.ray, rounds.x, rounds.check, rounds.monte_carlo
     if not ray.feasible:
         return _infeasible(problem, ray, structure, controller, dense, dense_set, corners, timing, len(scenarios), t0)
-    binding = ray_binding(problem, rounds.rp, ray, corners, rounds.rp_scenarios, timing.delays)
-    if rounds.backed_off is not None:
-        binding = {**rounds.backed_off, "detail": rounds.backed_off["detail"] + " at the ray's design; (m_v, b_v) "
-                   "scaled up the ray until it holds"}
+    binding = rounds.binding(problem, corners, timing)
     say("what the mouse feels")
     worst_felt = felt.worst(*x)
     feel = mouse_feel(problem, loops=loops, m_v=x[0], b_v=x[1], scenarios=feel_set, corners=corners,
@@ -244,17 +243,17 @@ def synthesise_dual_admittance(problem: LoopProblem, *, structure: str, controll
     loc = adm.locomotion
     r = float(x[0] * loc.peak_acceleration_m_per_s2 + x[1] * loc.peak_speed_m_per_s)
     if not check.meets:
-        status, msg = "infeasible", "the dense check fails: " + "; ".join(v["detail"] for v in check.violations[:3])
+        status, msg = "infeasible", "the dense check fails: " + "; ".join(v.detail for v in check.violations[:3])
     elif mc.violations:
         status = "infeasible"
         msg = (f"{mc.violations} of {mc.samples} Monte Carlo draws over carriage position, payload, uncertainty and "
                f"mouse violate the requirements (worst at {describe_row(mc.worst_scenario)}, mouse "
-               f"{MouseModel(**mc.worst_mouse).label()})")
+               f"{mc.worst_mouse.label()})")
     elif not feel.can_drive:
         status = "mouse_cannot_drive"
         msg = (f"the mouse cannot drive this design: it asks {feel.peak_force_n:.3g} N on the locomotion profile "
                f"against the mouse's {adm.mouse.peak_force_n:g} N (admittance.mouse.peak_force_n); it binds: "
-               f"{binding['detail']}; {HINT}")
+               f"{binding.detail}; {HINT}")
     else:
         status = "optimal"
         msg = (f"on the {structure} loops: every requirement held on {len(dense_set)} plants x {len(corners)} mice "
@@ -277,8 +276,7 @@ def _infeasible(problem, ray, structure, controller, dense, dense_set, corners, 
            f"N*s/m holds every requirement on the {structure} loops: {ray.binding} needs b_v = {ray.b_v:.4g} N*s/m "
            f"along the best ray (m_v / b_v = {ray.tau_s:.3g} s)")
     check = dense.evaluate(*x)
-    binding = {"constraint": ray.binding, "payload_kg": None, "scenario": None, "mouse": None,
-               "value": float(ray.b_v), "limit": float(hi[1]), "detail": msg}
+    binding = Binding(ray.binding, value=float(ray.b_v), limit=float(hi[1]), detail=msg)
     loc = adm.locomotion
     return DualAdmittanceResult("infeasible", msg, structure, controller, float(x[0]), float(x[1]),
                                 float(x[0] * loc.peak_acceleration_m_per_s2 + x[1] * loc.peak_speed_m_per_s), check,

@@ -60,6 +60,7 @@ from design.admittance.sampled import (
 )
 from design.loop.controller import PI
 from design.loop.margins import loop_margins, nyquist_stable, unwrapped_phase_deg
+from design.loop.requirement import Binding
 from design.parallel import thread_map, workers
 from design.problem import AdmittanceProblem, LoopProblem
 from design.synth.scenarios import Scenarios
@@ -409,8 +410,8 @@ class AdmittanceCheck:
     motor_peak_hz: np.ndarray
     #: steady drift at rest (mm/s) under the offset left after taring
     drift_mm_per_s: float
-    #: each violated requirement as {"constraint", "payload_kg", "scenario", "mouse", "value", "limit", "detail"}
-    violations: tuple[dict, ...]
+    #: each violated requirement, with its payload, scenario, mouse, value, limit and detail
+    violations: tuple[Binding[MouseModel], ...]
     #: the motor's peak force on the spec's force record (N) and when in the record it comes (s), (n_scenario,);
     #: None without a record (``design.admittance.recorded``)
     recorded_motor_force_n: np.ndarray | None = None
@@ -639,15 +640,14 @@ def _blocks(n_scenarios: int, per_scenario: int) -> list[np.ndarray]:
     return [np.arange(i, min(i + size, n_scenarios)) for i in range(0, n_scenarios, size)]
 
 
-def violations(adm: AdmittanceProblem, c: AdmittanceCheck) -> tuple[dict, ...]:
+def violations(adm: AdmittanceProblem, c: AdmittanceCheck) -> tuple[Binding[MouseModel], ...]:
     """Every requirement ``c`` misses, each naming its spec key, scenario and mouse."""
     hw, out = adm.hardware, []
 
-    def add(constraint, j, mouse, value, limit, detail, **extra):
-        out.append({"constraint": constraint, "payload_kg": None if j is None else float(c.payload_kg[j]),
-                    "scenario": None if j is None else c.scenarios.row(j),
-                    "mouse": None if mouse is None else mouse.as_dict(), "value": float(value),
-                    "limit": float(limit), "detail": detail, **extra})
+    def add(constraint, j, mouse, value, limit, detail, source=None):
+        out.append(Binding(constraint, None if j is None else float(c.payload_kg[j]),
+                           None if j is None else c.scenarios.row(j), mouse, float(value), float(limit),
+                           detail=detail, source=source))
 
     drift_limit = adm.sensor.max_drift_mm_per_s
     if drift_limit is not None and c.drift_mm_per_s > drift_limit * (1 + 1e-6):
@@ -700,11 +700,11 @@ def violations(adm: AdmittanceProblem, c: AdmittanceCheck) -> tuple[dict, ...]:
     return tuple(out)
 
 
-def relative_slack(violation: dict) -> float:
+def relative_slack(violation: Binding) -> float:
     """How far a violation misses its requirement, relative to it (more negative: worse)."""
-    if violation["constraint"] == "stability":
+    if violation.constraint == "stability":
         return -math.inf
-    value, limit = violation["value"], violation["limit"]
-    if violation["constraint"] in ("phase_margin", "gain_margin", "passivity"):
+    value, limit = violation.value, violation.limit
+    if violation.constraint in ("phase_margin", "gain_margin", "passivity"):
         return (value - limit) / max(abs(limit), 1e-12) if math.isfinite(limit) else -1.0
     return (limit - value) / max(abs(limit), 1e-12)

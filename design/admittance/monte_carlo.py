@@ -38,6 +38,7 @@ from design.admittance.mouse import FIELDS, MouseModel, random_mice
 from design.admittance.profile import FeltForce
 from design.admittance.rig import RigTiming
 from design.loop.margins import nyquist_stable
+from design.loop.requirement import ScenarioPoint
 from design.parallel import thread_map
 from design.problem import LoopProblem
 from design.synth.monte_carlo import clopper_pearson_upper, draw_settings
@@ -69,10 +70,10 @@ class AdmittanceMonteCarlo:
     worst_sensor_current_a: float
     worst_motor_force_n: float
     unstable: int
-    #: the draw with the least slack: payload_kg and the uncertain parameters (the scenario)
-    worst_scenario: dict
+    #: the draw with the least slack: its scenario
+    worst_scenario: ScenarioPoint
     #: and its mouse
-    worst_mouse: dict
+    worst_mouse: MouseModel
     #: draws whose margins were computed on the grid
     exact: int
 
@@ -152,5 +153,6 @@ def admittance_monte_carlo(problem: LoopProblem, *, loops, m_v: float, b_v: floa
                                 float(np.min(pm[computed])) if computed.any() else float("inf"),
                                 float(np.min(gm[computed])) if computed.any() else float("inf"),
                                 float(np.max(cur)), float(np.max(force)), int(np.sum(~stable)), draws.row(i),
-                                {n: float(np.asarray(getattr(drawn, n))[i, 0]) for n in FIELDS}, int(keep.size))
+                                MouseModel(*(float(np.asarray(getattr(drawn, n))[i, 0]) for n in FIELDS)),
+                                int(keep.size))
 

@@ -71,6 +71,7 @@ from design.admittance.rig import DiscreteAdmittance, RigTiming
 from design.admittance.tradeoff import trade_off
 from design.admittance.verify import AdmittanceVerification, verify_admittance
 from design.loop.controller import PI
+from design.loop.requirement import Binding
 from design.problem import LoopProblem
 from design.synth.scenarios import Scenarios, admittance_check_scenarios, describe_row, design_scenarios
 from plant.errors import SpecError
@@ -95,9 +96,8 @@ class AdmittanceResult:
     peak_resistance_n: float
     check: AdmittanceCheck
     verification: AdmittanceVerification | None
-    #: the tightest requirement at the design: {"constraint", "payload_kg", "scenario", "mouse", "value", "limit",
-    #: "detail"}
-    binding: dict
+    #: the tightest requirement at the design, where it binds and in words
+    binding: Binding[MouseModel]
     active: tuple[str, ...]
     corners: tuple[MouseModel, ...]
     seconds: float
@@ -159,11 +159,11 @@ _NAMES = {"margins": "the interaction-loop margins (admittance.phase_margin_deg,
           "m_v_min": "admittance.m_v.min"}
 
 
-def ray_binding(problem: LoopProblem, rp, ray: RayBound, corners, scenarios: Scenarios, delays=(0,)) -> dict:
+def ray_binding(problem: LoopProblem, rp, ray: RayBound, corners, scenarios: Scenarios,
+                delays=(0,)) -> Binding[MouseModel]:
     """The requirement that sets the design's scale, with the scenario and mouse where it binds (``rp`` built on
     the mice ``corners`` x ``scenarios`` at each computation delay of ``delays``)."""
     adm = admittance_problem(problem)
-    base = {"payload_kg": None, "scenario": None, "mouse": None, "value": ray.b_v, "limit": ray.b_v}
     if ray.binding != "margins":
         details = {"b_v_min": f"b_v at its lower bound admittance.b_v.min = {adm.b_v.min:g} N*s/m",
                    "m_v_min": f"m_v at its lower bound admittance.m_v.min = {adm.m_v.min:g} kg",
@@ -173,7 +173,7 @@ def ray_binding(problem: LoopProblem, rp, ray: RayBound, corners, scenarios: Sce
                    "motor_force": "the motor's peak force sets the scale of (m_v, b_v)",
                    "passivity": "passivity (admittance.passivity) sets the scale of (m_v, b_v)"}
         name = "drift" if ray.binding == "b_v_min" and rp.t_min > adm.b_v.min else ray.binding
-        return {"constraint": name, **base, "detail": details.get(name, name)}
+        return Binding(name, value=ray.b_v, limit=ray.b_v, detail=details.get(name, name))
     q = rp.impedance.ray(ray.tau_s)
     t_pm, t_gm = (np.concatenate(p) for p in zip(*(
         curve_bounds(rp.log_mag[i:i + BINDING_ROWS], rp.psi[i:i + BINDING_ROWS], q, rp.phase_margin_deg,
@@ -185,11 +185,10 @@ def ray_binding(problem: LoopProblem, rp, ray: RayBound, corners, scenarios: Sce
     name = "gain_margin" if gm_binds else "phase_margin"
     limit = adm.gain_margin_db if gm_binds else adm.phase_margin_deg
     at_delay = "" if len(delays) == 1 else f" with {samples_text(delays[i])}"
-    return {"constraint": name, "payload_kg": float(scenarios.payload_kg[j]), "scenario": scenarios.row(j),
-            "mouse": mouse.as_dict(), "value": limit, "limit": limit,
-            "detail": f"interaction-loop {name.replace('_', ' ')} (admittance.{name}_"
-                      f"{'db' if gm_binds else 'deg'} = {limit:g}) at {scenarios.describe(j)} with mouse "
-                      f"({mouse.label()}){at_delay}"}
+    return Binding(name, float(scenarios.payload_kg[j]), scenarios.row(j), mouse, limit, limit,
+                   detail=f"interaction-loop {name.replace('_', ' ')} (admittance.{name}_"
+                          f"{'db' if gm_binds else 'deg'} = {limit:g}) at {scenarios.describe(j)} with mouse "
+                          f"({mouse.label()}){at_delay}")
 
 
 def synthesise_admittance(problem: LoopProblem, *, controller: PI | None = None,
@@ -235,10 +234,7 @@ def synthesise_admittance(problem: LoopProblem, *, controller: PI | None = None,
     say("verification on the rational model (python-control)")
     verification = join_verifications([verify_admittance(problem, check, controller=controller, timing=t)
                                        for t in timing.per_delay()], timing.delays)
-    binding = ray_binding(problem, rp, ray, corners, rounds.rp_scenarios, timing.delays)
-    if rounds.backed_off is not None:
-        binding = {**rounds.backed_off, "detail": rounds.backed_off["detail"] + " at the ray's design; (m_v, b_v) "
-                   "scaled up the ray until it holds"}
+    binding = rounds.binding(problem, corners, timing)
     say("what the mouse feels")
     worst_felt = felt.worst(*x)
     feel = mouse_feel(problem, loops=loops, m_v=x[0], b_v=x[1], scenarios=feel_set, corners=corners,
@@ -255,14 +251,14 @@ def synthesise_admittance(problem: LoopProblem, *, controller: PI | None = None,
         status = "infeasible"
         msg = (f"verified on the {len(scenarios)} design scenarios, but {mc.violations} of {mc.samples} Monte Carlo "
                f"draws over payload, uncertainty and mouse violate the requirements (worst at "
-               f"{describe_row(mc.worst_scenario)}, mouse {MouseModel(**mc.worst_mouse).label()})")
+               f"{describe_row(mc.worst_scenario)}, mouse {mc.worst_mouse.label()})")
     elif not feel.can_drive:
         status = "mouse_cannot_drive"
         msg = (f"the mouse cannot drive this design: it asks {feel.peak_force_n:.3g} N on the locomotion profile "
                f"({loc.peak_speed_m_per_s:g} m/s, {loc.peak_acceleration_m_per_s2:g} m/s^2; m_v a + b_v v = {r:.3g} "
                f"N) against the mouse's {adm.mouse.peak_force_n:g} N (admittance.mouse.peak_force_n), "
-               f"{feel.peak_force_n / adm.mouse.peak_force_n:.2f} times; it binds: {binding['detail']}; "
-               f"{_HINTS.get(_HINT_OF.get(binding['constraint'], binding['constraint']), '')}")
+               f"{feel.peak_force_n / adm.mouse.peak_force_n:.2f} times; it binds: {binding.detail}; "
+               f"{_HINTS.get(_HINT_OF.get(binding.constraint, binding.constraint), '')}")
     else:
         status = "optimal"
         span = ("" if len(timing.delays) == 1 else
@@ -271,7 +267,7 @@ def synthesise_admittance(problem: LoopProblem, *, controller: PI | None = None,
                f"Monte Carlo draws over payload, uncertainty and mouse violate (95 % upper bound "
                f"{100 * mc.rate_upper_bound:.2g} %); the mouse feels at most {feel.peak_force_n:.3g} N of its "
                f"{adm.mouse.peak_force_n:g} N on the locomotion profile")
-    active = tuple(sorted({binding["constraint"]} | {v["constraint"] for v in check.violations}))
+    active = tuple(sorted({binding.constraint} | {v.constraint for v in check.violations}))
     result = AdmittanceResult(
         status, msg, float(x[0]), float(x[1]), controller, float(r), check, verification, binding, active, corners,
         time.perf_counter() - t0, timing,
@@ -303,7 +299,14 @@ class Rounds:
     monte_carlo_rounds: int
     #: the dense check's worst violation at the ray's design when the design had to be scaled up its ray
     #: (``back_off``) to hold: the requirement that binds it then
-    backed_off: dict | None = None
+    backed_off: Binding[MouseModel] | None = None
+
+    def binding(self, problem: LoopProblem, corners, timing: RigTiming) -> Binding[MouseModel]:
+        """The requirement that binds the design: the ray's (``ray_binding``), or the one the back-off cured."""
+        if self.backed_off is None:
+            return ray_binding(problem, self.rp, self.ray, corners, self.rp_scenarios, timing.delays)
+        return replace(self.backed_off, detail=self.backed_off.detail + " at the ray's design; (m_v, b_v) scaled up "
+                       "the ray until it holds")
 
 
 def design_rounds(problem: LoopProblem, scenarios, *, loops, dense, felt, w_design,
@@ -333,10 +336,9 @@ def design_rounds(problem: LoopProblem, scenarios, *, loops, dense, felt, w_desi
             if check.meets:
                 break
             worst = min(check.violations, key=relative_slack)
-            if worst["scenario"] is None or worst.get("source") == "force_record" or \
-                    scenarios.contains(worst["scenario"]):
+            if worst.scenario is None or worst.source == "force_record" or scenarios.contains(worst.scenario):
                 break
-            scenarios = scenarios.with_row(worst["scenario"])
+            scenarios = scenarios.with_row(worst.scenario)
         if not check.meets:
             backed_off = min(check.violations, key=relative_slack)
             x, check = back_off(dense, x, adm)
@@ -385,8 +387,7 @@ def _infeasible(problem, ray: RayBound, rp, scenarios, controller: PI, timing, c
     ev = evaluator(problem, scenarios, loops=PiLoops.of(problem, controller), timing=timing, corners=corners)
     x = np.minimum(np.array([ray.m_v, ray.b_v]), hi) if math.isfinite(ray.b_v) else hi
     check = ev.evaluate(*x)
-    binding = {"constraint": need, "payload_kg": None, "scenario": None, "mouse": None, "value": ray.b_v,
-               "limit": float(hi[1]), "detail": msg}
+    binding = Binding(need, value=ray.b_v, limit=float(hi[1]), detail=msg)
     r = float(x[0] * adm.locomotion.peak_acceleration_m_per_s2 + x[1] * adm.locomotion.peak_speed_m_per_s)
     result = AdmittanceResult("infeasible", msg, float(x[0]), float(x[1]), controller, r, check, None, binding, (need,),
                               corners, time.perf_counter() - t0, timing, {"tau_s": ray.tau_s}, codesign=record)

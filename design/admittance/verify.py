@@ -247,7 +247,7 @@ def verify_admittance(problem: LoopProblem, check: AdmittanceCheck, *, controlle
         return cl, ol, pm, gm_db, out
 
     results = thread_map(pair, pairs)
-    failures = [v["detail"] for v in check.violations] + [f for r in results for f in r[4]]
+    failures = [v.detail for v in check.violations] + [f for r in results for f in r[4]]
     max_cl = max((r[0] for r in results), default=-math.inf)
     max_ol = max((r[1] for r in results), default=-math.inf)
     pms = [r[2] for r in results if r[2] is not None]

@@ -12,6 +12,7 @@ import numpy as np
 from design.loop.controller import PI
 from design.loop.loops import balanced, closed_loop_tf, open_loop_frd
 from design.loop.margins import loop_margins
+from design.loop.requirement import ScenarioPoint
 from design.problem import LoopProblem
 from plant.grid import log_grid_rad_s
 
@@ -53,15 +54,15 @@ def report_payloads(problem: LoopProblem) -> tuple[float, ...]:
     return tuple(sorted({rng.min, rng.nominal_kg, rng.max}))
 
 
-def scenario_label(row: dict) -> str:
+def scenario_label(row: ScenarioPoint) -> str:
     """'binding: 40 kg, damping_n_s_per_m 330, delay.seconds 0.0008'."""
-    return f"binding: {row['payload_kg']:.3g} kg" + "".join(f", {k} {v:.3g}" for k, v in row.items()
-                                                           if k != "payload_kg")
+    return f"binding: {row.payload_kg:.3g} kg" + "".join(f", {k} {v:.3g}" for k, v in row.as_dict().items()
+                                                         if k != "payload_kg")
 
 
-def loop_curves(problem: LoopProblem, controller: PI, binding: dict | None = None) -> LoopCurves:
-    """The curves at the report payloads and, with ``binding`` (``payload_kg`` and uncertain parameter
-    values, as ``Evaluation.worst_scenario``), at that scenario."""
+def loop_curves(problem: LoopProblem, controller: PI, binding: ScenarioPoint | None = None) -> LoopCurves:
+    """The curves at the report payloads and, with ``binding`` (as ``Evaluation.worst_scenario``), at that
+    scenario."""
     import control
 
 
@@ -70,8 +71,7 @@ def loop_curves(problem: LoopProblem, controller: PI, binding: dict | None = Non
     plants = [base.with_values({"mass_kg": m}) for m in masses]
     labels = [f"{m:g} kg" for m in masses]
     if binding is not None:
-        plants.append(base.with_values({"mass_kg": binding["payload_kg"],
-                                        **{k: v for k, v in binding.items() if k != "payload_kg"}}))
+        plants.append(base.with_values({"mass_kg": binding.payload_kg, **dict(binding.parameters)}))
         labels.append(scenario_label(binding))
     P = np.array([p.frd(W_BODE) for p in plants])
     with np.errstate(over="ignore", invalid="ignore"):        # an unstable loop's response diverges

@@ -26,6 +26,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from design.loop.dual import CommonDifferential, Controller, DualLoopFigures, MasterSlave, PerMotor, loop_figures
+from design.loop.requirement import ScenarioPoint
 from design.parallel import thread_map
 from plant.errors import SpecError
 from plant.physics.dual_drive import DualDriveStageY
@@ -81,20 +82,20 @@ class DualScenarios:
                        carriage_mass_kg=self.carriage_mass_kg[rows],
                        parameters={k: v[rows] for k, v in self.parameters.items()})
 
-    def row(self, k: int) -> dict[str, float]:
-        return {"carriage_position_m": float(self.carriage_position_m[k]), "payload_kg": float(self.payload_kg[k]),
-                **{n: float(v[k]) for n, v in self.parameters.items()}}
+    def row(self, k: int) -> ScenarioPoint:
+        return ScenarioPoint(float(self.payload_kg[k]), tuple((n, float(v[k])) for n, v in self.parameters.items()),
+                             float(self.carriage_position_m[k]))
 
     def _rows(self) -> np.ndarray:
         return np.column_stack([self.carriage_position_m, self.payload_kg, *self.parameters.values()])
 
-    def with_row(self, row: dict[str, float]) -> DualScenarios:
-        return replace(self, carriage_position_m=np.append(self.carriage_position_m, row["carriage_position_m"]),
-                       carriage_mass_kg=np.append(self.carriage_mass_kg, row["payload_kg"] + self.stage_x_mass_kg),
-                       parameters={n: np.append(v, row[n]) for n, v in self.parameters.items()})
+    def with_row(self, row: ScenarioPoint) -> DualScenarios:
+        return replace(self, carriage_position_m=np.append(self.carriage_position_m, row.carriage_position_m),
+                       carriage_mass_kg=np.append(self.carriage_mass_kg, row.payload_kg + self.stage_x_mass_kg),
+                       parameters={n: np.append(v, row.parameter(n)) for n, v in self.parameters.items()})
 
-    def contains(self, row: dict[str, float]) -> bool:
-        target = np.array([row["carriage_position_m"], row["payload_kg"], *(row[n] for n in self.parameters)])
+    def contains(self, row: ScenarioPoint) -> bool:
+        target = np.array([row.carriage_position_m, row.payload_kg, *(row.parameter(n) for n in self.parameters)])
         return bool(np.any(np.all(np.isclose(self._rows(), target, rtol=1e-9, atol=0), axis=1)))
 
     def frd_of(self, start: int, stop: int) -> np.ndarray:

@@ -12,6 +12,7 @@ import numpy as np
 from design.loop.analysis import analyse_loop
 from design.loop.controller import PI
 from design.loop.fast import F_LOW_HZ, coarse_grid_rad_s, fast_analyse_loop
+from design.loop.requirement import Binding, ScenarioPoint
 from design.problem import LoopProblem
 from design.synth.scenarios import Scenarios, check_scenarios
 from plant.physics.drive_filters import FILTERS
@@ -46,13 +47,15 @@ class Evaluation:
     #: every scenario's closed loop stable (PM > 0 and GM > 0 for this stable open loop)
     stable: bool
     worst_bandwidth_hz: float
-    #: the tightest requirement, or a gain's upper bound: {"constraint", "payload_kg", "slack", "active"},
-    #: with "scenario" (the uncertain parameters' values there) when the problem has uncertainty
-    binding: dict
+    #: the tightest requirement (its constraint, payload, scenario and slack in its unit), or a gain's upper bound
+    #: (constraint "controller.kp.max" or "controller.ki.max", slack 0, no payload)
+    binding: Binding
+    #: the requirements within ``ACTIVE`` relative slack of their limit, and a gain's upper bound when it binds
+    active: tuple[str, ...]
     #: the smallest slack of any requirement relative to the requirement (negative: violated)
     min_relative_slack: float
-    #: the scenario where the tightest requirement binds (payload_kg and the uncertain parameters)
-    worst_scenario: dict = field(default_factory=dict)
+    #: the scenario where the tightest requirement binds
+    worst_scenario: ScenarioPoint
     #: per scenario: the least relative slack of any requirement, and the bandwidth (Hz; 0: below the grid)
     row_relative_slack: np.ndarray = field(default_factory=lambda: np.zeros(0))
     row_bandwidth_hz: np.ndarray = field(default_factory=lambda: np.zeros(0))
@@ -96,17 +99,14 @@ def evaluate(problem: LoopProblem, controller: PI, scenarios: Scenarios | None =
     rel = {k: float(np.min(v)) / scale[k] for k, v in slack.items()}
     name = min(rel, key=rel.get)
     i = int(np.argmin(slack[name]))
-    active = sorted({k for k, v in slack.items() if np.min(v) / scale[k] < ACTIVE})
+    near = tuple(sorted({k for k, v in slack.items() if np.min(v) / scale[k] < ACTIVE}))
     worst = s.row(i)
-    binding = {"constraint": name, "payload_kg": float(s.payload_kg[i]), "slack": float(slack[name][i]),
-               "active": active}
-    if s.parameters:
-        binding["scenario"] = {k: v for k, v in worst.items() if k != "payload_kg"}
+    binding, active = Binding(name, float(s.payload_kg[i]), worst, slack=float(slack[name][i])), near
     c = problem.controller
     for gain, value, bound in (("kp", kp, c.kp.max), ("ki", ki, c.ki.max)):
         if meets and value >= bound * (1 - ON_BOUND) and rel[name] > ON_BOUND:
-            binding = {"constraint": f"controller.{gain}.max", "payload_kg": None, "slack": 0.0,
-                       "active": active + [f"controller.{gain}.max"]}
+            binding = Binding(f"controller.{gain}.max", slack=0.0)
+            active = (*near, f"controller.{gain}.max")
     m, inverse = np.unique(s.payload_kg, return_inverse=True)
     per = {}
     for key, v in (("bw", np.where(bw > 0, bw, np.nan)), ("pm", pm), ("gm", gm)):
@@ -115,7 +115,7 @@ def evaluate(problem: LoopProblem, controller: PI, scenarios: Scenarios | None =
         per[key] = np.where(out == -np.inf, np.nan, out)
     row_rel = np.min([v / scale[k] for k, v in slack.items()], axis=0)
     return Evaluation(controller, m, per["bw"], per["pm"], per["gm"], meets, stable, float(np.min(bw)),
-                      binding, rel[name], worst, row_rel, bw)
+                      binding, active, rel[name], worst, row_rel, bw)
 
 
 def margin_circle(phase_margin_deg: float, gain_margin_db: float) -> tuple[float, float]:

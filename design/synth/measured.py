@@ -18,6 +18,7 @@ import numpy as np
 
 from design.loop.controller import PI
 from design.loop.margins import closed_loop_bandwidth_hz, loop_margins
+from design.loop.requirement import Binding
 from design.problem import LoopProblem
 from design.synth.ccp import _CCP
 from plant.data.frequency_response import MeasuredResponse
@@ -57,8 +58,8 @@ class MeasuredDesign:
     bandwidth_hz: np.ndarray
     phase_margin_deg: np.ndarray
     gain_margin_db: np.ndarray
-    #: the requirement with the least slack: (constraint, payload_kg, slack)
-    binding: tuple[str, float, float] | None
+    #: the requirement with the least slack relative to the requirement: its constraint, payload and slack
+    binding: Binding | None
     verified: bool
     failures: tuple[str, ...]
     seconds: float
@@ -77,14 +78,14 @@ def _numbers(w, G, controller: PI, problem: LoopProblem):
     return m, bw, ok
 
 
-def _binding(payload, pm, gm, problem: LoopProblem) -> tuple[str, float, float]:
+def _binding(payload, pm, gm, problem: LoopProblem) -> Binding:
     """The requirement with the least slack relative to the requirement, and where."""
     req = problem.requirements
     slack = {"phase_margin": (pm - req.phase_margin_deg, max(req.phase_margin_deg, 1.0)),
              "gain_margin": (np.where(np.isfinite(gm), gm - req.gain_margin_db, np.inf), max(req.gain_margin_db, 1.0))}
     name = min(slack, key=lambda k: np.min(slack[k][0]) / slack[k][1])
     i = int(np.argmin(slack[name][0]))
-    return name, float(payload[i]), float(slack[name][0][i])
+    return Binding(name, float(payload[i]), slack=float(slack[name][0][i]))
 
 
 def _independent_failures(payload, w, G, controller: PI, problem: LoopProblem) -> list[str]:

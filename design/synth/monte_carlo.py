@@ -15,6 +15,7 @@ import numpy as np
 
 from design.loop.controller import PI
 from design.loop.fast import fast_analyse_loop
+from design.loop.requirement import ScenarioPoint
 from design.problem import LoopProblem
 from design.synth.scenarios import random_scenarios
 from design.synth.verify import MARGIN_TOLERANCE
@@ -37,8 +38,8 @@ class MonteCarloCheck:
     worst_phase_margin_deg: float
     worst_gain_margin_db: float
     worst_bandwidth_hz: float
-    #: the draw with the least slack: payload_kg and the uncertain parameters
-    worst_scenario: dict
+    #: the draw with the least slack
+    worst_scenario: ScenarioPoint
     unstable: int
     #: every draw: payload (kg), phase margin (deg), gain margin (dB), bandwidth (Hz), shaped (samples,)
     #: (the report plots them; not compared)

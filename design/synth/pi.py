@@ -48,13 +48,14 @@ import numpy as np
 from design.loop.analysis import ANALYSIS_GRID_RAD_S
 from design.loop.controller import PI
 from design.loop.discrete import DiscreteCheck, DiscreteDesign, check_discrete, discretise
+from design.loop.requirement import ScenarioPoint
 from design.problem import LoopProblem, with_filter_values
 from design.synth.ccp import ccp_design
 from design.synth.evaluation import Evaluation, evaluate
 from design.synth.exact import exact_design
 from design.synth.filter_scan import scan_filters
 from design.synth.monte_carlo import MonteCarloCheck, monte_carlo_check
-from design.synth.scan import W_OPT, Scan, scan_gains
+from design.synth.scan import W_OPT, Scan, ScanDiagnosis, scan_gains
 from design.synth.scenarios import Scenarios, check_scenarios, describe_row, design_scenarios
 from design.synth.verify import Verification, verify
 from plant.errors import SpecError
@@ -141,8 +142,8 @@ class SynthesisResult:
     baseline_names: tuple[str, ...] = ()
     payload_points_used: tuple[float, ...] = ()
     details: dict = field(default_factory=dict)
-    #: overrides the evaluation's binding (infeasible problems: from the scan's diagnosis)
-    binding: dict | None = None
+    #: why no gains meet the requirements (infeasible problems): its binding overrides the evaluation's
+    diagnosis: ScanDiagnosis | None = None
     #: independent draws over payload x the uncertainty (problems with uncertainty, optimal designs)
     monte_carlo: MonteCarloCheck | None = None
     #: the design at ``controller.loop_rate_hz`` and python-control's check of its discrete loop
@@ -292,7 +293,7 @@ def synthesise_pi(problem: LoopProblem, *, method: str = "ccp+exact", max_rounds
 
 def _robust(problem: LoopProblem, method: str, max_rounds: int, say: Callable[[str], None]) -> SynthesisResult:
     """The design on the scenarios, repeated with the Monte Carlo check's worst violators added."""
-    extra: list[dict] = []
+    extra: list[ScenarioPoint] = []
     for k in range(MONTE_CARLO_ROUNDS + 1):
         result = _synthesise(problem, method, max_rounds, extra, problem.verification.seed + k, say)
         mc = result.monte_carlo
@@ -390,7 +391,7 @@ def _with_designed_filters(problem: LoopProblem, method: str, max_rounds: int,
                    details={**best.details, **notes})
 
 
-def _synthesise(problem: LoopProblem, method: str, max_rounds: int, extra: list[dict],
+def _synthesise(problem: LoopProblem, method: str, max_rounds: int, extra: list[ScenarioPoint],
                 seed: int, say: Callable[[str], None]) -> SynthesisResult:
     check_supported(problem)
     if method not in ("ccp", "ccp+exact"):
@@ -435,7 +436,7 @@ def _synthesise(problem: LoopProblem, method: str, max_rounds: int, extra: list[
             if good:
                 break
             top = best_bad[1] if best_bad else None
-        if top is None or top.binding["payload_kg"] is None or points.contains(top.worst_scenario):
+        if top is None or top.binding.payload_kg is None or points.contains(top.worst_scenario):
             break
         points = points.with_row(top.worst_scenario)
     seconds, cpu = time.perf_counter() - t0, time.process_time() - c0
@@ -453,20 +454,17 @@ def _synthesise(problem: LoopProblem, method: str, max_rounds: int, extra: list[
         if scan.screened:
             scan = scan_gains(problem, scanned.plants(problem.plant.plant()).frd(W_OPT))
         d = scan.diagnose(scanned)
-        what, where = d["constraint"].replace("_", " "), d["where"]
-        short = (f"kp = {d['kp']:.4g}, ki = {d['ki']:.4g} miss it by {-100 * d['relative_slack']:.1f} %"
-                 if d["relative_slack"] > -1 else f"the closed loop is unstable, e.g. kp = {d['kp']:.4g}, "
-                                                 f"ki = {d['ki']:.4g}")
+        what, where, slack = d.binding.constraint.replace("_", " "), d.where, d.binding.relative_slack
+        short = (f"kp = {d.kp:.4g}, ki = {d.ki:.4g} miss it by {-100 * slack:.1f} %"
+                 if slack > -1 else f"the closed loop is unstable, e.g. kp = {d.kp:.4g}, ki = {d.ki:.4g}")
         message = (f"no gains within the controller bounds meet the requirements at {where}: the {what} falls short "
-                   f"there even for the gains best for that payload alone ({short})" if d["alone"] else
+                   f"there even for the gains best for that payload alone ({short})" if d.alone else
                    f"each payload alone can meet the requirements, but no single pair of gains within the controller "
                    f"bounds meets them at every payload: the {what} at {where} binds (the least violating gains "
                    f"{short})")
-        ev = evaluate(problem, PI(d["kp"], d["ki"]), dense)
-        return SynthesisResult("infeasible", message, ev, None, method, seconds, base, names, pts,
-                               {**details, "diagnosis": d},
-                               binding={"constraint": d["constraint"], "payload_kg": d["payload_kg"],
-                                        "relative_slack": d["relative_slack"]})
+        ev = evaluate(problem, PI(d.kp, d.ki), dense)
+        return SynthesisResult("infeasible", message, ev, None, method, seconds, base, names, pts, details,
+                               diagnosis=d)
     # designs that agree to 9 digits are one design, named after the first candidate that found it
     good.sort(key=lambda g: -float(f"{g[1].worst_bandwidth_hz:.9g}"))
     faster = [ev for ev in failed if ev.worst_bandwidth_hz > good[0][1].worst_bandwidth_hz]
@@ -495,12 +493,12 @@ def _synthesise(problem: LoopProblem, method: str, max_rounds: int, extra: list[
     if req_bw is not None and ev.worst_bandwidth_hz < req_bw:
         i = int(np.argmin(ev.bandwidth_hz))
         b = ev.binding
-        where = "" if b["payload_kg"] is None else f" at {b['payload_kg']:.1f} kg"
+        where = "" if b.payload_kg is None else f" at {b.payload_kg:.1f} kg"
         return SynthesisResult(
             "infeasible", f"the best worst-case bandwidth is {ev.worst_bandwidth_hz:.2f} Hz at {ev.payload_kg[i]:.1f} "
             f"kg (kp = {ev.controller.kp:.4g}, ki = {ev.controller.ki:.4g}), below requirements.min_bandwidth_hz = "
             f"{req_bw:g}; "
-            f"the {b['constraint'].replace('_', ' ')}{where} "
+            f"the {b.constraint.replace('_', ' ')}{where} "
             "limits it", ev, v, method, seconds, base, names, pts, details)
     discrete = None
     if problem.controller.loop_rate_hz is not None:

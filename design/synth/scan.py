@@ -9,6 +9,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from design.loop.margins import closed_loop_bandwidth_hz, crossover_margins, loop_margins, nyquist_stable
+from design.loop.requirement import Binding
 from design.problem import LoopProblem
 from design.synth.evaluation import bandwidth_circle, requirement_circles
 from design.synth.scenarios import Scenarios
@@ -28,8 +29,22 @@ def _gain_grid(lo: float, hi: float, n: int) -> np.ndarray:
 
 
 @dataclass(frozen=True)
+class ScanDiagnosis:
+    """Why no gains of the scan meet the requirements (``Scan.diagnose``)."""
+
+    #: the requirement that falls short, the payload (kg) and the relative slack there (negative)
+    binding: Binding
+    #: that scenario in words ('5.0 kg, damping_n_s_per_m = 330')
+    where: str
+    #: the gains that fall least short there (A/(m/s), A/m)
+    kp: float
+    ki: float
+    #: even the gains best for that payload alone miss it (False: each payload alone is feasible, no single pair of
+    #: gains holds at every payload)
+    alone: bool
 
 
+@dataclass(frozen=True)
 class Scan:
     """A log grid of gains evaluated on ``W_OPT`` at the payload points (linear-interpolated margins)."""
 
@@ -50,7 +65,7 @@ class Scan:
     #: other scenarios is nan, their figures are those of the screening scenarios)
     screened: bool = False
 
-    def diagnose(self, scenarios: Scenarios) -> dict:
+    def diagnose(self, scenarios: Scenarios) -> ScanDiagnosis:
         """Why nothing on the scan meets the requirements: the payload where the best gains for that
         payload alone fall furthest short, or, when each payload alone is feasible, the conflict."""
         if self.screened:
@@ -60,15 +75,12 @@ class Scan:
         j = int(np.argmin(alone))
         if alone[j] < 0:
             i = int(np.argmax(per[:, j]))
-            name = min(self.slack, key=lambda k: self.slack[k][i, j])
-            return {"constraint": name, "payload_kg": float(scenarios.payload_kg[j]), "where": scenarios.describe(j),
-                    "relative_slack": float(alone[j]), "kp": float(self.kp[i]), "ki": float(self.ki[i]),
-                    "alone": True}
-        i = int(np.argmax(per.min(axis=1)))
-        j = int(np.argmin(per[i]))
+        else:
+            i = int(np.argmax(per.min(axis=1)))
+            j = int(np.argmin(per[i]))
         name = min(self.slack, key=lambda k: self.slack[k][i, j])
-        return {"constraint": name, "payload_kg": float(scenarios.payload_kg[j]), "where": scenarios.describe(j),
-                "relative_slack": float(per[i, j]), "kp": float(self.kp[i]), "ki": float(self.ki[i]), "alone": False}
+        binding = Binding(name, float(scenarios.payload_kg[j]), relative_slack=float(per[i, j]))
+        return ScanDiagnosis(binding, scenarios.describe(j), float(self.kp[i]), float(self.ki[i]), bool(alone[j] < 0))
 
     def best(self, mask: np.ndarray, score: np.ndarray, k: int = 1) -> list[int]:
         """Indices of the ``k`` best entries of ``score`` under ``mask`` (distinct gains)."""

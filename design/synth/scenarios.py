@@ -14,6 +14,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from design.loop.requirement import ScenarioPoint
 from design.loop.sweep import checked_ranges
 from design.problem import LoopProblem
 from plant.physics.models import Plant
@@ -65,22 +66,22 @@ class Scenarios:
         return base.with_values({"mass_kg": float(self.payload_kg[k]),
                                  **{n: float(v[k]) for n, v in self.parameters.items()}})
 
-    def row(self, k: int) -> dict[str, float]:
-        return {"payload_kg": float(self.payload_kg[k]), **{n: float(v[k]) for n, v in self.parameters.items()}}
+    def row(self, k: int) -> ScenarioPoint:
+        return ScenarioPoint(float(self.payload_kg[k]), tuple((n, float(v[k])) for n, v in self.parameters.items()))
 
     def describe(self, k: int) -> str:
         """'5.0 kg' or '5.0 kg, damping_n_s_per_m = 330, delay.seconds = 0.0008'."""
         extra = "".join(f", {n} = {v[k]:.4g}" for n, v in self.parameters.items())
         return f"{self.payload_kg[k]:.1f} kg{extra}"
 
-    def with_row(self, row: dict[str, float]) -> Scenarios:
-        return Scenarios(np.append(self.payload_kg, row["payload_kg"]),
-                         {n: np.append(v, row[n]) for n, v in self.parameters.items()})
+    def with_row(self, row: ScenarioPoint) -> Scenarios:
+        return Scenarios(np.append(self.payload_kg, row.payload_kg),
+                         {n: np.append(v, row.parameter(n)) for n, v in self.parameters.items()})
 
-    def contains(self, row: dict[str, float]) -> bool:
-        same = np.isclose(self.payload_kg, row["payload_kg"], rtol=1e-9, atol=0)
+    def contains(self, row: ScenarioPoint) -> bool:
+        same = np.isclose(self.payload_kg, row.payload_kg, rtol=1e-9, atol=0)
         for n, v in self.parameters.items():
-            same &= np.isclose(v, row[n], rtol=1e-9, atol=0)
+            same &= np.isclose(v, row.parameter(n), rtol=1e-9, atol=0)
         return bool(np.any(same))
 
     def take(self, rows) -> Scenarios:
@@ -149,9 +150,9 @@ def random_scenarios(problem: LoopProblem, samples: int, *, seed: int) -> Scenar
     return Scenarios(m, {n: rng.uniform(lo, hi, samples) for n, (lo, hi) in uncertainty_ranges(problem).items()})
 
 
-def describe_row(row: dict[str, float]) -> str:
-    """A scenario's row (``Scenarios.row``) as 'payload_kg = 40, damping_n_s_per_m = 330, ...'."""
-    return ", ".join(f"{k} = {v:.4g}" for k, v in row.items())
+def describe_row(row: ScenarioPoint) -> str:
+    """A scenario (``Scenarios.row``) as 'payload_kg = 40, damping_n_s_per_m = 330, ...'."""
+    return ", ".join(f"{k} = {v:.4g}" for k, v in row.as_dict().items())
 
 
 @dataclass(frozen=True)

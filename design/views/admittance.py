@@ -51,7 +51,7 @@ def add_admittance_section(report: Report, problem: LoopProblem, outcome: Design
                f"{loc.peak_acceleration_m_per_s2:g} m/s²) and can push {a.mouse.peak_force_n:g} N. "
                f"m_v = {r.m_v:.4g} kg, b_v = {r.b_v:.4g} N·s/m with {r.controller} "
                f"(admittance law {rig}). Interaction loop (broken at the force-sensor signal), worst over "
-               f"{len(c.scenarios)} scenarios: {margins}. Binding: {units(r.binding['detail'])}. Passive up to "
+               f"{len(c.scenarios)} scenarios: {margins}. Binding: {units(r.binding.detail)}. Passive up to "
                f"{passive_text(c)} Hz; stable on a grounded spring up to "
                f"{num(r.contact.worst_n_per_m, '.4g')} N/m. Rendered admittance within 3 dB / 30° of "
                f"1/(m_v s + b_v) up to {bandwidth_text(c)} Hz. {_verified(r)}{_mc(r)}{_latency(r)}</div>")

@@ -11,6 +11,7 @@ import numpy as np
 
 from design.admittance.mouse import MouseModel
 from design.loop.curves import scenario_label
+from design.loop.requirement import Binding
 from design.views.plots import fixed_margins
 from plant.bode import bode
 
@@ -143,18 +144,18 @@ def rendered_figure(curves, check, passivity=None):
     return fig
 
 
-def _checked_value(check, values, binding: dict) -> float:
+def _checked_value(check, values, binding: Binding[MouseModel]) -> float:
     """The check's margin at the binding's scenario and mouse when the check computed it, else the binding's."""
-    sc, row = check.scenarios, binding["scenario"]
-    j = np.flatnonzero(np.isclose(sc.payload_kg, row["payload_kg"]) & np.all(
-        [np.isclose(v, row[n]) for n, v in sc.parameters.items()], axis=0))
-    k = [i for i, m in enumerate(check.mice) if m.as_dict() == binding["mouse"]]
+    sc, row = check.scenarios, binding.scenario
+    j = np.flatnonzero(np.isclose(sc.payload_kg, row.payload_kg) & np.all(
+        [np.isclose(v, row.parameter(n)) for n, v in sc.parameters.items()], axis=0))
+    k = [i for i, m in enumerate(check.mice) if m == binding.mouse]
     if j.size and k and np.isfinite(values[k[0], j[0]]):
         return float(values[k[0], j[0]])
-    return float(binding["value"])
+    return float(binding.value)
 
 
-def margin_figures(check, adm, binding: dict) -> list:
+def margin_figures(check, adm, binding: Binding[MouseModel]) -> list:
     """Worst interaction-loop phase margin (deg) and gain margin (dB) over the uncertainty at each payload (kg),
     floating and braced mice, with the requirement and whether each meets it; the summary's binding scenario
     marked on the margin it binds."""
@@ -175,11 +176,11 @@ def margin_figures(check, adm, binding: dict) -> list:
             ax.plot(payloads, np.where(np.isfinite(y), y, np.nan), "o-", ms=3,
                     label=f"{name} mice: worst {num(low)} {unit}: {'meets' if low >= limit - 1e-6 else 'FAILS'}")
         ax.axhline(limit, **LIMIT_STYLE, label=f"required {limit:g} {unit}")
-        if binding.get("constraint") == key and binding.get("payload_kg") is not None:
-            mouse = "braced" if MouseModel(**binding["mouse"]).grounded else "floating"
+        if binding.constraint == key and binding.payload_kg is not None:
+            mouse = "braced" if binding.mouse.grounded else "floating"
             value = _checked_value(check, values, binding)
-            ax.plot([binding["payload_kg"]], [value], **BINDING_STYLE,
-                    label=f"{scenario_label(binding['scenario'])},\n{mouse} mouse: {value:.1f} {unit}")
+            ax.plot([binding.payload_kg], [value], **BINDING_STYLE,
+                    label=f"{scenario_label(binding.scenario)},\n{mouse} mouse: {value:.1f} {unit}")
         ax.set(xlabel="payload (kg)", ylabel=f"{what} ({unit})")
         ax.set_title(f"Interaction-loop {what}, worst over the uncertainty" + (" (gaps: ∞)" if unit == "dB" else ""),
                      fontsize=10)

@@ -64,7 +64,7 @@ def _admittance_section(rep: Report, r, curves) -> None:
     if curves is None:
         return
     rep.text(f"On the {r.structure} loops: m_v = {r.m_v:.4g} kg, b_v = {r.b_v:.4g} N*s/m (m_v a + b_v v = "
-             f"{r.peak_resistance_n:.3g} N on the locomotion profile). Binding: {r.binding['detail']}.")
+             f"{r.peak_resistance_n:.3g} N on the locomotion profile). Binding: {r.binding.detail}.")
     rep.raw(table(["carriage position m", "PM deg", "GM dB", "rendered bandwidth Hz", "motor force N"],
                   [[f"{p.carriage_position_m:.3g}", f"{p.phase_margin_deg:.2f}", f"{p.gain_margin_db:.2f}",
                     f"{p.rendered_bandwidth_hz:.2f}", f"{p.motor_force_n:.4g}"] for p in r.by_position]))

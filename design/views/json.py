@@ -23,10 +23,12 @@ from plant.identify.time_fit import TimeFitResult, bic
 if TYPE_CHECKING:
     from design.admittance.dual import DualAdmittanceResult
     from design.admittance.monte_carlo import AdmittanceMonteCarlo
+    from design.admittance.mouse import MouseModel
     from design.admittance.synthesis import AdmittanceResult
     from design.admittance.verify import AdmittanceVerification
     from design.loop.analysis import PayloadSweep
     from design.loop.discrete import DiscreteCheck, DiscreteDesign
+    from design.loop.requirement import Binding
     from design.loop.sweep import SweepResult
     from design.problem import LoopProblem
     from design.results import DesignOutcome, DiagnosisOutcome, FitOutcome
@@ -35,6 +37,7 @@ if TYPE_CHECKING:
     from design.synth.measured import MeasuredDesign
     from design.synth.monte_carlo import MonteCarloCheck
     from design.synth.pi import SynthesisResult
+    from design.synth.scan import ScanDiagnosis
     from design.synth.schedule import SchedulePoint
     from design.synth.verify import Verification
     from plant.data.recordings import Recording
@@ -314,7 +317,39 @@ def evaluation_to_dict(ev: Evaluation, label: str) -> dict:
             "worst_phase_margin_deg": finite_or_none(np.min(ev.phase_margin_deg)),
             "worst_gain_margin_db": finite_or_none(np.min(ev.gain_margin_db)),
             "stable": ev.stable, "meets_requirements": ev.meets,
-            "binding": ev.binding}
+            "binding": evaluation_binding_to_dict(ev)}
+
+
+def binding_to_dict(b: Binding) -> dict:
+    """The binding requirement of a PI design: constraint, payload (kg) and the slack its producer knows (in the
+    requirement's unit, or relative to it)."""
+    return {"constraint": b.constraint, "payload_kg": b.payload_kg,
+            **({"slack": b.slack} if b.slack is not None else {}),
+            **({"relative_slack": b.relative_slack} if b.relative_slack is not None else {})}
+
+
+def evaluation_binding_to_dict(ev: Evaluation) -> dict:
+    """``binding_to_dict`` of an evaluation, with the requirements active there and, when the problem has
+    uncertainty, the uncertain parameters' values where it binds."""
+    b = ev.binding
+    parameters = {} if b.scenario is None else dict(b.scenario.parameters)
+    return {**binding_to_dict(b), "active": list(ev.active), **({"scenario": parameters} if parameters else {})}
+
+
+def scan_diagnosis_to_dict(d: ScanDiagnosis) -> dict:
+    """Why no gains of the scan meet the requirements (``solver.diagnosis`` of an infeasible PI design)."""
+    return {"constraint": d.binding.constraint, "payload_kg": d.binding.payload_kg, "where": d.where,
+            "relative_slack": d.binding.relative_slack, "kp": d.kp, "ki": d.ki, "alone": d.alone}
+
+
+def admittance_binding_to_dict(b: Binding[MouseModel]) -> dict:
+    """A requirement of an admittance design, binding or violated: where (scenario and mouse, None when the
+    requirement holds everywhere alike), its value and limit, in words, and what it was computed on."""
+    return {"constraint": b.constraint, "payload_kg": b.payload_kg,
+            "scenario": None if b.scenario is None else b.scenario.as_dict(),
+            "mouse": None if b.mouse is None else b.mouse.as_dict(), "value": b.value, "limit": b.limit,
+            "detail": b.detail, **({"source": b.source} if b.source is not None else {}),
+            **({"delay_samples": b.delay_samples} if b.delay_samples is not None else {})}
 
 
 def synthesis_to_dict(result: SynthesisResult) -> dict:
@@ -331,11 +366,14 @@ def synthesis_to_dict(result: SynthesisResult) -> dict:
                           "phase_margin_deg": finite_or_none(p), "gain_margin_db": finite_or_none(g)}
                          for m, b, p, g in zip(e.payload_kg, e.bandwidth_hz, e.phase_margin_deg,
                                                e.gain_margin_db)] if e else []),
-        "binding": result.binding or (e.binding if e else None),
+        "binding": (binding_to_dict(result.diagnosis.binding) if result.diagnosis is not None
+                    else evaluation_binding_to_dict(e) if e else None),
         "verified": bool(result.verification and result.verification.verified and ok),
         "verification": None if result.verification is None else verification_to_dict(result.verification),
         "solver": {"method": result.method, "seconds": result.seconds,
-                   "payload_points": list(result.payload_points_used), **result.details},
+                   "payload_points": list(result.payload_points_used), **result.details,
+                   **({"diagnosis": scan_diagnosis_to_dict(result.diagnosis)} if result.diagnosis is not None
+                      else {})},
         "baselines": [evaluation_to_dict(b, n) for b, n in zip(result.baselines, result.baseline_names)],
         **({"monte_carlo": monte_carlo_to_dict(result.monte_carlo)} if result.monte_carlo is not None else {}),
         **({"discrete": discrete_to_dict(*result.discrete)} if result.discrete is not None else {}),
@@ -369,7 +407,8 @@ def monte_carlo_to_dict(mc: MonteCarloCheck) -> dict:
             "rate_upper_bound_95": mc.rate_upper_bound, "unstable": mc.unstable,
             "worst_phase_margin_deg": finite_or_none(mc.worst_phase_margin_deg),
             "worst_gain_margin_db": finite_or_none(mc.worst_gain_margin_db),
-            "worst_bandwidth_hz": finite_or_none(mc.worst_bandwidth_hz), "worst_scenario": mc.worst_scenario,
+            "worst_bandwidth_hz": finite_or_none(mc.worst_bandwidth_hz),
+            "worst_scenario": mc.worst_scenario.as_dict(),
             "sampling": "uniform and independent over the payload range and each plant.uncertainty range; "
                         "none of the draws is a design scenario",
             "bound": "Clopper-Pearson, one-sided 95 %"}
@@ -432,7 +471,8 @@ def admittance_monte_carlo_to_dict(mc: AdmittanceMonteCarlo) -> dict:
             "worst_phase_margin_deg": finite_or_none(mc.worst_phase_margin_deg),
             "worst_gain_margin_db": finite_or_none(mc.worst_gain_margin_db),
             "worst_sensor_current_a": mc.worst_sensor_current_a, "worst_motor_force_n": mc.worst_motor_force_n,
-            "worst_scenario": mc.worst_scenario, "worst_mouse": mc.worst_mouse, "margins_computed": mc.exact,
+            "worst_scenario": mc.worst_scenario.as_dict(), "worst_mouse": mc.worst_mouse.as_dict(),
+            "margins_computed": mc.exact,
             "sampling": "uniform and independent over the payload range, each plant.uncertainty range and each "
                         "admittance.mouse range (leg stiffness log-uniform, a quarter of the mice floating); none "
                         "of the draws is a design scenario",
@@ -469,7 +509,7 @@ def recorded_force_to_dict(c, adm) -> dict | None:
     if worst is None:
         return {**out, "motor_peak_force_n": None, "checked": "not computed (a continuous law)"}
     peak, at_s, j = worst
-    return {**out, "motor_peak_force_n": peak, "at_s": at_s, "scenario": c.scenarios.row(j),
+    return {**out, "motor_peak_force_n": peak, "at_s": at_s, "scenario": c.scenarios.row(j).as_dict(),
             "where": c.scenarios.describe(j),
             "checked": f"on the dense check's {len(c.scenarios)} scenarios (payload points x uncertainty corners) at "
                        "every computation delay; the Monte Carlo draws are checked on the locomotion profile only",
@@ -492,7 +532,7 @@ def admittance_to_dict(result: AdmittanceResult, problem: LoopProblem) -> dict:
         **result.controller.gains(),
         "peak_resistance_n": result.peak_resistance_n if designed else None,
         **_check_figures(c),
-        "binding": result.binding, "active": list(result.active),
+        "binding": admittance_binding_to_dict(result.binding), "active": list(result.active),
         "verified": result.verified,
         "mouse_can_follow_profile": None if feel is None else feel.can_drive,
         **_admittance_setting(adm, timing, result.discrete),
@@ -508,7 +548,7 @@ def admittance_to_dict(result: AdmittanceResult, problem: LoopProblem) -> dict:
                          "sensor_current_a": float(w["sensor_current_a"][j]),
                          "motor_force_n": float(w["motor_force_n"][j])} for j, m in enumerate(payloads)],
         "check_scenarios": len(c.scenarios),
-        "violations": [v["detail"] for v in c.violations],
+        "violations": [v.detail for v in c.violations],
         "verification": None if result.verification is None else
         admittance_verification_to_dict(result.verification),
         "monte_carlo": None if result.monte_carlo is None else admittance_monte_carlo_to_dict(result.monte_carlo),
@@ -611,7 +651,7 @@ def dual_admittance_to_dict(result: DualAdmittanceResult, problem: LoopProblem) 
         "status": result.status, "message": result.message, "structure": result.structure, "gains": result.gains,
         "m_v": result.m_v if designed else None, "b_v": result.b_v if designed else None,
         "peak_resistance_n": result.peak_resistance_n if designed else None,
-        **_check_figures(c), "binding": result.binding,
+        **_check_figures(c), "binding": admittance_binding_to_dict(result.binding),
         "verified": result.status in ("optimal", "mouse_cannot_drive"),
         "mouse_can_follow_profile": None if result.feel is None else result.feel.can_drive,
         "worst_carriage_position_m": worst.carriage_position_m,
@@ -621,7 +661,7 @@ def dual_admittance_to_dict(result: DualAdmittanceResult, problem: LoopProblem) 
         **({"latency": latency_to_dict(result.latency)} if result.latency is not None else {}),
         "mice": [m.as_dict() for m in result.corners],
         "check_scenarios": len(c.scenarios), "design_scenarios": result.design_scenarios,
-        "violations": [v["detail"] for v in c.violations],
+        "violations": [v.detail for v in c.violations],
         "monte_carlo": None if result.monte_carlo is None else admittance_monte_carlo_to_dict(result.monte_carlo),
         "solver": {"method": "rays m_v / b_v on the structure's loops seen from the head clamp "
                              "(design.admittance.dual); dense check over carriage position x payload x uncertainty "
@@ -651,7 +691,7 @@ def measured_design_to_dict(d: MeasuredDesign) -> dict:
                              "gain_margin_db": finite_or_none(g)}
                             for p, b, pm, g in zip(d.payload_kg, d.bandwidth_hz, d.phase_margin_deg,
                                                    d.gain_margin_db)],
-            "binding": {"constraint": d.binding[0], "payload_kg": d.binding[1], "slack": d.binding[2]},
+            "binding": binding_to_dict(d.binding),
             "verified": d.verified,
             "verification": {"tool": "python-control stability_margins on the measured FRD (open loop assumed "
                                      "stable)", "failures": list(d.failures), "payloads": int(d.payload_kg.size)},

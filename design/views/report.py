@@ -29,15 +29,15 @@ from plant.host.text_io import read_text
 def limiting_text(ev: Evaluation, requirements) -> str:
     """The requirement with the least slack and where: e.g. "phase margin 45.00 deg (required 45) at 40.0 kg"."""
     b = ev.binding
-    if b["payload_kg"] is None:
-        return f"the gain bound {b['constraint']}"
-    i = int(np.argmin(np.abs(ev.payload_kg - b["payload_kg"])))
-    where = f"{ev.payload_kg[i]:.1f} kg" + "".join(f", {k} = {v:.4g}" for k, v in (b.get("scenario") or {}).items())
-    if b["constraint"] == "gain_margin":
+    if b.payload_kg is None:
+        return f"the gain bound {b.constraint}"
+    i = int(np.argmin(np.abs(ev.payload_kg - b.payload_kg)))
+    where = f"{ev.payload_kg[i]:.1f} kg" + "".join(f", {k} = {v:.4g}" for k, v in b.scenario.parameters)
+    if b.constraint == "gain_margin":
         return f"gain margin {ev.gain_margin_db[i]:.2f} dB (required {requirements.gain_margin_db:g}) at {where}"
-    if b["constraint"] == "phase_margin":
+    if b.constraint == "phase_margin":
         return f"phase margin {ev.phase_margin_deg[i]:.2f} deg (required {requirements.phase_margin_deg:g}) at {where}"
-    return f"{b['constraint'].replace('_', ' ')} (slack {b['slack']:.3g}) at {where}"
+    return f"{b.constraint.replace('_', ' ')} (slack {b.slack:.3g}) at {where}"
 
 
 #: the binding scenario's curves: black and dashed, drawn over the payloads'

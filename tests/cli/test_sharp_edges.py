@@ -144,10 +144,10 @@ def test_a_p_only_loop_is_measured_against_the_reference_it_does_not_reach():
 def test_a_pi_design_requires_integral_action_unless_the_spec_admits_p_only():
     required = thesis_problem()
     ev = evaluate(required, PI(1500.0, 0.0))
-    assert not ev.meets and ev.binding["constraint"] == "integral_action"
+    assert not ev.meets and ev.binding.constraint == "integral_action"
     optional = thesis_problem(integral="optional")
-    assert evaluate(optional, PI(1500.0, 0.0)).binding["constraint"] != "integral_action"
-    assert evaluate(required, PI(1500.0, 47.0)).binding["constraint"] != "integral_action"
+    assert evaluate(optional, PI(1500.0, 0.0)).binding.constraint != "integral_action"
+    assert evaluate(required, PI(1500.0, 47.0)).binding.constraint != "integral_action"
 
 
 def test_a_stepped_sine_without_its_frequency_column_or_with_one_block_is_named_with_the_file(tmp_path):

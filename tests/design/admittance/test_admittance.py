@@ -401,7 +401,7 @@ def test_the_motor_is_judged_on_the_locomotion_profile_or_on_the_worst_sinusoid_
     # enough that the gantry lags the mouse within 30 N, the mouse cannot drive that, and the motor is named
     data["admittance"]["hardware"] = {"motor_peak_force_n": 30.0}
     weak = synthesise_admittance(parse_spec(data).problem())
-    assert weak.status == "mouse_cannot_drive" and weak.binding["constraint"] == "motor_force"
+    assert weak.status == "mouse_cannot_drive" and weak.binding.constraint == "motor_force"
     assert "motor_peak_force_n = 30" in weak.message and np.max(weak.check.motor_force_n) <= 30.0 * (1 + 1e-6)
 
 
@@ -638,4 +638,4 @@ def test_a_computation_delay_range_is_designed_to_hold_at_every_delay_of_it():
         singles[d] = synthesise_admittance(parse_spec(one).problem(), controller=PI(140.0, 15.0), tradeoff=False)
     assert res.peak_resistance_n >= max(r.peak_resistance_n for r in singles.values()) * (1 - 1e-3)
     assert res.peak_resistance_n > singles[0].peak_resistance_n * 1.01      # the range costs the mouse something
-    assert "sample" in res.binding["detail"], res.binding
+    assert "sample" in res.binding.detail, res.binding

@@ -146,4 +146,4 @@ def test_a_record_that_asks_too_much_moves_the_design_until_the_motor_holds_it_a
     res = synthesise_admittance(parse_spec(data).problem(), tradeoff=False)
     peak, _, _ = res.check.recorded_worst()
     assert res.status == "optimal" and peak <= 240.0 * (1 + 1e-6)
-    assert "force_record" in res.binding["detail"] and res.b_v > 4.96
+    assert "force_record" in res.binding.detail and res.b_v > 4.96

@@ -158,7 +158,7 @@ def test_margins_agree_with_the_independent_sampled_loop_at_five_designs():
         check = ev.evaluate(m_v, b_v, screen=False)
         for arr in (check.phase_margin_deg, check.gain_margin_db):
             k, j = np.unravel_index(np.nanargmin(arr), arr.shape)
-            pm, gm, f_pc, stable = _reference_margins(kp, ki, m_v, b_v, check.mice[k], sc.row(j))
+            pm, gm, f_pc, stable = _reference_margins(kp, ki, m_v, b_v, check.mice[k], sc.row(j).as_dict())
             assert bool(check.stable[k, j]) == stable, (kp, ki, m_v, b_v)
             if not stable:
                 continue

@@ -98,8 +98,8 @@ def test_exact_refinement_improves_on_the_conservative_circles():
     exact = synthesise_pi(spec)
     assert ccp.status == exact.status == "optimal"
     # the margin circle is conservative: its design keeps spare phase margin, the exact one does not
-    assert ccp.evaluation.binding["slack"] > 1.0
-    assert abs(exact.evaluation.binding["slack"]) < 0.1
+    assert ccp.evaluation.binding.slack > 1.0
+    assert abs(exact.evaluation.binding.slack) < 0.1
     assert exact.evaluation.worst_bandwidth_hz > ccp.evaluation.worst_bandwidth_hz
 
 
@@ -357,7 +357,7 @@ def test_peak_sensitivity_and_disk_margin_requirements_hold():
     m = analyse_loop(spec.plant.plant().with_payload(np.linspace(5, 40, 71)), res.evaluation.controller).margins
     assert np.max(m.peak_sensitivity) <= 1.6 + 1e-3 and np.min(m.disk_margin) >= 0.6 - 1e-3
     # Ms = 1.6 shapes the design: it is active, and the bandwidth falls below the PM/GM-only optimum (45.2 Hz)
-    assert "peak_sensitivity" in res.evaluation.binding["active"]
+    assert "peak_sensitivity" in res.evaluation.active
     assert res.evaluation.worst_bandwidth_hz < 0.9 * 45.17
 
 

@@ -9,9 +9,11 @@ more as keep w h <= ``MAX_W_H`` for the fastest rate w of the continuous part), 
 * the drive chain E (the current loop, any rational drive factor; the delay and the drive's sampling act on
   the discrete part below) from the current command i_c to the motor current i, motor force F_m = K_t i;
 * the mechanics (``plant.physics.models.chain_state_space``: the rails' body, a payload or carriage mode, Stage
-  Y's both rails' damping) driven by F_m - F_f + F_s at the motor's body, the clamp's velocity v the chain's
-  sensed velocity (as ``design.admittance.sampled.free_gantry``), dx/dt = v; Coulomb friction of the rails
-  regularised F_f = F_c tanh(v_0 / v_s) on the motor's body velocity v_0;
+  Y's both rails' damping) driven by F_m + F_r + F_s at the motor's body, the clamp's velocity v the chain's
+  sensed velocity (as ``design.admittance.sampled.free_gantry``), dx/dt = v, the rails' position x_0 the
+  integral of the motor body's velocity v_0; F_r = -F_f + the forces the plant's effects put on the rails
+  (``rail_force_n`` at x_0 and F_m: an offset, a force ripple, a force-constant profile), Coulomb friction
+  regularised F_f = F_c tanh(v_0 / v_s);
 * the head (m_h) rides the clamp: F_s = F_n - m_h dv/dt (with the mechanics' instantaneous dv/dt, solved);
   for a rigid Stage X that is (M + m_h) dv/dt = F_m + F_n - b v - F_f;
 * the sensor chain H (a sensor filter) from v to the velocity the drive measures, v_m;
@@ -124,21 +126,24 @@ class RunTrace:
 
 @dataclass(frozen=True)
 class GantryModel:
-    """The run's continuous linear part (module docstring) as dz/dt = A z + b_c i_c + b_f F_f + b_l F_leg +
-    b_p p (p = m_b a_d + F_ff + k_l x_d + c_l v_d, the legs' drive before their clip), states z = (drive chain,
-    mechanics, sensor chain, clamp position x, body position x_b, body velocity v_b, force filter); each
-    signal a row over (z, i_c, F_f, F_leg)."""
+    """The run's continuous linear part (module docstring) as dz/dt = A z + b_c i_c + b_r F_r + b_l F_leg, with
+    F_r the forces on the rails besides the motor's (the friction's -F_f and each effect's ``rail_force_n``) and
+    F_leg the legs' clipped force; states z = (drive chain, mechanics, sensor chain, clamp position x, body
+    position x_b, body velocity v_b, force filter, the rails' position x_0); each signal a row over
+    (z, i_c, F_r, F_leg)."""
 
     A: np.ndarray
-    inputs: np.ndarray          # columns: i_c, F_f, F_leg
+    inputs: np.ndarray          # columns: i_c, F_r, F_leg
     legs: np.ndarray            # row over z: the legs' drive without the path's terms
     velocity: np.ndarray        # clamp velocity v (row over z)
     measured: np.ndarray        # the drive's measured velocity v_m (row over z)
     rail: np.ndarray            # the motor body's velocity v_0 (row over z)
-    sensed: np.ndarray          # F_s, row over (z, i_c, F_f, F_leg)
+    motor_force: np.ndarray     # K_t i, row over (z, i_c)
+    sensed: np.ndarray          # F_s, row over (z, i_c, F_r, F_leg)
     current: np.ndarray         # motor current i, row over (z, i_c)
-    reading: np.ndarray         # the force the law reads (F_sf, or F_s without filter), row over (z, i_c, F_f, F_leg)
+    reading: np.ndarray         # the force the law reads (F_sf, or F_s without filter), row over (z, i_c, F_r, F_leg)
     position: int
+    rail_position: int
     body: tuple[int, int]
     fastest_rad_s: float
 
@@ -156,8 +161,9 @@ def gantry_model(s: RunSettings) -> GantryModel:
     e, g, h = slice(0, ne), slice(ne, ne + ng), slice(ne + ng, ne + ng + nh)
     ix, ixb, ivb = ne + ng + nh, ne + ng + nh + 1, ne + ng + nh + 2
     f0 = ivb + 1
-    n = f0 + nf
-    IC, FF, FL = n, n + 1, n + 2          # columns of the inputs after the states
+    ixr = f0 + nf
+    n = ixr + 1
+    IC, FR, FL = n, n + 1, n + 2          # columns of the inputs after the states
     eye = np.eye(n + 3)
     v = np.zeros(n + 3)
     v[g] = Cg[0]
@@ -167,11 +173,11 @@ def gantry_model(s: RunSettings) -> GantryModel:
     beta = float(Cg[0] @ Bg[:, 0])          # dv/dt per force at the motor's body (1 / M for a rigid body)
     free = np.zeros(n + 3)
     free[g] = Cg[0] @ Ag
-    accel = (free + beta * (fm - eye[FF] + fn)) / (1 + beta * s.head_mass_kg)
+    accel = (free + beta * (fm + eye[FR] + fn)) / (1 + beta * s.head_mass_kg)
     fs = fn - s.head_mass_kg * accel
     rows = np.zeros((n, n + 3))
     rows[e] = E.A @ eye[e] + E.B @ eye[IC][None]
-    rows[g] = Ag @ eye[g] + Bg @ (fm - eye[FF] + fs)[None]
+    rows[g] = Ag @ eye[g] + Bg @ (fm + eye[FR] + fs)[None]
     rows[h] = H.A @ eye[h] + H.B @ v[None]
     rows[ix], rows[ixb] = v, eye[ivb]
     rows[ivb] = (eye[FL] - fn) / s.body_mass_kg
@@ -189,13 +195,14 @@ def gantry_model(s: RunSettings) -> GantryModel:
     legs = -s.leg_stiffness_n_per_m * eye[ixb] - s.leg_damping_n_s_per_m * eye[ivb]
     rail = np.zeros(n + 3)
     rail[ne] = 1.0                           # the chain's first state: the motor body's velocity
+    rows[ixr] = rail
     parts = [np.abs(np.linalg.eigvals(m)) for m in (E.A, Ag, H.A) if m.size]
     fastest = max([float(np.max(p)) for p in parts] + [
         2 * math.pi * (s.force_filter_hz or 0.0),
         math.sqrt((s.neck_stiffness_n_per_m + s.leg_stiffness_n_per_m) / s.body_mass_kg),
         (s.neck_damping_n_s_per_m + s.leg_damping_n_s_per_m) / s.body_mass_kg])
-    return GantryModel(rows[:, :n], rows[:, n:], legs[:n], v[:n], measured[:n], rail[:n], fs, current,
-                       eye[f0] if nf else fs, ix, (ixb, ivb), fastest)
+    return GantryModel(rows[:, :n], rows[:, n:], legs[:n], v[:n], measured[:n], rail[:n], fm[:n + 1], fs, current,
+                       eye[f0] if nf else fs, ix, ixr, (ixb, ivb), fastest)
 
 
 def simulate_mouse_run(settings: RunSettings, time_s, x_d, v_d, a_d) -> RunTrace:
@@ -216,17 +223,26 @@ def simulate_mouse_run(settings: RunSettings, time_s, x_d, v_d, a_d) -> RunTrace
     alpha, beta, beta_prev = law.alpha, law.beta_m_per_s_per_n, law.beta_prev_m_per_s_per_n
     n_z = g.A.shape[0]
     stages, step = _rk4_maps(g, h)
+    pushing = [e for e in s.plant.effects if e.rail_force]
 
-    def nonlinear(z, drive):
-        ff = fc * math.tanh(float(g.rail @ z) / vs) if fc > 0 else 0.0
-        return ff, min(max(float(g.legs @ z) + drive, -fmax), fmax)
+    def on_rails(v0, x0, motor_n):
+        """F_r: the friction against the rails' velocity and every effect's rail force."""
+        out = -fc * math.tanh(v0 / vs) if fc > 0 else 0.0
+        for e in pushing:
+            out += e.rail_force_n(x0, motor_n)
+        return out
 
-    def signal(row, z, ic, ff, fleg):
-        return float(row[:n_z] @ z + row[n_z] * ic + row[n_z + 1] * ff + row[n_z + 2] * fleg)
+    def nonlinear(z, ic, drive):
+        motor_n = float(g.motor_force[:n_z] @ z + g.motor_force[n_z] * ic)
+        return (on_rails(float(g.rail @ z), float(z[g.rail_position]), motor_n),
+                min(max(float(g.legs @ z) + drive, -fmax), fmax))
+
+    def signal(row, z, ic, fr, fleg):
+        return float(row[:n_z] @ z + row[n_z] * ic + row[n_z + 1] * fr + row[n_z + 2] * fleg)
 
     n = t.size
     z = np.zeros(n_z)
-    z[g.position] = z[g.body[0]] = float(xd_[0])
+    z[g.position] = z[g.body[0]] = z[g.rail_position] = float(xd_[0])
     rec = np.empty((9, n))
     queue = [0.0] * (s.computation_delay_samples + 1)
     commands = [0.0] * (s.delay_ticks + 1)
@@ -234,10 +250,10 @@ def simulate_mouse_run(settings: RunSettings, time_s, x_d, v_d, a_d) -> RunTrace
     for k in range(n):
         xd, vd, ad = float(xd_[k]), float(vd_[k]), float(ad_[k])
         drive = mb * ad + kl * xd + cl * vd + ((s.m_v * ad + s.b_v * vd) if s.feedforward else 0.0)
-        ff, fleg = nonlinear(z, drive)
-        fs = signal(g.sensed, z, ic, ff, fleg)
+        fr, fleg = nonlinear(z, ic, drive)
+        fs = signal(g.sensed, z, ic, fr, fleg)
         if k % n_a == 0:
-            reading = signal(g.reading, z, ic, ff, fleg)
+            reading = signal(g.reading, z, ic, fr, fleg)
             r = s.resolution_n * float(np.round((reading + s.bias_n) / s.resolution_n))
             r_db = r if abs(r) > s.deadband_n else 0.0
             v_a = alpha * v_a + beta * r_db + beta_prev * r_prev
@@ -258,25 +274,25 @@ def simulate_mouse_run(settings: RunSettings, time_s, x_d, v_d, a_d) -> RunTrace
         q = np.zeros(step.shape[1])
         for _ in range(substeps):
             q[:n_z], q[n_z], q[n_z + 1:] = z, ic, 0.0
-            for i, stage in enumerate(stages):       # the stage's rail velocity and legs' drive, then its forces
-                rail, legs = stage @ q
-                q[n_z + 1 + 2 * i] = fc * math.tanh(rail / vs) if fc > 0 else 0.0
+            for i, stage in enumerate(stages):       # what the forces at a stage point depend on, then the forces
+                v0, legs, x0, motor_n = stage @ q
+                q[n_z + 1 + 2 * i] = on_rails(v0, x0, motor_n)
                 q[n_z + 2 + 2 * i] = min(max(legs + drive, -fmax), fmax)
             z = step @ q
     return RunTrace(t, rec[0], rec[1], rec[2], rec[3], rec[4], rec[5], rec[6], rec[7], xd_, vd_)
 
 
 def _rk4_maps(g: GantryModel, h: float) -> tuple[list[np.ndarray], np.ndarray]:
-    """One classical RK4 step of dz/dt = A z + b_c i_c + b_f F_f + b_l F_leg as linear maps of q = (z, i_c, the
-    forces (F_f, F_leg) at the four stage points): the rows giving (v_0, the legs' drive) at each stage point
-    (the forces there follow from them), and the step's end. The same arithmetic as the four stages written out,
-    in a few products of small arrays instead of many."""
+    """One classical RK4 step of dz/dt = A z + b_c i_c + b_r F_r + b_l F_leg as linear maps of q = (z, i_c, the
+    forces (F_r, F_leg) at the four stage points): the rows giving (v_0, the legs' drive, x_0, the motor's force)
+    at each stage point (the forces there follow from them), and the step's end. The same arithmetic as the four
+    stages written out, in a few products of small arrays instead of many."""
     n = g.A.shape[0]
     size = n + 1 + 8
     z = np.eye(n, size)
     forces = [np.eye(size)[n + 1 + 2 * i:n + 3 + 2 * i] for i in range(4)]      # (2, size) each
     held = np.outer(g.inputs[:, 0], np.eye(size)[n])
-    push = g.inputs[:, 1:]                                                         # (n, 2): F_f, F_leg
+    push = g.inputs[:, 1:]                                                         # (n, 2): F_r, F_leg
 
     def k(point, i):
         return g.A @ point + held + push @ forces[i]
@@ -286,8 +302,10 @@ def _rk4_maps(g: GantryModel, h: float) -> tuple[list[np.ndarray], np.ndarray]:
     k3 = k(z + 0.5 * h * k2, 2)
     k4 = k(z + h * k3, 3)
     points = (z, z + 0.5 * h * k1, z + 0.5 * h * k2, z + h * k3)
-    read = np.vstack([g.rail, g.legs])
-    return [read @ p for p in points], z + h / 6 * (k1 + 2 * (k2 + k3) + k4)
+    read = np.vstack([g.rail, g.legs, np.eye(n)[g.rail_position], g.motor_force[:n]])
+    motor_ic = g.motor_force[n] * np.eye(4, 1, -3)[:, 0]                            # the motor force's i_c term
+    return ([read @ p + np.outer(motor_ic, np.eye(size)[n]) for p in points],
+            z + h / 6 * (k1 + 2 * (k2 + k3) + k4))
 
 
 def _check_rates(s: RunSettings) -> int:
@@ -307,7 +325,7 @@ FRICTION_VELOCITY_M_PER_S = 1e-3
 #: the plant's effects a run simulates (any other is refused by name, never dropped): the drive's rate and delay
 #: on the discrete part, the rest by the plant's own linear model (``gantry_model``), the friction regularised
 SIMULATED_EFFECTS = ("sampling", "delay", "current_loop", "sensor_filter", "resonance", "payload_resonance",
-                     "second_resonance", "coulomb_friction")
+                     "second_resonance", "coulomb_friction", "offset", "force_ripple", "force_constant_profile")
 
 
 @dataclass(frozen=True)

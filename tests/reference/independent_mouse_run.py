@@ -18,6 +18,11 @@ Model (SI units), written out from the forces on each body:
 * a payload mode (optional, ``payload_mass_kg`` > 0): a second body m_2 on a spring k_2 and damper c_2 to the
   gantry (mass ``gantry_mass_kg`` the gantry's own, the head on it), its force k_2 (x - x_2) + c_2 (v - v_2) added
   to the gantry's equation with a minus sign, m_2 dv_2/dt = k_2 (x - x_2) + c_2 (v - v_2);
+* forces on the gantry (optional): a constant force the motor must supply, ``offset_n`` (the gantry's equation
+  gets -offset_n); a ripple the motor must supply, ``ripple`` = (s1, c1, s2, c2, pitch): -(s1 sin p + c1 cos p +
+  s2 sin 2p + c2 cos 2p), p = 2 pi x / pitch; a force constant that varies along the travel, ``profile`` =
+  (centre, half span, slope, curvature): the motor's force K_t i (1 + slope u + curvature u^2), u = (x - centre) /
+  half span;
 * a sensor filter (optional) on the velocity the drive measures, v_m'' = w_s^2 (v - v_m) - 2 zeta_s w_s v_m'
   (none: v_m = v);
 * force filter (optional) on F_s, output F_sf, extra continuous states:
@@ -119,8 +124,8 @@ def simulate(time_s, x_d, v_d, a_d, *, gantry_mass_kg, damping_n_s_per_m, force_
              resolution_n, bias_n, deadband_n, head_mass_kg, body_mass_kg, neck_stiffness_n_per_m,
              neck_damping_n_s_per_m, leg_stiffness_n_per_m, leg_damping_n_s_per_m, mouse_peak_force_n,
              feedforward=True, law="backward_euler", payload_mass_kg=0.0, payload_stiffness_n_per_m=0.0,
-             payload_damping_n_s_per_m=0.0, sensor_filter_hz=None, sensor_damping_ratio=0.7,
-             method="DOP853") -> ReferenceTrace:
+             payload_damping_n_s_per_m=0.0, sensor_filter_hz=None, sensor_damping_ratio=0.7, offset_n=0.0,
+             ripple=None, profile=None, method="DOP853") -> ReferenceTrace:
     """Simulate the model of the module docstring at the drive ticks ``time_s`` (k / drive_rate_hz) with the
     intended path sampled there. Keyword names follow the quantities (SI units; rates in Hz)."""
     t = np.asarray(time_s, float)
@@ -160,12 +165,25 @@ def simulate(time_s, x_d, v_d, a_d, *, gantry_mass_kg, damping_n_s_per_m, force_
     def payload_force(y):
         return k2 * y[8] + c2 * (y[1] - y[7]) if m2 > 0 else 0.0
 
+    def along_travel(x, fm):
+        """The forces that depend on where the gantry is: offset, ripple, and the force constant's variation."""
+        out = -offset_n
+        if ripple is not None:
+            s1, c1, s2, c2, pitch = ripple
+            p = 2 * math.pi * x / pitch
+            out -= s1 * math.sin(p) + c1 * math.cos(p) + s2 * math.sin(2 * p) + c2 * math.cos(2 * p)
+        if profile is not None:
+            centre, half, slope, curvature = profile
+            u = (x - centre) / half
+            out += fm * (slope * u + curvature * u * u)
+        return out
+
     def accel(y, ic):
         x, v, xb, vb, i = y[0], y[1], y[2], y[3], y[4]
         fn = kn * (xb - x) + cn * (vb - v)
         fm = kt * (ic if ideal else i)
         friction = fc * math.tanh(v / vs) if fc != 0.0 else 0.0
-        return fn, (fm + fn - b * v - friction - payload_force(y)) / M
+        return fn, (fm + along_travel(x, fm) + fn - b * v - friction - payload_force(y)) / M
 
     def measured(y):
         return y[9] if sensor_filter_hz is not None else y[1]

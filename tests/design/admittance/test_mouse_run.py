@@ -455,3 +455,25 @@ def test_a_payload_mode_and_a_sensor_filter_are_simulated_as_the_plant_has_them(
     rigid = ref.simulate(t, x, v, a, **dict(settings, gantry_mass_kg=float(m0 + m1)), sensor_filter_hz=300.0,
                          sensor_damping_ratio=0.6)
     assert np.max(np.abs(rigid.i - r.i)) > 10 * (1e-3 * np.max(np.abs(r.i)) + 1e-6)
+
+
+def test_forces_along_the_travel_are_simulated_as_the_plant_has_them():
+    # an offset, a force ripple and a force constant that varies along the travel, each from the plant's effect
+    # (its rail_force_n), against the reference with those forces written out
+    ripple = {"sin1_n": 1.5, "cos1_n": -0.8, "sin2_n": 0.4, "cos2_n": 0.2, "pitch_m": 0.032}
+    profile = {"centre_m": 0.1, "half_span_m": 0.3, "slope": 0.05, "curvature": -0.03}
+    plant = build_plant("x", mass_kg=40.0, damping_n_s_per_m=440.0, force_constant_n_per_a=20.0,
+                        effects={"current_loop": {"bandwidth_hz": 1000.0}, "offset": {"force_n": 2.0},
+                                 "force_ripple": ripple, "force_constant_profile": profile})
+    settings = dict(RIG, current_loop_hz=1000.0, motor_peak_force_n=1e4)
+    t, x, v, a = _path(settings["drive_rate_hz"], t_max_s=2.0)
+    rest = {key: val for key, val in settings.items() if key not in PLANT_KEYS}
+    tool = simulate_mouse_run(RunSettings(plant=plant, **rest), t, x, v, a)
+    r = ref.simulate(t, x, v, a, **settings, offset_n=2.0,
+                     ripple=tuple(ripple[k] for k in ("sin1_n", "cos1_n", "sin2_n", "cos2_n", "pitch_m")),
+                     profile=tuple(profile[k] for k in ("centre_m", "half_span_m", "slope", "curvature")))
+    _close("sensed force", tool.sensed_force_n, r.F_s, 1e-3, 1e-6)
+    _close("velocity", tool.v_m_per_s, r.v, 1e-3, 1e-7)
+    _close("current", tool.current_a, r.i, 1e-3, 1e-6)
+    plain = ref.simulate(t, x, v, a, **settings)
+    assert np.max(np.abs(plain.i - r.i)) > 10 * (1e-3 * np.max(np.abs(r.i)) + 1e-6)

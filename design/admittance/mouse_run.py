@@ -423,7 +423,7 @@ def run_settings(problem, *, controller: PI, m_v: float, b_v: float, timing=None
     plant = problem.plant.plant(problem.plant.payload_kg.max if payload_kg is None else payload_kg)
     dropped = [e.name for e in plant.effects if e.name not in SIMULATED_EFFECTS]
     if dropped:
-        raise SpecError(f"plant.effects: the mouse run simulates {', '.join(SIMULATED_EFFECTS)} and the rigid body; "
+        raise SpecError(f"plant.effects: the mouse run simulates {', '.join(SIMULATED_EFFECTS)} on the plant's bodies; "
                         f"it cannot simulate {', '.join(dropped)}: remove {'it' if len(dropped) == 1 else 'them'} "
                         "for the run, or check the design with the frequency-domain figures of gantry synth")
     sampling, delay, coulomb = plant.effect("sampling"), plant.effect("delay"), plant.effect("coulomb_friction")

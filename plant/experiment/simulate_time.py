@@ -182,7 +182,6 @@ def simulate_time_domain(plant: Plant, excitation: Excitation, *, sample_rate_hz
     fs = 0.0 if stribeck is None else float(stribeck.excess_n)
     vs = 1.0 if stribeck is None else float(stribeck.velocity_m_per_s)
     g_contact = float(c_contact @ g_f)                 # contact velocity per unit friction force over a step
-    smooth = bool(forces)
     friction = fc > 0 or fs > 0
 
     # the rails' position and the motor current at a step's midpoint, predicted from its start: rows dotted with z
@@ -201,7 +200,7 @@ def simulate_time_domain(plant: Plant, excitation: Excitation, *, sample_rate_hz
                 Z[k // q] = z
                 if progress is not None and (k // q) % report_every == 0:
                     progress(k // q, n_samples - 1)
-            if smooth:
+            if forces:
                 x_mid = float(r_x @ z)
                 i_mid = 0.5 * (u[k] + u[k + 1]) if r_i is None else float(r_i @ z) + i_u * u[k]
                 f = sum(e.rail_force_n(x_mid, kt * i_mid) for e in forces)

@@ -50,12 +50,11 @@ import numpy as np
 from design.admittance.model import admittance_problem
 from design.admittance.profile import trapezoid
 from design.admittance.rig import DiscreteAdmittance, RigTiming
-from design.admittance.sampled import mechanics_ss
 from design.loop.controller import PI
 from plant.errors import DataError, SpecError
 from plant.host.text_io import read_text
-from plant.physics.effect_base import effects_state_space
 from plant.physics.models import Plant
+from plant.physics.realisation import realise
 
 #: RK4 steps per drive period at least, and the largest w h (w the fastest rate of the continuous part: the
 #: current loop, the force filter, the body on neck and legs) a step may take (RK4 is stable to 2.79)
@@ -149,36 +148,30 @@ class GantryModel:
 
 
 def gantry_model(s: RunSettings) -> GantryModel:
-    """``GantryModel`` of the settings' plant, mouse and force filter (module docstring)."""
-    plant = s.plant
-    drive = [e for e in plant.effects if e.name not in ("delay", "sampling")]
-    E = effects_state_space(drive, "drive", 1).take(0)
-    H = effects_state_space(plant.effects, "sensor", 1).take(0)
-    Ag, Bg, Cg = (x[0] for x in mechanics_ss(plant, 1))
-    kt = float(plant.force_constant_n_per_a)
-    ne, ng, nh = E.order, Ag.shape[0], H.order
+    """``GantryModel`` of the settings' plant (its realisation, ``plant.physics.realisation``, the delay and the
+    drive's sampling left to the discrete part), mouse and force filter (module docstring)."""
+    r = realise(s.plant).one()
+    nr = r.order
     nf = 0 if s.force_filter_hz is None else s.force_filter_order
-    e, g, h = slice(0, ne), slice(ne, ne + ng), slice(ne + ng, ne + ng + nh)
-    ix, ixb, ivb = ne + ng + nh, ne + ng + nh + 1, ne + ng + nh + 2
+    ix, ixb, ivb = nr, nr + 1, nr + 2
     f0 = ivb + 1
     ixr = f0 + nf
     n = ixr + 1
     IC, FR, FL = n, n + 1, n + 2          # columns of the inputs after the states
     eye = np.eye(n + 3)
     v = np.zeros(n + 3)
-    v[g] = Cg[0]
+    v[:nr] = r.velocity[0]
     fm = np.zeros(n + 3)
-    fm[e], fm[IC] = kt * E.C[0], kt * E.D[0, 0]
+    fm[:nr], fm[IC] = r.motor_force[:nr], r.motor_force[nr]
     fn = s.neck_stiffness_n_per_m * (eye[ixb] - eye[ix]) + s.neck_damping_n_s_per_m * (eye[ivb] - v)
-    beta = float(Cg[0] @ Bg[:, 0])          # dv/dt per force at the motor's body (1 / M for a rigid body)
-    free = np.zeros(n + 3)
-    free[g] = Cg[0] @ Ag
-    accel = (free + beta * (fm + eye[FR] + fn)) / (1 + beta * s.head_mass_kg)
+    dynamics = np.zeros((nr, n + 3))       # the realisation's rows, its force on the rails' body left out
+    dynamics[:, :nr], dynamics[:, IC] = r.A, r.B[:, 0]
+    push = r.B[:, 1]
+    beta = float(v[:nr] @ push)            # dv/dt per force on the rails' body (1 / M for a rigid body)
+    accel = (v[:nr] @ dynamics + beta * (eye[FR] + fn)) / (1 + beta * s.head_mass_kg)
     fs = fn - s.head_mass_kg * accel
     rows = np.zeros((n, n + 3))
-    rows[e] = E.A @ eye[e] + E.B @ eye[IC][None]
-    rows[g] = Ag @ eye[g] + Bg @ (fm + eye[FR] + fs)[None]
-    rows[h] = H.A @ eye[h] + H.B @ v[None]
+    rows[:nr] = dynamics + np.outer(push, eye[FR] + fs)
     rows[ix], rows[ixb] = v, eye[ivb]
     rows[ivb] = (eye[FL] - fn) / s.body_mass_kg
     if nf:
@@ -188,16 +181,14 @@ def gantry_model(s: RunSettings) -> GantryModel:
         else:
             rows[f0], rows[f0 + 1] = eye[f0 + 1], wf * wf * (fs - eye[f0]) - math.sqrt(2.0) * wf * eye[f0 + 1]
     measured = np.zeros(n + 3)
-    measured[h] = H.C[0]
-    measured += H.D[0, 0] * v
+    measured[:nr] = r.outputs[0]
     current = np.zeros(n + 3)
-    current[e], current[IC] = E.C[0], E.D[0, 0]
+    current[:nr], current[IC] = r.current[:nr], r.current[nr]
     legs = -s.leg_stiffness_n_per_m * eye[ixb] - s.leg_damping_n_s_per_m * eye[ivb]
     rail = np.zeros(n + 3)
-    rail[ne] = 1.0                           # the chain's first state: the motor body's velocity
+    rail[:nr] = r.contacts[0]
     rows[ixr] = rail
-    parts = [np.abs(np.linalg.eigvals(m)) for m in (E.A, Ag, H.A) if m.size]
-    fastest = max([float(np.max(p)) for p in parts] + [
+    fastest = max([float(np.max(np.abs(np.linalg.eigvals(r.A))))] + [
         2 * math.pi * (s.force_filter_hz or 0.0),
         math.sqrt((s.neck_stiffness_n_per_m + s.leg_stiffness_n_per_m) / s.body_mass_kg),
         (s.neck_damping_n_s_per_m + s.leg_damping_n_s_per_m) / s.body_mass_kg])

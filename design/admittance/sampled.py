@@ -4,17 +4,18 @@ sampler as a state-space model, discretised exactly (zero-order hold, matrix exp
 The path from the held velocity reference u to the sensed force, F_s = -K u (``design.admittance.model``),
 is built from its blocks (SI units):
 
-* the free gantry under its PI velocity loop: mechanics (``plant.physics.models.chain_state_space``), the
-  drive's chain E and the sensor's chain H, each effect a rational factor (a delay by its Pade approximant
-  of order ``PADE_ORDER``, whose convergence the tests show), inputs (u, f: the force at the clamp),
-  outputs (v, dv/dt);
+* the free gantry under its PI velocity loop: the plant's realisation (``plant.physics.realisation``: the
+  drive's chain E, the mechanics, the sensor's chain H, each effect a rational factor, a delay by its Pade
+  approximant of order ``PADE_ORDER``, whose convergence the tests show), inputs (u, f: the force at the
+  clamp), outputs (v, dv/dt);
 * the load on the clamp: a head mass m_h riding it and a body behind a neck spring and damper, on the
   ground by its legs or floating (a rigid contact: a spring to the ground), which pushes back
   f = -(m_h dv/dt + f_b);
 * the force filter H_f in series (continuous, before the sampler).
 
 With x' = A x + B u, y = C x + D u, the held input gives exactly (Astrom & Wittenmark, Computer-Controlled
-Systems, section 2.3) x[k+1] = Phi x[k] + Gamma u[k], Phi = e^(AT), Gamma = int_0^T e^(As) ds B, the
+Systems, section 2.3; ``plant.physics.state_space.hold_step``) x[k+1] = Phi x[k] + Gamma u[k], Phi = e^(AT),
+Gamma = int_0^T e^(As) ds B, the
 step-invariant transform K_d(z) = C (zI - Phi)^-1 Gamma + D of ``design.admittance.rig``'s alias sum without
 its truncation. Closed on the law v[k] = alpha v[k-1] + beta F[k] and its computation delay of d samples, the
 coupled loop's poles are the eigenvalues of one matrix (``closed_loop_radius``).
@@ -22,19 +23,19 @@ coupled loop's poles are the eigenvalues of one matrix (``closed_loop_radius``).
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from functools import cached_property
 
 import numpy as np
-from scipy.linalg import expm
 
 from design.admittance.mouse import MouseModel
 from design.admittance.rig import force_filter_polys
 from design.loop.controller import PI
 from plant.physics.chain import Delay
 from plant.physics.effect_base import effects_state_space
-from plant.physics.models import Plant, chain_state_space
-from plant.physics.state_space import StateSpace, column, tf_ss
+from plant.physics.models import Plant
+from plant.physics.realisation import realise
+from plant.physics.state_space import StateSpace, column, hold_step, tf_ss
 
 #: Pade order of a delay inside the velocity loop, by the law's period over the delay (``pade_order_for``): the
 #: sampled path is then within 1e-8 of order 12 for T >= 5 tau (a 100 or 200 Hz law and a drive delay of 0.3-0.8
@@ -65,68 +66,44 @@ HIDDEN_MODE = 1e-7
 RESPONSE_BLOCK = 256
 
 
-def mechanics_ss(plants: Plant, n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(A, B, C) of a batch of ``n`` plants' mechanics, velocity per motor force (m/s per N): one body in
-    closed form, a chain of bodies plant by plant (``plant.physics.models.chain_state_space``)."""
-    chain = plants.mechanics()
-    if len(chain.masses_kg) == 1:
-        m = column(chain.masses_kg[0], n)[:, None, None]
-        b = column(chain.rail_damping_n_s_per_m, n)[:, None, None]
-        return -b / m, 1.0 / m, np.ones((n, 1, 1))
-    parts = []
-    for j in range(n):
-        pick = lambda x: float(column(x, n)[j])          # noqa: E731
-        one = replace(chain, masses_kg=tuple(map(pick, chain.masses_kg)),
-                      stiffness_n_per_m=tuple(map(pick, chain.stiffness_n_per_m)),
-                      damping_n_s_per_m=tuple(map(pick, chain.damping_n_s_per_m)),
-                      rail_damping_n_s_per_m=pick(chain.rail_damping_n_s_per_m))
-        A, B, C = chain_state_space(one)
-        parts.append((A, B[:, :1], C))
-    return tuple(np.stack([p[i] for p in parts]) for i in range(3))
-
-
 def free_gantry(plants: Plant, n: int, *, controller: PI, pade_order: int = PADE_ORDER,
                 motor: bool = False) -> StateSpace:
     """The free gantries of a batch of ``n`` plants under the PI velocity loop ``controller``: inputs (velocity
     reference u m/s, clamp force f N), outputs (velocity v m/s, acceleration dv/dt m/s^2) and with ``motor``
     the motor's force F_m (N), batched (n, ...).
 
-    Mechanics x_g' = A_g x_g + B_g (F_m + f), v = C_g x_g; sensor H on v; PI integrator xi' = u - v_m;
-    drive E on c = kp (u - v_m) + ki xi; F_m = K_t E c."""
-    Ag, Bg, Cg = mechanics_ss(plants, n)
-    E = effects_state_space(plants.effects, "drive", n, pade_order=pade_order)
-    H = effects_state_space(plants.effects, "sensor", n, pade_order=pade_order)
-    kt = column(plants.force_constant_n_per_a, n)[:, None]
-    ng, nh, ne = Ag.shape[-1], H.order, E.order
+    The plant's realisation (``plant.physics.realisation``: drive chain, mechanics, sensor chain; the clamp force
+    on the rails' body as the motor's) under the PI integrator xi' = u - v_m and the command
+    c = kp (u - v_m) + ki xi."""
+    r = realise(plants, n, pade_order=pade_order)
     kp, ki = float(controller.kp), float(controller.ki)
-    ni = 1 if ki > 0 else 0
-    m = ng + nh + ni + ne
-    g, h, i, e = slice(0, ng), slice(ng, ng + nh), slice(ng + nh, ng + nh + ni), slice(ng + nh + ni, m)
-    eye = np.eye(m + 2)
-    # each signal as rows (n, m + 2): a linear map of [x, u, f]
-    v = np.zeros((n, m + 2))
-    v[:, g] = Cg[:, 0]
-    vm = H.D[:, 0] * v
-    vm[:, h] += H.C[:, 0]
-    err = -vm
-    err[:, m] += 1.0
+    m, ni = r.order, 1 if ki > 0 else 0
+    size = m + ni
+    eye = np.eye(size + 2)
+    U, F = size, size + 1
+    # each signal as rows (n, size + 2): a linear map of [x, xi, u, f]
+    vm = np.zeros((n, size + 2))
+    vm[:, :m] = r.outputs[:, 0]
+    v = np.zeros((n, size + 2))
+    v[:, :m] = r.velocity[:, 0]
+    err = eye[U] - vm
     c = kp * err
     if ni:
-        c[:, i] += ki
-    force = kt * E.D[:, 0] * c
-    force[:, e] += kt * E.C[:, 0]
-    force[:, m + 1] += 1.0
-    M = np.zeros((n, m, m + 2))
-    M[:, g] = Ag @ eye[g] + Bg @ force[:, None, :]
-    M[:, h] = H.A @ eye[h] + H.B @ v[:, None, :]
+        c[:, m] += ki
+    M = np.zeros((n, size, size + 2))
+    M[:, :m] = r.A @ eye[:m] + r.B[:, :, :1] * c[:, None, :] + r.B[:, :, 1:2] * eye[F]
     if ni:
-        M[:, i] = err[:, None, :]
-    M[:, e] = E.A @ eye[e] + E.B @ c[:, None, :]
-    rows = [v, (Cg @ M[:, g])[:, 0]]
+        M[:, m] = err
+    rows = [v, (v[:, None, :size] @ M)[:, 0]]
     if motor:
-        rows.append(force - eye[m + 1])
+        fm = r.motor_force[:, m:] * c
+        fm[:, :m] += r.motor_force[:, :m]
+        rows.append(fm)
     out = np.stack(rows, axis=1)
-    return StateSpace(M[:, :, :m], M[:, :, m:], out[:, :, :m], out[:, :, m:])
+    # states ordered (mechanics, sensor, integrator, drive): the eigenvector basis of the response is best
+    # conditioned so (``SampledPaths``)
+    order = np.r_[np.arange(r.mechanics.start, m), np.arange(m, size), np.arange(r.drive.start, r.drive.stop)]
+    return StateSpace(M[:, order][:, :, order], M[:, order, size:], out[:, :, order], out[:, :, size:])
 
 
 def dual_free_gantry(plants, n: int, controller, *, pade_order: int = PADE_ORDER) -> StateSpace:
@@ -274,17 +251,6 @@ def filtered(path: StateSpace, filter_hz: float | None, order: int) -> StateSpac
     return StateSpace(A, B, C, f.D @ path.D)
 
 
-def zoh(path: StateSpace, period_s: float) -> StateSpace:
-    """The exact zero-order-hold discretisation (Phi, Gamma, C, D) of a batch of single-input paths."""
-    n = path.order
-    batch = path.A.shape[:-2]
-    M = np.zeros((*batch, n + 1, n + 1))
-    M[..., :n, :n] = path.A * period_s
-    M[..., :n, n:] = path.B * period_s
-    E = expm(M)
-    return StateSpace(E[..., :n, :n], E[..., :n, n:], path.C, path.D)
-
-
 @dataclass(frozen=True)
 class SampledPaths:
     """A batch (n,) of continuous single-input single-output paths sampled exactly every ``period_s`` under a
@@ -292,7 +258,7 @@ class SampledPaths:
     (A = V diag(lambda) V^-1: Phi = V diag(e^(lambda T)) V^-1, Gamma = V diag((e^(lambda T) - 1) / lambda) V^-1 B,
     Astrom & Wittenmark section 2.3), so no matrix exponential is needed for it; where the eigenvector basis is
     worse conditioned than ``EIG_CONDITION`` (1-norm), by LU solves on the discrete form. The discrete form
-    (``discrete``, ``zoh``: the closed loop's poles) is computed when asked."""
+    (``discrete``, ``hold_step``: the closed loop's poles) is computed when asked."""
 
     path: StateSpace
     period_s: float
@@ -316,7 +282,8 @@ class SampledPaths:
 
     @cached_property
     def discrete(self) -> StateSpace:
-        return zoh(self.path, self.period_s)
+        Phi, Gamma = hold_step(self.path.A, self.path.B, self.period_s)
+        return StateSpace(Phi, Gamma, self.path.C, self.path.D)
 
     def response(self, z) -> np.ndarray:
         """K_d at the points ``z`` of the unit circle, (n, len(z)), ``RESPONSE_BLOCK`` paths at a time (memory)."""

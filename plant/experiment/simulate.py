@@ -58,11 +58,10 @@ import scipy.linalg
 from plant.arguments import check_instance, check_number
 from plant.data.recordings import Block, Recording
 from plant.errors import EffectError, ParameterError
-from plant.physics.effect_base import ChainEffect, effects_state_space
-from plant.physics.effects import TiltCoupling
-from plant.physics.gantry_models import xie_wang_ss
-from plant.physics.models import Plant, chain_state_space
+from plant.physics.models import Plant
 from plant.physics.parameters import check_finite, check_positive
+from plant.physics.realisation import realise
+from plant.physics.state_space import hold_step
 
 #: default internal integration rate when Coulomb friction is present (Hz): the fundamental then
 #: agrees with a 5x finer step to 3e-3 (Stage X, 1-75 Hz, F_c = 2 N at 0.5 A; tests/plant/experiment/test_simulate.py)
@@ -84,6 +83,7 @@ class _Chain:
     C_out: np.ndarray        # (n_outputs, n): recorded velocities (after the resonance filter)
     C_contact: np.ndarray    # (n_contacts, n): sliding velocities of the friction contacts
     friction_n: np.ndarray   # (n_contacts,): Coulomb force at each contact (N)
+    current: np.ndarray      # (n + 1,): the motor current over (x, u) (A)
 
 
 def _scalar(name: str, value) -> float:
@@ -93,85 +93,17 @@ def _scalar(name: str, value) -> float:
     return float(arr.reshape(()))
 
 
-def _mechanics(plant: Plant):
-    """Mechanics with an actuator-current input: (A, b_i, B_f, C_rails, friction per contact, C_contacts)."""
-    kt = _scalar("force_constant_n_per_a", plant.force_constant_n_per_a)
-    n_out = len(plant.output_names)
-    friction = plant.effect("coulomb_friction")
-    force_n = 0.0 if friction is None else _scalar("coulomb_friction.force_n", friction.force_n)
-    tilt = plant.effect("tilt_coupling")
-    if tilt is None:
-        # the chain of bodies: m_i v_i' = forces; the rails (body 0) carry K_t i and F_c sign(v_0)
-        A, B, C = chain_state_space(plant.mechanics())
-        contact = np.zeros((1, A.shape[0]))
-        contact[0, 0] = 1.0
-        return A, B[:, 0] * kt, B, np.repeat(C, n_out, axis=0), np.array([force_n]), contact
-    assert isinstance(tilt, TiltCoupling)
-    l1, l2 = (float(v) for v in plant._loads_l1_l2(tilt))
-    b = _scalar("damping_n_s_per_m", plant.damping_n_s_per_m)
-    ss = xie_wang_ss(mass_kg=_scalar("mass_kg", plant.mass_kg),
-                     inertia_kg_m2=_scalar("tilt_coupling.inertia_kg_m2", tilt.inertia_kg_m2),
-                     damping1_n_s_per_m=b, damping2_n_s_per_m=b, l1_m=l1, l2_m=l2,
-                     joint_stiffness_n_m_per_rad=_scalar("tilt_coupling.stiffness_n_m_per_rad",
-                                                         tilt.stiffness_n_m_per_rad))
-    # drop the position y_c (states y_c, alpha, v_c, omega): nothing depends on it
-    assert not np.any(ss.A[:, 0])
-    A, B_rails, C = ss.A[1:, 1:], ss.B[1:, :], ss.C[:, 1:]
-    # both motors carry half the total current (as Plant.frd_outputs); friction F_c / 2 per rail
-    return A, B_rails @ np.array([kt / 2, kt / 2]), B_rails, C, np.array([force_n / 2, force_n / 2]), C
-
-
 def _chain(plant: Plant) -> _Chain:
-    """Series interconnection current_loop -> mechanics -> sensor filters (one per output)."""
-    A_m, b_m, B_mf, C_m, friction_n, C_mc = _mechanics(plant)
-    n_m, n_out = A_m.shape[0], C_m.shape[0]
-    loop = plant.effect("current_loop")
-    sensors = [e for e in plant.effects if isinstance(e, ChainEffect) and e.place == "sensor"]
-    if any(e.name == "encoder_velocity" for e in sensors):
+    """The plant's realisation (``plant.physics.realisation``: current loop -> mechanics -> sensor filters) with
+    the Coulomb friction of each rail contact (F_c; F_c / 2 per rail with ``tilt_coupling``, as ``Plant.frd``)."""
+    check_single(plant)
+    if any(e.name == "encoder_velocity" for e in plant.effects):
         raise EffectError("effect encoder_velocity (plant.effects.encoder_velocity of the spec, or --effects) is "
                           "not simulated as a filter: record quantised positions (velocity_quantum_m_per_s) instead")
-    if loop is not None:
-        _scalar("current_loop.bandwidth_hz", loop.bandwidth_hz)
-        c = loop.state_space(1).take(0)
-        A_c, b_c, c_c = c.A, c.B[:, 0], c.C[0]
-    else:
-        A_c, b_c, c_c = np.zeros((0, 0)), np.zeros(0), np.zeros(0)
-    r = effects_state_space(sensors, "sensor", 1).take(0)
-    A_r, b_r, c_r, d_r = r.A, r.B[:, 0], r.C[0], float(r.D[0, 0])
-    n_c, n_r = A_c.shape[0], A_r.shape[0]
-    n = n_c + n_m + n_out * n_r
-    A = np.zeros((n, n))
-    b_u = np.zeros(n)
-    B_f = np.zeros((n, B_mf.shape[1]))
-    C_out = np.zeros((n_out, n))
-    C_contact = np.zeros((C_mc.shape[0], n))
-    mech = slice(n_c, n_c + n_m)
-    if n_c:
-        A[:n_c, :n_c] = A_c
-        b_u[:n_c] = b_c
-        A[mech, :n_c] = np.outer(b_m, c_c)
-    else:
-        b_u[mech] = b_m
-    A[mech, mech] = A_m
-    B_f[mech] = B_mf
-    C_contact[:, mech] = C_mc
-    for k in range(n_out):
-        C_out[k, mech] = d_r * C_m[k]
-        if n_r:
-            rk = slice(n_c + n_m + k * n_r, n_c + n_m + (k + 1) * n_r)
-            A[rk, rk] = A_r
-            A[rk, mech] = np.outer(b_r, C_m[k])
-            C_out[k, rk] = c_r
-    return _Chain(A, b_u, B_f, C_out, C_contact, friction_n)
-
-
-def _discretise(A: np.ndarray, B: np.ndarray, h_s: float) -> tuple[np.ndarray, np.ndarray]:
-    """Exact zero-order-hold discretisation: (e^(A h), integral_0^h e^(A s) ds B)."""
-    n, m = A.shape[0], B.shape[1]
-    M = np.zeros((n + m, n + m))
-    M[:n, :n], M[:n, n:] = A, B
-    E = scipy.linalg.expm(M * h_s)
-    return E[:n, :n], E[:n, n:]
+    r = realise(plant).one()
+    friction = plant.effect("coulomb_friction")
+    force_n = 0.0 if friction is None else _scalar("coulomb_friction.force_n", friction.force_n)
+    return _Chain(r.A, r.B[:, 0], r.B[:, 1:], r.outputs, r.contacts, force_n * r.share, r.current)
 
 
 def _steady_state(chain: _Chain, w_rad_s: np.ndarray) -> np.ndarray:
@@ -300,7 +232,7 @@ def _stepped_response(chain: _Chain, *, w_rad_s, amp_a, n_samples, sample_rate_h
     if n_last < n_shift:
         return out
     friction = bool(np.any(chain.friction_n > 0))
-    Phi, Gam = _discretise(chain.A, np.column_stack([chain.b_u, chain.B_f]), h)
+    Phi, Gam = hold_step(chain.A, np.column_stack([chain.b_u, chain.B_f]), h)
     g_u, G_f = Gam[:, 0], Gam[:, 1:]
     contacts = _Contacts(chain.C_contact @ G_f, chain.friction_n) if friction else None
     held = controller_rate_hz is not None
@@ -315,7 +247,7 @@ def _stepped_response(chain: _Chain, *, w_rad_s, amp_a, n_samples, sample_rate_h
     if not held:
         z = -np.imag(X)
         if eps > 0:
-            Phi_e, Gam_e = _discretise(chain.A, chain.B_f, eps)
+            Phi_e, Gam_e = hold_step(chain.A, chain.B_f, eps)
             z = z @ Phi_e.T
             if friction:
                 f = contacts.forces(z @ chain.C_contact.T + particular(Xc, np.array([eps]))[:, :, 0])

@@ -31,13 +31,13 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
-import scipy.linalg
 
 from plant.data.recordings import TimeRecording
 from plant.errors import EffectError, ParameterError
 from plant.experiment.simulate import MAX_SAMPLES, _chain, _internal_rate, _rate_fraction, _scalar, check_single
 from plant.physics.models import Plant
 from plant.physics.parameters import check_finite, check_positive
+from plant.physics.state_space import hold_step
 
 #: lowest internal rate (Hz): 10 substeps of the default 1 kHz recording (checked against an independent
 #: Runge-Kutta simulation in tests/plant/experiment/test_simulate_time.py)
@@ -90,10 +90,9 @@ def chirp(*, f0_hz: float, f1_hz: float, amplitude_a: float, duration_s: float) 
 
 
 def _augmented(plant: Plant):
-    """(A, b_u, b_f, c_contact, c_current, C_position, C_velocity, n_chain): the chain of
+    """(A, b_u, b_f, c_contact, current, C_position, C_velocity, n_chain): the chain of
     ``plant.experiment.simulate`` with the rails' position (state n_chain) and one position per recorded velocity
-    appended as states; ``c_current`` reads the current the motor carries (None: the input itself, no current
-    loop)."""
+    appended as states; ``current`` the motor current as a row over (states, command)."""
     for name, why in _NOT_MODELLED.items():
         if plant.effect(name) is not None:
             raise EffectError(f"effect {name}: the continuous simulation does not model it ({why})")
@@ -107,21 +106,8 @@ def _augmented(plant: Plant):
     b_u = np.concatenate([chain.b_u, np.zeros(1 + n_out)])
     b_f = np.concatenate([chain.B_f[:, 0], np.zeros(1 + n_out)])
     c_contact = A[n].copy()                      # the rails' velocity: the derivative of their position
-    c_current = None
-    if plant.effect("current_loop") is not None:
-        c_current = np.zeros(N)
-        c_current[0] = 1.0                       # the current loop's state comes first in the chain
-    return A, b_u, b_f, c_contact, c_current, np.eye(N)[n + 1:], chain.C_out @ np.eye(n, N), n
-
-
-def _discretise_foh(A: np.ndarray, B: np.ndarray, h_s: float):
-    """Exact discretisation of x' = A x + B u with u linear over the step: x+ = Phi x + G0 u0 + G1 (u1 - u0)."""
-    n, m = A.shape[0], B.shape[1]
-    M = np.zeros((n + 2 * m, n + 2 * m))
-    M[:n, :n], M[:n, n:n + m] = A, B
-    M[n:n + m, n + m:] = np.eye(m) / h_s
-    E = scipy.linalg.expm(M * h_s)
-    return E[:n, :n], E[:n, n:n + m], E[:n, n + m:]
+    current = np.concatenate([chain.current[:n], np.zeros(1 + n_out), chain.current[n:]])
+    return A, b_u, b_f, c_contact, current, np.eye(N)[n + 1:], chain.C_out @ np.eye(n, N), n
 
 
 def simulate_time_domain(plant: Plant, excitation: Excitation, *, sample_rate_hz: float = 1000.0,
@@ -151,7 +137,7 @@ def simulate_time_domain(plant: Plant, excitation: Excitation, *, sample_rate_hz
     check_single(plant)
     if output not in ("position", "velocity"):
         raise ParameterError(f"output must be position or velocity, got {output!r}")
-    A, b_u, b_f, c_contact, c_current, C_pos, C_vel, n_chain = _augmented(plant)
+    A, b_u, b_f, c_contact, current, C_pos, C_vel, n_chain = _augmented(plant)
     kt = _scalar("force_constant_n_per_a", plant.force_constant_n_per_a)
     sampling = plant.effect("sampling")
     controller_hz = None if sampling is None else _scalar("sampling.rate_hz", sampling.rate_hz)
@@ -173,7 +159,7 @@ def simulate_time_domain(plant: Plant, excitation: Excitation, *, sample_rate_hz
     limit = plant.effect("current_limit")
     u = command if limit is None else np.asarray(limit.delivered(kt * command)) / kt
 
-    Phi, G0, G1 = _discretise_foh(A, np.column_stack([b_u, b_f]), h)
+    Phi, G0, G1 = hold_step(A, np.column_stack([b_u, b_f]), h, linear=True)
     g_u0, g_u1 = G0[:, 0], (G1[:, 0] if controller_hz is None else np.zeros(A.shape[0]))
     g_f = G0[:, 1]
     forces = [e for e in plant.effects if e.rail_force]
@@ -186,8 +172,9 @@ def simulate_time_domain(plant: Plant, excitation: Excitation, *, sample_rate_hz
 
     # the rails' position and the motor current at a step's midpoint, predicted from its start: rows dotted with z
     r_x = np.eye(A.shape[0])[n_chain] + c_contact * (h / 2)
-    r_i = None if c_current is None else c_current + (c_current @ A) * (h / 2)
-    i_u = 0.0 if c_current is None else float(c_current @ b_u) * (h / 2)
+    c_i, d_i = current[:-1], float(current[-1])
+    r_i = c_i + (c_i @ A) * (h / 2)
+    i_u = float(c_i @ b_u) * (h / 2)
     z = np.zeros(A.shape[0])
     Z = np.empty((n_samples, A.shape[0]))
     v_prev = 0.0
@@ -202,7 +189,7 @@ def simulate_time_domain(plant: Plant, excitation: Excitation, *, sample_rate_hz
                     progress(k // q, n_samples - 1)
             if forces:
                 x_mid = float(r_x @ z)
-                i_mid = 0.5 * (u[k] + u[k + 1]) if r_i is None else float(r_i @ z) + i_u * u[k]
+                i_mid = float(r_i @ z) + i_u * u[k] + d_i * 0.5 * (u[k] + u[k + 1])
                 f = sum(e.rail_force_n(x_mid, kt * i_mid) for e in forces)
                 z = Phi @ z + drive[k - start] + g_f * f
             else:

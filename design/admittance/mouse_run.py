@@ -2,13 +2,12 @@
 
 Model (SI units; every rate an integer multiple of the admittance rate is required):
 
-Continuous part (integrated by fixed-step RK4, at least ``SUBSTEPS`` steps per drive period and as many
-more as keep w h <= ``MAX_W_H`` for the fastest rate w of the continuous part), the plant's own linear model
-(``gantry_model``: every effect the run simulates enters by the realisation the frequency-domain design uses):
+Continuous part: the plant's own linear model (``gantry_model``: every effect the run simulates enters by the
+realisation the frequency-domain design uses, ``plant.physics.realisation``):
 
 * the drive chain E (the current loop, any rational drive factor; the delay and the drive's sampling act on
   the discrete part below) from the current command i_c to the motor current i, motor force F_m = K_t i;
-* the mechanics (``plant.physics.models.chain_state_space``: the rails' body, a payload or carriage mode, Stage
+* the mechanics (the chain of bodies: the rails' body, a payload or carriage mode, Stage
   Y's both rails' damping) driven by F_m + F_r + F_s at the motor's body, the clamp's velocity v the chain's
   sensed velocity (as ``design.admittance.sampled.free_gantry``), dx/dt = v, the rails' position x_0 the
   integral of the motor body's velocity v_0; F_r = -F_f + the forces the plant's effects put on the rails
@@ -36,7 +35,15 @@ forward Euler or Tustin); v_ref = v_a[j - computation_delay]
 from that tick on (held).
 
 Order within a tick: the continuous states are sampled, the admittance law updates (on its ticks), then
-the drive, then the continuous part is integrated to the next tick with the held commands.
+the drive, then the continuous part is stepped to the next tick with the held commands.
+
+Method: at least ``SUBSTEPS`` steps per drive period, and as many more as keep w h <= ``MAX_W_H`` for the
+fastest rate w of the continuous part. Each step is the exact discretisation of the linear part with its inputs
+held (``plant.physics.state_space.hold_step``, the same step as the continuous experiments of
+``plant.experiment.simulate_time``): the legs' spring and damper to the path inside it while they are free, their
+force held at +-F_max while at the limit (a step in which they reach or leave it is taken again in ``REFINE``),
+the rails' forces held at their value at the step's midpoint, predicted from its start (error O(h^2)).
+Checked against ``tests/reference/independent_mouse_run.py`` (DOP853, no shared code).
 """
 
 from __future__ import annotations
@@ -55,11 +62,15 @@ from plant.errors import DataError, SpecError
 from plant.host.text_io import read_text
 from plant.physics.models import Plant
 from plant.physics.realisation import realise
+from plant.physics.state_space import hold_step
 
-#: RK4 steps per drive period at least, and the largest w h (w the fastest rate of the continuous part: the
-#: current loop, the force filter, the body on neck and legs) a step may take (RK4 is stable to 2.79)
+#: steps per drive period at least, and the largest w h (w the fastest rate of the continuous part: the
+#: current loop, the force filter, the body on neck and legs) a step may take: what the forces held over a step
+#: change in it
 SUBSTEPS = 2
 MAX_W_H = 0.5
+#: a step in which the legs reach or leave the mouse's limit is taken again in this many
+REFINE = 16
 
 
 @dataclass(frozen=True)
@@ -213,7 +224,21 @@ def simulate_mouse_run(settings: RunSettings, time_s, x_d, v_d, a_d) -> RunTrace
     law = DiscreteAdmittance.of(s.m_v, s.b_v, s.admittance_rate_hz, rule=s.law)
     alpha, beta, beta_prev = law.alpha, law.beta_m_per_s_per_n, law.beta_prev_m_per_s_per_n
     n_z = g.A.shape[0]
-    stages, step = _rk4_maps(g, h)
+    start, start_ic = _reads(g)
+    coarse = (_ExactStep.of(g, h, legs=True), _ExactStep.of(g, h, legs=False))
+    fine = (_ExactStep.of(g, h / REFINE, legs=True), _ExactStep.of(g, h / REFINE, legs=False))
+
+    def free_legs(pull):
+        return -fmax <= pull <= fmax
+
+    def step(z, ic, drive, maps):
+        """One exact step: the legs free (their spring and damper to the path inside it) or at the mouse's limit
+        (a held force) as they are at its start; the rails' forces at its midpoint predicted from there."""
+        v0, legs, x0, motor_n = start @ z + start_ic * ic
+        pull = legs + drive
+        m, held = (maps[0], drive) if free_legs(pull) else (maps[1], math.copysign(fmax, pull))
+        v0, _, x0, motor_n = m.mid @ z + m.mid_u @ (ic, on_rails(v0, x0, motor_n), held)
+        return m.Phi @ z + m.Gamma @ (ic, on_rails(v0, x0, motor_n), held)
     pushing = [e for e in s.plant.effects if e.rail_force]
 
     def on_rails(v0, x0, motor_n):
@@ -262,41 +287,42 @@ def simulate_mouse_run(settings: RunSettings, time_s, x_d, v_d, a_d) -> RunTrace
         rec[:, k] = (z[g.position], float(g.velocity @ z), z[g.body[0]], z[g.body[1]], fs, fleg,
                      signal(g.current, z, ic, 0.0, 0.0), v_ref, 0.0)
         ic = commands[0]
-        q = np.zeros(step.shape[1])
         for _ in range(substeps):
-            q[:n_z], q[n_z], q[n_z + 1:] = z, ic, 0.0
-            for i, stage in enumerate(stages):       # what the forces at a stage point depend on, then the forces
-                v0, legs, x0, motor_n = stage @ q
-                q[n_z + 1 + 2 * i] = on_rails(v0, x0, motor_n)
-                q[n_z + 2 + 2 * i] = min(max(legs + drive, -fmax), fmax)
-            z = step @ q
+            after = step(z, ic, drive, coarse)
+            if free_legs(float(g.legs @ after) + drive) != free_legs(float(g.legs @ z) + drive):
+                for _ in range(REFINE):          # the legs reach or leave the mouse's limit: that step finer
+                    z = step(z, ic, drive, fine)
+            else:
+                z = after
     return RunTrace(t, rec[0], rec[1], rec[2], rec[3], rec[4], rec[5], rec[6], rec[7], xd_, vd_)
 
 
-def _rk4_maps(g: GantryModel, h: float) -> tuple[list[np.ndarray], np.ndarray]:
-    """One classical RK4 step of dz/dt = A z + b_c i_c + b_r F_r + b_l F_leg as linear maps of q = (z, i_c, the
-    forces (F_r, F_leg) at the four stage points): the rows giving (v_0, the legs' drive, x_0, the motor's force)
-    at each stage point (the forces there follow from them), and the step's end. The same arithmetic as the four
-    stages written out, in a few products of small arrays instead of many."""
+def _reads(g: GantryModel) -> tuple[np.ndarray, np.ndarray]:
+    """Rows reading (v_0, the legs' force without the path's terms, x_0, the motor's force) over z, and the motor's
+    i_c term."""
     n = g.A.shape[0]
-    size = n + 1 + 8
-    z = np.eye(n, size)
-    forces = [np.eye(size)[n + 1 + 2 * i:n + 3 + 2 * i] for i in range(4)]      # (2, size) each
-    held = np.outer(g.inputs[:, 0], np.eye(size)[n])
-    push = g.inputs[:, 1:]                                                         # (n, 2): F_r, F_leg
+    return np.vstack([g.rail, g.legs, np.eye(n)[g.rail_position], g.motor_force[:n]]), g.motor_force[n] * np.eye(4)[3]
 
-    def k(point, i):
-        return g.A @ point + held + push @ forces[i]
 
-    k1 = k(z, 0)
-    k2 = k(z + 0.5 * h * k1, 1)
-    k3 = k(z + 0.5 * h * k2, 2)
-    k4 = k(z + h * k3, 3)
-    points = (z, z + 0.5 * h * k1, z + 0.5 * h * k2, z + h * k3)
-    read = np.vstack([g.rail, g.legs, np.eye(n)[g.rail_position], g.motor_force[:n]])
-    motor_ic = g.motor_force[n] * np.eye(4, 1, -3)[:, 0]                            # the motor force's i_c term
-    return ([read @ p + np.outer(motor_ic, np.eye(size)[n]) for p in points],
-            z + h / 6 * (k1 + 2 * (k2 + k3) + k4))
+@dataclass(frozen=True)
+class _ExactStep:
+    """The exact step over h of dz/dt = A' z + b_c i_c + b_r F_r + b_l X, every input held
+    (``plant.physics.state_space.hold_step``): with the legs free, A' = A + b_l (legs' row) and X the path's drive
+    (exact while the legs stay free); at the mouse's limit, A' = A and X = F_leg = +-F_max. ``mid``, ``mid_u``: the
+    rows of ``_reads`` at the step's midpoint z + h/2 dz/dt, over z and over (i_c, F_r, X)."""
+
+    Phi: np.ndarray
+    Gamma: np.ndarray
+    mid: np.ndarray
+    mid_u: np.ndarray
+
+    @classmethod
+    def of(cls, g: GantryModel, h: float, *, legs: bool) -> _ExactStep:
+        n = g.A.shape[0]
+        A = g.A + np.outer(g.inputs[:, 2], g.legs) if legs else g.A
+        Phi, Gamma = hold_step(A, g.inputs, h)
+        read, ic = _reads(g)
+        return cls(Phi, Gamma, read @ (np.eye(n) + h / 2 * A), read @ (h / 2 * g.inputs) + np.outer(ic, np.eye(3)[0]))
 
 
 def _check_rates(s: RunSettings) -> int:

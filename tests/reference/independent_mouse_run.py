@@ -2,7 +2,7 @@
 
 Nothing here imports the tool (``plant``, ``design``): only numpy and scipy. The continuous part is integrated
 by ``scipy.integrate.solve_ivp`` (DOP853, rtol 1e-10) from one drive tick to the next with every discrete
-signal held, so it shares no integration code with the tool's fixed-step RK4. It is the reference the tests
+signal held, so it shares no integration code with the tool's exact fixed step. It is the reference the tests
 hold ``design.admittance.mouse_run.simulate_mouse_run`` against.
 
 Model (SI units), written out from the forces on each body:

@@ -238,15 +238,14 @@ def test_continuous_like_run_matches_reference(changes):
 @pytest.fixture(scope="module")
 def rig_run():
     path = _path(RIG["drive_rate_hz"], rest_after_s=2.0)
-    return path, _compare(RIG, path, current_rtol=4e-2)
+    return path, _compare(RIG, path)
 
 
 def test_rig_run_matches_reference(rig_run):
     """(b) Current loop 1 kHz, command delay 0.5 ms, law at 100 Hz one sample late, 30 Hz Butterworth filter, the
     real sensor's step, offset and deadband, 3 N friction, the motor's 50 N limit. At 2 kHz the drive's period is
-    pi / w_c: the tool's RK4 (two steps per period) follows the current loop's response to a command step to ~3 %
-    of the step (exp(-pi) = 0.043 against RK4's 0.073; the law's 100 Hz updates step the command by up to ~2 A), so
-    the current is compared to 4 % of its peak; the integrated signals to 1e-3."""
+    pi / w_c, and the current loop's response to the command's steps is exact in the tool's step (the linear part
+    discretised exactly), so the current is held to 1e-3 of its peak as every other trace."""
     (t, _, _, _), (tool, r) = rig_run
     imax = RIG["motor_peak_force_n"] / RIG["force_constant_n_per_a"]
     saturated = np.abs(r.i) >= imax * (1 - 1e-9)
@@ -289,7 +288,7 @@ def test_fast_current_loop_at_a_slow_drive_rate():
     however fast the current loop is against the drive's period. (Fixed-step RK4 with two steps per period
     diverges here: its stability ends at h w_c = 2.79.)"""
     s = dict(BASE, current_loop_hz=1000.0)
-    _compare(s, _path(s["drive_rate_hz"], rest_after_s=0.5), current_rtol=4e-2)
+    _compare(s, _path(s["drive_rate_hz"], rest_after_s=0.5))
 
 
 def test_at_rest_everything_stays_exactly_zero():

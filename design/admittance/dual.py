@@ -52,11 +52,11 @@ from design.admittance.mouse import MouseModel
 from design.admittance.rig import DiscreteAdmittance, RigTiming
 from design.admittance.sampled import dual_free_gantry, pade_order_for
 from design.admittance.synthesis import design_rounds
+from design.admittance.verdict import admittance_verdict
 from design.loop.dual import Controller
 from design.loop.requirement import Binding
 from design.problem import LoopProblem
 from design.synth.dual import DualScenarios, dual_scenarios, monte_carlo_scenarios
-from design.synth.scenarios import describe_row
 from plant.errors import SpecError
 from plant.physics.dual_drive import DualDriveStageY
 
@@ -242,24 +242,12 @@ def synthesise_dual_admittance(problem: LoopProblem, *, structure: str, controll
                             m_v=x[0], b_v=x[1])
     loc = adm.locomotion
     r = float(x[0] * loc.peak_acceleration_m_per_s2 + x[1] * loc.peak_speed_m_per_s)
-    if not check.meets:
-        status, msg = "infeasible", "the dense check fails: " + "; ".join(v.detail for v in check.violations[:3])
-    elif mc.violations:
-        status = "infeasible"
-        msg = (f"{mc.violations} of {mc.samples} Monte Carlo draws over carriage position, payload, uncertainty and "
-               f"mouse violate the requirements (worst at {describe_row(mc.worst_scenario)}, mouse "
-               f"{mc.worst_mouse.label()})")
-    elif not feel.can_drive:
-        status = "mouse_cannot_drive"
-        msg = (f"the mouse cannot drive this design: it asks {feel.peak_force_n:.3g} N on the locomotion profile "
-               f"against the mouse's {adm.mouse.peak_force_n:g} N (admittance.mouse.peak_force_n); it binds: "
-               f"{binding.detail}; {HINT}")
-    else:
-        status = "optimal"
-        msg = (f"on the {structure} loops: every requirement held on {len(dense_set)} plants x {len(corners)} mice "
-               f"and on 0 of {mc.samples} Monte Carlo draws over carriage position, payload, uncertainty and mouse "
-               f"(95 % upper bound {100 * mc.rate_upper_bound:.2g} %); the mouse feels at most "
-               f"{feel.peak_force_n:.3g} N of its {adm.mouse.peak_force_n:g} N")
+    status, msg = admittance_verdict(
+        adm, failures=None if check.meets else "the dense check fails: " + "; ".join(
+            v.detail for v in check.violations[:3]),
+        held_on=f"the {structure} loops, {len(dense_set)} plants x {len(corners)} mice",
+        draws_over="carriage position, payload, uncertainty", monte_carlo=mc, feel=feel, binding=binding,
+        m_v=x[0], b_v=x[1], hint=HINT)
     return DualAdmittanceResult(
         status, msg, structure, controller, float(x[0]), float(x[1]), r, check, mc, feel, binding,
         by_position(check, dense_set), corners, timing, len(rounds.scenarios), time.perf_counter() - t0,

@@ -69,11 +69,12 @@ from design.admittance.mouse import MouseModel
 from design.admittance.ray import RayBound, best_ray, ray_problem
 from design.admittance.rig import DiscreteAdmittance, RigTiming
 from design.admittance.tradeoff import trade_off
+from design.admittance.verdict import admittance_verdict
 from design.admittance.verify import AdmittanceVerification, verify_admittance
 from design.loop.controller import PI
 from design.loop.requirement import Binding
 from design.problem import LoopProblem
-from design.synth.scenarios import Scenarios, admittance_check_scenarios, describe_row, design_scenarios
+from design.synth.scenarios import Scenarios, admittance_check_scenarios, design_scenarios
 from plant.errors import SpecError
 
 #: rounds of the dense check adding its worst violator, and of the Monte Carlo check
@@ -245,28 +246,13 @@ def synthesise_admittance(problem: LoopProblem, *, controller: PI | None = None,
     latency = latency_check(design_scenarios(problem), corners, loops=loops, timing=timing.at_delay(timing.delays[-1]),
                             m_v=x[0], b_v=x[1])
     r = x[0] * loc.peak_acceleration_m_per_s2 + x[1] * loc.peak_speed_m_per_s
-    if not verification.verified:
-        status, msg = "infeasible", "NOT verified: " + "; ".join(verification.failures[:3])
-    elif mc.violations:
-        status = "infeasible"
-        msg = (f"verified on the {len(scenarios)} design scenarios, but {mc.violations} of {mc.samples} Monte Carlo "
-               f"draws over payload, uncertainty and mouse violate the requirements (worst at "
-               f"{describe_row(mc.worst_scenario)}, mouse {mc.worst_mouse.label()})")
-    elif not feel.can_drive:
-        status = "mouse_cannot_drive"
-        msg = (f"the mouse cannot drive this design: it asks {feel.peak_force_n:.3g} N on the locomotion profile "
-               f"({loc.peak_speed_m_per_s:g} m/s, {loc.peak_acceleration_m_per_s2:g} m/s^2; m_v a + b_v v = {r:.3g} "
-               f"N) against the mouse's {adm.mouse.peak_force_n:g} N (admittance.mouse.peak_force_n), "
-               f"{feel.peak_force_n / adm.mouse.peak_force_n:.2f} times; it binds: {binding.detail}; "
-               f"{_HINTS.get(_HINT_OF.get(binding.constraint, binding.constraint), '')}")
-    else:
-        status = "optimal"
-        span = ("" if len(timing.delays) == 1 else
-                f" at every computation delay from {timing.delays[0]} to {timing.delays[-1]} samples")
-        msg = (f"verified on {len(scenarios)} design scenarios x {len(corners)} mice{span}; 0 of {mc.samples} "
-               f"Monte Carlo draws over payload, uncertainty and mouse violate (95 % upper bound "
-               f"{100 * mc.rate_upper_bound:.2g} %); the mouse feels at most {feel.peak_force_n:.3g} N of its "
-               f"{adm.mouse.peak_force_n:g} N on the locomotion profile")
+    span = ("" if len(timing.delays) == 1 else
+            f" at every computation delay from {timing.delays[0]} to {timing.delays[-1]} samples")
+    status, msg = admittance_verdict(
+        adm, failures=None if verification.verified else "NOT verified: " + "; ".join(verification.failures[:3]),
+        held_on=f"{len(scenarios)} design scenarios x {len(corners)} mice{span}", draws_over="payload, uncertainty",
+        monte_carlo=mc, feel=feel, binding=binding, m_v=x[0], b_v=x[1],
+        hint=_HINTS.get(_HINT_OF.get(binding.constraint, binding.constraint), ""))
     active = tuple(sorted({binding.constraint} | {v.constraint for v in check.violations}))
     result = AdmittanceResult(
         status, msg, float(x[0]), float(x[1]), controller, float(r), check, verification, binding, active, corners,

@@ -1,0 +1,146 @@
+"""The planar gantry (``plant.physics.planar``, Lagrange's equations derived by casadi) against what it must
+reduce to and against an independent derivation: today's two-motor Stage Y and thesis Stage X / Stage Y at rest,
+Newton-Euler equations written out here with the rotation stage, and the energy its nonlinear equations conserve
+with the carriage moving."""
+
+import math
+
+import numpy as np
+import pytest
+from scipy.integrate import solve_ivp
+
+from plant.errors import ParameterError
+from plant.physics.dual_drive import DualDriveStageY
+from plant.physics.planar import PlanarGantry
+
+W = np.geomspace(1.0, 3000.0, 80)
+S = 1j * W
+
+
+@pytest.mark.parametrize("p", [0.05, 0.3, 0.4, 0.71])
+def test_at_rest_it_is_todays_two_motor_stage_y_and_thesis_stage_x(p):
+    """A free rotation stage (no bearing damping, no torque) passes nothing to the beam: the rails' and the
+    carriage's point mobilities are ``DualDriveStageY``'s, the carriage along the beam is m_c p'' + b_x p' = f_x
+    (thesis Eq. 3.15), and nothing of X reaches Y at rest."""
+    g = PlanarGantry(carriage_inertia_kg_m2=0.05, rotation_damping_n_m_s_per_rad=0.0)
+    H = g.frd(W, p)
+    ref = DualDriveStageY(carriage_position_m=p, carriage_inertia_kg_m2=0.05).point_mobility(S)
+    got = H[[0, 1, 4]][:, [0, 1, 5]]          # (y1', y2', y_c') per (f1, f2, clamp f_y)
+    assert np.max(np.abs(got - ref) / np.max(np.abs(ref), axis=(0, 1))) < 1e-10
+    np.testing.assert_allclose(H[2, 2], 1 / (g.carriage_mass_kg * S + g.damping_x_n_s_per_m), rtol=1e-12)
+    assert np.max(np.abs(H[[0, 1, 4], 2])) == 0.0 and np.max(np.abs(H[2, [0, 1, 5]])) == 0.0
+
+
+def test_both_motors_alike_and_the_carriage_midway_is_thesis_stage_y():
+    """f1 = f2 = F / 2 with the carriage in the middle: v1 = v2 = F / (M s + 2 b), M = m_b + m_c (Eq. 3.16 at
+    l = L / 2)."""
+    g = PlanarGantry()
+    H = g.frd(W, g.rail_separation_m / 2)
+    want = 1 / ((g.beam_mass_kg + g.carriage_mass_kg) * S + 2 * g.damping1_n_s_per_m)
+    for rail in (0, 1):
+        np.testing.assert_allclose((H[rail, 0] + H[rail, 1]) / 2, want, rtol=1e-10)
+
+
+def newton_euler(g: PlanarGantry, p: float, s: np.ndarray) -> np.ndarray:
+    """The linear model at rest written out body by body (coordinates y1, y2, p, psi = theta + phi the stage's
+    absolute angle): the beam and the carriage as one body in y and yaw, their centre of mass, inertia and the
+    rails' damping about it; the rotation stage's bearing passing tau_r - b_r (psi' - theta') to the stage and its
+    reaction to the carriage. Response (y1', y2', p', phi', y_c') per (f1, f2, f_x, tau_r, w_x, w_y, tau_m)."""
+    L, mb, mc = g.rail_separation_m, g.beam_mass_kg, g.carriage_mass_kg
+    M = mb + mc
+    sg = (mb * L / 2 + mc * p) / M
+    J = g.beam_inertia_kg_m2 + g.carriage_inertia_kg_m2 + mb * (L / 2 - sg) ** 2 + mc * (p - sg) ** 2
+    l1, l2 = sg, L - sg
+    b1, b2, bx, br = g.damping1_n_s_per_m, g.damping2_n_s_per_m, g.damping_x_n_s_per_m, g.rotation_damping_n_m_s_per_rad
+    Jr, Ka = g.rotation_inertia_kg_m2, g.yaw_stiffness_n_m_per_rad
+    out = np.zeros((5, 7, s.size), complex)
+    for k, sk in enumerate(s):
+        # unknowns: Y_g, Theta, P, Psi (positions); forces in: f1, f2, fx, tau_r, wx, wy, tau_m
+        K = np.zeros((4, 4), complex)
+        F = np.zeros((4, 7), complex)
+        # M y_g'' + (b1 + b2) y_g' + (b2 l2 - b1 l1) theta' = f1 + f2 + w_y
+        K[0, 0], K[0, 1] = M * sk**2 + (b1 + b2) * sk, (b2 * l2 - b1 * l1) * sk
+        F[0, 0] = F[0, 1] = F[0, 5] = 1.0
+        # J theta'' + ... + K_a theta = l2 f2 - l1 f1 + (p - l1) w_y - tau_r + b_r (psi' - theta')
+        K[1, 0] = (b2 * l2 - b1 * l1) * sk
+        K[1, 1] = J * sk**2 + (b1 * l1**2 + b2 * l2**2) * sk + Ka + br * sk
+        K[1, 3] = -br * sk
+        F[1, 0], F[1, 1], F[1, 3], F[1, 5] = -l1, l2, -1.0, p - l1
+        # m_c p'' + b_x p' = f_x + w_x
+        K[2, 2] = mc * sk**2 + bx * sk
+        F[2, 2] = F[2, 4] = 1.0
+        # J_r psi'' = tau_r + tau_m - b_r (psi' - theta')
+        K[3, 3], K[3, 1] = Jr * sk**2 + br * sk, -br * sk
+        F[3, 3] = F[3, 6] = 1.0
+        X = np.linalg.solve(K, F) * sk                            # velocities of (y_g, theta, p, psi)
+        yg, th, pp, psi = X
+        out[:, :, k] = [yg - l1 * th, yg + l2 * th, pp, psi - th, yg + (p - l1) * th]
+    return out
+
+
+@pytest.mark.parametrize("p", [0.1, 0.55])
+def test_the_whole_linear_model_is_newton_eulers_with_the_rotation_stage(p):
+    g = PlanarGantry(rotation_inertia_kg_m2=0.02, rotation_damping_n_m_s_per_rad=2.0, carriage_inertia_kg_m2=0.1,
+                     damping2_n_s_per_m=380.0)
+    got, want = g.frd(W, p), newton_euler(g, p, S)
+    scale = np.max(np.abs(want), axis=-1, keepdims=True)
+    assert np.max(np.abs(got - want) / np.where(scale > 0, scale, 1.0)) < 1e-9
+    # the rotation motor's reaction yaws the beam (its torque lands on the carriage)
+    assert np.max(np.abs(got[0, 3])) > 0
+
+
+def test_the_nonlinear_equations_conserve_energy_with_the_carriage_moving():
+    """No damping, no input: the carriage crosses the beam at 0.5 m/s while the beam yaws and the stage spins;
+    T + V stays constant to the integrator's tolerance (the moving carriage's terms derived right)."""
+    g = PlanarGantry(damping1_n_s_per_m=1e-12, damping2_n_s_per_m=1e-12, damping_x_n_s_per_m=1e-12,
+                     rotation_damping_n_m_s_per_rad=0.0, yaw_stiffness_n_m_per_rad=2.0e3)
+    L = g.rail_separation_m
+
+    def energy(x):
+        q, dq = x[:4], x[4:]
+        theta, dtheta = (q[1] - q[0]) / L, (dq[1] - dq[0]) / L
+        dyc = dq[0] + dq[2] * theta + q[2] * dtheta
+        T = (g.beam_mass_kg * ((dq[0] + dq[1]) / 2) ** 2 + (g.beam_inertia_kg_m2 + g.carriage_inertia_kg_m2)
+             * dtheta**2 + g.carriage_mass_kg * (dq[2] ** 2 + dyc**2) + g.rotation_inertia_kg_m2
+             * (dtheta + dq[3]) ** 2) / 2
+        return T + g.yaw_stiffness_n_m_per_rad * theta**2 / 2
+
+    x0 = np.array([0.0, 1e-3, 0.2, 0.0, 0.01, -0.02, 0.5, 1.0])
+    sol = solve_ivp(lambda t, x: np.concatenate([x[4:], g.dynamics(x[:4], x[4:], np.zeros(4))]), (0, 0.8), x0,
+                    rtol=1e-11, atol=1e-13, dense_output=True)
+    e = np.array([energy(sol.sol(t)) for t in np.linspace(0, 0.8, 50)])
+    assert sol.sol(0.8)[2] > 0.55                                   # the carriage did travel
+    assert np.max(np.abs(e / e[0] - 1)) < 1e-8
+    # a moving carriage on a yawing beam is not what the rest linearisation sees: its y acceleration differs
+    moving = g.dynamics(x0[:4], x0[4:], np.zeros(4))
+    still = g.dynamics(x0[:4], np.r_[x0[4:6], 0.0, x0[7]], np.zeros(4))
+    assert not np.allclose(moving[:2], still[:2])
+
+
+def test_a_carriage_outside_the_rails_and_a_batch_are_refused():
+    with pytest.raises(ParameterError, match="between the rails"):
+        PlanarGantry().linearised(0.9)
+    with pytest.raises(ParameterError, match="one machine"):
+        PlanarGantry(carriage_mass_kg=np.array([20.0, 30.0]))
+    with pytest.raises(ParameterError):
+        PlanarGantry(rotation_inertia_kg_m2=0.0)
+    assert math.isfinite(PlanarGantry().mass_matrix(0.4)[0, 0])
+
+
+def test_a_small_push_with_the_carriage_held_follows_the_linear_model():
+    """The nonlinear equations stepped in time (``simulate``) against the linear model at the same position: a
+    0.1 N step on rail Y1 and a 1 mN*m step on the rotation stage, the carriage held by its motor at rest."""
+    from scipy.signal import StateSpace, lsim
+
+    g = PlanarGantry()
+    p = 0.3
+    t = np.linspace(0.0, 0.2, 201)
+    u = np.zeros((t.size, 4))
+    u[:, 0], u[:, 3] = 0.1, 1e-3
+    x0 = np.zeros(8)
+    x0[2] = p
+    got = g.simulate(t, u, state0=x0)
+    A, B, C = g.linearised(p)
+    _, y, _ = lsim(StateSpace(A, B[:, :4], C, np.zeros((5, 4))), u, t)
+    np.testing.assert_allclose(got[:, 4:8], y[:, :4], atol=1e-6 * np.max(np.abs(y[:, :4])))
+    assert np.max(np.abs(got[:, 5])) > 0                             # the push yawed the beam: rail Y2 moved

@@ -186,6 +186,11 @@ class Requirements:
     phase_margin_deg: Annotated[float, Ge(0), Lt(90)] = 45.0
     gain_margin_db: Annotated[float, Ge(0), Le(60)] = 6.0
     disk_margin: Annotated[float, Gt(0), Lt(2)] | None = None
+    #: two-motor plants: margins against the same gain or phase change on both motors at once (deg, dB). None:
+    #: the loop-at-a-time values above, since two motors on one beam share one drive model, one batch of magnets
+    #: and one temperature, so their likeliest change is common to both; 0: not required (reported only)
+    common_phase_margin_deg: Annotated[float, Ge(0), Lt(90)] | None = None
+    common_gain_margin_db: Annotated[float, Ge(0), Le(60)] | None = None
     peak_sensitivity: Annotated[float, Gt(1)] | None = None
     #: optional: synthesis is infeasible when the worst-case bandwidth cannot reach this
     min_bandwidth_hz: Annotated[float, Gt(0), Le(1e5)] | None = None

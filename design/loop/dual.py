@@ -161,6 +161,10 @@ class DualLoopFigures:
     bandwidth_hz: np.ndarray
     #: peak over frequency of |v_d / r|: rail disagreement per unit translation command
     yaw_coupling: np.ndarray
+    #: margins against the same gain or phase change on both motor inputs at once (both force constants, both
+    #: drives' lag): those of the characteristic loci of L = C P (``common_loci``), the worse locus
+    common_gain_margin_db: np.ndarray
+    common_phase_margin_deg: np.ndarray
 
 
 def matmul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -231,7 +235,29 @@ def mimo_unstable_poles(w_rad_s: np.ndarray, det: np.ndarray) -> np.ndarray:
     return np.where(bad, np.maximum(poles, 1), np.maximum(poles, 0)).astype(int)
 
 
-def loop_figures(w_rad_s, plant_frd: np.ndarray, controller: Controller, *, disk: bool = True) -> DualLoopFigures:
+def common_loci(l11: np.ndarray, l12: np.ndarray, l21: np.ndarray, l22: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The characteristic loci of 2 x 2 loops L(jw) (entries (..., n_freq)): the eigenvalues at each frequency,
+    continued from one frequency to the next (a pair swaps where the crossed pairing is the nearer). The same
+    complex factor k on both loop inputs gives det(I + k L) = (1 + k lambda_1)(1 + k lambda_2), so the margins
+    of each locus as a single loop are the margins against a change common to both inputs (MacFarlane &
+    Postlethwaite 1977)."""
+    half = (l11 + l22) / 2
+    root = np.sqrt(half * half - (l11 * l22 - l12 * l21))
+    r1, r2 = half + root, half - root
+    same = np.abs(r1[..., 1:] - r1[..., :-1]) + np.abs(r2[..., 1:] - r2[..., :-1])
+    crossed = np.abs(r1[..., 1:] - r2[..., :-1]) + np.abs(r2[..., 1:] - r1[..., :-1])
+    flip = np.concatenate([np.zeros(r1.shape[:-1] + (1,), bool), crossed < same], axis=-1)
+    odd = (np.cumsum(flip, axis=-1) % 2).astype(bool)
+    return np.where(odd, r2, r1), np.where(odd, r1, r2)
+
+
+#: a characteristic locus below this fraction of the other everywhere is a loop that is not there (the rounding of
+#: a rank-one structure's zero eigenvalue: master-slave drives both motors from one channel)
+NO_LOOP = 1e-9
+
+
+def loop_figures(w_rad_s, plant_frd: np.ndarray, controller: Controller, *, disk: bool = True,
+                 common: bool = True) -> DualLoopFigures:
     """``DualLoopFigures`` of ``controller`` on plants ``plant_frd`` (..., 2, 2, n_freq), both on ``w_rad_s``; a
     controller with gains shaped (k, 1) and plants (s, 2, 2, n_freq) give figures shaped (k, s). ``disk``
     False leaves the disk margin out (NaN), the dearest figure.
@@ -263,17 +289,19 @@ def loop_figures(w_rad_s, plant_frd: np.ndarray, controller: Controller, *, disk
         u = [((1 + e) * v[0] - b * v[1]) / det, ((1 + a) * v[1] - c * v[0]) / det]
     unstable = mimo_unstable_poles(w, det)
     margins = [crossover_margins(w, lj) for lj in channels]
-    common = sum(move[..., 0, j, :] * u[j] for j in range(len(u)))
+    mean_motion = sum(move[..., 0, j, :] * u[j] for j in range(len(u)))
     half_difference = sum(move[..., 1, j, :] * u[j] for j in range(len(u)))
-    bandwidth = closed_loop_bandwidth_hz(w, common, dc_gain=1.0)
+    bandwidth = closed_loop_bandwidth_hz(w, mean_motion, dc_gain=1.0)
     nan = np.full(np.shape(bandwidth), np.nan)
-    alpha, disk_gm, disk_pm = nan, nan, nan
-    if disk:
-        # L = C P = T_in D T_out P at the motor inputs; S - I / 2 = adj(I + L) / det(I + L) - I / 2 and
-        # det(S - I / 2) = det(I - L) / (4 det(I + L)), with det(I + L) = det(I + D Q) above
-        L = matmul(t_in, np.stack([dj[..., None, :] * row for dj, row in
-                                   zip(d, np.moveaxis(B, -3, 0))], axis=-3))
+    alpha, disk_gm, disk_pm, common_gm, common_pm = nan, nan, nan, nan, nan
+    if disk or common:
+        # L = C P = T_in D T_out P at the motor inputs
+        L = matmul(t_in, np.stack(np.broadcast_arrays(*(dj[..., None, :] * row for dj, row in
+                                                        zip(d, np.moveaxis(B, -3, 0)))), axis=-3))
         l11, l22, off = L[..., 0, 0, :], L[..., 1, 1, :], L[..., 0, 1, :] * L[..., 1, 0, :]
+    if disk:
+        # S - I / 2 = adj(I + L) / det(I + L) - I / 2 and det(S - I / 2) = det(I - L) / (4 det(I + L)), with
+        # det(I + L) = det(I + D Q) above
         inv_det = 1 / det
         minus = 1 - l11 - l22 + l11 * l22 - off
         mu = mu_diagonal(np.abs((1 + l22) * inv_det - 0.5), np.abs((1 + l11) * inv_det - 0.5),
@@ -282,9 +310,19 @@ def loop_figures(w_rad_s, plant_frd: np.ndarray, controller: Controller, *, disk
         with np.errstate(divide="ignore", invalid="ignore"):
             disk_gm = np.where(alpha < 2, 20 * np.log10((2 + alpha) / (2 - alpha)), np.inf)
             disk_pm = np.degrees(2 * np.arctan(alpha / 2))
+    if common:
+        loci = common_loci(l11, L[..., 0, 1, :], L[..., 1, 0, :], l22)
+        each = []
+        for locus, other in (loci, loci[::-1]):
+            # a locus at rounding level of the other everywhere is the zero eigenvalue of a rank-one loop
+            absent = np.all(np.abs(locus) <= NO_LOOP * np.abs(other), axis=-1)
+            gm_pm = crossover_margins(w, np.where(np.abs(locus) == 0, 1e-300, locus))
+            each.append(tuple(np.where(absent, np.inf, m) for m in gm_pm))
+        common_gm = np.minimum(each[0][0], each[1][0])
+        common_pm = np.minimum(each[0][1], each[1][1])
     return DualLoopFigures(unstable, np.minimum.reduce([m[0] for m in margins]),
                            np.minimum.reduce([m[1] for m in margins]), alpha, disk_gm, disk_pm,
-                           bandwidth, np.abs(half_difference).max(axis=-1))
+                           bandwidth, np.abs(half_difference).max(axis=-1), common_gm, common_pm)
 
 
 def translation_step(plant, controller: Controller, t_s: np.ndarray, *, pade_order: int = 6):

@@ -51,6 +51,23 @@ class DualRequirements:
     gain_margin_db: float = 6.0
     #: simultaneous balanced disk margin at the motor inputs (0: not required)
     disk_margin: float = 0.0
+    #: margins against the same gain or phase change on both motors at once (0: not required)
+    common_phase_margin_deg: float = 0.0
+    common_gain_margin_db: float = 0.0
+
+    @property
+    def common(self) -> bool:
+        return self.common_phase_margin_deg > 0 or self.common_gain_margin_db > 0
+
+    def binding(self, worst: Worst) -> tuple[str, ...]:
+        """The spec keys of the requirements a design's worst case sits on (within 0.1 deg, 0.1 dB, 0.005)."""
+        pairs = [("requirements.phase_margin_deg", worst.phase_margin_deg, self.phase_margin_deg, 0.1),
+                 ("requirements.gain_margin_db", worst.gain_margin_db, self.gain_margin_db, 0.1),
+                 ("requirements.common_phase_margin_deg", worst.common_phase_margin_deg,
+                  self.common_phase_margin_deg, 0.1),
+                 ("requirements.common_gain_margin_db", worst.common_gain_margin_db, self.common_gain_margin_db, 0.1),
+                 ("requirements.disk_margin", worst.disk_margin, self.disk_margin, 0.005)]
+        return tuple(key for key, value, limit, tol in pairs if limit > 0 and value < limit + tol)
 
 
 @dataclass(frozen=True)
@@ -174,12 +191,19 @@ class Worst:
     #: the plant of the lowest bandwidth and the plant of the smallest phase margin, in words
     worst_bandwidth_at: str
     worst_phase_margin_at: str
+    #: against the same change on both motors (``DualLoopFigures``), and the plant of the smallest common-mode
+    #: phase margin
+    common_gain_margin_db: float
+    common_phase_margin_deg: float
+    worst_common_at: str
 
 
 def _passes(f: DualLoopFigures, req: DualRequirements) -> np.ndarray:
     disk = f.disk_margin >= req.disk_margin if req.disk_margin > 0 else True
+    common = ((f.common_phase_margin_deg >= req.common_phase_margin_deg)
+              & (f.common_gain_margin_db >= req.common_gain_margin_db)) if req.common else True
     return ((f.unstable_poles == 0) & (f.phase_margin_deg >= req.phase_margin_deg)
-            & (f.gain_margin_db >= req.gain_margin_db) & disk & np.isfinite(f.bandwidth_hz))
+            & (f.gain_margin_db >= req.gain_margin_db) & disk & common & np.isfinite(f.bandwidth_hz))
 
 
 def _bandwidth(f: DualLoopFigures) -> np.ndarray:
@@ -200,12 +224,13 @@ def worst_cases(controllers: list[Controller], scenarios: DualScenarios, req: Du
                               for n in DualLoopFigures.__dataclass_fields__))
         ok = _passes(f, req)
         bw = _bandwidth(f)
-        kb, kp = int(np.argmin(bw)), int(np.argmin(f.phase_margin_deg))
+        kb, kp, kc = int(np.argmin(bw)), int(np.argmin(f.phase_margin_deg)), int(np.argmin(f.common_phase_margin_deg))
         out.append(Worst(bool(ok.all()), int(ok.size), int((~ok).sum()), int((f.unstable_poles > 0).sum()),
                          float(bw.min()), float(f.phase_margin_deg.min()), float(f.gain_margin_db.min()),
                          float(f.disk_margin.min()), float(f.disk_gain_margin_db.min()),
                          float(f.disk_phase_margin_deg.min()), float(f.yaw_coupling.max()), scenarios.describe(kb),
-                         scenarios.describe(kp)))
+                         scenarios.describe(kp), float(f.common_gain_margin_db.min()),
+                         float(f.common_phase_margin_deg.min()), scenarios.describe(kc)))
     return out
 
 
@@ -251,7 +276,8 @@ def _score(make: Callable[[np.ndarray, np.ndarray], Controller], kp: np.ndarray,
             chunk = max(1, SCREEN_PLANTS // len(new))
             for i in range(0, live.size, chunk):
                 k = live[i:i + chunk]
-                s = objective.score(loop_figures(W_RAD_S, frd, make(kp[k, None], ki[k, None]), disk=disk), req)
+                s = objective.score(loop_figures(W_RAD_S, frd, make(kp[k, None], ki[k, None]), disk=disk,
+                                                 common=req.common), req)
                 bound[k] = np.minimum(bound[k], s)
         found = np.sort(out[np.isfinite(out)])
         threshold = max(best, found[-want]) if found.size >= want else best
@@ -259,7 +285,7 @@ def _score(make: Callable[[np.ndarray, np.ndarray], Controller], kp: np.ndarray,
         if not live.size:
             return out
         k = int(live[np.argmax(bound[live])])
-        f = loop_figures(W_RAD_S, scenarios.frd, make(kp[k], ki[k]), disk=disk)
+        f = loop_figures(W_RAD_S, scenarios.frd, make(kp[k], ki[k]), disk=disk, common=req.common)
         out[k] = float(objective.score(f, req))
         done[k] = True
         failing = ~objective.passes(f, req)
@@ -399,9 +425,11 @@ class DualDesign:
             return ("no structure's gains within the [controller] bounds hold the requirements on every design plant "
                     "and Monte Carlo draw")
         best = next(d for d in self.structures if d.structure == self.recommended)
+        binds = self.requirements.binding(best.design)
         return (f"{self.recommended} recommended: worst-case translation bandwidth {best.design.bandwidth_hz:.3g} Hz "
                 f"(at {best.design.worst_bandwidth_at}), every requirement held on {self.n_design_plants} design "
-                f"plants and {self.n_monte_carlo} Monte Carlo draws")
+                f"plants and {self.n_monte_carlo} Monte Carlo draws"
+                + (f"; it binds: {', '.join(binds)}" if binds else ""))
 
 
 def design_dual(model: DualDriveStageY, *, positions_m, payloads_kg, stage_x_mass_kg: float,

@@ -134,7 +134,7 @@ def print_dual_design(console: Console, out: dict) -> None:
     each one's gains and where it is worst."""
     t = Table(title=f"Structures on {out['design_plants']} design plants (carriage positions x payloads x "
                     f"uncertainty corners); Monte Carlo: {out['monte_carlo_draws']} draws")
-    for col in ("structure", "bandwidth Hz", "PM deg", "GM dB", "disk", "yaw", "MC fail"):
+    for col in ("structure", "BW Hz", "PM deg", "GM dB", "common PM deg", "common GM dB", "MC fails"):
         t.add_column(col, justify="left" if col == "structure" else "right", no_wrap=col == "structure")
     for row in out["structures"]:
         d, mc = row["design_plants"], row["monte_carlo"]
@@ -143,11 +143,12 @@ def print_dual_design(console: Console, out: dict) -> None:
             t.add_row(row["structure"], "none", *[""] * 5)
             continue
         t.add_row(row["structure"] + mark, _val(d["bandwidth_hz"]), _val(d["phase_margin_deg"]),
-                  _num(d["gain_margin_db"]), f"{d['disk_margin']:.3g}", f"{d['yaw_coupling']:.3g}",
-                  "not run" if mc is None else f"{mc['n_failing']}/{mc['n_plants']}")
+                  _num(d["gain_margin_db"]), _val(d["common_phase_margin_deg"]), _num(d["common_gain_margin_db"]),
+                  "not run" if mc is None else f"{mc['n_failing']}")
     console.print(t)
-    console.print("disk: simultaneous disk margin at both motors; yaw: peak rail disagreement per translation "
-                  "command; MC: Monte Carlo" + (f"; * recommended: {out['recommended']}" if out["recommended"] else ""),
+    console.print("BW: worst-case translation bandwidth; PM, GM: each channel with the other closed; common: the "
+                  "same change on both motors at once; MC: Monte Carlo"
+                  + (f"; * recommended: {out['recommended']}" if out["recommended"] else ""),
                   soft_wrap=True)
     for row in out["structures"]:
         d = row["design_plants"]
@@ -157,9 +158,12 @@ def print_dual_design(console: Console, out: dict) -> None:
             continue
         gains = ", ".join(f"{k} = {v:.4g}" + (" (at the \\[controller] bound)" if k in row["at_bound"] else "")
                           for k, v in row["gains"].items())
-        console.print(f"[bold]{row['structure']}[/]: {gains}; disk margin {d['disk_margin']:.3g} (+-"
+        console.print(f"[bold]{row['structure']}[/]: {gains}; yaw coupling {d['yaw_coupling']:.3g} (peak rail "
+                      f"disagreement per translation command); disk margin {d['disk_margin']:.3g} (+-"
                       f"{_num(d['disk_gain_margin_db'])} dB, +-{_val(d['disk_phase_margin_deg'])} deg); lowest "
-                      f"bandwidth at {d['worst_bandwidth_at']}; smallest PM at {d['worst_phase_margin_at']}",
+                      f"bandwidth at {d['worst_bandwidth_at']}; smallest PM at {d['worst_phase_margin_at']}; "
+                      f"smallest common-mode PM at {d['worst_common_at']}"
+                      + (f"; binds: {', '.join(row['binding'])}" if row["binding"] else ""),
                       soft_wrap=True)
 
 

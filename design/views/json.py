@@ -743,7 +743,8 @@ def dual_design_to_dict(dual: DualDesign) -> dict:
         return None if w is None else dataclasses.asdict(w)
 
     rows = [{"structure": d.structure, "gains": None if d.controller is None else d.controller.gains(),
-             "design_plants": worst(d.design), "monte_carlo": worst(d.monte_carlo), "at_bound": list(d.at_bound)}
+             "design_plants": worst(d.design), "monte_carlo": worst(d.monte_carlo), "at_bound": list(d.at_bound),
+             "binding": [] if d.design is None else list(dual.requirements.binding(d.design))}
             for d in dual.structures]
     return {"status": dual.status, "message": dual.message, "verified": dual.recommended is not None,
             "kind": "dual_drive", "recommended": dual.recommended,

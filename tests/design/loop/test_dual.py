@@ -6,6 +6,7 @@ disk margins (slycot's mu bound for the MIMO disk margin)."""
 from __future__ import annotations
 
 import ast
+from dataclasses import replace
 from pathlib import Path
 
 import control
@@ -200,3 +201,61 @@ def test_a_drive_filter_after_every_channel_is_one_before_each_motor(rig, struct
         k = int(np.argmax(np.abs(reference_frd(mean, W)) < 2**-0.5))
         w3 = brentq(lambda w: abs(mean(1j * w)) - 2**-0.5, W[k - 1], W[k], xtol=1e-10)
         assert float(fig.bandwidth_hz) == pytest.approx(w3 / (2 * np.pi), rel=1e-4)
+
+
+#: the spec's worst corner for today's per-motor design (0.4 m, 5 kg: 16 + 5 kg on the carriage), a skewed rig, and
+#: master-slave at the far end with 40 kg
+SPEC_CORNER = dict(b1=330.0, b2=330.0, delay_s=8e-4, current_loop_hz=700.0)
+COMMON = [(Rig(carriage_position_m=0.4, carriage_mass_kg=21.0, **SPEC_CORNER), "per_motor", (124.8, 17757.5)),
+          (replace(SKEWED, delay_s=5e-4), "common_differential", (219.1, 19615.2, 191.2, 1.0)),
+          (Rig(carriage_position_m=0.72, carriage_mass_kg=56.0, **SPEC_CORNER), "master_slave", (75.04, 4072.6))]
+
+
+def _gain_boundary(rig, structure, gains, up: bool) -> float:
+    """The common factor on both motors' force constants at which the reference closed loop (python-control,
+    Pade order 8) first becomes unstable, searched up (or down) from 1 by doubling and bisection (dB)."""
+    def stable(g):
+        return unstable_poles(replace(rig, k1=rig.k1 * g, k2=rig.k2 * g), structure, gains) == 0
+
+    assert stable(1.0)
+    lo, hi = 0.0, 20 * np.log10(2.0) * (1 if up else -1)
+    while stable(10 ** (hi / 20)):
+        lo, hi = hi, 2 * hi
+        if abs(hi) > 200:
+            return np.inf
+    for _ in range(40):
+        mid = (lo + hi) / 2
+        lo, hi = (mid, hi) if stable(10 ** (mid / 20)) else (lo, mid)
+    return abs(hi)
+
+
+@pytest.mark.parametrize(("rig", "structure", "gains"), COMMON)
+def test_common_mode_gain_margin_is_where_the_same_gain_on_both_motors_destabilises(rig, structure, gains):
+    """Both force constants scaled by the same factor in the reference's state space: the closed loop's poles
+    cross into the right half-plane at the tool's common-mode gain margin (either way from 1)."""
+    fig = loop_figures(W, tool_plant(rig).frd(W), STRUCTURES[structure](*gains))
+    boundary = min(_gain_boundary(rig, structure, gains, True), _gain_boundary(rig, structure, gains, False))
+    assert float(fig.common_gain_margin_db) == pytest.approx(boundary, abs=0.05)
+
+
+@pytest.mark.parametrize(("rig", "structure", "gains"), COMMON)
+def test_common_mode_phase_margin_is_the_least_common_rotation_that_closes_det(rig, structure, gains):
+    """On the reference's loop at the motor inputs (python-control's response of K P): the least |theta| for which
+    det(I + e^(-j theta) L(jw)) = 0 at some w, from the quadratic in z = e^(-j theta) at each frequency
+    (det L z^2 + tr L z + 1 = 0) where a root sits on the unit circle; the tool's is within 0.1 deg."""
+    fig = loop_figures(W, tool_plant(rig).frd(W), STRUCTURES[structure](*gains))
+    w = 2 * np.pi * np.logspace(-2, 3.7, 40000)
+    L = reference_frd(input_loop(rig, structure, gains), w)
+    tr, det = L[0, 0] + L[1, 1], L[0, 0] * L[1, 1] - L[0, 1] * L[1, 0]
+    best = np.inf
+    for sign in (1, -1):
+        with np.errstate(all="ignore"):
+            disc = np.sqrt(tr * tr - 4 * det)
+            z = np.where(np.abs(det) > 1e-12 * np.abs(tr) ** 2, (-tr + sign * disc) / (2 * det), -1 / tr)
+        m = np.log(np.abs(z))
+        cross = np.flatnonzero(np.sign(m[:-1]) != np.sign(m[1:]))
+        for k in cross:
+            t = m[k] / (m[k] - m[k + 1])
+            theta = np.angle(z[k] * (z[k + 1] / z[k]) ** t)          # e^(-j theta) = z on the unit circle
+            best = min(best, abs(np.degrees(theta)))
+    assert float(fig.common_phase_margin_deg) == pytest.approx(best, abs=0.1)

@@ -23,8 +23,8 @@ if TYPE_CHECKING:
     from design.loop.curves import LoopCurves
     from design.problem import LoopProblem
     from design.spec.schema import Spec
-    from design.synth.dual import DualDesign
     from design.synth.dual_curves import StructureCurves
+    from design.synth.dual_design import DualDesign
     from design.synth.evaluation import Evaluation
     from design.synth.measured import MeasuredDesign
     from design.synth.monte_carlo import MonteCarloCheck

@@ -322,7 +322,8 @@ def _dual(problem: DesignProblem, progress=None):
     """The two-motor Stage Y's structures on the spec's carriage travel, payloads, uncertainty and requirements."""
     import numpy as np
 
-    from design.synth.dual import DualRequirements, design_dual
+    from design.synth.dual import DualRequirements
+    from design.synth.dual_design import design_dual
 
     spec = problem.spec
     d, p, c, r = spec.dual_drive, spec.plant, spec.controller, spec.requirements

@@ -42,7 +42,7 @@ class StructureCurves:
 
 
 def structure_curves(dual, spec) -> tuple[StructureCurves, ...]:
-    """``StructureCurves`` of every structure of ``dual`` (a ``design.synth.dual.DualDesign``) that has gains,
+    """``StructureCurves`` of every structure of ``dual`` (a ``design.synth.dual_design.DualDesign``) that has gains,
     on ``spec``'s two-motor model, travel and payload range."""
     d, payload = spec.dual_drive, spec.plant.payload_kg
     ranges = {k: (v.min, v.max) for k, v in d.uncertainty.items()}

@@ -130,14 +130,14 @@ def print_time_diagnosis(console: Console, diag: TimeDiagnosis) -> None:
 
 
 def print_dual_design(console: Console, out: dict) -> None:
-    """The two-motor Stage Y's structures side by side: worst case on the design plants and the Monte Carlo, then
-    each one's gains and where it is worst."""
-    t = Table(title=f"Structures on {out['design_plants']} design plants (carriage positions x payloads x "
-                    f"uncertainty corners); Monte Carlo: {out['monte_carlo_draws']} draws")
+    """The two-motor Stage Y's structures side by side: worst case over the whole box (the design plants and
+    between them) and the Monte Carlo, then each one's gains, where it is worst and how the box was covered."""
+    t = Table(title=f"Structures: worst over {out['design_plants']} design plants (carriage positions x payloads x "
+                    f"uncertainty corners) and between them; Monte Carlo: {out['monte_carlo_draws']} draws")
     for col in ("structure", "BW Hz", "PM deg", "GM dB", "common PM deg", "common GM dB", "MC fails"):
         t.add_column(col, justify="left" if col == "structure" else "right", no_wrap=col == "structure")
     for row in out["structures"]:
-        d, mc = row["design_plants"], row["monte_carlo"]
+        d, mc = (row["between"] or {}).get("worst", row["design_plants"]), row["monte_carlo"]
         mark = " *" if row["structure"] == out["recommended"] else ""
         if d is None:
             t.add_row(row["structure"], "none", *[""] * 5)
@@ -151,7 +151,7 @@ def print_dual_design(console: Console, out: dict) -> None:
                   + (f"; * recommended: {out['recommended']}" if out["recommended"] else ""),
                   soft_wrap=True)
     for row in out["structures"]:
-        d = row["design_plants"]
+        d = (row["between"] or {}).get("worst", row["design_plants"])
         if d is None:
             console.print(f"[bold]{row['structure']}[/]: no gains within the \\[controller] box hold the requirements",
                           soft_wrap=True)
@@ -163,7 +163,13 @@ def print_dual_design(console: Console, out: dict) -> None:
                       f"{_num(d['disk_gain_margin_db'])} dB, +-{_val(d['disk_phase_margin_deg'])} deg); lowest "
                       f"bandwidth at {d['worst_bandwidth_at']}; smallest PM at {d['worst_phase_margin_at']}; "
                       f"smallest common-mode PM at {d['worst_common_at']}"
-                      + (f"; binds: {', '.join(row['binding'])}" if row["binding"] else ""),
+                      + (f"; binds: {', '.join(row['binding'])}" if row["binding"] else "")
+                      + (f"; between the grid's points: {row['between']['coverage']}"
+                         + ("" if row["between"]["holds"] else ", FAILS at " + ", ".join(
+                             f"{k} = {v:.4g}" for k, v in row["between"]["worst_point"].items()))
+                         + (f" (designed {row['design_rounds']} times, each failing point found there added)"
+                            if row["design_rounds"] > 1 else "")
+                         if row["between"] else ""),
                       soft_wrap=True)
 
 

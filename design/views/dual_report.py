@@ -88,11 +88,12 @@ def dual_report(content: DualReportContent) -> Report:
     rep = Report(f"{spec.name}: two-motor Stage Y design")
     rep.text(f"{dual.status}: {dual.message}", cls="summary")
     rows = []
-    for s in dual.structures:
+    for c in dual.checked:
+        s = c.design
         if s.controller is None:
             rows.append([s.structure, "no gains within the box hold the requirements", *[""] * 8])
             continue
-        w, mc = s.design, s.monte_carlo
+        w, mc = c.between.worst, s.monte_carlo
         rows.append([s.structure + (" (recommended)" if s.structure == dual.recommended else ""),
                      ", ".join(f"{k} {v:.4g}" for k, v in s.controller.gains().items()),
                      f"{w.bandwidth_hz:.2f}", f"{w.phase_margin_deg:.2f}", f"{w.gain_margin_db:.2f}",
@@ -101,8 +102,11 @@ def dual_report(content: DualReportContent) -> Report:
                      f"{w.yaw_coupling:.3g}", w.worst_bandwidth_at,
                      "not run" if mc is None else f"{mc.n_failing} of {mc.n_plants} fail"])
     rep.heading("Structures on the same plants")
+    between = next((c.between for c in dual.checked if c.between is not None), None)
     rep.text(f"Worst case over {dual.n_design_plants} design plants (carriage positions x payloads x corners of "
-             f"the uncertainty box); Monte Carlo: {dual.n_monte_carlo} draws (seed {spec.verification.seed}). "
+             f"the uncertainty box) and between them"
+             + (f" ({between.coverage()})" if between is not None else "")
+             + f"; Monte Carlo: {dual.n_monte_carlo} draws (seed {spec.verification.seed}). "
              f"Requirements: every channel PM >= {dual.requirements.phase_margin_deg:g} deg and GM >= "
              f"{dual.requirements.gain_margin_db:g} dB with the other channel closed"
              + (f"; against the same change on both motors at once PM >= "

@@ -32,7 +32,7 @@ if TYPE_CHECKING:
     from design.loop.sweep import SweepResult
     from design.problem import LoopProblem
     from design.results import DesignOutcome, DiagnosisOutcome, FitOutcome
-    from design.synth.dual import DualDesign
+    from design.synth.dual_design import DualDesign
     from design.synth.evaluation import Evaluation
     from design.synth.measured import MeasuredDesign
     from design.synth.monte_carlo import MonteCarloCheck
@@ -742,10 +742,19 @@ def dual_design_to_dict(dual: DualDesign) -> dict:
     def worst(w) -> dict | None:
         return None if w is None else dataclasses.asdict(w)
 
-    rows = [{"structure": d.structure, "gains": None if d.controller is None else d.controller.gains(),
-             "design_plants": worst(d.design), "monte_carlo": worst(d.monte_carlo), "at_bound": list(d.at_bound),
-             "binding": [] if d.design is None else list(dual.requirements.binding(d.design))}
-            for d in dual.structures]
+    def between(c) -> dict | None:
+        b = c.between
+        return None if b is None else {"worst": worst(b.worst), "least_slack": b.least_slack,
+                                       "worst_point": b.worst_point.as_dict(), "coverage": b.coverage(),
+                                       "dense_plants": b.dense_plants, "searches": b.searches,
+                                       "evaluations": b.evaluations, "holds": b.holds}
+
+    rows = [{"structure": c.design.structure,
+             "gains": None if c.design.controller is None else c.design.controller.gains(),
+             "design_plants": worst(c.design.design), "between": between(c), "design_rounds": c.rounds,
+             "monte_carlo": worst(c.design.monte_carlo), "at_bound": list(c.design.at_bound),
+             "binding": [] if c.between is None else list(dual.requirements.binding(c.between.worst))}
+            for c in dual.checked]
     return {"status": dual.status, "message": dual.message, "verified": dual.recommended is not None,
             "kind": "dual_drive", "recommended": dual.recommended,
             "requirements": dataclasses.asdict(dual.requirements),

@@ -340,3 +340,24 @@ def translation_step(plant, controller: Controller, t_s: np.ndarray, *, pade_ord
     C = controller.tf()
     loop = balanced(control.feedback(P * C, np.eye(2)) * control.ss([], [], [], np.ones((2, 1))))
     return control.forced_response(loop, t_s, np.ones_like(t_s)).outputs
+
+
+def offset_ramp_a_per_s(plant, controller: Controller, *, rail: int = 0) -> float:
+    """How fast the motors' half-difference current (i2 - i1) / 2 ramps (A/s) per m/s of a constant offset on rail
+    ``rail``'s velocity sensor, on one plant (``plant.physics.dual_drive.DualDriveStageY``): the residue at s = 0 of
+    the closed loop's response to the offset, -(I + C P)^-1 C e_rail, read at s = 1e-7 rad/s on the real axis
+    (twice that, to tell a pole at 0 from a finite response: 0 when there is none). Integral action on both rails'
+    velocities against the yaw spring leaves the loop such a pole: the offset makes the rails disagree, the
+    beam yaws at a constant rate, and the integrators wind the motors against the spring without end."""
+    def response(s: float) -> np.ndarray:
+        z = np.array([complex(s)])
+        k = plant.force_constants()[..., None, :, None]
+        P = plant.point_mobility(z, carriage=False) * k * plant.chain(z, "drive") * plant.chain(z, "sensor")
+        C = controller.at(z)
+        M = np.eye(2) + matmul(C, P)[..., 0]
+        u = -np.linalg.solve(M, C[..., rail, 0])
+        return (u[1] - u[0]).real / 2
+
+    s1 = 1e-7
+    a, b = s1 * response(s1), 2 * s1 * response(2 * s1)
+    return float(a) if abs(a - b) < 1e-3 * max(abs(a), 1e-300) else 0.0

@@ -12,6 +12,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from design.loop.dual import offset_ramp_a_per_s
 from design.parallel import thread_map
 from design.synth.dual import (
     DualRequirements,
@@ -36,6 +37,10 @@ class CheckedStructure:
     design: StructureDesign
     between: BetweenCheck | None
     rounds: int
+    #: how fast the motors' half-difference current ramps per m/s of a constant offset on rail Y1's velocity
+    #: sensor (A/s per m/s; ``design.loop.dual.offset_ramp_a_per_s``), on the nominal plant with the carriage mid
+    #: travel and the middle payload: 0 when the closed loop has no pole at s = 0
+    offset_ramp_a_per_s: float = 0.0
 
 
 def recommend(designs: list[CheckedStructure]) -> CheckedStructure | None:
@@ -112,8 +117,9 @@ def design_dual(model: DualDriveStageY, *, positions_m, payloads_kg, stage_x_mas
             if between.holds or plants.contains(between.worst_point):
                 break
             plants = plants.with_row(between.worst_point)
+        nominal = model.with_values(carriage_position_m=sum(travel) / 2, carriage_mass_kg=sum(mass_range) / 2)
         return CheckedStructure(replace(d, monte_carlo=worst_cases([d.controller], check, requirements)[0]), between,
-                                rounds)
+                                rounds, offset_ramp_a_per_s(nominal, d.controller))
 
     designs = thread_map(designed_and_checked, structures)
     best = recommend(designs)

@@ -169,7 +169,11 @@ def print_dual_design(console: Console, out: dict) -> None:
                              f"{k} = {v:.4g}" for k, v in row["between"]["worst_point"].items()))
                          + (f" (designed {row['design_rounds']} times, each failing point found there added)"
                             if row["design_rounds"] > 1 else "")
-                         if row["between"] else ""),
+                         if row["between"] else "")
+                      + (f"; a 1 mm/s offset on rail Y1's velocity sensor ramps the motors' differential current by "
+                         f"{abs(row['offset_ramp_a_per_s_per_mm_s']):.3g} A/s without end (a closed-loop pole at "
+                         "s = 0: integral action on both rails against the yaw spring; the common/differential pair "
+                         "with ki_differential = 0 has none)" if row["offset_ramp_a_per_s_per_mm_s"] else ""),
                       soft_wrap=True)
 
 

@@ -752,6 +752,7 @@ def dual_design_to_dict(dual: DualDesign) -> dict:
     rows = [{"structure": c.design.structure,
              "gains": None if c.design.controller is None else c.design.controller.gains(),
              "design_plants": worst(c.design.design), "between": between(c), "design_rounds": c.rounds,
+             "offset_ramp_a_per_s_per_mm_s": 1e-3 * c.offset_ramp_a_per_s,
              "monte_carlo": worst(c.design.monte_carlo), "at_bound": list(c.design.at_bound),
              "binding": [] if c.between is None else list(dual.requirements.binding(c.between.worst))}
             for c in dual.checked]

@@ -12,10 +12,19 @@ from pathlib import Path
 import control
 import numpy as np
 import pytest
-from independent_dual_drive import Rig, channel_loop, closed_loop, input_loop, mechanics, unstable_poles
+from independent_dual_drive import (
+    Rig,
+    channel_loop,
+    closed_loop,
+    controller,
+    input_loop,
+    mechanics,
+    plant,
+    unstable_poles,
+)
 from scipy.optimize import brentq
 
-from design.loop.dual import CommonDifferential, MasterSlave, PerMotor, loop_figures
+from design.loop.dual import CommonDifferential, MasterSlave, PerMotor, loop_figures, offset_ramp_a_per_s
 from plant.physics.drive_filters import LowPassFilter
 from plant.physics.dual_drive import DualDriveStageY
 from plant.physics.effects import make_effect
@@ -259,3 +268,25 @@ def test_common_mode_phase_margin_is_the_least_common_rotation_that_closes_det(r
             theta = np.angle(z[k] * (z[k + 1] / z[k]) ** t)          # e^(-j theta) = z on the unit circle
             best = min(best, abs(np.degrees(theta)))
     assert float(fig.common_phase_margin_deg) == pytest.approx(best, abs=0.1)
+
+
+@pytest.mark.parametrize(("structure", "gains", "ramps"), [("per_motor", (124.8, 17757.5), True),
+                                                          ("per_motor", (84.56, 6221.0), True),
+                                                          ("common_differential", (219.8, 18957.0, 191.2, 40.0), True),
+                                                          ("common_differential", (219.8, 18957.0, 191.2, 0.0), False),
+                                                          ("master_slave", (74.83, 4061.0), False)])
+def test_a_sensor_offset_ramps_the_differential_current_as_the_reference_closed_loop_does(structure, gains, ramps):
+    """A constant 1 mm/s offset on rail Y1's velocity sensor, the reference's closed loop (python-control state
+    space, Pade 8) simulated for 20 s: the half-difference of the motor currents ends on a ramp whose slope the
+    tool's residue at s = 0 gives (to 1e-4), or settles where the loop has no pole at s = 0."""
+    rig = Rig(carriage_position_m=0.4, carriage_mass_kg=38.5, delay_s=5.5e-4, current_loop_hz=1000.0)
+    loop = -control.feedback(controller(structure, gains), plant(rig, 8))
+    t = np.linspace(0.0, 20.0, 20001)
+    u = control.forced_response(loop[:, 0], t, np.full(t.size, 1e-3)).outputs
+    half = (u[1] - u[0]) / 2
+    slope = (half[-1] - half[-2001]) / (t[-1] - t[-2001])
+    tool = 1e-3 * offset_ramp_a_per_s(tool_plant(rig), STRUCTURES[structure](*gains))
+    if ramps:
+        assert abs(slope) > 1e-4 and tool == pytest.approx(slope, rel=1e-4)
+    else:
+        assert tool == 0.0 and abs(slope) < 1e-9

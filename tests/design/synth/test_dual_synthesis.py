@@ -269,3 +269,21 @@ def test_a_gain_the_box_stops_is_named():
     d = dual.synthesise_structure("per_motor", scenarios, dual.DualRequirements(), kp_box=(1.0, 30.0))
     assert d.controller.kp == pytest.approx(30.0)
     assert d.at_bound == ("kp",)
+
+
+@pytest.mark.slow
+def test_a_carriage_anywhere_within_035_m_of_the_centre_is_verified_between_the_grid_points():
+    """The travel widened to 0.05-0.75 m (the carriage anywhere within +-0.35 m of the middle): every structure is
+    verified between the grid's points, and the reference holds each one's margins at the point of least slack."""
+    problem = load_problem(SPEC)
+    d = problem.spec.dual_drive
+    wide = d.model_copy(update={"carriage_position_m": d.carriage_position_m.model_copy(update={"min": 0.05,
+                                                                                                "max": 0.75})})
+    plan = dataclasses.replace(problem.spec.verification, monte_carlo_samples=500)
+    spec = problem.spec.model_copy(update={"dual_drive": wide, "verification": plan})
+    result = design(dataclasses.replace(problem, spec=spec)).dual
+    assert result.status == "optimal"
+    for c in result.checked:
+        assert c.between.holds
+        gm, pm = _reference_margins(_rig_at(spec, c.between.worst_point), c.design.structure, _gains(c.design))
+        assert gm >= 6.0 - 0.01 and pm >= 45.0 - 0.05

@@ -40,10 +40,12 @@ if TYPE_CHECKING:
 
 @dataclass(frozen=True)
 class PlantFromFit:
-    """Where a design's plant came from: a fit result file, and the fitted effects left out."""
+    """Where a design's plant came from: a fit result file, the fitted effects left out, and the fitted values
+    carried elsewhere than ``[plant]`` ("tilt_coupling.stiffness_n_m_per_rad -> dual_drive.yaw_...")."""
 
     file: str
     left_out: tuple[str, ...]
+    carried: tuple[str, ...] = ()
 
 
 @dataclass(frozen=True)

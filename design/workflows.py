@@ -61,19 +61,32 @@ def load_problem(spec_path: str | Path, *, plant_from: str | Path | None = None)
     requirements and controller bounds stay the spec's; effects a synthesis cannot design for
     (``coulomb_friction``, ``offset``: no linear response) are left out and listed."""
     spec_path = check_path("spec_path", spec_path)
-    plant, left_out = (_plant_from_fit(check_path("plant_from", plant_from)) if plant_from is not None
-                       else (None, []))
+    plant, left_out, yaw = (_plant_from_fit(check_path("plant_from", plant_from)) if plant_from is not None
+                            else (None, [], {}))
     spec = load_spec(spec_path, plant=plant)
+    carried: tuple[str, ...] = ()
+    if yaw:
+        if spec.dual_drive is None:
+            raise SpecError(f"{plant_from}: tilt_coupling: the fitted beam yaws on its two rails, which a one-loop "
+                            f"Stage Y design cannot hold; design it as the two-motor Stage Y: give {spec_path} a "
+                            "[dual_drive] section (as specs/stage_y_dual.toml), and its yaw stiffness will be the "
+                            "fit's")
+        spec = load_spec(spec_path, plant=plant, dual_drive=yaw)
+        carried = tuple(f"tilt_coupling.stiffness_n_m_per_rad -> dual_drive.{k}" for k in yaw)
+        left_out = [e for e in left_out if e != "tilt_coupling"]
     try:
         loop = spec.problem()
     except SpecError as exc:
         raise SpecError(f"{spec_path}: {exc}") from None
-    origin = PlantFromFit(str(plant_from), tuple(left_out)) if plant_from is not None else None
+    origin = PlantFromFit(str(plant_from), tuple(left_out), carried) if plant_from is not None else None
     return DesignProblem(spec, loop, spec_path, origin)
 
 
-def _plant_from_fit(path: Path) -> tuple[dict, list[str]]:
-    """The ``[plant]`` keys a fit result sets, and the effects left out."""
+def _plant_from_fit(path: Path) -> tuple[dict, list[str], dict]:
+    """The ``[plant]`` keys a fit result sets, the effects left out, and the ``[dual_drive]`` keys it sets (a
+    fitted ``tilt_coupling``'s stiffness is the beam's yaw stiffness K_a of the two-motor model, the same
+    parameter of the same Xie-Wang equations; its inertia and the load's offset belong to the recording's
+    carriage position and payload, and stay the spec's)."""
     from plant.host.text_io import read_text
 
     try:
@@ -86,6 +99,7 @@ def _plant_from_fit(path: Path) -> tuple[dict, list[str]]:
               **{n: p.get("value") if isinstance(p, dict) else None for n, p in fit["parameters"].items()}}
     plant: dict = {"effects": {}}
     left_out = set()
+    yaw: dict = {}
     for name, value in values.items():
         if not isinstance(value, (int, float)) or isinstance(value, bool) or not math.isfinite(value):
             raise SpecError(f"{path}: parameters.{name}: {value!r} is not a finite number")
@@ -96,11 +110,13 @@ def _plant_from_fit(path: Path) -> tuple[dict, list[str]]:
             continue
         if effect not in EFFECTS:
             raise SpecError(f"{path}: parameters.{name}: unknown effect {effect!r}")
+        if effect == "tilt_coupling" and field == "stiffness_n_m_per_rad":
+            yaw["yaw_stiffness_n_m_per_rad"] = float(value)
         if not EFFECTS[effect].in_synthesis:
             left_out.add(effect)
             continue
         plant["effects"].setdefault(effect, {})[field] = float(value)
-    return plant, sorted(left_out)
+    return plant, sorted(left_out), yaw
 
 
 def design(problem: DesignProblem, *, method: str = "ccp+exact", schedule: bool = False,

@@ -156,6 +156,10 @@ class SynthesisResult:
 
 def check_supported(problem: LoopProblem) -> None:
     bad = [e for e in problem.plant.effects if e in UNSUPPORTED]
+    if "tilt_coupling" in bad:
+        raise SpecError("plant.effects.tilt_coupling: the beam yaws on its two rails, which a one-loop Stage Y design "
+                        "cannot hold; design it as the two-motor Stage Y with a [dual_drive] section (as "
+                        "specs/stage_y_dual.toml: dual_drive.yaw_stiffness_n_m_per_rad is the tilt's stiffness)")
     if bad:
         raise SpecError(f"plant.effects.{bad[0]}: synthesis needs a linear plant without {', '.join(UNSUPPORTED)}; "
                         "design on the linear model and check the effect with gantry simulate")

@@ -180,6 +180,12 @@ def print_dual_design(console: Console, out: dict) -> None:
 def print_synthesis(console: Console, out: dict) -> None:
     """The text of ``gantry synth``: status, gains, per-payload table, check, schedule, admittance, baselines."""
     console.print(f"[bold]status[/]: {out['status']} ({out['message']}); verified: {out['verified']}", soft_wrap=True)
+    origin = out.get("plant_from")
+    if origin:
+        console.print(f"plant from {origin['file']}"
+                      + (f"; carried: {', '.join(origin['carried'])}" if origin["carried"] else "")
+                      + (f"; left out (no linear response to design for): {', '.join(origin['left_out'])}"
+                         if origin["left_out"] else ""), soft_wrap=True, markup=False)
     if out.get("kind") == "dual_drive":
         print_dual_design(console, out)
         adm = out.get("admittance")

@@ -730,6 +730,7 @@ def design_to_dict(outcome: DesignOutcome) -> dict:
         out["coverage"] = coverage(problem.loop).as_dict()
     if problem.plant_from is not None:
         out["plant_from"] = {"file": problem.plant_from.file, "left_out": list(problem.plant_from.left_out),
+                             "carried": list(problem.plant_from.carried),
                              "damping_n_s_per_m": spec.plant.damping_n_s_per_m,
                              "force_constant_n_per_a": spec.plant.force_constant_n_per_a,
                              "effects": spec.plant.effects}

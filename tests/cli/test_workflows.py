@@ -15,6 +15,7 @@ from plant.errors import SpecError
 
 ROOT = Path(__file__).resolve().parents[2]
 SPEC_X = ROOT / "specs" / "stage_x_synth.toml"
+SPEC_Y_DUAL = ROOT / "specs" / "stage_y_dual.toml"
 EMPS = ROOT / "examples" / "data" / "emps" / "DATA_EMPS.mat"
 
 
@@ -72,6 +73,47 @@ def test_plant_from_a_time_domain_fit_leaves_out_what_synthesis_cannot_design_fo
     # the spec's uncertainty of its delay has no delay in the fitted plant to vary
     with pytest.raises(SpecError, match="plant.uncertainty.delay.seconds: unknown key"):
         load_problem(SPEC_X, plant_from=path)
+
+
+@pytest.fixture(scope="module")
+def tilt_fit_json(tmp_path_factory) -> Path:
+    """A Stage Y recording of a beam that yaws (tilt_coupling: 60 Hz, K_a 1.5e5 N*m/rad, the load 0.15 m off
+    centre) fitted with the effect."""
+    tmp = tmp_path_factory.mktemp("tilt")
+    rec = tmp / "rec.csv"
+    out = gantry("simulate", "--stage", "y", "--effects", "delay.seconds=0.0005,current_loop.bandwidth_hz=1000,"
+                 "tilt_coupling.frequency_hz=60,tilt_coupling.stiffness_n_m_per_rad=150000,tilt_coupling.offset_m=0.15",
+                 "--f-hz", "1:120:40", "--out", rec)
+    assert out.returncode == 0, out.stderr
+    out = gantry("fit", rec, "--stage", "y", "--effects", "delay,current_loop,tilt_coupling", "--json")
+    assert out.returncode == 0, out.stderr
+    path = tmp / "fit.json"
+    path.write_text(out.stdout)
+    return path
+
+
+def test_a_stage_y_fit_with_a_yawing_beam_hands_over_to_the_two_motor_design(tilt_fit_json):
+    """The fitted tilt's stiffness is the two-motor model's yaw stiffness (the same K_a of the Xie-Wang equations);
+    the design runs on it and says it carried it."""
+    fitted = json.loads(tilt_fit_json.read_text())["parameters"]
+    k_a = fitted["tilt_coupling.stiffness_n_m_per_rad"]["value"]
+    assert k_a == pytest.approx(1.5e5, rel=1e-3)
+    problem = load_problem(SPEC_Y_DUAL, plant_from=tilt_fit_json)
+    assert problem.spec.dual_model().yaw_stiffness_n_m_per_rad == k_a
+    assert problem.plant_from.carried == (
+        "tilt_coupling.stiffness_n_m_per_rad -> dual_drive.yaw_stiffness_n_m_per_rad",)
+    assert problem.plant_from.left_out == ()
+    assert load_problem(SPEC_Y_DUAL).spec.dual_model().yaw_stiffness_n_m_per_rad == 2.0e5
+
+
+def test_a_yawing_beam_on_a_one_loop_spec_is_refused_naming_dual_drive(tilt_fit_json, tmp_path):
+    out = gantry("synth", ROOT / "specs" / "stage_y_synth.toml", "--plant-from", tilt_fit_json)
+    assert out.returncode == 2 and out.stderr.count("\n") == 1 and "[dual_drive]" in out.stderr, out.stderr
+    spec = tmp_path / "tilt.toml"
+    spec.write_text((ROOT / "specs" / "stage_y_synth.toml").read_text().replace(
+        "[plant.effects]", "[plant.effects]\ntilt_coupling = { frequency_hz = 60.0 }"))
+    out = gantry("synth", spec)
+    assert out.returncode == 2 and "[dual_drive]" in out.stderr, out.stderr
 
 
 @pytest.mark.parametrize(("content", "message"), [

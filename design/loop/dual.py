@@ -34,7 +34,7 @@ import numpy as np
 
 from design.loop.controller import PI
 from design.loop.loops import balanced
-from design.loop.margins import closed_loop_bandwidth_hz, crossover_margins
+from design.loop.margins import closed_loop_bandwidth_hz, crossover_margins, delay_margin_s
 
 #: T_out: rail velocities -> (mean, half difference); T_in: (total, differential current) -> motor currents
 T_OUT = np.array([[0.5, 0.5], [-0.5, 0.5]])
@@ -165,6 +165,8 @@ class DualLoopFigures:
     #: drives' lag): those of the characteristic loci of L = C P (``common_loci``), the worse locus
     common_gain_margin_db: np.ndarray
     common_phase_margin_deg: np.ndarray
+    #: the least extra delay (s) common to both drives that brings the loop to the stability boundary
+    common_delay_margin_s: np.ndarray
 
 
 def matmul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -293,7 +295,7 @@ def loop_figures(w_rad_s, plant_frd: np.ndarray, controller: Controller, *, disk
     half_difference = sum(move[..., 1, j, :] * u[j] for j in range(len(u)))
     bandwidth = closed_loop_bandwidth_hz(w, mean_motion, dc_gain=1.0)
     nan = np.full(np.shape(bandwidth), np.nan)
-    alpha, disk_gm, disk_pm, common_gm, common_pm = nan, nan, nan, nan, nan
+    alpha, disk_gm, disk_pm, common_gm, common_pm, common_dm = nan, nan, nan, nan, nan, nan
     if disk or common:
         # L = C P = T_in D T_out P at the motor inputs
         L = matmul(t_in, np.stack(np.broadcast_arrays(*(dj[..., None, :] * row for dj, row in
@@ -316,13 +318,13 @@ def loop_figures(w_rad_s, plant_frd: np.ndarray, controller: Controller, *, disk
         for locus, other in (loci, loci[::-1]):
             # a locus at rounding level of the other everywhere is the zero eigenvalue of a rank-one loop
             absent = np.all(np.abs(locus) <= NO_LOOP * np.abs(other), axis=-1)
-            gm_pm = crossover_margins(w, np.where(np.abs(locus) == 0, 1e-300, locus))
-            each.append(tuple(np.where(absent, np.inf, m) for m in gm_pm))
-        common_gm = np.minimum(each[0][0], each[1][0])
-        common_pm = np.minimum(each[0][1], each[1][1])
+            safe = np.where(np.abs(locus) == 0, 1e-300, locus)
+            figures = (*crossover_margins(w, safe), delay_margin_s(w, safe))
+            each.append(tuple(np.where(absent, np.inf, m) for m in figures))
+        common_gm, common_pm, common_dm = (np.minimum(each[0][k], each[1][k]) for k in range(3))
     return DualLoopFigures(unstable, np.minimum.reduce([m[0] for m in margins]),
                            np.minimum.reduce([m[1] for m in margins]), alpha, disk_gm, disk_pm,
-                           bandwidth, np.abs(half_difference).max(axis=-1), common_gm, common_pm)
+                           bandwidth, np.abs(half_difference).max(axis=-1), common_gm, common_pm, common_dm)
 
 
 def translation_step(plant, controller: Controller, t_s: np.ndarray, *, pade_order: int = 6):

@@ -213,28 +213,52 @@ def crossover_margins(w_rad_s, loop) -> tuple[np.ndarray, np.ndarray]:
     return gm_db.reshape(L.shape[:-1]), pm.reshape(L.shape[:-1])
 
 
+def _stencil_values(lw: np.ndarray, L2: np.ndarray, mag2: np.ndarray, r: np.ndarray, i: np.ndarray):
+    """Log-frequency, log-magnitude and locally unwrapped phase (rad) of rows ``r`` at the stencil of [i, i+1],
+    and the position of i in it."""
+    n = lw.size
+    idx = _stencil(i, n) if n >= 4 else np.stack([i, i + 1], axis=1)
+    z = L2[r[:, None], idx]
+    with np.errstate(divide="ignore"):
+        logmag = 0.5 * np.log(mag2[r[:, None], idx])
+    steps = np.angle(z[:, 1:] * np.conj(z[:, :-1]))
+    phase = np.angle(z[:, :1]) + np.concatenate([np.zeros((z.shape[0], 1)), np.cumsum(steps, axis=1)], axis=1)
+    return lw[idx], logmag, phase, i - idx[:, 0]
+
+
+def _gain_crossings(lw: np.ndarray, L2: np.ndarray, mag2: np.ndarray):
+    """Every gain crossover |L| = 1 of rows L2: (row, log frequency, phase margin deg in (-180, 180])."""
+    above = mag2 > 1.0
+    r, i = np.nonzero(above[:, :-1] != above[:, 1:])
+    x, logmag, phase, ia = _stencil_values(lw, L2, mag2, r, i)
+    x_c = _root(x, logmag, ia)
+    return r, x_c, np.remainder(np.degrees(_interpolate(x, phase, x_c)), 360.0) - 180.0
+
+
+def delay_margin_s(w_rad_s, loop) -> np.ndarray:
+    """The least extra delay (s) that brings stable loops ``loop`` = L(jw) (..., n) to the stability boundary: at
+    each gain crossover the phase a delay must take away to reach -180 deg (the phase margin taken in [0, 360)
+    deg, in rad) over its frequency, the least of them; inf without a crossover (crossings refined as
+    ``crossover_margins``; for a loop that is already unstable the figure means nothing)."""
+    w = check_grid(w_rad_s)
+    L = np.asarray(loop, dtype=complex)
+    L2 = L.reshape(-1, w.size)
+    r, x_c, pm = _gain_crossings(np.log(w), L2, L2.real**2 + L2.imag**2)
+    out = np.full(L2.shape[0], np.inf)
+    np.minimum.at(out, r, np.radians(np.mod(pm, 360.0)) / np.exp(x_c))
+    return out.reshape(L.shape[:-1])
+
+
 def _crossovers(lw: np.ndarray, L2: np.ndarray, mag2: np.ndarray):
     """(gain margin dB, phase margin deg, phase and gain crossover rad/s) of rows L2 (n_rows, n) on log
     frequencies ``lw``, |L|^2 ``mag2`` (``crossover_margins``)."""
-    n, n_rows = lw.size, L2.shape[0]
+    n_rows = L2.shape[0]
 
     def stencil(r, i):
-        """Log-frequency, log-magnitude and locally unwrapped phase (rad) at the stencil of [i, i+1],
-        and the position of i in it."""
-        idx = _stencil(i, n) if n >= 4 else np.stack([i, i + 1], axis=1)
-        z = L2[r[:, None], idx]
-        with np.errstate(divide="ignore"):
-            logmag = 0.5 * np.log(mag2[r[:, None], idx])
-        steps = np.angle(z[:, 1:] * np.conj(z[:, :-1]))
-        phase = np.angle(z[:, :1]) + np.concatenate([np.zeros((z.shape[0], 1)), np.cumsum(steps, axis=1)], axis=1)
-        return lw[idx], logmag, phase, i - idx[:, 0]
+        return _stencil_values(lw, L2, mag2, r, i)
 
     # gain crossovers |L| = 1 -> phase margin; keep the smallest |PM| (python-control convention)
-    above = mag2 > 1.0
-    r, i = np.nonzero(above[:, :-1] != above[:, 1:])
-    x, logmag, phase, ia = stencil(r, i)
-    x_c = _root(x, logmag, ia)
-    pm_all = np.remainder(np.degrees(_interpolate(x, phase, x_c)), 360.0) - 180.0
+    r, x_c, pm_all = _gain_crossings(lw, L2, mag2)
     k, found = _per_row_min(r, np.abs(pm_all), n_rows)
     pm = np.full(n_rows, np.inf)
     wc = np.full(n_rows, np.nan)

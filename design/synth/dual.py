@@ -196,6 +196,8 @@ class Worst:
     common_gain_margin_db: float
     common_phase_margin_deg: float
     worst_common_at: str
+    #: the least extra delay common to both drives that destabilises a plant (s)
+    common_delay_margin_s: float
 
 
 def _passes(f: DualLoopFigures, req: DualRequirements) -> np.ndarray:
@@ -230,7 +232,8 @@ def worst_cases(controllers: list[Controller], scenarios: DualScenarios, req: Du
                          float(f.disk_margin.min()), float(f.disk_gain_margin_db.min()),
                          float(f.disk_phase_margin_deg.min()), float(f.yaw_coupling.max()), scenarios.describe(kb),
                          scenarios.describe(kp), float(f.common_gain_margin_db.min()),
-                         float(f.common_phase_margin_deg.min()), scenarios.describe(kc)))
+                         float(f.common_phase_margin_deg.min()), scenarios.describe(kc),
+                         float(f.common_delay_margin_s.min())))
     return out
 
 

@@ -162,7 +162,8 @@ def print_dual_design(console: Console, out: dict) -> None:
                       f"disagreement per translation command); disk margin {d['disk_margin']:.3g} (+-"
                       f"{_num(d['disk_gain_margin_db'])} dB, +-{_val(d['disk_phase_margin_deg'])} deg); lowest "
                       f"bandwidth at {d['worst_bandwidth_at']}; smallest PM at {d['worst_phase_margin_at']}; "
-                      f"smallest common-mode PM at {d['worst_common_at']}"
+                      f"smallest common-mode PM at {d['worst_common_at']}; an extra "
+                      f"{1e3 * d['common_delay_margin_s']:.3g} ms of delay in both drives destabilises it"
                       + (f"; binds: {', '.join(row['binding'])}" if row["binding"] else "")
                       + (f"; between the grid's points: {row['between']['coverage']}"
                          + ("" if row["between"]["holds"] else ", FAILS at " + ", ".join(

@@ -290,3 +290,21 @@ def test_a_sensor_offset_ramps_the_differential_current_as_the_reference_closed_
         assert abs(slope) > 1e-4 and tool == pytest.approx(slope, rel=1e-4)
     else:
         assert tool == 0.0 and abs(slope) < 1e-9
+
+
+@pytest.mark.parametrize(("rig", "structure", "gains"), COMMON)
+def test_common_delay_margin_is_the_extra_delay_in_both_drives_that_destabilises(rig, structure, gains):
+    """Extra delay in both drives of the reference (python-control, Pade order 8 of the whole delay), found by
+    bisection where the closed loop first has a right-half-plane pole: the tool's common delay margin within 1e-4."""
+    fig = loop_figures(W, tool_plant(rig).frd(W), STRUCTURES[structure](*gains))
+
+    def stable(extra_s):
+        return unstable_poles(replace(rig, delay_s=rig.delay_s + extra_s), structure, gains, pade_order=10) == 0
+
+    lo, hi = 0.0, 1e-4
+    while stable(hi):
+        lo, hi = hi, 2 * hi
+    for _ in range(30):
+        mid = (lo + hi) / 2
+        lo, hi = (mid, hi) if stable(mid) else (lo, mid)
+    assert float(fig.common_delay_margin_s) == pytest.approx(hi, rel=1e-4)

@@ -351,10 +351,7 @@ def _dual(problem: DesignProblem, progress=None):
     return design_dual(spec.dual_model(), positions_m=np.linspace(travel.min, travel.max, travel.points),
                        payloads_kg=p.payload_kg.design_points(), stage_x_mass_kg=d.stage_x_mass_kg,
                        ranges={k: (v.min, v.max) for k, v in d.uncertainty.items()},
-                       requirements=DualRequirements(
-                           r.phase_margin_deg, r.gain_margin_db, r.disk_margin or 0.0,
-                           r.phase_margin_deg if r.common_phase_margin_deg is None else r.common_phase_margin_deg,
-                           r.gain_margin_db if r.common_gain_margin_db is None else r.common_gain_margin_db),
+                       requirements=DualRequirements.of(r),
                        structures=tuple(d.structures), kp_box=box(c.kp), ki_box=box(c.ki),
                        monte_carlo_samples=spec.verification.monte_carlo_samples, seed=spec.verification.seed,
                        progress=progress)

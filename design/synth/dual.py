@@ -55,6 +55,14 @@ class DualRequirements:
     common_phase_margin_deg: float = 0.0
     common_gain_margin_db: float = 0.0
 
+    @classmethod
+    def of(cls, r) -> DualRequirements:
+        """From a problem's ``design.problem.Requirements``: the common-mode margins default to the
+        loop-at-a-time ones (the spec keys' documented default)."""
+        return cls(r.phase_margin_deg, r.gain_margin_db, r.disk_margin or 0.0,
+                   r.phase_margin_deg if r.common_phase_margin_deg is None else r.common_phase_margin_deg,
+                   r.gain_margin_db if r.common_gain_margin_db is None else r.common_gain_margin_db)
+
     @property
     def common(self) -> bool:
         return self.common_phase_margin_deg > 0 or self.common_gain_margin_db > 0

@@ -88,9 +88,19 @@ def main() -> None:
     admittance()
 
 
-def admittance() -> None:
-    from bench_admittance import lightest_on_grid
+def lightest_on_grid(ev, felt, m0: float, b0: float, n: int) -> tuple[float, float, float]:
+    """(force felt, m_v, b_v) of the lightest point of an n x n log grid a decade either side of (m0, b0) that the
+    exact check passes (``AdmittanceEvaluator.evaluate(...).meets``); inf and NaNs when none does."""
+    best = (np.inf, np.nan, np.nan)
+    for m in np.geomspace(m0 / 10, m0 * 10, n):
+        for b in np.geomspace(b0 / 10, b0 * 10, n):
+            f = felt(m, b)
+            if f < best[0] and ev.evaluate(m, b, bandwidth=False).meets:
+                best = (f, m, b)
+    return best
 
+
+def admittance() -> None:
     from design.admittance.dual import DualLoops
     from design.admittance.feel import FeltForce
     from design.admittance.model import AdmittanceEvaluator, mice

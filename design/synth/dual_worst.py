@@ -5,7 +5,9 @@ uncertainty box) by construction; between those points a margin can dip below th
 yaw mode sit where the carriage and the payload tune it, not on the grid). The check: every requirement on a
 ``DENSE`` grid of positions x payloads over the whole travel and payload range, at every corner of the box, then
 a bounded search (Powell, on position and payload, the corner held) from every local minimum of a margin's
-slack there that comes within ``BAND`` of failing, for the point of least slack between them. The slack of a
+slack there that comes within ``BAND`` of failing, for the point of least slack between them, and from that
+point a last search over position, payload and the uncertain parameters inside their box (not only at its
+corners). The slack of a
 plant is its least relative margin over the requirements (``slack``: negative where one fails, -1 where the
 loop is unstable). A search that finds a failing point hands it back to the synthesis, which adds it to the
 design plants and designs again (``design.synth.dual_design.design_dual``).
@@ -93,7 +95,7 @@ class BetweenCheck:
     def coverage(self) -> str:
         return (f"a {DENSE[0]} x {DENSE[1]} grid of carriage positions x payloads at every corner of the uncertainty "
                 f"box ({self.dense_plants} plants) and a search between its points from the {self.searches} of "
-                f"least slack ({self.evaluations} plants)")
+                f"least slack, the last inside the uncertainty box too ({self.evaluations} plants)")
 
 
 def between_check(controller: Controller, model: DualDriveStageY, *, travel_m: tuple[float, float],
@@ -130,6 +132,31 @@ def between_check(controller: Controller, model: DualDriveStageY, *, travel_m: t
         r = minimize(objective, u0, method="Powell", bounds=box, options={"xtol": SEARCH_XTOL, "ftol": 1e-6})
         found.append((min(float(r.fun), float(s[k])), at(int(k), r.x) if r.fun < s[k] else dense.take([int(k)])))
     least, point = min(found, key=lambda x: x[0])
+    if ranges:
+        # from the point of least slack, inside the uncertainty box too (not only at its corners)
+        names = list(ranges)
+        lo_u = np.array([ranges[n][0] for n in names])
+        du = np.array([max(ranges[n][1] - ranges[n][0], 1e-300) for n in names])
+
+        def inside(v: np.ndarray) -> DualScenarios:
+            x = low + np.clip(v[:2], 0.0, 1.0) * span
+            values = lo_u + np.clip(v[2:], 0.0, 1.0) * du
+            return replace(point, carriage_position_m=np.array([x[0]]), carriage_mass_kg=np.array([x[1]]),
+                           parameters={n: np.array([values[j]]) for j, n in enumerate(names)})
+
+        def objective(v):
+            nonlocal evaluations
+            evaluations += 1
+            return float(slack(loop_figures(W_RAD_S, inside(v).frd, controller, disk=req.disk_margin > 0), req)[0])
+
+        v0 = np.concatenate([(np.array([point.carriage_position_m[0], point.carriage_mass_kg[0]]) - low) / span,
+                             (np.array([point.parameters[n][0] for n in names]) - lo_u) / du])
+        step = 1.0 / (np.array(DENSE) - 1)
+        box = [(max(0.0, a - d), min(1.0, a + d)) for a, d in zip(v0[:2], step)] + [(0.0, 1.0)] * len(names)
+        r = minimize(objective, v0, method="Powell", bounds=box, options={"xtol": SEARCH_XTOL, "ftol": 1e-6})
+        if r.fun < least:
+            least, point = float(r.fun), inside(r.x)
+            found.append((least, point))
     searched = found[0][1]
     for _, one in found[1:]:
         searched = replace(searched, carriage_position_m=np.append(searched.carriage_position_m,

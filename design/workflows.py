@@ -71,7 +71,7 @@ def load_problem(spec_path: str | Path, *, plant_from: str | Path | None = None)
                             f"Stage Y design cannot hold; design it as the two-motor Stage Y: give {spec_path} a "
                             "[dual_drive] section (as specs/stage_y_dual.toml), and its yaw stiffness will be the "
                             "fit's")
-        spec = load_spec(spec_path, plant=plant, dual_drive=yaw)
+        spec = spec.model_copy(update={"dual_drive": spec.dual_drive.model_copy(update=yaw)})
         carried = tuple(f"tilt_coupling.stiffness_n_m_per_rad -> dual_drive.{k}" for k in yaw)
         left_out = [e for e in left_out if e != "tilt_coupling"]
     try:

@@ -632,10 +632,9 @@ def _check_nesting(data: Mapping[str, Any]) -> None:
         stack.extend((v, (*keys, str(k))) for k, v in items)
 
 
-def load_spec(path: str | Path, *, plant: Mapping[str, Any] | None = None,
-              dual_drive: Mapping[str, Any] | None = None) -> Spec:
-    """Read and validate a TOML spec file; ``plant`` and ``dual_drive`` update its ``[plant]`` and ``[dual_drive]``
-    tables first (keys as the file writes them: the plant a fit found)."""
+def load_spec(path: str | Path, *, plant: Mapping[str, Any] | None = None) -> Spec:
+    """Read and validate a TOML spec file; ``plant`` updates its ``[plant]`` table first (keys as the file
+    writes them: the plant a fit found)."""
     path = Path(path)
     text = read_text(path, what="spec file")
     try:
@@ -649,8 +648,4 @@ def load_spec(path: str | Path, *, plant: Mapping[str, Any] | None = None,
         if not isinstance(data.get("plant", {}), dict):
             raise SpecError(f"{path}: plant: must be a table")
         data.setdefault("plant", {}).update(plant)
-    if dual_drive:
-        if not isinstance(data.get("dual_drive"), dict):
-            raise SpecError(f"{path}: dual_drive: must be a table")
-        data["dual_drive"].update(dual_drive)
     return parse_spec(data, source=str(path), folder=path.parent)

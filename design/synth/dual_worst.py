@@ -157,14 +157,8 @@ def between_check(controller: Controller, model: DualDriveStageY, *, travel_m: t
         if r.fun < least:
             least, point = float(r.fun), inside(r.x)
             found.append((least, point))
-    searched = found[0][1]
-    for _, one in found[1:]:
-        searched = replace(searched, carriage_position_m=np.append(searched.carriage_position_m,
-                                                                   one.carriage_position_m),
-                           carriage_mass_kg=np.append(searched.carriage_mass_kg, one.carriage_mass_kg),
-                           parameters={n: np.append(v, one.parameters[n]) for n, v in searched.parameters.items()})
-    both = replace(dense, carriage_position_m=np.append(dense.carriage_position_m, searched.carriage_position_m),
-                   carriage_mass_kg=np.append(dense.carriage_mass_kg, searched.carriage_mass_kg),
-                   parameters={n: np.append(v, searched.parameters[n]) for n, v in dense.parameters.items()})
+    both = dense
+    for _, one in found:
+        both = both.with_row(one.row(0))
     worst = worst_cases([controller], both, req)[0]
     return BetweenCheck(worst, least, point.row(0), len(dense), len(starts), evaluations)

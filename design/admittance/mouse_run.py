@@ -245,7 +245,7 @@ def simulate_mouse_run(settings: RunSettings, time_s, x_d, v_d, a_d) -> RunTrace
         """F_r: the friction against the rails' velocity and every effect's rail force."""
         out = -fc * math.tanh(v0 / vs) if fc > 0 else 0.0
         for e in pushing:
-            out += e.rail_force_n(x0, motor_n)
+            out += e.rail_force_n(x0, v0, motor_n)
         return out
 
     def nonlinear(z, ic, drive):

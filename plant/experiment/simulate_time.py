@@ -10,7 +10,7 @@ Signal chain, starting from rest at x = 0::
       -> current_limit  the drive clips its command: force K_f u - c (K_f u - clip(K_f u, +-F_L))
       -> sampling       zero-order hold at rate_hz, one controller period of computation delay
       -> current_loop, mechanics (the chain of bodies), sensor filters: exact discretisation
-      -> forces on the rails (body 0): each effect's ``rail_force_n`` at the position and the motor force
+      -> forces on the rails (body 0): each effect's ``rail_force_n`` at the position, the velocity and the motor force
          (a force-constant profile K_f (K(x)/K_f - 1) i, a ripple, an offset), and the friction
       -> positions: the integrals of the recorded velocities (sampled at sample_rate_hz, with noise)
 
@@ -170,8 +170,13 @@ def simulate_time_domain(plant: Plant, excitation: Excitation, *, sample_rate_hz
     g_contact = float(c_contact @ g_f)                 # contact velocity per unit friction force over a step
     friction = fc > 0 or fs > 0
 
-    # the rails' position and the motor current at a step's midpoint, predicted from its start: rows dotted with z
+    # the rails' position and velocity and the motor current at a step's midpoint, predicted from its start: rows
+    # dotted with z, and the command's terms
     r_x = np.eye(A.shape[0])[n_chain] + c_contact * (h / 2)
+    # (the velocity's with the rail force of the step before: a force that depends on the velocity stays second order)
+    r_v = c_contact + (c_contact @ A) * (h / 2)
+    v_u, v_f = float(c_contact @ b_u) * (h / 2), float(c_contact @ b_f) * (h / 2)
+    f = 0.0
     c_i, d_i = current[:-1], float(current[-1])
     r_i = c_i + (c_i @ A) * (h / 2)
     i_u = float(c_i @ b_u) * (h / 2)
@@ -190,7 +195,8 @@ def simulate_time_domain(plant: Plant, excitation: Excitation, *, sample_rate_hz
             if forces:
                 x_mid = float(r_x @ z)
                 i_mid = float(r_i @ z) + i_u * u[k] + d_i * 0.5 * (u[k] + u[k + 1])
-                f = sum(e.rail_force_n(x_mid, kt * i_mid) for e in forces)
+                v_mid = float(r_v @ z) + v_u * u[k] + v_f * f
+                f = sum(e.rail_force_n(x_mid, v_mid, kt * i_mid) for e in forces)
                 z = Phi @ z + drive[k - start] + g_f * f
             else:
                 z = Phi @ z + drive[k - start]

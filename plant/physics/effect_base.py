@@ -120,10 +120,11 @@ class Effect(abc.ABC):
     #: it adds a force on the rails that the continuous time-domain simulation applies (``rail_force_n``)
     rail_force: ClassVar[bool] = False
 
-    def rail_force_n(self, position_m: float, motor_force_n: float) -> float:
+    def rail_force_n(self, position_m: float, velocity_m_per_s: float, motor_force_n: float) -> float:
         """The force (N, in the direction of motion's positive axis) the effect adds on the rails at the rails'
-        position and the motor's force, as the continuous time-domain simulation applies it (effects with
-        ``rail_force``; chain factors, modes and friction act through the model instead)."""
+        position (m), velocity (m/s) and the motor's force (N), as the time-domain simulations (the continuous
+        one and the mouse run) apply it (effects with ``rail_force``; chain factors, modes and friction act
+        through the model instead)."""
         return 0.0
 
     def force_regressors(self, signals: ForceSignals) -> dict[str, np.ndarray] | None:

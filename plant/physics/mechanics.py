@@ -364,7 +364,7 @@ class Offset(MechanicalEffect):
 
     rail_force: ClassVar[bool] = True
 
-    def rail_force_n(self, position_m: float, motor_force_n: float) -> float:
+    def rail_force_n(self, position_m: float, velocity_m_per_s: float, motor_force_n: float) -> float:
         return -float(self.force_n)
 
     def force_regressors(self, signals: ForceSignals) -> dict[str, np.ndarray]:

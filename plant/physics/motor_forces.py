@@ -112,7 +112,7 @@ class ForceRipple(MechanicalEffect):
 
     rail_force: ClassVar[bool] = True
 
-    def rail_force_n(self, position_m: float, motor_force_n: float) -> float:
+    def rail_force_n(self, position_m: float, velocity_m_per_s: float, motor_force_n: float) -> float:
         return -float(self.force(position_m))
 
     def force(self, position_m) -> np.ndarray:
@@ -163,7 +163,7 @@ class ForceConstantProfile(MechanicalEffect):
 
     rail_force: ClassVar[bool] = True
 
-    def rail_force_n(self, position_m: float, motor_force_n: float) -> float:
+    def rail_force_n(self, position_m: float, velocity_m_per_s: float, motor_force_n: float) -> float:
         """The motor's force K i (with the nominal K) scaled by the profile: the difference K i (K(x) / K - 1)."""
         return motor_force_n * (float(self.factor(position_m)) - 1.0)
 

@@ -4,7 +4,7 @@ drive ticks on the lab's trapezoid, closed-form steady states, the sampled law a
 the mouse's force limit."""
 
 import math
-from dataclasses import asdict, replace
+from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 
 import independent_mouse_run as ref
@@ -14,6 +14,7 @@ from bundled_specs import admittance_data
 
 from design.admittance.mouse_run import RunSettings, simulate_mouse_run
 from design.loop.controller import PI
+from plant.physics.mechanics import Offset
 from plant.physics.models import build_plant
 
 #: realistic rig and mouse (SI units): 40 kg payload, the lab's PI, the bundled virtual dynamics
@@ -476,3 +477,29 @@ def test_forces_along_the_travel_are_simulated_as_the_plant_has_them():
     _close("current", tool.current_a, r.i, 1e-3, 1e-6)
     plain = ref.simulate(t, x, v, a, **settings)
     assert np.max(np.abs(plain.i - r.i)) > 10 * (1e-3 * np.max(np.abs(r.i)) + 1e-6)
+
+
+@dataclass(frozen=True)
+class _Drag(Offset):
+    """A rail force of the velocity alone: a viscous drag -c v (N), the form of a cable carrier's drag."""
+
+    drag_n_s_per_m: float = 0.0
+
+    def rail_force_n(self, position_m, velocity_m_per_s, motor_force_n):
+        return -self.drag_n_s_per_m * velocity_m_per_s
+
+
+@pytest.mark.slow                 # two reference runs (~6 s)
+def test_a_rail_force_sees_the_rails_velocity():
+    # a drag of 200 N*s/m applied as a rail force against the reference with that much more rail damping
+    settings = dict(RIG, current_loop_hz=1000.0, motor_peak_force_n=1e4)
+    t, x, v, a = _path(settings["drive_rate_hz"], t_max_s=1.2)
+    plain = tool_settings(settings)
+    tool = simulate_mouse_run(replace(plain, plant=plain.plant * _Drag(0.0, drag_n_s_per_m=200.0)), t, x, v, a)
+    r = ref.simulate(t, x, v, a, **dict(settings, damping_n_s_per_m=settings["damping_n_s_per_m"] + 200.0))
+    _close("sensed force", tool.sensed_force_n, r.F_s, 1e-3, 1e-6)
+    _close("velocity", tool.v_m_per_s, r.v, 1e-3, 1e-7)
+    _close("current", tool.current_a, r.i, 1e-3, 1e-6)
+    # and the drag matters by far more than that tolerance
+    without = simulate_mouse_run(plain, t, x, v, a).current_a
+    assert np.max(np.abs(without - r.i)) > 10 * (1e-3 * np.max(np.abs(r.i)) + 1e-6)

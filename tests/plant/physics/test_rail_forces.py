@@ -25,9 +25,10 @@ def test_rail_force_is_minus_the_identified_force(name):
     effect = make_effect(name, **VALUES[name])
     x = np.linspace(-0.3, 0.3, 41)
     force = np.linspace(-40.0, 60.0, 41)
-    signals = ForceSignals(velocity_m_per_s=np.full(x.size, 0.1), force_n=force, position_m=x)
+    v = np.linspace(-0.2, 0.3, 41)
+    signals = ForceSignals(velocity_m_per_s=v, force_n=force, position_m=x)
     regressors = effect.force_regressors(signals)
     identified = sum(getattr(effect, field) * signal for field, signal in regressors.items())
-    applied = np.array([effect.rail_force_n(xi, fi) for xi, fi in zip(x, force)])
+    applied = np.array([effect.rail_force_n(xi, vi, fi) for xi, vi, fi in zip(x, v, force)])
     assert np.max(np.abs(applied + identified)) < 1e-12 * max(1.0, np.max(np.abs(identified)))
     assert np.max(np.abs(applied)) > 0.1

@@ -11,7 +11,8 @@ realisation the frequency-domain design uses, ``plant.physics.realisation``):
   Y's both rails' damping) driven by F_m + F_r + F_s at the motor's body, the clamp's velocity v the chain's
   sensed velocity (as ``design.admittance.sampled.free_gantry``), dx/dt = v, the rails' position x_0 the
   integral of the motor body's velocity v_0; F_r = -F_f + the forces the plant's effects put on the rails
-  (``rail_force_n`` at x_0 and F_m: an offset, a force ripple, a force-constant profile), Coulomb friction
+  (``rail_force_n`` at x_0 and F_m: an offset, a force ripple, a force-constant profile, a cable's pull; a cable's
+  spring is the mechanics', its state set to the run's start), Coulomb friction
   regularised F_f = F_c tanh(v_0 / v_s);
 * the head (m_h) rides the clamp: F_s = F_n - m_h dv/dt (with the mechanics' instantaneous dv/dt, solved);
   for a rigid Stage X that is (M + m_h) dv/dt = F_m + F_n - b v - F_f;
@@ -156,6 +157,7 @@ class GantryModel:
     rail_position: int
     body: tuple[int, int]
     fastest_rad_s: float
+    ground: np.ndarray          # the realisation's ground spring position (row over z, zero without one)
 
 
 def gantry_model(s: RunSettings) -> GantryModel:
@@ -204,7 +206,7 @@ def gantry_model(s: RunSettings) -> GantryModel:
         math.sqrt((s.neck_stiffness_n_per_m + s.leg_stiffness_n_per_m) / s.body_mass_kg),
         (s.neck_damping_n_s_per_m + s.leg_damping_n_s_per_m) / s.body_mass_kg])
     return GantryModel(rows[:, :n], rows[:, n:], legs[:n], v[:n], measured[:n], rail[:n], fm[:n + 1], fs, current,
-                       eye[f0] if nf else fs, ix, ixr, (ixb, ivb), fastest)
+                       eye[f0] if nf else fs, ix, ixr, (ixb, ivb), fastest, np.pad(r.ground, (0, n - nr)))
 
 
 def simulate_mouse_run(settings: RunSettings, time_s, x_d, v_d, a_d) -> RunTrace:
@@ -259,6 +261,7 @@ def simulate_mouse_run(settings: RunSettings, time_s, x_d, v_d, a_d) -> RunTrace
     n = t.size
     z = np.zeros(n_z)
     z[g.position] = z[g.body[0]] = z[g.rail_position] = float(xd_[0])
+    z += g.ground * float(xd_[0])                      # a ground spring's state: the rails' position
     rec = np.empty((9, n))
     queue = [0.0] * (s.computation_delay_samples + 1)
     commands = [0.0] * (s.delay_ticks + 1)
@@ -342,7 +345,8 @@ FRICTION_VELOCITY_M_PER_S = 1e-3
 #: the plant's effects a run simulates (any other is refused by name, never dropped): the drive's rate and delay
 #: on the discrete part, the rest by the plant's own linear model (``gantry_model``), the friction regularised
 SIMULATED_EFFECTS = ("sampling", "delay", "current_loop", "sensor_filter", "resonance", "payload_resonance",
-                     "second_resonance", "coulomb_friction", "offset", "force_ripple", "force_constant_profile")
+                     "second_resonance", "coulomb_friction", "offset", "force_ripple", "force_constant_profile",
+                     "cable_force")
 
 
 @dataclass(frozen=True)

@@ -42,6 +42,9 @@ from plant.physics.models import Plant
 DIRECTION_FRACTION = 0.05
 #: most effects in one model of the search
 MAX_TIME_EFFECTS = 3
+#: an effect that contains another (``Effect.contains``) is claimed only when the parameter that tells them apart
+#: lies this many robust (Newey-West) standard errors from the value at which it is the other
+NESTED_Z = 3.0
 
 
 @dataclass(frozen=True)
@@ -141,6 +144,22 @@ def _signatures_shown(models: dict[tuple[str, ...], TimeFitResult]) -> dict[tupl
     return {c: f for c, f in models.items() if shown(c)}
 
 
+def _beyond_nested(models: dict[tuple[str, ...], TimeFitResult]) -> dict[tuple[str, ...], TimeFitResult]:
+    """The models none of whose effects is, within ``NESTED_Z`` robust standard errors, an effect it contains
+    (``Effect.contains``: a cable with no stiffness is an offset): there the model with the contained effect
+    speaks for the data, whatever BIC gives the extra parameter."""
+    def beyond(combo: tuple[str, ...], fit: TimeFitResult) -> bool:
+        for name in combo:
+            for field in EFFECTS[name].contains.values():
+                key = f"{name}.{field}"
+                se = fit.stderr.get(key, math.inf)
+                if not abs(fit.values[key] - EFFECTS[name].neutral[field]) > NESTED_Z * se:
+                    return False
+        return True
+
+    return {c: f for c, f in models.items() if beyond(c, f)}
+
+
 def _direction(fit: TimeFitResult) -> DirectionalResidual:
     v = fit.velocity_m_per_s
     scale = float(np.percentile(np.abs(v), 99)) or 1.0
@@ -217,7 +236,7 @@ def diagnose_time(plant: Plant, rec: TimeRecording, *, candidates: tuple[str, ..
                            max_effects=min(len(names), MAX_TIME_EFFECTS), valid=compatible, progress=progress)
     n_eff = min(models.values(), key=lambda f: f.rss).n_effective
     bics = {c: bic(f, n_eff) for c, f in models.items()}
-    admissible = _signatures_shown(models)
+    admissible = _beyond_nested(_signatures_shown(models))
     selected = select_model({c: bics[c] for c in admissible}, {c: f.explained for c, f in admissible.items()},
                             {c: f.n_params for c, f in admissible.items()})
     base = models[()]

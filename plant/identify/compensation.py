@@ -1,8 +1,8 @@
 """A drive's compensation table from a fitted time-domain model with position-dependent motor forces.
 
 With the force constant K(x) = K (1 + d(x)) (``force_constant_profile``) and the force F_r(x) the motor
-must supply on top of the rigid body (``force_ripple``), a current command i_cmd that a controller computes
-for an ideal motor of constant K becomes
+must supply on top of the rigid body (``force_ripple``, a cable's ``cable_force``), a current command i_cmd
+that a controller computes for an ideal motor of constant K becomes
 
     i = s(x) i_cmd + o(x),    s(x) = 1 / (1 + d(x)),    o(x) = F_r(x) / (K (1 + d(x)))
 
@@ -58,27 +58,34 @@ class CompensationTable:
 
 
 def compensation_table(fit: TimeFitResult, position_m: np.ndarray) -> CompensationTable:
-    """The table of ``fit`` (a time-domain fit whose plant holds ``force_ripple`` and/or
-    ``force_constant_profile``) over the travel of ``position_m``, the positions at the fit's samples."""
-    ripple = fit.plant.effect("force_ripple")
-    profile = fit.plant.effect("force_constant_profile")
-    if ripple is None and profile is None:
+    """The table of ``fit`` (a time-domain fit whose plant holds a force that depends on the position:
+    ``force_ripple``, ``force_constant_profile``, ``cable_force``) over the travel of ``position_m``, the
+    positions at the fit's samples. Each such effect's force on the rails at motor force F is a(x) + c(x) F
+    (``rail_force_n``, with its ground spring ``rail_stiffness``): F_r = -a and d = c."""
+    along = [e for e in fit.plant.effects if e.needs_position and e.rail_force]
+    if not along:
         raise ParameterError("the selected model has no position-dependent force (force_ripple, "
-                             "force_constant_profile): there is nothing to compensate")
+                             "force_constant_profile, cable_force): there is nothing to compensate")
     position_m = np.asarray(position_m, float)
     if position_m.shape != fit.measured.shape:
         raise ParameterError(f"{position_m.size} positions for a fit of {fit.measured.size} samples")
     lo, hi = float(position_m.min()), float(position_m.max())
-    n = MIN_POINTS if ripple is None else max(MIN_POINTS, int(np.ceil(4 * (hi - lo) / ripple.pitch_m)) + 1)
+    pitches = [e.pitch_m for e in along if hasattr(e, "pitch_m")]
+    n = max([MIN_POINTS] + [int(np.ceil(4 * (hi - lo) / p)) + 1 for p in pitches])
     x = np.linspace(lo, hi, n)
     k = float(fit.plant.force_constant_n_per_a)
-    factor = np.ones_like(x) if profile is None else profile.factor(x)
-    force = np.zeros_like(x) if ripple is None else ripple.force(x)
+
+    def on_rails(xs: np.ndarray, motor_n: float) -> np.ndarray:
+        return np.array([sum(e.rail_force_n(float(xi), 0.0, motor_n) - float(e.rail_stiffness()) * xi for e in along)
+                         for xi in xs])
+
+    def force(xs):          # F_r(x): the force the motor must supply there
+        return -on_rails(xs, 0.0)
+
+    def factor(xs):         # K(x) / K
+        return 1.0 + on_rails(xs, 1.0) - on_rails(xs, 0.0)
+
     # uncompensated, the motor's force differs from the ideal K i by K d(x) i - F_r(x)
-    error = np.zeros_like(position_m)
-    if profile is not None:
-        error += (profile.factor(position_m) - 1) * fit.measured
-    if ripple is not None:
-        error -= ripple.force(position_m)
-    return CompensationTable(x, 1 / factor, force / (k * factor), k, float(np.sqrt(np.mean(error**2))),
+    error = (factor(position_m) - 1) * fit.measured - force(position_m)
+    return CompensationTable(x, 1 / factor(x), force(x) / (k * factor(x)), k, float(np.sqrt(np.mean(error**2))),
                              float(fit.rms_residual))

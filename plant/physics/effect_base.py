@@ -14,7 +14,8 @@ broadcast against the frequency axis) it owns what the rest of the tool needs to
   contains another can start from that model's optimum;
 * ``guesses(w_rad_s, ratio)``: starting values from the data divided by a parent model
   (lmfit's ``Model.guess``);
-* ``excludes`` / ``requires_any``: effects it cannot be combined with / needs;
+* ``excludes`` / ``requires_any``: effects it cannot be combined with / needs; ``contains``: effects it
+  becomes at a parameter's neutral value;
 * ``search_fixed``: parameters held at their defaults by the model search;
 * ``complexity``: how much physics it assumes, breaking ties between equivalent models;
 * ``in_synthesis``: has a response formula of ``s`` that casadi can build (PI synthesis);
@@ -56,6 +57,9 @@ class Effect(abc.ABC):
     main_parameter: ClassVar[str]
     neutral: ClassVar[dict[str, float]] = {}
     excludes: ClassVar[tuple[str, ...]] = ()
+    #: effects it contains: effect -> its parameter that, at its ``neutral`` value, makes it that effect (a cable
+    #: with no stiffness is an offset); a diagnosis claims it only where the data set that parameter apart
+    contains: ClassVar[dict[str, str]] = {}
     requires_any: ClassVar[tuple[str, ...]] = ()
     stages: ClassVar[tuple[str, ...]] = ("x", "y")
     #: fewest recorded outputs for the effect to be identifiable (2: both Y rails)
@@ -125,6 +129,12 @@ class Effect(abc.ABC):
         position (m), velocity (m/s) and the motor's force (N), as the time-domain simulations (the continuous
         one and the mouse run) apply it (effects with ``rail_force``; chain factors, modes and friction act
         through the model instead)."""
+        return 0.0
+
+    def rail_stiffness(self):
+        """The stiffness (N/m) the effect puts between the rails and the ground, which the mechanics carries in
+        both domains (``plant.physics.mechanics.BodyChain``: k / s beside the rail damping, a position state in
+        the realisation, relaxed at x = 0); its ``rail_force_n`` is the rest of its force. 0 for most effects."""
         return 0.0
 
     def force_regressors(self, signals: ForceSignals) -> dict[str, np.ndarray] | None:

@@ -11,11 +11,12 @@ Where an effect sits decides how it composes (``plant.physics.effect_base``):
   time-domain data only); position-dependent motor forces
   (``plant.physics.motor_forces``, time-domain data with the position only): ``force_ripple``,
   ``force_constant_profile``; the drive's ``current_limit`` (time-domain data, and its describing function
-  in a frequency response at the plant's excitation current).
+  in a frequency response at the plant's excitation current); a cable carrier's spring, ``cable_force``
+  (``plant.physics.cable_force``, time-domain data with the position only).
 
-Adding an effect means one class in ``plant.physics.chain`` or ``plant.physics.mechanics`` (by where it sits)
-and its entry in ``EFFECTS`` here. Parameter names and units follow ``docs/formats.md``: an effect parameter is
-written ``effect.parameter``.
+Adding an effect means one class in a module of ``plant.physics`` (a chain factor in ``chain``, a part of the
+network in ``mechanics``, a force in a module of its own) and its entry in ``EFFECTS`` here. Parameter names
+and units follow ``docs/formats.md``: an effect parameter is written ``effect.parameter``.
 """
 
 from __future__ import annotations
@@ -24,6 +25,7 @@ import numpy as np
 
 from plant.arguments import check_optional_text
 from plant.errors import EffectError, ParameterError
+from plant.physics.cable_force import CableForce
 from plant.physics.chain import CurrentLoop, Delay, EncoderVelocity, Sampling, SensorFilter
 from plant.physics.effect_base import PADE_ORDER, ChainEffect, Effect, MechanicalEffect
 from plant.physics.mechanics import (
@@ -41,7 +43,7 @@ from plant.physics.motor_forces import CurrentLimit, ForceConstantProfile, Force
 EFFECTS: dict[str, type[Effect]] = {
     cls.name: cls for cls in (Delay, CurrentLoop, Sampling, SensorFilter, EncoderVelocity, Resonance,
                               PayloadResonance, SecondResonance, CoulombFriction, StribeckFriction, Offset,
-                              TiltCoupling, ForceRipple, ForceConstantProfile, CurrentLimit)
+                              TiltCoupling, ForceRipple, ForceConstantProfile, CurrentLimit, CableForce)
 }
 
 
@@ -64,7 +66,8 @@ def make_effect(name: str, **params: float) -> Effect:
 
 
 __all__ = [
-    "EFFECTS", "PADE_ORDER", "ChainEffect", "CoulombFriction", "CurrentLimit", "CurrentLoop", "Delay", "Effect",
+    "EFFECTS", "PADE_ORDER", "CableForce", "ChainEffect", "CoulombFriction", "CurrentLimit", "CurrentLoop", "Delay",
+    "Effect",
     "EncoderVelocity", "ForceConstantProfile", "ForceRipple",
     "MechanicalEffect", "ModeEffect", "Offset", "PayloadResonance", "Resonance", "Sampling", "SecondResonance",
     "SensorFilter", "StribeckFriction",

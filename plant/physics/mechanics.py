@@ -162,13 +162,20 @@ class SecondResonance(ModeEffect):
 @dataclass(frozen=True)
 class BodyChain:
     """A chain of bodies: masses (kg), couplings between neighbours (N/m, N*s/m), rail damping on
-    body 0 (N*s/m), and the index of the body whose velocity is recorded."""
+    body 0 (N*s/m), the index of the body whose velocity is recorded, and a stiffness between body 0 and the
+    ground (N/m: an effect's ``rail_stiffness``, a cable carrier's spring; 0 for a free stage)."""
 
     masses_kg: tuple
     stiffness_n_per_m: tuple
     damping_n_s_per_m: tuple
     rail_damping_n_s_per_m: object
     sensed: int
+    rail_stiffness_n_per_m: object = 0.0
+
+    @property
+    def grounded(self) -> bool:
+        """Body 0 has a spring to the ground."""
+        return bool(np.any(np.asarray(self.rail_stiffness_n_per_m, float) != 0))
 
     def velocity_per_force(self, s):
         """Recorded velocity per motor force (m/s per N) at the Laplace variable ``s`` (ladder)."""
@@ -180,7 +187,8 @@ class BodyChain:
             Zc = self.stiffness_n_per_m[i] / s + self.damping_n_s_per_m[i]
             couplings[i], tail[i + 1] = Zc, Z
             Z = self.masses_kg[i] * s + Zc * Z / (Zc + Z)
-        v = 1.0 / (Z + self.rail_damping_n_s_per_m)
+        rail = self.rail_damping_n_s_per_m + (self.rail_stiffness_n_per_m / s if self.grounded else 0.0)
+        v = 1.0 / (Z + rail)
         for i in range(self.sensed):
             v = v * couplings[i] / (couplings[i] + tail[i + 1])
         return v
@@ -192,6 +200,7 @@ class BodyChain:
         D = np.zeros((n, n))
         K = np.zeros((n, n))
         D[0, 0] = float(np.asarray(self.rail_damping_n_s_per_m).reshape(()))
+        K[0, 0] = float(np.asarray(self.rail_stiffness_n_per_m).reshape(()))
         for i in range(n - 1):
             for mat, val in ((K, self.stiffness_n_per_m[i]), (D, self.damping_n_s_per_m[i])):
                 v = float(np.asarray(val).reshape(()))
@@ -202,8 +211,9 @@ class BodyChain:
         return np.diag(m), D, K
 
     def modes_hz(self) -> np.ndarray:
-        """Undamped natural frequencies of the chain (Hz), the rigid-body zero left out."""
-        M, _, K = self.matrices()
+        """Undamped natural frequencies of the chain (Hz), the rigid-body zero left out (and the stage on a
+        ground spring, which a damper far above critical holds: the bodies' own modes)."""
+        M, _, K = replace(self, rail_stiffness_n_per_m=0.0).matrices()
         lam = np.linalg.eigvals(np.linalg.solve(M, K)).real
         return np.sort(np.sqrt(np.maximum(lam[lam > 1e-9 * max(lam.max(), 1.0)], 0.0)) / (2 * np.pi))
 
@@ -238,8 +248,9 @@ class CoulombFriction(MechanicalEffect):
 
     Frequency domain, at the plant's excitation current: on a rigid body, the exact first harmonic of
     the periodic steady state with stick-slip (``plant.physics.coulomb_response``); on a chain of several
-    bodies or the tilting beam, the describing function, a real damping N(V) = 4 F_c / (pi V) at
-    velocity amplitude V added to the rail damping (approximate: it assumes a sinusoidal velocity).
+    bodies, a stage on a ground spring or the tilting beam, the describing function, a real damping
+    N(V) = 4 F_c / (pi V) at velocity amplitude V added to the rail damping (approximate: it assumes a
+    sinusoidal velocity).
     Time domain: ``force(v)`` is exact.
     """
 

@@ -135,8 +135,8 @@ class Plant:
 
     @property
     def affine_in_mass_damping(self) -> bool:
-        """1/P is affine in (mass_kg, damping_n_s_per_m): a linear chain of bodies (no tilt)."""
-        return self.linear and self._tilt() is None
+        """1/P is linear in (mass_kg, damping_n_s_per_m): a linear chain of bodies (no tilt, no ground spring)."""
+        return self.linear and self._tilt() is None and not self.mechanics().grounded
 
     def with_payload(self, payload_kg) -> Plant:
         """Same plant with ``mass_kg`` replaced; an array of payloads gives a batch on axis -2."""
@@ -199,7 +199,9 @@ class Plant:
         """The chain of bodies (no tilt): the rigid body of Eq. 3.15 / 3.16 split by the mode effects."""
         m_e, b_e = self._effective_mass_damping()
         modes = tuple(e for e in self.effects if isinstance(e, ModeEffect))
-        return body_chain(m_e, b_e + extra_damping_n_s_per_m, modes)
+        chain = body_chain(m_e, b_e + extra_damping_n_s_per_m, modes)
+        springs = [e.rail_stiffness() for e in self.effects if np.any(np.asarray(e.rail_stiffness()) != 0)]
+        return dataclasses.replace(chain, rail_stiffness_n_per_m=sum(springs)) if springs else chain
 
     def modes_hz(self) -> np.ndarray:
         """Undamped natural frequencies of the mechanics (Hz): the chain's modes or the tilt mode."""
@@ -239,7 +241,8 @@ class Plant:
         if ops is not NUMPY:
             mech = dataclasses.replace(mech, **{k: _floats(getattr(mech, k)) for k in
                                                 ("masses_kg", "stiffness_n_per_m", "damping_n_s_per_m")},
-                                       rail_damping_n_s_per_m=float(np.asarray(mech.rail_damping_n_s_per_m).reshape(())))
+                                       rail_damping_n_s_per_m=float(np.asarray(mech.rail_damping_n_s_per_m).reshape(())),
+                                       rail_stiffness_n_per_m=float(np.asarray(mech.rail_stiffness_n_per_m).reshape(())))
         return kt * self.chain_response(s, "drive", ops) * mech.velocity_per_force(s) * \
             self.chain_response(s, "sensor", ops)
 
@@ -286,7 +289,7 @@ class Plant:
         friction = self.effect(CoulombFriction.name)
         if friction is None:
             return series * self.mechanics().velocity_per_force(s)
-        if not any(isinstance(e, ModeEffect) for e in self.effects):
+        if not any(isinstance(e, ModeEffect) for e in self.effects) and not self.mechanics().grounded:
             m_e, b_e = self._effective_mass_damping()
             return series * rigid_body_first_harmonic(m_e, b_e, friction.force_n, self._force_amplitude_n(w), w)
         n_fric = self._friction_damping(w)
@@ -386,8 +389,9 @@ def _floats(values: tuple) -> tuple[float, ...]:
 
 
 def chain_state_space(chain: BodyChain) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(A, B, C) of a chain of bodies: states (v_0 .. v_(n-1), spring extensions q_i - q_(i+1)),
-    inputs (motor force on body 0, N), output the recorded velocity (m/s)."""
+    """(A, B, C) of a chain of bodies: states (v_0 .. v_(n-1), spring extensions q_i - q_(i+1), and with a
+    ground spring body 0's position q_0, relaxed at 0), inputs (motor force on body 0, N), output the recorded
+    velocity (m/s)."""
     M, D, K = chain.matrices()
     n = M.shape[0]
     T = np.zeros((n, n - 1))
@@ -396,9 +400,15 @@ def chain_state_space(chain: BodyChain) -> tuple[np.ndarray, np.ndarray, np.ndar
     k = np.array([K[i, i + 1] for i in range(n - 1)]) * -1.0
     Minv = np.linalg.inv(M)
     A = np.block([[-Minv @ D, -Minv @ T * k], [T.T, np.zeros((n - 1, n - 1))]])
-    B = np.zeros((2 * n - 1, 1))
+    if chain.grounded:
+        ground = np.zeros((2 * n, 2 * n))
+        ground[:-1, :-1] = A
+        ground[:n, -1] = -Minv[:, 0] * float(np.asarray(chain.rail_stiffness_n_per_m).reshape(()))
+        ground[-1, 0] = 1.0
+        A = ground
+    B = np.zeros((A.shape[0], 1))
     B[:n, 0] = Minv[:, 0]
-    C = np.zeros((1, 2 * n - 1))
+    C = np.zeros((1, A.shape[0]))
     C[0, chain.sensed] = 1.0
     return A, B, C
 

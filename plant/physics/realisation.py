@@ -5,8 +5,8 @@ From the current command i_c to the recorded velocities (SI units), a batch of p
 
     i_c -> drive chain E -> i (motor current) -> F_m = K_t i on the rails
         -> mechanics: the chain of bodies (``chain_state_space``; thesis Eq. 3.15 / 3.16 split by the mode
-           effects) driven on body 0, or with ``tilt_coupling`` the Xie-Wang model (thesis Eq. 2.14-2.15) with
-           both motors carrying K_t i / 2 on their rails
+           effects, on a ground spring where an effect has one) driven on body 0, or with ``tilt_coupling`` the
+           Xie-Wang model (thesis Eq. 2.14-2.15) with both motors carrying K_t i / 2 on their rails
         -> the sensed bodies' velocities -> sensor chain H -> the recorded velocities
 
 Each rail contact also takes a force F_j besides the motor's (friction, an effect's ``rail_force_n``, a load on
@@ -38,7 +38,9 @@ class Realisation:
     F_j a force (N) on rail contact j besides the motor's. Rows over the states: ``outputs`` the recorded
     velocities (after the sensor chain, m/s), ``velocity`` the sensed bodies' velocities before it, ``contacts``
     the contacts' sliding velocities; ``current`` the motor current i (A) over (x, i_c); the motor force on
-    contact j is ``share[j]`` K_t i. ``drive``, ``mechanics``, ``sensor``: the states of each part."""
+    contact j is ``share[j]`` K_t i; ``ground`` the rails' position where a ground spring holds them (an effect's
+    ``rail_stiffness``; relaxed at 0, so a run that starts elsewhere sets it to its start), zero rows without one.
+    ``drive``, ``mechanics``, ``sensor``: the states of each part."""
 
     A: np.ndarray
     B: np.ndarray
@@ -51,6 +53,7 @@ class Realisation:
     drive: slice
     mechanics: slice
     sensor: slice
+    ground: np.ndarray
 
     @property
     def order(self) -> int:
@@ -62,7 +65,7 @@ class Realisation:
 
     def one(self, index: int = 0) -> Realisation:
         """Plant ``index`` of the batch, without the batch axis."""
-        fields = ("A", "B", "outputs", "velocity", "contacts", "current", "force_constant_n_per_a")
+        fields = ("A", "B", "outputs", "velocity", "contacts", "current", "force_constant_n_per_a", "ground")
         return replace(self, **{f: getattr(self, f)[index] for f in fields})
 
     @property
@@ -75,7 +78,7 @@ def _chain_mechanics(plants: Plant, n: int):
     """(A, B, C) of a batch of ``n`` plants' chains of bodies: inputs the force on body 0, output the sensed
     body's velocity (one body in closed form)."""
     chain = plants.mechanics()
-    if len(chain.masses_kg) == 1:
+    if len(chain.masses_kg) == 1 and not chain.grounded:
         m = column(chain.masses_kg[0], n)[:, None, None]
         b = column(chain.rail_damping_n_s_per_m, n)[:, None, None]
         return -b / m, 1.0 / m, np.ones((n, 1, 1))
@@ -85,7 +88,8 @@ def _chain_mechanics(plants: Plant, n: int):
         one = replace(chain, masses_kg=tuple(map(pick, chain.masses_kg)),
                       stiffness_n_per_m=tuple(map(pick, chain.stiffness_n_per_m)),
                       damping_n_s_per_m=tuple(map(pick, chain.damping_n_s_per_m)),
-                      rail_damping_n_s_per_m=pick(chain.rail_damping_n_s_per_m))
+                      rail_damping_n_s_per_m=pick(chain.rail_damping_n_s_per_m),
+                      rail_stiffness_n_per_m=pick(chain.rail_stiffness_n_per_m))
         parts.append(chain_state_space(one))
     return tuple(np.stack([p[i] for p in parts]) for i in range(3))
 
@@ -157,4 +161,7 @@ def realise(plants: Plant, n: int = 1, *, pade_order: int | None = None) -> Real
     contact_rows[:, :, g] = contacts
     current = np.zeros((n, m + 1))
     current[:, e], current[:, m] = E.C[:, 0], E.D[:, 0, 0]
-    return Realisation(A, B, outputs, velocity, contact_rows, current, kt, share, e, g, slice(ne + nm, m))
+    ground = np.zeros((n, m))
+    if tilt is None and plants.mechanics().grounded:
+        ground[:, g.stop - 1] = 1.0                   # the chain's last state: body 0's position
+    return Realisation(A, B, outputs, velocity, contact_rows, current, kt, share, e, g, slice(ne + nm, m), ground)

@@ -17,7 +17,10 @@ the motor's force on the profile took the held reference's staircase (``motor_fo
 design the same) and the mouse figures took the velocity shortfall, and when the bundled spec took the lab's
 recorded force (``recorded_force`` and ``limits.motor_force_criterion`` added, the design the same); the
 ``synth_*`` files again when the one-motor designs stated their coverage (``coverage`` added, nothing else changed),
-and ``sweep_x`` when the sweep's verdict did (``covered`` added).
+and ``sweep_x`` when the sweep's verdict did (``covered`` added); ``diagnose_*`` again when the library gained
+``cable_force`` (its row among the frequency-domain candidates not searched; on EMPS its combinations among the
+time-domain models, whose smallest residual sets the effective sample size, so the other models' dBIC moved; the
+selection the same).
 """
 
 from __future__ import annotations

@@ -22,7 +22,7 @@ Model (SI units), written out from the forces on each body:
   gets -offset_n); a ripple the motor must supply, ``ripple`` = (s1, c1, s2, c2, pitch): -(s1 sin p + c1 cos p +
   s2 sin 2p + c2 cos 2p), p = 2 pi x / pitch; a force constant that varies along the travel, ``profile`` =
   (centre, half span, slope, curvature): the motor's force K_t i (1 + slope u + curvature u^2), u = (x - centre) /
-  half span;
+  half span; a cable chain, ``cable`` = (stiffness k_c, rest x_c): -k_c (x - x_c);
 * a sensor filter (optional) on the velocity the drive measures, v_m'' = w_s^2 (v - v_m) - 2 zeta_s w_s v_m'
   (none: v_m = v);
 * force filter (optional) on F_s, output F_sf, extra continuous states:
@@ -125,7 +125,7 @@ def simulate(time_s, x_d, v_d, a_d, *, gantry_mass_kg, damping_n_s_per_m, force_
              neck_damping_n_s_per_m, leg_stiffness_n_per_m, leg_damping_n_s_per_m, mouse_peak_force_n,
              feedforward=True, law="backward_euler", payload_mass_kg=0.0, payload_stiffness_n_per_m=0.0,
              payload_damping_n_s_per_m=0.0, sensor_filter_hz=None, sensor_damping_ratio=0.7, offset_n=0.0,
-             ripple=None, profile=None, method="DOP853") -> ReferenceTrace:
+             ripple=None, profile=None, cable=None, method="DOP853") -> ReferenceTrace:
     """Simulate the model of the module docstring at the drive ticks ``time_s`` (k / drive_rate_hz) with the
     intended path sampled there. Keyword names follow the quantities (SI units; rates in Hz)."""
     t = np.asarray(time_s, float)
@@ -176,6 +176,8 @@ def simulate(time_s, x_d, v_d, a_d, *, gantry_mass_kg, damping_n_s_per_m, force_
             centre, half, slope, curvature = profile
             u = (x - centre) / half
             out += fm * (slope * u + curvature * u * u)
+        if cable is not None:
+            out -= cable[0] * (x - cable[1])
         return out
 
     def accel(y, ic):

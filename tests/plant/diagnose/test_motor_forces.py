@@ -11,7 +11,7 @@ import pytest
 
 from plant import stage_x
 from plant.data.recordings import TimeRecording
-from plant.diagnose.evidence import EXPLAINED, NOT_EXPLAINED
+from plant.diagnose.evidence import EXPLAINED
 from plant.diagnose.time_diagnosis import diagnose_time
 
 DROOP, TRAVEL_M = 0.3, 0.3
@@ -64,12 +64,19 @@ def test_both_are_added_one_at_a_time_and_the_error_falls_each_time():
     assert rms[2] < 0.15 * rms[0]
 
 
-def test_compensation_table_makes_the_simulated_stage_a_rigid_body(tmp_path):
+@pytest.mark.parametrize("forces", ["droop and ripple", "cable"])
+def test_compensation_table_makes_the_simulated_stage_a_rigid_body(tmp_path, forces):
     """The table the diagnosis exports, read back from its CSV and applied by the simulated drive: the stage
-    then needs no position-dependent effect and its residual falls to the noise."""
-    axis = lm.LinearMotorAxis(kt_droop=DROOP, travel_m=TRAVEL_M, ripple_n=(RIPPLE_N,), ripple_phase_rad=(RIPPLE_PHASE,),
-                              ripple_pitch_m=PITCH_M)
+    then needs no position-dependent effect and its residual falls to the noise (a droop and a ripple; a cable
+    chain of 60 N/m relaxed mid-travel, its pull too: the table covers the travel the recording did)."""
+    if forces == "cable":
+        _, _, free = lm.slow_sweep(lm.LinearMotorAxis(), seed=4)
+        axis = lm.LinearMotorAxis(cable_n_per_m=60.0, cable_rest_m=float(np.mean(free)))
+    else:
+        axis = lm.LinearMotorAxis(kt_droop=DROOP, travel_m=TRAVEL_M, ripple_n=(RIPPLE_N,),
+                                  ripple_phase_rad=(RIPPLE_PHASE,), ripple_pitch_m=PITCH_M)
     diag = _diagnose(axis, seed=4)
+    assert diag.selected == (("cable_force",) if forces == "cable" else ("force_ripple", "force_constant_profile"))
     table = diag.compensation()
     path = tmp_path / "compensation.csv"
     table.write(path)
@@ -108,29 +115,38 @@ def test_current_limit_is_found_with_its_limit_and_the_error_falls():
     assert diag.steps[-1].fit.rms_residual < 0.3 * diag.steps[0].fit.rms_residual
 
 
-def test_a_cable_outside_the_library_is_not_explained_and_named_by_position():
+def test_a_cable_is_found_with_its_stiffness_and_rest_position_and_the_error_falls():
     """A cable chain pulling the carriage towards mid-travel (60 N/m): a force of the position that is neither
-    periodic nor proportional to the current. Not explained, and no position-dependent effect claimed."""
+    periodic nor proportional to the current. Found as cable_force (nothing else claimed), its stiffness and
+    rest position the simulator's, mass and damping as without it, and the residual falls to the noise's size."""
     t, current, free = lm.slow_sweep(lm.LinearMotorAxis(), seed=7)
     axis = lm.LinearMotorAxis(cable_n_per_m=60.0, cable_rest_m=float(np.mean(free)))
     diag = _diagnose(axis, seed=7)
-    assert diag.verdict == NOT_EXPLAINED
-    assert not {"force_ripple", "force_constant_profile", "current_limit"} & set(diag.selected)
+    assert diag.selected == ("cable_force",)
+    assert diag.verdict == EXPLAINED
+    cable = diag.final.plant.effect("cable_force")
+    assert cable.stiffness_n_per_m == pytest.approx(60.0, rel=0.01)
+    assert cable.rest_m == pytest.approx(axis.cable_rest_m, abs=1e-3)
+    assert diag.final.values["mass_kg"] == pytest.approx(axis.mass_kg, rel=0.01)
+    assert diag.final.values["damping_n_s_per_m"] == pytest.approx(axis.damping_n_s_per_m, rel=0.01)
+    assert diag.steps[-1].fit.rms_residual < 0.2 * diag.steps[0].fit.rms_residual
 
 
-def test_a_cable_is_claimed_as_neither_an_offset_nor_a_profile():
+def test_a_cable_under_a_chirp_is_claimed_as_neither_an_offset_nor_a_profile():
     """Under a chirp the cable's force along the travel has a mean over the recording (an offset's column) and
-    follows the current where the current follows the position (current x position): neither is claimed,
-    since the mean does not stand out of the residual's slow variation and the interaction is tested beside
-    position alone."""
+    follows the current where the current follows the position (current x position): the cable is found
+    (109 N/m, its rest position), not an offset or a force-constant profile."""
     noise = {"current_noise_a": 0.005, "position_noise_m": 2e-6}
     _, _, free = lm.chirp(lm.LinearMotorAxis(), seed=66, **noise)
     axis = lm.LinearMotorAxis(cable_n_per_m=109.0, cable_rest_m=float(np.mean(free)))
     t, current, position = lm.chirp(axis, seed=66, **noise)
     rec = TimeRecording(t, current, position[None, :], "position", ("x",), source="chirp")
     diag = diagnose_time(stage_x(), rec)
-    assert diag.verdict == NOT_EXPLAINED
-    assert diag.selected == ()
+    assert diag.verdict == EXPLAINED
+    assert diag.selected == ("cable_force",)
+    cable = diag.final.plant.effect("cable_force")
+    assert cable.stiffness_n_per_m == pytest.approx(109.0, rel=0.01)
+    assert cable.rest_m == pytest.approx(axis.cable_rest_m, abs=1e-3)
 
 
 def test_a_fit_with_a_limit_or_a_ripple_sets_its_shape_from_the_recording_unless_given(tmp_path):

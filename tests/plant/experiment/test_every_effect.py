@@ -20,12 +20,12 @@ F_HZ = (5.0, 40.0, 120.0)
 SETTINGS = {
     "offset": {"force_n": 3.0}, "force_ripple": {"sin1_n": 4.0, "cos2_n": 2.0},
     "force_constant_profile": {"slope": 0.3, "curvature": 0.2}, "stribeck_friction": {"excess_n": 4.0},
-    "current_limit": {"limit_n": 12.0},
+    "current_limit": {"limit_n": 12.0}, "cable_force": {"stiffness_n_per_m": 2000.0},
 }
 NEEDS = {"second_resonance": ("resonance",), "stribeck_friction": ("coulomb_friction",)}
 #: linear, time-invariant effects: their simulated response is their frequency response
 LTI = ("delay", "current_loop", "sampling", "sensor_filter", "encoder_velocity", "resonance", "payload_resonance",
-       "second_resonance", "tilt_coupling")
+       "second_resonance", "tilt_coupling", "cable_force")
 #: how far each engine's steady state may sit from Plant.frd: the stepped blocks are exact but for the hold's images
 #: (module doc of plant.experiment.simulate: ~2 (f / rate)^2); the continuous run's first-order hold of the current
 #: at its internal rate adds ~ (w h)^2 / 12, 3e-4 at 120 Hz

@@ -1,7 +1,8 @@
-"""An effect that adds a force on the rails says so once, in both domains: the force the continuous simulation
-applies (``rail_force_n``) is minus the force its identification model says the motor must supply on top of the
-rigid body (``force_regressors``: the sum of its parameters times the signals), at every position and motor
-force; and every effect with a force model of that kind is one the simulation applies."""
+"""An effect that adds a force on the rails says so once, in both domains: the force a time simulation applies
+(``rail_force_n``, and the ground spring ``rail_stiffness`` the mechanics carries, relaxed at x = 0) is minus the
+force its identification model says the motor must supply on top of the rigid body (``force_regressors``: the sum
+of its parameters times the signals), at every position, velocity and motor force; and every effect with a force
+model of that kind is one the simulation applies."""
 
 import numpy as np
 import pytest
@@ -12,7 +13,8 @@ from plant.physics.effects import EFFECTS, make_effect
 #: parameter values that make each force visible (defaults elsewhere)
 VALUES = {"offset": {"force_n": 2.5},
           "force_ripple": {"sin1_n": 0.8, "cos1_n": -0.3, "sin2_n": 0.2, "cos2_n": 0.1, "pitch_m": 0.03},
-          "force_constant_profile": {"slope": 0.04, "curvature": -0.02, "centre_m": 0.01, "half_span_m": 0.2}}
+          "force_constant_profile": {"slope": 0.04, "curvature": -0.02, "centre_m": 0.01, "half_span_m": 0.2},
+          "cable_force": {"stiffness_n_per_m": 45.0, "pull_n": -1.5, "centre_m": 0.12}}
 RAIL = [name for name, cls in EFFECTS.items() if cls.rail_force]
 
 
@@ -29,6 +31,7 @@ def test_rail_force_is_minus_the_identified_force(name):
     signals = ForceSignals(velocity_m_per_s=v, force_n=force, position_m=x)
     regressors = effect.force_regressors(signals)
     identified = sum(getattr(effect, field) * signal for field, signal in regressors.items())
-    applied = np.array([effect.rail_force_n(xi, vi, fi) for xi, vi, fi in zip(x, v, force)])
+    applied = np.array([effect.rail_force_n(xi, vi, fi) for xi, vi, fi in zip(x, v, force)]) \
+        - effect.rail_stiffness() * x
     assert np.max(np.abs(applied + identified)) < 1e-12 * max(1.0, np.max(np.abs(identified)))
     assert np.max(np.abs(applied)) > 0.1

@@ -17,7 +17,7 @@ import numpy as np
 
 from design.loop.analysis import PayloadSweep, payload_sweep
 from design.loop.controller import PI
-from design.loop.fast import fast_analyse_loop
+from design.loop.fast import fast_analyse_batch
 from design.loop.margins import BANDWIDTH_LEVELS2
 from design.problem import LoopProblem, Uncertainty
 from plant.errors import ParameterError, SpecError
@@ -258,14 +258,6 @@ def monte_carlo_sweep(source: LoopProblem | Plant, *, payload_kg=None, samples: 
 
 def _fast_samples(plant, m, params, controller: PI, progress, level2: float) -> dict[str, np.ndarray]:
     n_s = len(next(iter(params.values())))
-    total = m.size * n_s
-    out = {q: np.empty(total) for q in (*QUANTITIES, "stable")}
-    for start in range(0, total, CHUNK_PLANTS):
-        idx = np.arange(start, min(start + CHUNK_PLANTS, total))
-        numbers = fast_analyse_loop(batch_plant(plant, m, params, rows=idx), controller, level2=level2)
-        for q in (*QUANTITIES, "stable"):
-            out[q][idx] = np.ravel(getattr(numbers, q))
-        if progress is not None:
-            progress(int(idx[-1]) + 1, total)
-    return {q: v.reshape(m.size, n_s) if q != "stable" else v.reshape(m.size, n_s).astype(bool)
-            for q, v in out.items()}
+    numbers = fast_analyse_batch(lambda rows: batch_plant(plant, m, params, rows=rows), m.size * n_s, controller,
+                                 level2=level2, chunk=CHUNK_PLANTS, progress=progress)
+    return {q: getattr(numbers, q).reshape(m.size, n_s) for q in (*QUANTITIES, "stable")}

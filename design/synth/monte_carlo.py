@@ -14,7 +14,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from design.loop.controller import PI
-from design.loop.fast import fast_analyse_loop
+from design.loop.fast import fast_analyse_batch
 from design.loop.requirement import ScenarioPoint
 from design.problem import LoopProblem
 from design.synth.scenarios import random_scenarios
@@ -24,6 +24,18 @@ from plant.errors import ParameterError
 #: one-sided confidence of the upper bound on the violation rate
 CONFIDENCE = 0.95
 CHUNK = 2048
+
+
+@dataclass(frozen=True)
+class MonteCarloDraws:
+    """Every draw of a check: payload (kg), phase margin (deg), gain margin (dB), bandwidth (Hz) and whether its
+    closed loop is stable, each shaped (samples,)."""
+
+    payload_kg: np.ndarray
+    phase_margin_deg: np.ndarray
+    gain_margin_db: np.ndarray
+    bandwidth_hz: np.ndarray
+    stable: np.ndarray
 
 
 @dataclass(frozen=True)
@@ -41,9 +53,8 @@ class MonteCarloCheck:
     #: the draw with the least slack
     worst_scenario: ScenarioPoint
     unstable: int
-    #: every draw: payload (kg), phase margin (deg), gain margin (dB), bandwidth (Hz), shaped (samples,)
-    #: (the report plots them; not compared)
-    draws: dict = field(default_factory=dict, repr=False, compare=False)
+    #: every draw (the report plots them; not compared)
+    draws: MonteCarloDraws | None = field(default=None, repr=False, compare=False)
 
     @property
     def rate(self) -> float:
@@ -77,20 +88,15 @@ def monte_carlo_check(problem: LoopProblem, controller: PI, *, samples: int | No
     samples, seed = draw_settings(problem, samples, seed)
     s = random_scenarios(problem, samples, seed=seed)
     base, req = problem.plant.plant(), problem.requirements
-    pm, gm, bw, stable = (np.empty(len(s)) for _ in range(4))
-    for start in range(0, len(s), CHUNK):
-        rows = np.arange(start, min(start + CHUNK, len(s)))
-        n = fast_analyse_loop(s.plants(base, rows), controller, level2=req.level2)
-        pm[rows], gm[rows] = np.ravel(n.phase_margin_deg), np.ravel(n.gain_margin_db)
-        bw[rows], stable[rows] = np.ravel(n.closed_loop_bandwidth_hz), np.ravel(n.stable)
+    n = fast_analyse_batch(lambda rows: s.plants(base, rows), len(s), controller, level2=req.level2, chunk=CHUNK)
+    pm, gm, bw, stable = n.phase_margin_deg, n.gain_margin_db, n.closed_loop_bandwidth_hz, n.stable
     slack = np.minimum((pm - req.phase_margin_deg) / max(req.phase_margin_deg, 1.0),
                        np.where(np.isfinite(gm), gm - req.gain_margin_db, np.inf) / max(req.gain_margin_db, 1.0))
     bad = ((pm < req.phase_margin_deg - MARGIN_TOLERANCE) | (gm < req.gain_margin_db - MARGIN_TOLERANCE)
-           | (stable == 0))
-    i = int(np.argmin(np.where(stable == 0, -np.inf, slack)))
+           | ~stable)
+    i = int(np.argmin(np.where(stable, slack, -np.inf)))
     k = int(bad.sum())
     return MonteCarloCheck(samples, seed, k, clopper_pearson_upper(k, samples), float(np.min(pm)),
                            float(np.min(gm)), float(np.nanmin(bw)) if np.any(np.isfinite(bw)) else float("nan"),
-                           s.row(i), int(np.sum(stable == 0)),
-                           {"payload_kg": np.asarray(s.payload_kg, float), "phase_margin_deg": pm,
-                            "gain_margin_db": gm, "bandwidth_hz": bw, "stable": stable == 1})
+                           s.row(i), int(np.sum(~stable)),
+                           MonteCarloDraws(np.asarray(s.payload_kg, float), pm, gm, bw, stable))

@@ -140,7 +140,7 @@ MC_BINS = 14
 
 def _monte_carlo_band(check, key: str):
     """Bin centres (kg), 5 % and 95 % percentiles and minimum per payload bin of the check's draws."""
-    m, v = check.draws["payload_kg"], np.asarray(check.draws[key], float)
+    m, v = check.draws.payload_kg, np.asarray(getattr(check.draws, key), float)
     edges = np.linspace(np.min(m), np.max(m), MC_BINS + 1)
     idx = np.clip(np.digitize(m, edges) - 1, 0, MC_BINS - 1)
     centres, lo, hi, low = [], [], [], []
@@ -186,7 +186,7 @@ def payload_figure(designed: Evaluation, thesis: Evaluation, requirements, check
             y = getattr(s, key)
             ax.plot(s.payload_kg, np.where(np.isfinite(y), y, np.nan), style, label=label,
                     color="tab:blue" if name == "designed gains" else ("tab:green" if s.meets else "tab:red"))
-    if check is not None and check.draws:
+    if check is not None and check.draws is not None:
         for ax, key in zip(axes, keys):
             x, lo, hi, low = _monte_carlo_band(check, key)
             ax.fill_between(x, lo, hi, color="tab:blue", alpha=0.18, lw=0,

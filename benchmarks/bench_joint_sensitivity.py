@@ -50,7 +50,7 @@ def main() -> None:
             r = _synthesise(spec, eps)
             bw = r.evaluation.worst_bandwidth_hz if r.status == "optimal" else float("nan")
             found.append(bw)
-            joint = ", ".join(j["ipopt"] for j in r.details.get("joint_exact", []))
+            joint = ", ".join(j.ipopt for j in r.record.joint_exact or ())
             print(f"  {eps:>8.0e}  {r.status:8} {bw:12.4f}  {time.perf_counter() - t0:5.1f}  {joint}", flush=True)
         print(f"  spread (largest / smallest worst-case bandwidth): {max(found) / min(found):.3f}\n", flush=True)
 

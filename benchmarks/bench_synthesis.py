@@ -64,7 +64,7 @@ def main():
         res = runs[-1]
         d = synthesis_to_dict(res)
         wall = np.median([r.seconds for r in runs])
-        cpu = np.median([r.details["cpu_seconds"] for r in runs])
+        cpu = np.median([r.record.cpu_seconds for r in runs])
         ccp = synthesise_pi(spec, method="ccp")
         t0 = time.perf_counter()
         big = len(check_scenarios(spec)) > 100        # uncertainty: 1600 plants per gain pair
@@ -82,13 +82,13 @@ def main():
         print(f"  synthesis (ccp+exact): {d['status']}, verified {d['verified']}, kp {d['gains']['kp']:.2f}, "
               f"ki {d['gains']['ki']:.1f}, worst-case bandwidth {ours:.3f} Hz, chosen: {d['solver']['chosen']}")
         print(f"  solve time warm: {wall:.2f} s wall, {cpu:.2f} s CPU (median of 3); cold: {cold.seconds:.2f} s wall, "
-              f"{cold.details['cpu_seconds']:.2f} s CPU (+{cold.details['import_seconds']:.2f} s imports); "
-              f"python-control verification {res.details['verification_seconds']:.2f} s")
+              f"{cold.record.cpu_seconds:.2f} s CPU (+{cold.record.import_seconds:.2f} s imports); "
+              f"python-control verification {res.record.verification_seconds:.2f} s")
         print(f"  LP solves {d['solver']['lp_solves']}, IPOPT starts {len(d['solver']['exact_starts'])}, "
               f"rounds {d['solver']['rounds']}")
         print("  ccp alone (the circle design, cvxpy + Clarabel): worst-case bandwidth "
               f"{ccp.evaluation.worst_bandwidth_hz:.3f} Hz "
-              f"({ccp.details['chosen']})")
+              f"({ccp.record.chosen})")
         print(f"  brute force ({brute_s:.0f} s): kp {kp:.2f}, ki {ki:.1f}, worst-case bandwidth {brute_bw:.3f} Hz")
         print(f"  ratio synthesis / brute force: {ours / brute_bw:.4f}")
         mc = d.get("monte_carlo")

@@ -57,6 +57,7 @@ from design.synth.filter_scan import scan_filters
 from design.synth.monte_carlo import MonteCarloCheck, monte_carlo_check
 from design.synth.scan import W_OPT, Scan, ScanDiagnosis, scan_gains
 from design.synth.scenarios import Scenarios, check_scenarios, describe_row, design_scenarios
+from design.synth.solver_record import Candidate, ExactStart, FilterTrial, JointExact, SolverRecord, VerifiedCandidate
 from design.synth.verify import Verification, verify
 from plant.errors import SpecError
 from plant.grid import log_grid_rad_s
@@ -141,7 +142,8 @@ class SynthesisResult:
     baselines: tuple[Evaluation, ...] = ()
     baseline_names: tuple[str, ...] = ()
     payload_points_used: tuple[float, ...] = ()
-    details: dict = field(default_factory=dict)
+    #: how the synthesis went (``design.synth.solver_record``)
+    record: SolverRecord = field(default_factory=SolverRecord)
     #: why no gains meet the requirements (infeasible problems): its binding overrides the evaluation's
     diagnosis: ScanDiagnosis | None = None
     #: independent draws over payload x the uncertainty (problems with uncertainty, optimal designs)
@@ -173,20 +175,29 @@ def unbounded_message(problem: LoopProblem) -> str:
             "current_loop = { bandwidth_hz = 1000.0 }.")
 
 
+@dataclass
+class _Tally:
+    """What the rounds of a synthesis add up (``SolverRecord``'s counts)."""
+
+    scan_designs: int = 0
+    lp_solves: int = 0
+    exact_starts: list[ExactStart] = field(default_factory=list)
+
+
 def _solve(problem: LoopProblem, scenarios: Scenarios, dense: Scenarios, method: str,
-           notes: dict) -> tuple[list[tuple[str, PI, Evaluation | None]], Scan]:
+           tally: _Tally) -> tuple[list[tuple[str, PI, Evaluation | None]], Scan]:
     """Candidate designs (label, PI, its evaluation on ``dense`` when already made) for the design
     scenarios: the best scan seeds, the ccp design and the exact refinements from the ccp design and the best
     seeds (method "ccp": the ccp design); and the scan."""
     P = scenarios.response(problem.plant.plant(), W_OPT)
     scan = scan_gains(problem, P, scenarios.payload_kg)
-    notes["scan_designs"] = notes.get("scan_designs", 0) + scan.kp.size
+    tally.scan_designs += scan.kp.size
     seeds = scan.best(scan.meets, scan.worst_bandwidth_hz, EXTRA_STARTS)
     if not seeds:   # nothing meets the requirements: start from the least violating gains
         seeds = scan.best(np.ones(scan.kp.size, bool), scan.relative_slack, 1)
     cands = [(f"scan seed {k + 1}", PI(float(scan.kp[i]), float(scan.ki[i])), None) for k, i in enumerate(seeds)]
     ccp = ccp_design(problem, P, scan)
-    notes["lp_solves"] = notes.get("lp_solves", 0) + ccp.lp_solves
+    tally.lp_solves += ccp.lp_solves
     starts = list(cands)
     if math.isfinite(ccp.kp):
         cands.append(("ccp (cvxpy+CLARABEL)", PI(ccp.kp, ccp.ki), None))
@@ -199,9 +210,8 @@ def _solve(problem: LoopProblem, scenarios: Scenarios, dense: Scenarios, method:
         def exact(label, start: PI, high):
             ex = exact_design(problem, scenarios, start, high_circle=high, solvers=solvers)
             name = f"exact (casadi+IPOPT{', high-frequency circle' if high else ''}) from {label}"
-            notes.setdefault("exact_starts", []).append({"design": name, "kp0": start.kp, "ki0": start.ki,
-                                                         "kp": ex.controller.kp, "ki": ex.controller.ki,
-                                                         "ipopt": ex.note})
+            tally.exact_starts.append(ExactStart(name, start.kp, start.ki, ex.controller.kp, ex.controller.ki,
+                                                 ex.note))
             if ex.success:
                 # starts that converge to the same gains (to 12 digits) share one dense evaluation
                 same = [ev for _, c, ev in cands if ev is not None and np.allclose(c.parameters,
@@ -371,9 +381,7 @@ def _with_designed_filters(problem: LoopProblem, method: str, max_rounds: int,
     def bw(r):
         return r.evaluation.worst_bandwidth_hz if r.status == "optimal" and r.evaluation is not None else -1.0
 
-    notes = {"filter_scan": [{"filters": v, "worst_bandwidth_hz": b} for b, v in scanned],
-             "filter_starts": [{"filters": v, "status": r.status, "worst_bandwidth_hz": bw(r)} for v, r in tried],
-             "joint_exact": []}
+    joint: list[JointExact] = []
     if method == "ccp+exact":
         designed = [vr for vr in tried if bw(vr[1]) > 0 and any(
             v is not None and f.designed for v, f in zip(vr[0], problem.controller.filters))]
@@ -382,17 +390,19 @@ def _with_designed_filters(problem: LoopProblem, method: str, max_rounds: int,
             p = with_filter_values(problem, values)
             ex = exact_design(p, design_scenarios(p), r.evaluation.controller, design_filters=True,
                               high_circle=True)
-            note = {"from": values, "ipopt": ex.note, "filters": list(ex.filter_values)}
+            found_bw = None
             if ex.success:
                 found = list(ex.filter_values)
                 tried.append((found, _robust(with_filter_values(problem, found), method, max_rounds, say)))
-                note["worst_bandwidth_hz"] = bw(tried[-1][1])
-            notes["joint_exact"].append(note)
+                found_bw = bw(tried[-1][1])
+            joint.append(JointExact(tuple(values), ex.note, tuple(ex.filter_values), found_bw))
     values, best = max(tried, key=lambda vr: bw(vr[1]))
     kinds = [{"kind": f.kind, "used": v is not None, **(v or {}), "designed": sorted(f.ranges)}
              for f, v in zip(problem.controller.filters, values)]
-    return replace(best, seconds=time.perf_counter() - t0, filters=tuple(kinds),
-                   details={**best.details, **notes})
+    record = replace(best.record, filter_scan=tuple(FilterTrial(tuple(v), b) for b, v in scanned),
+                     filter_starts=tuple(FilterTrial(tuple(v), bw(r), r.status) for v, r in tried[:len(starts)]),
+                     joint_exact=tuple(joint))
+    return replace(best, seconds=time.perf_counter() - t0, filters=tuple(kinds), record=record)
 
 
 def _synthesise(problem: LoopProblem, method: str, max_rounds: int, extra: list[ScenarioPoint],
@@ -403,7 +413,7 @@ def _synthesise(problem: LoopProblem, method: str, max_rounds: int, extra: list[
     if not any(e in PHASE_LIMITING for e in problem.plant.effects):
         b, names = baselines(problem)
         return SynthesisResult("unbounded", unbounded_message(problem), None, None, method, 0.0, b, names,
-                               details={"missing_effects": list(PHASE_LIMITING)})
+                               record=SolverRecord(missing_effects=tuple(PHASE_LIMITING)))
     say("loading cvxpy and casadi")
     i0 = time.perf_counter()
     import casadi  # noqa: F401  (the one-off imports are timed apart from the solve)
@@ -416,14 +426,14 @@ def _synthesise(problem: LoopProblem, method: str, max_rounds: int, extra: list[
         points = points.with_row(row)
     dense = check_scenarios(problem, np.union1d(problem.plant.payload_kg.check_points(),
                                                 problem.plant.payload_kg.design_points()))
-    notes: dict = {}
+    tally = _Tally()
     rounds, best_bad, first_scan = 0, None, None
     good: list[tuple[str, Evaluation]] = []
     failed: list[Evaluation] = []
     for rounds in range(1, max_rounds + 1):
         steps = "cvxpy+Clarabel, casadi+IPOPT" if method == "ccp+exact" else "cvxpy+Clarabel"
         say(f"design on {len(points)} scenarios: gain scan, {steps}")
-        cands, scan = _solve(problem, points, dense, method, notes)
+        cands, scan = _solve(problem, points, dense, method, tally)
         first_scan = first_scan or (scan, points)
         evs = [(label, ev or evaluate(problem, c, dense)) for label, c, ev in cands]
         good += [(label, ev) for label, ev in evs if ev.meets]
@@ -444,13 +454,14 @@ def _synthesise(problem: LoopProblem, method: str, max_rounds: int, extra: list[
             break
         points = points.with_row(top.worst_scenario)
     seconds, cpu = time.perf_counter() - t0, time.process_time() - c0
-    details = {"cpu_seconds": cpu, "import_seconds": import_seconds, "rounds": rounds, **notes,
-               "solver_ccp": "cvxpy+CLARABEL",
-               "solver_exact": "casadi+IPOPT" if method == "ccp+exact" else None,
-               "dense_check": f"{len(dense)} scenarios ({np.unique(dense.payload_kg).size} payloads"
-                              + (f" x {len(dense) // np.unique(dense.payload_kg).size} parameter sets: corners and "
-                                 "seeded draws of plant.uncertainty" if dense.parameters else "")
-                              + "), cubic-refined grid margins (design.loop.fast)"}
+    record = SolverRecord(
+        cpu_seconds=cpu, import_seconds=import_seconds, rounds=rounds, scan_designs=tally.scan_designs,
+        lp_solves=tally.lp_solves, exact_starts=tuple(tally.exact_starts) if tally.exact_starts else None,
+        solver_ccp="cvxpy+CLARABEL", solver_exact="casadi+IPOPT" if method == "ccp+exact" else None,
+        dense_check=f"{len(dense)} scenarios ({np.unique(dense.payload_kg).size} payloads"
+                    + (f" x {len(dense) // np.unique(dense.payload_kg).size} parameter sets: corners and "
+                       "seeded draws of plant.uncertainty" if dense.parameters else "")
+                    + "), cubic-refined grid margins (design.loop.fast)")
     base, names = baselines(problem)
     pts = tuple(float(p) for p in np.unique(points.payload_kg))
     if not good:
@@ -467,7 +478,7 @@ def _synthesise(problem: LoopProblem, method: str, max_rounds: int, extra: list[
                    f"bounds meets them at every payload: the {what} at {where} binds (the least violating gains "
                    f"{short})")
         ev = evaluate(problem, PI(d.kp, d.ki), dense)
-        return SynthesisResult("infeasible", message, ev, None, method, seconds, base, names, pts, details,
+        return SynthesisResult("infeasible", message, ev, None, method, seconds, base, names, pts, record,
                                diagnosis=d)
     # designs that agree to 9 digits are one design, named after the first candidate that found it
     good.sort(key=lambda g: -float(f"{g[1].worst_bandwidth_hz:.9g}"))
@@ -475,7 +486,7 @@ def _synthesise(problem: LoopProblem, method: str, max_rounds: int, extra: list[
     if faster:      # a faster candidate that fails the check shows room the best passing one leaves
         outer = max(faster, key=lambda e: e.worst_bandwidth_hz)
         polished, evaluations = polish(problem, good[0][1], dense, outer=outer)
-        details["polish_evaluations"] = evaluations
+        record = replace(record, polish_evaluations=evaluations)
         if polished.worst_bandwidth_hz > good[0][1].worst_bandwidth_hz:
             good.insert(0, (f"polished on the dense check from {good[0][0]}", polished))
     say("independent check of the design (python-control)")
@@ -484,15 +495,16 @@ def _synthesise(problem: LoopProblem, method: str, max_rounds: int, extra: list[
     for label, ev in good[:3]:      # the best verified of the three best candidates
         v = verify(problem, ev.controller, verification_scenarios(points, dense, ev),
                    claimed_worst_bandwidth_hz=ev.worst_bandwidth_hz)
-        tried.append({"design": label, "verified": v.verified})
+        tried.append(VerifiedCandidate(label, v.verified))
         if v.verified:
             break
-    details.update(verification_seconds=time.perf_counter() - t1, chosen=label, verified_candidates=tried,
-                   candidates=[{"design": lb, **e.controller.gains(), "worst_bandwidth_hz": e.worst_bandwidth_hz}
-                               for lb, e in good])
+    record = replace(record, verification_seconds=time.perf_counter() - t1, chosen=label,
+                      verified_candidates=tuple(tried),
+                      candidates=tuple(Candidate(lb, e.controller.kp, e.controller.ki, e.worst_bandwidth_hz)
+                                       for lb, e in good))
     if not v.verified:
         return SynthesisResult("infeasible", "the optimised designs failed the independent check: "
-                               + "; ".join(v.failures[:3]), ev, v, method, seconds, base, names, pts, details)
+                               + "; ".join(v.failures[:3]), ev, v, method, seconds, base, names, pts, record)
     req_bw = problem.requirements.min_bandwidth_hz
     if req_bw is not None and ev.worst_bandwidth_hz < req_bw:
         i = int(np.argmin(ev.bandwidth_hz))
@@ -503,28 +515,28 @@ def _synthesise(problem: LoopProblem, method: str, max_rounds: int, extra: list[
             f"kg (kp = {ev.controller.kp:.4g}, ki = {ev.controller.ki:.4g}), below requirements.min_bandwidth_hz = "
             f"{req_bw:g}; "
             f"the {b.constraint.replace('_', ' ')}{where} "
-            "limits it", ev, v, method, seconds, base, names, pts, details)
+            "limits it", ev, v, method, seconds, base, names, pts, record)
     discrete = None
     if problem.controller.loop_rate_hz is not None:
         discrete = _discrete(problem, ev, points, dense)
         if not discrete[1].verified:
             return SynthesisResult("infeasible", "the discrete loop at controller.loop_rate_hz misses the "
                                    "requirements: " + "; ".join(discrete[1].failures[:3]), ev, v, method, seconds,
-                                   base, names, pts, details, discrete=discrete)
+                                   base, names, pts, record, discrete=discrete)
     if not dense.parameters:
-        return SynthesisResult("optimal", f"verified ({label})", ev, v, method, seconds, base, names, pts, details,
+        return SynthesisResult("optimal", f"verified ({label})", ev, v, method, seconds, base, names, pts, record,
                                discrete=discrete)
     say("Monte Carlo check over the uncertainty")
     mc = monte_carlo_check(problem, ev.controller, seed=seed)
-    details["design_scenarios"] = len(points)
+    record = replace(record, design_scenarios=len(points))
     if mc.violations:
         return SynthesisResult("infeasible", f"verified on the {len(points)} design scenarios ({label}), but "
                                f"{mc.violations} of {mc.samples} Monte Carlo draws over the uncertainty violate the "
                                f"requirements (worst at {describe_row(mc.worst_scenario)})", ev, v, method, seconds,
-                               base, names, pts, details, monte_carlo=mc, discrete=discrete)
+                               base, names, pts, record, monte_carlo=mc, discrete=discrete)
     return SynthesisResult("optimal", f"verified ({label}) on {len(points)} design scenarios; 0 of {mc.samples} "
                            f"Monte Carlo draws violate (95 % upper bound {100 * mc.rate_upper_bound:.2g} %)", ev, v,
-                           method, seconds, base, names, pts, details, monte_carlo=mc, discrete=discrete)
+                           method, seconds, base, names, pts, record, monte_carlo=mc, discrete=discrete)
 
 
 def _discrete(problem: LoopProblem, ev: Evaluation, points: Scenarios, dense: Scenarios):

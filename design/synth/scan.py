@@ -45,6 +45,15 @@ class ScanDiagnosis:
 
 
 @dataclass(frozen=True)
+class RequirementSlack:
+    """Relative slack per requirement: ``values[r]`` that of requirement ``names[r]`` (its ``Binding`` name),
+    each shaped (gains, scenarios); negative where it fails."""
+
+    names: tuple[str, ...]
+    values: np.ndarray
+
+
+@dataclass(frozen=True)
 class Scan:
     """A log grid of gains evaluated on ``W_OPT`` at the payload points (linear-interpolated margins)."""
 
@@ -59,8 +68,8 @@ class Scan:
     circle_bandwidth_hz: np.ndarray
     #: least requirement slack relative to the requirement (for infeasible problems)
     relative_slack: np.ndarray
-    #: relative slack per requirement, each shaped (gains, scenarios)
-    slack: dict
+    #: relative slack per requirement
+    slack: RequirementSlack
     #: the gains failing at the lightest or heaviest payload were evaluated there alone (their slack at the
     #: other scenarios is nan, their figures are those of the screening scenarios)
     screened: bool = False
@@ -70,7 +79,7 @@ class Scan:
         payload alone fall furthest short, or, when each payload alone is feasible, the conflict."""
         if self.screened:
             raise ValueError("diagnose needs a scan of every gain on every scenario (scan_gains without payload_kg)")
-        per = np.min(np.array(list(self.slack.values())), axis=0)          # (gains, payloads)
+        per = np.min(self.slack.values, axis=0)          # (gains, payloads)
         alone = per.max(axis=0)
         j = int(np.argmin(alone))
         if alone[j] < 0:
@@ -78,7 +87,7 @@ class Scan:
         else:
             i = int(np.argmax(per.min(axis=1)))
             j = int(np.argmin(per[i]))
-        name = min(self.slack, key=lambda k: self.slack[k][i, j])
+        name = self.slack.names[int(np.argmin(self.slack.values[:, i, j]))]
         binding = Binding(name, float(scenarios.payload_kg[j]), relative_slack=float(per[i, j]))
         return ScanDiagnosis(binding, scenarios.describe(j), float(self.kp[i]), float(self.ki[i]), bool(alone[j] < 0))
 
@@ -122,7 +131,7 @@ def _chunked(problem: LoopProblem, P: np.ndarray, kp: np.ndarray, ki: np.ndarray
     return {k: np.concatenate([part[k] for part in parts]) for k in parts[0]}
 
 
-def _slack(problem: LoopProblem, ev: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+def _slack(problem: LoopProblem, ev: dict[str, np.ndarray]) -> RequirementSlack:
     """Relative slack per requirement (gains, scenarios)."""
     req = problem.requirements
     bw = ev["bandwidth_hz"]
@@ -134,7 +143,7 @@ def _slack(problem: LoopProblem, ev: dict[str, np.ndarray]) -> dict[str, np.ndar
         slack["peak_sensitivity"] = (req.peak_sensitivity - ev["peak_sensitivity"]) / req.peak_sensitivity
     if req.disk_margin is not None:
         slack["disk_margin"] = (ev["disk_margin"] - req.disk_margin) / req.disk_margin
-    return slack
+    return RequirementSlack(tuple(slack), np.stack(list(slack.values())))
 
 
 def scan_gains(problem: LoopProblem, P: np.ndarray, payload_kg: np.ndarray | None = None, *,
@@ -160,11 +169,10 @@ def scan_gains(problem: LoopProblem, P: np.ndarray, payload_kg: np.ndarray | Non
                 slack_rest = _slack(problem, rest)
                 rel[passed] = _relative(slack_rest)
                 if np.any(rel >= 0):
-                    slack = {}
-                    for k, v in slack_first.items():
-                        slack[k] = np.full((kp.size, P.shape[0]), np.nan)
-                        slack[k][:, rows] = v
-                        slack[k][passed] = slack_rest[k]
+                    values = np.full((len(slack_first.names), kp.size, P.shape[0]), np.nan)
+                    values[:, :, rows] = slack_first.values
+                    values[:, passed] = slack_rest.values
+                    slack = RequirementSlack(slack_first.names, values)
                     bw = np.full((kp.size, P.shape[0]), np.nan)
                     bw[:, rows] = first["bandwidth_hz"]
                     bw[passed] = rest["bandwidth_hz"]
@@ -177,9 +185,9 @@ def scan_gains(problem: LoopProblem, P: np.ndarray, payload_kg: np.ndarray | Non
     return _scan(kp, ki, _relative(slack), slack, ev["bandwidth_hz"], ev, False)
 
 
-def _relative(slack: dict[str, np.ndarray]) -> np.ndarray:
+def _relative(slack: RequirementSlack) -> np.ndarray:
     """Least relative slack per gain over the requirements and the scenarios."""
-    return np.min(np.min(np.array(list(slack.values())), axis=0), axis=-1)
+    return np.min(np.min(slack.values, axis=0), axis=-1)
 
 
 def _scan(kp, ki, rel, slack, bw, ev, screened: bool) -> Scan:

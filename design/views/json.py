@@ -6,6 +6,7 @@ from __future__ import annotations
 import dataclasses
 import json
 import math
+from collections.abc import Mapping
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -39,6 +40,7 @@ if TYPE_CHECKING:
     from design.synth.pi import SynthesisResult
     from design.synth.scan import ScanDiagnosis
     from design.synth.schedule import SchedulePoint
+    from design.synth.solver_record import SolverRecord
     from design.synth.verify import Verification
     from plant.data.recordings import Recording
     from plant.diagnose.diagnosis import Diagnosis
@@ -352,6 +354,20 @@ def admittance_binding_to_dict(b: Binding[MouseModel]) -> dict:
             **({"delay_samples": b.delay_samples} if b.delay_samples is not None else {})}
 
 
+def solver_record_to_dict(record: SolverRecord) -> dict:
+    """Every field of the record (null where its step did not run), each inner record a dict of its fields (a
+    joint solve's ``start`` written ``from``)."""
+    def plain(value):
+        if isinstance(value, tuple):
+            return [plain(v) for v in value]
+        if dataclasses.is_dataclass(value):
+            return {("from" if f.name == "start" else f.name): plain(getattr(value, f.name))
+                    for f in dataclasses.fields(value)}
+        return dict(value) if isinstance(value, Mapping) else value
+
+    return {f.name: plain(getattr(record, f.name)) for f in dataclasses.fields(record)}
+
+
 def synthesis_to_dict(result: SynthesisResult) -> dict:
     """``gantry synth --json`` of the PI stage."""
     e = result.evaluation
@@ -371,7 +387,7 @@ def synthesis_to_dict(result: SynthesisResult) -> dict:
         "verified": bool(result.verification and result.verification.verified and ok),
         "verification": None if result.verification is None else verification_to_dict(result.verification),
         "solver": {"method": result.method, "seconds": result.seconds,
-                   "payload_points": list(result.payload_points_used), **result.details,
+                   "payload_points": list(result.payload_points_used), **solver_record_to_dict(result.record),
                    **({"diagnosis": scan_diagnosis_to_dict(result.diagnosis)} if result.diagnosis is not None
                       else {})},
         "baselines": [evaluation_to_dict(b, n) for b, n in zip(result.baselines, result.baseline_names)],

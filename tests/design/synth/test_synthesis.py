@@ -225,7 +225,7 @@ def test_scan_marks_unstable_loops_like_python_control():
     plant = spec.plant.plant().with_payload(np.array([5.0]))
     scan = scan_gains(spec, plant.frd(W_OPT), n=8)
     sys5 = plant.with_payload(5.0).to_control(pade_order=10)
-    for kp, ki, rel in zip(scan.kp, scan.ki, scan.slack["phase_margin"][:, 0]):
+    for kp, ki, rel in zip(scan.kp, scan.ki, scan.slack.values[scan.slack.names.index("phase_margin"), :, 0]):
         stable = np.all(np.real(control.poles(control.feedback(sys5 * control.tf([kp, ki], [1, 0]), 1))) < 0)
         if not stable:
             assert rel == -1.0, (kp, ki)   # unstable: counted as 0 deg phase margin
@@ -375,8 +375,8 @@ def test_resonant_plant_exact_step_keeps_the_margins_at_every_crossing():
         L = plant.with_payload(m).to_control(pade_order=10) * control.tf([kp, ki], [1, 0])
         gm, pm, *_ = control.stability_margins(L)
         assert pm >= 45.0 - 0.05 and 20 * math.log10(gm) >= 6.0 - 0.05, (m, pm, gm)
-    ccp = [c for c in res.details["candidates"] if c["design"].startswith("ccp")]
-    assert ccp and res.evaluation.worst_bandwidth_hz > 1.05 * ccp[0]["worst_bandwidth_hz"]
+    ccp = [c for c in res.record.candidates if c.design.startswith("ccp")]
+    assert ccp and res.evaluation.worst_bandwidth_hz > 1.05 * ccp[0].worst_bandwidth_hz
 
 
 def test_sampled_loop_exact_design_is_verified():
@@ -387,9 +387,9 @@ def test_sampled_loop_exact_design_is_verified():
     res = synthesise_pi(spec)
     assert res.status == "optimal" and res.verification.verified
     assert res.verification.min_phase_margin_deg >= 45.0 - 0.05
-    assert res.details["chosen"].startswith("exact")
-    ccp = [c for c in res.details["candidates"] if c["design"].startswith("ccp")]
-    assert ccp and res.evaluation.worst_bandwidth_hz > 1.1 * ccp[0]["worst_bandwidth_hz"]
+    assert res.record.chosen.startswith("exact")
+    ccp = [c for c in res.record.candidates if c.design.startswith("ccp")]
+    assert ccp and res.evaluation.worst_bandwidth_hz > 1.1 * ccp[0].worst_bandwidth_hz
     # independent: the exact ZOH and sample delay as a frequency response, python-control's FRD margins (on
     # 4,000 points they agree with those on 20,000 within 1e-9 deg and dB)
     w = np.geomspace(1.0, 2e4, 4000)

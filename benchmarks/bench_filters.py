@@ -143,11 +143,12 @@ def main():
         print(f"  PI alone:      synthesis {bw_pi:.3f} Hz ({t_pi:.1f} s; kp {pi.evaluation.controller.kp:.1f}, ki "
               f"{pi.evaluation.controller.ki:.0f}, binding {pi.evaluation.binding.constraint}); brute force "
               f"{brute_pi[0]:.3f} Hz; ratio {bw_pi / brute_pi[0]:.4f}")
-        used = [f for f in flt.filters if f["used"]]
+        used = [f for f in flt.filters if f.used]
         print(f"  PI + filters:  synthesis {bw_f:.3f} Hz ({t_f:.1f} s; kp {flt.evaluation.controller.kp:.1f}, ki "
               f"{flt.evaluation.controller.ki:.0f}; " + "; ".join(
-                  f"{f['kind']} " + ", ".join(f"{k} {f[k]:.4g}" for k in ("frequency_hz", "damping_ratio", "depth")
-                                              if k in f) for f in used) + f"); brute force {brute_f[0]:.3f} Hz "
+                  f"{f.kind} " + ", ".join(f"{k} {f.values[k]:.4g}" for k in ("frequency_hz", "damping_ratio",
+                                                                               "depth") if k in f.values)
+                  for f in used) + f"); brute force {brute_f[0]:.3f} Hz "
               f"({len(first)} filter settings, then local grids around the best; {t_brute:.0f} s in all); ratio "
               f"{bw_f / brute_f[0]:.4f}")
         print(f"  brute-force best filters: {brute_f[3]}")

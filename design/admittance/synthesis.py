@@ -81,6 +81,18 @@ from plant.errors import SpecError
 MAX_ROUNDS = 4
 MONTE_CARLO_ROUNDS = 2
 @dataclass(frozen=True)
+class AdmittanceSolverRecord:
+    """How an admittance synthesis went: the ray's ratio m_v / b_v (s), and (a design made) the rounds of design
+    and dense check, the design scenarios, the Monte Carlo rounds and the payload points designed on."""
+
+    tau_s: float
+    rounds: int | None = None
+    design_scenarios: int | None = None
+    monte_carlo_rounds: int | None = None
+    payload_points: tuple[float, ...] | None = None
+
+
+@dataclass(frozen=True)
 class AdmittanceResult:
     """Chosen virtual dynamics with their dense check, independent verification and what the mouse feels.
 
@@ -103,7 +115,7 @@ class AdmittanceResult:
     corners: tuple[MouseModel, ...]
     seconds: float
     timing: RigTiming
-    solver: dict = field(default_factory=dict)
+    solver: AdmittanceSolverRecord = field(default_factory=lambda: AdmittanceSolverRecord(math.nan))
     monte_carlo: AdmittanceMonteCarlo | None = None
     feel: MouseFeel | None = None
     contact: ContactLimit | None = None
@@ -230,7 +242,6 @@ def synthesise_admittance(problem: LoopProblem, *, controller: PI | None = None,
     if not ray.feasible:
         return _infeasible(problem, ray, rp, rounds.rp_scenarios, controller, timing, corners, t0, record)
     scenarios, mc_round = rounds.scenarios, rounds.monte_carlo_rounds
-    notes = {"rounds": rounds.rounds}
     del dense
     say("verification on the rational model (python-control)")
     verification = join_verifications([verify_admittance(problem, check, controller=controller, timing=t)
@@ -257,8 +268,8 @@ def synthesise_admittance(problem: LoopProblem, *, controller: PI | None = None,
     result = AdmittanceResult(
         status, msg, float(x[0]), float(x[1]), controller, float(r), check, verification, binding, active, corners,
         time.perf_counter() - t0, timing,
-        {**notes, "design_scenarios": len(scenarios), "monte_carlo_rounds": mc_round, "tau_s": ray.tau_s,
-         "payload_points": sorted({float(p) for p in scenarios.payload_kg})},
+        AdmittanceSolverRecord(ray.tau_s, rounds.rounds, len(scenarios), mc_round,
+                               tuple(sorted({float(p) for p in scenarios.payload_kg}))),
         mc, feel, contact,
         DiscreteAdmittance.of_timing(float(x[0]), float(x[1]), timing) if timing.sampled else None, None, nominal,
         record, latency)
@@ -376,5 +387,6 @@ def _infeasible(problem, ray: RayBound, rp, scenarios, controller: PI, timing, c
     binding = Binding(need, value=ray.b_v, limit=float(hi[1]), detail=msg)
     r = float(x[0] * adm.locomotion.peak_acceleration_m_per_s2 + x[1] * adm.locomotion.peak_speed_m_per_s)
     result = AdmittanceResult("infeasible", msg, float(x[0]), float(x[1]), controller, r, check, None, binding, (need,),
-                              corners, time.perf_counter() - t0, timing, {"tau_s": ray.tau_s}, codesign=record)
+                              corners, time.perf_counter() - t0, timing, AdmittanceSolverRecord(ray.tau_s),
+                              codesign=record)
     return replace(result, tradeoff=trade_off(problem, result, rp))

@@ -57,7 +57,15 @@ from design.synth.filter_scan import scan_filters
 from design.synth.monte_carlo import MonteCarloCheck, monte_carlo_check
 from design.synth.scan import W_OPT, Scan, ScanDiagnosis, scan_gains
 from design.synth.scenarios import Scenarios, check_scenarios, describe_row, design_scenarios
-from design.synth.solver_record import Candidate, ExactStart, FilterTrial, JointExact, SolverRecord, VerifiedCandidate
+from design.synth.solver_record import (
+    Candidate,
+    ChosenFilter,
+    ExactStart,
+    FilterTrial,
+    JointExact,
+    SolverRecord,
+    VerifiedCandidate,
+)
 from design.synth.verify import Verification, verify
 from plant.errors import SpecError
 from plant.grid import log_grid_rad_s
@@ -150,8 +158,8 @@ class SynthesisResult:
     monte_carlo: MonteCarloCheck | None = None
     #: the design at ``controller.loop_rate_hz`` and python-control's check of its discrete loop
     discrete: tuple[DiscreteDesign, DiscreteCheck] | None = None
-    #: the drive filters the design runs with: {"kind", parameters..., "designed": [the chosen ones]}
-    filters: tuple[dict, ...] = ()
+    #: the drive filters the design runs with
+    filters: tuple[ChosenFilter, ...] = ()
     #: ``requirements.bandwidth_definition`` of every bandwidth reported
     bandwidth_definition: str = "half_power"
 
@@ -360,8 +368,7 @@ def as_designed(problem: LoopProblem, result: SynthesisResult) -> LoopProblem:
 
     if not result.filters:
         return problem
-    values = [{k: v for k, v in f.items() if k not in ("kind", "used", "designed")} if f["used"] else None
-              for f in result.filters]
+    values = [dict(f.values) if f.used else None for f in result.filters]
     return with_filter_values(problem, values)
 
 
@@ -397,7 +404,7 @@ def _with_designed_filters(problem: LoopProblem, method: str, max_rounds: int,
                 found_bw = bw(tried[-1][1])
             joint.append(JointExact(tuple(values), ex.note, tuple(ex.filter_values), found_bw))
     values, best = max(tried, key=lambda vr: bw(vr[1]))
-    kinds = [{"kind": f.kind, "used": v is not None, **(v or {}), "designed": sorted(f.ranges)}
+    kinds = [ChosenFilter(f.kind, v is not None, dict(v or {}), tuple(sorted(f.ranges)))
              for f, v in zip(problem.controller.filters, values)]
     record = replace(best.record, filter_scan=tuple(FilterTrial(tuple(v), b) for b, v in scanned),
                      filter_starts=tuple(FilterTrial(tuple(v), bw(r), r.status) for v, r in tried[:len(starts)]),

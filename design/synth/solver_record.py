@@ -1,5 +1,6 @@
 """How a PI synthesis went, step by step: what ``gantry synth --json`` reports under ``solver`` beside the method,
-the time and the payload points (``design.views.json.solver_record_to_dict`` writes it)."""
+the time and the payload points (``design.views.json.solver_record_to_dict`` writes it), and the drive filters it
+chose (``filters``)."""
 
 from __future__ import annotations
 
@@ -89,3 +90,15 @@ class SolverRecord:
     filter_scan: tuple[FilterTrial, ...] | None = None
     filter_starts: tuple[FilterTrial, ...] | None = None
     joint_exact: tuple[JointExact, ...] | None = None
+
+
+@dataclass(frozen=True)
+class ChosenFilter:
+    """A drive filter of ``controller.filters`` as the synthesis left it: its kind, whether the design uses it,
+    its parameters (as the spec names them: ``frequency_hz``, ``damping_ratio``, ``depth``) and which of them
+    were designed."""
+
+    kind: str
+    used: bool
+    values: Mapping[str, float]
+    designed: tuple[str, ...]

@@ -393,7 +393,8 @@ def synthesis_to_dict(result: SynthesisResult) -> dict:
         "baselines": [evaluation_to_dict(b, n) for b, n in zip(result.baselines, result.baseline_names)],
         **({"monte_carlo": monte_carlo_to_dict(result.monte_carlo)} if result.monte_carlo is not None else {}),
         **({"discrete": discrete_to_dict(*result.discrete)} if result.discrete is not None else {}),
-        **({"filters": list(result.filters)} if result.filters else {}),
+        **({"filters": [{"kind": f.kind, "used": f.used, **f.values, "designed": list(f.designed)}
+                        for f in result.filters]} if result.filters else {}),
         "bandwidth_definition": BANDWIDTH_DEFINITIONS[result.bandwidth_definition],
     }
 
@@ -571,7 +572,8 @@ def admittance_to_dict(result: AdmittanceResult, problem: LoopProblem) -> dict:
         "solver": {"method": "rays m_v / b_v: closed-form least scale per requirement, scan of the ratio on an "
                              "active set of (scenario, mouse) curves minimising the force the mouse feels; dense "
                              "check, Monte Carlo, python-control verification", "seconds": result.seconds,
-                   **result.solver},
+                   **{f.name: list(v) if isinstance(v := getattr(result.solver, f.name), tuple) else v
+                      for f in dataclasses.fields(result.solver)}},
     }
     if feel is not None:
         out["mouse"] = _feel(feel)

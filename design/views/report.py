@@ -238,10 +238,11 @@ def design_report(content: ReportContent) -> Report:
              f"{thesis.worst_bandwidth_hz:.2f} Hz."]
     d = c.design
     for f in (d.synthesis.filters if d is not None and d.synthesis is not None else ()):
-        params = ", ".join(f"{k} {f[k]:.4g}" for k in ("frequency_hz", "damping_ratio", "depth") if k in f)
-        text = f"{params} (designed: {', '.join(f['designed'])})" if f["used"] else \
+        params = ", ".join(f"{k} {f.values[k]:.4g}" for k in ("frequency_hz", "damping_ratio", "depth")
+                           if k in f.values)
+        text = f"{params} (designed: {', '.join(f.designed)})" if f.used else \
             "left out: the design is faster without it"
-        lines.append(f"<b>Drive filter</b> {f['kind']}: {text}")
+        lines.append(f"<b>Drive filter</b> {f.kind}: {text}")
     if d is not None:
         lines.append(f"<b>Synthesis:</b> status {d.status}, independently verified: "
                      f"{'<span class=ok>yes</span>' if d.verified else '<span class=bad>no</span>'}.")

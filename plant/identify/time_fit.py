@@ -490,7 +490,7 @@ def fit_inverse_model(plant: Plant, rec: TimeRecording | InverseModelData, *, fr
     except np.linalg.LinAlgError:
         raise DataError(f"{where}: the least-squares problem of the model cannot be solved on this recording (its "
                         "values span too many orders of magnitude)") from None
-    beta = sol.x
+    beta = np.clip(sol.x, lo, hi)           # BVLS may leave a bound by a rounding error (-8e-17 seen)
     values = {name: p.value for name, p in params.items()}
     values.update(dict(zip(free, map(float, beta))))
     flags = [f"{p} = {b:.4g} {params[p].unit} is at its bound [{lo[i]:g}, {hi[i]:g}]: the data ask for a value "

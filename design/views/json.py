@@ -16,10 +16,8 @@ from design.admittance.recorded import FINE_STEP_S
 from design.admittance.verify import PADE_ORDER
 from design.synth.scenarios import coverage
 from plant.data.writers import csv_rows
-from plant.diagnose.diagnosis import failing_bands
-from plant.diagnose.evidence import ACCEPT_DELTA_BIC
 from plant.experiment.simulate_time import travel_notes
-from plant.identify.time_fit import TimeFitResult, bic
+from plant.identify.time_fit import TimeFitResult
 
 if TYPE_CHECKING:
     from design.admittance.dual import DualAdmittanceResult
@@ -166,8 +164,8 @@ def diagnosis_to_dict(diag: Diagnosis) -> dict:
                               "stderr": finite_or_none(final.stderr[name]) if name in final.stderr else None,
                               "fixed": name not in final.stderr}
                        for name in final.values},
-        "failing_bands": failing_bands(first),
-        "failing_bands_final": failing_bands(diag.steps[-1]),
+        "failing_bands": _bands(first.residuals.failing_merged),
+        "failing_bands_final": _bands(diag.steps[-1].residuals.failing_merged),
         "where_it_fails": first.residuals.description,
         "nonlinearity": {"detected": diag.nonlinearity.detected,
                          "max_third_harmonic": diag.nonlinearity.max_third_harmonic,
@@ -195,15 +193,17 @@ def diagnosis_to_dict(diag: Diagnosis) -> dict:
     }
 
 
+def _bands(merged) -> list[dict]:
+    return [{"f_low_hz": lo, "f_high_hz": hi, "reduced_chi2": chi} for lo, hi, chi in merged]
+
+
 def time_diagnosis_to_dict(diag: TimeDiagnosis) -> dict:
     """Strict-JSON-ready dict with the keys of the stepped-sine diagnosis where they mean the same."""
 
     final = diag.final
     best_bic = min(s.bic for s in diag.steps)
-    alternatives = [{"effects": list(c), "delta_bic": _bic(diag, c) - _bic(diag, diag.selected),
-                     "rms_residual_n": f.rms_residual, "consistent_with_noise": f.explained}
-                    for c, f in diag.models.items() if c != diag.selected
-                    and _bic(diag, c) - _bic(diag, diag.selected) < ACCEPT_DELTA_BIC]
+    alternatives = [{"effects": list(a.effects), "delta_bic": a.delta_bic, "rms_residual_n": a.rms_residual_n,
+                     "consistent_with_noise": a.consistent_with_noise} for a in diag.alternatives]
     return {
         "domain": "time",
         "steps": [{"effects": list(s.effects), "rms_residual_n": s.fit.rms_residual, "noise_ratio": s.fit.noise_ratio,
@@ -235,11 +235,6 @@ def time_diagnosis_to_dict(diag: TimeDiagnosis) -> dict:
                                      "value": final.values[f"{e.name}.{e.main_parameter}"]}
                             for e in final.plant.effects},
     }
-
-
-def _bic(diag: TimeDiagnosis, combo) -> float:
-
-    return bic(diag.models[combo], diag.n_effective)
 
 
 def _regimes(fit) -> list[dict]:

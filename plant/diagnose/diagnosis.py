@@ -28,7 +28,7 @@ from plant.diagnose.evidence import ACCEPT_DELTA_BIC, addition_delta_bic, verdic
 from plant.diagnose.search import children, compatible, fit_models, path_to, select_model
 from plant.errors import DataError
 from plant.identify.fitting import FitResult, fit_plant
-from plant.identify.residuals import ResidualSummary, merge_failing, residual_summary
+from plant.identify.residuals import ResidualSummary, residual_summary
 from plant.physics.chain import EncoderVelocity
 from plant.physics.effects import EFFECTS, make_effect
 from plant.physics.models import Plant
@@ -495,9 +495,3 @@ def _path(fits, base, selected, data, skipped, unidentifiable, pool) -> list[Ste
                            f"add {name} (dBIC {fits[current].bic - fits[nxt].bic:+.1f}; signature: "
                            f"{EFFECTS[name].signature})"))
     return steps
-
-
-def failing_bands(step: Step) -> list[dict]:
-    """JSON rows of the merged failing bands of a step."""
-    return [{"f_low_hz": lo, "f_high_hz": hi, "reduced_chi2": chi}
-            for lo, hi, chi in merge_failing(step.residuals.bands)]

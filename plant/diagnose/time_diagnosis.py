@@ -28,7 +28,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from plant.data.recordings import TimeRecording
-from plant.diagnose.evidence import addition_delta_bic, verdict
+from plant.diagnose.evidence import ACCEPT_DELTA_BIC, addition_delta_bic, verdict
 from plant.diagnose.search import compatible, fit_models, path_to, select_model
 from plant.errors import EffectError, ParameterError
 from plant.identify.compensation import CompensationTable, compensation_table
@@ -76,6 +76,17 @@ class DirectionalResidual:
 
 
 @dataclass(frozen=True)
+class TimeAlternative:
+    """A model the data cannot rule out beside the selected one: its effects, its BIC above the selected one's,
+    its rms residual (N) and whether it is consistent with the noise."""
+
+    effects: tuple[str, ...]
+    delta_bic: float
+    rms_residual_n: float
+    consistent_with_noise: bool
+
+
+@dataclass(frozen=True)
 class TimeDiagnosis:
     """Result of ``diagnose_time``."""
 
@@ -99,6 +110,17 @@ class TimeDiagnosis:
     @property
     def final(self) -> TimeFitResult:
         return self.models[self.selected]
+
+    def bic(self, combo: tuple[str, ...]) -> float:
+        """The BIC of the model of ``combo`` with the effective sample size shared by all (``time_fit.bic``)."""
+        return bic(self.models[combo], self.n_effective)
+
+    @property
+    def alternatives(self) -> tuple[TimeAlternative, ...]:
+        """The other models within ``ACCEPT_DELTA_BIC`` of the selected one (the data cannot rule them out)."""
+        chosen = self.bic(self.selected)
+        return tuple(TimeAlternative(c, self.bic(c) - chosen, f.rms_residual, f.explained)
+                     for c, f in self.models.items() if c != self.selected and self.bic(c) - chosen < ACCEPT_DELTA_BIC)
 
     def compensation(self) -> CompensationTable:
         """The drive's compensation table of the selected model's position-dependent forces

@@ -45,6 +45,11 @@ class ResidualSummary:
     failing: tuple[Band, ...]
     description: str
 
+    @property
+    def failing_merged(self) -> list[tuple[float, float, float]]:
+        """The failing bands, adjacent ones merged (``merge_failing``): (f_low_hz, f_high_hz, reduced_chi2)."""
+        return merge_failing(self.bands)
+
 
 def residual_summary(f_hz, measured, variance, model, *, n_bands: int = 6) -> ResidualSummary:
     """Compare ``measured`` (n_out, n_freq) with ``model`` of the same shape; bands are log-spaced."""

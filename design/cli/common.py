@@ -104,34 +104,19 @@ def keep_inputs(outputs: dict[str, Path | None], inputs: list[Path | None], *, j
 
 
 def read_design(path: Path, problem, *, admittance: bool = False):
-    """A design as ``gantry synth --json`` writes it: (the problem with the design's drive filters, its PI
-    controller, and with ``admittance`` its virtual dynamics (m_v kg, b_v N*s/m), else None); ParameterError naming
-    the file and what is missing."""
-    import json
-
-    from design.loop.controller import PI
-    from design.problem import with_filter_values
+    """A design as ``gantry synth --json`` writes it (``design.views.json.synthesis_from_json``): (the problem with
+    the design's drive filters, its PI controller, and with ``admittance`` its virtual dynamics (m_v kg, b_v
+    N*s/m), else None); ParameterError naming the file and what is missing."""
+    from design.synth.pi import with_chosen_filters
+    from design.views.json import synthesis_from_json
     from plant.host.text_io import read_text
 
-    need = ("kp", "ki", "m_v", "b_v") if admittance else ("kp", "ki")
-    what = f"{path}: not the JSON of gantry synth --json with gains {', '.join(need)}"
-    try:
-        design = json.loads(read_text(path, what="design file"))
-        gains = {k: float(design["gains"][k]) for k in need}
-        filters = design.get("filters") or []
-        values = [{k: float(v) for k, v in f.items() if k not in ("kind", "used", "designed")} if f["used"] else None
-                  for f in filters]
-        kinds = [f["kind"] for f in filters]
-    except (json.JSONDecodeError, KeyError, TypeError, ValueError, AttributeError):
-        raise ParameterError(what) from None
-    if not all(math.isfinite(v) and v >= 0 for v in gains.values()):
-        raise ParameterError(f"{path}: gains must be finite and non-negative, got {gains}")
-    if filters:
-        if kinds != [f.kind for f in problem.controller.filters]:
-            raise ParameterError(f"{path}: its drive filters ({', '.join(kinds)}) are not the spec's "
-                                 f"controller.filters ({', '.join(f.kind for f in problem.controller.filters)})")
-        problem = with_filter_values(problem, values)
-    return problem, PI(gains["kp"], gains["ki"]), (gains["m_v"], gains["b_v"]) if admittance else None
+    design = synthesis_from_json(read_text(path, what="design file"), str(path), admittance=admittance)
+    kinds = [f.kind for f in design.filters]
+    if design.filters and kinds != [f.kind for f in problem.controller.filters]:
+        raise ParameterError(f"{path}: its drive filters ({', '.join(kinds)}) are not the spec's "
+                             f"controller.filters ({', '.join(f.kind for f in problem.controller.filters)})")
+    return with_chosen_filters(problem, design.filters), design.controller, design.admittance
 
 
 def bundled_spec(name: str) -> Path:

@@ -365,11 +365,14 @@ def filter_starts(problem: LoopProblem) -> list[list[dict | None]]:
 
 def as_designed(problem: LoopProblem, result: SynthesisResult) -> LoopProblem:
     """The problem with its drive filters as the synthesis chose them (itself when it designed none)."""
+    return with_chosen_filters(problem, result.filters)
 
-    if not result.filters:
+
+def with_chosen_filters(problem: LoopProblem, filters: tuple[ChosenFilter, ...]) -> LoopProblem:
+    """The problem with its drive filters set as ``filters`` (the chosen ones; itself when there are none)."""
+    if not filters:
         return problem
-    values = [dict(f.values) if f.used else None for f in result.filters]
-    return with_filter_values(problem, values)
+    return with_filter_values(problem, [dict(f.values) if f.used else None for f in filters])
 
 
 def _with_designed_filters(problem: LoopProblem, method: str, max_rounds: int,

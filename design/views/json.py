@@ -1,5 +1,6 @@
 """The one place results become JSON: strict (no NaN or Infinity) dicts of the fit, diagnosis and time-domain
-results, the ``--json`` contract of the commands (``docs/formats.md``)."""
+results, the ``--json`` contract of the commands (``docs/formats.md``); and a design read back from it
+(``synthesis_from_json``) for the commands that take one (``sweep``, ``mouse-run``)."""
 
 from __future__ import annotations
 
@@ -7,6 +8,7 @@ import dataclasses
 import json
 import math
 from collections.abc import Mapping
+from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -14,8 +16,11 @@ import numpy as np
 from design.admittance.model import admittance_problem
 from design.admittance.recorded import FINE_STEP_S
 from design.admittance.verify import PADE_ORDER
+from design.loop.controller import PI
 from design.synth.scenarios import coverage
+from design.synth.solver_record import ChosenFilter
 from plant.data.writers import csv_rows
+from plant.errors import ParameterError
 from plant.experiment.simulate_time import travel_notes
 from plant.identify.time_fit import TimeFitResult
 
@@ -347,6 +352,36 @@ def admittance_binding_to_dict(b: Binding[MouseModel]) -> dict:
             "mouse": None if b.mouse is None else b.mouse.as_dict(), "value": b.value, "limit": b.limit,
             "detail": b.detail, **({"source": b.source} if b.source is not None else {}),
             **({"delay_samples": b.delay_samples} if b.delay_samples is not None else {})}
+
+
+@dataclass(frozen=True)
+class SynthesisedDesign:
+    """What a later command takes from ``gantry synth --json``: the PI controller, the drive filters as the
+    synthesis chose them, and (an admittance design) the virtual dynamics (m_v kg, b_v N*s/m)."""
+
+    controller: PI
+    filters: tuple[ChosenFilter, ...]
+    admittance: tuple[float, float] | None
+
+
+def synthesis_from_json(text: str, where: str, *, admittance: bool = False) -> SynthesisedDesign:
+    """Read back what ``synthesis_to_dict`` (and the admittance design's writer) wrote; ParameterError naming
+    ``where`` and what is missing or out of range."""
+    need = ("kp", "ki", "m_v", "b_v") if admittance else ("kp", "ki")
+    what = f"{where}: not the JSON of gantry synth --json with gains {', '.join(need)}"
+    try:
+        design = json.loads(text)
+        gains = {k: float(design["gains"][k]) for k in need}
+        filters = tuple(ChosenFilter(str(f["kind"]), bool(f["used"]),
+                                     {k: float(v) for k, v in f.items() if k not in ("kind", "used", "designed")},
+                                     tuple(str(d) for d in f.get("designed") or ()))
+                        for f in design.get("filters") or [])
+    except (json.JSONDecodeError, KeyError, TypeError, ValueError, AttributeError):
+        raise ParameterError(what) from None
+    if not all(math.isfinite(v) and v >= 0 for v in gains.values()):
+        raise ParameterError(f"{where}: gains must be finite and non-negative, got {gains}")
+    return SynthesisedDesign(PI(gains["kp"], gains["ki"]), filters,
+                             (gains["m_v"], gains["b_v"]) if admittance else None)
 
 
 def solver_record_to_dict(record: SolverRecord) -> dict:

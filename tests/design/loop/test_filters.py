@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 from in_process import gantry
 
+from design.cli.common import read_design
 from design.loop.controller import PI
 from design.loop.fast import fast_analyse_loop
 from design.loop.margins import closed_loop_bandwidth_hz, loop_margins
@@ -144,6 +145,13 @@ def test_filters_designed_with_the_gains_beat_pi_alone_and_hold_independently(tm
         num = [w * w] if f["kind"] == "low_pass" else [1.0, 2 * f["depth"] * z * w, w * w]
         F = F * control.tf(num, [1.0, 2 * z * w, w * w])
     plant = parse_spec(data).problem().plant.plant()
+    # read back as a later command does (sweep --design): the gains, and filters acting as the numbers say
+    design = tmp_path / "design.json"
+    design.write_text(with_filters.stdout)
+    read, controller, _ = read_design(design, parse_spec(tomllib.loads(RESONANT.read_text())).problem())
+    assert (controller.kp, controller.ki) == (kp, ki)
+    w = 2 * np.pi * np.geomspace(1.0, 500.0, 40)
+    assert np.allclose(read.plant.plant().frd(w) / plant.frd(w), F(1j * w), rtol=1e-9)
     for m in np.linspace(5.0, 40.0, 12):
         L = plant.with_payload(m).to_control(pade_order=8) * control.tf([kp, ki], [1, 0]) * F
         assert np.all(np.real(control.poles(control.feedback(L, 1))) < 0)

@@ -61,6 +61,7 @@ from design.admittance.rig import DiscreteAdmittance, RigTiming
 from design.loop.controller import PI
 from plant.errors import DataError, SpecError
 from plant.host.text_io import read_text
+from plant.physics.effects import EFFECTS
 from plant.physics.models import Plant
 from plant.physics.realisation import realise
 from plant.physics.state_space import hold_step
@@ -343,10 +344,10 @@ REST_S = 1.0
 #: the friction model's velocity scale (m/s): F_c tanh(v / v_s)
 FRICTION_VELOCITY_M_PER_S = 1e-3
 #: the plant's effects a run simulates (any other is refused by name, never dropped): the drive's rate and delay
-#: on the discrete part, the rest by the plant's own linear model (``gantry_model``), the friction regularised
+#: on the discrete part, the rest by the plant's own linear model (``gantry_model``), the friction regularised,
+#: and every effect that pushes on the rails (``Effect.rail_force``: a new one is simulated without a change here)
 SIMULATED_EFFECTS = ("sampling", "delay", "current_loop", "sensor_filter", "resonance", "payload_resonance",
-                     "second_resonance", "coulomb_friction", "offset", "force_ripple", "force_constant_profile",
-                     "cable_force")
+                     "second_resonance", "coulomb_friction") + tuple(n for n, c in EFFECTS.items() if c.rail_force)
 
 
 @dataclass(frozen=True)

@@ -17,9 +17,10 @@ One home in both domains: the spring is a stiffness between the rails and the gr
 carries (``rail_stiffness``: the impedance k / s beside the rail damping in every frequency response, a
 position state in the realisation every simulation and sampled-data check is built from, as
 ``plant.physics.mechanics.BodyChain``), so the frequency response and the time simulations share it; the
-rest of the force, constant, is the rail force a time simulation applies (``rail_force_n``: every simulation
-positions start at x = 0, where the realisation's spring is relaxed). A stepped sine from rest averages the
-pull away and is refused (a continuous run simulates it). The rigid Stage X or Y model only: on the tilting
+rest of the force, constant, is the rail force a time simulation applies (``rail_force_n``). The realisation's
+spring is relaxed at x = 0, where the continuous run starts; a run that starts elsewhere (the mouse run) sets
+its state there (``Realisation.ground``). A stepped sine from rest cannot show the pull and is refused (a
+continuous run simulates it). The rigid Stage X or Y model only: on the tilting
 beam of ``tilt_coupling`` the chain would pull one rail, which this model does not say.
 """
 

@@ -285,7 +285,7 @@ def print_synthesis(console: Console, out: dict) -> None:
         console.print(f"coverage: {out['coverage']['text']}", soft_wrap=True)
     s = out["solver"]
     console.print(f"solver: {s['method']}, {s['seconds']:.2f} s" + (f" ({s['cpu_seconds']:.2f} s CPU)"
-                                                                    if "cpu_seconds" in s else ""))
+                                                                    if s.get("cpu_seconds") is not None else ""))
 
 
 def _print_admittance(console: Console, adm: dict) -> None:

@@ -1,5 +1,5 @@
 """How a PI synthesis went, step by step: what ``gantry synth --json`` reports under ``solver`` beside the method,
-the time and the payload points (``design.views.json.solver_record_to_dict`` writes it), and the drive filters it
+the time and the payload points (``design.views.json.record_to_dict`` writes it), and the drive filters it
 chose (``filters``)."""
 
 from __future__ import annotations

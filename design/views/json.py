@@ -28,7 +28,7 @@ if TYPE_CHECKING:
     from design.admittance.dual import DualAdmittanceResult
     from design.admittance.monte_carlo import AdmittanceMonteCarlo
     from design.admittance.mouse import MouseModel
-    from design.admittance.synthesis import AdmittanceResult
+    from design.admittance.synthesis import AdmittanceResult, AdmittanceSolverRecord
     from design.admittance.verify import AdmittanceVerification
     from design.loop.analysis import PayloadSweep
     from design.loop.discrete import DiscreteCheck, DiscreteDesign
@@ -384,9 +384,9 @@ def synthesis_from_json(text: str, where: str, *, admittance: bool = False) -> S
                              (gains["m_v"], gains["b_v"]) if admittance else None)
 
 
-def solver_record_to_dict(record: SolverRecord) -> dict:
-    """Every field of the record (null where its step did not run), each inner record a dict of its fields (a
-    joint solve's ``start`` written ``from``)."""
+def record_to_dict(record: SolverRecord | AdmittanceSolverRecord) -> dict:
+    """Every field of a solver record (null where its step did not run), each inner record a dict of its fields
+    (a joint solve's ``start`` written ``from``)."""
     def plain(value):
         if isinstance(value, tuple):
             return [plain(v) for v in value]
@@ -417,7 +417,7 @@ def synthesis_to_dict(result: SynthesisResult) -> dict:
         "verified": bool(result.verification and result.verification.verified and ok),
         "verification": None if result.verification is None else verification_to_dict(result.verification),
         "solver": {"method": result.method, "seconds": result.seconds,
-                   "payload_points": list(result.payload_points_used), **solver_record_to_dict(result.record),
+                   "payload_points": list(result.payload_points_used), **record_to_dict(result.record),
                    **({"diagnosis": scan_diagnosis_to_dict(result.diagnosis)} if result.diagnosis is not None
                       else {})},
         "baselines": [evaluation_to_dict(b, n) for b, n in zip(result.baselines, result.baseline_names)],
@@ -602,8 +602,7 @@ def admittance_to_dict(result: AdmittanceResult, problem: LoopProblem) -> dict:
         "solver": {"method": "rays m_v / b_v: closed-form least scale per requirement, scan of the ratio on an "
                              "active set of (scenario, mouse) curves minimising the force the mouse feels; dense "
                              "check, Monte Carlo, python-control verification", "seconds": result.seconds,
-                   **{f.name: list(v) if isinstance(v := getattr(result.solver, f.name), tuple) else v
-                      for f in dataclasses.fields(result.solver)}},
+                   **record_to_dict(result.solver)},
     }
     if feel is not None:
         out["mouse"] = _feel(feel)

@@ -75,17 +75,15 @@ def compensation_table(fit: TimeFitResult, position_m: np.ndarray) -> Compensati
     x = np.linspace(lo, hi, n)
     k = float(fit.plant.force_constant_n_per_a)
 
-    def on_rails(xs: np.ndarray, motor_n: float) -> np.ndarray:
-        return np.array([sum(e.rail_force_n(float(xi), 0.0, motor_n) - float(e.rail_stiffness()) * xi for e in along)
-                         for xi in xs])
+    def along_travel(xs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(F_r, K(x) / K) at ``xs``: minus the rails' force without a motor force, and 1 + its part per newton."""
+        a, c = (np.array([sum(e.rail_force_n(float(xi), 0.0, motor_n) - float(e.rail_stiffness()) * xi for e in along)
+                          for xi in xs]) for motor_n in (0.0, 1.0))
+        return -a, 1.0 + c - a
 
-    def force(xs):          # F_r(x): the force the motor must supply there
-        return -on_rails(xs, 0.0)
-
-    def factor(xs):         # K(x) / K
-        return 1.0 + on_rails(xs, 1.0) - on_rails(xs, 0.0)
-
+    force, factor = along_travel(x)
+    force_at, factor_at = along_travel(position_m)
     # uncompensated, the motor's force differs from the ideal K i by K d(x) i - F_r(x)
-    error = (factor(position_m) - 1) * fit.measured - force(position_m)
-    return CompensationTable(x, 1 / factor(x), force(x) / (k * factor(x)), k, float(np.sqrt(np.mean(error**2))),
+    error = (factor_at - 1) * fit.measured - force_at
+    return CompensationTable(x, 1 / factor, force / (k * factor), k, float(np.sqrt(np.mean(error**2))),
                              float(fit.rms_residual))

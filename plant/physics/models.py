@@ -200,7 +200,7 @@ class Plant:
         m_e, b_e = self._effective_mass_damping()
         modes = tuple(e for e in self.effects if isinstance(e, ModeEffect))
         chain = body_chain(m_e, b_e + extra_damping_n_s_per_m, modes)
-        springs = [e.rail_stiffness() for e in self.effects if np.any(np.asarray(e.rail_stiffness()) != 0)]
+        springs = [k for k in (e.rail_stiffness() for e in self.effects) if np.any(np.asarray(k) != 0)]
         return dataclasses.replace(chain, rail_stiffness_n_per_m=sum(springs)) if springs else chain
 
     def modes_hz(self) -> np.ndarray:

@@ -17,6 +17,7 @@ May import: nothing of the tool.
 from __future__ import annotations
 
 import os
+import threading
 from collections.abc import Callable, Iterable
 from concurrent.futures import ThreadPoolExecutor
 from typing import TypeVar
@@ -33,15 +34,26 @@ def workers() -> int:
     return max(1, min(4, len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1))
 
 
+_inside = threading.local()
+
+
+def _in_worker(fn: Callable[[T], R]) -> Callable[[T], R]:
+    def call(x: T) -> R:
+        _inside.worker = True
+        return fn(x)
+    return call
+
+
 def thread_map(fn: Callable[[T], R], items: Iterable[T]) -> list[R]:
     """``[fn(x) for x in items]``, the calls spread over ``workers()`` threads (results in order; the first
-    exception is raised)."""
+    exception is raised). Called from inside a worker it runs in that worker: pools nested in pools would put
+    more threads than cores on the interpreter lock."""
     items = list(items)
     n = min(workers(), len(items))
-    if n <= 1:
+    if n <= 1 or getattr(_inside, "worker", False):
         return [fn(x) for x in items]
     with ThreadPoolExecutor(n) as pool:
-        return list(pool.map(fn, items))
+        return list(pool.map(_in_worker(fn), items))
 
 
 #: the variables the BLAS builds numpy and scipy ship with read for their threads

@@ -62,7 +62,7 @@ class Delay(ChainEffect):
         check_batch("delay.seconds", self.seconds)
 
     def response(self, s, ops=NUMPY):
-        return ops.exp(-s * np.asarray(self.seconds) if ops is NUMPY else -s * float(self.seconds))
+        return ops.exp_product(s, np.asarray(self.seconds) if ops is NUMPY else float(self.seconds))
 
     def to_tf(self, *, pade_order: int = PADE_ORDER) -> control.TransferFunction:
         return _pade_tf(scalar(self, "seconds"), pade_order)

@@ -30,6 +30,21 @@ def test_thread_map_keeps_order_and_raises(monkeypatch):
         thread_map(boom, range(10))
 
 
+def test_a_pool_inside_a_worker_runs_in_that_worker(monkeypatch):
+    import threading
+
+    monkeypatch.setenv("GANTRY_THREADS", "2")
+
+    def outer(x):
+        inner = thread_map(lambda y: (y + 1, threading.get_ident()), range(x, x + 4))
+        return [v for v, _ in inner], {t for _, t in inner}, threading.get_ident()
+
+    results = thread_map(outer, [0, 10])
+    assert [r[0] for r in results] == [[1, 2, 3, 4], [11, 12, 13, 14]]
+    assert all(inner == {here} for _, inner, here in results)      # no third thread below a worker
+    assert {r[2] for r in results} != {threading.get_ident()}       # the outer calls did run on the pool
+
+
 def test_monte_carlo_on_two_threads_equals_one(monkeypatch):
     spec = load_spec(SPEC).problem()
     timing = RigTiming.of(admittance_problem(spec).rig)

@@ -43,6 +43,12 @@ def test_delay_closed_form_and_constant_group_delay():
     assert np.allclose(group_delay, tau, rtol=1e-6)
 
 
+def test_delay_off_the_imaginary_axis_and_batched():
+    tau = np.array([[0.0], [0.0004], [0.0013]])
+    s = 3.0 + 1j * W                     # the exponentially windowed FFT's points (Re s > 0)
+    assert np.allclose(Delay(tau).response(s), np.exp(-s * tau), rtol=1e-13, atol=0)
+
+
 def test_current_loop_is_a_first_order_lag():
     f_c = 300.0
     wc = 2 * math.pi * f_c

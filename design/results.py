@@ -4,6 +4,7 @@ May import: ``design.admittance``, ``design.synth``, ``design.spec``, ``design.l
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -36,6 +37,15 @@ if TYPE_CHECKING:
     from plant.identify.fitting import FitResult
     from plant.identify.rational_fit import RationalFit
     from plant.identify.time_fit import TimeFitResult
+
+
+@dataclass(frozen=True)
+class FittedParameters:
+    """The plant's parameters a fit result holds, estimated and fixed alike, by name ("damping_n_s_per_m",
+    "delay.seconds"; SI units), and where they were read (``design.views.json.fitted_parameters_from_json``)."""
+
+    values: Mapping[str, float]
+    file: str
 
 
 @dataclass(frozen=True)

@@ -10,13 +10,13 @@ Each workflow imports the synthesis, diagnosis or admittance it runs inside its 
 design.workflows`` takes 0.45 s, 0.90 s with all of them (measured on the 2-core machine), and a fit or a
 measurement should not pay for the solvers.
 
-May import: ``design.results``, ``design.admittance``, ``design.synth``, ``design.spec``, ``design.loop``,
-``design.problem``, ``design.parallel``, ``plant``.
+May import: ``design.views`` (which imports nothing of the workflows: its codec reads a fit back),
+``design.results``, ``design.admittance``, ``design.synth``, ``design.spec``, ``design.loop``, ``design.problem``,
+``design.parallel``, ``plant``.
 """
 
 from __future__ import annotations
 
-import json
 import math
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -29,6 +29,7 @@ from design.results import (
     DiagnosisOutcome,
     DualReportContent,
     FitOutcome,
+    FittedParameters,
     PlantFromFit,
     ReportContent,
 )
@@ -55,19 +56,19 @@ THESIS_AMPLITUDE_A = {"x": 0.5, "y": 1.75}
 FIT_BASE_PARAMETERS = ("damping_n_s_per_m", "force_constant_n_per_a")
 
 
-def load_problem(spec_path: str | Path, *, plant_from: str | Path | None = None) -> DesignProblem:
+def load_problem(spec_path: str | Path, *, plant_from: str | Path | FittedParameters | None = None) -> DesignProblem:
     """The spec file, with its plant's damping, force constant and effects replaced by those of a fit
-    (the ``gantry fit --json`` output) when ``plant_from`` is given. The payload range, uncertainty,
-    requirements and controller bounds stay the spec's; effects a synthesis cannot design for
-    (``coulomb_friction``, ``offset``: no linear response) are left out and listed."""
+    (the ``gantry fit --json`` output, or its ``FittedParameters`` read back) when ``plant_from`` is given. The
+    payload range, uncertainty, requirements and controller bounds stay the spec's; effects a synthesis cannot
+    design for (``coulomb_friction``, ``offset``: no linear response) are left out and listed."""
     spec_path = check_path("spec_path", spec_path)
-    plant, left_out, yaw = (_plant_from_fit(check_path("plant_from", plant_from)) if plant_from is not None
-                            else (None, [], {}))
+    fitted = None if plant_from is None else _fitted(plant_from)
+    plant, left_out, yaw = _plant_from_fit(fitted) if fitted is not None else (None, [], {})
     spec = load_spec(spec_path, plant=plant)
     carried: tuple[str, ...] = ()
     if yaw:
         if spec.dual_drive is None:
-            raise SpecError(f"{plant_from}: tilt_coupling: the fitted beam yaws on its two rails, which a one-loop "
+            raise SpecError(f"{fitted.file}: tilt_coupling: the fitted beam yaws on its two rails, which a one-loop "
                             f"Stage Y design cannot hold; design it as the two-motor Stage Y: give {spec_path} a "
                             "[dual_drive] section (as specs/stage_y_dual.toml), and its yaw stiffness will be the "
                             "fit's")
@@ -78,44 +79,44 @@ def load_problem(spec_path: str | Path, *, plant_from: str | Path | None = None)
         loop = spec.problem()
     except SpecError as exc:
         raise SpecError(f"{spec_path}: {exc}") from None
-    origin = PlantFromFit(str(plant_from), tuple(left_out), carried) if plant_from is not None else None
+    origin = PlantFromFit(fitted.file, tuple(left_out), carried) if fitted is not None else None
     return DesignProblem(spec, loop, spec_path, origin)
 
 
-def _plant_from_fit(path: Path) -> tuple[dict, list[str], dict]:
-    """The ``[plant]`` keys a fit result sets, the effects left out, and the ``[dual_drive]`` keys it sets (a
+def _fitted(plant_from) -> FittedParameters:
+    """A fit's parameters as given, or read from its ``gantry fit --json`` file by the codec (imported here: it
+    loads the admittance and synthesis modules, 1 s that a spec without a fit need not pay)."""
+    if isinstance(plant_from, FittedParameters):
+        return plant_from
+    from design.views.json import fitted_parameters_from_json
+    from plant.host.text_io import read_text
+
+    path = check_path("plant_from", plant_from)
+    return fitted_parameters_from_json(read_text(path, what="the fit result"), str(path))
+
+
+def _plant_from_fit(fitted: FittedParameters) -> tuple[dict, list[str], dict]:
+    """The ``[plant]`` keys a fit's parameters set, the effects left out, and the ``[dual_drive]`` keys they set (a
     fitted ``tilt_coupling``'s stiffness is the beam's yaw stiffness K_a of the two-motor model, the same
     parameter of the same Xie-Wang equations; its inertia and the load's offset belong to the recording's
     carriage position and payload, and stay the spec's)."""
-    from plant.host.text_io import read_text
-
-    try:
-        fit = json.loads(read_text(path, what="the fit result"))
-    except json.JSONDecodeError as exc:
-        raise SpecError(f"{path}: not a JSON fit result ({exc})") from None
-    if not isinstance(fit, dict) or not isinstance(fit.get("parameters"), dict):
-        raise SpecError(f"{path}: not a fit result: expected the JSON of gantry fit --json (a 'parameters' object)")
-    values = {**(fit.get("fixed") or {}),
-              **{n: p.get("value") if isinstance(p, dict) else None for n, p in fit["parameters"].items()}}
     plant: dict = {"effects": {}}
     left_out = set()
     yaw: dict = {}
-    for name, value in values.items():
-        if not isinstance(value, (int, float)) or isinstance(value, bool) or not math.isfinite(value):
-            raise SpecError(f"{path}: parameters.{name}: {value!r} is not a finite number")
+    for name, value in fitted.values.items():
         effect, dot, field = name.partition(".")
         if not dot:
             if name in FIT_BASE_PARAMETERS:
-                plant[name] = float(value)
+                plant[name] = value
             continue
         if effect not in EFFECTS:
-            raise SpecError(f"{path}: parameters.{name}: unknown effect {effect!r}")
+            raise SpecError(f"{fitted.file}: parameters.{name}: unknown effect {effect!r}")
         if effect == "tilt_coupling" and field == "stiffness_n_m_per_rad":
-            yaw["yaw_stiffness_n_m_per_rad"] = float(value)
+            yaw["yaw_stiffness_n_m_per_rad"] = value
         if not EFFECTS[effect].in_synthesis:
             left_out.add(effect)
             continue
-        plant["effects"].setdefault(effect, {})[field] = float(value)
+        plant["effects"].setdefault(effect, {})[field] = value
     return plant, sorted(left_out), yaw
 
 

@@ -17,10 +17,11 @@ from design.admittance.model import admittance_problem
 from design.admittance.recorded import FINE_STEP_S
 from design.admittance.verify import PADE_ORDER
 from design.loop.controller import PI
+from design.results import FittedParameters
 from design.synth.scenarios import coverage
 from design.synth.solver_record import ChosenFilter
 from plant.data.writers import csv_rows
-from plant.errors import ParameterError
+from plant.errors import ParameterError, SpecError
 from plant.experiment.simulate_time import travel_notes
 from plant.identify.time_fit import TimeFitResult
 
@@ -382,6 +383,27 @@ def synthesis_from_json(text: str, where: str, *, admittance: bool = False) -> S
         raise ParameterError(f"{where}: gains must be finite and non-negative, got {gains}")
     return SynthesisedDesign(PI(gains["kp"], gains["ki"]), filters,
                              (gains["m_v"], gains["b_v"]) if admittance else None)
+
+
+def fitted_parameters_from_json(text: str, where: str) -> FittedParameters:
+    """Read back the plant's parameters that ``fit_to_dict``, ``time_fit_to_dict`` and the two diagnoses' writers
+    wrote (``parameters``: name -> {"value": ...}, and ``fixed``: name -> value); SpecError naming ``where``
+    and the key that is not a finite number."""
+    try:
+        fit = json.loads(text)
+    except json.JSONDecodeError as exc:
+        raise SpecError(f"{where}: not a JSON fit result ({exc})") from None
+    if not isinstance(fit, dict) or not isinstance(fit.get("parameters"), dict):
+        raise SpecError(f"{where}: not a fit result: expected the JSON of gantry fit --json (a 'parameters' object)")
+    fixed = fit.get("fixed") or {}
+    if not isinstance(fixed, dict):
+        raise SpecError(f"{where}: fixed: expected an object of parameter values")
+    values = {**fixed, **{n: p.get("value") if isinstance(p, dict) else None for n, p in fit["parameters"].items()}}
+    for name, value in values.items():
+        if not isinstance(value, (int, float)) or isinstance(value, bool) or not math.isfinite(value):
+            key = f"fixed.{name}" if name in fixed and name not in fit["parameters"] else f"parameters.{name}"
+            raise SpecError(f"{where}: {key}: {value!r} is not a finite number")
+    return FittedParameters({n: float(v) for n, v in values.items()}, where)
 
 
 def record_to_dict(record: SolverRecord | AdmittanceSolverRecord) -> dict:

@@ -121,12 +121,30 @@ def test_a_yawing_beam_on_a_one_loop_spec_is_refused_naming_dual_drive(tilt_fit_
     ('{"status": "optimal"}', "not a fit result"),
     ('{"parameters": {"delay.seconds": {"value": null}}}', "parameters.delay.seconds: None is not a finite number"),
     ('{"parameters": {"backlash.width_m": {"value": 1e-3}}}', "unknown effect 'backlash'"),
+    ('{"parameters": {}, "fixed": [1.0]}', "fixed: expected an object"),
+    ('{"parameters": {}, "fixed": {"mass_kg": "40"}}', "fixed.mass_kg: '40' is not a finite number"),
 ])
 def test_bad_fit_results_are_named(tmp_path, content, message):
     path = tmp_path / "fit.json"
     path.write_text(content)
     out = gantry("synth", SPEC_X, "--plant-from", path)
     assert out.returncode == 2 and out.stderr.count("\n") == 1 and message in out.stderr, out.stderr
+
+
+def test_a_fit_read_back_is_its_parameters_and_designs_as_its_file(fit_json):
+    """The codec reads every value the fit wrote (estimated and fixed), and a notebook that holds them typed gets
+    the problem the command gets from the file."""
+    from design.results import FittedParameters
+    from design.views.json import fitted_parameters_from_json
+
+    written = json.loads(fit_json.read_text())
+    fitted = fitted_parameters_from_json(fit_json.read_text(), str(fit_json))
+    assert fitted.values == {**written["fixed"], **{k: v["value"] for k, v in written["parameters"].items()}}
+    assert set(written["parameters"]) <= set(fitted.values) and "mass_kg" in fitted.values
+    typed = load_problem(SPEC_X, plant_from=FittedParameters(fitted.values, "in memory"))
+    from_file = load_problem(SPEC_X, plant_from=fit_json)
+    assert typed.spec == from_file.spec and typed.plant_from.left_out == from_file.plant_from.left_out
+    assert typed.plant_from.file == "in memory" and from_file.plant_from.file == str(fit_json)
 
 
 def test_measure_reads_stepped_sines_and_time_domain_recordings(fit_json):

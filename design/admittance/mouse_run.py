@@ -343,11 +343,13 @@ DEFAULT_DRIVE_RATE_HZ = 4000.0
 REST_S = 1.0
 #: the friction model's velocity scale (m/s): F_c tanh(v / v_s)
 FRICTION_VELOCITY_M_PER_S = 1e-3
-#: the plant's effects a run simulates (any other is refused by name, never dropped): the drive's rate and delay
-#: on the discrete part, the rest by the plant's own linear model (``gantry_model``), the friction regularised,
-#: and every effect that pushes on the rails (``Effect.rail_force``: a new one is simulated without a change here)
-SIMULATED_EFFECTS = ("sampling", "delay", "current_loop", "sensor_filter", "resonance", "payload_resonance",
-                     "second_resonance", "coulomb_friction") + tuple(n for n, c in EFFECTS.items() if c.rail_force)
+#: the plant's effects a run simulates (any other is refused by name, never dropped), by what each declares
+#: (``Effect.realised_as``, ``Effect.rail_force``): what the delay and the drive's sampling do to the command on
+#: the discrete part, every effect the realisation holds exactly by the plant's own linear model
+#: (``gantry_model``), every force on the rails by its ``rail_force_n``, and the Coulomb friction regularised (the
+#: one effect the run models by its own law); a new effect of those kinds is simulated without a change here
+SIMULATED_EFFECTS = tuple(n for n, c in EFFECTS.items()
+                          if c.realised_as in ("applied", "state_space") or c.rail_force or n == "coulomb_friction")
 
 
 @dataclass(frozen=True)

@@ -44,6 +44,7 @@ class CableForce(MechanicalEffect):
     pull_n: float = 0.0
     centre_m: float = 0.0
     name: ClassVar[str] = "cable_force"
+    realised_as: ClassVar[str] = "state_space"
     bounds: ClassVar = {"stiffness_n_per_m": (0.0, 1.0e5, "N/m"), "pull_n": (-1000.0, 1000.0, "N"),
                         "centre_m": (-10.0, 10.0, "m")}
     signature: ClassVar[str] = "a residual force that grows along the travel, one sign on each side of a rest position"

@@ -49,6 +49,7 @@ class Delay(ChainEffect):
 
     seconds: float = 0.001
     name: ClassVar[str] = "delay"
+    realised_as: ClassVar[str] = "applied"
     bounds: ClassVar = {"seconds": (0.0, 0.02, "s")}
     place: ClassVar[str] = "drive"
     limits_bandwidth: ClassVar[bool] = True
@@ -158,6 +159,7 @@ class Sampling(ChainEffect):
 
     rate_hz: float = 10000.0
     name: ClassVar[str] = "sampling"
+    realised_as: ClassVar[str] = "applied"
     bounds: ClassVar = {"rate_hz": (10.0, VANISHED_HZ, "Hz")}
     place: ClassVar[str] = "drive"
     limits_bandwidth: ClassVar[bool] = True
@@ -240,6 +242,7 @@ class EncoderVelocity(ChainEffect):
 
     rate_hz: float = 2000.0
     name: ClassVar[str] = "encoder_velocity"
+    realised_as: ClassVar[str] = "approximate"
     bounds: ClassVar = {"rate_hz": (10.0, VANISHED_HZ, "Hz")}
     place: ClassVar[str] = "sensor"
     limits_bandwidth: ClassVar[bool] = True

@@ -123,6 +123,8 @@ class Effect(abc.ABC):
 
     #: it adds a force on the rails that the continuous time-domain simulation applies (``rail_force_n``)
     rail_force: ClassVar[bool] = False
+    #: what of it a time-domain simulation's linear model holds (one of ``REALISED_AS``; every effect declares it)
+    realised_as: ClassVar[str]
 
     def rail_force_n(self, position_m: float, velocity_m_per_s: float, motor_force_n: float) -> float:
         """The force (N, in the direction of motion's positive axis) the effect adds on the rails at the rails'
@@ -173,8 +175,19 @@ class ForceSignals:
     position_m: np.ndarray | None = None
 
 
+#: ``Effect.realised_as``: "state_space", held exactly by the plant's realisation (``plant.physics.realisation``:
+#: a rational chain factor, a body or a spring); "applied", a delay of the command that a simulator applies
+#: exactly (the realisation holds it only as a Pade approximant when asked); "force", nothing of it in the state
+#: space, a force at the rails that each simulator applies its own way (``rail_force_n``, a friction law);
+#: "beam", the Xie-Wang beam, one rail contact per motor, realised for one plant at a time; "drive_limit", the
+#: drive clips its command; "approximate", only a Pade approximant of it is a state space (a difference quotient)
+REALISED_AS = ("state_space", "applied", "force", "beam", "drive_limit", "approximate")
+
+
 class ChainEffect(Effect):
     """A dimensionless factor of the drive or sensor chain (unity gain at DC)."""
+
+    realised_as: ClassVar[str] = "state_space"
 
     @abc.abstractmethod
     def response(self, s, ops=NUMPY):

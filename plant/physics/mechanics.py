@@ -127,6 +127,7 @@ class Resonance(ModeEffect):
     """Two-mass compliance between motor and payload, velocity recorded at the motor."""
 
     name: ClassVar[str] = "resonance"
+    realised_as: ClassVar[str] = "state_space"
     signature: ClassVar[str] = ("a notch (antiresonance) then a peak (resonance) in magnitude, "
                                 "with a phase lead then lag around them")
     excludes: ClassVar = ("payload_resonance", "tilt_coupling")
@@ -138,6 +139,7 @@ class PayloadResonance(ModeEffect):
     """Two-mass compliance between motor and payload, velocity recorded at the payload."""
 
     name: ClassVar[str] = "payload_resonance"
+    realised_as: ClassVar[str] = "state_space"
     signature: ClassVar[str] = ("a peak in magnitude, then a steeper roll-off, with the phase falling "
                                 "by a further 180 deg through it (no notch)")
     excludes: ClassVar = ("resonance", "tilt_coupling")
@@ -152,6 +154,7 @@ class SecondResonance(ModeEffect):
     frequency_hz: float = 120.0
     antiresonance_hz: float = 90.0
     name: ClassVar[str] = "second_resonance"
+    realised_as: ClassVar[str] = "state_space"
     signature: ClassVar[str] = "a second peak (and notch) in magnitude above the first mode"
     requires_any: ClassVar = ("resonance", "payload_resonance")
     excludes: ClassVar = ("tilt_coupling",)
@@ -256,6 +259,7 @@ class CoulombFriction(MechanicalEffect):
 
     force_n: float = 10.0
     name: ClassVar[str] = "coulomb_friction"
+    realised_as: ClassVar[str] = "force"
     bounds: ClassVar = {"force_n": (0.0, 1000.0, "N")}
     linear: ClassVar[bool] = False
     in_synthesis: ClassVar[bool] = False
@@ -295,6 +299,7 @@ class StribeckFriction(MechanicalEffect):
     excess_n: float = 0.0
     velocity_m_per_s: float = 0.01
     name: ClassVar[str] = "stribeck_friction"
+    realised_as: ClassVar[str] = "force"
     bounds: ClassVar = {"excess_n": (0.0, 1000.0, "N"), "velocity_m_per_s": (1e-5, 1.0, "m/s")}
     signature: ClassVar[str] = "a residual that opposes the motion and grows towards rest"
     main_parameter: ClassVar[str] = "excess_n"
@@ -355,6 +360,7 @@ class Offset(MechanicalEffect):
 
     force_n: float = 0.0
     name: ClassVar[str] = "offset"
+    realised_as: ClassVar[str] = "force"
     bounds: ClassVar = {"force_n": (-1000.0, 1000.0, "N")}
     residual_signature: ClassVar = "constant"
     signature: ClassVar[str] = "a residual force of one sign whatever the direction of motion"
@@ -397,6 +403,7 @@ class TiltCoupling(MechanicalEffect):
     stiffness_n_m_per_rad: float = 2.0e5
     offset_m: float = 0.0
     name: ClassVar[str] = "tilt_coupling"
+    realised_as: ClassVar[str] = "beam"
     bounds: ClassVar = {"frequency_hz": (1.0, RIGID_HZ, "Hz"), "stiffness_n_m_per_rad": (1.0, 1.0e9, "N*m/rad"),
                         "offset_m": (-0.35, 0.35, "m")}
     limits_bandwidth: ClassVar[bool] = True

@@ -84,6 +84,7 @@ class ForceRipple(MechanicalEffect):
     sin2_n: float = 0.0
     cos2_n: float = 0.0
     name: ClassVar[str] = "force_ripple"
+    realised_as: ClassVar[str] = "force"
     bounds: ClassVar = {"pitch_m": (1e-4, 1.0, "m"), "sin1_n": (-1000.0, 1000.0, "N"),
                         "cos1_n": (-1000.0, 1000.0, "N"), "sin2_n": (-1000.0, 1000.0, "N"),
                         "cos2_n": (-1000.0, 1000.0, "N")}
@@ -142,6 +143,7 @@ class ForceConstantProfile(MechanicalEffect):
     slope: float = 0.0
     curvature: float = 0.0
     name: ClassVar[str] = "force_constant_profile"
+    realised_as: ClassVar[str] = "force"
     bounds: ClassVar = {"centre_m": (-10.0, 10.0, "m"), "half_span_m": (1e-4, 10.0, "m"),
                         "slope": (-0.9, 0.9, "1"), "curvature": (-0.9, 0.9, "1")}
     signature: ClassVar[str] = "a residual proportional to the current times the position (magnet track's ends)"
@@ -192,6 +194,7 @@ class CurrentLimit(MechanicalEffect):
     limit_n: float = 100.0
     fraction_lost: float = 1.0
     name: ClassVar[str] = "current_limit"
+    realised_as: ClassVar[str] = "drive_limit"
     bounds: ClassVar = {"limit_n": (1e-3, 1e6, "N"), "fraction_lost": (0.0, 1.0, "1")}
     signature: ClassVar[str] = ("a motor force that falls short of the command at its largest values: odd "
                                 "harmonics, and a gain that falls with the amplitude")

@@ -28,9 +28,6 @@ from plant.physics.gantry_models import xie_wang_ss
 from plant.physics.models import Plant, chain_state_space
 from plant.physics.state_space import column
 
-#: drive factors a simulator applies exactly to the command, left out of the realisation unless a Pade order is given
-EXACT_IN_TIME = ("delay", "sampling")
-
 
 @dataclass(frozen=True)
 class Realisation:
@@ -129,7 +126,9 @@ def realise(plants: Plant, n: int = 1, *, pade_order: int | None = None) -> Real
             raise ParameterError("the tilt model is realised for one plant at a time")
         Am, Bm, Cm = _tilt_mechanics(plants, tilt)
         contacts, share, sensed = Cm, np.full(2, 0.5), Cm
-    drive = [e for e in plants.effects if pade_order is not None or e.name not in EXACT_IN_TIME]
+    # the drive factors a simulator applies exactly to the command (``realised_as`` "applied") by their Pade
+    # approximants only when asked
+    drive = [e for e in plants.effects if pade_order is not None or e.realised_as != "applied"]
     E = effects_state_space(drive, "drive", n, **({} if pade_order is None else {"pade_order": pade_order}))
     H = effects_state_space(plants.effects, "sensor", n, **({} if pade_order is None else {"pade_order": pade_order}))
     kt = column(plants.force_constant_n_per_a, n)

@@ -9,7 +9,7 @@ from plant.errors import ParameterError
 from plant.physics.chain import Delay
 from plant.physics.effects import EFFECTS, make_effect
 from plant.physics.models import stage_x, stage_y
-from plant.physics.realisation import EXACT_IN_TIME, realise
+from plant.physics.realisation import realise
 
 W = np.geomspace(2 * np.pi * 0.1, 2 * np.pi * 2000.0, 60)
 #: effects whose frequency response the realisation does not change (forces in the time domain only) or that no
@@ -27,7 +27,7 @@ def response(sys_A, sys_B, rows, w):
 def exact_factors(plant, w):
     out = np.ones(w.size, complex)
     for e in plant.effects:
-        if e.name in EXACT_IN_TIME:
+        if e.realised_as == "applied":
             out = out * e.frd(w)
     return out
 
@@ -78,3 +78,17 @@ def test_the_tilt_model_is_realised_for_one_plant():
     plants = stage_y(mass_kg=np.array([[15.0], [20.0]])).with_effects(make_effect("tilt_coupling"))
     with pytest.raises(ParameterError, match="one plant"):
         realise(plants, 2)
+
+
+def test_every_effect_declares_what_the_realisation_holds_of_it():
+    """``realised_as`` is what the simulators (the mouse run's list of effects it simulates among them) read: each
+    effect declares it, and each that claims its linear model is held exactly is one the response test above
+    holds to ``Plant.frd``; the approximate and the nonlinear ones are not."""
+    from plant.physics.effect_base import REALISED_AS
+
+    for name, cls in EFFECTS.items():
+        assert cls.realised_as in REALISED_AS, name
+        if cls.realised_as in ("state_space", "applied", "beam"):
+            assert name not in NOT_RATIONAL and any(name == n for _, n in CASES), name
+        if cls.realised_as in ("approximate", "drive_limit"):
+            assert name in NOT_RATIONAL, name

@@ -41,6 +41,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from design.admittance.between import HeldBetween, hold_between
 from design.admittance.bounds import curve_bounds
 from design.admittance.codesign import codesign
 from design.admittance.contact import ContactLimit, stiffest_contact
@@ -74,7 +75,7 @@ from design.admittance.verify import AdmittanceVerification, verify_admittance
 from design.loop.controller import PI
 from design.loop.requirement import Binding
 from design.problem import LoopProblem
-from design.synth.scenarios import Scenarios, admittance_check_scenarios, design_scenarios
+from design.synth.scenarios import Scenarios, admittance_check_scenarios, describe_row, design_scenarios
 from plant.errors import SpecError
 
 #: rounds of the dense check adding its worst violator, and of the Monte Carlo check
@@ -128,6 +129,8 @@ class AdmittanceResult:
     codesign: object | None = None
     #: the latency the design tolerates and its margins with one more sample (``design.admittance.latency``)
     latency: LatencyCheck | None = None
+    #: the search between the dense check's points (``design.admittance.between``) and the scale-up it asked for
+    between: HeldBetween | None = None
 
     @property
     def verified(self) -> bool:
@@ -237,7 +240,7 @@ def synthesise_admittance(problem: LoopProblem, *, controller: PI | None = None,
     dense = evaluator(problem, admittance_check_scenarios(problem), loops=loops, timing=timing, corners=corners)
     scenarios = design_scenarios(problem)
     rounds = design_rounds(problem, scenarios, loops=loops, dense=dense, felt=felt, w_design=w_design, timing=timing,
-                           corners=corners, say=say)
+                           corners=corners, say=say, between=True)
     rp, ray, x, check, mc = rounds.rp, rounds.ray, rounds.x, rounds.check, rounds.monte_carlo
     if not ray.feasible:
         return _infeasible(problem, ray, rp, rounds.rp_scenarios, controller, timing, corners, t0, record)
@@ -259,9 +262,17 @@ def synthesise_admittance(problem: LoopProblem, *, controller: PI | None = None,
     r = x[0] * loc.peak_acceleration_m_per_s2 + x[1] * loc.peak_speed_m_per_s
     span = ("" if len(timing.delays) == 1 else
             f" at every computation delay from {timing.delays[0]} to {timing.delays[-1]} samples")
+    held = rounds.between
+    failures = list(verification.failures[:3])
+    if held is not None and not held.search.holds:
+        s = held.search
+        failures.insert(0, f"between the check's points PM {s.phase_margin_deg:.2f} deg, GM {s.gain_margin_db:.2f} dB"
+                           f"{'' if s.stable else ', unstable'} at {describe_row(s.scenario)} with mouse "
+                           f"({s.mouse.label()})")
     status, msg = admittance_verdict(
-        adm, failures=None if verification.verified else "NOT verified: " + "; ".join(verification.failures[:3]),
-        held_on=f"{len(scenarios)} design scenarios x {len(corners)} mice{span}", draws_over="payload, uncertainty",
+        adm, failures="NOT verified: " + "; ".join(failures[:3]) if failures else None,
+        held_on=f"{len(scenarios)} design scenarios x {len(corners)} mice{span}{_between_text(held)}",
+        draws_over="payload, uncertainty",
         monte_carlo=mc, feel=feel, binding=binding, m_v=x[0], b_v=x[1],
         hint=_HINTS.get(_HINT_OF.get(binding.constraint, binding.constraint), ""))
     active = tuple(sorted({binding.constraint} | {v.constraint for v in check.violations}))
@@ -272,7 +283,7 @@ def synthesise_admittance(problem: LoopProblem, *, controller: PI | None = None,
                                tuple(sorted({float(p) for p in scenarios.payload_kg}))),
         mc, feel, contact,
         DiscreteAdmittance.of_timing(float(x[0]), float(x[1]), timing) if timing.sampled else None, None, nominal,
-        record, latency)
+        record, latency, held)
     if status != "optimal" and tradeoff and not nominal:
         say("trade-off front and hardware changes")
         result = replace(result, tradeoff=trade_off(problem, result, rp), seconds=time.perf_counter() - t0)
@@ -297,21 +308,60 @@ class Rounds:
     #: the dense check's worst violation at the ray's design when the design had to be scaled up its ray
     #: (``back_off``) to hold: the requirement that binds it then
     backed_off: Binding[MouseModel] | None = None
+    #: the search between the dense check's points and what it made of the design (``design.admittance.between``;
+    #: None where the caller asked for none)
+    between: HeldBetween | None = None
 
     def binding(self, problem: LoopProblem, corners, timing: RigTiming) -> Binding[MouseModel]:
-        """The requirement that binds the design: the ray's (``ray_binding``), or the one the back-off cured."""
+        """The requirement that binds the design: the ray's (``ray_binding``), the one the back-off cured, or the
+        point between the check's points that the design was scaled up to hold."""
+        held = self.between
+        if held is not None and held.failed is not None:
+            return between_binding(problem, held)
         if self.backed_off is None:
             return ray_binding(problem, self.rp, self.ray, corners, self.rp_scenarios, timing.delays)
         return replace(self.backed_off, detail=self.backed_off.detail + " at the ray's design; (m_v, b_v) scaled up "
                        "the ray until it holds")
 
 
+def _between_text(held: HeldBetween | None) -> str:
+    if held is None:
+        return ""
+    s = held.search
+    return (f" and between the dense check's points (a compass search from {s.starts} starts over payload, "
+            f"uncertainty and mouse, {s.evaluations} points; least slack at PM {s.phase_margin_deg:.2f} deg, GM "
+            f"{s.gain_margin_db:.2f} dB)")
+
+
+def between_binding(problem: LoopProblem, held: HeldBetween) -> Binding[MouseModel]:
+    """The margin that failed between the dense check's points, at the ray's design, and the scale-up that cured
+    it (``design.admittance.between.hold_between``)."""
+    adm = admittance_problem(problem)
+    f = held.failed
+    pm_short = (f.phase_margin_deg - adm.phase_margin_deg) / max(adm.phase_margin_deg, 1.0)
+    gm_short = (f.gain_margin_db - adm.gain_margin_db) / max(adm.gain_margin_db, 1.0)
+    gm_binds = gm_short < pm_short
+    name, key = ("gain_margin", "gain_margin_db") if gm_binds else ("phase_margin", "phase_margin_deg")
+    value, limit = (f.gain_margin_db, adm.gain_margin_db) if gm_binds else (f.phase_margin_deg, adm.phase_margin_deg)
+    unit = "dB" if gm_binds else "deg"
+    cured = ("" if held.search.holds else f"; {held.rounds} rounds did not cure it (least slack now "
+             f"{held.search.slack:.3g})")
+    return Binding(name, f.scenario.payload_kg, f.scenario, f.mouse, limit, limit,
+                   detail=f"interaction-loop {name.replace('_', ' ')} (admittance.{key} = {limit:g}) between the "
+                          f"check's points, at {describe_row(f.scenario)} with mouse ({f.mouse.label()}): "
+                          f"{value:.2f} {unit} at the ray's design; (m_v, b_v) scaled up the ray by "
+                          f"{100 * (held.scale - 1):.2f} % until it holds{cured}")
+
+
 def design_rounds(problem: LoopProblem, scenarios, *, loops, dense, felt, w_design,
-                  timing: RigTiming, corners, say, draws=None, dtype=complex, draws_label: str = "payload") -> Rounds:
+                  timing: RigTiming, corners, say, draws=None, dtype=complex, draws_label: str = "payload",
+                  between: bool = False) -> Rounds:
     """Rays on ``scenarios`` x ``corners`` (the force ``felt`` their objective), the ``dense`` check adding its worst
-    violator (at most ``MAX_ROUNDS`` rays), the back-off when it still fails, then the Monte Carlo (``draws(k)``: the
-    scenario draws of round k, default the problem's payload x uncertainty draws) adding its worst violator (at most
-    ``MONTE_CARLO_ROUNDS`` times). ``dtype``: the rays' responses (``interaction_responses``)."""
+    violator (at most ``MAX_ROUNDS`` rays), the back-off when it still fails, with ``between`` the search between the
+    dense check's points (``design.admittance.between.hold_between``, scaling the design up its ray where a point
+    fails), then the Monte Carlo (``draws(k)``: the scenario draws of round k, default the problem's payload x
+    uncertainty draws) adding its worst violator (at most ``MONTE_CARLO_ROUNDS`` times). ``dtype``: the rays'
+    responses (``interaction_responses``)."""
     adm = admittance_problem(problem)
     seed = problem.verification.seed
     n, backed_off = 0, None
@@ -339,6 +389,11 @@ def design_rounds(problem: LoopProblem, scenarios, *, loops, dense, felt, w_desi
         if not check.meets:
             backed_off = min(check.violations, key=relative_slack)
             x, check = back_off(dense, x, adm)
+        held = None
+        if between:
+            say("search between the check's points (payload, uncertainty, mouse)")
+            held = hold_between(problem, dense, x, check, loops=loops, timing=timing)
+            x, check = held.x, held.check
         say(f"Monte Carlo over {draws_label}, uncertainty and mouse")
         drawn = None if draws is None else draws(mc_round)
         mc = join_monte_carlo([admittance_monte_carlo(problem, loops=loops, m_v=x[0], b_v=x[1], timing=t,
@@ -346,7 +401,7 @@ def design_rounds(problem: LoopProblem, scenarios, *, loops, dense, felt, w_desi
         if mc.violations == 0 or mc_round == MONTE_CARLO_ROUNDS or scenarios.contains(mc.worst_scenario):
             break
         scenarios = scenarios.with_row(mc.worst_scenario)
-    return Rounds(rp, ray, rp_scenarios, scenarios, x, check, mc, n, mc_round, backed_off)
+    return Rounds(rp, ray, rp_scenarios, scenarios, x, check, mc, n, mc_round, backed_off, held)
 
 
 def back_off(dense, x: np.ndarray, adm) -> tuple[np.ndarray, AdmittanceCheck]:

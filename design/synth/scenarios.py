@@ -194,9 +194,11 @@ class Coverage:
                 f"python-control on the design scenarios and the tightest checked ones"
                 + (f"; the admittance on {self.admittance_payloads} payloads x the corners x every mouse corner"
                    if self.admittance else "")
-                + f"; between these points only the Monte Carlo covers the box ({self.monte_carlo_samples} uniform "
-                  f"draws over payload x uncertainty{' x mouse' if self.admittance else ''}, seed "
-                  f"{self.monte_carlo_seed})")
+                + (f"; between these points only the Monte Carlo covers the box ({self.monte_carlo_samples} uniform "
+                   f"draws over payload x uncertainty, seed {self.monte_carlo_seed})" if not self.admittance else
+                   f"; between these points the Monte Carlo ({self.monte_carlo_samples} uniform draws over payload x "
+                   f"uncertainty x mouse, seed {self.monte_carlo_seed}) and, for the interaction margins, a search "
+                   "over payload x uncertainty x mouse from the admittance check's tightest curves"))
 
     def as_dict(self) -> dict:
         return {"payload_range_kg": list(self.payload_range_kg), "uncertain_parameters": list(self.uncertain),
@@ -209,6 +211,7 @@ class Coverage:
                                                "with": "every mouse of admittance.mouse (its corners)"}}
                    if self.admittance else {}),
                 "monte_carlo": {"samples": self.monte_carlo_samples, "seed": self.monte_carlo_seed},
+                **({"between_admittance_points": "admittance.between_grid"} if self.admittance else {}),
                 "text": self.text()}
 
 

@@ -11,6 +11,7 @@ from design.admittance.curves import AdmittanceCurves
 from design.admittance.model import admittance_problem
 from design.problem import LoopProblem
 from design.results import AdmittanceComparison, DesignOutcome
+from design.synth.scenarios import describe_row
 from design.views.admittance_figures import (
     apparent_mass_figure,
     bandwidth_text,
@@ -54,7 +55,7 @@ def add_admittance_section(report: Report, problem: LoopProblem, outcome: Design
                f"{len(c.scenarios)} scenarios: {margins}. Binding: {units(r.binding.detail)}. Passive up to "
                f"{passive_text(c)} Hz; stable on a grounded spring up to "
                f"{num(r.contact.worst_n_per_m, '.4g')} N/m. Rendered admittance within 3 dB / 30° of "
-               f"1/(m_v s + b_v) up to {bandwidth_text(c)} Hz. {_verified(r)}{_mc(r)}{_latency(r)}</div>")
+               f"1/(m_v s + b_v) up to {bandwidth_text(c)} Hz. {_verified(r)}{_between(r)}{_mc(r)}{_latency(r)}</div>")
     report.raw(table(["what the mouse meets", "value", "requirement / budget"], [
         ["force felt: the neck force while the body runs the profile, worst over the payloads and mice, peak / RMS",
          f"{feel.peak_force_n:.3g} / {feel.rms_force_n:.3g} N", f"{a.mouse.peak_force_n:g} N"],
@@ -150,6 +151,20 @@ def _latency(r) -> str:
         + (f"stable (PM {num(lat.one_more_phase_margin_deg)}°, GM {num(lat.one_more_gain_margin_db)} dB)."
            if lat.one_more_stable else "<span class=bad>unstable</span>: measure the rig's latency."))
     return f" Latency: it tolerates {1e3 * lat.margin_s:.3g} ms more{samples} ({units(lat.worst)}).{more}"
+
+
+def _between(r) -> str:
+    held = r.between
+    if held is None:
+        return ""
+    s, f = held.search, held.failed
+    cured = ("" if f is None else
+             f" At the ray's design it found PM {num(f.phase_margin_deg)}°, GM {num(f.gain_margin_db)} dB at "
+             f"{units(describe_row(f.scenario))} with mouse ({f.mouse.label()}); (m_v, b_v) went up the ray by "
+             f"{100 * (held.scale - 1):.2f} %.")
+    return (f" Between the check's points a search over payload, uncertainty and mouse ({s.evaluations} points from "
+            f"{s.starts} starts) finds at least PM {num(s.phase_margin_deg)}°, GM {num(s.gain_margin_db)} dB: "
+            f"{'holds' if s.holds else '<span class=bad>fails</span>'}.{cured}")
 
 
 def _mc(r) -> str:

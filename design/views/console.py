@@ -323,6 +323,17 @@ def _print_admittance(console: Console, adm: dict) -> None:
     contact = ("" if "stiffest_contact_n_per_m" not in adm else
                f"; stable on a grounded spring up to {_num(adm['stiffest_contact_n_per_m'], '.4g')} N/m")
     console.print(f"  passive (Re Y_r >= 0) up to {_num(adm['passive_up_to_hz'], '.3g')} Hz{contact}")
+    between = adm.get("between_grid")
+    if between:
+        failed = between["failed_at_ray_design"]
+        cured = ("" if failed is None else
+                 f"; at the ray's design it found PM {_num(failed['phase_margin_deg'], '.2f')} deg, GM "
+                 f"{_num(failed['gain_margin_db'], '.2f')} dB there, and (m_v, b_v) went up the ray by "
+                 f"{100 * (between['scale_up'] - 1):.2f} %")
+        console.print(f"  between the check's points ({between['evaluations']} points searched from "
+                      f"{between['starts']} starts over payload, uncertainty and mouse): least PM "
+                      f"{_num(between['phase_margin_deg'], '.2f')} deg, GM {_num(between['gain_margin_db'], '.2f')} dB "
+                      f"({'holds' if between['holds'] else 'FAILS'}){cured}", soft_wrap=True)
     lat = adm.get("latency")
     if lat:
         more = lat["one_more_sample"]

@@ -26,6 +26,7 @@ from plant.experiment.simulate_time import travel_notes
 from plant.identify.time_fit import TimeFitResult
 
 if TYPE_CHECKING:
+    from design.admittance.between import BetweenCheck, HeldBetween
     from design.admittance.dual import DualAdmittanceResult
     from design.admittance.monte_carlo import AdmittanceMonteCarlo
     from design.admittance.mouse import MouseModel
@@ -553,6 +554,25 @@ def _front(points) -> list[dict]:
              "b_v": finite_or_none(p.b_v)} for p in points]
 
 
+def between_check_to_dict(b: BetweenCheck) -> dict:
+    """One search between the dense check's points (``design.admittance.between.BetweenCheck``)."""
+    return {"starts": b.starts, "evaluations": b.evaluations, "grid_slack": finite_or_none(b.grid_slack),
+            "slack": finite_or_none(b.slack), "holds": b.holds, "phase_margin_deg": finite_or_none(b.phase_margin_deg),
+            "gain_margin_db": finite_or_none(b.gain_margin_db), "stable": b.stable, "scenario": b.scenario.as_dict(),
+            "mouse": b.mouse.as_dict(), "coordinates": list(b.coordinates)}
+
+
+def held_between_to_dict(held: HeldBetween) -> dict:
+    """``admittance.between_grid`` of ``gantry synth --json``: the last search, the first failing point and the
+    scale-up that cured it (``design.admittance.between.hold_between``)."""
+    return {**between_check_to_dict(held.search), "rounds": held.rounds, "scale_up": held.scale,
+            "failed_at_ray_design": None if held.failed is None else between_check_to_dict(held.failed),
+            "method": "compass search from the dense check's curves of least margin slack (floating and braced "
+                      "mice), over the payload, each plant.uncertainty range and each admittance.mouse range at once "
+                      "(leg stiffness in log), to 1/512 of each range; margins of the exactly sampled loop; slack "
+                      "= least relative margin, -1 unstable"}
+
+
 def latency_to_dict(lat) -> dict:
     """``admittance.latency`` of ``gantry synth --json`` (``design.admittance.latency.LatencyCheck``)."""
     samples = None if lat.margin_samples is None else finite_or_none(lat.margin_samples)
@@ -607,6 +627,7 @@ def admittance_to_dict(result: AdmittanceResult, problem: LoopProblem) -> dict:
         **_admittance_setting(adm, timing, result.discrete),
         "evaluated_at": {"m_v": result.m_v, "b_v": result.b_v},
         **({"latency": latency_to_dict(result.latency)} if result.latency is not None else {}),
+        "between_grid": None if result.between is None else held_between_to_dict(result.between),
         "recorded_force": recorded_force_to_dict(c, adm),
         "mice": [m.as_dict() for m in result.corners],
         "mouse_corners": [m.as_dict() for m in result.corners],

@@ -261,6 +261,42 @@ def test_bundled_design_holds_its_margins_for_floating_and_braced_mice_by_newton
     assert worst["floating"] < 60 or worst["braced"] < 60      # a margin binds somewhere: the check can tell
 
 
+def _reference_at(point, scenario, mouse, w, forward_euler):
+    """python-control's margins of Newton's model at a searched point of the JSON (its scenario and mouse)."""
+    m = {"head_kg": mouse["head_mass_kg"], "body_kg": mouse["body_mass_kg"], "neck_k": mouse["neck_stiffness_n_per_m"],
+         "neck_c": mouse["neck_damping_n_s_per_m"], "leg_k": mouse["leg_stiffness_n_per_m"],
+         "leg_c": mouse["leg_damping_n_s_per_m"]}
+    params = {k: v for k, v in scenario.items() if k != "payload_kg"}
+    return _newton_margins(point, scenario["payload_kg"], params, m, w, forward_euler)
+
+
+def test_the_search_between_the_checks_points_finds_what_newtons_model_finds_there(bundled):
+    """The dense check's grid misses a dip (a floating mouse's body mass between the range's ends tunes the neck
+    mode against the crossover): the search finds it at the ray's design, Newton's model confirms the shortfall
+    there, and the scaled-up design holds at the point the last search found least. The search is shown converged
+    along the coordinate it moved on: a dense scan of the body mass with Newton's model finds no lower margin."""
+    _, doc = bundled
+    adm = doc["admittance"]
+    b = adm["between_grid"]
+    loaded = load_spec(SPEC)
+    forward_euler = loaded.admittance.rig.law == "forward_euler"
+    w = np.geomspace(1e-3, 0.9999 * 50.0, 2500) * 2 * np.pi
+    final = {"kp": adm["kp"], "ki": adm["ki"], "m_v": adm["m_v"], "b_v": adm["b_v"]}
+    pm, gm, stable = _reference_at(final, b["scenario"], b["mouse"], w, forward_euler)
+    assert stable and pm == pytest.approx(b["phase_margin_deg"], abs=0.05) and pm >= 45.0 - 0.05
+    assert gm == pytest.approx(b["gain_margin_db"], abs=0.05) and b["holds"]
+    failed = b["failed_at_ray_design"]
+    if failed is None:
+        pytest.skip("the ray's design held between the points: nothing to confirm")
+    ray = {**final, "m_v": adm["m_v"] / b["scale_up"], "b_v": adm["b_v"] / b["scale_up"]}
+    pm_ray, _, _ = _reference_at(ray, failed["scenario"], failed["mouse"], w, forward_euler)
+    assert pm_ray == pytest.approx(failed["phase_margin_deg"], abs=0.05)
+    assert pm_ray < 45.0 - 0.1 and failed["grid_slack"] >= 0        # a shortfall between the grid's points, not on them
+    scan = [_reference_at(ray, failed["scenario"], {**failed["mouse"], "body_mass_kg": mb}, w, forward_euler)[0]
+            for mb in np.linspace(0.020, 0.035, 61)]
+    assert min(scan) >= pm_ray - 0.02
+
+
 def test_exported_admittance_law_rebuilds_the_virtual_dynamics(bundled):
     # v[k] = alpha v[k-1] + beta F[k] from the JSON: its transfer function is 1 / (m_v (1 - z^-1) / T + b_v rho)
     # with rho = 1 (backward Euler) or z^-1 (forward Euler, the spec's rule), and it settles to F / b_v

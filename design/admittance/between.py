@@ -1,0 +1,243 @@
+"""The worst interaction margins of an admittance design between the points of its check: what "verified" means
+over the whole declared box, not only on its grid.
+
+The dense check computes the margins on a grid: payload points x the corners of ``plant.uncertainty`` x the mice
+of ``design.admittance.mouse.mouse_set`` (the corners of the mouse's ranges and a few leg stiffnesses). A margin
+can dip between those points (a mouse's neck or legs tune a mode against the loop's crossover). The search: from
+the ``STARTS`` curves of least margin slack on the check (half of them floating mice, half braced, when the spec has
+both), a compass search over every continuous coordinate of the box at once — the payload, each uncertain
+parameter and each mouse parameter, scaled to [0, 1] over its declared range (the leg stiffness in log over a
+range of more than a decade, as the Monte Carlo draws it; a floating mouse keeps its feet off the ground) — each
+trial point's margins computed exactly as the dense check computes them (``paired_margins``: the exactly sampled
+loop on the check grid with the trial mouse's mode points, stability from the coupled discrete loop's poles). All
+starts' trial points are evaluated in one batch per step; a start moves to its best trial point when that is
+lower, else halves its step, from a quarter of each range down to ``STEP_TOL``.
+
+The slack of a curve is its least relative margin, min((PM - PM_req) / PM_req, (GM - GM_req) / GM_req), -1 where a
+loop is unstable (as ``design.synth.dual_worst``).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from design.admittance.bounds import curve_bounds, polar
+from design.admittance.model import admittance_problem, check_grid_for, coupled_gain, paired_margins, with_mode_points
+from design.admittance.mouse import FIELDS, MouseModel, stack
+from design.admittance.rig import RigTiming
+from design.loop.requirement import ScenarioPoint
+from design.problem import LoopProblem
+from design.synth.scenarios import Scenarios, uncertainty_ranges
+
+#: curves of least slack on the check the search starts from
+STARTS = 4
+#: the search stops when every start's step (a fraction of each coordinate's range) is below this
+STEP_TOL = 2.0 ** -9
+#: and after this many steps at most
+MAX_STEPS = 60
+
+
+@dataclass(frozen=True)
+class BetweenCheck:
+    """The least interaction-margin slack found between the dense check's points (module docstring), and where."""
+
+    starts: int
+    #: trial points whose margins were computed
+    evaluations: int
+    #: the least slack on the check's computed curves, and the least the search found (<= it)
+    grid_slack: float
+    slack: float
+    phase_margin_deg: float
+    gain_margin_db: float
+    stable: bool
+    scenario: ScenarioPoint
+    mouse: MouseModel
+    #: the coordinates searched (payload, uncertain parameters, mouse parameters)
+    coordinates: tuple[str, ...]
+
+    @property
+    def holds(self) -> bool:
+        return self.slack >= 0
+
+
+@dataclass(frozen=True)
+class _Box:
+    """The searched coordinates: names, bounds and which are searched in log; the first is the payload, then the
+    ``n_uncertain`` uncertain parameters, then the mouse's fields."""
+
+    names: tuple[str, ...]
+    lo: np.ndarray
+    hi: np.ndarray
+    log: np.ndarray
+    n_uncertain: int
+
+    def _ends(self) -> tuple[np.ndarray, np.ndarray]:
+        lo, hi = self.lo.copy(), self.hi.copy()
+        lo[self.log], hi[self.log] = np.log(lo[self.log]), np.log(hi[self.log])
+        return lo, hi
+
+    def value(self, u: np.ndarray) -> np.ndarray:
+        """Rows of coordinates in [0, 1] to values."""
+        lo, hi = self._ends()
+        x = lo + u * (hi - lo)
+        x[..., self.log] = np.exp(x[..., self.log])
+        return x
+
+    def unit(self, x: np.ndarray) -> np.ndarray:
+        lo, hi = self._ends()
+        x = np.array(x, float)
+        x[..., self.log] = np.log(x[..., self.log])
+        span = np.where(hi > lo, hi - lo, 1.0)
+        return np.clip(np.where(hi > lo, (x - lo) / span, 0.0), 0.0, 1.0)
+
+    def point(self, x: np.ndarray) -> tuple[Scenarios, list[MouseModel]]:
+        """Rows of values to their scenarios and mice."""
+        x = np.atleast_2d(x)
+        names = self.names[1:1 + self.n_uncertain]
+        scenarios = Scenarios(x[:, 0].copy(), {n: x[:, 1 + i].copy() for i, n in enumerate(names)})
+        return scenarios, [MouseModel(*(float(v) for v in row)) for row in x[:, 1 + self.n_uncertain:]]
+
+    def row(self, scenarios: Scenarios, j: int, mouse: MouseModel) -> np.ndarray:
+        """The values of scenario ``j`` with ``mouse``."""
+        return np.array([scenarios.payload_kg[j], *(scenarios.parameters[n][j] for n in
+                                                    self.names[1:1 + self.n_uncertain]),
+                         *(getattr(mouse, f) for f in FIELDS)], float)
+
+
+def _box(problem: LoopProblem, grounded: bool) -> _Box:
+    mouse = admittance_problem(problem).mouse
+    rp = problem.plant.payload_kg
+    uncertain = uncertainty_ranges(problem)
+    ranges = [("payload_kg", rp.min, rp.max, False)] + [(n, lo, hi, False) for n, (lo, hi) in uncertain.items()]
+    for f in FIELDS:
+        r = getattr(mouse, f)
+        if f.startswith("leg_") and not grounded:
+            ranges.append((f, 0.0, 0.0, False))
+        else:
+            ranges.append((f, r.min, r.max, f == "leg_stiffness_n_per_m" and r.min > 0 and r.max > 10 * r.min))
+    names, lo, hi, log = zip(*ranges)
+    return _Box(names, np.array(lo, float), np.array(hi, float), np.array(log, bool), len(uncertain))
+
+
+def slack_of(pm, gm, stable, phase_margin_deg: float, gain_margin_db: float) -> np.ndarray:
+    """Per curve: the least relative margin over the two requirements, -1 where a loop is unstable."""
+    pm, gm = np.asarray(pm, float), np.asarray(gm, float)
+    s = np.minimum(np.where(np.isfinite(pm), (pm - phase_margin_deg) / max(phase_margin_deg, 1.0), np.inf),
+                   np.where(np.isfinite(gm), (gm - gain_margin_db) / max(gain_margin_db, 1.0), np.inf))
+    return np.where(np.asarray(stable, bool), s, -1.0)
+
+
+def _starts(check, slack: np.ndarray, grounded: bool, n: int) -> list[tuple[int, int]]:
+    """The ``n`` (mouse, scenario) pairs of least slack among the floating or the braced mice."""
+    rows = np.array([m.grounded == grounded for m in check.mice])
+    order = np.argsort(np.where(rows[:, None], slack, np.inf), axis=None)[:n]
+    return [tuple(int(i) for i in np.unravel_index(flat, slack.shape)) for flat in order]
+
+
+def search_between(problem: LoopProblem, check, *, loops, timing: RigTiming, starts: int = STARTS) -> BetweenCheck:
+    """``BetweenCheck`` of the design of ``check`` (an ``AdmittanceCheck`` on the dense scenarios and mice) under
+    the velocity ``loops`` at the rig ``timing`` (module docstring)."""
+    adm = admittance_problem(problem)
+    req = (adm.phase_margin_deg, adm.gain_margin_db)
+    m_v, b_v = check.m_v, check.b_v
+    grid = slack_of(np.nan_to_num(check.phase_margin_deg, nan=np.inf),
+                    np.nan_to_num(check.gain_margin_db, nan=np.inf), check.stable, *req)   # (n_mouse, n_scenario)
+    base_w = check_grid_for(timing)
+    kinds = [g for g in (False, True) if any(m.grounded == g for m in check.mice)]
+    evaluations, total_starts, best = 0, 0, None
+
+    def evaluate(box: _Box, u: np.ndarray):
+        nonlocal evaluations
+        evaluations += len(u)
+        scenarios, one = box.point(box.value(u))
+        w = with_mode_points(base_w, one, timing)
+        pm, gm, st = paired_margins(loops, scenarios, stack(one), w, timing, m_v, b_v)
+        return slack_of(pm, gm, st, *req), pm, gm, st
+
+    for grounded in kinds:
+        box = _box(problem, grounded)
+        picks = _starts(check, grid, grounded, max(1, starts // len(kinds)))
+        total_starts += len(picks)
+        u = box.unit(np.array([box.row(check.scenarios, j, check.mice[k]) for k, j in picks]))
+        free = np.flatnonzero(box.hi > box.lo)
+        f, pm, gm, st = evaluate(box, u)
+        step = np.full(len(u), 0.25)
+        for _ in range(MAX_STEPS):
+            trials = [(a, i, sign) for a in np.flatnonzero(step >= STEP_TOL) for i in free for sign in (1.0, -1.0)]
+            points = np.array([u[a] for a, _, _ in trials]).reshape(-1, u.shape[1])
+            for r, (a, i, sign) in enumerate(trials):
+                points[r, i] = min(1.0, max(0.0, points[r, i] + sign * step[a]))
+            if not trials:
+                break
+            ft, pt, gt, stt = evaluate(box, points)
+            for a in {a for a, _, _ in trials}:
+                mine = [r for r, t in enumerate(trials) if t[0] == a]
+                r = min(mine, key=lambda r: ft[r])
+                if ft[r] < f[a] - 1e-12:
+                    u[a], f[a], pm[a], gm[a], st[a] = points[r], ft[r], pt[r], gt[r], stt[r]
+                else:
+                    step[a] /= 2
+        i = int(np.argmin(f))
+        if best is None or f[i] < best[0]:
+            scenarios, one = box.point(box.value(u[i]))
+            best = (float(f[i]), float(pm[i]), float(gm[i]), bool(st[i]), scenarios.row(0), one[0], box.names)
+    slack, pm, gm, stable, scenario, mouse, names = best
+    return BetweenCheck(total_starts, evaluations, float(np.min(grid)), slack, pm, gm, stable, scenario, mouse, names)
+
+
+#: rounds of search and scale-up (``hold_between``) at most
+ROUNDS = 3
+
+
+@dataclass(frozen=True)
+class HeldBetween:
+    """A design made to hold between the check's points: (m_v, b_v), its dense check, the last search (which holds
+    unless ``ROUNDS`` did not suffice), the first search's failing point when there was one, and the factor the
+    design was scaled up its ray by (1: not at all)."""
+
+    x: np.ndarray
+    check: object
+    search: BetweenCheck
+    failed: BetweenCheck | None
+    scale: float
+    rounds: int
+
+
+def _search(problem, check, loops, timing: RigTiming) -> tuple[BetweenCheck, RigTiming]:
+    """The least slack over the rig's computation delays, and the delay's timing where it lies."""
+    runs = [(search_between(problem, check, loops=loops, timing=t), t) for t in timing.per_delay()]
+    return min(runs, key=lambda r: r[0].slack)
+
+
+def _needed_b_v(problem, found: BetweenCheck, *, loops, timing: RigTiming, tau_s: float) -> float:
+    """The least b_v on the ray m_v / b_v = ``tau_s`` that holds the margins at the search's point (its ray bound,
+    ``design.admittance.bounds.curve_bounds``, on the check grid with the point's mouse modes)."""
+    adm = admittance_problem(problem)
+    scenario = Scenarios(np.array([found.scenario.payload_kg]),
+                         {n: np.array([v]) for n, v in found.scenario.parameters})
+    mouse = stack([found.mouse])
+    w = with_mode_points(check_grid_for(timing), [found.mouse], timing)
+    gain = coupled_gain(loops, scenario, mouse, w, timing, paired=True)
+    bound = curve_bounds(*polar(gain), timing.impedance(w, tau_s, 1.0), adm.phase_margin_deg,
+                         10 ** (adm.gain_margin_db / 20), timing.sampled)
+    return float(bound[0])
+
+
+def hold_between(problem: LoopProblem, dense, x: np.ndarray, check, *, loops, timing: RigTiming) -> HeldBetween:
+    """Search between the dense check's points (``search_between``, at every computation delay); where a point
+    fails, scale (m_v, b_v) up its ray to that point's bound (the margins of every curve that held hold above
+    it too), check the dense set again (``dense.evaluate``) and search again, at most ``ROUNDS`` times."""
+    x = np.asarray(x, float)
+    scale, failed = 1.0, None
+    for n in range(1, ROUNDS + 1):
+        found, t = _search(problem, check, loops, timing)
+        if found.holds or n == ROUNDS:
+            return HeldBetween(x, check, found, failed, scale, n)
+        failed = failed or found
+        need = _needed_b_v(problem, found, loops=loops, timing=t, tau_s=x[0] / x[1])
+        s = max(need / x[1], 1.0 + 1e-4)
+        x, scale = x * s, scale * s
+        check = dense.evaluate(*x, recorded=True)
+    raise AssertionError("unreachable")

@@ -110,8 +110,10 @@ def add_admittance_section(report: Report, problem: LoopProblem, outcome: Design
                       "force the mouse feels on the profile (nominal parameters).")
         report.raw(table(["payload (kg)", "status", "Kp (A/(m/s))", "Ki (A/m)", "m_v (kg)", "b_v (N·s/m)",
                           "force felt (N)", "robust design's (N)"],
-                         [[f"{p.payload_kg:g}", p.status, f"{p.controller.kp:.4g}", f"{p.controller.ki:.4g}",
-                           f"{p.m_v:.4g}", f"{p.b_v:.4g}",
+                         [[f"{p.payload_kg:g}", p.status + (f" (the robust design kept: the payload's own asked "
+                                                            f"{num(p.own_force_felt_n, '.3g')} N)"
+                                                            if p.kept_robust else ""),
+                           f"{p.controller.kp:.4g}", f"{p.controller.ki:.4g}", f"{p.m_v:.4g}", f"{p.b_v:.4g}",
                            num(p.force_felt_n, ".3g"), f"{p.robust_force_felt_n:.3g}"] for p in pts]))
     if r.discrete is not None:
         d = r.discrete

@@ -357,8 +357,10 @@ def _print_admittance(console: Console, adm: dict) -> None:
                           "(the latency figures at the largest)", soft_wrap=True)
     console.print(f"  {adm['message']}; solver {adm['solver']['seconds']:.1f} s", soft_wrap=True)
     if adm.get("schedule"):
-        rows = [[f"{p['payload_kg']:g}", p["status"], f"{p['kp']:.4g}", f"{p['ki']:.4g}", f"{p['m_v']:.4g}",
-                 f"{p['b_v']:.4g}", _num(p["force_felt_n"], ".3g"), f"{p['robust_force_felt_n']:.3g}"]
+        rows = [[f"{p['payload_kg']:g}", p["status"] + (f" (robust kept; own {_num(p['own_force_felt_n'], '.3g')} N)"
+                                                        if p.get("kept_robust") else ""),
+                 f"{p['kp']:.4g}", f"{p['ki']:.4g}", f"{p['m_v']:.4g}", f"{p['b_v']:.4g}",
+                 _num(p["force_felt_n"], ".3g"), f"{p['robust_force_felt_n']:.3g}"]
                 for p in adm["schedule"]]
         t = Table(title="Admittance scheduled over payload (each payload designed alone) beside the robust design")
         for col in ("payload kg", "status", "Kp", "Ki", "m_v kg", "b_v N*s/m", "force felt N", "robust design's N"):

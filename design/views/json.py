@@ -811,7 +811,8 @@ def design_to_dict(outcome: DesignOutcome) -> dict:
             if outcome.admittance_schedule is not None:
                 adm["schedule"] = [{"payload_kg": p.payload_kg, "status": p.status, **p.controller.gains(),
                                     "m_v": p.m_v, "b_v": p.b_v, "force_felt_n": finite_or_none(p.force_felt_n),
-                                    "robust_force_felt_n": p.robust_force_felt_n,
+                                    "robust_force_felt_n": p.robust_force_felt_n, "kept_robust": p.kept_robust,
+                                    "own_force_felt_n": finite_or_none(p.own_force_felt_n),
                                     "peak_resistance_n": p.peak_resistance_n}
                                    for p in outcome.admittance_schedule]
             out = {**out, "admittance": adm, "gains": {**out["gains"], "m_v": adm["m_v"], "b_v": adm["b_v"]},

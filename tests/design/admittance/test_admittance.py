@@ -600,6 +600,24 @@ def test_admittance_scheduled_over_payload_never_asks_more_than_the_robust_desig
     assert max(p["robust_force_felt_n"] for p in points) == pytest.approx(adm["mouse"]["force_felt_peak_n"], rel=0.05)
 
 
+@pytest.mark.slow
+def test_a_co_designed_schedule_keeps_the_robust_design_where_the_payloads_own_asks_more(tmp_path):
+    # the bundled spec at three payloads: at 22.5 kg the payload's own co-design picks gains (Kp 437, Ki 357) whose
+    # virtual dynamics the recorded force then scales up, 1.30 N where the robust design, verified over the whole
+    # range and so at this payload, asks 1.11 N; the schedule keeps the robust design there and says so
+    spec = tmp_path / "three.toml"
+    text = SPEC.read_text().replace("points = 8, nominal = 35.0", "points = 3, nominal = 35.0")
+    spec.write_text(text.replace('"../examples/data/', f'"{ROOT.as_posix()}/examples/data/'))
+    out = gantry("synth", str(spec), "--schedule", "--json")
+    assert out.returncode in (0, 3), out.stderr
+    adm = json.loads(out.stdout)["admittance"]
+    for p in adm["schedule"]:
+        assert p["force_felt_n"] <= p["robust_force_felt_n"] * (1 + 1e-9), p
+        if p["kept_robust"]:
+            assert p["own_force_felt_n"] is None or p["own_force_felt_n"] > p["robust_force_felt_n"]
+            assert (p["m_v"], p["b_v"], p["kp"]) == (adm["m_v"], adm["b_v"], adm["kp"])
+
+
 def test_a_tustin_law_is_designed_verified_and_exported_with_its_rule():
     # the bundled rig's 100 Hz law by Tustin's rule on the small spec: a verified design (python-control on the
     # rational model with the law Y_v = (beta z + beta_prev) / (z - alpha)), its difference equation exported

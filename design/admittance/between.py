@@ -19,6 +19,7 @@ loop is unstable (as ``design.synth.dual_worst``).
 
 from __future__ import annotations
 
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 
 import numpy as np
@@ -29,7 +30,7 @@ from design.admittance.mouse import FIELDS, MouseModel, stack
 from design.admittance.rig import RigTiming
 from design.loop.requirement import ScenarioPoint
 from design.problem import LoopProblem
-from design.synth.scenarios import Scenarios, uncertainty_ranges
+from design.synth.scenarios import Scenarios, describe_row, uncertainty_ranges
 
 #: curves of least slack on the check the search starts from
 STARTS = 4
@@ -54,8 +55,10 @@ class BetweenCheck:
     stable: bool
     scenario: ScenarioPoint
     mouse: MouseModel
-    #: the coordinates searched (payload, uncertain parameters, mouse parameters)
+    #: the coordinates searched (carriage position for two motors, payload, uncertain parameters, the mouse's) and
+    #: their values at the point found
     coordinates: tuple[str, ...]
+    values: tuple[float, ...]
 
     @property
     def holds(self) -> bool:
@@ -63,15 +66,18 @@ class BetweenCheck:
 
 
 @dataclass(frozen=True)
-class _Box:
-    """The searched coordinates: names, bounds and which are searched in log; the first is the payload, then the
-    ``n_uncertain`` uncertain parameters, then the mouse's fields."""
+class SearchBox:
+    """The searched coordinates of the floating or of the braced mice: names, bounds and which are searched in log;
+    the first ``n_scenario`` make a scenario (``make``: rows of their values to a scenario set; ``read``: scenario
+    ``j`` of a set to its values), the rest are the mouse's fields (``design.admittance.mouse.FIELDS``)."""
 
     names: tuple[str, ...]
     lo: np.ndarray
     hi: np.ndarray
     log: np.ndarray
-    n_uncertain: int
+    n_scenario: int
+    make: Callable[[np.ndarray], object]
+    read: Callable[[object, int], list[float]]
 
     def _ends(self) -> tuple[np.ndarray, np.ndarray]:
         lo, hi = self.lo.copy(), self.hi.copy()
@@ -92,33 +98,69 @@ class _Box:
         span = np.where(hi > lo, hi - lo, 1.0)
         return np.clip(np.where(hi > lo, (x - lo) / span, 0.0), 0.0, 1.0)
 
-    def point(self, x: np.ndarray) -> tuple[Scenarios, list[MouseModel]]:
+    def point(self, x: np.ndarray) -> tuple[object, list[MouseModel]]:
         """Rows of values to their scenarios and mice."""
         x = np.atleast_2d(x)
-        names = self.names[1:1 + self.n_uncertain]
-        scenarios = Scenarios(x[:, 0].copy(), {n: x[:, 1 + i].copy() for i, n in enumerate(names)})
-        return scenarios, [MouseModel(*(float(v) for v in row)) for row in x[:, 1 + self.n_uncertain:]]
+        return self.make(x[:, :self.n_scenario]), [MouseModel(*(float(v) for v in r)) for r in x[:, self.n_scenario:]]
 
-    def row(self, scenarios: Scenarios, j: int, mouse: MouseModel) -> np.ndarray:
-        """The values of scenario ``j`` with ``mouse``."""
-        return np.array([scenarios.payload_kg[j], *(scenarios.parameters[n][j] for n in
-                                                    self.names[1:1 + self.n_uncertain]),
-                         *(getattr(mouse, f) for f in FIELDS)], float)
+    def row(self, scenarios, j: int, mouse: MouseModel) -> np.ndarray:
+        """The values of scenario ``j`` of ``scenarios`` with ``mouse``."""
+        return np.array([*self.read(scenarios, j), *(getattr(mouse, f) for f in FIELDS)], float)
 
 
-def _box(problem: LoopProblem, grounded: bool) -> _Box:
+def _mouse_ranges(problem: LoopProblem, grounded: bool) -> list[tuple[str, float, float, bool]]:
     mouse = admittance_problem(problem).mouse
-    rp = problem.plant.payload_kg
-    uncertain = uncertainty_ranges(problem)
-    ranges = [("payload_kg", rp.min, rp.max, False)] + [(n, lo, hi, False) for n, (lo, hi) in uncertain.items()]
+    out = []
     for f in FIELDS:
         r = getattr(mouse, f)
         if f.startswith("leg_") and not grounded:
-            ranges.append((f, 0.0, 0.0, False))
+            out.append((f, 0.0, 0.0, False))                # a floating mouse keeps its feet off the ground
         else:
-            ranges.append((f, r.min, r.max, f == "leg_stiffness_n_per_m" and r.min > 0 and r.max > 10 * r.min))
+            out.append((f, r.min, r.max, f == "leg_stiffness_n_per_m" and r.min > 0 and r.max > 10 * r.min))
+    return out
+
+
+def _search_box(ranges, n_scenario: int, make, read) -> SearchBox:
     names, lo, hi, log = zip(*ranges)
-    return _Box(names, np.array(lo, float), np.array(hi, float), np.array(log, bool), len(uncertain))
+    return SearchBox(names, np.array(lo, float), np.array(hi, float), np.array(log, bool), n_scenario, make, read)
+
+
+def one_motor_space(problem: LoopProblem) -> Callable[[bool], SearchBox]:
+    """The box of the one-motor design: payload x ``plant.uncertainty`` x the mouse (floating or braced)."""
+    rp = problem.plant.payload_kg
+    uncertain = uncertainty_ranges(problem)
+    names = tuple(uncertain)
+    scenario = [("payload_kg", rp.min, rp.max, False)] + [(n, lo, hi, False) for n, (lo, hi) in uncertain.items()]
+
+    def make(x):
+        return Scenarios(x[:, 0].copy(), {n: x[:, 1 + i].copy() for i, n in enumerate(names)})
+
+    def read(sc, j):
+        return [sc.payload_kg[j], *(sc.parameters[n][j] for n in names)]
+
+    return lambda grounded: _search_box(scenario + _mouse_ranges(problem, grounded), len(scenario), make, read)
+
+
+def two_motor_space(problem: LoopProblem, model, travel_m: tuple[float, float], stage_x_mass_kg: float,
+                    ranges: Mapping[str, tuple[float, float]]) -> Callable[[bool], SearchBox]:
+    """The box of the two-motor Stage Y design: carriage position over ``travel_m`` x payload x ``ranges`` x the
+    mouse (``design.synth.dual.DualScenarios`` of ``model``, the carriage ``stage_x_mass_kg`` plus the payload)."""
+    from design.synth.dual import DualScenarios
+
+    rp = problem.plant.payload_kg
+    names = tuple(ranges)
+    scenario = ([("carriage_position_m", travel_m[0], travel_m[1], False), ("payload_kg", rp.min, rp.max, False)]
+                + [(n, lo, hi, False) for n, (lo, hi) in ranges.items()])
+
+    def make(x):
+        return DualScenarios(model, x[:, 0].copy(), stage_x_mass_kg + x[:, 1], {n: x[:, 2 + i].copy()
+                                                                                 for i, n in enumerate(names)},
+                             stage_x_mass_kg)
+
+    def read(sc, j):
+        return [sc.carriage_position_m[j], sc.payload_kg[j], *(sc.parameters[n][j] for n in names)]
+
+    return lambda grounded: _search_box(scenario + _mouse_ranges(problem, grounded), len(scenario), make, read)
 
 
 def slack_of(pm, gm, stable, phase_margin_deg: float, gain_margin_db: float) -> np.ndarray:
@@ -136,9 +178,12 @@ def _starts(check, slack: np.ndarray, grounded: bool, n: int) -> list[tuple[int,
     return [tuple(int(i) for i in np.unravel_index(flat, slack.shape)) for flat in order]
 
 
-def search_between(problem: LoopProblem, check, *, loops, timing: RigTiming, starts: int = STARTS) -> BetweenCheck:
+def search_between(problem: LoopProblem, check, *, loops, timing: RigTiming, space=None,
+                   starts: int = STARTS) -> BetweenCheck:
     """``BetweenCheck`` of the design of ``check`` (an ``AdmittanceCheck`` on the dense scenarios and mice) under
-    the velocity ``loops`` at the rig ``timing`` (module docstring)."""
+    the velocity ``loops`` at the rig ``timing`` (module docstring), over ``space(grounded)`` (default
+    ``one_motor_space``)."""
+    space = space or one_motor_space(problem)
     adm = admittance_problem(problem)
     req = (adm.phase_margin_deg, adm.gain_margin_db)
     m_v, b_v = check.m_v, check.b_v
@@ -148,7 +193,7 @@ def search_between(problem: LoopProblem, check, *, loops, timing: RigTiming, sta
     kinds = [g for g in (False, True) if any(m.grounded == g for m in check.mice)]
     evaluations, total_starts, best = 0, 0, None
 
-    def evaluate(box: _Box, u: np.ndarray):
+    def evaluate(box: SearchBox, u: np.ndarray):
         nonlocal evaluations
         evaluations += len(u)
         scenarios, one = box.point(box.value(u))
@@ -157,7 +202,7 @@ def search_between(problem: LoopProblem, check, *, loops, timing: RigTiming, sta
         return slack_of(pm, gm, st, *req), pm, gm, st
 
     for grounded in kinds:
-        box = _box(problem, grounded)
+        box = space(grounded)
         picks = _starts(check, grid, grounded, max(1, starts // len(kinds)))
         total_starts += len(picks)
         u = box.unit(np.array([box.row(check.scenarios, j, check.mice[k]) for k, j in picks]))
@@ -182,9 +227,11 @@ def search_between(problem: LoopProblem, check, *, loops, timing: RigTiming, sta
         i = int(np.argmin(f))
         if best is None or f[i] < best[0]:
             scenarios, one = box.point(box.value(u[i]))
-            best = (float(f[i]), float(pm[i]), float(gm[i]), bool(st[i]), scenarios.row(0), one[0], box.names)
-    slack, pm, gm, stable, scenario, mouse, names = best
-    return BetweenCheck(total_starts, evaluations, float(np.min(grid)), slack, pm, gm, stable, scenario, mouse, names)
+            best = (float(f[i]), float(pm[i]), float(gm[i]), bool(st[i]), scenarios.row(0), one[0], box.names,
+                    tuple(float(v) for v in box.value(u[i])))
+    slack, pm, gm, stable, scenario, mouse, names, values = best
+    return BetweenCheck(total_starts, evaluations, float(np.min(grid)), slack, pm, gm, stable, scenario, mouse, names,
+                        values)
 
 
 #: rounds of search and scale-up (``hold_between``) at most
@@ -205,39 +252,61 @@ class HeldBetween:
     rounds: int
 
 
-def _search(problem, check, loops, timing: RigTiming) -> tuple[BetweenCheck, RigTiming]:
+def _search(problem, check, loops, timing: RigTiming, space) -> tuple[BetweenCheck, RigTiming]:
     """The least slack over the rig's computation delays, and the delay's timing where it lies."""
-    runs = [(search_between(problem, check, loops=loops, timing=t), t) for t in timing.per_delay()]
+    runs = [(search_between(problem, check, loops=loops, timing=t, space=space), t) for t in timing.per_delay()]
     return min(runs, key=lambda r: r[0].slack)
 
 
-def _needed_b_v(problem, found: BetweenCheck, *, loops, timing: RigTiming, tau_s: float) -> float:
+def _needed_b_v(problem, found: BetweenCheck, box: SearchBox, *, loops, timing: RigTiming, tau_s: float) -> float:
     """The least b_v on the ray m_v / b_v = ``tau_s`` that holds the margins at the search's point (its ray bound,
     ``design.admittance.bounds.curve_bounds``, on the check grid with the point's mouse modes)."""
     adm = admittance_problem(problem)
-    scenario = Scenarios(np.array([found.scenario.payload_kg]),
-                         {n: np.array([v]) for n, v in found.scenario.parameters})
-    mouse = stack([found.mouse])
-    w = with_mode_points(check_grid_for(timing), [found.mouse], timing)
-    gain = coupled_gain(loops, scenario, mouse, w, timing, paired=True)
+    scenario, one = box.point(np.array(found.values))
+    w = with_mode_points(check_grid_for(timing), one, timing)
+    gain = coupled_gain(loops, scenario, stack(one), w, timing, paired=True)
     bound = curve_bounds(*polar(gain), timing.impedance(w, tau_s, 1.0), adm.phase_margin_deg,
                          10 ** (adm.gain_margin_db / 20), timing.sampled)
     return float(bound[0])
 
 
-def hold_between(problem: LoopProblem, dense, x: np.ndarray, check, *, loops, timing: RigTiming) -> HeldBetween:
-    """Search between the dense check's points (``search_between``, at every computation delay); where a point
-    fails, scale (m_v, b_v) up its ray to that point's bound (the margins of every curve that held hold above
-    it too), check the dense set again (``dense.evaluate``) and search again, at most ``ROUNDS`` times."""
+def hold_between(problem: LoopProblem, dense, x: np.ndarray, check, *, loops, timing: RigTiming,
+                 space=None) -> HeldBetween:
+    """Search between the dense check's points (``search_between`` over ``space``, default ``one_motor_space``, at
+    every computation delay); where a point fails, scale (m_v, b_v) up its ray to that point's bound (the margins
+    of every curve that held hold above it too), check the dense set again (``dense.evaluate``) and search again,
+    at most ``ROUNDS`` times."""
+    space = space or one_motor_space(problem)
     x = np.asarray(x, float)
     scale, failed = 1.0, None
     for n in range(1, ROUNDS + 1):
-        found, t = _search(problem, check, loops, timing)
+        found, t = _search(problem, check, loops, timing, space)
         if found.holds or n == ROUNDS:
             return HeldBetween(x, check, found, failed, scale, n)
         failed = failed or found
-        need = _needed_b_v(problem, found, loops=loops, timing=t, tau_s=x[0] / x[1])
+        need = _needed_b_v(problem, found, space(found.mouse.grounded), loops=loops, timing=t, tau_s=x[0] / x[1])
         s = max(need / x[1], 1.0 + 1e-4)
         x, scale = x * s, scale * s
         check = dense.evaluate(*x, recorded=True)
     raise AssertionError("unreachable")
+
+
+def _over(search: BetweenCheck) -> str:
+    return ("carriage position, payload, uncertainty and mouse" if search.coordinates[0] == "carriage_position_m"
+            else "payload, uncertainty and mouse")
+
+
+def between_text(held: HeldBetween | None) -> str:
+    """What the search covered and found, for a verdict's "verified on ..." ("" without a search)."""
+    if held is None:
+        return ""
+    s = held.search
+    return (f" and between the dense check's points (a compass search from {s.starts} starts over {_over(s)}, "
+            f"{s.evaluations} points; least slack at PM {s.phase_margin_deg:.2f} deg, GM {s.gain_margin_db:.2f} dB)")
+
+
+def between_failure(search: BetweenCheck) -> str:
+    """A failing point of the search, in words."""
+    return (f"between the check's points PM {search.phase_margin_deg:.2f} deg, GM {search.gain_margin_db:.2f} dB"
+            f"{'' if search.stable else ', unstable'} at {describe_row(search.scenario)} with mouse "
+            f"({search.mouse.label()})")

@@ -34,6 +34,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from design.admittance.between import HeldBetween, between_failure, between_text, two_motor_space
 from design.admittance.delays import WorstFelt, evaluator
 from design.admittance.feel import MouseFeel, mouse_feel
 from design.admittance.latency import LatencyCheck, latency_check
@@ -169,6 +170,8 @@ class DualAdmittanceResult:
     discrete: DiscreteAdmittance | None = None
     #: the latency the design tolerates and its margins with one more sample (``design.admittance.latency``)
     latency: LatencyCheck | None = None
+    #: the search between the dense check's points (``design.admittance.between``) and the scale-up it asked for
+    between: HeldBetween | None = None
 
     @property
     def gains(self) -> dict[str, float]:
@@ -228,7 +231,8 @@ def synthesise_dual_admittance(problem: LoopProblem, *, structure: str, controll
     rounds = design_rounds(problem, scenarios, loops=loops, dense=dense, felt=felt, w_design=w_design, timing=timing,
                            corners=corners, say=say, dtype=np.complex64, draws_label="carriage position, payload",
                            draws=lambda k: monte_carlo_scenarios(model, (lo, hi), masses, ranges, samples, seed + k,
-                                                                 stage_x_mass_kg))
+                                                                 stage_x_mass_kg),
+                           between=two_motor_space(problem, model, (lo, hi), stage_x_mass_kg, ranges))
     ray, x, check, mc = rounds.ray, rounds.x, rounds.check, rounds.monte_carlo
     if not ray.feasible:
         return _infeasible(problem, ray, structure, controller, dense, dense_set, corners, timing, len(scenarios), t0)
@@ -242,16 +246,19 @@ def synthesise_dual_admittance(problem: LoopProblem, *, structure: str, controll
                             m_v=x[0], b_v=x[1])
     loc = adm.locomotion
     r = float(x[0] * loc.peak_acceleration_m_per_s2 + x[1] * loc.peak_speed_m_per_s)
+    held = rounds.between
+    failures = [v.detail for v in check.violations[:3]]
+    if held is not None and not held.search.holds:
+        failures.insert(0, between_failure(held.search))
     status, msg = admittance_verdict(
-        adm, failures=None if check.meets else "the dense check fails: " + "; ".join(
-            v.detail for v in check.violations[:3]),
-        held_on=f"the {structure} loops, {len(dense_set)} plants x {len(corners)} mice",
+        adm, failures="the dense check fails: " + "; ".join(failures[:3]) if failures else None,
+        held_on=f"the {structure} loops, {len(dense_set)} plants x {len(corners)} mice{between_text(held)}",
         draws_over="carriage position, payload, uncertainty", monte_carlo=mc, feel=feel, binding=binding,
         m_v=x[0], b_v=x[1], hint=HINT)
     return DualAdmittanceResult(
         status, msg, structure, controller, float(x[0]), float(x[1]), r, check, mc, feel, binding,
         by_position(check, dense_set), corners, timing, len(rounds.scenarios), time.perf_counter() - t0,
-        DiscreteAdmittance.of_timing(float(x[0]), float(x[1]), timing) if timing.sampled else None, latency)
+        DiscreteAdmittance.of_timing(float(x[0]), float(x[1]), timing) if timing.sampled else None, latency, held)
 
 
 def _infeasible(problem, ray, structure, controller, dense, dense_set, corners, timing, n_design,

@@ -41,7 +41,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from design.admittance.between import HeldBetween, hold_between
+from design.admittance.between import HeldBetween, between_failure, between_text, hold_between, one_motor_space
 from design.admittance.bounds import curve_bounds
 from design.admittance.codesign import codesign
 from design.admittance.contact import ContactLimit, stiffest_contact
@@ -240,7 +240,7 @@ def synthesise_admittance(problem: LoopProblem, *, controller: PI | None = None,
     dense = evaluator(problem, admittance_check_scenarios(problem), loops=loops, timing=timing, corners=corners)
     scenarios = design_scenarios(problem)
     rounds = design_rounds(problem, scenarios, loops=loops, dense=dense, felt=felt, w_design=w_design, timing=timing,
-                           corners=corners, say=say, between=True)
+                           corners=corners, say=say, between=one_motor_space(problem))
     rp, ray, x, check, mc = rounds.rp, rounds.ray, rounds.x, rounds.check, rounds.monte_carlo
     if not ray.feasible:
         return _infeasible(problem, ray, rp, rounds.rp_scenarios, controller, timing, corners, t0, record)
@@ -265,13 +265,10 @@ def synthesise_admittance(problem: LoopProblem, *, controller: PI | None = None,
     held = rounds.between
     failures = list(verification.failures[:3])
     if held is not None and not held.search.holds:
-        s = held.search
-        failures.insert(0, f"between the check's points PM {s.phase_margin_deg:.2f} deg, GM {s.gain_margin_db:.2f} dB"
-                           f"{'' if s.stable else ', unstable'} at {describe_row(s.scenario)} with mouse "
-                           f"({s.mouse.label()})")
+        failures.insert(0, between_failure(held.search))
     status, msg = admittance_verdict(
         adm, failures="NOT verified: " + "; ".join(failures[:3]) if failures else None,
-        held_on=f"{len(scenarios)} design scenarios x {len(corners)} mice{span}{_between_text(held)}",
+        held_on=f"{len(scenarios)} design scenarios x {len(corners)} mice{span}{between_text(held)}",
         draws_over="payload, uncertainty",
         monte_carlo=mc, feel=feel, binding=binding, m_v=x[0], b_v=x[1],
         hint=_HINTS.get(_HINT_OF.get(binding.constraint, binding.constraint), ""))
@@ -324,15 +321,6 @@ class Rounds:
                        "the ray until it holds")
 
 
-def _between_text(held: HeldBetween | None) -> str:
-    if held is None:
-        return ""
-    s = held.search
-    return (f" and between the dense check's points (a compass search from {s.starts} starts over payload, "
-            f"uncertainty and mouse, {s.evaluations} points; least slack at PM {s.phase_margin_deg:.2f} deg, GM "
-            f"{s.gain_margin_db:.2f} dB)")
-
-
 def between_binding(problem: LoopProblem, held: HeldBetween) -> Binding[MouseModel]:
     """The margin that failed between the dense check's points, at the ray's design, and the scale-up that cured
     it (``design.admittance.between.hold_between``)."""
@@ -355,13 +343,14 @@ def between_binding(problem: LoopProblem, held: HeldBetween) -> Binding[MouseMod
 
 def design_rounds(problem: LoopProblem, scenarios, *, loops, dense, felt, w_design,
                   timing: RigTiming, corners, say, draws=None, dtype=complex, draws_label: str = "payload",
-                  between: bool = False) -> Rounds:
+                  between=None) -> Rounds:
     """Rays on ``scenarios`` x ``corners`` (the force ``felt`` their objective), the ``dense`` check adding its worst
     violator (at most ``MAX_ROUNDS`` rays), the back-off when it still fails, with ``between`` the search between the
-    dense check's points (``design.admittance.between.hold_between``, scaling the design up its ray where a point
-    fails), then the Monte Carlo (``draws(k)``: the scenario draws of round k, default the problem's payload x
-    uncertainty draws) adding its worst violator (at most ``MONTE_CARLO_ROUNDS`` times). ``dtype``: the rays'
-    responses (``interaction_responses``)."""
+    dense check's points over the box ``between(grounded)`` (``design.admittance.between``: ``one_motor_space``,
+    ``two_motor_space``; ``hold_between`` scales the design up its ray where a point fails), then the Monte Carlo
+    (``draws(k)``: the scenario draws of round k, default the problem's payload x uncertainty draws) adding its
+    worst violator (at most ``MONTE_CARLO_ROUNDS`` times). ``dtype``: the rays' responses
+    (``interaction_responses``)."""
     adm = admittance_problem(problem)
     seed = problem.verification.seed
     n, backed_off = 0, None
@@ -390,9 +379,9 @@ def design_rounds(problem: LoopProblem, scenarios, *, loops, dense, felt, w_desi
             backed_off = min(check.violations, key=relative_slack)
             x, check = back_off(dense, x, adm)
         held = None
-        if between:
+        if between is not None:
             say("search between the check's points (payload, uncertainty, mouse)")
-            held = hold_between(problem, dense, x, check, loops=loops, timing=timing)
+            held = hold_between(problem, dense, x, check, loops=loops, timing=timing, space=between)
             x, check = held.x, held.check
         say(f"Monte Carlo over {draws_label}, uncertainty and mouse")
         drawn = None if draws is None else draws(mc_round)

@@ -330,8 +330,9 @@ def _print_admittance(console: Console, adm: dict) -> None:
                  f"; at the ray's design it found PM {_num(failed['phase_margin_deg'], '.2f')} deg, GM "
                  f"{_num(failed['gain_margin_db'], '.2f')} dB there, and (m_v, b_v) went up the ray by "
                  f"{100 * (between['scale_up'] - 1):.2f} %")
+        over = ("carriage position, payload" if between["coordinates"][0] == "carriage_position_m" else "payload")
         console.print(f"  between the check's points ({between['evaluations']} points searched from "
-                      f"{between['starts']} starts over payload, uncertainty and mouse): least PM "
+                      f"{between['starts']} starts over {over}, uncertainty and mouse): least PM "
                       f"{_num(between['phase_margin_deg'], '.2f')} deg, GM {_num(between['gain_margin_db'], '.2f')} dB "
                       f"({'holds' if between['holds'] else 'FAILS'}){cured}", soft_wrap=True)
     lat = adm.get("latency")

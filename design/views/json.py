@@ -559,7 +559,7 @@ def between_check_to_dict(b: BetweenCheck) -> dict:
     return {"starts": b.starts, "evaluations": b.evaluations, "grid_slack": finite_or_none(b.grid_slack),
             "slack": finite_or_none(b.slack), "holds": b.holds, "phase_margin_deg": finite_or_none(b.phase_margin_deg),
             "gain_margin_db": finite_or_none(b.gain_margin_db), "stable": b.stable, "scenario": b.scenario.as_dict(),
-            "mouse": b.mouse.as_dict(), "coordinates": list(b.coordinates)}
+            "mouse": b.mouse.as_dict(), "coordinates": list(b.coordinates), "values": list(b.values)}
 
 
 def held_between_to_dict(held: HeldBetween) -> dict:
@@ -568,9 +568,9 @@ def held_between_to_dict(held: HeldBetween) -> dict:
     return {**between_check_to_dict(held.search), "rounds": held.rounds, "scale_up": held.scale,
             "failed_at_ray_design": None if held.failed is None else between_check_to_dict(held.failed),
             "method": "compass search from the dense check's curves of least margin slack (floating and braced "
-                      "mice), over the payload, each plant.uncertainty range and each admittance.mouse range at once "
-                      "(leg stiffness in log), to 1/512 of each range; margins of the exactly sampled loop; slack "
-                      "= least relative margin, -1 unstable"}
+                      "mice) over every coordinate listed (the declared ranges: carriage travel, payload, "
+                      "plant.uncertainty, admittance.mouse; leg stiffness in log) at once, to 1/512 of each range; "
+                      "margins of the exactly sampled loop; slack = least relative margin, -1 unstable"}
 
 
 def latency_to_dict(lat) -> dict:
@@ -749,6 +749,7 @@ def dual_admittance_to_dict(result: DualAdmittanceResult, problem: LoopProblem) 
         **_admittance_setting(admittance_problem(problem), result.timing, result.discrete),
         "evaluated_at": {"m_v": result.m_v, "b_v": result.b_v},
         **({"latency": latency_to_dict(result.latency)} if result.latency is not None else {}),
+        "between_grid": None if result.between is None else held_between_to_dict(result.between),
         "mice": [m.as_dict() for m in result.corners],
         "check_scenarios": len(c.scenarios), "design_scenarios": result.design_scenarios,
         "violations": [v.detail for v in c.violations],

@@ -6,7 +6,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from design.admittance.between import _box, slack_of
+from design.admittance.between import one_motor_space, slack_of
 from design.spec.schema import load_spec
 
 SPEC = Path(__file__).resolve().parents[3] / "specs" / "stage_x_admittance.toml"
@@ -15,8 +15,8 @@ SPEC = Path(__file__).resolve().parents[3] / "specs" / "stage_x_admittance.toml"
 @pytest.mark.parametrize("grounded", [False, True])
 def test_the_box_maps_the_declared_ranges_onto_the_unit_cube_and_back(grounded):
     problem = load_spec(SPEC).problem()
-    box = _box(problem, grounded)
-    assert box.names[0] == "payload_kg" and box.names[1:1 + box.n_uncertain] == tuple(sorted(problem.plant.uncertainty))
+    box = one_motor_space(problem)(grounded)
+    assert box.names[0] == "payload_kg" and box.names[1:box.n_scenario] == tuple(sorted(problem.plant.uncertainty))
     assert box.lo[0] == 5.0 and box.hi[0] == 40.0
     legs = [box.names.index("leg_stiffness_n_per_m"), box.names.index("leg_damping_n_s_per_m")]
     if grounded:

@@ -149,6 +149,21 @@ def test_bundled_stage_y_admittance_spec_holds_on_newtons_model(tmp_path):
             pm, gm = adm_ref.margins_from_response(w, adm_ref.response(loop, np.exp(1j * w * timing.period_s)))
             assert adm_ref.closed_loop_stable(loop, discrete=True)
             assert pm >= a.phase_margin_deg - 0.1 and gm >= a.gain_margin_db - 0.05
+    # the search between the dense check's points (carriage position x payload x uncertainty x mouse): its least
+    # point holds, and Newton's model gives the margins it reports there
+    b = adm["between_grid"]
+    x = dict(zip(b["coordinates"], b["values"]))
+    assert b["holds"] and b["coordinates"][:2] == ["carriage_position_m", "payload_kg"]
+    rig = Rig(carriage_mass_kg=16.0 + x["payload_kg"], carriage_position_m=x["carriage_position_m"],
+              delay_s=x["delay.seconds"], current_loop_hz=x.get("current_loop.bandwidth_hz", 1000.0),
+              b1=x["damping1_n_s_per_m"], b2=x["damping2_n_s_per_m"])
+    m = dict(head_kg=x["head_mass_kg"], body_kg=x["body_mass_kg"], neck_k=x["neck_stiffness_n_per_m"],
+             neck_c=x["neck_damping_n_s_per_m"], leg_k=x["leg_stiffness_n_per_m"], leg_c=x["leg_damping_n_s_per_m"])
+    loop = adm_ref.sampled_loop(clamp_path(rig, structure, g, **m), m_v=adm["m_v"], b_v=adm["b_v"],
+                                period_s=timing.period_s, forward_euler=True)
+    pm, gm = adm_ref.margins_from_response(w, adm_ref.response(loop, np.exp(1j * w * timing.period_s)))
+    assert gm == pytest.approx(b["gain_margin_db"], abs=0.05)
+    assert pm == pytest.approx(b["phase_margin_deg"] if b["phase_margin_deg"] is not None else np.inf, abs=0.1)
 
 
 def test_codesign_on_two_motors_is_refused_naming_the_key(tmp_path):

@@ -47,7 +47,7 @@ class BetweenCheck:
     starts: int
     #: trial points whose margins were computed
     evaluations: int
-    #: the least slack on the check's computed curves, and the least the search found (<= it)
+    #: the least slack on the check's computed curves, and the least the search found from its tightest ones
     grid_slack: float
     slack: float
     phase_margin_deg: float
@@ -173,9 +173,9 @@ def slack_of(pm, gm, stable, phase_margin_deg: float, gain_margin_db: float) -> 
 
 def _starts(check, slack: np.ndarray, grounded: bool, n: int) -> list[tuple[int, int]]:
     """The ``n`` (mouse, scenario) pairs of least slack among the floating or the braced mice."""
-    rows = np.array([m.grounded == grounded for m in check.mice])
-    order = np.argsort(np.where(rows[:, None], slack, np.inf), axis=None)[:n]
-    return [tuple(int(i) for i in np.unravel_index(flat, slack.shape)) for flat in order]
+    rows = np.flatnonzero([m.grounded == grounded for m in check.mice])
+    order = np.argsort(slack[rows], axis=None, kind="stable")[:n]
+    return [(int(rows[k]), int(j)) for k, j in zip(*np.unravel_index(order, (rows.size, slack.shape[1])))]
 
 
 def search_between(problem: LoopProblem, check, *, loops, timing: RigTiming, space=None,

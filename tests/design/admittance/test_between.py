@@ -38,3 +38,17 @@ def test_the_box_maps_the_declared_ranges_onto_the_unit_cube_and_back(grounded):
 def test_slack_is_the_least_relative_margin_and_minus_one_when_unstable():
     s = slack_of([50.0, 45.0, 90.0, 30.0], [12.0, 3.0, np.inf, 20.0], [True, True, True, False], 45.0, 6.0)
     assert s == pytest.approx([5.0 / 45.0, -0.5, 1.0, -1.0])
+
+
+def test_the_starts_are_the_tightest_curves_of_their_kind_of_mouse():
+    from types import SimpleNamespace
+
+    from design.admittance.between import _starts
+    from design.admittance.mouse import MouseModel
+
+    floating, braced = MouseModel(0.002, 0.02, 20.0, 0.2, 0.0, 0.0), MouseModel(0.002, 0.02, 20.0, 0.2, 300.0, 0.5)
+    check = SimpleNamespace(mice=(braced, floating, braced, floating))
+    slack = np.array([[-0.5, 0.1, 0.2], [np.inf, 0.3, 0.05], [0.0, -0.1, np.inf], [np.inf, np.inf, np.inf]])
+    assert _starts(check, slack, False, 2) == [(1, 2), (1, 1)]
+    assert _starts(check, slack, True, 3) == [(0, 0), (2, 1), (2, 0)]
+    assert all(check.mice[k].grounded is False for k, _ in _starts(check, slack, False, 6))

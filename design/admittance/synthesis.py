@@ -332,13 +332,13 @@ def between_binding(problem: LoopProblem, held: HeldBetween) -> Binding[MouseMod
     name, key = ("gain_margin", "gain_margin_db") if gm_binds else ("phase_margin", "phase_margin_deg")
     value, limit = (f.gain_margin_db, adm.gain_margin_db) if gm_binds else (f.phase_margin_deg, adm.phase_margin_deg)
     unit = "dB" if gm_binds else "deg"
-    cured = ("" if held.search.holds else f"; {held.rounds} rounds did not cure it (least slack now "
-             f"{held.search.slack:.3g})")
+    cured = ("until it holds" if held.search.holds else
+             f"and after {held.rounds} rounds it still fails (least slack {held.search.slack:.3g})")
     return Binding(name, f.scenario.payload_kg, f.scenario, f.mouse, limit, limit,
                    detail=f"interaction-loop {name.replace('_', ' ')} (admittance.{key} = {limit:g}) between the "
                           f"check's points, at {describe_row(f.scenario)} with mouse ({f.mouse.label()}): "
                           f"{value:.2f} {unit} at the ray's design; (m_v, b_v) scaled up the ray by "
-                          f"{100 * (held.scale - 1):.2f} % until it holds{cured}")
+                          f"{100 * (held.scale - 1):.2f} % {cured}")
 
 
 def design_rounds(problem: LoopProblem, scenarios, *, loops, dense, felt, w_design,
@@ -380,7 +380,7 @@ def design_rounds(problem: LoopProblem, scenarios, *, loops, dense, felt, w_desi
             x, check = back_off(dense, x, adm)
         held = None
         if between is not None:
-            say("search between the check's points (payload, uncertainty, mouse)")
+            say("search between the dense check's points")
             held = hold_between(problem, dense, x, check, loops=loops, timing=timing, space=between)
             x, check = held.x, held.check
         say(f"Monte Carlo over {draws_label}, uncertainty and mouse")

@@ -179,9 +179,11 @@ def _codesigned(problem: DesignProblem, progress, *, schedule: bool = False) -> 
 
     from design.admittance.synthesis import synthesise_admittance
     from design.parallel import thread_map
+    from design.synth.between import search_pi_between
     from design.synth.evaluation import evaluate
     from design.synth.monte_carlo import monte_carlo_check
     from design.synth.pi import SynthesisResult
+    from design.synth.scenarios import check_scenarios
     from design.synth.verify import verify
 
     loop = problem.loop
@@ -190,13 +192,14 @@ def _codesigned(problem: DesignProblem, progress, *, schedule: bool = False) -> 
     ev, ver, mc = thread_map(lambda check: check(), (
         lambda: evaluate(loop, adm.controller), lambda: verify(loop, adm.controller),
         lambda: monte_carlo_check(loop, adm.controller) if loop.plant.uncertainty else None))
-    ok = ev.meets and ver.verified and (mc is None or mc.violations == 0)
+    between = search_pi_between(loop, adm.controller, check_scenarios(loop))
+    ok = ev.meets and ver.verified and (mc is None or mc.violations == 0) and (between is None or between.holds)
     message = (f"PI gains chosen with the admittance (co-design from Kp = {loop.controller.kp.value:g}, Ki = "
                f"{loop.controller.ki.value:g}); the velocity loop alone "
                + ("meets requirements at every check scenario" if ok else "MISSES its requirements: "
                   + "; ".join(ver.failures[:2]) if ver.failures else "misses its requirements"))
     pi = SynthesisResult("optimal" if ok else "infeasible", message, ev, ver, "co-design (design.admittance.codesign)",
-                         time.perf_counter() - t0, monte_carlo=mc)
+                         time.perf_counter() - t0, monte_carlo=mc, between=between)
     return DesignOutcome(problem, synthesis=pi, admittance=adm,
                          admittance_schedule=_admittance_schedule(loop, adm, progress) if schedule else None)
 

@@ -11,7 +11,7 @@ range of more than a decade, as the Monte Carlo draws it; a floating mouse keeps
 trial point's margins computed exactly as the dense check computes them (``paired_margins``: the exactly sampled
 loop on the check grid with the trial mouse's mode points, stability from the coupled discrete loop's poles). All
 starts' trial points are evaluated in one batch per step; a start moves to its best trial point when that is
-lower, else halves its step, from a quarter of each range down to ``STEP_TOL``.
+lower, else halves its step, from a quarter of each range down to 1/512 of it (``design.loop.compass``).
 
 The slack of a curve is its least relative margin, min((PM - PM_req) / PM_req, (GM - GM_req) / GM_req), -1 where a
 loop is unstable (as ``design.synth.dual_worst``).
@@ -28,16 +28,13 @@ from design.admittance.bounds import curve_bounds, polar
 from design.admittance.model import admittance_problem, check_grid_for, coupled_gain, paired_margins, with_mode_points
 from design.admittance.mouse import FIELDS, MouseModel, stack
 from design.admittance.rig import RigTiming
+from design.loop.compass import compass_search
 from design.loop.requirement import ScenarioPoint
 from design.problem import LoopProblem
 from design.synth.scenarios import Scenarios, describe_row, uncertainty_ranges
 
 #: curves of least slack on the check the search starts from
 STARTS = 4
-#: the search stops when every start's step (a fraction of each coordinate's range) is below this
-STEP_TOL = 2.0 ** -9
-#: and after this many steps at most
-MAX_STEPS = 60
 
 
 @dataclass(frozen=True)
@@ -194,8 +191,6 @@ def search_between(problem: LoopProblem, check, *, loops, timing: RigTiming, spa
     evaluations, total_starts, best = 0, 0, None
 
     def evaluate(box: SearchBox, u: np.ndarray):
-        nonlocal evaluations
-        evaluations += len(u)
         scenarios, one = box.point(box.value(u))
         w = with_mode_points(base_w, one, timing)
         pm, gm, st = paired_margins(loops, scenarios, stack(one), w, timing, m_v, b_v)
@@ -206,24 +201,9 @@ def search_between(problem: LoopProblem, check, *, loops, timing: RigTiming, spa
         picks = _starts(check, grid, grounded, max(1, starts // len(kinds)))
         total_starts += len(picks)
         u = box.unit(np.array([box.row(check.scenarios, j, check.mice[k]) for k, j in picks]))
-        free = np.flatnonzero(box.hi > box.lo)
-        f, pm, gm, st = evaluate(box, u)
-        step = np.full(len(u), 0.25)
-        for _ in range(MAX_STEPS):
-            trials = [(a, i, sign) for a in np.flatnonzero(step >= STEP_TOL) for i in free for sign in (1.0, -1.0)]
-            points = np.array([u[a] for a, _, _ in trials]).reshape(-1, u.shape[1])
-            for r, (a, i, sign) in enumerate(trials):
-                points[r, i] = min(1.0, max(0.0, points[r, i] + sign * step[a]))
-            if not trials:
-                break
-            ft, pt, gt, stt = evaluate(box, points)
-            for a in {a for a, _, _ in trials}:
-                mine = [r for r, t in enumerate(trials) if t[0] == a]
-                r = min(mine, key=lambda r: ft[r])
-                if ft[r] < f[a] - 1e-12:
-                    u[a], f[a], pm[a], gm[a], st[a] = points[r], ft[r], pt[r], gt[r], stt[r]
-                else:
-                    step[a] /= 2
+        found = compass_search(lambda points: evaluate(box, points), u, np.flatnonzero(box.hi > box.lo))
+        u, f, (pm, gm, st) = found.u, found.value, found.extra
+        evaluations += found.evaluations
         i = int(np.argmin(f))
         if best is None or f[i] < best[0]:
             scenarios, one = box.point(box.value(u[i]))

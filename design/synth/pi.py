@@ -50,6 +50,7 @@ from design.loop.controller import PI
 from design.loop.discrete import DiscreteCheck, DiscreteDesign, check_discrete, discretise
 from design.loop.requirement import ScenarioPoint
 from design.problem import LoopProblem, with_filter_values
+from design.synth.between import PiBetween, search_pi_between
 from design.synth.ccp import ccp_design
 from design.synth.evaluation import Evaluation, evaluate
 from design.synth.exact import exact_design
@@ -162,6 +163,9 @@ class SynthesisResult:
     filters: tuple[ChosenFilter, ...] = ()
     #: ``requirements.bandwidth_definition`` of every bandwidth reported
     bandwidth_definition: str = "half_power"
+    #: the search between the dense check's points (``design.synth.between``; None when the box has no extent or the
+    #: design did not get that far)
+    between: PiBetween | None = None
 
 
 def check_supported(problem: LoopProblem) -> None:
@@ -318,7 +322,10 @@ def _robust(problem: LoopProblem, method: str, max_rounds: int, say: Callable[[s
     extra: list[ScenarioPoint] = []
     for k in range(MONTE_CARLO_ROUNDS + 1):
         result = _synthesise(problem, method, max_rounds, extra, problem.verification.seed + k, say)
-        mc = result.monte_carlo
+        mc, between = result.monte_carlo, result.between
+        if between is not None and not between.holds and k < MONTE_CARLO_ROUNDS:
+            extra.append(between.scenario)
+            continue
         if mc is None or mc.violations == 0 or k == MONTE_CARLO_ROUNDS:
             return result
         extra.append(mc.worst_scenario)
@@ -533,9 +540,16 @@ def _synthesise(problem: LoopProblem, method: str, max_rounds: int, extra: list[
             return SynthesisResult("infeasible", "the discrete loop at controller.loop_rate_hz misses the "
                                    "requirements: " + "; ".join(discrete[1].failures[:3]), ev, v, method, seconds,
                                    base, names, pts, record, discrete=discrete)
+    say("search between the dense check's points")
+    between = search_pi_between(problem, ev.controller, dense)
+    if between is not None and not between.holds:
+        return SynthesisResult("infeasible", f"verified on the {len(points)} design scenarios ({label}), but between "
+                               f"the dense check's points the requirements fail (least relative slack "
+                               f"{between.slack:.3g} at {describe_row(between.scenario)})", ev, v, method, seconds,
+                               base, names, pts, record, discrete=discrete, between=between)
     if not dense.parameters:
         return SynthesisResult("optimal", f"verified ({label})", ev, v, method, seconds, base, names, pts, record,
-                               discrete=discrete)
+                               discrete=discrete, between=between)
     say("Monte Carlo check over the uncertainty")
     mc = monte_carlo_check(problem, ev.controller, seed=seed)
     record = replace(record, design_scenarios=len(points))
@@ -543,10 +557,11 @@ def _synthesise(problem: LoopProblem, method: str, max_rounds: int, extra: list[
         return SynthesisResult("infeasible", f"verified on the {len(points)} design scenarios ({label}), but "
                                f"{mc.violations} of {mc.samples} Monte Carlo draws over the uncertainty violate the "
                                f"requirements (worst at {describe_row(mc.worst_scenario)})", ev, v, method, seconds,
-                               base, names, pts, record, monte_carlo=mc, discrete=discrete)
+                               base, names, pts, record, monte_carlo=mc, discrete=discrete, between=between)
     return SynthesisResult("optimal", f"verified ({label}) on {len(points)} design scenarios; 0 of {mc.samples} "
                            f"Monte Carlo draws violate (95 % upper bound {100 * mc.rate_upper_bound:.2g} %)", ev, v,
-                           method, seconds, base, names, pts, record, monte_carlo=mc, discrete=discrete)
+                           method, seconds, base, names, pts, record, monte_carlo=mc, discrete=discrete,
+                           between=between)
 
 
 def _discrete(problem: LoopProblem, ev: Evaluation, points: Scenarios, dense: Scenarios):

@@ -256,6 +256,12 @@ def print_synthesis(console: Console, out: dict) -> None:
                       f"{100 * mc['rate_upper_bound_95']:.2g} %); worst PM {_num(mc['worst_phase_margin_deg'])} deg, "
                       f"worst GM {_num(mc['worst_gain_margin_db'])} dB, lowest bandwidth "
                       f"{_num(mc['worst_bandwidth_hz'])} Hz")
+    between = out.get("between_grid")
+    if between:
+        console.print(f"[bold]between the dense check's points[/] (a search over {', '.join(between['coordinates'])} "
+                      f"from {between['starts']} starts, {between['evaluations']} points): least relative slack "
+                      f"{between['slack']:.3g} (the grid's {between['grid_slack']:.3g}): "
+                      f"{'holds' if between['holds'] else 'FAILS'}", soft_wrap=True)
     sch = out.get("schedule")
     if sch:
         t = Table(title=f"Gain schedule (verified at its points: {sch['verified']})")

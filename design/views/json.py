@@ -38,6 +38,7 @@ if TYPE_CHECKING:
     from design.loop.sweep import SweepResult
     from design.problem import LoopProblem
     from design.results import DesignOutcome, DiagnosisOutcome, FitOutcome
+    from design.synth.between import PiBetween
     from design.synth.dual_design import DualDesign
     from design.synth.evaluation import Evaluation
     from design.synth.measured import MeasuredDesign
@@ -446,10 +447,21 @@ def synthesis_to_dict(result: SynthesisResult) -> dict:
         "baselines": [evaluation_to_dict(b, n) for b, n in zip(result.baselines, result.baseline_names)],
         **({"monte_carlo": monte_carlo_to_dict(result.monte_carlo)} if result.monte_carlo is not None else {}),
         **({"discrete": discrete_to_dict(*result.discrete)} if result.discrete is not None else {}),
+        **({"between_grid": pi_between_to_dict(result.between)} if result.between is not None else {}),
         **({"filters": [{"kind": f.kind, "used": f.used, **f.values, "designed": list(f.designed)}
                         for f in result.filters]} if result.filters else {}),
         "bandwidth_definition": BANDWIDTH_DEFINITIONS[result.bandwidth_definition],
     }
+
+
+def pi_between_to_dict(b: PiBetween) -> dict:
+    """``between_grid`` of the PI stage: the search between the dense check's points (``design.synth.between``)."""
+    return {"starts": b.starts, "evaluations": b.evaluations, "grid_slack": finite_or_none(b.grid_slack),
+            "slack": finite_or_none(b.slack), "holds": b.holds, "scenario": b.scenario.as_dict(),
+            "coordinates": list(b.coordinates), "values": list(b.values),
+            "method": "compass search from the dense check's rows of least relative slack over the payload and every "
+                      "plant.uncertainty range at once, to 1/512 of each range; each point evaluated as the dense "
+                      "check's rows (relative slack of every requirement, -1 where the bandwidth cannot be read)"}
 
 
 def discrete_to_dict(d: DiscreteDesign, check: DiscreteCheck) -> dict:

@@ -23,7 +23,9 @@ time-domain models, whose smallest residual sets the effective sample size, so t
 selection the same); ``synth_admittance`` again when the design was searched between the dense check's points (a
 floating mouse of 24 g, between the range's 20 and 35 g, had PM 44.74 deg at the ray's design, confirmed on
 Newton's model: (m_v, b_v) went up its ray by 1.26 %, ``between_grid`` added, the binding and coverage text
-changed).
+changed), and the ``synth_*`` files when the PI designs were searched between their dense check's points too
+(``between_grid`` added: the bundled designs' least slack is on the check's corner, the designs the same; the
+solver record's keys that a step leaves null, written since the record became typed, are in the files now).
 """
 
 from __future__ import annotations

@@ -1,0 +1,82 @@
+"""The worst requirement slack of a PI design between the points of its dense check: "verified" over the declared
+box, not only on its grid.
+
+The dense check evaluates the design on payload points x the corners and seeded draws of ``plant.uncertainty``
+(``design.synth.scenarios.check_scenarios``). From its ``STARTS`` rows of least slack a compass search
+(``design.loop.compass``) moves over the payload and every uncertain parameter at once, each scaled to [0, 1] over its
+declared range, every trial point evaluated as the dense check evaluates its rows (``design.synth.evaluation``: the
+requirements' relative slack, -1 where the closed loop's bandwidth cannot be read). A point that fails joins the
+design scenarios and the design is made again (``design.synth.pi``), as a Monte Carlo violator does. The search
+judges the requirements; the worst-case bandwidth the design reports is the dense check's.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from design.loop.compass import compass_search
+from design.loop.controller import PI
+from design.loop.requirement import ScenarioPoint
+from design.problem import LoopProblem
+from design.synth.evaluation import evaluate
+from design.synth.scenarios import Scenarios, uncertainty_ranges
+
+#: rows of least slack on the dense check the search starts from
+STARTS = 4
+
+
+@dataclass(frozen=True)
+class PiBetween:
+    """The least relative slack found between the dense check's points, and where."""
+
+    starts: int
+    evaluations: int
+    #: the dense check's least row slack, and the least the search found from its tightest rows
+    grid_slack: float
+    slack: float
+    scenario: ScenarioPoint
+    #: the coordinates searched (payload, uncertain parameters) and their values at the point found
+    coordinates: tuple[str, ...]
+    values: tuple[float, ...]
+
+    @property
+    def holds(self) -> bool:
+        return self.slack >= -1e-6
+
+
+def row_slack(problem: LoopProblem, controller: PI, scenarios: Scenarios) -> np.ndarray:
+    """Per scenario: the requirements' least relative slack (``Evaluation.row_relative_slack``), -1 where the closed
+    loop's bandwidth cannot be read (as ``Evaluation.meets`` counts it)."""
+    ev = evaluate(problem, controller, scenarios)
+    return np.where(np.asarray(ev.row_bandwidth_hz) > 0, ev.row_relative_slack, -1.0)
+
+
+def search_pi_between(problem: LoopProblem, controller: PI, dense: Scenarios, *,
+                      starts: int = STARTS) -> PiBetween | None:
+    """``PiBetween`` of ``controller`` from the dense check ``dense`` (module docstring); None when the box has no
+    extent (one payload, no uncertainty)."""
+    pr = problem.plant.payload_kg
+    ranges = {"payload_kg": (float(pr.min), float(pr.max)), **uncertainty_ranges(problem)}
+    names = tuple(ranges)
+    lo, hi = (np.array([r[i] for r in ranges.values()], float) for i in (0, 1))
+    free = np.flatnonzero(hi > lo)
+    if not free.size:
+        return None
+
+    def scenarios(x: np.ndarray) -> Scenarios:
+        return Scenarios(x[:, 0].copy(), {n: x[:, 1 + i].copy() for i, n in enumerate(names[1:])})
+
+    def values(u: np.ndarray) -> np.ndarray:
+        return lo + u * (hi - lo)
+
+    grid = row_slack(problem, controller, dense)
+    rows = np.argsort(grid, kind="stable")[:starts]
+    x0 = np.array([[dense.payload_kg[j], *(dense.parameters[n][j] for n in names[1:])] for j in rows], float)
+    u0 = np.clip(np.where(hi > lo, (x0 - lo) / np.where(hi > lo, hi - lo, 1.0), 0.0), 0.0, 1.0)
+    found = compass_search(lambda u: (row_slack(problem, controller, scenarios(values(u))),), u0, free)
+    i = int(np.argmin(found.value))
+    x = values(found.u[i:i + 1])
+    return PiBetween(len(rows), found.evaluations, float(np.min(grid)), float(found.value[i]),
+                     scenarios(x).row(0), names, tuple(float(v) for v in x[0]))

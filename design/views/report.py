@@ -18,7 +18,8 @@ import numpy as np
 from design.loop.curves import LoopCurves
 from design.results import ReportContent
 from design.synth.evaluation import Evaluation
-from design.views.html import Report, table
+from design.synth.scenarios import describe_row
+from design.views.html import Report, table, units
 from design.views.plots import fixed_margins
 from plant import __version__
 from plant.arguments import check_instance
@@ -209,6 +210,13 @@ def payload_figure(designed: Evaluation, thesis: Evaluation, requirements, check
     return fig
 
 
+def _between_line(b) -> str:
+    """The synthesis's search between the dense check's points, in one sentence."""
+    return (f"<b>Between the check's points</b> a search over {', '.join(b.coordinates)} ({b.evaluations} points "
+            f"from {b.starts} starts) finds the least relative slack {b.slack:.3g} (the check's {b.grid_slack:.3g}) "
+            f"at {units(describe_row(b.scenario))}: " + ("holds." if b.holds else "<span class='bad'>fails</span>."))
+
+
 def design_report(content: ReportContent) -> Report:
     """The report of ``content`` (built by ``design.workflows.report_content``)."""
     check_instance("content", content, ReportContent, "design.workflows.report_content(problem) makes one")
@@ -234,6 +242,8 @@ def design_report(content: ReportContent) -> Report:
                 f"{mc.violations} violate the requirements ({100 * mc.rate:.2g} %, one-sided 95 % upper bound "
                 f"{100 * mc.rate_upper_bound:.2g} %); worst PM {mc.worst_phase_margin_deg:.1f} deg, worst GM "
                 f"{mc.worst_gain_margin_db:.1f} dB."] if mc is not None else []),
+             *([_between_line(c.design.synthesis.between)] if c.design is not None and c.design.synthesis is not None
+               and c.design.synthesis.between is not None else []),
              f"<b>Thesis gains on the same plant:</b> {thesis_verdict(thesis)}; worst-case bandwidth "
              f"{thesis.worst_bandwidth_hz:.2f} Hz."]
     d = c.design

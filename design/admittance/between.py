@@ -290,3 +290,15 @@ def between_failure(search: BetweenCheck) -> str:
     return (f"between the check's points PM {search.phase_margin_deg:.2f} deg, GM {search.gain_margin_db:.2f} dB"
             f"{'' if search.stable else ', unstable'} at {describe_row(search.scenario)} with mouse "
             f"({search.mouse.label()})")
+
+
+def worst_by_legs(check, held: HeldBetween | None) -> dict[str, tuple[float, float]]:
+    """Worst (phase margin deg, gain margin dB) of the floating and of the grounded mice over the dense check
+    (``AdmittanceCheck.worst_by_legs``) and the point the search between its points found."""
+    legs = dict(check.worst_by_legs())
+    if held is not None:
+        s = held.search
+        name = "grounded" if s.mouse.grounded else "floating"
+        pm, gm = legs.get(name, (np.inf, np.inf))
+        legs[name] = (min(pm, s.phase_margin_deg), min(gm, s.gain_margin_db))
+    return legs

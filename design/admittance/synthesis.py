@@ -75,7 +75,7 @@ from design.admittance.verify import AdmittanceVerification, verify_admittance
 from design.loop.controller import PI
 from design.loop.requirement import Binding
 from design.problem import LoopProblem
-from design.synth.scenarios import Scenarios, admittance_check_scenarios, describe_row, design_scenarios
+from design.synth.scenarios import Scenarios, admittance_check_scenarios, design_scenarios
 from plant.errors import SpecError
 
 #: rounds of the dense check adding its worst violator, and of the Monte Carlo check
@@ -334,9 +334,10 @@ def between_binding(problem: LoopProblem, held: HeldBetween) -> Binding[MouseMod
     unit = "dB" if gm_binds else "deg"
     cured = ("until it holds" if held.search.holds else
              f"and after {held.rounds} rounds it still fails (least slack {held.search.slack:.3g})")
+    at = Scenarios(np.array([f.scenario.payload_kg]), {n: np.array([v]) for n, v in f.scenario.parameters})
     return Binding(name, f.scenario.payload_kg, f.scenario, f.mouse, limit, limit,
-                   detail=f"interaction-loop {name.replace('_', ' ')} (admittance.{key} = {limit:g}) between the "
-                          f"check's points, at {describe_row(f.scenario)} with mouse ({f.mouse.label()}): "
+                   detail=f"interaction-loop {name.replace('_', ' ')} (admittance.{key} = {limit:g}) at "
+                          f"{at.describe(0)} with mouse ({f.mouse.label()}), between the check's points: "
                           f"{value:.2f} {unit} at the ray's design; (m_v, b_v) scaled up the ray by "
                           f"{100 * (held.scale - 1):.2f} % {cured}")
 

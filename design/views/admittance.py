@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from design.admittance.between import worst_by_legs
 from design.admittance.curves import AdmittanceCurves
 from design.admittance.model import admittance_problem
 from design.problem import LoopProblem
@@ -44,7 +45,7 @@ def add_admittance_section(report: Report, problem: LoopProblem, outcome: Design
     loc, hw, c, feel = a.locomotion, a.hardware, r.check, r.feel
     verdict = ("<span class=ok>The mouse can drive this design</span>" if r.status == "optimal" else
                "<span class=bad>The mouse CANNOT drive this design</span>")
-    legs = c.worst_by_legs()
+    legs = worst_by_legs(c, r.between)
     margins = "; ".join(f"{k} mice: PM {num(v[0])}°, GM {num(v[1])} dB" for k, v in legs.items())
     rig = "continuous" if not r.timing.sampled else f"sampled at {1 / r.timing.period_s:g} Hz"
     report.raw(f"<div class='summary'>{verdict}: it feels {feel.peak_force_n:.3g} N peak ({feel.rms_force_n:.3g} N "
@@ -52,7 +53,8 @@ def add_admittance_section(report: Report, problem: LoopProblem, outcome: Design
                f"{loc.peak_acceleration_m_per_s2:g} m/s²) and can push {a.mouse.peak_force_n:g} N. "
                f"m_v = {r.m_v:.4g} kg, b_v = {r.b_v:.4g} N·s/m with {r.controller} "
                f"(admittance law {rig}). Interaction loop (broken at the force-sensor signal), worst over "
-               f"{len(c.scenarios)} scenarios: {margins}. Binding: {units(r.binding.detail)}. Passive up to "
+               f"{len(c.scenarios)} scenarios{' and between them' if r.between is not None else ''}: {margins}. "
+               f"Binding: {units(r.binding.detail)}. Passive up to "
                f"{passive_text(c)} Hz; stable on a grounded spring up to "
                f"{num(r.contact.worst_n_per_m, '.4g')} N/m. Rendered admittance within 3 dB / 30° of "
                f"1/(m_v s + b_v) up to {bandwidth_text(c)} Hz. {_verified(r)}{_between(r)}{_mc(r)}{_latency(r)}</div>")
@@ -88,10 +90,10 @@ def add_admittance_section(report: Report, problem: LoopProblem, outcome: Design
                   + ", at nominal parameters; shaded, the 3 dB / 30° tolerance around the virtual dynamics; the "
                     "vertical lines are the summary's worst passive band and rendered bandwidth over the "
                     f"{len(c.scenarios)} scenarios.")
-    report.figures(margin_figures(c, a, r.binding),
+    report.figures(margin_figures(c, a, r.binding, None if r.between is None else r.between.search),
                    "Worst interaction-loop margins over the uncertainty corners at each payload, for the floating and "
-                   "the braced (grounded) mice, with the requirement (dotted) and the binding scenario of the summary "
-                   "(circled).")
+                   "the braced (grounded) mice, with the requirement (dotted), the binding scenario of the summary "
+                   "(circled) and the least point the search between the check's points found (cross).")
     if curves.run is not None:
         _run_figure(report, curves.run)
     elif curves.run_refused:
@@ -162,7 +164,7 @@ def _between(r) -> str:
     s, f = held.search, held.failed
     cured = ("" if f is None else
              f" At the ray's design it found PM {num(f.phase_margin_deg)}°, GM {num(f.gain_margin_db)} dB at "
-             f"{units(describe_row(f.scenario))} with mouse ({f.mouse.label()}); (m_v, b_v) went up the ray by "
+             f"{units(describe_row(f.scenario))} with mouse ({units(f.mouse.label())}); (m_v, b_v) went up the ray by "
              f"{100 * (held.scale - 1):.2f} %.")
     return (f" Between the check's points a search over payload, uncertainty and mouse ({s.evaluations} points from "
             f"{s.starts} starts) finds at least PM {num(s.phase_margin_deg)}°, GM {num(s.gain_margin_db)} dB: "
@@ -206,7 +208,7 @@ def _lab_table(report: Report, r, lab, feel) -> None:
 
     report.raw(table(["virtual dynamics (same plant, loop and rig)", "m_v (kg)", "b_v (N·s/m)",
                       "floating PM / GM", "braced PM / GM", "force felt", "passive up to", "stable"],
-                     [row("this design", r.m_v, r.b_v, r.check.worst_by_legs(), feel.peak_force_n,
+                     [row("this design", r.m_v, r.b_v, worst_by_legs(r.check, r.between), feel.peak_force_n,
                           float(np.min(r.check.passive_up_to_hz)), bool(np.all(r.check.stable))),
                       row("the lab's hand-tuned setting", lab.m_v, lab.b_v, lab.margins, lab.force_felt_n,
                           lab.passive_up_to_hz, lab.stable)]))

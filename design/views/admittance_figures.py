@@ -155,10 +155,11 @@ def _checked_value(check, values, binding: Binding[MouseModel]) -> float:
     return float(binding.value)
 
 
-def margin_figures(check, adm, binding: Binding[MouseModel]) -> list:
+def margin_figures(check, adm, binding: Binding[MouseModel], between=None) -> list:
     """Worst interaction-loop phase margin (deg) and gain margin (dB) over the uncertainty at each payload (kg),
     floating and braced mice, with the requirement and whether each meets it; the summary's binding scenario
-    marked on the margin it binds."""
+    marked on the margin it binds; ``between`` (``design.admittance.between.BetweenCheck``): the least point the
+    search between the check's points found, marked, and in its kind of mouse's worst."""
     payloads = np.unique(check.payload_kg)
     figs = []
     for key, what, unit, limit in (("phase_margin", "phase margin", "deg", adm.phase_margin_deg),
@@ -173,6 +174,12 @@ def margin_figures(check, adm, binding: Binding[MouseModel]) -> list:
             worst = np.nanmin(np.where(k[:, None], values, np.nan), axis=0)
             y = np.array([np.nanmin(worst[check.payload_kg == m]) for m in payloads])
             low = float(np.nanmin(y))
+            if between is not None and (name == "braced") == between.mouse.grounded:
+                found = getattr(between, f"{key}_{unit.lower()}")
+                low = min(low, found)
+                if np.isfinite(found):
+                    ax.plot([between.scenario.payload_kg], [found], "x", color="k", ms=7,
+                            label=f"between the check's points, {name} mouse: {found:.1f} {unit}")
             ax.plot(payloads, np.where(np.isfinite(y), y, np.nan), "o-", ms=3,
                     label=f"{name} mice: worst {num(low)} {unit}: {'meets' if low >= limit - 1e-6 else 'FAILS'}")
         ax.axhline(limit, **LIMIT_STYLE, label=f"required {limit:g} {unit}")

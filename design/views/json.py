@@ -13,6 +13,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from design.admittance.between import worst_by_legs
 from design.admittance.model import admittance_problem
 from design.admittance.recorded import FINE_STEP_S
 from design.admittance.verify import PADE_ORDER
@@ -632,7 +633,7 @@ def admittance_to_dict(result: AdmittanceResult, problem: LoopProblem) -> dict:
         "m_v": result.m_v if designed else None, "b_v": result.b_v if designed else None,
         **result.controller.gains(),
         "peak_resistance_n": result.peak_resistance_n if designed else None,
-        **_check_figures(c),
+        **_check_figures(c, result.between),
         "binding": admittance_binding_to_dict(result.binding), "active": list(result.active),
         "verified": result.verified,
         "mouse_can_follow_profile": None if feel is None else feel.can_drive,
@@ -684,15 +685,17 @@ def admittance_to_dict(result: AdmittanceResult, problem: LoopProblem) -> dict:
     return out
 
 
-def _check_figures(c) -> dict:
-    """The worst figures of an admittance design's dense check (``AdmittanceCheck``)."""
+def _check_figures(c, held=None) -> dict:
+    """The worst figures of an admittance design's dense check (``AdmittanceCheck``), the margins with the point
+    the search between its points found (``held``, ``design.admittance.between.HeldBetween``)."""
+    legs = worst_by_legs(c, held)
     return {
         "rendered_bandwidth_hz": finite_or_none(np.nanmin(c.rendered_bandwidth_hz))
         if np.any(np.isfinite(c.rendered_bandwidth_hz)) else None,
-        "worst_phase_margin_deg": finite_or_none(np.nanmin(c.phase_margin_deg)),
-        "worst_gain_margin_db": finite_or_none(np.nanmin(c.gain_margin_db)),
+        "worst_phase_margin_deg": finite_or_none(min(v[0] for v in legs.values())) if legs else None,
+        "worst_gain_margin_db": finite_or_none(min(v[1] for v in legs.values())) if legs else None,
         "margins_by_mouse": {k: {"phase_margin_deg": finite_or_none(v[0]), "gain_margin_db": finite_or_none(v[1])}
-                             for k, v in c.worst_by_legs().items()},
+                             for k, v in legs.items()},
         "worst_sensor_current_a": float(np.max(c.sensor_current_a)),
         "worst_motor_force_n": float(np.max(c.motor_force_n)),
         "passive_up_to_hz": finite_or_none(np.min(c.passive_up_to_hz)),
@@ -753,7 +756,7 @@ def dual_admittance_to_dict(result: DualAdmittanceResult, problem: LoopProblem) 
         "status": result.status, "message": result.message, "structure": result.structure, "gains": result.gains,
         "m_v": result.m_v if designed else None, "b_v": result.b_v if designed else None,
         "peak_resistance_n": result.peak_resistance_n if designed else None,
-        **_check_figures(c), "binding": admittance_binding_to_dict(result.binding),
+        **_check_figures(c, result.between), "binding": admittance_binding_to_dict(result.binding),
         "verified": result.status in ("optimal", "mouse_cannot_drive"),
         "mouse_can_follow_profile": None if result.feel is None else result.feel.can_drive,
         "worst_carriage_position_m": worst.carriage_position_m,

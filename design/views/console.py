@@ -261,7 +261,9 @@ def print_synthesis(console: Console, out: dict) -> None:
         console.print(f"[bold]between the dense check's points[/] (a search over {', '.join(between['coordinates'])} "
                       f"from {between['starts']} starts, {between['evaluations']} points): least relative slack "
                       f"{between['slack']:.3g} (the grid's {between['grid_slack']:.3g}): "
-                      f"{'holds' if between['holds'] else 'FAILS'}", soft_wrap=True)
+                      f"{'holds' if between['holds'] else 'FAILS'}; least bandwidth "
+                      f"{_num(between['least_bandwidth_hz'])} Hz (the check's {_num(between['grid_bandwidth_hz'])} Hz)",
+                      soft_wrap=True)
     sch = out.get("schedule")
     if sch:
         t = Table(title=f"Gain schedule (verified at its points: {sch['verified']})")

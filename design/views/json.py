@@ -460,9 +460,13 @@ def pi_between_to_dict(b: PiBetween) -> dict:
     return {"starts": b.starts, "evaluations": b.evaluations, "grid_slack": finite_or_none(b.grid_slack),
             "slack": finite_or_none(b.slack), "holds": b.holds, "scenario": b.scenario.as_dict(),
             "coordinates": list(b.coordinates), "values": list(b.values),
-            "method": "compass search from the dense check's rows of least relative slack over the payload and every "
-                      "plant.uncertainty range at once, to 1/512 of each range; each point evaluated as the dense "
-                      "check's rows (relative slack of every requirement, -1 where the bandwidth cannot be read)"}
+            "grid_bandwidth_hz": finite_or_none(b.grid_bandwidth_hz),
+            "least_bandwidth_hz": finite_or_none(b.least_bandwidth_hz),
+            "bandwidth_scenario": None if b.bandwidth_scenario is None else b.bandwidth_scenario.as_dict(),
+            "method": "compass search from the dense check's rows of least relative slack (and, for the bandwidth, "
+                      "of lowest bandwidth) over the payload and every plant.uncertainty range at once, to 1/512 of "
+                      "each range; each point evaluated as the dense check's rows (relative slack of every "
+                      "requirement, -1 where the bandwidth cannot be read)"}
 
 
 def discrete_to_dict(d: DiscreteDesign, check: DiscreteCheck) -> dict:

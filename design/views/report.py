@@ -214,7 +214,9 @@ def _between_line(b) -> str:
     """The synthesis's search between the dense check's points, in one sentence."""
     return (f"<b>Between the check's points</b> a search over {', '.join(b.coordinates)} ({b.evaluations} points "
             f"from {b.starts} starts) finds the least relative slack {b.slack:.3g} (the check's {b.grid_slack:.3g}) "
-            f"at {units(describe_row(b.scenario))}: " + ("holds." if b.holds else "<span class='bad'>fails</span>."))
+            f"at {units(describe_row(b.scenario))}: " + ("holds" if b.holds else "<span class='bad'>fails</span>")
+            + f"; the least bandwidth it finds is {b.least_bandwidth_hz:.2f} Hz (the check's {b.grid_bandwidth_hz:.2f} "
+            "Hz).")
 
 
 def design_report(content: ReportContent) -> Report:

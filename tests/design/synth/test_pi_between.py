@@ -33,6 +33,16 @@ def closed_form_slack(kp, ki, *, mass, damping, delay, current_hz, kt=20.0, pm_r
     return min((pm - pm_req) / pm_req, (gm - gm_req) / gm_req)
 
 
+def closed_form_bandwidth_hz(kp, ki, *, mass, damping, delay, current_hz, kt=20.0) -> float:
+    """The first frequency where |T| = |L / (1 + L)| falls to 1/sqrt(2) (half power; T(0) = 1 with the integrator)."""
+    s = 1j * W
+    wc = 2 * np.pi * current_hz
+    L = kt / (mass * s + damping) * np.exp(-s * delay) * wc / (s + wc) * (kp + ki / s)
+    T = np.abs(L / (1 + L))
+    k = np.flatnonzero(T < 1 / math.sqrt(2))[0]
+    return float(W[k] / (2 * np.pi))
+
+
 def test_the_search_moves_from_a_coarse_check_to_the_boxs_worst_point():
     """Started from a check that holds only 10 and 20 kg, the search reaches the worst plant of the whole box (the
     heaviest payload, the slowest drive, the least damping: a brute force over the box's corners and 36 payloads of
@@ -58,3 +68,13 @@ def test_the_search_moves_from_a_coarse_check_to_the_boxs_worst_point():
     assert here == pytest.approx(found.slack, abs=2e-3)              # the tool's slack there is the closed form's
     assert here <= brute + 2e-3                                      # and no corner or payload of the box is lower
     assert x["payload_kg"] == pytest.approx(40.0, abs=0.1)
+    # the second search: the least closed-loop bandwidth over the box, which the coarse check (10, 20 kg) misses
+    b = found.bandwidth_scenario.as_dict()
+    here_bw = closed_form_bandwidth_hz(pi.kp, pi.ki, mass=b["payload_kg"], damping=b["damping_n_s_per_m"],
+                                       delay=b["delay.seconds"], current_hz=b["current_loop.bandwidth_hz"])
+    brute_bw = min(closed_form_bandwidth_hz(pi.kp, pi.ki, mass=m, **dict(zip(("damping", "delay", "current_hz"), (
+        dict(zip(names, c))[n] for n in ("damping_n_s_per_m", "delay.seconds", "current_loop.bandwidth_hz")))))
+        for m in np.linspace(5.0, 40.0, 36) for c in corners)
+    assert found.least_bandwidth_hz < found.grid_bandwidth_hz
+    assert here_bw == pytest.approx(found.least_bandwidth_hz, rel=5e-3)
+    assert here_bw <= brute_bw * (1 + 5e-3)

@@ -28,7 +28,7 @@ from design.admittance.bounds import curve_bounds, polar
 from design.admittance.model import admittance_problem, check_grid_for, coupled_gain, paired_margins, with_mode_points
 from design.admittance.mouse import FIELDS, MouseModel, stack
 from design.admittance.rig import RigTiming
-from design.loop.compass import compass_search
+from design.loop.compass import UnitBox, compass_search, unit_box
 from design.loop.requirement import ScenarioPoint
 from design.problem import LoopProblem
 from design.synth.scenarios import Scenarios, describe_row, uncertainty_ranges
@@ -63,37 +63,14 @@ class BetweenCheck:
 
 
 @dataclass(frozen=True)
-class SearchBox:
-    """The searched coordinates of the floating or of the braced mice: names, bounds and which are searched in log;
-    the first ``n_scenario`` make a scenario (``make``: rows of their values to a scenario set; ``read``: scenario
-    ``j`` of a set to its values), the rest are the mouse's fields (``design.admittance.mouse.FIELDS``)."""
+class SearchBox(UnitBox):
+    """The searched coordinates of the floating or of the braced mice (``design.loop.compass.UnitBox``): the first
+    ``n_scenario`` make a scenario (``make``: rows of their values to a scenario set; ``read``: scenario ``j`` of a
+    set to its values), the rest are the mouse's fields (``design.admittance.mouse.FIELDS``)."""
 
-    names: tuple[str, ...]
-    lo: np.ndarray
-    hi: np.ndarray
-    log: np.ndarray
     n_scenario: int
     make: Callable[[np.ndarray], object]
     read: Callable[[object, int], list[float]]
-
-    def _ends(self) -> tuple[np.ndarray, np.ndarray]:
-        lo, hi = self.lo.copy(), self.hi.copy()
-        lo[self.log], hi[self.log] = np.log(lo[self.log]), np.log(hi[self.log])
-        return lo, hi
-
-    def value(self, u: np.ndarray) -> np.ndarray:
-        """Rows of coordinates in [0, 1] to values."""
-        lo, hi = self._ends()
-        x = lo + u * (hi - lo)
-        x[..., self.log] = np.exp(x[..., self.log])
-        return x
-
-    def unit(self, x: np.ndarray) -> np.ndarray:
-        lo, hi = self._ends()
-        x = np.array(x, float)
-        x[..., self.log] = np.log(x[..., self.log])
-        span = np.where(hi > lo, hi - lo, 1.0)
-        return np.clip(np.where(hi > lo, (x - lo) / span, 0.0), 0.0, 1.0)
 
     def point(self, x: np.ndarray) -> tuple[object, list[MouseModel]]:
         """Rows of values to their scenarios and mice."""
@@ -118,8 +95,8 @@ def _mouse_ranges(problem: LoopProblem, grounded: bool) -> list[tuple[str, float
 
 
 def _search_box(ranges, n_scenario: int, make, read) -> SearchBox:
-    names, lo, hi, log = zip(*ranges)
-    return SearchBox(names, np.array(lo, float), np.array(hi, float), np.array(log, bool), n_scenario, make, read)
+    b = unit_box(ranges)
+    return SearchBox(b.names, b.lo, b.hi, b.log, n_scenario, make, read)
 
 
 def one_motor_space(problem: LoopProblem) -> Callable[[bool], SearchBox]:
@@ -201,7 +178,7 @@ def search_between(problem: LoopProblem, check, *, loops, timing: RigTiming, spa
         picks = _starts(check, grid, grounded, max(1, starts // len(kinds)))
         total_starts += len(picks)
         u = box.unit(np.array([box.row(check.scenarios, j, check.mice[k]) for k, j in picks]))
-        found = compass_search(lambda points: evaluate(box, points), u, np.flatnonzero(box.hi > box.lo))
+        found = compass_search(lambda points: evaluate(box, points), u, box.free)
         u, f, (pm, gm, st) = found.u, found.value, found.extra
         evaluations += found.evaluations
         i = int(np.argmin(f))

@@ -22,6 +22,48 @@ MAX_STEPS = 60
 
 
 @dataclass(frozen=True)
+class UnitBox:
+    """Named coordinates and their declared ranges, mapped onto the unit cube the search moves in (those in ``log``
+    by their logarithm; a coordinate whose range has no extent stays at its one value)."""
+
+    names: tuple[str, ...]
+    lo: np.ndarray
+    hi: np.ndarray
+    log: np.ndarray
+
+    @property
+    def free(self) -> np.ndarray:
+        """The coordinates with a range to search (indices)."""
+        return np.flatnonzero(self.hi > self.lo)
+
+    def _ends(self) -> tuple[np.ndarray, np.ndarray]:
+        lo, hi = self.lo.copy(), self.hi.copy()
+        lo[self.log], hi[self.log] = np.log(lo[self.log]), np.log(hi[self.log])
+        return lo, hi
+
+    def value(self, u: np.ndarray) -> np.ndarray:
+        """Rows of coordinates in [0, 1] to values."""
+        lo, hi = self._ends()
+        x = lo + u * (hi - lo)
+        x[..., self.log] = np.exp(x[..., self.log])
+        return x
+
+    def unit(self, x: np.ndarray) -> np.ndarray:
+        """Rows of values to coordinates in [0, 1] (clipped)."""
+        lo, hi = self._ends()
+        x = np.array(x, float)
+        x[..., self.log] = np.log(x[..., self.log])
+        span = np.where(hi > lo, hi - lo, 1.0)
+        return np.clip(np.where(hi > lo, (x - lo) / span, 0.0), 0.0, 1.0)
+
+
+def unit_box(ranges) -> UnitBox:
+    """``UnitBox`` of (name, lo, hi, log) rows."""
+    names, lo, hi, log = zip(*ranges)
+    return UnitBox(tuple(names), np.array(lo, float), np.array(hi, float), np.array(log, bool))
+
+
+@dataclass(frozen=True)
 class CompassResult:
     """Each start's point (rows of unit coordinates), its value and the evaluation's other outputs there."""
 

@@ -17,7 +17,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from design.loop.compass import compass_search
+from design.loop.compass import compass_search, unit_box
 from design.loop.controller import PI
 from design.loop.requirement import ScenarioPoint
 from design.problem import LoopProblem
@@ -64,22 +64,17 @@ def search_pi_between(problem: LoopProblem, controller: PI, dense: Scenarios, *,
     """``PiBetween`` of ``controller`` from the dense check ``dense`` (module docstring); None when the box has no
     extent (one payload, no uncertainty)."""
     pr = problem.plant.payload_kg
-    ranges = {"payload_kg": (float(pr.min), float(pr.max)), **uncertainty_ranges(problem)}
-    names = tuple(ranges)
-    lo, hi = (np.array([r[i] for r in ranges.values()], float) for i in (0, 1))
-    free = np.flatnonzero(hi > lo)
+    box = unit_box([("payload_kg", float(pr.min), float(pr.max), False)]
+                   + [(n, lo, hi, False) for n, (lo, hi) in uncertainty_ranges(problem).items()])
+    names, free, values = box.names, box.free, box.value
     if not free.size:
         return None
 
     def scenarios(x: np.ndarray) -> Scenarios:
         return Scenarios(x[:, 0].copy(), {n: x[:, 1 + i].copy() for i, n in enumerate(names[1:])})
 
-    def values(u: np.ndarray) -> np.ndarray:
-        return lo + u * (hi - lo)
-
     def starts_at(rows):
-        x0 = np.array([[dense.payload_kg[j], *(dense.parameters[n][j] for n in names[1:])] for j in rows], float)
-        return np.clip(np.where(hi > lo, (x0 - lo) / np.where(hi > lo, hi - lo, 1.0), 0.0), 0.0, 1.0)
+        return box.unit([[dense.payload_kg[j], *(dense.parameters[n][j] for n in names[1:])] for j in rows])
 
     grid, grid_bw = row_slack(problem, controller, dense)
     rows = np.argsort(grid, kind="stable")[:starts]

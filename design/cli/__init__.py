@@ -26,6 +26,7 @@ def _register() -> None:
         excite,
         fit,
         mouse_run,
+        planar_run,
         report,
         reproduce,
         simulate,
@@ -35,7 +36,8 @@ def _register() -> None:
     from design.cli.common import app
 
     commands = ((reproduce, "reproduce"), (simulate, "simulate"), (fit, "fit"), (diagnose, "diagnose"),
-                (excite, "excite"), (synth, "synth"), (sweep, "sweep"), (report, "report"), (mouse_run, "mouse-run"))
+                (excite, "excite"), (synth, "synth"), (sweep, "sweep"), (report, "report"), (mouse_run, "mouse-run"),
+                (planar_run, "planar-run"))
     if [c.name for c in app.registered_commands] == [name for _, name in commands]:
         return
     app.registered_commands.clear()     # none, or a registration a Ctrl-C cut short

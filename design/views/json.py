@@ -388,6 +388,29 @@ def synthesis_from_json(text: str, where: str, *, admittance: bool = False) -> S
                              (gains["m_v"], gains["b_v"]) if admittance else None)
 
 
+def dual_admittance_from_json(text: str, where: str):
+    """The two-motor Stage Y's admittance design as ``gantry synth --json`` writes it (``admittance``: its
+    ``structure``, the structure's ``gains`` and ``m_v``, ``b_v``): (the structure with its gains, (m_v kg,
+    b_v N*s/m)); ParameterError naming ``where`` and what is missing."""
+    from design.loop.dual import BY_NAME
+
+    what = (f"{where}: not the JSON of gantry synth --json on a two-motor Stage Y spec with an admittance design "
+            "(admittance.structure, admittance.gains, admittance.m_v, admittance.b_v)")
+    try:
+        adm = json.loads(text)["admittance"]
+        kind = BY_NAME[str(adm["structure"])]
+        names = [f.name for f in dataclasses.fields(kind)]
+        gains = {k: float(adm["gains"][k]) for k in names}
+        virtual = (float(adm["m_v"]), float(adm["b_v"]))
+    except (json.JSONDecodeError, KeyError, TypeError, ValueError, AttributeError):
+        raise ParameterError(what) from None
+    values = [*gains.values(), *virtual]
+    if not all(math.isfinite(v) and v >= 0 for v in values) or min(virtual) <= 0:
+        raise ParameterError(f"{where}: gains must be finite and non-negative and m_v, b_v positive, got "
+                             f"{gains}, m_v = {virtual[0]}, b_v = {virtual[1]}")
+    return kind(**gains), virtual
+
+
 def fitted_parameters_from_json(text: str, where: str) -> FittedParameters:
     """Read back the plant's parameters that ``fit_to_dict``, ``time_fit_to_dict`` and the two diagnoses' writers
     wrote (``parameters``: name -> {"value": ...}, and ``fixed``: name -> value); SpecError naming ``where``
@@ -965,4 +988,46 @@ def mouse_run_csv(run) -> str:
     cols = {"time_s": t.time_s, "intended_x_m": t.intended_x_m, "intended_v_m_per_s": t.intended_v_m_per_s,
             "x_m": t.x_m, "v_m_per_s": t.v_m_per_s, "body_x_m": t.body_x_m, "sensed_force_n": t.sensed_force_n,
             "leg_force_n": t.leg_force_n, "current_a": t.current_a, "reference_m_per_s": t.reference_m_per_s}
+    return ",".join(cols) + "\n" + csv_rows(np.column_stack(list(cols.values())), ["%.9g"] * len(cols))
+
+
+def planar_run_to_dict(run, sources: Mapping[str, str]) -> dict:
+    """``gantry planar-run --json``: the machine and the settings run, the figures
+    (``design.admittance.planar_run.PlanarRun``) and a summary in words."""
+    s, m = run.settings, run.settings.mouse
+    summary = [
+        f"force felt {run.peak_force_n:.3g} N peak, {run.rms_force_n:.3g} N RMS (the mouse pushes at most "
+        f"{m.peak_force_n:g} N); {run.peak_lateral_force_n:.3g} N across its heading at most",
+        f"the clamp lags the intended path by {1e3 * run.max_lag_m:.3g} mm at most, its heading off the mouse's by "
+        f"{run.max_heading_error_deg:.3g} deg at most",
+        "motors' peak force Y1 {:.4g} N, Y2 {:.4g} N, X {:.4g} N; a motor at its limit {:.2g} % of the time".format(
+            *run.motor_peak_force_n, 100 * run.saturated_fraction),
+        f"the beam yaws {run.peak_yaw_urad:.3g} urad at most",
+        "the mouse keeps up" if run.mouse_keeps_up else "the mouse CANNOT keep up with this path"]
+    return {"path": run.path.source, "designs": dict(sources),
+            "carriage_mass_kg": s.machine.carriage_mass_kg, "carriage_start_m": s.carriage_position_m,
+            "drive_rate_hz": s.drive_rate_hz, "admittance_rate_hz": s.x_law.update_rate_hz,
+            "x": {"kp": float(s.x_controller.kp), "ki": float(s.x_controller.ki), "m_v": s.x_law.m_v,
+                  "b_v": s.x_law.b_v, "law": s.x_law.rule},
+            "y": {"structure": s.y_controller.name, "gains": s.y_controller.gains(), "m_v": s.y_law.m_v,
+                  "b_v": s.y_law.b_v, "law": s.y_law.rule},
+            "mouse": dataclasses.asdict(m), "peak_force_n": run.peak_force_n, "rms_force_n": run.rms_force_n,
+            "peak_lateral_force_n": run.peak_lateral_force_n, "max_lag_m": run.max_lag_m,
+            "max_heading_error_deg": run.max_heading_error_deg,
+            "motor_peak_force_n": dict(zip(("y1", "y2", "x"), run.motor_peak_force_n)),
+            "saturated_fraction": run.saturated_fraction, "peak_yaw_urad": run.peak_yaw_urad,
+            "legs_at_limit_fraction": run.legs_at_limit_fraction, "mouse_keeps_up": run.mouse_keeps_up,
+            "summary": summary}
+
+
+def planar_run_csv(run) -> str:
+    """The planar run, one row per drive tick, units in the column names."""
+    t, p = run.trace, run.path
+    cols = {"time_s": t.time_s, "intended_x_m": p.position_m[:, 0], "intended_y_m": p.position_m[:, 1],
+            "x_m": t.clamp_m[:, 0], "y_m": t.clamp_m[:, 1], "vx_m_per_s": t.clamp_m_per_s[:, 0],
+            "vy_m_per_s": t.clamp_m_per_s[:, 1], "sensed_force_x_n": t.sensed_force_n[:, 0],
+            "sensed_force_y_n": t.sensed_force_n[:, 1], "leg_force_x_n": t.leg_force_n[:, 0],
+            "leg_force_y_n": t.leg_force_n[:, 1], "current_y1_a": t.current_a[:, 0], "current_y2_a": t.current_a[:, 1],
+            "current_x_a": t.current_a[:, 2], "reference_x_m_per_s": t.reference_m_per_s[:, 0],
+            "reference_y_m_per_s": t.reference_m_per_s[:, 1], "yaw_rad": t.yaw_rad}
     return ",".join(cols) + "\n" + csv_rows(np.column_stack(list(cols.values())), ["%.9g"] * len(cols))

@@ -1,5 +1,5 @@
 """``design.cli.main`` called again and again in one process (a script, a notebook, the tests): every call answers
-as the first did, on the same nine commands."""
+as the first did, on the same ten commands."""
 
 from __future__ import annotations
 
@@ -10,7 +10,8 @@ import pytest
 from design.cli import main
 from design.cli.common import app
 
-COMMANDS = ["reproduce", "simulate", "fit", "diagnose", "excite", "synth", "sweep", "report", "mouse-run"]
+COMMANDS = ["reproduce", "simulate", "fit", "diagnose", "excite", "synth", "sweep", "report", "mouse-run",
+            "planar-run"]
 
 
 def _main(capsys, monkeypatch, *args) -> tuple[int, str]:
@@ -20,7 +21,7 @@ def _main(capsys, monkeypatch, *args) -> tuple[int, str]:
     return end.value.code, capsys.readouterr().out
 
 
-def test_repeated_calls_answer_alike_on_the_same_nine_commands(capsys, monkeypatch):
+def test_repeated_calls_answer_alike_on_the_same_ten_commands(capsys, monkeypatch):
     first = _main(capsys, monkeypatch, "--help")
     for _ in range(4):
         assert _main(capsys, monkeypatch, "--help") == first

@@ -313,6 +313,8 @@ class PlanarRun:
     rms_force_n: float
     #: the sensed force across the mouse's intended direction (peak): what it feels sideways
     peak_lateral_force_n: float
+    #: intended peak speed minus the clamp's (m/s)
+    speed_shortfall_m_per_s: float
     #: the largest distance between the clamp and the intended path, and the largest angle between the clamp's
     #: velocity and the intended one where both are faster than a tenth of the intended peak (deg)
     max_lag_m: float
@@ -326,9 +328,10 @@ class PlanarRun:
 
     @property
     def mouse_keeps_up(self) -> bool:
-        """The force felt within the mouse's budget and never at its limit for more than 5 % of the run."""
+        """The force felt within the mouse's budget and the clamp's peak speed within 5 % of the intended one (as
+        the one-axis run judges it)."""
         return bool(self.peak_force_n <= self.settings.mouse.peak_force_n * 1.001
-                    and self.legs_at_limit_fraction <= 0.05)
+                    and self.speed_shortfall_m_per_s <= 0.05 * float(np.max(self.path.speed_m_per_s)))
 
 
 def planar_run(settings: PlanarRunSettings, path: PlanarPath, *, steps: int | None = None) -> PlanarRun:
@@ -349,7 +352,9 @@ def planar_run(settings: PlanarRunSettings, path: PlanarPath, *, steps: int | No
     limits = np.array([d.current_limit_a for d in drives])
     legs = np.hypot(*tr.leg_force_n.T) >= settings.mouse.peak_force_n * (1 - 1e-6)
     return PlanarRun(settings, path, tr, float(np.max(mag)), float(np.sqrt(np.mean(mag**2))),
-                     float(np.max(np.abs(lateral))), float(np.max(np.hypot(*(tr.clamp_m - path.position_m).T))),
+                     float(np.max(np.abs(lateral))),
+                     float(np.max(speed) - np.max(np.hypot(*tr.clamp_m_per_s.T))),
+                     float(np.max(np.hypot(*(tr.clamp_m - path.position_m).T))),
                      float(np.max(angle)) if angle.size else 0.0, tuple(float(v) for v in force.max(axis=0)),
                      float(np.mean(np.any(np.abs(tr.current_a) >= limits * (1 - 1e-9), axis=1))),
                      float(1e6 * np.max(np.abs(tr.yaw_rad))), float(np.mean(legs[moving])) if moving.any() else 0.0)

@@ -3,8 +3,8 @@ with a turn, or a recorded x-y path) through both axes' admittance at once on th
 (``design.admittance.planar_run``): the force it feels, how much of it sideways, how far the clamp lags, what
 each motor does and how the beam yaws.
 
-Exit status: 0 when the mouse keeps up (the force felt within its budget, its legs at their limit at most 5 %
-of the run), 3 when it cannot, 2 for bad input."""
+Exit status: 0 when the mouse keeps up (the force felt within its budget, the clamp's peak speed within 5 %
+of the mouse's, as ``gantry mouse-run`` judges it), 3 when it cannot, 2 for bad input."""
 
 from __future__ import annotations
 

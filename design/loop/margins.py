@@ -113,9 +113,19 @@ def _cubic_at(x: np.ndarray, c: np.ndarray, at: np.ndarray) -> np.ndarray:
     return c[:, 0] + (at - x[:, 0]) * (c[:, 1] + (at - x[:, 1]) * (c[:, 2] + (at - x[:, 2]) * c[:, 3]))
 
 
+#: the root's tolerance, relative to the grid step, and the most steps (bisection's 44 halvings reach ~6e-14)
+ROOT_TOL = 1e-13
+ROOT_STEPS = 60
+
+
 def _root(x: np.ndarray, y: np.ndarray, ia: np.ndarray) -> np.ndarray:
     """Root between stencil nodes ``ia`` and ``ia + 1``, where ``y`` changes sign, of the cubic
-    through the four points (x, y); the linear interpolation's root where the cubic is not finite."""
+    through the four points (x, y); the linear interpolation's root where the cubic is not finite.
+
+    Newton's method on the cubic from the linear root, kept inside the bracket (a step that leaves it bisects
+    the bracket instead, so it converges as bisection does at worst), until every step is below ``ROOT_TOL``
+    of the bracket (or the rounding of the root itself): the root bisection to that width finds, in a few steps
+    instead of 44 (tests)."""
     k = np.arange(x.shape[0])
     a, b, ya, yb = x[k, ia], x[k, ia + 1], y[k, ia], y[k, ia + 1]
     with np.errstate(invalid="ignore", divide="ignore"):
@@ -127,12 +137,26 @@ def _root(x: np.ndarray, y: np.ndarray, ia: np.ndarray) -> np.ndarray:
         c = _cubic(x, y)
         ok = np.all(np.isfinite(c), axis=1) & np.isfinite(ya) & np.isfinite(yb)
         fa = np.where(ok, ya, 1.0)
-        for _ in range(44):  # bisection: the bracket shrinks to ~1e-13 of a grid step
-            m = 0.5 * (a + b)
-            fm = _cubic_at(x, c, m)
-            same = np.sign(fm) == np.sign(fa)
-            a, fa, b = np.where(same, m, a), np.where(same, fm, fa), np.where(same, b, m)
-    return np.where(ok, 0.5 * (a + b), linear)
+        width = np.abs(b - a)
+        at = np.where(ok, linear, a)
+        active = ok.copy()             # each root stops where it converged: a batch gives what each row alone gives
+        for _ in range(ROOT_STEPS):
+            u0, u1, u2 = at - x[:, 0], at - x[:, 1], at - x[:, 2]
+            g2 = c[:, 2] + u2 * c[:, 3]
+            g1 = c[:, 1] + u1 * g2
+            f = c[:, 0] + u0 * g1
+            slope = g1 + u0 * (g2 + u1 * c[:, 3])
+            same = np.sign(f) == np.sign(fa)
+            a, fa, b = np.where(same, at, a), np.where(same, f, fa), np.where(same, b, at)
+            dx = f / slope
+            done = (np.abs(dx) <= np.maximum(ROOT_TOL * width, 8 * np.finfo(float).eps * np.abs(at))) | (f == 0)
+            step = np.where(f == 0, at, at - dx)
+            nxt = np.where(done | ((step - a) * (step - b) < 0), step, 0.5 * (a + b))
+            at = np.where(active, np.clip(nxt, np.minimum(a, b), np.maximum(a, b)), at)
+            active &= ~done
+            if not active.any():
+                break
+    return np.where(ok, at, linear)
 
 
 def _interpolate(x: np.ndarray, y: np.ndarray, at: np.ndarray) -> np.ndarray:

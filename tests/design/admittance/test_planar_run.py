@@ -71,7 +71,8 @@ def _reference(s: PlanarRunSettings, path: PlanarPath):
 SHORT = Locomotion(peak_speed_m_per_s=0.15, peak_acceleration_m_per_s2=1.5, travel_m=0.06)
 
 
-@pytest.mark.parametrize("structure", [CommonDifferential(220.0, 1.9e4, 190.0, 1.0), PerMotor(90.0, 6000.0)],
+@pytest.mark.parametrize("structure", [CommonDifferential(220.0, 1.9e4, 190.0, 1.0),
+                                       pytest.param(PerMotor(90.0, 6000.0), marks=pytest.mark.slow)],
                          ids=["common_differential", "per_motor"])
 def test_the_planar_run_is_newtons_planar_gantry_with_both_axes_laws(structure):
     s = _settings(structure)
@@ -85,6 +86,7 @@ def test_the_planar_run_is_newtons_planar_gantry_with_both_axes_laws(structure):
     np.testing.assert_allclose(tool.current_a, cur, atol=2e-4 * np.max(np.abs(cur)))
 
 
+@pytest.mark.slow
 def test_with_the_sensor_quantising_the_run_still_agrees_on_what_the_mouse_feels():
     s = _settings(CommonDifferential(220.0, 1.9e4, 190.0, 1.0), sensor=ForceSensor(0.00625, 0.00625, 0.025))
     path = diagonal_path(SHORT, s.drive_rate_hz, heading_deg=60.0, rest_s=0.1)

@@ -376,3 +376,41 @@ def test_phase_change_is_that_of_numpys_unwrap_on_curves_that_circle_the_origin(
     reference = np.unwrap(np.angle(z), axis=-1)
     assert np.allclose(phase_change(z), reference[..., -1] - reference[..., 0], rtol=0, atol=1e-9)
     assert np.ptp(np.round((reference[..., -1] - reference[..., 0]) / (2 * np.pi))) >= 4     # many windings
+
+
+def test_the_crossing_root_is_the_one_bisection_finds_to_the_bracket_width():
+    # the refinement's Newton steps (kept inside the bracket) against 80 halvings of the bracket on the same cubics:
+    # smooth ones, steep ones, flat-bottomed ones and ones with three roots in the interval's neighbourhood
+    from design.loop.margins import _cubic, _root
+
+    rng = np.random.default_rng(11)
+    n = 4000
+    x = np.sort(rng.uniform(-1.0, 1.0, (n, 4)), axis=1) * rng.uniform(0.01, 3.0, (n, 1))
+    y = rng.normal(size=(n, 4)) * rng.uniform(1e-6, 1e3, (n, 1))
+    flat = np.arange(n) < n // 4
+    y[flat] = (x[flat] - x[flat].mean(axis=1, keepdims=True)) ** 3      # a triple root: flat, inflecting
+    ia = rng.integers(0, 3, n)
+    k = np.arange(n)
+    keep = np.sign(y[k, ia]) != np.sign(y[k, ia + 1])
+    x, y, ia, flat, k = x[keep], y[keep], ia[keep], flat[keep], np.arange(int(keep.sum()))
+    c = _cubic(x, y)
+
+    def f(t):
+        return c[:, 0] + (t - x[:, 0]) * (c[:, 1] + (t - x[:, 1]) * (c[:, 2] + (t - x[:, 2]) * c[:, 3]))
+
+    a, b = x[k, ia].copy(), x[k, ia + 1].copy()
+    fa = y[k, ia].copy()
+    for _ in range(80):
+        m = 0.5 * (a + b)
+        same = np.sign(f(m)) == np.sign(fa)
+        a, fa, b = np.where(same, m, a), np.where(same, f(m), fa), np.where(same, b, m)
+    root = _root(x, y, ia)
+    step = x[k, ia + 1] - x[k, ia]
+    assert k.size > 1500
+    assert np.all((root >= x[k, ia]) & (root <= x[k, ia + 1]))
+    # the same root to 1e-12 of the step, or (a triple root, where the cubic is flat to rounding around it, or
+    # another of three roots in the interval) a point where the cubic is zero to rounding
+    near = np.abs(root - 0.5 * (a + b)) <= 1e-12 * step
+    scale = np.max(np.abs(y), axis=1)
+    assert np.all(near | (np.abs(f(root)) <= 1e-12 * scale))
+    assert near[~flat].mean() > 0.99

@@ -137,22 +137,24 @@ def _root(x: np.ndarray, y: np.ndarray, ia: np.ndarray) -> np.ndarray:
         c = _cubic(x, y)
         ok = np.all(np.isfinite(c), axis=1) & np.isfinite(ya) & np.isfinite(yb)
         fa = np.where(ok, ya, 1.0)
-        width = np.abs(b - a)
+        # the step that counts as converged: ROOT_TOL of the bracket, or the rounding of a root this far out
+        tol = np.maximum(ROOT_TOL * np.abs(b - a), 8 * np.finfo(float).eps * np.maximum(np.abs(a), np.abs(b)))
+        x0, x1, x2 = x[:, 0], x[:, 1], x[:, 2]
+        c0, c1, c2, c3 = c[:, 0], c[:, 1], c[:, 2], c[:, 3]
         at = np.where(ok, linear, a)
         active = ok.copy()             # each root stops where it converged: a batch gives what each row alone gives
         for _ in range(ROOT_STEPS):
-            u0, u1, u2 = at - x[:, 0], at - x[:, 1], at - x[:, 2]
-            g2 = c[:, 2] + u2 * c[:, 3]
-            g1 = c[:, 1] + u1 * g2
-            f = c[:, 0] + u0 * g1
-            slope = g1 + u0 * (g2 + u1 * c[:, 3])
+            u0, u1 = at - x0, at - x1
+            g2 = c2 + (at - x2) * c3
+            g1 = c1 + u1 * g2
+            f = c0 + u0 * g1
             same = np.sign(f) == np.sign(fa)
             a, fa, b = np.where(same, at, a), np.where(same, f, fa), np.where(same, b, at)
-            dx = f / slope
-            done = (np.abs(dx) <= np.maximum(ROOT_TOL * width, 8 * np.finfo(float).eps * np.abs(at))) | (f == 0)
+            dx = f / (g1 + u0 * (g2 + u1 * c3))
+            done = (np.abs(dx) <= tol) | (f == 0)
             step = np.where(f == 0, at, at - dx)
             nxt = np.where(done | ((step - a) * (step - b) < 0), step, 0.5 * (a + b))
-            at = np.where(active, np.clip(nxt, np.minimum(a, b), np.maximum(a, b)), at)
+            at = np.where(active, np.minimum(np.maximum(nxt, a), b), at)        # a < b throughout
             active &= ~done
             if not active.any():
                 break

@@ -4,10 +4,10 @@ A design holds its requirements on the design grid (carriage positions x payload
 uncertainty box) by construction; between those points a margin can dip below them (the worst cases of a
 yaw mode sit where the carriage and the payload tune it, not on the grid). The check: every requirement on a
 ``DENSE`` grid of positions x payloads over the whole travel and payload range, at every corner of the box, then
-a bounded search (Powell, on position and payload, the corner held) from every local minimum of a margin's
-slack there that comes within ``BAND`` of failing, for the point of least slack between them, and from that
-point a last search over position, payload and the uncertain parameters inside their box (not only at its
-corners). The slack of a
+a compass search (``design.loop.compass``, every start's trial points in one batch; first step a cell of the
+grid) on position and payload, the corner held, from every local minimum of a margin's slack there that comes
+within ``BAND`` of failing, for the point of least slack between them, and from that point a last search over
+position, payload and the uncertain parameters inside their box (not only at its corners). The slack of a
 plant is its least relative margin over the requirements (``slack``: negative where one fails, -1 where the
 loop is unstable). A search that finds a failing point hands it back to the synthesis, which adds it to the
 design plants and designs again (``design.synth.dual_design.design_dual``).
@@ -19,8 +19,8 @@ from collections.abc import Mapping
 from dataclasses import dataclass, replace
 
 import numpy as np
-from scipy.optimize import minimize
 
+from design.loop.compass import compass_search
 from design.loop.dual import Controller, DualLoopFigures, loop_figures
 from design.loop.requirement import ScenarioPoint
 from design.parallel import thread_map
@@ -35,7 +35,9 @@ CHUNK = 200
 #: fraction of the requirement: 0.12 dB of 6 dB, 0.9 deg of 45 deg), the lowest ``MAX_SEARCHES`` of them
 BAND = 0.02
 MAX_SEARCHES = 24
-#: the search's tolerance on position and payload, as a fraction of their ranges
+#: the search's first step (a cell of the dense grid's payloads, the coarser of its two axes) and its tolerance,
+#: as fractions of each coordinate's range
+SEARCH_STEP = 1.0 / (DENSE[1] - 1)
 SEARCH_XTOL = 1e-3
 
 
@@ -108,57 +110,49 @@ def between_check(controller: Controller, model: DualDriveStageY, *, travel_m: t
     values = np.concatenate(thread_map(lambda i: slacks(loop_figures(W_RAD_S, dense.frd_of(i, i + CHUNK), controller),
                                                         req), range(0, len(dense), CHUNK)), axis=1)
     s = values.min(axis=0)
-    starts = _starts(values, (DENSE[0], DENSE[1], len(dense) // (DENSE[0] * DENSE[1])))
+    starts = np.array(_starts(values, (DENSE[0], DENSE[1], len(dense) // (DENSE[0] * DENSE[1]))))
     span = np.array([max(p1 - p0, 1e-12), max(m1 - m0, 1e-12)])
     low = np.array([p0, m0])
-    found: list[tuple[float, DualScenarios]] = []
+    names = list(ranges)
+    lo_u = np.array([ranges[n][0] for n in names])
+    du = np.array([max(ranges[n][1] - ranges[n][0], 1e-300) for n in names])
     evaluations = 0
 
-    def at(k: int, u: np.ndarray) -> DualScenarios:
-        x = low + np.clip(u, 0.0, 1.0) * span
-        one = dense.take([k])
-        return replace(one, carriage_position_m=np.array([x[0]]), carriage_mass_kg=np.array([x[1]]))
+    def plants(rows: np.ndarray, u: np.ndarray) -> DualScenarios:
+        """Dense plants ``rows`` moved to unit coordinates ``u`` (position, payload[, each uncertain parameter])."""
+        x = low + np.clip(u[:, :2], 0.0, 1.0) * span
+        at = replace(dense.take(rows), carriage_position_m=x[:, 0], carriage_mass_kg=x[:, 1])
+        if u.shape[1] > 2:
+            values = lo_u + np.clip(u[:, 2:], 0.0, 1.0) * du
+            at = replace(at, parameters={n: values[:, j] for j, n in enumerate(names)})
+        return at
 
-    for k in starts:
-        def objective(u, k=int(k)):
-            nonlocal evaluations
-            evaluations += 1
-            return float(slack(loop_figures(W_RAD_S, at(k, u).frd, controller, disk=req.disk_margin > 0), req)[0])
+    def search(rows: np.ndarray, u0: np.ndarray, free: np.ndarray):
+        """Every start at once (``design.loop.compass``): a start's row rides along as a fixed coordinate."""
+        nonlocal evaluations
 
-        u0 = (np.array([dense.carriage_position_m[k], dense.carriage_mass_kg[k]]) - low) / span
-        # within the grid cells around the start: the basin its neighbours bound
-        step = 1.0 / (np.array(DENSE) - 1)
-        box = [(max(0.0, a - d), min(1.0, a + d)) for a, d in zip(u0, step)]
-        r = minimize(objective, u0, method="Powell", bounds=box, options={"xtol": SEARCH_XTOL, "ftol": 1e-6})
-        found.append((min(float(r.fun), float(s[k])), at(int(k), r.x) if r.fun < s[k] else dense.take([int(k)])))
-    least, point = min(found, key=lambda x: x[0])
+        def evaluate(v):
+            return (slack(loop_figures(W_RAD_S, plants(v[:, -1].astype(int), v[:, :-1]).frd, controller,
+                                       disk=req.disk_margin > 0), req),)
+
+        r = compass_search(evaluate, np.column_stack([u0, rows]), free, step=SEARCH_STEP, tol=SEARCH_XTOL)
+        evaluations += r.evaluations
+        return r.u[:, :-1], r.value
+
+    u0 = (np.column_stack([dense.carriage_position_m[starts], dense.carriage_mass_kg[starts]]) - low) / span
+    u, found = search(starts, u0, np.arange(2))
+    best = int(np.argmin(found))           # a search's value is at most its start's (it evaluates the start first)
+    least, point = float(found[best]), plants(starts[best:best + 1], u[best:best + 1])
+    moved = [plants(starts[i:i + 1], u[i:i + 1]) for i in np.flatnonzero(found < s[starts])]
     if ranges:
         # from the point of least slack, inside the uncertainty box too (not only at its corners)
-        names = list(ranges)
-        lo_u = np.array([ranges[n][0] for n in names])
-        du = np.array([max(ranges[n][1] - ranges[n][0], 1e-300) for n in names])
-
-        def inside(v: np.ndarray) -> DualScenarios:
-            x = low + np.clip(v[:2], 0.0, 1.0) * span
-            values = lo_u + np.clip(v[2:], 0.0, 1.0) * du
-            return replace(point, carriage_position_m=np.array([x[0]]), carriage_mass_kg=np.array([x[1]]),
-                           parameters={n: np.array([values[j]]) for j, n in enumerate(names)})
-
-        def objective(v):
-            nonlocal evaluations
-            evaluations += 1
-            return float(slack(loop_figures(W_RAD_S, inside(v).frd, controller, disk=req.disk_margin > 0), req)[0])
-
-        v0 = np.concatenate([(np.array([point.carriage_position_m[0], point.carriage_mass_kg[0]]) - low) / span,
-                             (np.array([point.parameters[n][0] for n in names]) - lo_u) / du])
-        step = 1.0 / (np.array(DENSE) - 1)
-        box = [(max(0.0, a - d), min(1.0, a + d)) for a, d in zip(v0[:2], step)] + [(0.0, 1.0)] * len(names)
-        r = minimize(objective, v0, method="Powell", bounds=box, options={"xtol": SEARCH_XTOL, "ftol": 1e-6})
-        if r.fun < least:
-            least, point = float(r.fun), inside(r.x)
-            found.append((least, point))
+        v0 = np.concatenate([u[best], (np.array([point.parameters[n][0] for n in names]) - lo_u) / du])
+        v, value = search(starts[best:best + 1], v0[None, :], np.arange(2 + len(names)))
+        if value[0] < least:
+            least, point = float(value[0]), plants(starts[best:best + 1], v)
+            moved.append(point)
     both = dense
-    for _, one in found:
+    for one in moved:
         both = both.with_row(one.row(0))
     worst = worst_cases([controller], both, req)[0]
     return BetweenCheck(worst, least, point.row(0), len(dense), len(starts), evaluations)

@@ -174,17 +174,17 @@ def substeps(settings: PlanarRunSettings) -> int:
 
 
 def tick_functions(settings: PlanarRunSettings, steps: int) -> tuple[ca.Function, ca.Function]:
-    """casadi functions (z, i_c, drive) -> z after one drive tick (``steps`` Runge-Kutta steps with the commands
-    i_c (A: Y1, Y2, X) and the legs' path terms ``drive`` (N: x, y) held), and (z, drive) -> [F_s (2), F_leg (2),
-    c (2), c' (2)] at z."""
+    """casadi functions (z, drive) -> the signals [F_s (2), F_leg (2), c (2), c' (2)] at z with the legs' path terms
+    ``drive`` (N: x, y), and (z, i_c, drive, next drive) -> (z after one drive tick, the signals there): ``steps``
+    Runge-Kutta steps with the commands i_c (A: Y1, Y2, X) and ``drive`` held."""
     s, m = settings, settings.mouse
     machine = replace(s.machine, carriage_mass_kg=s.machine.carriage_mass_kg + m.head_mass_kg)
     mass, rest = machine._lagrange
     L = machine.rail_separation_m
     drives = (*s.y_drives, s.x_drive)
-    z, ic, drive = ca.SX.sym("z", N_STATES), ca.SX.sym("ic", 3), ca.SX.sym("drive", 2)
+    z, ic, drive, after = ca.SX.sym("z", N_STATES), ca.SX.sym("ic", 3), ca.SX.sym("drive", 2), ca.SX.sym("after", 2)
 
-    def parts(x):
+    def parts(x, drive):
         q, dq, cur, b, vb = x[Q], x[DQ], x[CURRENT], x[BODY], x[BODY_V]
         theta, dtheta = (q[1] - q[0]) / L, (dq[1] - dq[0]) / L
         c = ca.vertcat(q[2], q[0] + q[2] * theta)
@@ -205,13 +205,13 @@ def tick_functions(settings: PlanarRunSettings, steps: int) -> tuple[ca.Function
     h = 1.0 / s.drive_rate_hz / steps
     x = z
     for _ in range(steps):
-        k1 = parts(x)[0]
-        k2 = parts(x + h / 2 * k1)[0]
-        k3 = parts(x + h / 2 * k2)[0]
-        k4 = parts(x + h * k3)[0]
+        k1 = parts(x, drive)[0]
+        k2 = parts(x + h / 2 * k1, drive)[0]
+        k3 = parts(x + h / 2 * k2, drive)[0]
+        k4 = parts(x + h * k3, drive)[0]
         x = x + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
-    return (ca.Function("planar_tick", [z, ic, drive], [x]),
-            ca.Function("planar_signals", [z, drive], [parts(z)[1]]))
+    return (ca.Function("planar_signals", [z, drive], [parts(z, drive)[1]]),
+            ca.Function("planar_tick", [z, ic, drive, after], [x, parts(x, after)[1]]))
 
 
 class _Channels:
@@ -248,7 +248,7 @@ def simulate_planar_run(settings: PlanarRunSettings, path: PlanarPath, *, steps:
     s, m = settings, settings.mouse
     t = np.asarray(path.time_s, float)
     T = 1.0 / s.drive_rate_hz
-    tick, signals = tick_functions(s, steps or substeps(s))
+    signals, tick = tick_functions(s, steps or substeps(s))
     xd, vd, ad = path.position_m, path.velocity_m_per_s, path.acceleration_m_per_s2
     start = np.array([s.carriage_position_m, 0.0])
     z = np.zeros(N_STATES)
@@ -270,10 +270,13 @@ def simulate_planar_run(settings: PlanarRunSettings, path: PlanarPath, *, steps:
     n = t.size
     rec = {k: np.empty((n, w)) for k, w in (("c", 2), ("vc", 2), ("b", 2), ("fs", 2), ("fl", 2), ("i", 3),
                                              ("ref", 2), ("yaw", 1))}
+    # the legs' path terms at every tick (and after the last)
+    drives = m.body_mass_kg * ad + m.leg_stiffness_n_per_m * (start + xd) + m.leg_damping_n_s_per_m * vd + \
+        ff[:, 0] * ad + ff[:, 1] * vd
+    drives = np.vstack([drives, drives[-1:]])
+    out = np.asarray(signals(z, drives[0])).ravel()
+    L_m = s.machine.rail_separation_m
     for k in range(n):
-        drive = m.body_mass_kg * ad[k] + m.leg_stiffness_n_per_m * (start + xd[k]) + \
-            m.leg_damping_n_s_per_m * vd[k] + ff[:, 0] * ad[k] + ff[:, 1] * vd[k]
-        out = np.asarray(signals(z, drive)).ravel()
         fs = out[0:2]
         if k % s.law_ticks == 0:
             for a, (law, sensor) in enumerate(zip(laws, sensors)):
@@ -291,12 +294,12 @@ def simulate_planar_run(settings: PlanarRunSettings, path: PlanarPath, *, steps:
         x_integ, x_prev = trial, e
         x_cmd = x_cmd[1:] + [min(max(u, -x_limit), x_limit)]
         y_cmd = y_cmd[1:] + [y_loop(v_ref[1] - z[4:6])]
-        L = s.machine.rail_separation_m
         rec["c"][k], rec["vc"][k], rec["fs"][k], rec["fl"][k] = out[4:6], out[6:8], fs, out[2:4]
-        rec["b"][k], rec["i"][k], rec["ref"][k], rec["yaw"][k] = z[BODY], z[CURRENT], v_ref, (z[1] - z[0]) / L
+        rec["b"][k], rec["i"][k], rec["ref"][k], rec["yaw"][k] = z[BODY], z[CURRENT], v_ref, (z[1] - z[0]) / L_m
         ic = np.array([*y_cmd[0], x_cmd[0]])
         z[CURRENT] = np.where(ideal, ic, z[CURRENT])         # an ideal current loop: the current is its command
-        z = np.asarray(tick(z, ic, drive)).ravel()
+        nxt, sig = tick(z, ic, drives[k], drives[k + 1])
+        z, out = np.asarray(nxt).ravel(), np.asarray(sig).ravel()
     return PlanarTrace(t, rec["c"] - start, rec["vc"], rec["b"] - start, rec["fs"], rec["fl"], rec["i"], rec["ref"],
                        rec["yaw"][:, 0])
 

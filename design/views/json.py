@@ -999,8 +999,8 @@ def planar_run_to_dict(run, sources: Mapping[str, str]) -> dict:
         f"force felt {run.peak_force_n:.3g} N peak, {run.rms_force_n:.3g} N RMS (the mouse pushes at most "
         f"{m.peak_force_n:g} N); {run.peak_lateral_force_n:.3g} N across its heading at most",
         f"the clamp lags the intended path by {1e3 * run.max_lag_m:.3g} mm at most, its heading off the mouse's by "
-        f"{run.max_heading_error_deg:.3g} deg at most, its peak speed {1e3 * run.speed_shortfall_m_per_s:.3g} mm/s "
-        "short of the mouse's",
+        f"{run.max_heading_error_deg:.3g} deg at most, its peak speed {1e3 * abs(run.speed_shortfall_m_per_s):.3g} "
+        f"mm/s {'short of' if run.speed_shortfall_m_per_s > 0 else 'above'} the mouse's",
         "motors' peak force Y1 {:.4g} N, Y2 {:.4g} N, X {:.4g} N; a motor at its limit {:.2g} % of the time".format(
             *run.motor_peak_force_n, 100 * run.saturated_fraction),
         f"the beam yaws {run.peak_yaw_urad:.3g} urad at most",

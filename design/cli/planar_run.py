@@ -44,6 +44,8 @@ def planar_run(
                                                   "X_SPEC's admittance.mouse.leg_stiffness_n_per_m).")] = None,
     out: Annotated[Optional[Path], typer.Option("--out", help="Write the run (one row per drive tick) to this "
                                                 "CSV.")] = None,
+    plot: Annotated[Optional[Path], typer.Option("--plot", help="Draw the path on the floor and the force felt "
+                                                 "(and across the heading) to this SVG file.")] = None,
     as_json: Annotated[bool, typer.Option("--json", help="Print JSON.")] = False,
 ) -> None:
     """Simulate a mouse walking in two dimensions through both axes' admittance on the planar gantry."""
@@ -53,11 +55,11 @@ def planar_run(
     from design.views.json import dual_admittance_from_json, planar_run_csv, planar_run_to_dict, print_json
     from design.views.progress import StageProgress
     from design.workflows import load_problem
-    from plant.host.files import atomic_write_text, is_stdout
+    from plant.host.files import atomic_write_texts, is_stdout
     from plant.host.text_io import read_text
 
     csv_path = None if path in ("diagonal", "turn") else Path(path)
-    keep_inputs({"--out": out}, [x_spec, y_spec, x_design, y_design, csv_path], json=as_json)
+    keep_inputs({"--out": out, "--plot": plot}, [x_spec, y_spec, x_design, y_design, csv_path], json=as_json)
     x_problem = load_problem(x_spec).loop
     y_problem = load_problem(y_spec)
     x_problem, x_controller, x_virtual = read_design(x_design, x_problem, admittance=True)
@@ -84,8 +86,17 @@ def planar_run(
     finally:
         progress.close()
     d = planar_run_to_dict(result, {"x": str(x_design), "y": str(y_design)})
+    files = {}
     if out is not None:
-        text = planar_run_csv(result)
+        files[out] = planar_run_csv(result)
+    if plot is not None:
+        import matplotlib
+
+        matplotlib.use("Agg")
+        from design.views.admittance_figures import planar_run_figure
+        from design.views.html import svg
+
+        files[plot] = svg(planar_run_figure(result))
     if as_json:
         print_json(d)
     else:
@@ -95,9 +106,10 @@ def planar_run(
                       f"b_v = {settings.y_law.b_v:.4g} N*s/m", soft_wrap=True)
         for line in d["summary"]:
             console.print(f"  {line}", soft_wrap=True)
-        if out is not None and not is_stdout(out):
-            console.print(f"run written to {out}")
-    if out is not None:
-        atomic_write_text(out, text)
+        for path, what in ((out, "run"), (plot, "figure")):
+            if path is not None and not is_stdout(path):
+                console.print(f"{what} written to {path}")
+    if files:
+        atomic_write_texts(files)
     if not result.mouse_keeps_up:
         raise typer.Exit(3)

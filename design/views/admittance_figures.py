@@ -216,6 +216,33 @@ def run_figures(run) -> list:
     return [speed, force]
 
 
+def planar_run_figure(run):
+    """A planar run (``design.admittance.planar_run.PlanarRun``) in one figure: the path on the floor, intended and
+    the clamp's (mm), above the sensed force's magnitude and its part across the mouse's heading (N over s) with
+    the mouse's peak force."""
+    tr, p = run.trace, run.path
+    fig, (floor, force) = plt.subplots(2, 1, figsize=(PANEL_IN[0], 2 * PANEL_IN[1] + 1.2), layout="constrained")
+    floor.plot(1e3 * p.position_m[:, 0], 1e3 * p.position_m[:, 1], "k--", label="intended")
+    floor.plot(1e3 * tr.clamp_m[:, 0], 1e3 * tr.clamp_m[:, 1],
+               label=f"the clamp (lags {1e3 * run.max_lag_m:.3g} mm at most)")
+    floor.set(xlabel="x along the beam (mm)", ylabel="y along the rails (mm)", aspect="equal")
+    floor.set_title("The path on the floor", fontsize=10)
+    speed = p.speed_m_per_s
+    heading = p.velocity_m_per_s / np.maximum(speed, 1e-12)[:, None]
+    lateral = np.where(speed > 1e-9, tr.sensed_force_n[:, 0] * heading[:, 1] - tr.sensed_force_n[:, 1] * heading[:, 0],
+                       np.nan)
+    force.plot(tr.time_s, np.hypot(*tr.sensed_force_n.T), label="sensed force, magnitude")
+    force.plot(tr.time_s, lateral, alpha=0.8, label=f"across the heading (peak {run.peak_lateral_force_n:.3g} N)")
+    limit = run.settings.mouse.peak_force_n
+    force.axhline(limit, **LIMIT_STYLE, label=force_limit_label(limit, run.peak_force_n))
+    force.set(xlabel="time (s)", ylabel="force (N)")
+    force.set_title("Force on the planar run", fontsize=10)
+    for ax in (floor, force):
+        ax.grid(True, alpha=0.3)
+        ax.legend(fontsize=8, loc="best", frameon=False)
+    return fig
+
+
 def tradeoff_figures(t, adm) -> list:
     """The least force the virtual dynamics ask on the profile (N) against each requirement, with the mouse's
     peak force and the spec's own requirement."""

@@ -45,8 +45,11 @@ def test_a_recorded_walk_along_x_pushes_nothing_sideways_and_a_diagonal_one_does
     # a row per drive tick over the walk and its 1 s of rest before and after
     assert rows[0].startswith("time_s,intended_x_m,intended_y_m,x_m,y_m")
     assert len(rows) - 1 == round((0.6 + 2.0) * d["drive_rate_hz"])
-    diagonal = json.loads(gantry("planar-run", X_SPEC, Y_SPEC, "--x-design", x, "--y-design", y, "--path",
-                                 _walk(tmp_path, 45.0), "--json").stdout)
+    drawn = gantry("planar-run", X_SPEC, Y_SPEC, "--x-design", x, "--y-design", y, "--path", _walk(tmp_path, 45.0),
+                   "--json", "--plot", tmp_path / "run.svg")
+    diagonal = json.loads(drawn.stdout)
+    figure = (tmp_path / "run.svg").read_text()
+    assert figure.startswith("<svg") and "The path on the floor" in figure and "across the heading" in figure
     # Y's heavier law (and the beam it moves) lags X's: the felt force turns off the mouse's heading
     assert diagonal["peak_lateral_force_n"] > 0.02 and diagonal["peak_yaw_urad"] > 0.1
 

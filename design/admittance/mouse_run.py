@@ -57,7 +57,7 @@ import numpy as np
 
 from design.admittance.model import admittance_problem
 from design.admittance.profile import trapezoid
-from design.admittance.rig import DiscreteAdmittance, RigTiming
+from design.admittance.rig import DiscreteAdmittance, ForceSensor, RigTiming
 from design.loop.controller import PI
 from plant.errors import DataError, SpecError
 from plant.host.text_io import read_text
@@ -225,6 +225,7 @@ def simulate_mouse_run(settings: RunSettings, time_s, x_d, v_d, a_d) -> RunTrace
     fc, vs, fmax = s.friction_n, s.friction_velocity_m_per_s, s.mouse_peak_force_n
     imax = s.motor_peak_force_n / s.force_constant_n_per_a
     law = DiscreteAdmittance.of(s.m_v, s.b_v, s.admittance_rate_hz, rule=s.law)
+    sensor = ForceSensor(s.resolution_n, s.bias_n, s.deadband_n)
     alpha, beta, beta_prev = law.alpha, law.beta_m_per_s_per_n, law.beta_prev_m_per_s_per_n
     n_z = g.A.shape[0]
     start, start_ic = _reads(g)
@@ -274,8 +275,7 @@ def simulate_mouse_run(settings: RunSettings, time_s, x_d, v_d, a_d) -> RunTrace
         fs = signal(g.sensed, z, ic, fr, fleg)
         if k % n_a == 0:
             reading = signal(g.reading, z, ic, fr, fleg)
-            r = s.resolution_n * float(np.round((reading + s.bias_n) / s.resolution_n))
-            r_db = r if abs(r) > s.deadband_n else 0.0
+            r_db = sensor.reading(reading)
             v_a = alpha * v_a + beta * r_db + beta_prev * r_prev
             r_prev = r_db
             queue = queue[1:] + [v_a]

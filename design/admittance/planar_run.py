@@ -43,7 +43,7 @@ import casadi as ca
 import numpy as np
 
 from design.admittance.planar_path import PlanarPath
-from design.admittance.rig import DiscreteAdmittance
+from design.admittance.rig import DiscreteAdmittance, ForceSensor
 from design.loop.controller import PI
 from design.loop.dual import Controller
 from plant.errors import SpecError
@@ -88,19 +88,6 @@ class PlanarMouse:
     leg_damping_n_s_per_m: float
     peak_force_n: float
     feedforward: bool = True
-
-
-@dataclass(frozen=True)
-class ForceSensor:
-    """The force sensor on one axis (N): resolution, bias left after taring, the law's deadband."""
-
-    resolution_n: float
-    bias_n: float
-    deadband_n: float
-
-    def reading(self, force_n: float) -> float:
-        r = self.resolution_n * round((force_n + self.bias_n) / self.resolution_n)
-        return r if abs(r) > self.deadband_n else 0.0
 
 
 @dataclass(frozen=True)
@@ -215,12 +202,12 @@ def tick_functions(settings: PlanarRunSettings, steps: int) -> tuple[ca.Function
 
 
 class _Channels:
-    """Stage Y's structure at the drive's rate: trapezoidal PIs between T_out and T_in, each integrator held
-    while a motor it drives sits at its limit in the direction the channel pushes."""
+    """A loop structure at the drive's rate (Stage Y's, or one PI on Stage X's motor): trapezoidal PIs between
+    T_out and T_in, each integrator held while a motor it drives sits at its limit in the direction the channel
+    pushes (for one PI: while the command is beyond its limit in the error's direction), the currents clipped."""
 
-    def __init__(self, controller: Controller, limits_a, period_s: float):
-        self.t_in, self.t_out = np.asarray(controller.t_in, float), np.asarray(controller.t_out, float)
-        pis = controller.channels()
+    def __init__(self, t_in, t_out, pis, limits_a, period_s: float):
+        self.t_in, self.t_out = np.asarray(t_in, float), np.asarray(t_out, float)
         self.kp = np.array([float(c.kp) for c in pis])
         self.ki = np.array([float(c.ki) for c in pis])
         self.limits = np.asarray(limits_a, float)
@@ -257,15 +244,15 @@ def simulate_planar_run(settings: PlanarRunSettings, path: PlanarPath, *, steps:
     laws = (s.x_law, s.y_law)
     sensors = (s.x_sensor, s.y_sensor)
     ff = np.array([[s.x_law.m_v, s.x_law.b_v], [s.y_law.m_v, s.y_law.b_v]]) if m.feedforward else np.zeros((2, 2))
-    x_limit = s.x_drive.current_limit_a
-    y_loop = _Channels(s.y_controller, [d.current_limit_a for d in s.y_drives], T)
+    x_loop = _Channels(np.eye(1), np.eye(1), [s.x_controller], [s.x_drive.current_limit_a], T)
+    y_loop = _Channels(s.y_controller.t_in, s.y_controller.t_out, s.y_controller.channels(),
+                       [d.current_limit_a for d in s.y_drives], T)
     ideal = np.array([d.current_loop_hz is None for d in (*s.y_drives, s.x_drive)])
     delay = s.x_law.computation_delay_samples
     queues = [[0.0] * (delay + 1) for _ in laws]
     y_ticks = s.y_drives[0].delay_ticks
     x_cmd, y_cmd = [0.0] * (s.x_drive.delay_ticks + 1), [np.zeros(2)] * (y_ticks + 1)
     v_a, r_prev, v_ref = np.zeros(2), np.zeros(2), np.zeros(2)
-    x_integ = x_prev = 0.0
     ic = np.zeros(3)
     n = t.size
     rec = {k: np.empty((n, w)) for k, w in (("c", 2), ("vc", 2), ("b", 2), ("fs", 2), ("fl", 2), ("i", 3),
@@ -285,14 +272,7 @@ def simulate_planar_run(settings: PlanarRunSettings, path: PlanarPath, *, steps:
                 r_prev[a] = r
                 queues[a] = queues[a][1:] + [float(v_a[a])]
                 v_ref[a] = queues[a][0]
-        e = v_ref[0] - z[6]
-        trial = x_integ + float(s.x_controller.ki) * T * (e + x_prev) / 2
-        u = float(s.x_controller.kp) * e + trial
-        if (u > x_limit and e > 0) or (u < -x_limit and e < 0):
-            trial = x_integ
-            u = float(s.x_controller.kp) * e + trial
-        x_integ, x_prev = trial, e
-        x_cmd = x_cmd[1:] + [min(max(u, -x_limit), x_limit)]
+        x_cmd = x_cmd[1:] + [float(x_loop(np.array([v_ref[0] - z[6]]))[0])]
         y_cmd = y_cmd[1:] + [y_loop(v_ref[1] - z[4:6])]
         rec["c"][k], rec["vc"][k], rec["fs"][k], rec["fl"][k] = out[4:6], out[6:8], fs, out[2:4]
         rec["b"][k], rec["i"][k], rec["ref"][k], rec["yaw"][k] = z[BODY], z[CURRENT], v_ref, (z[1] - z[0]) / L_m

@@ -63,6 +63,20 @@ def force_filter_polys(frequency_hz: float | None, order: int) -> tuple[np.ndarr
 
 
 @dataclass(frozen=True)
+class ForceSensor:
+    """The force sensor on one axis as the law reads it (N): resolution, the bias left after taring, the law's
+    deadband (``reading``: rounded half to even, as numpy rounds)."""
+
+    resolution_n: float
+    bias_n: float
+    deadband_n: float
+
+    def reading(self, force_n: float) -> float:
+        r = self.resolution_n * round((force_n + self.bias_n) / self.resolution_n)
+        return r if abs(r) > self.deadband_n else 0.0
+
+
+@dataclass(frozen=True)
 class RigTiming:
     """The rig's update period (None: continuous) and computation delay, with the force filter's corner."""
 

@@ -12,7 +12,6 @@ import pytest
 from design.admittance.mouse_run import RunSettings, simulate_mouse_run
 from design.admittance.planar_path import PlanarPath, diagonal_path, planar_path_from_csv, turn_path
 from design.admittance.planar_run import (
-    ForceSensor,
     MotorDrive,
     PlanarMouse,
     PlanarRunSettings,
@@ -21,7 +20,7 @@ from design.admittance.planar_run import (
     simulate_planar_run,
     substeps,
 )
-from design.admittance.rig import DiscreteAdmittance
+from design.admittance.rig import DiscreteAdmittance, ForceSensor
 from design.loop.controller import PI
 from design.loop.dual import CommonDifferential, PerMotor
 from design.problem import Locomotion

@@ -46,7 +46,7 @@ from design.admittance.planar_path import PlanarPath
 from design.admittance.rig import DiscreteAdmittance, ForceSensor
 from design.loop.controller import PI
 from design.loop.dual import Controller
-from plant.errors import SpecError
+from plant.errors import ParameterError, SpecError
 from plant.physics.planar import PlanarGantry
 
 #: steps per drive tick at least, and the largest w h of a step (module docstring)
@@ -370,6 +370,13 @@ def _law(problem, m_v: float, b_v: float, where: str) -> tuple[DiscreteAdmittanc
     return law, sensor
 
 
+def _within(what: str, value: float, bounds, key: str, unit: str) -> None:
+    """A design's value inside the spec's bounds for it (ParameterError naming the key otherwise)."""
+    if not bounds.min <= value <= bounds.max:
+        raise ParameterError(f"{what} = {value:g} {unit} lies outside the spec's {key} bounds [{bounds.min:g}, "
+                             f"{bounds.max:g}]: not a design of this spec")
+
+
 def planar_settings(x_problem, y_problem, *, x_controller: PI, x_virtual: tuple[float, float],
                     y_controller: Controller, y_virtual: tuple[float, float], payload_kg: float | None = None,
                     carriage_position_m: float | None = None,
@@ -409,6 +416,14 @@ def planar_settings(x_problem, y_problem, *, x_controller: PI, x_virtual: tuple[
                           0 if delay is None else int(round(float(delay.seconds) * rate)), float(peak))
 
     x_adm, y_adm = admittance_problem(x_problem), admittance_problem(y_problem.loop)
+    axes = (("Stage X", x_problem, x_adm, [x_controller], x_virtual),
+            ("Stage Y", y_problem.loop, y_adm, y_controller.channels(), y_virtual))
+    for axis, problem, adm, pis, (m_v, b_v) in axes:
+        _within(f"{axis}'s design: m_v", m_v, adm.m_v, "admittance.m_v", "kg")
+        _within(f"{axis}'s design: b_v", b_v, adm.b_v, "admittance.b_v", "N*s/m")
+        for pi in pis:
+            _within(f"{axis}'s design: kp", float(pi.kp), problem.controller.kp, "controller.kp", "A/(m/s)")
+            _within(f"{axis}'s design: ki", float(pi.ki), problem.controller.ki, "controller.ki", "A/m")
     y_peak = y_adm.hardware.motor_peak_force_n
     machine = PlanarGantry(beam_mass_kg=float(model.beam_mass_kg), beam_inertia_kg_m2=float(model.beam_inertia_kg_m2),
                            carriage_mass_kg=float(mech.masses_kg[0]),

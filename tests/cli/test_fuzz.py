@@ -134,12 +134,20 @@ def test_specs_through_synth_and_report(part):
     explore(part, (3, 30), design_spec_cases(), run_case, shrink=part == "fast")
 
 
+#: the planar run's inputs besides the bundled specs: both axes' designs and a 0.1 s walk
+PLANAR_X_DESIGN = b'{"gains": {"kp": 199.9, "ki": 18.5, "m_v": 0.0419, "b_v": 5.02}}'
+PLANAR_Y_DESIGN = (b'{"admittance": {"structure": "common_differential", "m_v": 0.06, "b_v": 6.0, "gains": '
+                   b'{"kp_common": 219.8, "ki_common": 18957.0, "kp_differential": 191.2, "ki_differential": 1.0}}}')
+FORCE_RECORD = "examples/data/lab_mouse_track.csv"
+PLANAR_WALK = b"time_s,x_m,y_m\n0,0,0\n0.05,0.002,0.001\n0.1,0.005,0.003\n"
+
+
 @st.composite
 def byte_cases(draw) -> Case:
     """Any input with bytes flipped, inserted, deleted or cut, or random bytes, through the command that reads it."""
     b = bases()
     kind = draw(st.sampled_from(["recording", "recording", "time_domain", "spec", "spec", "xlsx", "tdms", "mat",
-                                 "fit_json", "random"]))
+                                 "fit_json", "planar", "random"]))
     if kind == "recording":
         return Case(["fit", "rec.csv", *FIT], {"rec.csv": draw(mutated_bytes(b.recording))}, json_out=True)
     if kind == "time_domain":
@@ -164,6 +172,16 @@ def byte_cases(draw) -> Case:
         return Case(["report", "spec.toml", "--no-synth", "--samples", "0", "--plant-from", "fit.json", "--out",
                      "design.html"], {"spec.toml": b.specs["thesis_stage_x.toml"],
                                       "fit.json": draw(mutated_bytes(b.fit_json))}, outputs=("design.html",))
+    if kind == "planar":
+        # both axes' specs and designs and a short walk, one of them mutated, through the planar mouse run
+        # (the specs in a folder beside examples/, where Stage X's spec finds its force record)
+        files = {"s/x.toml": b.specs["stage_x_admittance.toml"], "s/y.toml": b.specs["stage_y_admittance.toml"],
+                 "x.json": Blob(PLANAR_X_DESIGN), "y.json": Blob(PLANAR_Y_DESIGN), "walk.csv": Blob(PLANAR_WALK)}
+        which = draw(st.sampled_from(sorted(files)))
+        files[which] = Blob(draw(mutated_bytes(files[which])))
+        files[FORCE_RECORD] = Blob((ROOT / FORCE_RECORD).read_bytes())
+        return Case(["planar-run", "s/x.toml", "s/y.toml", "--x-design", "x.json", "--y-design", "y.json", "--path",
+                     "walk.csv", "--json"], files, json_out=True)
     name = draw(st.sampled_from(["rec.csv", "rec.csv.gz", "rec.xlsx", "spec.toml"]))
     raw = draw(st.one_of(st.binary(max_size=4096), st.sampled_from([b"\x1f\x8b", b"BZh", b"\xfd7zXZ\x00", b"PK\x03\x04",
                                                                      b"\xff\xfe", b"\xef\xbb\xbf", b""])))

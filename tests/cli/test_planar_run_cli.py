@@ -58,7 +58,11 @@ def test_bad_designs_and_paths_are_one_line_each(tmp_path):
     x, y = _designs(tmp_path)
     bad = tmp_path / "bad.json"
     bad.write_text(json.dumps({"gains": {"kp": 1.0}}))
+    heavy = tmp_path / "heavy.json"
+    heavy.write_text(y.read_text().replace('"m_v": 0.06', '"m_v": 1e308'))
     cases = [
+        (("--x-design", x, "--y-design", heavy), "Stage Y's design: m_v = 1e+308 kg lies outside the spec's "
+                                                 "admittance.m_v bounds [0.005, 100]"),
         (("--x-design", x, "--y-design", bad), "bad.json: not the JSON of gantry synth --json on a two-motor Stage Y"),
         (("--x-design", bad, "--y-design", y), "bad.json: not the JSON of gantry synth --json with gains"),
         (("--x-design", x, "--y-design", y, "--carriage-m", "0.75"), "--path: the carriage would leave the beam"),

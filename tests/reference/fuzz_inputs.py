@@ -326,8 +326,9 @@ def contract(case: Case, r: Result, before: dict, after: dict) -> list[tuple[str
     if "Traceback" in r.err or "Traceback" in r.out or r.status == "escaped":
         problems.append(("traceback", r.err.strip().splitlines()[-1] if r.err.strip() else "(empty stderr)"))
     allowed = {0, 2}
-    # exit 3: a complete result the mouse cannot drive (synth) or keep up with (mouse-run); its outputs are written
-    verdict_3 = bool(case.args) and case.args[0] in ("synth", "mouse-run")
+    # exit 3: a complete result the mouse cannot drive (synth) or keep up with (mouse-run, planar-run); its outputs
+    # are written
+    verdict_3 = bool(case.args) and case.args[0] in ("synth", "mouse-run", "planar-run")
     if case.interrupt is not None and r.interrupted:
         allowed = {case.interrupt.status}
     else:

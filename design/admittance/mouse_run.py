@@ -433,6 +433,18 @@ class MouseRun:
     limit_cycle_um: float
 
 
+def nominal_mouse(mouse, leg_stiffness_n_per_m: float | None = None) -> tuple[float, ...]:
+    """The run's mouse from the spec's ranges (``admittance.mouse``): mid-range head and body masses, neck stiffness
+    and damping and leg damping, the legs at their least stiffness unless given, its peak force; as (head kg, body
+    kg, neck N/m, neck N*s/m, legs N/m, legs N*s/m, peak N)."""
+    def mid(r):
+        return 0.5 * (r.min + r.max)
+
+    legs = mouse.leg_stiffness_n_per_m.min if leg_stiffness_n_per_m is None else float(leg_stiffness_n_per_m)
+    return (mid(mouse.head_mass_kg), mid(mouse.body_mass_kg), mid(mouse.neck_stiffness_n_per_m),
+            mid(mouse.neck_damping_n_s_per_m), legs, mid(mouse.leg_damping_n_s_per_m), mouse.peak_force_n)
+
+
 def run_settings(problem, *, controller: PI, m_v: float, b_v: float, timing=None, payload_kg: float | None = None,
                  friction_n: float | None = None, leg_stiffness_n_per_m: float | None = None,
                  drive_rate_hz: float | None = None) -> RunSettings:
@@ -455,20 +467,12 @@ def run_settings(problem, *, controller: PI, m_v: float, b_v: float, timing=None
     rate = round(rate * timing.period_s) / timing.period_s
     if friction_n is None:
         friction_n = 0.0 if coulomb is None else float(coulomb.force_n)
-    mouse = adm.mouse
-
-    def mid(r):
-        return 0.5 * (r.min + r.max)
-
     return RunSettings(plant, 0 if delay is None else int(round(float(delay.seconds) * rate)), rate,
                        float(controller.kp), float(controller.ki),
                        adm.hardware.motor_peak_force_n, friction_n, FRICTION_VELOCITY_M_PER_S, 1.0 / timing.period_s,
                        timing.delays[-1], m_v, b_v, timing.filter_hz, timing.filter_order,
                        adm.hardware.force_sensor_resolution_n, adm.sensor.bias_after_tare_n, adm.sensor.deadband_n,
-                       mid(mouse.head_mass_kg), mid(mouse.body_mass_kg), mid(mouse.neck_stiffness_n_per_m),
-                       mid(mouse.neck_damping_n_s_per_m),
-                       mouse.leg_stiffness_n_per_m.min if leg_stiffness_n_per_m is None else leg_stiffness_n_per_m,
-                       mid(mouse.leg_damping_n_s_per_m), mouse.peak_force_n,
+                       *nominal_mouse(adm.mouse, leg_stiffness_n_per_m),
                        law=timing.rule)
 
 

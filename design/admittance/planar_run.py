@@ -42,8 +42,10 @@ from functools import cached_property
 import casadi as ca
 import numpy as np
 
+from design.admittance.model import admittance_problem
+from design.admittance.mouse_run import nominal_mouse
 from design.admittance.planar_path import PlanarPath
-from design.admittance.rig import DiscreteAdmittance, ForceSensor
+from design.admittance.rig import DiscreteAdmittance, ForceSensor, RigTiming
 from design.loop.controller import PI
 from design.loop.dual import Controller
 from plant.errors import ParameterError, SpecError
@@ -354,9 +356,6 @@ def _drive_effects(plant_effects, where: str) -> dict:
 
 
 def _law(problem, m_v: float, b_v: float, where: str) -> tuple[DiscreteAdmittance, ForceSensor]:
-    from design.admittance.model import admittance_problem
-    from design.admittance.rig import RigTiming
-
     adm = admittance_problem(problem)
     timing = RigTiming.of(adm.rig)
     if not timing.sampled:
@@ -386,8 +385,6 @@ def planar_settings(x_problem, y_problem, *, x_controller: PI, x_virtual: tuple[
     at their least stiffness unless given) and Stage Y's two-motor spec (a ``design.results.DesignProblem`` with
     ``[dual_drive]``: the beam, the rails, the yaw stiffness, both Y drives, Y's law and sensor), with each axis's
     gains and virtual dynamics (m_v kg, b_v N*s/m). The carriage starts mid-travel unless given."""
-    from design.admittance.model import admittance_problem
-
     spec = y_problem.spec
     if spec.dual_drive is None:
         raise SpecError(f"{y_problem.spec_path}: the planar run needs Stage Y's [dual_drive] section (the beam on "
@@ -434,17 +431,9 @@ def planar_settings(x_problem, y_problem, *, x_controller: PI, x_virtual: tuple[
                            damping_x_n_s_per_m=float(mech.rail_damping_n_s_per_m),
                            yaw_stiffness_n_m_per_rad=float(model.yaw_stiffness_n_m_per_rad))
     travel = spec.dual_drive.carriage_position_m
-    mouse = x_adm.mouse
-
-    def mid(r):
-        return 0.5 * (r.min + r.max)
-
     return PlanarRunSettings(
         machine, 0.5 * (travel.min + travel.max) if carriage_position_m is None else float(carriage_position_m),
         rate, drive(x_effects, plant.force_constant_n_per_a, x_adm.hardware.motor_peak_force_n),
         tuple(drive(y_effects, k, y_peak) for k in (model.force_constant1_n_per_a, model.force_constant2_n_per_a)),
         x_controller, y_controller, x_law, y_law, x_sensor, y_sensor,
-        PlanarMouse(mid(mouse.head_mass_kg), mid(mouse.body_mass_kg), mid(mouse.neck_stiffness_n_per_m),
-                    mid(mouse.neck_damping_n_s_per_m),
-                    mouse.leg_stiffness_n_per_m.min if leg_stiffness_n_per_m is None else float(leg_stiffness_n_per_m),
-                    mid(mouse.leg_damping_n_s_per_m), mouse.peak_force_n))
+        PlanarMouse(*nominal_mouse(x_adm.mouse, leg_stiffness_n_per_m)))

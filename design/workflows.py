@@ -363,19 +363,32 @@ def _dual(problem: DesignProblem, progress=None):
 
 def _dual_admittance(problem: DesignProblem, dual, progress=None):
     """The spec's admittance on the recommended two-motor structure (None without ``[admittance]`` or when no
-    structure holds its requirements)."""
+    structure holds its requirements); with ``admittance.codesign`` on the structure's translation gains chosen for
+    the mouse (``design.admittance.dual_codesign``)."""
     if problem.spec.admittance is None or dual.recommended is None:
         return None
     from design.admittance.dual import synthesise_dual_admittance
+    from design.admittance.dual_codesign import dual_codesign
+    from design.admittance.model import admittance_problem
+    from design.admittance.rig import RigTiming
+    from design.synth.dual import DualRequirements
 
     d = problem.spec.dual_drive
     best = next(s for s in dual.structures if s.structure == dual.recommended)
     travel = d.carriage_position_m
-    return synthesise_dual_admittance(problem.loop, structure=best.structure, controller=best.controller,
-                                      model=problem.spec.dual_model(), travel_m=(travel.min, travel.max),
-                                      design_positions=travel.points, stage_x_mass_kg=d.stage_x_mass_kg,
-                                      ranges={k: (v.min, v.max) for k, v in d.uncertainty.items()},
-                                      progress=progress)
+    loop = problem.loop
+    where = dict(model=problem.spec.dual_model(), travel_m=(travel.min, travel.max), design_positions=travel.points,
+                 stage_x_mass_kg=d.stage_x_mass_kg, ranges={k: (v.min, v.max) for k, v in d.uncertainty.items()})
+    record = None
+    if admittance_problem(loop).codesign:
+        if progress is not None:
+            progress("co-design of the translation gains for the mouse")
+        timing = RigTiming.of(admittance_problem(loop).rig)
+        record = dual_codesign(loop, controller=best.controller, requirements=DualRequirements.of(loop.requirements),
+                               timing=timing.at_delay(timing.delays[-1]), samples=loop.verification.monte_carlo_samples,
+                               seed=loop.verification.seed, **where)
+    return synthesise_dual_admittance(loop, structure=best.structure, controller=best.controller, progress=progress,
+                                      codesign=record, **where)
 
 
 def measure(path: str | Path, *, columns: str | None = None, sample_rate_hz: float | None = None,

@@ -77,14 +77,21 @@ def _scorer(problem: LoopProblem, timing: RigTiming):
         pm, gm = float(np.min(mg.phase_margin_deg)), float(np.min(mg.gain_margin_db))
         if not (np.all(mg.closed_loop_stable) and pm >= req.phase_margin_deg and gm >= req.gain_margin_db):
             return math.inf, pm, gm
-        w = with_mode_points(_coarse(t), corners, t, points=12)
-        loops = PiLoops.of(problem, controller)
-        resp = interaction_responses(problem, scenarios, w, loops=loops, timing=t, corners=corners)
-        felt = FeltForce(problem, feel, corners, loops=loops, timing=t)
-        ray = best_ray(ray_problem(resp, adm), objective=lambda r: felt(r.m_v, r.b_v), points=16, refine=1)
-        return (felt(ray.m_v, ray.b_v) if ray.feasible else math.inf), pm, gm
+        return least_felt(problem, PiLoops.of(problem, controller), scenarios, feel, corners, t), pm, gm
 
     return score
+
+
+def least_felt(problem: LoopProblem, loops, scenarios, feel, corners, timing: RigTiming, *, dtype=complex) -> float:
+    """The co-design's score of velocity ``loops`` (``PiLoops``, ``design.admittance.dual.DualLoops``): the peak
+    force felt on the locomotion profile (worst over the ``feel`` scenarios and ``corners``) at the best ray on
+    ``scenarios`` x ``corners`` and a coarse grid (``design.admittance.ray``); inf when no ray holds."""
+    adm = admittance_problem(problem)
+    w = with_mode_points(_coarse(timing), corners, timing, points=12)
+    resp = interaction_responses(problem, scenarios, w, loops=loops, timing=timing, corners=corners, dtype=dtype)
+    felt = FeltForce(problem, feel, corners, loops=loops, timing=timing)
+    ray = best_ray(ray_problem(resp, adm), objective=lambda r: felt(r.m_v, r.b_v), points=16, refine=1)
+    return felt(ray.m_v, ray.b_v) if ray.feasible else math.inf
 
 
 def codesign(problem: LoopProblem, *, controller: PI, timing: RigTiming) -> CodesignRecord:

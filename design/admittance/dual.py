@@ -36,6 +36,7 @@ import numpy as np
 
 from design.admittance.between import HeldBetween, between_failure, between_text, two_motor_space
 from design.admittance.delays import WorstFelt, evaluator
+from design.admittance.dual_codesign_record import DualCodesignRecord
 from design.admittance.feel import MouseFeel, mouse_feel
 from design.admittance.latency import LatencyCheck, latency_check
 from design.admittance.model import (
@@ -65,6 +66,10 @@ from plant.physics.dual_drive import DualDriveStageY
 HINT = ("a lighter design needs faster velocity loops on the heavy beam (lower requirements.phase_margin_deg or "
         "gain_margin_db of the loops, a faster drive), lower admittance.phase_margin_deg / gain_margin_db, or a "
         "slower locomotion profile")
+#: and where the structure's own gains are kept: their integral action, tuned for bandwidth, stiffens the loop
+#: against a braced mouse
+CODESIGN_HINT = HINT.replace("needs ", "needs admittance.codesign = true (the structure's translation gains chosen "
+                             "for the mouse), ", 1)
 #: carriage positions and payloads of the dense check (evenly over their ranges)
 CHECK_POSITIONS, CHECK_PAYLOADS = 9, 4
 #: grid points the rays put within +-20 % of each mouse mode (``with_mode_points``): the heavy gantry holds the
@@ -172,6 +177,8 @@ class DualAdmittanceResult:
     latency: LatencyCheck | None = None
     #: the search between the dense check's points (``design.admittance.between``) and the scale-up it asked for
     between: HeldBetween | None = None
+    #: the translation gains chosen for the mouse and their velocity-loop checks (``admittance.codesign = true``)
+    codesign: DualCodesignRecord | None = None
 
     @property
     def gains(self) -> dict[str, float]:
@@ -199,17 +206,21 @@ def by_position(check: AdmittanceCheck, scenarios: DualScenarios) -> tuple[Posit
 def synthesise_dual_admittance(problem: LoopProblem, *, structure: str, controller: Controller,
                                model: DualDriveStageY, travel_m: tuple[float, float], design_positions: int,
                                stage_x_mass_kg: float, ranges: Mapping[str, tuple[float, float]],
-                               progress: Callable[[str], None] | None = None) -> DualAdmittanceResult:
+                               progress: Callable[[str], None] | None = None,
+                               codesign: DualCodesignRecord | None = None) -> DualAdmittanceResult:
     """(m_v, b_v) for ``controller`` (the structure ``structure``) over the carriage travel ``travel_m`` (m), the
     spec's payloads and ``ranges`` of the uncertain parameters (module doc); ``problem`` gives the admittance
-    section, the payload range and the Monte Carlo settings."""
+    section, the payload range and the Monte Carlo settings; ``codesign``: the co-design whose gains replace
+    ``controller`` (``design.admittance.dual_codesign``, required when the spec asks for it)."""
     t0 = time.perf_counter()
     say = progress or (lambda stage: None)
     adm = admittance_problem(problem)
-    if adm.codesign:
-        raise SpecError("admittance.codesign: the two-motor Stage Y's loops are designed first (dual_drive."
-                        "structures); set codesign = false")
     timing = RigTiming.of(adm.rig)
+    if adm.codesign and codesign is None:
+        raise SpecError("admittance.codesign: the two-motor co-design (design.admittance.dual_codesign) chooses the "
+                        "gains this synthesis then takes as its controller")
+    if codesign is not None:
+        controller = codesign.controller
     loops = DualLoops(controller)
     corners = mice(problem)
     pr = problem.plant.payload_kg
@@ -235,7 +246,8 @@ def synthesise_dual_admittance(problem: LoopProblem, *, structure: str, controll
                            between=two_motor_space(problem, model, (lo, hi), stage_x_mass_kg, ranges))
     ray, x, check, mc = rounds.ray, rounds.x, rounds.check, rounds.monte_carlo
     if not ray.feasible:
-        return _infeasible(problem, ray, structure, controller, dense, dense_set, corners, timing, len(scenarios), t0)
+        return _infeasible(problem, ray, structure, controller, dense, dense_set, corners, timing, len(scenarios), t0,
+                           codesign)
     binding = rounds.binding(problem, corners, timing)
     say("what the mouse feels")
     worst_felt = felt.worst(*x)
@@ -254,15 +266,16 @@ def synthesise_dual_admittance(problem: LoopProblem, *, structure: str, controll
         adm, failures="the dense check fails: " + "; ".join(failures[:3]) if failures else None,
         held_on=f"the {structure} loops, {len(dense_set)} plants x {len(corners)} mice{between_text(held)}",
         draws_over="carriage position, payload, uncertainty", monte_carlo=mc, feel=feel, binding=binding,
-        m_v=x[0], b_v=x[1], hint=HINT)
+        m_v=x[0], b_v=x[1], hint=HINT if codesign is not None else CODESIGN_HINT)
     return DualAdmittanceResult(
         status, msg, structure, controller, float(x[0]), float(x[1]), r, check, mc, feel, binding,
         by_position(check, dense_set), corners, timing, len(rounds.scenarios), time.perf_counter() - t0,
-        DiscreteAdmittance.of_timing(float(x[0]), float(x[1]), timing) if timing.sampled else None, latency, held)
+        DiscreteAdmittance.of_timing(float(x[0]), float(x[1]), timing) if timing.sampled else None, latency, held,
+        codesign)
 
 
 def _infeasible(problem, ray, structure, controller, dense, dense_set, corners, timing, n_design,
-                t0) -> DualAdmittanceResult:
+                t0, codesign) -> DualAdmittanceResult:
     """No ray holds every requirement within the bounds of (m_v, b_v)."""
     adm = admittance_problem(problem)
     hi = np.array([adm.m_v.max, adm.b_v.max])
@@ -276,7 +289,7 @@ def _infeasible(problem, ray, structure, controller, dense, dense_set, corners, 
     return DualAdmittanceResult("infeasible", msg, structure, controller, float(x[0]), float(x[1]),
                                 float(x[0] * loc.peak_acceleration_m_per_s2 + x[1] * loc.peak_speed_m_per_s), check,
                                 None, None, binding, by_position(check, dense_set), corners, timing, n_design,
-                                time.perf_counter() - t0)
+                                time.perf_counter() - t0, codesign=codesign)
 
 
 @dataclass(frozen=True)

@@ -263,9 +263,6 @@ class Spec(_Strict):
             raise ValueError("dual_drive: the two-motor model is Stage Y's; set plant.stage = \"y\"")
         if self.plant.measured:
             raise ValueError("dual_drive: designs on the model, not plant.measured")
-        if self.admittance is not None and self.admittance.codesign:
-            raise ValueError("admittance.codesign: the two-motor Stage Y's loops are designed first (dual_drive."
-                             "structures); set codesign = false")
         try:
             model = self.dual_model()
         except (GantryError, ValueError) as exc:

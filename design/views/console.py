@@ -303,6 +303,20 @@ def _print_admittance(console: Console, adm: dict) -> None:
              if "structure" in adm else f"with Kp = {adm['kp']:.4g}, Ki = {adm['ki']:.4g}")
     console.print(f"[bold]admittance[/]: m_v = {adm['m_v']:.4g} kg, b_v = {adm['b_v']:.4g} N*s/m {loops}; rendered "
                   f"bandwidth {_num(bw, '.1f')} Hz; binding: {adm['binding']['detail']}", soft_wrap=True)
+    cd = adm.get("codesign")
+    if "structure" in adm and cd is not None:
+        v = cd["velocity_loops"]
+        w = v["between"]["worst"]
+        console.print(f"  co-designed for the mouse from the structure's "
+                      f"{', '.join(f'{k} = {x:.4g}' for k, x in cd['given_gains'].items())}: "
+                      f"{cd['force_felt_n']:.3g} N felt on the reduced set for {cd['given_force_felt_n']:.3g} N "
+                      f"({cd['candidates_meeting_velocity_requirements']} of {cd['candidates']} candidates met the "
+                      f"velocity loops' requirements); its velocity loops: worst PM {_val(w['phase_margin_deg'])} deg, "
+                      f"GM {_num(w['gain_margin_db'])} dB, common-mode {_val(w['common_phase_margin_deg'])} deg / "
+                      f"{_num(w['common_gain_margin_db'])} dB, bandwidth {_val(w['bandwidth_hz'])} Hz over the design "
+                      f"plants and between them; Monte Carlo {v['monte_carlo']['n_failing']} of "
+                      f"{v['monte_carlo']['n_plants']} fail; "
+                      + ("verified" if cd["verified"] else "NOT verified"), soft_wrap=True)
     if m:
         console.print(f"  the mouse feels {m['force_felt_peak_n']:.3g} N peak, {m['force_felt_rms_n']:.3g} N RMS on "
                       f"the profile (m_v a + b_v v = {m['virtual_dynamics_force_n']:.3g} N; it can push "

@@ -29,6 +29,7 @@ from plant.identify.time_fit import TimeFitResult
 if TYPE_CHECKING:
     from design.admittance.between import BetweenCheck, HeldBetween
     from design.admittance.dual import DualAdmittanceResult
+    from design.admittance.dual_codesign_record import DualCodesignRecord
     from design.admittance.monte_carlo import AdmittanceMonteCarlo
     from design.admittance.mouse import MouseModel
     from design.admittance.synthesis import AdmittanceResult, AdmittanceSolverRecord
@@ -796,6 +797,7 @@ def dual_admittance_to_dict(result: DualAdmittanceResult, problem: LoopProblem) 
         "check_scenarios": len(c.scenarios), "design_scenarios": result.design_scenarios,
         "violations": [v.detail for v in c.violations],
         "monte_carlo": None if result.monte_carlo is None else admittance_monte_carlo_to_dict(result.monte_carlo),
+        "codesign": None if result.codesign is None else dual_codesign_to_dict(result.codesign),
         "solver": {"method": "rays m_v / b_v on the structure's loops seen from the head clamp "
                              "(design.admittance.dual); dense check over carriage position x payload x uncertainty "
                              "x mice, Monte Carlo", "seconds": result.seconds},
@@ -871,24 +873,39 @@ def design_to_dict(outcome: DesignOutcome) -> dict:
     return out
 
 
+def _worst(w) -> dict | None:
+    return None if w is None else dataclasses.asdict(w)
+
+
+def _dual_between(b) -> dict | None:
+    """A two-motor design's check between its grid's points (``design.synth.dual_worst.BetweenCheck``)."""
+    return None if b is None else {"worst": _worst(b.worst), "least_slack": b.least_slack,
+                                   "worst_point": b.worst_point.as_dict(), "coverage": b.coverage(),
+                                   "dense_plants": b.dense_plants, "searches": b.searches,
+                                   "evaluations": b.evaluations, "holds": b.holds}
+
+
+def dual_codesign_to_dict(record: DualCodesignRecord) -> dict:
+    """The two-motor co-design (``design.admittance.dual_codesign``): the structure's gains and the chosen ones, the
+    force felt at each on the reduced set, and the chosen gains' velocity loops on the design plants, between their
+    points and on the Monte Carlo draws."""
+    return {"given_gains": record.given.gains(), "gains": record.controller.gains(),
+            "force_felt_n": record.force_n, "given_force_felt_n": record.given_force_n,
+            "candidates": record.candidates, "candidates_meeting_velocity_requirements": record.evaluations,
+            "velocity_loops": {"design_plants": _worst(record.design_plants),
+                               "between": _dual_between(record.between),
+                               "monte_carlo": _worst(record.monte_carlo)},
+            "verified": record.verified}
+
+
 def dual_design_to_dict(dual: DualDesign) -> dict:
     """The two-motor Stage Y's designs: per structure its gains (A/(m/s), A/m) and its worst case on the design
     plants and on the Monte Carlo draws; the recommended structure."""
-    def worst(w) -> dict | None:
-        return None if w is None else dataclasses.asdict(w)
-
-    def between(c) -> dict | None:
-        b = c.between
-        return None if b is None else {"worst": worst(b.worst), "least_slack": b.least_slack,
-                                       "worst_point": b.worst_point.as_dict(), "coverage": b.coverage(),
-                                       "dense_plants": b.dense_plants, "searches": b.searches,
-                                       "evaluations": b.evaluations, "holds": b.holds}
-
     rows = [{"structure": c.design.structure,
              "gains": None if c.design.controller is None else c.design.controller.gains(),
-             "design_plants": worst(c.design.design), "between": between(c), "design_rounds": c.rounds,
+             "design_plants": _worst(c.design.design), "between": _dual_between(c.between), "design_rounds": c.rounds,
              "offset_ramp_a_per_s_per_mm_s": 1e-3 * c.offset_ramp_a_per_s,
-             "monte_carlo": worst(c.design.monte_carlo), "at_bound": list(c.design.at_bound),
+             "monte_carlo": _worst(c.design.monte_carlo), "at_bound": list(c.design.at_bound),
              "binding": [] if c.between is None else list(dual.requirements.binding(c.between.worst))}
             for c in dual.checked]
     return {"status": dual.status, "message": dual.message, "verified": dual.recommended is not None,

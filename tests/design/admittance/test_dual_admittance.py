@@ -13,13 +13,16 @@ import pytest
 from in_process import gantry
 from independent_dual_drive import Rig, clamp_path
 
-from design.admittance.dual import DualLoops
+from design.admittance.codesign import KI_FACTORS, KP_FACTORS
+from design.admittance.dual import DualLoops, synthesise_dual_admittance
+from design.admittance.dual_codesign import candidates
 from design.admittance.model import AdmittanceEvaluator, admittance_problem, mice
 from design.admittance.mouse import MouseModel
 from design.admittance.rig import RigTiming
 from design.loop.dual import CommonDifferential, MasterSlave, PerMotor
 from design.spec.schema import load_spec
 from design.synth.dual import dual_scenarios
+from plant.errors import SpecError
 from plant.physics.dual_drive import DualDriveStageY
 from plant.physics.effects import make_effect
 
@@ -166,12 +169,23 @@ def test_bundled_stage_y_admittance_spec_holds_on_newtons_model(tmp_path):
     assert pm == pytest.approx(b["phase_margin_deg"] if b["phase_margin_deg"] is not None else np.inf, abs=0.1)
 
 
-def test_codesign_on_two_motors_is_refused_naming_the_key(tmp_path):
+def test_codesign_on_two_motors_scales_only_the_translation_channel_and_needs_its_record(tmp_path):
+    """The co-design's candidates keep the yaw channel's design and try every factor pair once; the spec takes
+    ``codesign = true`` beside ``[dual_drive]``, and the synthesis refuses to run it without the co-design's record."""
+    given = CONTROLLERS["common_differential"]
+    tried = candidates(given)
+    assert tried[0] == given and len(set(tried)) == len(tried) == len(KP_FACTORS) * len(KI_FACTORS)
+    assert {(c.kp_differential, c.ki_differential) for c in tried} == {(given.kp_differential, given.ki_differential)}
+    assert {round(c.ki_common / given.ki_common, 9) for c in tried} == set(KI_FACTORS)
+    assert {round(c.kp, 9) for c in candidates(PerMotor(100.0, 1e4))} == {round(100.0 * f, 9) for f in KP_FACTORS}
     path = tmp_path / "codesign.toml"
     path.write_text(SPEC.read_text().replace("codesign = false", "codesign = true"))
-    r = gantry("synth", str(path), "--json")
-    assert r.returncode == 2 and r.stderr.strip().count("\n") == 0
-    assert "admittance.codesign" in r.stderr and "Traceback" not in r.stderr
+    problem = load_spec(path).problem()
+    assert admittance_problem(problem).codesign
+    with pytest.raises(SpecError, match="admittance.codesign"):
+        synthesise_dual_admittance(problem, structure="common_differential", controller=given,
+                                   model=DualDriveStageY(), travel_m=(0.08, 0.72), design_positions=2,
+                                   stage_x_mass_kg=16.0, ranges={})
 
 
 @pytest.mark.slow

@@ -7,11 +7,12 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+import control
 import independent_admittance as adm_ref
 import numpy as np
 import pytest
 from in_process import gantry
-from independent_dual_drive import Rig, clamp_path
+from independent_dual_drive import Rig, channel_loop, clamp_path, unstable_poles
 
 from design.admittance.codesign import KI_FACTORS, KP_FACTORS
 from design.admittance.dual import DualLoops, synthesise_dual_admittance
@@ -186,6 +187,58 @@ def test_codesign_on_two_motors_scales_only_the_translation_channel_and_needs_it
         synthesise_dual_admittance(problem, structure="common_differential", controller=given,
                                    model=DualDriveStageY(), travel_m=(0.08, 0.72), design_positions=2,
                                    stage_x_mass_kg=16.0, ranges={})
+
+
+@pytest.mark.slow
+def test_codesigned_stage_y_holds_on_newtons_model(tmp_path):
+    """``gantry synth`` on the bundled spec with ``admittance.codesign = true``: the structure's yaw channel keeps
+    its design, the translation gains are those of the co-design, and on Newton's model at the travel's ends x the
+    payload's ends x the least and most damping (slowest drive: 0.8 ms, 700 Hz) the co-designed loops are stable,
+    keep every channel's margins (python-control, within the Pade approximant's 1 deg and 0.2 dB), stay stable
+    with both motors' gains raised together by up to the common-mode gain margin, and the interaction loop with
+    each corner mouse keeps the admittance's margins."""
+    spec = tmp_path / "codesign.toml"
+    spec.write_text(SPEC.read_text().replace("codesign = false", "codesign = true"))
+    out = gantry("synth", str(spec), "--json")
+    assert out.returncode in (0, 3), out.stderr
+    adm = json.loads(out.stdout)["admittance"]
+    co = adm["codesign"]
+    assert co is not None and co["verified"] and adm["monte_carlo"]["violations"] == 0
+    structure = adm["structure"]
+    assert co["gains"] == adm["gains"]
+    kp, ki = ("kp_common", "ki_common") if structure == "common_differential" else ("kp", "ki")
+    assert {k: v for k, v in co["gains"].items() if k not in (kp, ki)} == \
+        {k: v for k, v in co["given_gains"].items() if k not in (kp, ki)}
+    g = tuple(adm["gains"].values())
+    problem = load_spec(spec).problem()
+    a = admittance_problem(problem)
+    timing = RigTiming.of(a.rig)
+    w_adm = np.geomspace(2 * np.pi * 1e-3, np.pi / timing.period_s, 2000)
+    w = 2 * np.pi * np.logspace(-2, 3.3, 1000)
+    common_gain = 10 ** (problem.requirements.gain_margin_db / 20)
+    for p in (0.08, 0.72):
+        for payload in (5.0, 40.0):
+            for b1, b2 in ((330.0, 330.0), (330.0, 550.0), (550.0, 550.0)):
+                rig = Rig(carriage_mass_kg=16.0 + payload, carriage_position_m=p, delay_s=8e-4,
+                          current_loop_hz=700.0, b1=b1, b2=b2)
+                assert unstable_poles(rig, structure, g) == 0, rig
+                for j in range(2):
+                    gm, pm, *_ = control.stability_margins(control.frd(channel_loop(rig, structure, g, j), w))
+                    assert pm >= 45.0 - 1.0 and 20 * np.log10(gm) >= 6.0 - 0.2, (rig, j)
+                for k in np.linspace(1.0, common_gain * 0.98, 6):
+                    assert unstable_poles(rig, structure, tuple(k * x for x in g)) == 0, (rig, k)
+                if b1 != b2 or payload == 5.0:
+                    continue
+                for mouse in mice(problem)[::7]:
+                    m = dict(head_kg=mouse.head_mass_kg, body_kg=mouse.body_mass_kg,
+                             neck_k=mouse.neck_stiffness_n_per_m, neck_c=mouse.neck_damping_n_s_per_m,
+                             leg_k=mouse.leg_stiffness_n_per_m, leg_c=mouse.leg_damping_n_s_per_m)
+                    loop = adm_ref.sampled_loop(clamp_path(rig, structure, g, **m), m_v=adm["m_v"], b_v=adm["b_v"],
+                                                period_s=timing.period_s, forward_euler=True)
+                    pm, gm = adm_ref.margins_from_response(w_adm, adm_ref.response(loop, np.exp(1j * w_adm
+                                                                                                * timing.period_s)))
+                    assert adm_ref.closed_loop_stable(loop, discrete=True)
+                    assert pm >= a.phase_margin_deg - 0.1 and gm >= a.gain_margin_db - 0.05, (rig, mouse)
 
 
 @pytest.mark.slow

@@ -380,10 +380,11 @@ def _dual_admittance(problem: DesignProblem, dual, progress=None):
     where = dict(model=problem.spec.dual_model(), travel_m=(travel.min, travel.max), design_positions=travel.points,
                  stage_x_mass_kg=d.stage_x_mass_kg, ranges={k: (v.min, v.max) for k, v in d.uncertainty.items()})
     record = None
-    if admittance_problem(loop).codesign:
+    adm = admittance_problem(loop)
+    if adm.codesign:
         if progress is not None:
             progress("co-design of the translation gains for the mouse")
-        timing = RigTiming.of(admittance_problem(loop).rig)
+        timing = RigTiming.of(adm.rig)
         record = dual_codesign(loop, controller=best.controller, requirements=DualRequirements.of(loop.requirements),
                                timing=timing.at_delay(timing.delays[-1]), samples=loop.verification.monte_carlo_samples,
                                seed=loop.verification.seed, **where)

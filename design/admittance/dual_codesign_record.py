@@ -19,8 +19,8 @@ class DualCodesignRecord:
     given: Controller
     force_n: float
     given_force_n: float
-    #: candidates scored (the others missed the velocity loops' requirements on the design plants)
-    evaluations: int
+    #: candidates whose velocity loops met the requirements on the design plants (scored), of all candidates
+    meeting_requirements: int
     candidates: int
     #: the chosen gains' velocity loops on the design plants, between their points, on the Monte Carlo draws
     design_plants: Worst

@@ -891,7 +891,7 @@ def dual_codesign_to_dict(record: DualCodesignRecord) -> dict:
     points and on the Monte Carlo draws."""
     return {"given_gains": record.given.gains(), "gains": record.controller.gains(),
             "force_felt_n": record.force_n, "given_force_felt_n": record.given_force_n,
-            "candidates": record.candidates, "candidates_meeting_velocity_requirements": record.evaluations,
+            "candidates": record.candidates, "candidates_meeting_velocity_requirements": record.meeting_requirements,
             "velocity_loops": {"design_plants": _worst(record.design_plants),
                                "between": _dual_between(record.between),
                                "monte_carlo": _worst(record.monte_carlo)},

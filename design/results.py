@@ -30,6 +30,7 @@ if TYPE_CHECKING:
     from design.synth.measured import MeasuredDesign
     from design.synth.monte_carlo import MonteCarloCheck
     from design.synth.pi import SynthesisResult
+    from design.synth.planar import PlanarCheck, RotationDesign
     from design.synth.schedule import SchedulePoint
     from plant.data.frequency_response import MeasuredResponse
     from plant.diagnose.diagnosis import Diagnosis
@@ -244,3 +245,42 @@ class DualReportContent:
     structures: tuple[StructureCurves, ...]
     rendered: RenderedByPosition | None
     command: str = ""
+
+
+@dataclass(frozen=True)
+class PlanarOutcome:
+    """What ``design.workflows.planar_design`` found: Stage X's design, Stage Y's structures, the rotation PI
+    designed with Stage Y's loops closed, and the whole loop's check (``design.synth.planar``)."""
+
+    spec_path: Path
+    x: DesignOutcome
+    y: DesignOutcome
+    rotation: RotationDesign | None
+    check: PlanarCheck | None
+    #: the rotation channel's worst (GM dB, PM deg, bandwidth Hz) on the design plants with Stage Y's loops open
+    rotation_alone: tuple[float, float, float] | None
+    seconds: float
+
+    @property
+    def status(self) -> str:
+        """"optimal" when every loop holds its requirements and the whole loop is verified; else "infeasible"."""
+        ok = (self.x.status == "optimal" and self.y.status == "optimal" and self.rotation is not None
+              and self.rotation.pi is not None and self.check is not None and self.check.holds)
+        return "optimal" if ok else "infeasible"
+
+    @property
+    def message(self) -> str:
+        if self.x.status != "optimal":
+            return f"Stage X: {self.x.synthesis.message if self.x.synthesis else self.x.status}"
+        if self.y.status != "optimal":
+            return f"Stage Y: {self.y.dual.message}"
+        if self.rotation is None or self.rotation.pi is None:
+            return ("no rotation gains within rotation.controller hold rotation.requirements on every design plant "
+                    "with Stage Y's loops closed")
+        c = self.check
+        if not c.holds:
+            bad = next(w for w in (c.design, c.between, c.monte_carlo) if w is not None and not w.holds)
+            return (f"the whole loop fails its requirements on {bad.n_failing} of {bad.n_plants} plants (least "
+                    f"slack {bad.least_slack:.3g} at {bad.worst_at})")
+        return (f"every loop holds its requirements on the whole machine: {c.coverage()}; least slack "
+                f"{min(c.design.least_slack, c.between.least_slack):.3g} at {c.between.worst_at}")

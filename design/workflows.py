@@ -30,6 +30,7 @@ from design.results import (
     DualReportContent,
     FitOutcome,
     FittedParameters,
+    PlanarOutcome,
     PlantFromFit,
     ReportContent,
 )
@@ -390,6 +391,88 @@ def _dual_admittance(problem: DesignProblem, dual, progress=None):
                                seed=loop.verification.seed, **where)
     return synthesise_dual_admittance(loop, structure=best.structure, controller=best.controller, progress=progress,
                                       codesign=record, **where)
+
+
+def planar_design(spec_path: str | Path, *, progress=None) -> PlanarOutcome:
+    """The planar spec's loops designed and verified together (``design.synth.planar``): Stage X's PI on its spec,
+    Stage Y's structures on theirs (``planar.y_structures`` when given), the rotation PI on the rotation channel with
+    Stage Y's recommended structure closed, then the whole loop checked on the design plants, between them and on
+    the Monte Carlo draws."""
+    import dataclasses
+    import time
+
+    import numpy as np
+
+    from design.spec.planar import load_planar_spec
+    from design.synth import planar as pl
+    from design.synth.dual import W_RAD_S, DualRequirements
+
+    start = time.perf_counter()
+    path = Path(spec_path)
+    spec = load_planar_spec(path)
+    x_problem = load_problem(path.parent / spec.planar.stage_x)
+    y_problem = load_problem(path.parent / spec.planar.stage_y)
+    if x_problem.spec.plant.stage != "x" or x_problem.spec.plant.measured:
+        raise SpecError(f"{path}: planar.stage_x: {spec.planar.stage_x} must be a Stage X spec with a plant model "
+                        "(plant.stage = \"x\", no plant.measured)")
+    d = y_problem.spec.dual_drive
+    if d is None:
+        raise SpecError(f"{path}: planar.stage_y: {spec.planar.stage_y} has no [dual_drive] section: the planar "
+                        "machine's Stage Y is the two-motor model")
+    xr, yr = x_problem.spec.plant.payload_kg, y_problem.spec.plant.payload_kg
+    if (xr.min, xr.max) != (yr.min, yr.max):
+        raise SpecError(f"{path}: the payload rides on Stage X's carriage: plant.payload_kg of "
+                        f"{spec.planar.stage_x} ({xr.min:g}-{xr.max:g} kg) and of {spec.planar.stage_y} "
+                        f"({yr.min:g}-{yr.max:g} kg) must be the same range")
+    # Stage Y's structures on the planar spec's list and Monte Carlo draws (the whole loop's check supersedes its own)
+    y_spec = y_problem.spec.model_copy(update={
+        "dual_drive": d.model_copy(update={"structures": list(spec.planar.y_structures or d.structures)}),
+        "verification": dataclasses.replace(y_problem.spec.verification,
+                                            monte_carlo_samples=max(spec.verification.monte_carlo_samples, 1))})
+    y_problem = DesignProblem(y_spec, y_problem.loop, y_problem.spec_path)
+    d = y_spec.dual_drive
+    say = progress or (lambda _: None)
+    say("Stage X's loop")
+    x = design(x_problem, progress=progress)
+    say("Stage Y's structures")
+    y = DesignOutcome(y_problem, dual=_dual(y_problem, progress))
+    done = dict(spec_path=path, x=x, y=y)
+    if x.status != "optimal" or y.status != "optimal":
+        return PlanarOutcome(**done, rotation=None, check=None, rotation_alone=None,
+                             seconds=time.perf_counter() - start)
+    r = spec.rotation
+    stage = pl.RotationStage(r.inertia_kg_m2, r.damping_n_m_s_per_rad, r.torque_constant_n_m_per_a,
+                             r.drive_effects())
+    y_ranges = {k: (v.min, v.max) for k, v in d.uncertainty.items()}
+    r_ranges = {k: (v.min, v.max) for k, v in r.uncertainty.items()}
+    travel = d.carriage_position_m
+    masses = d.stage_x_mass_kg + np.asarray(yr.design_points(), float)
+    model = y_problem.spec.dual_model()
+    plants = pl.planar_scenarios(model, stage, np.linspace(travel.min, travel.max, travel.points), masses, y_ranges,
+                                 r_ranges, d.stage_x_mass_kg)
+    best = next(s for s in y.dual.structures if s.structure == y.dual.recommended).controller
+    say(f"the rotation loop on {len(plants)} plants with Stage Y's loops closed")
+    frds = [plants.frd_of(i, i + pl.CHUNK) for i in range(0, len(plants), pl.CHUNK)]
+    channels = np.concatenate([pl.rotation_channel(W_RAD_S, P, best) for P in frds])
+    open_loop = np.concatenate([P[:, 2, 2] for P in frds])            # the rotation channel, Stage Y's loops open
+    del frds
+    r_req = pl.RotationRequirements(r.requirements.phase_margin_deg, r.requirements.gain_margin_db)
+    rot = pl.design_rotation(channels, r_req, (r.controller.kp.min, r.controller.kp.max),
+                             (r.controller.ki.min, r.controller.ki.max))
+    if rot.pi is None:
+        return PlanarOutcome(**done, rotation=rot, check=None, rotation_alone=None,
+                             seconds=time.perf_counter() - start)
+    gm, pm, bw = pl.rotation_figures(W_RAD_S, open_loop, rot.pi)
+    say("the whole loop: design plants, between them, Monte Carlo")
+    checked = pl.check(best, rot.pi, design=plants, y_model=model, rotation=stage, travel_m=(travel.min, travel.max),
+                       mass_range_kg=(float(masses.min()), float(masses.max())), y_ranges=y_ranges,
+                       rotation_ranges=r_ranges, y_req=DualRequirements.of(y_problem.loop.requirements), r_req=r_req,
+                       stage_x_mass_kg=d.stage_x_mass_kg, samples=spec.verification.monte_carlo_samples,
+                       seed=spec.verification.seed)
+    return PlanarOutcome(**done, rotation=rot, check=checked,
+                         rotation_alone=(float(np.min(gm)), float(np.min(pm)),
+                                         float(np.min(np.where(np.isfinite(bw), bw, 0)))),
+                         seconds=time.perf_counter() - start)
 
 
 def measure(path: str | Path, *, columns: str | None = None, sample_rate_hz: float | None = None,

@@ -27,6 +27,7 @@ def _register() -> None:
         fit,
         mouse_run,
         planar_run,
+        planar_synth,
         report,
         reproduce,
         simulate,
@@ -37,7 +38,7 @@ def _register() -> None:
 
     commands = ((reproduce, "reproduce"), (simulate, "simulate"), (fit, "fit"), (diagnose, "diagnose"),
                 (excite, "excite"), (synth, "synth"), (sweep, "sweep"), (report, "report"), (mouse_run, "mouse-run"),
-                (planar_run, "planar-run"))
+                (planar_run, "planar-run"), (planar_synth, "planar-synth"))
     if [c.name for c in app.registered_commands] == [name for _, name in commands]:
         return
     app.registered_commands.clear()     # none, or a registration a Ctrl-C cut short

@@ -1050,3 +1050,38 @@ def planar_run_csv(run) -> str:
             "current_x_a": t.current_a[:, 2], "reference_x_m_per_s": t.reference_m_per_s[:, 0],
             "reference_y_m_per_s": t.reference_m_per_s[:, 1], "yaw_rad": t.yaw_rad}
     return ",".join(cols) + "\n" + csv_rows(np.column_stack(list(cols.values())), ["%.9g"] * len(cols))
+
+
+def _planar_worst_to_dict(w) -> dict:
+    return {"plants": w.n_plants, "failing": w.n_failing, "unstable": w.unstable, "least_slack": w.least_slack,
+            "stage_y": {"phase_margin_deg": w.y_phase_margin_deg, "gain_margin_db": w.y_gain_margin_db,
+                        "common_phase_margin_deg": w.y_common_phase_margin_deg,
+                        "common_gain_margin_db": w.y_common_gain_margin_db,
+                        "disk_margin": finite_or_none(w.y_disk_margin),
+                        "translation_bandwidth_hz": w.y_bandwidth_hz},
+            "rotation": {"phase_margin_deg": w.rotation_phase_margin_deg, "gain_margin_db": w.rotation_gain_margin_db,
+                         "bandwidth_hz": w.rotation_bandwidth_hz},
+            "worst_at": w.worst_at, "worst_point": w.worst_point}
+
+
+def planar_design_to_dict(outcome) -> dict:
+    """``gantry planar-synth --json``: Stage X's and Stage Y's designs as ``gantry synth --json`` gives them, the
+    rotation PI (A/(rad/s), A/rad) designed with Stage Y's loops closed, and the whole loop's check."""
+    rot, c = outcome.rotation, outcome.check
+    out = {"status": outcome.status, "message": outcome.message, "verified": outcome.status == "optimal",
+           "spec": str(outcome.spec_path), "stage_x": design_to_dict(outcome.x), "stage_y": design_to_dict(outcome.y),
+           "rotation": None, "check": None, "seconds": outcome.seconds}
+    if rot is not None:
+        out["rotation"] = {"kp": None if rot.pi is None else rot.pi.kp, "ki": None if rot.pi is None else rot.pi.ki,
+                           "units": {"kp": "A/(rad/s)", "ki": "A/rad"},
+                           "worst_bandwidth_hz": rot.bandwidth_hz if rot.pi is not None else None,
+                           "scan_plants": rot.active_plants, "scan_evaluations": rot.evaluations}
+        if outcome.rotation_alone is not None:
+            gm, pm, bw = outcome.rotation_alone
+            out["rotation"]["with_stage_y_open"] = {"gain_margin_db": gm, "phase_margin_deg": pm, "bandwidth_hz": bw}
+    if c is not None:
+        out["check"] = {"holds": c.holds, "coverage": c.coverage(), "design_plants": _planar_worst_to_dict(c.design),
+                        "between": {**_planar_worst_to_dict(c.between), "dense_plants": c.dense_plants,
+                                    "searches": c.searches, "search_plants": c.search_evaluations},
+                        "monte_carlo": None if c.monte_carlo is None else _planar_worst_to_dict(c.monte_carlo)}
+    return out

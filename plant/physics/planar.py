@@ -135,6 +135,12 @@ class PlanarGantry:
     def mass_matrix(self, carriage_position_m: float) -> np.ndarray:
         return np.asarray(self._lagrange[0]([0.0, 0.0, carriage_position_m, 0.0]))
 
+    def matrices(self, carriage_position_m):
+        """(M, D, K) of the linear model about rest (``matrices``) at ``carriage_position_m`` (m; an array gives a
+        batch)."""
+        values = {f.name: getattr(self, f.name) for f in fields(self)}
+        return matrices(carriage_position_m=carriage_position_m, **values)
+
     def linearised(self, carriage_position_m: float):
         """(A, B, C) about rest with the carriage at ``carriage_position_m`` (m from Y1, between the rails): states
         (q, q'), inputs (actuators, clamp loads: ``ACTUATORS + CLAMP``), outputs the coordinates' velocities
@@ -163,3 +169,52 @@ class PlanarGantry:
         w = np.asarray(w_rad_s, float).ravel()
         x = np.linalg.solve(1j * w[:, None, None] * np.eye(A.shape[0]) - A, np.broadcast_to(B, (w.size, *B.shape)))
         return np.moveaxis(C @ x, 0, -1)
+
+
+def matrices(*, carriage_position_m, beam_mass_kg, beam_inertia_kg_m2, carriage_mass_kg, carriage_inertia_kg_m2,
+             rail_separation_m, damping1_n_s_per_m, damping2_n_s_per_m, damping_x_n_s_per_m,
+             yaw_stiffness_n_m_per_rad, rotation_inertia_kg_m2, rotation_damping_n_m_s_per_rad):
+    """Mass, damping and stiffness matrices (..., 4, 4) of the planar machine about rest, M q'' + D q' + K q = Q,
+    in q = (y1, y2, p, phi), in closed form from the module's energies (the coordinates' velocities at rest:
+    theta' = a . q', y_c' = c . q', the beam's middle g . q'; fields as ``PlanarGantry``'s, arrays broadcast to a
+    batch)::
+
+        M = m_b g g^T + (J_b + J_c) a a^T + m_c (e_p e_p^T + c c^T) + J_r (a + e_phi) (a + e_phi)^T
+        D = diag(b1, b2, b_x, b_r),  K = K_a a a^T
+        a = (-1, 1, 0, 0) / L,  c = (1 - p / L, p / L, 0, 0),  g = (1/2, 1/2, 0, 0)
+
+    The carriage's coordinate p meets no other in M, D or K: at rest, X moves apart from Y and the rotation stage
+    (its position only sets c); the rotation stage meets the beam's yaw through J_r."""
+    arrays = np.broadcast_arrays(*(np.asarray(v, float) for v in (
+        carriage_position_m, beam_mass_kg, beam_inertia_kg_m2, carriage_mass_kg, carriage_inertia_kg_m2,
+        damping1_n_s_per_m, damping2_n_s_per_m, damping_x_n_s_per_m, yaw_stiffness_n_m_per_rad,
+        rotation_inertia_kg_m2, rotation_damping_n_m_s_per_rad)))
+    p, mb, jb, mc, jc, b1, b2, bx, ka, jr, br = (v[..., None, None] for v in arrays)
+    L = float(rail_separation_m)
+    zero, one = np.zeros_like(p), np.ones_like(p)
+
+    def vec(*entries):                                      # (..., 4, 1)
+        return np.concatenate(np.broadcast_arrays(*entries), axis=-2)
+
+    def outer(v):
+        return v * np.swapaxes(v, -1, -2)
+
+    a = vec(-one / L, one / L, zero, zero)
+    c = vec(1 - p / L, p / L, zero, zero)
+    g = vec(one / 2, one / 2, zero, zero)
+    e_p, e_phi = vec(zero, zero, one, zero), vec(zero, zero, zero, one)
+    M = mb * outer(g) + (jb + jc) * outer(a) + mc * (outer(e_p) + outer(c)) + jr * outer(a + e_phi)
+    D = np.zeros_like(M)
+    for k, b in enumerate((b1, b2, bx, br)):
+        D[..., k, k] = b[..., 0, 0]
+    return M, D, ka * outer(a)
+
+
+def mobility(s, M, D, K) -> np.ndarray:
+    """Velocity per generalised force, s (M s^2 + D s + K)^-1, (..., n, n, n_freq) at complex ``s`` for matrices
+    (..., n, n) (``matrices``, or a block of them)."""
+    s = np.asarray(s, complex).ravel()
+    ss = s[:, None, None]
+    Z = M[..., None, :, :] * ss**2 + D[..., None, :, :] * ss + K[..., None, :, :]
+    H = np.linalg.inv(Z) * ss
+    return np.moveaxis(H, -3, -1)

@@ -144,3 +144,28 @@ def test_a_small_push_with_the_carriage_held_follows_the_linear_model():
     _, y, _ = lsim(StateSpace(A, B[:, :4], C, np.zeros((5, 4))), u, t)
     np.testing.assert_allclose(got[:, 4:8], y[:, :4], atol=1e-6 * np.max(np.abs(y[:, :4])))
     assert np.max(np.abs(got[:, 5])) > 0                             # the push yawed the beam: rail Y2 moved
+
+
+def test_the_closed_form_matrices_are_lagranges_and_batch():
+    """M, D, K in closed form equal casadi's symbolic linearisation (the mass matrix, and A = [[0, I], [-M^-1 K,
+    -M^-1 D]], B = [0; M^-1] for the actuators) at three carriage positions, with every inertia non-zero; a batch
+    of positions gives the same; the carriage's coordinate meets no other."""
+    from plant.physics.planar import mobility
+
+    g = PlanarGantry(carriage_inertia_kg_m2=0.3, rotation_inertia_kg_m2=0.05, rotation_damping_n_m_s_per_rad=0.2)
+    positions = np.array([0.1, 0.37, 0.7])
+    Mb, Db, Kb = g.matrices(positions)
+    for k, p in enumerate(positions):
+        M, D, K = g.matrices(p)
+        A, B, _ = g.linearised(p)
+        Mi = np.linalg.inv(M)
+        assert np.allclose(M, g.mass_matrix(p), rtol=1e-12, atol=1e-12)
+        assert np.allclose(A[4:, :4], -Mi @ K, rtol=1e-12, atol=1e-9 * np.abs(A[4:, :4]).max())
+        assert np.allclose(A[4:, 4:], -Mi @ D, rtol=1e-12, atol=1e-12 * np.abs(A[4:, 4:]).max())
+        assert np.allclose(B[4:, :4], Mi, rtol=1e-12, atol=1e-12)
+        assert np.array_equal(Mb[k], M) and np.array_equal(Db[k], D) and np.array_equal(Kb[k], K)
+        for m in (M, D, K):
+            assert not np.any(np.delete(m[2], 2)) and not np.any(np.delete(m[:, 2], 2))
+        w = np.array([0.5, 60.0, 900.0])
+        ref = g.frd(w, p)[:4, :4]
+        assert np.abs(mobility(1j * w, M, D, K) - ref).max() < 1e-10 * np.abs(ref).max()

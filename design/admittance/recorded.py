@@ -39,8 +39,8 @@ from plant.physics.state_space import tf_ss
 PEAK_WINDOW_S = 4e-3
 FINE_STEP_S = 1e-4
 COARSE_STEP_S = 1e-3
-#: scenarios computed together (memory: states x law instants x offsets of a block)
-BLOCK = 50
+#: law instants whose forces are read together (memory: scenarios x instants x offsets)
+CHUNK = 256
 
 
 def offsets(period_s: float) -> np.ndarray:
@@ -139,25 +139,30 @@ class RecordedMotor:
         return np.concatenate([np.full(d, steady), v[:v.size - d]]) if d else v
 
     def peaks(self, m_v: float, b_v: float) -> RecordedMotorPeak:
-        """The motor's peak per scenario over the record."""
+        """The motor's peak per scenario over the record: the states of every scenario stepped together, the force
+        at the offsets read ``CHUNK`` law instants at a time."""
         u = self.law_output(m_v, b_v)
-        f, g = self.force_n, self.slope
         E, Gu, G0, G1 = self.step
         n_s, n = E.shape[0], E.shape[-1]
-        peak, at = np.empty(n_s), np.empty(n_s)
-        inputs = np.stack([u, f, g], axis=1)                                          # (k, 3)
-        for start in range(0, n_s, BLOCK):
-            rows = slice(start, start + BLOCK)
-            Eb, Gub, G0b, G1b = E[rows], Gu[rows], G0[rows], G1[rows]
-            x = np.linalg.solve(np.eye(n) - Eb, (Gub * u[0] + G0b * f[0])[..., None])[..., 0]
-            states = np.empty((Eb.shape[0], u.size, n + 3))
-            states[:, :, n:] = inputs
-            for k in range(u.size):
-                states[:, k, :n] = x
-                x = np.einsum("snm,sm->sn", Eb, x) + Gub * u[k] + G0b * f[k] + G1b * g[k]
-            for i, j in enumerate(range(start, start + Eb.shape[0])):
-                force = np.abs(states[i] @ self.out[j])                               # (k, n_theta)
-                best = int(np.argmax(force))
-                k, o = divmod(best, force.shape[1])
-                peak[j], at[j] = force[k, o], k * self.timing.period_s + self.offsets_s[o]
+        inputs = np.stack([u, self.force_n, self.slope], axis=1)                     # (k, 3)
+        G = np.stack([Gu, G0, G1], axis=-1)                                           # (n_s, n, 3)
+        x = np.linalg.solve(np.eye(n) - E, (Gu * u[0] + G0 * self.force_n[0])[..., None])    # (n_s, n, 1)
+        peak, at = np.full(n_s, -1.0), np.zeros(n_s)
+        states = np.empty((n_s, CHUNK, n + 3))
+        for start in range(0, u.size, CHUNK):
+            m = min(CHUNK, u.size - start)
+            drive = np.einsum("snc,kc->ksn", G, inputs[start:start + m])                # (m, n_s, n)
+            for i in range(m):
+                states[:, i, :n] = x[..., 0]
+                x = np.matmul(E, x)
+                x[..., 0] += drive[i]
+            states[:, :m, n:] = inputs[start:start + m]
+            force = np.abs(np.matmul(states[:, :m], self.out))                      # (n_s, m, n_theta)
+            flat = force.reshape(n_s, -1)
+            best = np.argmax(flat, axis=1)
+            value = flat[np.arange(n_s), best]
+            better = value > peak
+            k, o = np.divmod(best, force.shape[2])
+            peak = np.where(better, value, peak)
+            at = np.where(better, (start + k) * self.timing.period_s + self.offsets_s[o], at)
         return RecordedMotorPeak(peak, at)

@@ -28,19 +28,20 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.linalg import expm
 from scipy.signal import lfilter
 
 from design.admittance.rig import RigTiming, force_filter_polys
 from design.problem import ForceRecord
-from plant.physics.state_space import tf_ss
+from plant.physics.state_space import expm, tf_ss
 
 #: the offsets within a period at which the motor's force is read (module docstring)
 PEAK_WINDOW_S = 4e-3
 FINE_STEP_S = 1e-4
 COARSE_STEP_S = 1e-3
-#: law instants whose forces are read together (memory: scenarios x instants x offsets)
+#: law instants whose forces are read together (memory: scenarios x instants x offsets), in blocks of this many
+#: (``CHUNK`` a multiple of ``BLOCK``)
 CHUNK = 256
+BLOCK = 16
 
 
 def offsets(period_s: float) -> np.ndarray:
@@ -139,24 +140,41 @@ class RecordedMotor:
         return np.concatenate([np.full(d, steady), v[:v.size - d]]) if d else v
 
     def peaks(self, m_v: float, b_v: float) -> RecordedMotorPeak:
-        """The motor's peak per scenario over the record: the states of every scenario stepped together, the force
-        at the offsets read ``CHUNK`` law instants at a time."""
+        """The motor's peak per scenario over the record, every scenario at once, ``CHUNK`` law instants at a time:
+        the states of a chunk from its blocks of ``BLOCK`` instants (each block's response from rest, stepped for
+        all blocks together; the states at the blocks' starts, stepped block to block by E^BLOCK; each state the
+        block's start carried by E^j plus the response from rest), then the force at every offset."""
         u = self.law_output(m_v, b_v)
         E, Gu, G0, G1 = self.step
         n_s, n = E.shape[0], E.shape[-1]
         inputs = np.stack([u, self.force_n, self.slope], axis=1)                     # (k, 3)
         G = np.stack([Gu, G0, G1], axis=-1)                                           # (n_s, n, 3)
-        x = np.linalg.solve(np.eye(n) - E, (Gu * u[0] + G0 * self.force_n[0])[..., None])    # (n_s, n, 1)
+        powers = np.empty((n_s, BLOCK + 1, n, n))                                     # E^0 .. E^BLOCK
+        powers[:, 0] = np.eye(n)
+        for j in range(BLOCK):
+            powers[:, j + 1] = powers[:, j] @ E
+        x = np.linalg.solve(np.eye(n) - E, (Gu * u[0] + G0 * self.force_n[0])[..., None])[..., 0]     # (n_s, n)
+        Et, Lt = E.transpose(0, 2, 1), powers[:, BLOCK].transpose(0, 2, 1)
         peak, at = np.full(n_s, -1.0), np.zeros(n_s)
-        states = np.empty((n_s, CHUNK, n + 3))
-        for start in range(0, u.size, CHUNK):
+        for start in range(0, u.size, CHUNK):           # every chunk but the last is whole blocks
             m = min(CHUNK, u.size - start)
-            drive = np.einsum("snc,kc->ksn", G, inputs[start:start + m])                # (m, n_s, n)
-            for i in range(m):
-                states[:, i, :n] = x[..., 0]
-                x = np.matmul(E, x)
-                x[..., 0] += drive[i]
-            states[:, :m, n:] = inputs[start:start + m]
+            blocks = -(-m // BLOCK)
+            w = np.zeros((blocks * BLOCK, 3))
+            w[:m] = inputs[start:start + m]
+            drive = (G @ w.T).transpose(0, 2, 1).reshape(n_s, blocks, BLOCK, n)        # (n_s, blocks, BLOCK, n)
+            rest = np.empty_like(drive)                                               # each block from rest
+            y = np.zeros((n_s, blocks, n))
+            for j in range(BLOCK):
+                rest[:, :, j] = y
+                y = y @ Et + drive[:, :, j]
+            starts = np.empty((n_s, blocks, n))                                        # the state at each block
+            for b in range(blocks):
+                starts[:, b] = x
+                x = (x[:, None] @ Lt)[:, 0] + y[:, b]
+            states = np.empty((n_s, blocks * BLOCK, n + 3))
+            carried = (powers[:, :BLOCK] @ starts.transpose(0, 2, 1)[:, None]).transpose(0, 3, 1, 2)
+            states[..., :n] = (carried + rest).reshape(n_s, -1, n)
+            states[..., n:] = w
             force = np.abs(np.matmul(states[:, :m], self.out))                      # (n_s, m, n_theta)
             flat = force.reshape(n_s, -1)
             best = np.argmax(flat, axis=1)

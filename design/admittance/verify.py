@@ -23,7 +23,6 @@ from design.admittance.mouse import MouseModel
 from design.admittance.rig import RigTiming, force_filter_polys
 from design.loop.controller import PI
 from design.loop.loops import balanced
-from design.parallel import thread_map
 from design.problem import LoopProblem
 from plant.physics.chain import ChainEffect
 from plant.physics.models import Plant
@@ -35,9 +34,10 @@ PADE_ORDER = 6
 ORIGIN = 1e-7
 #: the (scenario, mouse) pairs whose poles are computed: the tightest by their ray bound
 VERIFY_PAIRS = 48
-#: points of the grid python-control's margins are read on, and the worst pairs per margin and kind of mouse
-#: they are computed at
-MARGIN_POINTS = 1500
+#: points of the grid python-control's margins are read on (its spline through them moves the bundled design's
+#: margins by under 0.005 deg and 0.002 dB against 6,000 points: tests), and the worst pairs per margin and kind of
+#: mouse they are computed at
+MARGIN_POINTS = 500
 MARGIN_PAIRS = 3
 
 
@@ -246,7 +246,7 @@ def verify_admittance(problem: LoopProblem, check: AdmittanceCheck, *, controlle
             out.append(f"python-control margins PM {pm:.2f} deg, GM {gm_db:.2f} dB at {where}")
         return cl, ol, pm, gm_db, out
 
-    results = thread_map(pair, pairs)
+    results = [pair(kj) for kj in pairs]        # python-control holds the interpreter: threads only wait on it
     failures = [v.detail for v in check.violations] + [f for r in results for f in r[4]]
     max_cl = max((r[0] for r in results), default=-math.inf)
     max_ol = max((r[1] for r in results), default=-math.inf)

@@ -48,16 +48,22 @@ def curve_bounds(log_mag: np.ndarray, psi: np.ndarray, q: np.ndarray, phase_marg
     d += np.float32(360.0) * (d <= -180)
     t_pm = np.where(np.abs(d) < phase_margin_deg, a, -np.inf).max(axis=-1)
     t_gm = np.full(t_pm.shape, -np.inf, np.float32)
-    # the pairs of neighbouring grid points whose phase segment meets the window, without wrapping through
+    # the pairs of neighbouring grid points whose phase segment holds one of the edges -phi, 0, phi (the count of
+    # edges at or below the phase changes between them, or a point lies on an edge), without wrapping through
     # +-180 deg (p near the positive real axis): a small part of the table, where the edges are interpolated
-    d0, d1 = d[:, :-1], d[:, 1:]
-    lo, hi = np.minimum(d0, d1), np.maximum(d0, d1)
-    pair = np.flatnonzero((lo <= phase_margin_deg) & (hi >= -phase_margin_deg) & (hi - lo < 180.0))
+    phi = np.float32(phase_margin_deg)
+    below = (d >= -phi).view(np.uint8) + (d >= 0).view(np.uint8) + (d >= phi).view(np.uint8)
+    on_edge = (d == 0) | (np.abs(d) == phi)
+    pair = np.flatnonzero((below[:, :-1] != below[:, 1:]) | on_edge[:, :-1] | on_edge[:, 1:])
     if pair.size:
         rows = pair // (n_f - 1)
         at0 = pair + rows                   # the pair's first point in the flat table (1-D takes: 4x faster)
         d_flat, a_flat = d.ravel(), a.ravel()
-        d0, d1, a0, a1 = d_flat[at0], d_flat[at0 + 1], a_flat[at0], a_flat[at0 + 1]
+        d0, d1 = d_flat[at0], d_flat[at0 + 1]
+        keep = np.abs(d1 - d0) < 180.0
+        pair, rows, at0, d0, d1 = pair[keep], rows[keep], at0[keep], d0[keep], d1[keep]
+    if pair.size:
+        a0, a1 = a_flat[at0], a_flat[at0 + 1]
         step = d1 - d0
         starts = np.flatnonzero(np.r_[True, rows[1:] != rows[:-1]])
         for edge in (-phase_margin_deg, phase_margin_deg, 0.0):

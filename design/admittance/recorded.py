@@ -40,7 +40,7 @@ FINE_STEP_S = 1e-4
 COARSE_STEP_S = 1e-3
 #: law instants whose forces are read together (memory: scenarios x instants x offsets), in blocks of this many
 #: (``CHUNK`` a multiple of ``BLOCK``)
-CHUNK = 256
+CHUNK = 128
 BLOCK = 16
 
 

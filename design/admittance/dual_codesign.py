@@ -33,6 +33,7 @@ from design.parallel import thread_map
 from design.problem import LoopProblem
 from design.synth.dual import DualRequirements, dual_scenarios, monte_carlo_scenarios, worst_cases
 from design.synth.dual_worst import between_check
+from design.synth.monte_carlo import as_drawn
 from plant.physics.dual_drive import DualDriveStageY
 
 #: each structure's translation channel: the fields of its proportional and integral gain
@@ -85,7 +86,7 @@ def dual_codesign(problem: LoopProblem, *, controller: Controller, model: DualDr
                                 req=requirements, stage_x_mass_kg=stage_x_mass_kg)
         record = DualCodesignRecord(tried[k], controller, float(scores[k]), float(scores[0]),
                                     sum(w.feasible for w in worst), len(tried), worst[k], between,
-                                    worst_cases([tried[k]], draws, requirements)[0])
+                                    as_drawn(worst_cases([tried[k]], draws, requirements)[0]))
         if record.verified:
             break
     return record

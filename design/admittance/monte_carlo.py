@@ -41,7 +41,7 @@ from design.loop.margins import nyquist_stable
 from design.loop.requirement import ScenarioPoint
 from design.parallel import thread_map
 from design.problem import LoopProblem
-from design.synth.monte_carlo import clopper_pearson_upper, draw_settings
+from design.synth.monte_carlo import draw_settings, tally
 from design.synth.scenarios import random_scenarios
 from plant.grid import log_grid_rad_s
 
@@ -146,13 +146,12 @@ def admittance_monte_carlo(problem: LoopProblem, *, loops, m_v: float, b_v: floa
                              np.where(np.isfinite(gm), gm - adm.gain_margin_db, np.inf) / max(adm.gain_margin_db, 1.0),
                              np.ones(samples) if limit_i is None else 1 - cur / limit_i,
                              1 - force / hw.motor_peak_force_n, 1 - bound / b_v]), axis=0)
-    i = int(np.argmin(np.where(stable, slack, -np.inf)))
-    k = int(bad.sum())
+    t = tally(bad, slack, stable)
     computed = np.isfinite(pm)
-    return AdmittanceMonteCarlo(samples, seed, k, clopper_pearson_upper(k, samples),
+    return AdmittanceMonteCarlo(samples, seed, t.violations, t.rate_upper_bound,
                                 float(np.min(pm[computed])) if computed.any() else float("inf"),
                                 float(np.min(gm[computed])) if computed.any() else float("inf"),
-                                float(np.max(cur)), float(np.max(force)), int(np.sum(~stable)), draws.row(i),
-                                MouseModel(*(float(np.asarray(getattr(drawn, n))[i, 0]) for n in FIELDS)),
+                                float(np.max(cur)), float(np.max(force)), t.unstable, draws.row(t.worst),
+                                MouseModel(*(float(np.asarray(getattr(drawn, n))[t.worst, 0]) for n in FIELDS)),
                                 int(keep.size))
 

@@ -206,6 +206,9 @@ class Worst:
     worst_common_at: str
     #: the least extra delay common to both drives that destabilises a plant (s)
     common_delay_margin_s: float
+    #: over Monte Carlo draws, the one-sided 95 % upper bound on the rate of failing plants (``as_drawn``); None on
+    #: a set of plants that was not drawn
+    rate_upper_bound: float | None = None
 
 
 def _passes(f: DualLoopFigures, req: DualRequirements) -> np.ndarray:

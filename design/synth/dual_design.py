@@ -23,6 +23,7 @@ from design.synth.dual import (
     worst_cases,
 )
 from design.synth.dual_worst import BetweenCheck, between_check
+from design.synth.monte_carlo import as_drawn
 from plant.physics.dual_drive import DualDriveStageY
 
 #: designs of one structure at most: the first on the grid, each next with the failing point found between
@@ -118,8 +119,9 @@ def design_dual(model: DualDriveStageY, *, positions_m, payloads_kg, stage_x_mas
                 break
             plants = plants.with_row(between.worst_point)
         nominal = model.with_values(carriage_position_m=sum(travel) / 2, carriage_mass_kg=sum(mass_range) / 2)
-        return CheckedStructure(replace(d, monte_carlo=worst_cases([d.controller], check, requirements)[0]), between,
-                                rounds, offset_ramp_a_per_s(nominal, d.controller))
+        drawn = as_drawn(worst_cases([d.controller], check, requirements)[0])
+        return CheckedStructure(replace(d, monte_carlo=drawn), between, rounds,
+                                offset_ramp_a_per_s(nominal, d.controller))
 
     designs = thread_map(designed_and_checked, structures)
     best = recommend(designs)

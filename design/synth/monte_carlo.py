@@ -9,7 +9,7 @@ plants take about a second.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -61,6 +61,33 @@ class MonteCarloCheck:
         return self.violations / self.samples
 
 
+@dataclass(frozen=True)
+class Tally:
+    """What every Monte Carlo check says of its draws: how many violate, the one-sided ``CONFIDENCE`` upper bound on
+    the violation rate (Clopper-Pearson), how many are unstable, and the draw with the least slack (an unstable draw
+    before any stable one)."""
+
+    samples: int
+    violations: int
+    rate_upper_bound: float
+    unstable: int
+    worst: int
+
+
+def tally(violated: np.ndarray, slack: np.ndarray, stable: np.ndarray) -> Tally:
+    """``Tally`` of draws flagged ``violated``, with their relative ``slack`` and closed-loop stability."""
+    violated, stable = np.asarray(violated, bool), np.asarray(stable, bool)
+    k = int(violated.sum())
+    return Tally(violated.size, k, clopper_pearson_upper(k, violated.size), int((~stable).sum()),
+                 int(np.argmin(np.where(stable, slack, -np.inf))))
+
+
+def as_drawn(worst):
+    """A worst case computed over Monte Carlo draws (``design.synth.dual.Worst``, ``design.synth.planar.PlanarWorst``:
+    ``n_failing`` of ``n_plants``) with the upper bound on its violation rate, as every Monte Carlo check states."""
+    return replace(worst, rate_upper_bound=clopper_pearson_upper(worst.n_failing, worst.n_plants))
+
+
 def clopper_pearson_upper(violations: int, samples: int, confidence: float = CONFIDENCE) -> float:
     """Exact one-sided upper confidence bound on a binomial rate; 1 - (1 - confidence)^(1/n) for 0 of n."""
     from scipy.special import betaincinv
@@ -92,11 +119,9 @@ def monte_carlo_check(problem: LoopProblem, controller: PI, *, samples: int | No
     pm, gm, bw, stable = n.phase_margin_deg, n.gain_margin_db, n.closed_loop_bandwidth_hz, n.stable
     slack = np.minimum((pm - req.phase_margin_deg) / max(req.phase_margin_deg, 1.0),
                        np.where(np.isfinite(gm), gm - req.gain_margin_db, np.inf) / max(req.gain_margin_db, 1.0))
-    bad = ((pm < req.phase_margin_deg - MARGIN_TOLERANCE) | (gm < req.gain_margin_db - MARGIN_TOLERANCE)
-           | ~stable)
-    i = int(np.argmin(np.where(stable, slack, -np.inf)))
-    k = int(bad.sum())
-    return MonteCarloCheck(samples, seed, k, clopper_pearson_upper(k, samples), float(np.min(pm)),
+    t = tally((pm < req.phase_margin_deg - MARGIN_TOLERANCE) | (gm < req.gain_margin_db - MARGIN_TOLERANCE) | ~stable,
+              slack, stable)
+    return MonteCarloCheck(samples, seed, t.violations, t.rate_upper_bound, float(np.min(pm)),
                            float(np.min(gm)), float(np.nanmin(bw)) if np.any(np.isfinite(bw)) else float("nan"),
-                           s.row(i), int(np.sum(~stable)),
+                           s.row(t.worst), t.unstable,
                            MonteCarloDraws(np.asarray(s.payload_kg, float), pm, gm, bw, stable))

@@ -34,6 +34,7 @@ from design.loop.margins import closed_loop_bandwidth_hz, crossover_margins
 from design.parallel import thread_map
 from design.synth.dual import W_RAD_S, DualRequirements, DualScenarios, dual_scenarios, monte_carlo_scenarios
 from design.synth.dual_worst import BAND, slacks
+from design.synth.monte_carlo import as_drawn
 from plant.errors import SpecError
 from plant.physics.planar import matrices, mobility
 
@@ -239,6 +240,9 @@ class PlanarWorst:
     #: the plant of least slack, in words and as values
     worst_at: str
     worst_point: dict[str, float]
+    #: over Monte Carlo draws, the one-sided 95 % upper bound on the rate of failing plants
+    #: (``design.synth.monte_carlo.as_drawn``); None on a set of plants that was not drawn
+    rate_upper_bound: float | None = None
 
     @property
     def holds(self) -> bool:
@@ -416,5 +420,5 @@ def check(y_controller, rotation_pi, *, design: PlanarScenarios, y_model, rotati
     if samples:
         draws = monte_carlo(y_model, rotation, travel_m, mass_range_kg, y_ranges, rotation_ranges, samples, seed,
                             stage_x_mass_kg)
-        mc, _ = worst(draws, y_controller, rotation_pi, y_req, r_req)
+        mc = as_drawn(worst(draws, y_controller, rotation_pi, y_req, r_req)[0])
     return PlanarCheck(on_design, between, mc, len(dense), len(starts), r.evaluations)

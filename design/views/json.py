@@ -1061,7 +1061,7 @@ def _planar_worst_to_dict(w) -> dict:
                         "translation_bandwidth_hz": w.y_bandwidth_hz},
             "rotation": {"phase_margin_deg": w.rotation_phase_margin_deg, "gain_margin_db": w.rotation_gain_margin_db,
                          "bandwidth_hz": w.rotation_bandwidth_hz},
-            "worst_at": w.worst_at, "worst_point": w.worst_point}
+            "worst_at": w.worst_at, "worst_point": w.worst_point, "rate_upper_bound": w.rate_upper_bound}
 
 
 def planar_design_to_dict(outcome) -> dict:

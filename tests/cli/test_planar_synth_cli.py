@@ -62,6 +62,8 @@ def test_the_bundled_planar_spec_is_designed_verified_and_its_worst_point_holds_
     c = d["check"]
     assert c["design_plants"]["plants"] == 960 and c["between"]["plants"] > c["between"]["dense_plants"] > 3000
     assert c["monte_carlo"]["plants"] == 2000 and c["monte_carlo"]["failing"] == 0
+    assert c["monte_carlo"]["rate_upper_bound"] == pytest.approx(1 - 0.05 ** (1 / 2000), rel=1e-9)
+    assert c["design_plants"]["rate_upper_bound"] is None
     y = next(s for s in d["stage_y"]["structures"] if s["structure"] == d["stage_y"]["recommended"])
     rot = d["rotation"]
     # the rotation loop needs Stage Y's loops closed: the same gains with them open lose phase margin

@@ -79,6 +79,9 @@ def test_the_bundled_spec_designs_every_structure_and_recommends_the_fastest_tha
     for d in held:
         assert d.design.phase_margin_deg >= 45.0 - 1e-9 and d.design.gain_margin_db >= 6.0 - 1e-9
         assert d.design.n_plants >= 5 * 3 * 16             # the grid, and any failing point found between its points
+        # the Monte Carlo states its rate bound as every Monte Carlo check does: 0 of 500 draws, 1 - 0.05^(1/500)
+        assert d.monte_carlo.n_failing == 0 and d.design.rate_upper_bound is None
+        assert d.monte_carlo.rate_upper_bound == pytest.approx(1 - 0.05 ** (1 / d.monte_carlo.n_plants), rel=1e-9)
     for c in result.checked:
         assert c.between.holds and c.between.worst.gain_margin_db >= 6.0 and c.between.worst.phase_margin_deg >= 45.0
         assert c.between.worst.common_gain_margin_db >= 6.0 and c.between.worst.common_phase_margin_deg >= 45.0

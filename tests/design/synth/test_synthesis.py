@@ -462,3 +462,16 @@ def test_effects_that_do_not_fit_the_stage_are_refused_when_the_spec_is_read(tmp
     path.write_text(text)
     out = gantry("synth", path)
     assert out.returncode == 2 and needle in out.stderr and "plant" in out.stderr and out.stderr.count("\n") == 1
+
+
+def test_a_monte_carlo_tally_counts_bounds_and_puts_an_unstable_draw_first():
+    from design.synth.monte_carlo import clopper_pearson_upper, tally
+
+    slack = np.array([0.3, -0.2, 0.1, 0.5])
+    t = tally([False, True, False, False], slack, [True, True, True, True])
+    assert (t.samples, t.violations, t.unstable, t.worst) == (4, 1, 0, 1)
+    assert t.rate_upper_bound == clopper_pearson_upper(1, 4)
+    # the Beta(k + 1, n - k) quantile: 0 of n has the closed form 1 - 0.05^(1/n)
+    assert clopper_pearson_upper(0, 10_000) == pytest.approx(1 - 0.05 ** 1e-4, rel=1e-12)
+    t = tally([False, True, True, False], slack, [True, True, False, True])
+    assert (t.violations, t.unstable, t.worst) == (2, 1, 2)          # the unstable draw, whatever its slack

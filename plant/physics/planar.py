@@ -212,9 +212,21 @@ def matrices(*, carriage_position_m, beam_mass_kg, beam_inertia_kg_m2, carriage_
 
 def mobility(s, M, D, K) -> np.ndarray:
     """Velocity per generalised force, s (M s^2 + D s + K)^-1, (..., n, n, n_freq) at complex ``s`` for matrices
-    (..., n, n) (``matrices``, or a block of them)."""
+    (..., n, n) (``matrices``, or a block of them). Three coordinates (the planar checks keep the rails and the
+    rotation stage) are inverted by the adjugate, every plant and frequency in the same array operations: numpy's
+    inverse takes a batch one LAPACK call per matrix, which was the planar check's largest cost."""
     s = np.asarray(s, complex).ravel()
-    ss = s[:, None, None]
-    Z = M[..., None, :, :] * ss**2 + D[..., None, :, :] * ss + K[..., None, :, :]
-    H = np.linalg.inv(Z) * ss
-    return np.moveaxis(H, -3, -1)
+    n = M.shape[-1]
+    if n != 3:
+        ss = s[:, None, None]
+        Z = M[..., None, :, :] * ss**2 + D[..., None, :, :] * ss + K[..., None, :, :]
+        return np.moveaxis(np.linalg.inv(Z) * ss, -3, -1)
+    s2 = s * s
+    (a, b, c), (d, e, f), (g, h, i) = ([M[..., r, k, None] * s2 + D[..., r, k, None] * s + K[..., r, k, None]
+                                        for k in range(3)] for r in range(3))
+    co = (e * i - f * h, f * g - d * i, d * h - e * g)          # the first row's cofactors
+    scale = s / (a * co[0] + b * co[1] + c * co[2])             # s / det Z
+    adjugate = ((co[0], c * h - b * i, b * f - c * e),
+                (co[1], a * i - c * g, c * d - a * f),
+                (co[2], b * g - a * h, a * e - b * d))
+    return np.stack([np.stack([x * scale for x in row], axis=-2) for row in adjugate], axis=-3)

@@ -7,16 +7,24 @@ carriage. The beam yaws by theta = (y2 - y1) / L (small: the joints' stiffness K
 Xie & Wang, thesis Eq. 2.14-2.15), so a point at s along the beam is at y1 + s theta. Energies (SI units)::
 
     T = m_b ((y1' + y2') / 2)^2 / 2 + (J_b + J_c) theta'^2 / 2          the beam (middle) and the carriage's yaw
-      + m_c (p'^2 + y_c'^2) / 2,  y_c = y1 + p theta                  the carriage with all it carries
+      + m_c (x_c'^2 + y_c'^2) / 2                                      the carriage with all it carries:
+        x_c = p - e theta,  y_c = y1 + (theta + epsilon) p             its centre of mass
       + J_r (theta' + phi')^2 / 2                                      the rotation stage
     V = K_a theta^2 / 2
     R = (b1 y1'^2 + b2 y2'^2 + b_x p'^2 + b_r phi'^2) / 2              Rayleigh: the guides' and bearing's damping
 
-and each actuator's generalised force: the Y motors' f1, f2 on y1, y2 (their reaction on the ground); the X motor's
+Two geometric errors make X and Y meet at rest, both zero by default: the beam's skew epsilon (``beam_skew_rad``:
+the beam not square to the rails, so the carriage moving along it moves along the rails by epsilon p; accelerating
+it along the beam pushes the rails together) and the carriage's centre of mass off the X motor's line of force by e
+(``carriage_offset_m``, along the rails: accelerating the carriage along the beam yaws it). With both zero the
+carriage's coordinate meets no other at rest. The X motor's force does work on p alone (it acts between the beam and
+the carriage along the beam), so both couplings enter through the mass matrix, reciprocally.
+
+Each actuator's generalised force: the Y motors' f1, f2 on y1, y2 (their reaction on the ground); the X motor's
 f_x on p (its reaction along the beam, which the rails hold: no work); the rotation motor's torque tau_r on phi
 (relative: its reaction on the carriage is inside the coordinate, Q_theta gets nothing). A push on the clamp
 (f_x, f_y at the carriage, the torque tau_m on the rotation stage) does the virtual work
-f_x dp + f_y dy_c + tau_m (dtheta + dphi). Lagrange's equations, d/dt dT/dq' - dT/dq + dR/dq' + dV/dq = Q, are
+f_x dx_c + f_y dy_c + tau_m (dtheta + dphi). Lagrange's equations, d/dt dT/dq' - dT/dq + dR/dq' + dV/dq = Q, are
 derived symbolically (casadi): M(q) q'' = Q - (dM/dt q' - dT/dq) - D q' - K q, with the mass matrix changing as
 the carriage moves.
 
@@ -29,6 +37,7 @@ carriage moving, for time-domain work.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, fields, replace
 from functools import cached_property
 
@@ -38,6 +47,8 @@ import numpy as np
 from plant.errors import ParameterError
 from plant.physics.parameters import check_positive
 
+#: the largest beam skew the small-angle model takes (rad)
+MAX_SKEW_RAD = 0.05
 #: coordinates, actuator inputs and clamp loads, in order
 COORDINATES = ("y1_m", "y2_m", "carriage_position_m", "rotation_rad")
 ACTUATORS = ("force1_n", "force2_n", "force_x_n", "torque_rotation_n_m")
@@ -63,12 +74,21 @@ class PlanarGantry:
     yaw_stiffness_n_m_per_rad: float = 2.0e5
     rotation_inertia_kg_m2: float = 2.0e-3
     rotation_damping_n_m_s_per_rad: float = 0.01
+    #: the beam's angle from square to the rails (rad; small: the model is linear in it), and the carriage's centre of
+    #: mass off the X motor's line of force, along the rails (m): the two ways X and Y meet at rest (module doc)
+    beam_skew_rad: float = 0.0
+    carriage_offset_m: float = 0.0
 
     def __post_init__(self) -> None:
         for f in fields(self):
             value = getattr(self, f.name)
             if np.ndim(value) != 0:
                 raise ParameterError(f"{f.name}: the planar model takes one machine (a number), got {value!r}")
+            if f.name in ("beam_skew_rad", "carriage_offset_m"):
+                limit = MAX_SKEW_RAD if f.name == "beam_skew_rad" else self.rail_separation_m / 2
+                if not (math.isfinite(value) and abs(value) <= limit):
+                    raise ParameterError(f"{f.name} must be finite and at most {limit:g} in size, got {value!r}")
+                continue
             check_positive(f.name, value, allow_zero=f.name in ("carriage_inertia_kg_m2",
                                                                   "rotation_damping_n_m_s_per_rad"))
 
@@ -83,19 +103,20 @@ class PlanarGantry:
         u, w = ca.SX.sym("u", 4), ca.SX.sym("w", 3)
         y1, y2, p, phi = (q[i] for i in range(4))
         L = self.rail_separation_m
+        eps, e = self.beam_skew_rad, self.carriage_offset_m
         theta = (y2 - y1) / L
         dtheta = (dq[1] - dq[0]) / L
-        dyc = dq[0] + dq[2] * theta + p * dtheta
+        xc, yc = p - e * theta, y1 + (theta + eps) * p
+        dxc, dyc = dq[2] - e * dtheta, dq[0] + dq[2] * (theta + eps) + p * dtheta
         T = (self.beam_mass_kg * ((dq[0] + dq[1]) / 2) ** 2
              + (self.beam_inertia_kg_m2 + self.carriage_inertia_kg_m2) * dtheta**2
-             + self.carriage_mass_kg * (dq[2] ** 2 + dyc**2)
+             + self.carriage_mass_kg * (dxc**2 + dyc**2)
              + self.rotation_inertia_kg_m2 * (dtheta + dq[3]) ** 2) / 2
         V = self.yaw_stiffness_n_m_per_rad * theta**2 / 2
         R = (self.damping1_n_s_per_m * dq[0] ** 2 + self.damping2_n_s_per_m * dq[1] ** 2
              + self.damping_x_n_s_per_m * dq[2] ** 2 + self.rotation_damping_n_m_s_per_rad * dq[3] ** 2) / 2
-        # the clamp's virtual work: f_x dp + f_y dy_c + tau_m (dtheta + dphi), y_c = y1 + p theta
-        yc = y1 + p * theta
-        work = w[0] * p + w[1] * yc + w[2] * (theta + phi)
+        # the clamp's virtual work at the carriage: f_x dx_c + f_y dy_c + tau_m (dtheta + dphi)
+        work = w[0] * xc + w[1] * yc + w[2] * (theta + phi)
         Q = u + ca.jacobian(work, q).T
         dT = ca.gradient(T, dq)
         M = ca.jacobian(dT, dq)
@@ -160,7 +181,7 @@ class PlanarGantry:
         L = self.rail_separation_m
         C = np.zeros((5, 8))
         C[:4, 4:] = np.eye(4)
-        C[4, 4], C[4, 5] = 1 - p0 / L, p0 / L                  # y_c' = y1' + p theta' at rest
+        C[4, 4:7] = 1 - p0 / L, p0 / L, self.beam_skew_rad      # y_c' = y1' + p theta' + epsilon p' at rest
         return A, B, C
 
     def frd(self, w_rad_s, carriage_position_m: float) -> np.ndarray:
@@ -173,24 +194,26 @@ class PlanarGantry:
 
 def matrices(*, carriage_position_m, beam_mass_kg, beam_inertia_kg_m2, carriage_mass_kg, carriage_inertia_kg_m2,
              rail_separation_m, damping1_n_s_per_m, damping2_n_s_per_m, damping_x_n_s_per_m,
-             yaw_stiffness_n_m_per_rad, rotation_inertia_kg_m2, rotation_damping_n_m_s_per_rad):
+             yaw_stiffness_n_m_per_rad, rotation_inertia_kg_m2, rotation_damping_n_m_s_per_rad, beam_skew_rad=0.0,
+             carriage_offset_m=0.0):
     """Mass, damping and stiffness matrices (..., 4, 4) of the planar machine about rest, M q'' + D q' + K q = Q,
     in q = (y1, y2, p, phi), in closed form from the module's energies (the coordinates' velocities at rest:
     theta' = a . q', y_c' = c . q', the beam's middle g . q'; fields as ``PlanarGantry``'s, arrays broadcast to a
     batch)::
 
-        M = m_b g g^T + (J_b + J_c) a a^T + m_c (e_p e_p^T + c c^T) + J_r (a + e_phi) (a + e_phi)^T
+        M = m_b g g^T + (J_b + J_c) a a^T + m_c (x x^T + c c^T) + J_r (a + e_phi) (a + e_phi)^T
         D = diag(b1, b2, b_x, b_r),  K = K_a a a^T
-        a = (-1, 1, 0, 0) / L,  c = (1 - p / L, p / L, 0, 0),  g = (1/2, 1/2, 0, 0)
+        a = (-1, 1, 0, 0) / L,  x = (e / L, -e / L, 1, 0),  c = (1 - p / L, p / L, epsilon, 0),  g = (1/2, 1/2, 0, 0)
 
-    The carriage's coordinate p meets no other in M, D or K: at rest, X moves apart from Y and the rotation stage
-    (its position only sets c); the rotation stage meets the beam's yaw through J_r."""
+    With the skew epsilon and the offset e zero (the defaults), the carriage's coordinate p meets no other in M, D
+    or K: at rest, X moves apart from Y and the rotation stage (its position only sets c); the rotation stage meets
+    the beam's yaw through J_r."""
     arrays = np.broadcast_arrays(*(np.asarray(v, float) for v in (
         carriage_position_m, beam_mass_kg, beam_inertia_kg_m2, carriage_mass_kg, carriage_inertia_kg_m2,
         damping1_n_s_per_m, damping2_n_s_per_m, damping_x_n_s_per_m, yaw_stiffness_n_m_per_rad,
         rotation_inertia_kg_m2, rotation_damping_n_m_s_per_rad)))
     p, mb, jb, mc, jc, b1, b2, bx, ka, jr, br = (v[..., None, None] for v in arrays)
-    L = float(rail_separation_m)
+    L, eps, e = float(rail_separation_m), float(beam_skew_rad), float(carriage_offset_m)
     zero, one = np.zeros_like(p), np.ones_like(p)
 
     def vec(*entries):                                      # (..., 4, 1)
@@ -200,10 +223,11 @@ def matrices(*, carriage_position_m, beam_mass_kg, beam_inertia_kg_m2, carriage_
         return v * np.swapaxes(v, -1, -2)
 
     a = vec(-one / L, one / L, zero, zero)
-    c = vec(1 - p / L, p / L, zero, zero)
+    c = vec(1 - p / L, p / L, eps * one, zero)
+    x = vec(e * one / L, -e * one / L, one, zero)
     g = vec(one / 2, one / 2, zero, zero)
-    e_p, e_phi = vec(zero, zero, one, zero), vec(zero, zero, zero, one)
-    M = mb * outer(g) + (jb + jc) * outer(a) + mc * (outer(e_p) + outer(c)) + jr * outer(a + e_phi)
+    e_phi = vec(zero, zero, zero, one)
+    M = mb * outer(g) + (jb + jc) * outer(a) + mc * (outer(x) + outer(c)) + jr * outer(a + e_phi)
     D = np.zeros_like(M)
     for k, b in enumerate((b1, b2, bx, br)):
         D[..., k, k] = b[..., 0, 0]

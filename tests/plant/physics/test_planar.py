@@ -186,3 +186,85 @@ def test_the_three_coordinate_mobility_equals_numpys_inverse_through_the_resonan
     got = mobility(s, M, D, K)
     assert got.shape == ref.shape == (9, 3, 3, s.size)
     assert np.all(np.abs(got - ref) <= 1e-11 * np.abs(ref).max(axis=(1, 2), keepdims=True))
+
+
+SKEWED = dict(beam_skew_rad=0.004, carriage_offset_m=0.03, carriage_inertia_kg_m2=0.2, rotation_inertia_kg_m2=0.02)
+
+
+@pytest.mark.parametrize("p", [0.15, 0.5])
+def test_with_skew_and_offset_the_closed_form_is_still_lagranges(p):
+    g = PlanarGantry(**SKEWED)
+    M, D, K = g.matrices(p)
+    A, B, _ = g.linearised(p)
+    Mi = np.linalg.inv(M)
+    assert np.allclose(M, g.mass_matrix(p), rtol=1e-12, atol=1e-12)
+    assert np.allclose(A[4:, :4], -Mi @ K, rtol=1e-10, atol=1e-9 * np.abs(A[4:, :4]).max())
+    assert np.allclose(A[4:, 4:], -Mi @ D, rtol=1e-10, atol=1e-12 * np.abs(A[4:, 4:]).max())
+    assert np.allclose(B[4:, :4], Mi, rtol=1e-10, atol=1e-12)
+    assert M[2, 0] != 0 and M[2, 1] != 0                             # X now meets both rails
+
+
+@pytest.mark.parametrize("p", [0.15, 0.5])
+def test_an_x_push_from_rest_accelerates_the_rails_as_the_momentum_principles_say(p):
+    """From rest, only the X motor's force (between beam and carriage, along the beam): no force along the rails
+    acts from outside, so the y momentum stays 0; the rails' x reactions act on the beam's line, so the angular
+    momentum about a point of it stays 0 (the rotation stage, free on its bearing, keeps its own); the carriage along
+    the beam obeys f_x alone. Three equations for (y1'', y2'', p''), against M^-1 Q of the model."""
+    g = PlanarGantry(**SKEWED)
+    L, mb, mc, eps, e = g.rail_separation_m, g.beam_mass_kg, g.carriage_mass_kg, g.beam_skew_rad, g.carriage_offset_m
+    J = g.beam_inertia_kg_m2 + g.carriage_inertia_kg_m2
+    fx = 10.0
+    # unknowns (y1'', y2'', p''): theta'' = (y2'' - y1'') / L, the beam's middle (y1'' + y2'') / 2,
+    # the carriage's centre of mass: x_c'' = p'' - e theta'', y_c'' = y1'' + eps p'' + p theta''
+    th, mid = np.array([-1.0, 1.0, 0.0]) / L, np.array([0.5, 0.5, 0.0])
+    xc, yc = np.array([0, 0, 1.0]) - e * th, np.array([1.0, 0, eps]) + p * th
+    rows = [mb * mid + mc * yc,                                                 # d/dt of the y momentum = 0
+            J * th + mb * (L / 2) * mid + mc * (p * yc - e * xc),               # d/dt of the angular momentum = 0
+            mc * (xc + eps * yc)]                                               # along the beam: f_x
+    want = np.linalg.solve(np.array(rows), np.array([0.0, 0.0, fx]))
+    got = np.linalg.solve(g.matrices(p)[0], np.array([0.0, 0.0, fx, 0.0]))[:3]
+    np.testing.assert_allclose(got, want, rtol=1e-12, atol=1e-12 * np.abs(want).max())
+
+
+def test_skew_moves_the_rails_together_and_offset_yaws_them_from_the_x_motor():
+    w = np.array([3.0, 30.0, 300.0])
+    p = 0.4
+    base = PlanarGantry().frd(w, p)[:2, 2]                                       # (y1', y2') per f_x
+    skew = PlanarGantry(beam_skew_rad=0.004).frd(w, p)[:2, 2]
+    offset = PlanarGantry(carriage_offset_m=0.03).frd(w, p)[:2, 2]
+    assert np.abs(base).max() < 1e-15
+    # the carriage mid-beam: a skew pushes both rails alike (no yaw), an offset turns them apart (no translation)
+    assert np.abs(skew[0] - skew[1]).max() < 1e-9 * np.abs(skew).max() and np.abs(skew).max() > 0
+    assert np.abs(offset[0] + offset[1]).max() < 1e-9 * np.abs(offset).max() and np.abs(offset).max() > 0
+    # reciprocity: the X carriage answers a rail's force as the rail answers the X motor's
+    g = PlanarGantry(beam_skew_rad=0.004, carriage_offset_m=0.03)
+    H = g.frd(w, 0.27)
+    np.testing.assert_allclose(H[2, 0], H[0, 2], rtol=1e-9)
+
+
+def test_the_nonlinear_equations_with_skew_and_offset_conserve_energy():
+    g = PlanarGantry(damping1_n_s_per_m=1e-12, damping2_n_s_per_m=1e-12, damping_x_n_s_per_m=1e-12,
+                     rotation_damping_n_m_s_per_rad=0.0, yaw_stiffness_n_m_per_rad=2.0e3, **SKEWED)
+    L, eps, e = g.rail_separation_m, g.beam_skew_rad, g.carriage_offset_m
+
+    def energy(x):
+        q, dq = x[:4], x[4:]
+        theta, dtheta = (q[1] - q[0]) / L, (dq[1] - dq[0]) / L
+        dxc, dyc = dq[2] - e * dtheta, dq[0] + dq[2] * (theta + eps) + q[2] * dtheta
+        T = (g.beam_mass_kg * ((dq[0] + dq[1]) / 2) ** 2 + (g.beam_inertia_kg_m2 + g.carriage_inertia_kg_m2)
+             * dtheta**2 + g.carriage_mass_kg * (dxc**2 + dyc**2)
+             + g.rotation_inertia_kg_m2 * (dtheta + dq[3]) ** 2) / 2
+        return T + g.yaw_stiffness_n_m_per_rad * theta**2 / 2
+
+    x0 = np.array([0.0, 1e-3, 0.2, 0.0, 0.01, -0.02, 0.5, 1.0])
+    sol = solve_ivp(lambda t, x: np.concatenate([x[4:], g.dynamics(x[:4], x[4:], np.zeros(4))]), (0, 0.6), x0,
+                    rtol=1e-11, atol=1e-13, dense_output=True)
+    e_t = np.array([energy(sol.sol(t)) for t in np.linspace(0, 0.6, 40)])
+    assert np.max(np.abs(e_t / e_t[0] - 1)) < 1e-8
+
+
+@pytest.mark.parametrize("field, value", [("beam_skew_rad", 0.2), ("beam_skew_rad", float("nan")),
+                                          ("carriage_offset_m", 0.5)])
+def test_a_skew_or_offset_beyond_the_model_is_refused_naming_it(field, value):
+    with pytest.raises(ParameterError, match=field):
+        PlanarGantry(**{field: value})

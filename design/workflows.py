@@ -475,6 +475,28 @@ def planar_design(spec_path: str | Path, *, progress=None) -> PlanarOutcome:
                          seconds=time.perf_counter() - start)
 
 
+def coupling(path: str | Path, *, carriage_position_m: float, machine: dict[str, float] | None = None,
+             columns: str | None = None, sample_rate_hz: float | None = None):
+    """Where X and Y meet (``plant.diagnose.coupling.diagnose_coupling``): a stepped sine of the X motor with every
+    encoder recorded, against the planar machine (``plant.physics.planar.PlanarGantry`` with the values
+    ``machine``, field by name; its defaults otherwise) with the carriage at ``carriage_position_m`` (m from Y1)."""
+    from dataclasses import fields
+
+    from plant.diagnose.coupling import diagnose_coupling
+    from plant.physics.planar import PlanarGantry
+
+    known = [f.name for f in fields(PlanarGantry)]
+    for key in machine or {}:
+        if key not in known:
+            raise ParameterError(f"--machine {key}: not a value of the planar machine ({', '.join(known)})")
+    gantry = PlanarGantry(**(machine or {}))
+    p = check_number("carriage_position_m", carriage_position_m, minimum=0.0)
+    if not 0 < p < gantry.rail_separation_m:
+        raise ParameterError(f"carriage_position_m must lie between the rails (0, {gantry.rail_separation_m:g}) m, "
+                             f"got {p:g}")
+    return diagnose_coupling(measure(path, columns=columns, sample_rate_hz=sample_rate_hz), gantry, p)
+
+
 def measure(path: str | Path, *, columns: str | None = None, sample_rate_hz: float | None = None,
             frf: str = "auto") -> MeasuredResponse:
     """The frequency response of any recording: a stepped sine by the lock-in, a time-domain recording

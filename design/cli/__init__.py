@@ -22,6 +22,7 @@ import sys
 def _register() -> None:
     """Register every command on the app, explicitly, once per process (``main`` may run many times in one)."""
     from design.cli import (
+        coupling,
         diagnose,
         excite,
         fit,
@@ -37,8 +38,8 @@ def _register() -> None:
     from design.cli.common import app
 
     commands = ((reproduce, "reproduce"), (simulate, "simulate"), (fit, "fit"), (diagnose, "diagnose"),
-                (excite, "excite"), (synth, "synth"), (sweep, "sweep"), (report, "report"), (mouse_run, "mouse-run"),
-                (planar_run, "planar-run"), (planar_synth, "planar-synth"))
+                (coupling, "coupling"), (excite, "excite"), (synth, "synth"), (sweep, "sweep"), (report, "report"),
+                (mouse_run, "mouse-run"), (planar_run, "planar-run"), (planar_synth, "planar-synth"))
     if [c.name for c in app.registered_commands] == [name for _, name in commands]:
         return
     app.registered_commands.clear()     # none, or a registration a Ctrl-C cut short

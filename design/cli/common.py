@@ -212,6 +212,18 @@ def parse_effects(items: list[str]) -> dict[str, dict[str, float]]:
     return effects
 
 
+def parse_machine(text: str | None) -> dict[str, float]:
+    """``"carriage_mass_kg=56,beam_skew_rad=0"`` -> the planar machine's values by field name (``--machine``); the
+    names are checked where the machine is made."""
+    values: dict[str, float] = {}
+    for item in (p for p in (text or "").split(",") if p.strip()):
+        key, eq, number = item.partition("=")
+        if not eq or not key.strip():
+            raise ParameterError(f"--machine {item!r}: expected KEY=VALUE, e.g. carriage_mass_kg=56")
+        values[key.strip()] = _number("--machine", item, number)
+    return values
+
+
 def parse_set_items(items: list[str]) -> dict[str, float]:
     """``["mass_kg=40", "delay.seconds=0.002"]`` -> ``{"mass_kg": 40.0, "delay.seconds": 0.002}``."""
     values: dict[str, float] = {}

@@ -618,3 +618,18 @@ def print_planar_design(console: Console, out: dict) -> None:
                       f"{alone['gain_margin_db']:.2f} dB, bandwidth {alone['bandwidth_hz']:.3g} Hz (the stages "
                       "interact through the beam's yaw); Stage X's carriage meets neither in the linear model, so its "
                       "loop is its own (below)", soft_wrap=True)
+
+
+def print_coupling(console: Console, d) -> None:
+    """``gantry coupling``: every model's fit (BIC, reduced chi^2, values) and the verdict."""
+    table = Table(title=f"Where X and Y meet (carriage at {d.carriage_position_m:g} m from Y1)")
+    for col in ("model", "values", "reduced χ²", "BIC"):
+        table.add_column(col, justify="left" if col in ("model", "values") else "right")
+    units = {"beam_skew_rad": ("skew", 1e3, "mrad"), "carriage_offset_m": ("offset", 1e3, "mm")}
+    for f in d.fits:
+        values = ", ".join(f"{units[n][0]} {v * units[n][1]:.4g} ± {s * units[n][1]:.2g} {units[n][2]}"
+                           for n, v, s in zip(f.parameters, f.values, f.stderr)) or "-"
+        name = f"{f.model} (chosen)" if f is d.chosen else f.model
+        table.add_row(name, values, f"{f.reduced_chi2:.3g}", f"{f.bic:.1f}")
+    console.print(table)
+    console.print(d.verdict)

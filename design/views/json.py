@@ -1085,3 +1085,17 @@ def planar_design_to_dict(outcome) -> dict:
                                     "searches": c.searches, "search_plants": c.search_evaluations},
                         "monte_carlo": None if c.monte_carlo is None else _planar_worst_to_dict(c.monte_carlo)}
     return out
+
+
+def coupling_to_dict(d) -> dict:
+    """``gantry coupling --json`` (``plant.diagnose.coupling.CouplingDiagnosis``): the verdict, the model chosen and
+    every model's fit (values in SI: rad, m), and the measured coupling (each rail's velocity per the carriage's)."""
+    def fit(f):
+        return {"model": f.model, "parameters": dict(zip(f.parameters, f.values)),
+                "stderr": dict(zip(f.parameters, f.stderr)), "chi2": f.chi2, "dof": f.dof,
+                "reduced_chi2": f.reduced_chi2, "bic": f.bic, "identified": f.identified}
+
+    return {"verdict": d.verdict, "explained": d.explained, "chosen": fit(d.chosen), "fits": [fit(f) for f in d.fits],
+            "carriage_position_m": d.carriage_position_m, "f_hz": d.f_hz.tolist(),
+            "ratio": {rail: {"re": d.ratio[k].real.tolist(), "im": d.ratio[k].imag.tolist(),
+                             "variance": d.variance[k].tolist()} for k, rail in enumerate(("y1", "y2"))}}

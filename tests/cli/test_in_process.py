@@ -1,5 +1,5 @@
 """``design.cli.main`` called again and again in one process (a script, a notebook, the tests): every call answers
-as the first did, on the same ten commands."""
+as the first did, on the same commands."""
 
 from __future__ import annotations
 
@@ -10,7 +10,7 @@ import pytest
 from design.cli import main
 from design.cli.common import app
 
-COMMANDS = ["reproduce", "simulate", "fit", "diagnose", "excite", "synth", "sweep", "report", "mouse-run",
+COMMANDS = ["reproduce", "simulate", "fit", "diagnose", "coupling", "excite", "synth", "sweep", "report", "mouse-run",
             "planar-run", "planar-synth"]
 
 

@@ -88,8 +88,9 @@ def coupling_ratio(measured: MeasuredResponse) -> tuple[np.ndarray, np.ndarray]:
                         f"excited, every encoder recorded); {missing[0]} is missing (outputs: {', '.join(names)})")
     g = np.array([measured.response[names.index(n)] for n in OUTPUTS])
     v = np.array([measured.variance[names.index(n)] for n in OUTPUTS])
-    ratio = g[:2] / g[2]
-    return ratio, (v[:2] + np.abs(ratio) ** 2 * v[2]) / np.abs(g[2]) ** 2
+    with np.errstate(divide="ignore", invalid="ignore"):          # a carriage that never moved: inf, left out later
+        ratio = g[:2] / g[2]
+        return ratio, (v[:2] + np.abs(ratio) ** 2 * v[2]) / np.abs(g[2]) ** 2
 
 
 def model_ratio(machine: PlanarGantry, carriage_position_m: float, w_rad_s) -> np.ndarray:
@@ -133,7 +134,13 @@ def diagnose_coupling(measured: MeasuredResponse, machine: PlanarGantry,
     """The coupling of the X motor's recording ``measured`` against ``machine`` with the carriage at
     ``carriage_position_m`` (module doc)."""
     ratio, variance = coupling_ratio(measured)
-    w = 2 * np.pi * np.asarray(measured.f_hz, float)
+    f_hz = np.asarray(measured.f_hz, float)
+    usable = np.all(np.isfinite(ratio) & np.isfinite(variance) & (variance > 0), axis=0)
+    if usable.sum() < 2:
+        raise DataError(f"{measured.source}: the carriage's velocity (velocity_x_m_per_s) answers the X motor at "
+                        f"{int(usable.sum())} of {f_hz.size} frequencies: at least 2 are needed to read the coupling")
+    ratio, variance, f_hz = ratio[:, usable], variance[:, usable], f_hz[usable]
+    w = 2 * np.pi * f_hz
     sigma = np.sqrt(np.maximum(variance / 2, 1e-300))          # each of the real and imaginary parts
     fits = {m: _fit(m, machine, carriage_position_m, w, ratio, sigma) for m in MODELS}
     none = fits["none"]
@@ -143,7 +150,7 @@ def diagnose_coupling(measured: MeasuredResponse, machine: PlanarGantry,
     if both.identified and chosen.bic - both.bic >= ACCEPT_DELTA_BIC:
         chosen = both
     explained = chosen.reduced_chi2 <= EXPLAINED_CHI2
-    return CouplingDiagnosis(np.asarray(measured.f_hz, float), ratio, variance, float(carriage_position_m),
+    return CouplingDiagnosis(f_hz, ratio, variance, float(carriage_position_m),
                              tuple(fits.values()), chosen, explained, _verdict(chosen, fits["none"], explained))
 
 

@@ -69,3 +69,15 @@ def test_the_tools_simulator_records_what_the_independent_one_does(tmp_path):
 
     a, b = coupling_ratio(ref)[0], coupling_ratio(own)[0]
     assert np.abs(a - b).max() <= 1e-6 * np.abs(a).max()
+
+
+def test_a_carriage_that_never_answers_is_refused_in_words():
+    from plant.data.frequency_response import MeasuredResponse
+
+    f = np.array([5.0, 10.0, 20.0])
+    g = np.array([[1e-4, 1e-4, 1e-4], [1e-4, 1e-4, 1e-4], [0.0, 0.0, 1e-3]], complex)
+    measured = MeasuredResponse(f, g, np.full(g.shape, 1e-12), ("velocity_y1_m_per_s", "velocity_y2_m_per_s",
+                                                                 "velocity_x_m_per_s"), np.ones(3),
+                                np.full(g.shape, 40.0), np.zeros((3, 3, 2)))
+    with pytest.raises(DataError, match="at 1 of 3 frequencies"):
+        diagnose_coupling(measured, PlanarGantry(), POSITION)

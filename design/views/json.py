@@ -1093,7 +1093,7 @@ def coupling_to_dict(d) -> dict:
     def fit(f):
         return {"model": f.model, "parameters": dict(zip(f.parameters, f.values)),
                 "stderr": dict(zip(f.parameters, f.stderr)), "chi2": f.chi2, "dof": f.dof,
-                "reduced_chi2": f.reduced_chi2, "bic": f.bic, "identified": f.identified}
+                "reduced_chi2": f.reduced_chi2, "bic": f.bic, "identified": f.identified, "at_bound": f.at_bound}
 
     return {"verdict": d.verdict, "explained": d.explained, "chosen": fit(d.chosen), "fits": [fit(f) for f in d.fits],
             "carriage_position_m": d.carriage_position_m, "f_hz": d.f_hz.tolist(),

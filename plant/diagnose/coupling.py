@@ -12,7 +12,8 @@ Models: "none" (the planar model as given: with the beam square and the carriage
 line, R = 0 at rest), "beam_skew" (epsilon, ``beam_skew_rad``: both rails alike), "carriage_offset" (e,
 ``carriage_offset_m``: the rails apart, a yaw) and both; each fitted by weighted least squares, ranked by BIC (chi^2 +
 k ln n, n real data). A coupling is named when it lowers BIC by ``ACCEPT_DELTA_BIC`` against the smaller model it
-extends and each of its values lies at least ``IDENTIFIED_SIGMA`` standard errors from 0; the coupling is "not
+extends and each of its values lies inside the search's bounds and at least ``IDENTIFIED_SIGMA`` standard errors from
+0 (the covariance scaled by the reduced chi^2 where that exceeds 1, as lmfit's ``scale_covar``); the coupling is "not
 explained" when the model chosen leaves a reduced chi^2 above ``EXPLAINED_CHI2`` (the mechanics themselves differ
 from the machine: masses, damping, yaw stiffness).
 """
@@ -53,6 +54,8 @@ class CouplingFit:
     chi2: float
     dof: int
     bic: float
+    #: a value stopped at the bound of the search (the skew's small-angle limit, the offset's half beam)
+    at_bound: bool = False
 
     @property
     def reduced_chi2(self) -> float:
@@ -60,7 +63,7 @@ class CouplingFit:
 
     @property
     def identified(self) -> bool:
-        return all(abs(v) >= IDENTIFIED_SIGMA * s for v, s in zip(self.values, self.stderr))
+        return not self.at_bound and all(abs(v) >= IDENTIFIED_SIGMA * s for v, s in zip(self.values, self.stderr))
 
 
 @dataclass(frozen=True)
@@ -114,19 +117,20 @@ def _fit(model: str, machine: PlanarGantry, p: float, w: np.ndarray, ratio: np.n
         scale = np.array([MAX_SKEW_RAD if k == "beam_skew_rad" else machine.rail_separation_m / 2 for k in names])
         sol = least_squares(lambda u: residual(u * scale), np.zeros(len(names)), x_scale=1.0, xtol=1e-12,
                             ftol=1e-12, gtol=1e-12, bounds=(-np.ones(len(names)), np.ones(len(names))))
-        x = sol.x * scale
-        J = sol.jac / scale
-        res = sol.fun
+        x, J, res = sol.x * scale, sol.jac / scale, sol.fun
+        at_bound = bool(np.any(np.abs(sol.x) > 1 - 1e-6))
+        # the covariance scaled by the reduced chi^2 when the misfit exceeds the noise (as lmfit's scale_covar)
+        inflate = max(1.0, float(res @ res) / max(n - len(names), 1))
         try:
-            cov = np.linalg.inv(J.T @ J)
+            cov = np.linalg.inv(J.T @ J) * inflate
             stderr = tuple(float(s) for s in np.sqrt(np.maximum(np.diag(cov), 0.0)))
         except np.linalg.LinAlgError:
             stderr = (math.inf,) * len(names)
     else:
-        x, res, stderr = np.zeros(0), residual(np.zeros(0)), ()
+        x, res, stderr, at_bound = np.zeros(0), residual(np.zeros(0)), (), False
     chi2 = float(res @ res)
     return CouplingFit(model, names, tuple(float(v) for v in x), stderr, chi2, n - len(names),
-                       chi2 + len(names) * math.log(n))
+                       chi2 + len(names) * math.log(n), at_bound)
 
 
 def diagnose_coupling(measured: MeasuredResponse, machine: PlanarGantry,

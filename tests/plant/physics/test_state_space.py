@@ -1,7 +1,7 @@
 """Every chain effect's state-space realisation (``ChainEffect.state_space``, what the time-domain simulators and
 the sampled admittance loop are built from) has the effect's own frequency response: exactly for a rational
-factor, to the Pade approximant's accuracy for a delay; a batch realises each plant's values; the batched matrix exponential under the exact
-discretisation agrees with scipy's one matrix at a time."""
+factor, to the Pade approximant's accuracy for a delay; a batch realises each plant's values; the batched matrix
+exponential under the exact discretisation agrees with scipy's one matrix at a time."""
 
 import numpy as np
 import pytest

@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 from rich.console import Console
 
-from design.views.console import print_diagnosis
+from design.views.console import print_story
 from plant import CoulombFriction, CurrentLoop, Delay, Resonance, stage_x
 from plant.data.read_stepped_sine import read_recording
 from plant.diagnose.diagnosis import diagnose
@@ -75,8 +75,7 @@ else:
 diag = diagnose(stage_x(), measured)
 
 print(f"(hidden from the diagnosis: seed {seed}, {hidden_words}, mass {mass_kg:.1f} kg, noise {100 * noise:.1f} %)\n")
-print_diagnosis(Console(), diag)
-print("\n".join(f"{k}. {sentence}" for k, sentence in enumerate(diag.story(), start=1)))
+print_story(Console(), diag.story())
 print(f"\nverdict: {diag.verdict}; named: {', '.join(diag.added) or 'none'}; truth: {kind}")
 for effect in (hidden if isinstance(hidden, tuple) else (hidden,) if hidden is not None else ()):
     key = f"{effect.name}.{effect.main_parameter}"

@@ -13,7 +13,7 @@ import argparse
 import numpy as np
 from rich.console import Console
 
-from design.views.console import print_coupling
+from design.views.console import print_story
 from plant.data.writers import write_recording_csv
 from plant.diagnose.coupling import diagnose_coupling
 from plant.estimate.lockin import estimate_response
@@ -31,4 +31,4 @@ truth = PlanarGantry(beam_skew_rad=args.skew_mrad * 1e-3, carriage_offset_m=args
 recording = x_motor_recording(truth, POSITION, np.geomspace(2.0, 120.0, 10), seed=1)
 if args.out:
     write_recording_csv(recording, args.out)
-print_coupling(Console(), diagnose_coupling(estimate_response(recording), PlanarGantry(), POSITION))
+print_story(Console(), diagnose_coupling(estimate_response(recording), PlanarGantry(), POSITION).story())

@@ -24,7 +24,7 @@ def coupling(
     as_json: Annotated[bool, typer.Option("--json", help="Print JSON.")] = False,
 ) -> None:
     """Find which geometric error couples X and Y (the beam's skew, the carriage's offset) and its size."""
-    from design.views.console import print_coupling
+    from design.views.console import print_story
     from design.views.json import coupling_to_dict, print_json
     from design.workflows import coupling as diagnose
 
@@ -33,4 +33,4 @@ def coupling(
     if as_json:
         print_json(coupling_to_dict(d))
     else:
-        print_coupling(console, d)
+        print_story(console, d.story())

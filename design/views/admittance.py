@@ -25,7 +25,8 @@ from design.views.admittance_figures import (
     schedule_figure,
     tradeoff_figures,
 )
-from design.views.html import Report, table, units
+from design.views.html import Report, table
+from plant.story import unit_text as units
 
 
 def add_admittance_section(report: Report, problem: LoopProblem, outcome: DesignOutcome,

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -13,120 +14,56 @@ from rich.table import Table
 
 from design.views.json import payload_sweep_rows
 from plant.experiment.simulate_time import travel_notes
-from plant.physics.effects import EFFECTS
+from plant.story import Section, Story
 
 if TYPE_CHECKING:
     from design.loop.analysis import PayloadSweep
     from design.loop.reproduce import TableRow
     from design.results import DiagnosisOutcome, FitOutcome
     from plant.data.recordings import Recording
-    from plant.diagnose.diagnosis import Diagnosis
-    from plant.diagnose.time_diagnosis import TimeDiagnosis
     from plant.experiment.excitation import Multisine, SteppedSine, VariancePrediction
 
 #: payload rows shown in the sweep's terminal table (all of them go to --csv / --json)
 TABLE_ROWS = 15
 
 
+def print_story(console: Console, story: Story) -> None:
+    """A story (``plant.story``) on the terminal, laid out as ``Story.text`` lays it out: the headline's labels in
+    bold, each section as ``[[Title]]`` with its table (a rich table) and its lines; notes as notes."""
+    for label, sentence in story.headline:
+        console.print(f"[bold]{escape(label)}:[/] {escape(sentence)}", soft_wrap=True)
+    for s in story.sections:
+        if s.kind == "notes" and s.table is None:
+            for line in s.lines:
+                console.print(f"[yellow]{escape(s.title.rstrip('s'))}:[/] {escape(line)}", soft_wrap=True)
+            continue
+        console.print(f"[bold]\\[[{escape(s.title)}]][/]" + (f" {escape(s.aside)}" if s.aside else ""), soft_wrap=True)
+        if s.table is not None:
+            t = Table(box=box.SIMPLE_HEAD, pad_edge=False)
+            for k, column in enumerate(s.table.columns):
+                t.add_column(escape(column), justify="left" if k in s.table.text_columns else "right")
+            for row in s.table.rows:
+                t.add_row(*(escape(c) for c in row))
+            console.print(t)
+        for line in s.numbered():
+            console.print(f"    {escape(line)}", soft_wrap=True, highlight=False)
+
+
 def print_fit(console: Console, outcome: FitOutcome) -> None:
-    """The text of ``gantry fit``: the fit report, the estimator's data checks, and the rational fit when
+    """The text of ``gantry fit``: the fit's story, the estimator's data checks, and the rational fit when
     there is one."""
-    console.print(outcome.result.report(), markup=False, highlight=False, soft_wrap=True)
+    story = outcome.result.story()
     if outcome.measured is not None and outcome.measured.notes:
-        console.print("[[Data]]\n" + "\n".join(f"    {n}" for n in outcome.measured.notes), markup=False,
-                      highlight=False, soft_wrap=True)
-    rat = outcome.rational
-    if rat is not None:
-        console.print("\n" + rat.report(), markup=False, highlight=False, soft_wrap=True)
+        story = replace(story, sections=(*story.sections, Section("Data", tuple(outcome.measured.notes))))
+    print_story(console, story)
+    if outcome.rational is not None:
+        console.print()
+        print_story(console, outcome.rational.story())
 
 
 def print_diagnosis_outcome(console: Console, outcome: DiagnosisOutcome) -> None:
-    """The text of ``gantry diagnose``."""
-    if outcome.time_domain:
-        print_time_diagnosis(console, outcome.diagnosis)
-    else:
-        print_diagnosis(console, outcome.diagnosis)
-
-
-def print_diagnosis(console: Console, diag: Diagnosis) -> None:
-    """The text of ``gantry diagnose`` on a frequency response: verdict, candidates, steps, alternatives."""
-    console.print(f"[bold]Verdict:[/] {diag.explanation}")
-    console.print(f"[bold]Where the base model fails:[/] {diag.steps[0].residuals.description}")
-    console.print(f"[bold]Nonlinearity:[/] {diag.nonlinearity.description}")
-    t = Table(title="Candidates tried on the base model")
-    for col in ("effect", "dBIC", "reduced chi2", "note"):
-        t.add_column(col, justify="left" if col in ("effect", "note") else "right")
-    for c in diag.steps[0].ranking:
-        t.add_row(c.effect, "" if c.skipped else f"{c.delta_bic:+.1f}",
-                  "" if c.skipped else f"{c.reduced_chi2:.3g}", c.skipped)
-    console.print(t)
-    t = Table(title="The error, step by step")
-    for col in ("model", "reduced chi2", "RMS mag dB", "RMS phase deg", "BIC"):
-        t.add_column(col, justify="left" if col == "model" else "right")
-    for s in diag.steps:
-        t.add_row(" + ".join(("base",) + s.effects), f"{s.fit.reduced_chi2:.3g}", f"{s.rms_magnitude_error_db:.3f}",
-                  f"{s.rms_phase_error_deg:.2f}", f"{s.fit.bic:.1f}")
-    console.print(t)
-    for s in diag.steps:
-        console.print(f"  -> {s.decision}")
-    if diag.alternatives:
-        t = Table(title="Models within dBIC 10 of the selected one")
-        for col in ("model", "dBIC", "reduced chi2", "relation"):
-            t.add_column(col, justify="right" if col in ("dBIC", "reduced chi2") else "left")
-        for a in diag.alternatives:
-            t.add_row(" + ".join(a.effects) or "base", f"{a.delta_bic:+.1f}", f"{a.reduced_chi2:.3g}", a.note)
-        console.print(t)
-    final = diag.final
-    console.print(f"[bold]{'Final' if diag.verdict == 'explained' else 'Best (not explained)'} effects:[/] "
-                  f"{', '.join(diag.final_effects) or 'none'}")
-    modes = final.plant.modes_hz()
-    if modes.size:
-        console.print(f"  mechanical modes: {', '.join(f'{m:.4g} Hz' for m in modes)}")
-    _print_values(console, final)
-    for note in diag.notes:
-        console.print(f"[yellow]Note:[/] {note}")
-
-
-def _print_values(console: Console, fit) -> None:
-    """A fit's parameters with their standard errors; a held one says whether the recording set it (the shape
-    of a position-dependent force: a ripple's pitch, a profile's span)."""
-
-    for name, value in fit.values.items():
-        err = fit.stderr.get(name)
-        effect, _, field = name.partition(".")
-        cls = EFFECTS.get(effect) if field else None
-        held = " (set from the recording)" if cls and cls.time_domain and field in cls.search_fixed else " (fixed)"
-        console.print(f"  {name:34s} {value:.6g}" + (f" +/- {err:.2g}" if err is not None else held))
-
-
-def print_time_diagnosis(console: Console, diag: TimeDiagnosis) -> None:
-    """The text of ``gantry diagnose`` on a time-domain recording."""
-
-    console.print(f"[bold]Verdict:[/] {diag.explanation}", soft_wrap=True)
-    console.print(f"[bold]Where the base model fails:[/] {diag.where_it_fails}", soft_wrap=True)
-    console.print(f"[bold]By direction of motion:[/] {diag.direction.description}", soft_wrap=True)
-    t = Table(title="Candidates tried on the base model")
-    for col in ("effect", "dBIC", "rms residual (N)"):
-        t.add_column(col, justify="left" if col == "effect" else "right")
-    for c in diag.ranking:
-        t.add_row(c.effect, f"{c.delta_bic:+.1f}", f"{c.rms_residual_n:.4g}")
-    console.print(t)
-    t = Table(title="The error, step by step")
-    for col in ("model", "rms residual (N)", "x noise", *(r.name for r in diag.steps[0].fit.regimes), "BIC"):
-        t.add_column(col, justify="left" if col == "model" else "right")
-    for s in diag.steps:
-        by = {r.name: f"{r.rms_residual:.3g}" for r in s.fit.regimes}
-        t.add_row(" + ".join(("base",) + s.effects), f"{s.fit.rms_residual:.4g}", f"{s.fit.noise_ratio:.3g}",
-                  *(by.get(r.name, "") for r in diag.steps[0].fit.regimes), f"{s.bic:.1f}")
-    console.print(t)
-    for s in diag.steps:
-        console.print(f"  -> {s.decision}", soft_wrap=True)
-    final = diag.final
-    console.print(f"[bold]{'Final' if diag.verdict == 'explained' else 'Best (not explained)'} effects:[/] "
-                  f"{', '.join(diag.final_effects) or 'none'}")
-    _print_values(console, final)
-    for note in diag.notes:
-        console.print(f"[yellow]Note:[/] {note}", soft_wrap=True)
+    """The text of ``gantry diagnose``: the diagnosis's story, frequency or time domain."""
+    print_story(console, outcome.diagnosis.story())
 
 
 def print_dual_design(console: Console, out: dict) -> None:
@@ -618,18 +555,3 @@ def print_planar_design(console: Console, out: dict) -> None:
                       f"{alone['gain_margin_db']:.2f} dB, bandwidth {alone['bandwidth_hz']:.3g} Hz (the stages "
                       "interact through the beam's yaw); Stage X's carriage meets neither in the linear model, so its "
                       "loop is its own (below)", soft_wrap=True)
-
-
-def print_coupling(console: Console, d) -> None:
-    """``gantry coupling``: every model's fit (BIC, reduced chi^2, values) and the verdict."""
-    table = Table(title=f"Where X and Y meet (carriage at {d.carriage_position_m:g} m from Y1)")
-    for col in ("model", "values", "reduced χ²", "BIC"):
-        table.add_column(col, justify="left" if col in ("model", "values") else "right")
-    units = {"beam_skew_rad": ("skew", 1e3, "mrad"), "carriage_offset_m": ("offset", 1e3, "mm")}
-    for f in d.fits:
-        values = ", ".join(f"{units[n][0]} {v * units[n][1]:.4g} ± {s * units[n][1]:.2g} {units[n][2]}"
-                           for n, v, s in zip(f.parameters, f.values, f.stderr)) or "-"
-        name = f"{f.model} (chosen)" if f is d.chosen else f.model
-        table.add_row(name, values, f"{f.reduced_chi2:.3g}", f"{f.bic:.1f}")
-    console.print(table)
-    console.print(d.verdict)

@@ -2,18 +2,14 @@
 
 from __future__ import annotations
 
-import html
-import math
-
 import matplotlib.pyplot as plt
 import numpy as np
 
 from design.results import DiagnosisOutcome
-from design.views.html import Report, table, units
+from design.views.html import Report
 from plant.bode import bode
 from plant.data.frequency_response import MeasuredResponse
 from plant.diagnose.diagnosis import Diagnosis
-from plant.diagnose.evidence import ACCEPT_DELTA_BIC
 
 #: model curves of the comparison figure: this many points per decade over the measured band
 MODEL_POINTS_PER_DECADE = 200
@@ -89,55 +85,20 @@ def error_steps_figure(diag: Diagnosis):
 
 
 def add_diagnosis_section(report: Report, diag: Diagnosis, data: MeasuredResponse) -> None:
-    """Measured against model, normalised residuals, candidate ranking and the falling error."""
-    first, final = diag.steps[0], diag.final
-    if diag.verdict != "explained":
-        verdict = f"Not explained. {diag.explanation}"
-    elif diag.added:
-        verdict = f"Missing effect(s) found: {', '.join(diag.added)}."
-    else:
-        verdict = "No effect is missing: the refitted base model explains the data."
-    report.text(f"{verdict} Reduced χ² {first.fit.reduced_chi2:.3g} → {final.reduced_chi2:.3g}. "
-                f"Where the base model fails: {first.residuals.description}", cls="summary")
+    """The diagnosis's story (``Diagnosis.story``: the verdict first) with its figures: measured against model,
+    the falling error and the normalised residuals after the headline."""
+    story = diag.story()
+    report.headline(story)
     report.figure(comparison_figure(diag, data), "Measured response (points, shaded ±2σ) against the base model "
                                                  "and the final model.")
     report.figure(error_steps_figure(diag), "The error falling step by step (log scales; χ²ᵣ = 1 is noise).")
     report.figure(residual_figure(diag), "Residuals normalised by their uncertainty, per frequency and step.")
-    report.heading("Steps", 3)
-    report.raw(table(["model", "reduced χ²", "RMS mag (dB)", "RMS phase (deg)", "BIC", "decision"],
-                     [[" + ".join(("base",) + s.effects[len(first.effects):]), f"{s.fit.reduced_chi2:.3g}",
-                       f"{s.rms_magnitude_error_db:.3f}", f"{s.rms_phase_error_deg:.2f}", f"{s.fit.bic:.1f}",
-                       s.decision] for s in diag.steps]))
-    if diag.alternatives:
-        report.heading(f"Models within ΔBIC {ACCEPT_DELTA_BIC:g} of the selected one", 3)
-        report.raw(table(["model", "ΔBIC", "reduced χ²", "consistent with noise", "relation"],
-                         [[" + ".join(a.effects) or "base", f"{a.delta_bic:+.1f}", f"{a.reduced_chi2:.3g}",
-                           "yes" if a.consistent_with_noise else "no", a.note] for a in diag.alternatives]))
-    report.heading("Candidates tried on the base model", 3)
-    report.raw(table(["effect", "ΔBIC", "reduced χ²", "note"],
-                     [[c.effect, "" if math.isnan(c.delta_bic) else f"{c.delta_bic:+.1f}",
-                       "" if math.isnan(c.reduced_chi2) else f"{c.reduced_chi2:.3g}", c.skipped]
-                      for c in first.ranking]))
-    report.heading("Fitted parameters", 3)
-    params = final.plant.parameters()
-    report.raw(table(["parameter", "value", "±1σ", "unit"],
-                     [[n, f"{v:.6g}", f"{final.stderr[n]:.3g}" if n in final.stderr else "fixed", units(params[n].unit)]
-                      for n, v in final.values.items()]))
-    report.text(f"Nonlinearity: {diag.nonlinearity.description}")
-    for note in diag.notes:
-        report.text(f"Note: {note}")
-
-
-def story_html(diag: Diagnosis) -> str:
-    """``Diagnosis.story`` as an ordered list."""
-    return "<ol>" + "".join(f"<li>{html.escape(t)}</li>" for t in diag.story()) + "</ol>"
+    report.sections(story)
 
 
 def diagnosis_report(diag: Diagnosis, data: MeasuredResponse, *, title: str, provenance: str) -> Report:
     report = Report(title)
     add_diagnosis_section(report, diag, data)
-    report.heading("The story", 3)
-    report.raw(story_html(diag))
     report.heading("Reproducibility", 3)
     report.pre(provenance)
     return report

@@ -9,6 +9,7 @@ from dataclasses import dataclass, field
 import matplotlib.pyplot as plt
 
 from plant.host.files import atomic_write_text
+from plant.story import Story
 
 STYLE = """
 body { font-family: system-ui, -apple-system, Segoe UI, Roboto, sans-serif; max-width: 1100px; margin: 2em auto;
@@ -45,11 +46,6 @@ def svg(fig) -> str:
     plt.close(fig)
     text = buf.getvalue()
     return text[text.index("<svg"):]
-
-
-def units(text: str) -> str:
-    """The models' ASCII units N*s/m and m/s^2 written as the reports write units, N·s/m and m/s²."""
-    return text.replace("N*s/m", "N·s/m").replace("m/s^2", "m/s²")
 
 
 def table(header: list[str], rows: list[list], *, left: int = 1) -> str:
@@ -103,6 +99,27 @@ class Report:
         """Figures side by side under one caption, stacked on a narrow screen."""
         self.parts.append("<figure class='row'>" + "".join(svg(f) for f in figs)
                           + f"<figcaption>{html.escape(caption)}</figcaption></figure>")
+
+    def headline(self, story: Story) -> None:
+        """A story's headline (``plant.story``) in the summary box, one labelled sentence a line."""
+        if story.headline:
+            self.parts.append('<p class="summary">' + "<br>".join(
+                f"<b>{html.escape(label)}:</b> {html.escape(sentence)}" for label, sentence in story.headline) + "</p>")
+
+    def sections(self, story: Story, level: int = 3) -> None:
+        """A story's sections: each titled, its table, then its lines (a numbered list, notes, or a list)."""
+        for s in story.sections:
+            self.heading(s.title + (f" {s.aside}" if s.aside else ""), level)
+            if s.table is not None:
+                self.raw(table(list(s.table.columns), [list(r) for r in s.table.rows]))
+            if not s.lines:
+                continue
+            if s.kind == "notes":
+                for line in s.lines:
+                    self.text(f"Note: {line}")
+            else:
+                tag = "ol" if s.kind == "numbered" else "ul"
+                self.raw(f"<{tag}>" + "".join(f"<li>{html.escape(line)}</li>" for line in s.lines) + f"</{tag}>")
 
     def raw(self, markup: str) -> None:
         self.parts.append(markup)

@@ -19,12 +19,13 @@ from design.loop.curves import LoopCurves
 from design.results import ReportContent
 from design.synth.evaluation import Evaluation
 from design.synth.scenarios import describe_row
-from design.views.html import Report, table, units
+from design.views.html import Report, table
 from design.views.plots import fixed_margins
 from plant import __version__
 from plant.arguments import check_instance
 from plant.bode import bode
 from plant.host.text_io import read_text
+from plant.story import unit_text as units
 
 
 def limiting_text(ev: Evaluation, requirements) -> str:

@@ -5,7 +5,7 @@ from __future__ import annotations
 import matplotlib.pyplot as plt
 import numpy as np
 
-from design.views.html import Report, table
+from design.views.html import Report
 from plant.diagnose.time_diagnosis import TimeDiagnosis
 
 
@@ -63,33 +63,17 @@ def steps_figure(diag: TimeDiagnosis):
 
 
 def time_diagnosis_report(diag: TimeDiagnosis, *, title: str, provenance: str) -> Report:
-    """The HTML report of a time-domain diagnosis."""
+    """The HTML report of a time-domain diagnosis: its story (``TimeDiagnosis.story``) with the force, friction
+    and residual-by-regime figures after the headline."""
     report = Report(title)
-    base, final = diag.steps[0].fit, diag.final
-    verdict = diag.explanation if diag.verdict == "explained" else f"Not explained. {diag.explanation}"
-    report.text(f"{verdict} RMS residual {base.rms_residual:.3g} N → {final.rms_residual:.3g} N "
-                f"(noise alone {final.noise_rms:.3g} N). Where the base model fails: {diag.where_it_fails}. "
-                f"By direction: {diag.direction.description}.", cls="summary")
+    story = diag.story()
+    report.headline(story)
     report.figure(force_figure(diag), "Measured force (drive input × force constant, filtered and decimated as "
                                       "IDIM-LS does) against the base and the final model.")
     report.figure(friction_figure(diag), "Residual force against velocity: a step at v = 0 is Coulomb friction, "
                                          "a constant shift an offset.")
     report.figure(steps_figure(diag), "The residual by regime of motion, step by step (log scale).")
-    report.heading("Steps", 3)
-    report.raw(table(["model", "rms residual (N)", "× noise", "BIC", "decision"],
-                     [[" + ".join(("base",) + s.effects), f"{s.fit.rms_residual:.4g}", f"{s.fit.noise_ratio:.3g}",
-                       f"{s.bic:.1f}", s.decision] for s in diag.steps]))
-    report.heading("Candidates tried on the base model", 3)
-    report.raw(table(["effect", "ΔBIC", "rms residual (N)"],
-                     [[c.effect, f"{c.delta_bic:+.1f}", f"{c.rms_residual_n:.4g}"] for c in diag.ranking]))
-    report.heading("Fitted parameters", 3)
-    params = final.plant.parameters()
-    report.raw(table(["parameter", "value", "±1σ (Newey-West)", "±1σ (OLS)", "unit"],
-                     [[n, f"{v:.6g}", f"{final.stderr[n]:.3g}" if n in final.stderr else "fixed",
-                       f"{final.stderr_ols[n]:.3g}" if n in final.stderr_ols else "", params[n].unit]
-                      for n, v in final.values.items()]))
-    for note in diag.notes:
-        report.text(f"Note: {note}")
+    report.sections(story)
     report.heading("Reproducibility", 3)
     report.pre(provenance)
     return report

@@ -30,6 +30,7 @@ from plant.data.frequency_response import MeasuredResponse
 from plant.diagnose.evidence import ACCEPT_DELTA_BIC
 from plant.errors import DataError
 from plant.physics.planar import MAX_SKEW_RAD, PlanarGantry, mobility
+from plant.story import Section, Story, Table
 
 #: the outputs a coupling recording needs, in order: rail Y1, rail Y2, the carriage along the beam (m/s)
 OUTPUTS = ("velocity_y1_m_per_s", "velocity_y2_m_per_s", "velocity_x_m_per_s")
@@ -79,6 +80,19 @@ class CouplingDiagnosis:
     chosen: CouplingFit
     explained: bool
     verdict: str
+
+    def story(self) -> Story:
+        """The verdict first, then every model's fit (its values with their errors, reduced χ², BIC)."""
+        shown = {"beam_skew_rad": ("skew", 1e3, "mrad"), "carriage_offset_m": ("offset", 1e3, "mm")}
+        rows = []
+        for f in self.fits:
+            values = ", ".join(f"{shown[n][0]} {v * shown[n][1]:.4g} ± {s * shown[n][1]:.2g} {shown[n][2]}"
+                               for n, v, s in zip(f.parameters, f.values, f.stderr)) or "-"
+            rows.append((f"{f.model} (chosen)" if f is self.chosen else f.model, values, f"{f.reduced_chi2:.3g}",
+                         f"{f.bic:.1f}"))
+        return Story((("Verdict", self.verdict),),
+                     (Section(f"Where X and Y meet (carriage at {self.carriage_position_m:g} m from Y1)",
+                              table=Table(("model", "values", "reduced χ²", "BIC"), tuple(rows), frozenset({0, 1}))),))
 
 
 def coupling_ratio(measured: MeasuredResponse) -> tuple[np.ndarray, np.ndarray]:

@@ -18,13 +18,22 @@ error counts as misfit like any other, so such a model may be reported as not ex
 from __future__ import annotations
 
 import functools
+import math
 from dataclasses import dataclass, replace
 
 import numpy as np
 from scipy import special
 
 from plant.data.frequency_response import MeasuredResponse
-from plant.diagnose.evidence import ACCEPT_DELTA_BIC, addition_delta_bic, verdict
+from plant.diagnose.evidence import (
+    ACCEPT_DELTA_BIC,
+    EXPLAINED,
+    addition_delta_bic,
+    delta_bic_text,
+    model_label,
+    parameter_section,
+    verdict,
+)
 from plant.diagnose.search import children, compatible, fit_models, path_to, select_model
 from plant.errors import DataError
 from plant.identify.fitting import FitResult, fit_plant
@@ -32,6 +41,7 @@ from plant.identify.residuals import ResidualSummary, residual_summary
 from plant.physics.chain import EncoderVelocity
 from plant.physics.effects import EFFECTS, make_effect
 from plant.physics.models import Plant
+from plant.story import Section, Story, Table
 
 #: chi^2 is consistent with noise unless a correct model exceeds it with probability below the
 #: one-sided normal tail at NOISE_Z (1.35e-3)
@@ -128,10 +138,46 @@ class Diagnosis:
     def added(self) -> tuple[str, ...]:
         return self.final_effects[len(self.steps[0].effects):]
 
-    def story(self) -> tuple[str, ...]:
-        """The diagnosis in sentences: the base model, each effect added on the path to the selected model (dBIC:
-        BIC before minus after, positive favours the addition), and the verdict (the tables of a report hold the
-        candidates, the alternatives and the error by step)."""
+    def story(self) -> Story:
+        """The diagnosis as the reports tell it: the verdict first, where the base model fails and the
+        nonlinearity; then the candidates tried on the base model, the error step by step with each decision,
+        the models the data cannot rule out, the selected (or best) model and its parameters, and the path to it
+        in sentences (ΔBIC: BIC before minus after, positive favours the addition)."""
+        first, final = self.steps[0], self.final
+        base = first.effects
+        headline = (("Verdict", self.explanation),
+                    ("Where the base model fails", first.residuals.description),
+                    ("Nonlinearity", self.nonlinearity.description))
+        candidates = Table(("effect", "ΔBIC", "reduced χ²", "note"),
+                           tuple((c.effect, "" if c.skipped else delta_bic_text(c.delta_bic),
+                                  "" if c.skipped or math.isnan(c.reduced_chi2) else f"{c.reduced_chi2:.3g}",
+                                  c.skipped) for c in first.ranking), frozenset({0, 3}))
+        steps = Table(("model", "reduced χ²", "RMS mag (dB)", "RMS phase (deg)", "BIC"),
+                      tuple((model_label(s.effects, base), f"{s.fit.reduced_chi2:.3g}",
+                             f"{s.rms_magnitude_error_db:.3f}", f"{s.rms_phase_error_deg:.2f}", f"{s.fit.bic:.1f}")
+                            for s in self.steps))
+        sections = [Section("Candidates tried on the base model", table=candidates),
+                    Section("The error, step by step", tuple(f"→ {s.decision}" for s in self.steps), table=steps)]
+        if self.alternatives:
+            sections.append(Section(
+                f"Models within ΔBIC {ACCEPT_DELTA_BIC:g} of the selected one",
+                table=Table(("model", "ΔBIC", "reduced χ²", "consistent with noise", "relation"),
+                            tuple((model_label(a.effects), f"{a.delta_bic:+.1f}", f"{a.reduced_chi2:.3g}",
+                                   "yes" if a.consistent_with_noise else "no", a.note) for a in self.alternatives),
+                            frozenset({0, 3, 4}))))
+        modes = final.plant.modes_hz()
+        sections.append(Section("Selected model" if self.verdict == EXPLAINED else "Best model (not explained)",
+                                (f"effects: {', '.join(self.final_effects) or 'none'}",
+                                 *((f"mechanical modes: {', '.join(f'{m:.4g} Hz' for m in modes)}",)
+                                   if modes.size else ()))))
+        sections.append(parameter_section(final))
+        sections.append(Section("The path to the model", self._path(), kind="numbered"))
+        if self.notes:
+            sections.append(Section("Notes", self.notes, kind="notes"))
+        return Story(headline, tuple(sections))
+
+    def _path(self) -> tuple[str, ...]:
+        """The base model, each effect added on the path to the selected model, and the verdict, in sentences."""
         first = self.steps[0]
         items = [f"The base model ({', '.join(first.effects) or 'no effects'}) fits with reduced χ² "
                  f"{first.fit.reduced_chi2:.3g}, RMS error {first.rms_magnitude_error_db:.3g} dB / "

@@ -28,7 +28,15 @@ from dataclasses import dataclass
 import numpy as np
 
 from plant.data.recordings import TimeRecording
-from plant.diagnose.evidence import ACCEPT_DELTA_BIC, addition_delta_bic, verdict
+from plant.diagnose.evidence import (
+    ACCEPT_DELTA_BIC,
+    EXPLAINED,
+    addition_delta_bic,
+    delta_bic_text,
+    model_label,
+    parameter_section,
+    verdict,
+)
 from plant.diagnose.search import compatible, fit_models, path_to, select_model
 from plant.errors import EffectError, ParameterError
 from plant.identify.compensation import CompensationTable, compensation_table
@@ -37,6 +45,7 @@ from plant.identify.time_fit import TimeFitResult, bic, fit_inverse_model, fit_s
 from plant.physics.effect_base import Effect
 from plant.physics.effects import EFFECTS, make_effect
 from plant.physics.models import Plant
+from plant.story import Section, Story, Table
 
 #: fraction of the 99th percentile of |v| above which a sample counts as moving in one direction
 DIRECTION_FRACTION = 0.05
@@ -128,6 +137,46 @@ class TimeDiagnosis:
         if self.position_m is None:
             raise ParameterError("the recording has no position: there is no position-dependent force to compensate")
         return compensation_table(self.final, self.position_m)
+
+    def story(self) -> Story:
+        """The diagnosis as the reports tell it: the verdict first, the residual's size against the noise, where
+        the base model fails and by direction of motion; then the candidates tried on the base model, the error
+        step by step (by regime of motion) with each decision, the models the data cannot rule out, and the
+        selected (or best) model's parameters."""
+        base, final = self.steps[0].fit, self.final
+        headline = (("Verdict", self.explanation),
+                    ("The error", f"rms residual {base.rms_residual:.3g} N (base) → {final.rms_residual:.3g} N; "
+                                  f"noise alone {final.noise_rms:.3g} N"),
+                    ("Where the base model fails", self.where_it_fails),
+                    ("By direction of motion", self.direction.description))
+        regimes = [r.name for r in base.regimes]
+        steps = []
+        for s in self.steps:
+            by = {r.name: f"{r.rms_residual:.3g}" for r in s.fit.regimes}
+            steps.append((model_label(s.effects), f"{s.fit.rms_residual:.4g}", f"{s.fit.noise_ratio:.3g}",
+                          *(by.get(n, "") for n in regimes), f"{s.bic:.1f}"))
+        sections = [
+            Section("Candidates tried on the base model",
+                    table=Table(("effect", "ΔBIC", "rms residual (N)"),
+                                tuple((c.effect, delta_bic_text(c.delta_bic), f"{c.rms_residual_n:.4g}")
+                                      for c in self.ranking))),
+            Section("The error, step by step", tuple(f"→ {s.decision}" for s in self.steps),
+                    table=Table(("model", "rms residual (N)", "× noise", *(f"{n} (N)" for n in regimes), "BIC"),
+                                tuple(steps)),
+                    aside="(rms residual overall and by regime of motion)")]
+        if self.alternatives:
+            sections.append(Section(
+                f"Models within ΔBIC {ACCEPT_DELTA_BIC:g} of the selected one",
+                table=Table(("model", "ΔBIC", "rms residual (N)", "consistent with noise"),
+                            tuple((model_label(a.effects), f"{a.delta_bic:+.1f}", f"{a.rms_residual_n:.4g}",
+                                   "yes" if a.consistent_with_noise else "no") for a in self.alternatives),
+                            frozenset({0, 3}))))
+        sections.append(Section("Selected model" if self.verdict == EXPLAINED else "Best model (not explained)",
+                                (f"effects: {', '.join(self.selected) or 'none'}",)))
+        sections.append(parameter_section(final, ols=True))
+        if self.notes:
+            sections.append(Section("Notes", self.notes, kind="notes"))
+        return Story(headline, tuple(sections))
 
     @property
     def final_effects(self) -> tuple[str, ...]:

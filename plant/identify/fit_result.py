@@ -1,7 +1,7 @@
 """The one shape of a fit result, whatever was fitted (lmfit's one ``ModelResult`` in spirit).
 
-``Fit`` holds what every fit reports (data points, estimated parameters, starts, flags) and lays
-out its text report: ``[[Model]]``, ``[[Fit Statistics]]``, the kind's own sections, ``[[Flags]]``.
+``Fit`` holds what every fit reports (data points, estimated parameters, starts, flags) and tells it as a
+story (``plant.story``): Model, Fit Statistics, the kind's own sections, Flags; ``report`` is its plain text.
 ``PlantFit`` adds the physical parameters of a fitted ``Plant`` (values, standard errors,
 covariance, correlation) and their ``[[Variables]]`` and ``[[Correlations]]`` sections. The
 frequency-domain (``plant.identify.fitting.FitResult``), time-domain
@@ -18,6 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from plant.physics.models import Plant
+from plant.story import Section, Story
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -32,14 +33,16 @@ class Fit:
     #: starts refined (the best kept)
     n_starts: int
 
+    def story(self) -> Story:
+        """The fit's report: the model, its statistics, the kind's own sections and the flags."""
+        flags = (Section("Flags", self.flags, kind="notes"),) if self.flags else ()
+        return Story(sections=(Section("Model", tuple(self._model_lines())),
+                               Section("Fit Statistics", tuple(self._statistics_lines())),
+                               *self._sections(), *flags))
+
     def report(self) -> str:
-        """Text report in the spirit of lmfit's ``fit_report``."""
-        lines = ["[[Model]]", *self._model_lines(), "[[Fit Statistics]]", *self._statistics_lines(),
-                 *self._sections()]
-        if self.flags:
-            lines.append("[[Flags]]")
-            lines += [f"    {f}" for f in self.flags]
-        return "\n".join(lines)
+        """Text report in the spirit of lmfit's ``fit_report`` (``story`` as plain text)."""
+        return self.story().text()
 
     def _model_lines(self) -> list[str]:
         raise NotImplementedError
@@ -47,7 +50,7 @@ class Fit:
     def _statistics_lines(self) -> list[str]:
         raise NotImplementedError
 
-    def _sections(self) -> list[str]:
+    def _sections(self) -> list[Section]:
         return []
 
 
@@ -71,17 +74,20 @@ class PlantFit(Fit):
         i, j = self.free.index(a), self.free.index(b)
         return float(self.correlation[i, j])
 
-    def _variables_title(self) -> str:
-        return "[[Variables]]"
+    def _variables_aside(self) -> str:
+        """The rest of the Variables section's title line (what the errors are)."""
+        return ""
 
     def _variable_notes(self) -> Mapping[str, str]:
         """A note after each free parameter's line (its start, another standard error)."""
         return {}
 
-    def _sections(self) -> list[str]:
+    def _sections(self) -> list[Section]:
         units = {n: p.unit for n, p in self.plant.parameters().items()}
-        return [self._variables_title(), *variable_lines(self.values, units, self.stderr, self._variable_notes()),
-                *correlation_lines(self.free, self.correlation)]
+        variables = Section("Variables", tuple(variable_lines(self.values, units, self.stderr, self._variable_notes())),
+                            aside=self._variables_aside())
+        correlations = correlation_section(self.free, self.correlation)
+        return [variables] + ([correlations] if correlations is not None else [])
 
 
 def variable_lines(values: Mapping[str, float], units: Mapping[str, str], stderr: Mapping[str, float],
@@ -95,18 +101,19 @@ def variable_lines(values: Mapping[str, float], units: Mapping[str, str], stderr
             err = stderr[name]
             rel = f" ({100 * err / abs(value):.2f}%)" if math.isfinite(err) and value != 0 else ""
             note = notes.get(name, "")
-            lines.append(f"    {name + ':':<{width + 1}} {value:.6g} +/- {err:.3g}{rel} {units[name]}{note}")
+            lines.append(f"{name + ':':<{width + 1}} {value:.6g} +/- {err:.3g}{rel} {units[name]}{note}")
         else:
-            lines.append(f"    {name + ':':<{width + 1}} {value:.6g} {units[name]} (fixed)")
+            lines.append(f"{name + ':':<{width + 1}} {value:.6g} {units[name]} (fixed)")
     return lines
 
 
-def correlation_lines(free: Sequence[str], correlation: np.ndarray, min_correlation: float = 0.1) -> list[str]:
-    """The correlations above ``min_correlation`` in magnitude, largest first."""
+def correlation_section(free: Sequence[str], correlation: np.ndarray,
+                        min_correlation: float = 0.1) -> Section | None:
+    """The correlations above ``min_correlation`` in magnitude, largest first (None: none is)."""
     pairs = [(abs(correlation[i, j]), free[i], free[j], correlation[i, j])
              for i in range(len(free)) for j in range(i + 1, len(free))
              if np.isfinite(correlation[i, j]) and abs(correlation[i, j]) > min_correlation]
     if not pairs:
-        return []
-    return [f"[[Correlations]] (unreported correlations are < {min_correlation:.3f})"] + \
-        [f"    C({a}, {b}) = {c:+.4f}" for _, a, b, c in sorted(pairs, reverse=True)]
+        return None
+    return Section("Correlations", tuple(f"C({a}, {b}) = {c:+.4f}" for _, a, b, c in sorted(pairs, reverse=True)),
+                   aside=f"(unreported correlations are < {min_correlation:.3f})")

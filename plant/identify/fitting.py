@@ -91,20 +91,20 @@ class FitResult(PlantFit):
         return np.sum(np.abs(self.residuals) ** 2, axis=0)
 
     def _model_lines(self) -> list[str]:
-        return [f"    stage {self.plant.stage.upper()}, effects: {', '.join(self.effect_names) or 'none'}"]
+        return [f"stage {self.plant.stage.upper()}, effects: {', '.join(self.effect_names) or 'none'}"]
 
     def _statistics_lines(self) -> list[str]:
         n_out, n_f = self.residuals.shape
         return [
-            f"    # data points      = {self.n_data} ({n_f} frequencies x {n_out} output(s) x re/im)",
-            f"    # variables        = {self.n_params}",
-            f"    chi-square         = {self.chi2:.6g}",
-            f"    reduced chi-square = {self.reduced_chi2:.6g} (expected {self.expected_reduced_chi2:.4g} for a "
+            f"# data points      = {self.n_data} ({n_f} frequencies x {n_out} output(s) x re/im)",
+            f"# variables        = {self.n_params}",
+            f"chi-square         = {self.chi2:.6g}",
+            f"reduced chi-square = {self.reduced_chi2:.6g} (expected {self.expected_reduced_chi2:.4g} for a "
             "correct model)",
-            f"    Akaike info crit   = {self.aic:.6g}",
-            f"    Bayesian info crit = {self.bic:.6g}",
-            f"    starts, evaluations = {self.n_starts}, {self.n_evaluations}",
-            f"    success            = {self.success} ({self.message})",
+            f"Akaike info crit   = {self.aic:.6g}",
+            f"Bayesian info crit = {self.bic:.6g}",
+            f"starts, evaluations = {self.n_starts}, {self.n_evaluations}",
+            f"success            = {self.success} ({self.message})",
         ]
 
     def _variable_notes(self) -> dict[str, str]:

@@ -50,6 +50,7 @@ from plant.arguments import check_count
 from plant.errors import DataError, ParameterError
 from plant.grid import check_grid
 from plant.identify.fit_result import Fit
+from plant.story import Section
 
 #: SK iterations stop when the relative change of the denominator is below this
 _SK_TOL = 1e-10
@@ -132,31 +133,31 @@ class RationalFit(Fit):
 
     def _model_lines(self) -> list[str]:
         delay = f", delay {1e3 * self.delay_s:.4g} ms" if self.delay else ""
-        return [f"    rational: {self.n_poles} poles, {self.n_zeros} zeros{delay}; {self.weighting} weighting"]
+        return [f"rational: {self.n_poles} poles, {self.n_zeros} zeros{delay}; {self.weighting} weighting"]
 
     def _statistics_lines(self) -> list[str]:
         chi2 = (f"{self.chi2:.6g} for {self.dof} degrees of freedom (P = {self.chi2_p:.2g})"
                 if np.isfinite(self.chi2) else "not computed (no variance)")
         return [
-            f"    # data points      = {self.n_data} ({self.n_data // 2} weighted frequencies x re/im)",
-            f"    # variables        = {self.n_params}",
-            f"    fit                = {self.fit_percent:.2f} % (100 (1 - |G - G_fit| / |G - mean G|), unweighted)",
-            f"    weighted cost      = {self.cost:.6g}",
-            f"    chi-square         = {chi2}",
-            f"    starts             = {self.n_starts} (kept: {self.start}; {self.sk_iterations} SK iterations)",
-            f"    success            = {self.success} ({self.message})",
+            f"# data points      = {self.n_data} ({self.n_data // 2} weighted frequencies x re/im)",
+            f"# variables        = {self.n_params}",
+            f"fit                = {self.fit_percent:.2f} % (100 (1 - |G - G_fit| / |G - mean G|), unweighted)",
+            f"weighted cost      = {self.cost:.6g}",
+            f"chi-square         = {chi2}",
+            f"starts             = {self.n_starts} (kept: {self.start}; {self.sk_iterations} SK iterations)",
+            f"success            = {self.success} ({self.message})",
         ]
 
-    def _sections(self) -> list[str]:
-        lines = ["[[Poles and zeros]] (rad/s; Hz and damping ratio)"]
-        for kind, roots in (("pole", self.poles), ("zero", self.zeros)):
-            for r in sorted(roots[roots.imag >= 0], key=abs):
+    def _sections(self) -> list[Section]:
+        roots = []
+        for kind, rs in (("pole", self.poles), ("zero", self.zeros)):
+            for r in sorted(rs[rs.imag >= 0], key=abs):
                 zeta = -r.real / abs(r) if abs(r) > 0 else float("nan")
-                lines.append(f"    {kind} {r:.5g}: {abs(r) / (2 * np.pi):.4g} Hz, damping {zeta:.3g}")
-        lines.append(f"[[Transfer function]]{'' if not self.delay else ' (times the delay)'}")
-        lines += [f"    {line}" for line in str(self.tf).splitlines()
-                  if line.strip() and not line.startswith(("<", "Inputs", "Outputs"))]
-        return lines
+                roots.append(f"{kind} {r:.5g}: {abs(r) / (2 * np.pi):.4g} Hz, damping {zeta:.3g}")
+        tf = tuple(line for line in str(self.tf).splitlines()
+                   if line.strip() and not line.startswith(("<", "Inputs", "Outputs")))
+        return [Section("Poles and zeros", tuple(roots), aside="(rad/s; Hz and damping ratio)"),
+                Section("Transfer function", tf, aside="" if not self.delay else "(times the delay)")]
 
 
 @dataclass(frozen=True)

@@ -71,6 +71,7 @@ from plant.identify.inverse_model import EDGE_SAMPLES, FILTER_ORDER, InverseMode
 from plant.physics.effect_base import FitSamples
 from plant.physics.models import Plant
 from plant.physics.motor_forces import periodic_pitch
+from plant.story import Section
 
 #: velocity below this fraction of the 99th percentile of |v| is "low velocity"
 LOW_VELOCITY_FRACTION = 0.05
@@ -171,39 +172,39 @@ class TimeFitResult(PlantFit):
         return "N" if self.quantity == "force_n" else "m/s"
 
     def _model_lines(self) -> list[str]:
-        return [f"    stage {self.plant.stage.upper()}, effects: {', '.join(self.effect_names) or 'none'}, "
+        return [f"stage {self.plant.stage.upper()}, effects: {', '.join(self.effect_names) or 'none'}, "
                 f"{self.method} fit of the {'force' if self._unit == 'N' else 'velocity'}"]
 
     def _statistics_lines(self) -> list[str]:
         unit = self._unit
         return [
-            f"    # data points      = {self.n_data} (effective {self.n_effective:.0f}: residual lag-1 "
+            f"# data points      = {self.n_data} (effective {self.n_effective:.0f}: residual lag-1 "
             f"autocorrelation {self.lag1_autocorrelation:.3f}; {self.n_at_rest} at rest left out)",
-            f"    # variables        = {self.n_params}",
-            f"    rms residual       = {self.rms_residual:.4g} {unit} ({self.relative_error_percent:.2f} % of the "
+            f"# variables        = {self.n_params}",
+            f"rms residual       = {self.rms_residual:.4g} {unit} ({self.relative_error_percent:.2f} % of the "
             "measured signal)",
-            f"    noise alone        = {self.noise_rms:.4g} {unit} rms (residual / noise {self.noise_ratio:.3g})",
-            f"    condition number   = {self.condition_number:.3g}",
+            f"noise alone        = {self.noise_rms:.4g} {unit} rms (residual / noise {self.noise_ratio:.3g})",
+            f"condition number   = {self.condition_number:.3g}",
         ]
 
-    def _variables_title(self) -> str:
-        return "[[Variables]] (+/- Newey-West standard error; ordinary least squares in brackets)"
+    def _variables_aside(self) -> str:
+        return "(+/- Newey-West standard error; ordinary least squares in brackets)"
 
     def _variable_notes(self) -> dict[str, str]:
         return {n: f" [{self.stderr_ols[n]:.3g}]" for n in self.stderr}
 
-    def _sections(self) -> list[str]:
+    def _sections(self) -> list[Section]:
         unit = self._unit
-        lines = super()._sections()
-        lines.append("[[Structure of the residual]] (mean in quantile bins, chi-square against Newey-West errors)")
-        for st in self.structure:
-            lines.append(f"    {st.variable:14s} chi2 {st.chi2:.4g} for {st.dof} bins, p = {st.p_value:.2g}"
-                         f"{' (significant)' if st.significant else ''}; largest: {st.worst_bin}")
-        lines.append("[[Residual by regime of motion]]")
-        for r in self.regimes:
-            lines.append(f"    {r.name:14s} {100 * r.share:5.1f} % of samples: rms {r.rms_residual:.4g} {unit}, "
-                         f"{r.noise_ratio:.3g} x noise{' (significant)' if r.significant else ''}")
-        return lines
+        structure = tuple(f"{st.variable:14s} chi2 {st.chi2:.4g} for {st.dof} bins, p = {st.p_value:.2g}"
+                          f"{' (significant)' if st.significant else ''}; largest: {st.worst_bin}"
+                          for st in self.structure)
+        regimes = tuple(f"{r.name:14s} {100 * r.share:5.1f} % of samples: rms {r.rms_residual:.4g} {unit}, "
+                        f"{r.noise_ratio:.3g} x noise{' (significant)' if r.significant else ''}"
+                        for r in self.regimes)
+        return [*super()._sections(),
+                Section("Structure of the residual", structure,
+                        aside="(mean in quantile bins, chi-square against Newey-West errors)"),
+                Section("Residual by regime of motion", regimes)]
 
 
 def time_domain_effects(plant: Plant) -> None:

@@ -121,11 +121,11 @@ def test_the_diagnosis_story_is_a_list_that_agrees_with_the_steps_table():
     data = estimate_response(rec)
     diag = diagnose(stage_x(mass_kg=20.0), data)
     page = diagnosis_report(diag, data, title="t", provenance="p").render()
-    story = page[page.index(">The story</h3>"):page.index(">Reproducibility</h3>")]
+    story = page[page.index(">The path to the model</h3>"):page.index(">Reproducibility</h3>")]
     assert "<pre>" not in story and story.count("<ol>") == 1
     items = [html_lib.unescape(i) for i in re.findall(r"<li>(.*?)</li>", story)]
     assert len(items) == len(diag.steps) + 1
-    steps = page[page.index(">Steps</h3>"):]
+    steps = page[page.index(">The error, step by step</h3>"):]
     chi2 = re.findall(r"<tr><td class=\"l\">[^<]*</td><td>([^<]+)</td>", steps[:steps.index("</table>")])
     assert len(chi2) == len(diag.steps)
     assert f"reduced χ² {chi2[0]}," in items[0]

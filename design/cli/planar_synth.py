@@ -22,7 +22,8 @@ def planar_synth(
     as_json: Annotated[bool, typer.Option("--json", help="Print JSON.")] = False,
 ) -> None:
     """Design X, Y and rotation loops together on the planar gantry and verify the whole loop."""
-    from design.views.console import print_planar_design, print_synthesis
+    from design.views.console import print_story
+    from design.views.design_story import planar_design_story, synthesis_story
     from design.views.json import planar_design_to_dict, print_json
     from design.views.progress import StageProgress
     from design.workflows import planar_design
@@ -37,11 +38,11 @@ def planar_synth(
     if as_json:
         print_json(out)
     else:
-        print_planar_design(console, out)
+        print_story(console, planar_design_story(out))
         console.rule("Stage X")
-        print_synthesis(console, out["stage_x"])
+        print_story(console, synthesis_story(out["stage_x"]))
         console.rule("Stage Y")
-        print_synthesis(console, out["stage_y"])
+        print_story(console, synthesis_story(out["stage_y"]))
         console.print(f"planar design: {outcome.seconds:.1f} s")
     if out["status"] != "optimal":
         raise typer.Exit(1)

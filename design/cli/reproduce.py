@@ -21,7 +21,8 @@ def reproduce(
     from dataclasses import asdict
 
     from design.loop.reproduce import sweeps, table_3_1
-    from design.views.console import print_reproduction
+    from design.views.console import print_story
+    from design.views.design_story import reproduction_story
     from design.views.json import payload_sweep_rows, print_json
     from design.workflows import load_problem
 
@@ -41,4 +42,4 @@ def reproduce(
         print_json({"table_3_1": [{k: v for k, v in asdict(r).items()} for r in rows],
                     "payload_sweep": [row for s in sw for row in payload_sweep_rows(s)]})
         return
-    print_reproduction(console, rows, sw)
+    print_story(console, reproduction_story(rows, sw))

@@ -32,7 +32,8 @@ def sweep(
 ) -> None:
     """Margins and bandwidth across payloads, with Monte Carlo over the spec's uncertainty ranges."""
     from design.loop.sweep import monte_carlo_sweep
-    from design.views.console import print_sweep
+    from design.views.console import print_story
+    from design.views.design_story import sweep_story
     from design.views.json import print_json, sweep_check_to_dict, sweep_csv, sweep_to_dict
     from design.views.progress import LazyProgress
     from design.workflows import load_problem
@@ -61,7 +62,7 @@ def sweep(
     if as_json:
         print_json({**sweep_to_dict(result), "gains_source": source, **sweep_check_to_dict(check, result)})
     else:
-        print_sweep(console, result, check, source)
+        print_story(console, sweep_story(result, check, source))
     if csv is not None:         # the file last: a stop while the tables print leaves no file behind
         atomic_write_text(csv, sweep_csv(result))
         if not as_json and not is_stdout(csv):

@@ -67,12 +67,13 @@ def synth(
             design_report(content).write(report)
     finally:
         progress.close()
-    from design.views.console import print_synthesis
+    from design.views.console import print_story
+    from design.views.design_story import synthesis_story
 
     if as_json:
         print_json(out)
     else:
-        print_synthesis(console, out)
+        print_story(console, synthesis_story(out))
         if report is not None and reportable and not is_stdout(report):
             console.print(f"report written to {report}")
     if report is not None and not reportable:

@@ -154,7 +154,7 @@ def test_data_driven_synthesis_matches_the_model_based_circle_design(tmp_path):
     res = json.loads(out.stdout)
     assert res["data_driven"] and res["verified"]
     text = gantry("synth", spec)        # the text output of a design on recordings
-    assert text.returncode == 0 and "independent check" in text.stdout, text.stderr
+    assert text.returncode == 0 and "[[Independent check]]" in text.stdout, text.stderr
     model = synthesise_pi(spec_with(), method="ccp")   # the same plant as a model, 8 payloads
     # 3 measured payloads on 8-450 Hz vs 8 model payloads on the CCP grid: same design within 5 %
     assert res["worst_case"]["bandwidth_hz"] == pytest.approx(model.evaluation.worst_bandwidth_hz, rel=0.05)

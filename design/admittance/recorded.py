@@ -28,7 +28,6 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.signal import lfilter
 
 from design.admittance.rig import RigTiming, force_filter_polys
 from design.problem import ForceRecord
@@ -132,6 +131,10 @@ class RecordedMotor:
     def law_output(self, m_v: float, b_v: float) -> np.ndarray:
         """The held velocity reference over each period (m/s): the law on the readings from its steady state,
         ``delay_samples`` late."""
+        # scipy.signal on first use: importing it costs 0.54 s of every command's start (measured with -X importtime)
+        # and only a design on a force record needs it
+        from scipy.signal import lfilter
+
         alpha, beta, beta_prev = (float(c) for c in self.timing.law(m_v, b_v))
         r = self.readings
         steady = r[0] / b_v

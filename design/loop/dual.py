@@ -258,7 +258,31 @@ def common_loci(l11: np.ndarray, l12: np.ndarray, l21: np.ndarray, l22: np.ndarr
 NO_LOOP = 1e-9
 
 
-def loop_figures(w_rad_s, plant_frd: np.ndarray, controller: Controller, *, disk: bool = True,
+@dataclass(frozen=True)
+class ChannelForm:
+    """Plants (..., 2, 2, n_freq) seen through a loop structure's fixed transforms (``t_in``, ``t_out``): what
+    ``loop_figures`` needs of them whatever the gains, computed once for a scan over gains on the same plants
+    (``take`` selects plants without recomputing)."""
+
+    t_in: np.ndarray
+    t_out: np.ndarray
+    #: T_out P, T_out P T_in (the channels' plant) and T_OUT P T_in (channel efforts -> mean, half difference)
+    B: np.ndarray
+    Q: np.ndarray
+    move: np.ndarray
+
+    @staticmethod
+    def of(plant_frd: np.ndarray, structure: type[Controller] | Controller) -> ChannelForm:
+        P = np.asarray(plant_frd)
+        t_in, t_out = structure.t_in, structure.t_out
+        B = matmul(t_out, P)
+        return ChannelForm(t_in, t_out, B, matmul(B, t_in), matmul(matmul(T_OUT, P), t_in))
+
+    def take(self, rows) -> ChannelForm:
+        return dataclasses.replace(self, B=self.B[rows], Q=self.Q[rows], move=self.move[rows])
+
+
+def loop_figures(w_rad_s, plant_frd: np.ndarray | ChannelForm, controller: Controller, *, disk: bool = True,
                  common: bool = True) -> DualLoopFigures:
     """``DualLoopFigures`` of ``controller`` on plants ``plant_frd`` (..., 2, 2, n_freq), both on ``w_rad_s``; a
     controller with gains shaped (k, 1) and plants (s, 2, 2, n_freq) give figures shaped (k, s). ``disk``
@@ -269,13 +293,12 @@ def loop_figures(w_rad_s, plant_frd: np.ndarray, controller: Controller, *, disk
     u = (I + D Q)^-1 D T_out [1, 1]^T and the rails move T_OUT P T_in u; the disk margin's sensitivity at the
     motor inputs is S = I - T_in (I + D Q)^-1 D T_out P (push-through identity)."""
     w = np.asarray(w_rad_s, float)
-    P = np.asarray(plant_frd)
-    t_in, t_out = controller.t_in, controller.t_out
-    B = matmul(t_out, P)
-    Q = matmul(B, t_in)
+    form = plant_frd if isinstance(plant_frd, ChannelForm) else ChannelForm.of(plant_frd, controller)
+    if form.t_in is not controller.t_in or form.t_out is not controller.t_out:
+        raise ValueError(f"plants in another structure's channel form than {type(controller).__name__}'s")
+    t_in, t_out, B, Q, move = controller.t_in, controller.t_out, form.B, form.Q, form.move
     d = [c.frd(w) for c in controller.channels()]
     r = t_out.sum(axis=1)                                       # T_out [1, 1]^T: the command per channel
-    move = matmul(matmul(T_OUT, P), t_in)                       # channel efforts -> (mean, half difference)
     if len(d) == 1:
         a = d[0] * Q[..., 0, 0, :]
         det = 1 + a
@@ -296,12 +319,11 @@ def loop_figures(w_rad_s, plant_frd: np.ndarray, controller: Controller, *, disk
     bandwidth = closed_loop_bandwidth_hz(w, mean_motion, dc_gain=1.0)
     nan = np.full(np.shape(bandwidth), np.nan)
     alpha, disk_gm, disk_pm, common_gm, common_pm, common_dm = nan, nan, nan, nan, nan, nan
-    if disk or common:
+    if disk:
         # L = C P = T_in D T_out P at the motor inputs
         L = matmul(t_in, np.stack(np.broadcast_arrays(*(dj[..., None, :] * row for dj, row in
                                                         zip(d, np.moveaxis(B, -3, 0)))), axis=-3))
         l11, l22, off = L[..., 0, 0, :], L[..., 1, 1, :], L[..., 0, 1, :] * L[..., 1, 0, :]
-    if disk:
         # S - I / 2 = adj(I + L) / det(I + L) - I / 2 and det(S - I / 2) = det(I - L) / (4 det(I + L)), with
         # det(I + L) = det(I + D Q) above
         inv_det = 1 / det
@@ -313,7 +335,11 @@ def loop_figures(w_rad_s, plant_frd: np.ndarray, controller: Controller, *, disk
             disk_gm = np.where(alpha < 2, 20 * np.log10((2 + alpha) / (2 - alpha)), np.inf)
             disk_pm = np.degrees(2 * np.arctan(alpha / 2))
     if common:
-        loci = common_loci(l11, L[..., 0, 1, :], L[..., 1, 0, :], l22)
+        # the eigenvalues of L = T_in (D T_out P) are those of the channels' loop D Q = (D T_out P) T_in with
+        # zeros added (the nonzero eigenvalues of a product do not depend on its order): the loci of D Q, and
+        # with one channel its loop and the zero locus
+        zero = np.zeros_like(a)
+        loci = common_loci(a, b, c, e) if len(d) == 2 else common_loci(a, zero, zero, zero)
         each = []
         for locus, other in (loci, loci[::-1]):
             # a locus at rounding level of the other everywhere is the zero eigenvalue of a rank-one loop

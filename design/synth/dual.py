@@ -25,7 +25,15 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from design.loop.dual import CommonDifferential, Controller, DualLoopFigures, MasterSlave, PerMotor, loop_figures
+from design.loop.dual import (
+    ChannelForm,
+    CommonDifferential,
+    Controller,
+    DualLoopFigures,
+    MasterSlave,
+    PerMotor,
+    loop_figures,
+)
 from design.loop.requirement import ScenarioPoint
 from design.parallel import thread_map
 from plant.errors import SpecError
@@ -131,6 +139,13 @@ class DualScenarios:
     def frd(self) -> np.ndarray:
         """Every plant's response (n, 2, 2, n_freq): for the design plants, which the scan revisits."""
         return self.frd_of(0, len(self))
+
+    def channel_form(self, structure: type[Controller]) -> ChannelForm:
+        """``frd`` in ``structure``'s channel form (``design.loop.dual.ChannelForm``), kept for the scan's calls."""
+        forms = self.__dict__.setdefault("_channel_forms", {})
+        if structure not in forms:
+            forms[structure] = ChannelForm.of(self.frd, structure)
+        return forms[structure]
 
     def describe(self, k: int) -> str:
         """'carriage at 0.08 m, payload 40 kg, damping1_n_s_per_m 330, ...' (the carriage's mass when Stage X's is
@@ -283,10 +298,11 @@ def _score(make: Callable[[np.ndarray, np.ndarray], Controller], kp: np.ndarray,
     new = sorted(active)
     threshold = best
     disk = req.disk_margin > 0
+    every = scenarios.channel_form(type(make(kp[:1], ki[:1])))
     while True:
         if new:
             live = np.flatnonzero(~done & (bound > threshold))
-            frd = scenarios.frd[np.array(new)]
+            frd = every.take(np.array(new))
             chunk = max(1, SCREEN_PLANTS // len(new))
             for i in range(0, live.size, chunk):
                 k = live[i:i + chunk]
@@ -299,7 +315,7 @@ def _score(make: Callable[[np.ndarray, np.ndarray], Controller], kp: np.ndarray,
         if not live.size:
             return out
         k = int(live[np.argmax(bound[live])])
-        f = loop_figures(W_RAD_S, scenarios.frd, make(kp[k], ki[k]), disk=disk, common=req.common)
+        f = loop_figures(W_RAD_S, every, make(kp[k], ki[k]), disk=disk, common=req.common)
         out[k] = float(objective.score(f, req))
         done[k] = True
         failing = ~objective.passes(f, req)

@@ -255,9 +255,11 @@ class CoulombFriction(MechanicalEffect):
     N(V) = 4 F_c / (pi V) at velocity amplitude V added to the rail damping (approximate: it assumes a
     sinusoidal velocity).
     Time domain: ``force(v)`` is exact.
+    The default 3 N is a slide's static friction well under the thesis drive's 10 N (0.5 A x 20 N/A), so a
+    stepped sine with the defaults breaks it loose.
     """
 
-    force_n: float = 10.0
+    force_n: float = 3.0
     name: ClassVar[str] = "coulomb_friction"
     realised_as: ClassVar[str] = "force"
     bounds: ClassVar = {"force_n": (0.0, 1000.0, "N")}

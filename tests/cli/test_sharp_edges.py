@@ -4,6 +4,7 @@ that is not credited for the reference it never reaches."""
 
 from __future__ import annotations
 
+import json
 import math
 import os
 import subprocess
@@ -21,6 +22,7 @@ from design.spec.schema import parse_spec
 from design.synth.evaluation import evaluate
 from plant import stage_x
 from plant.host.files import atomic_write_text
+from tests.reference.in_process import gantry as run
 
 ROOT = Path(__file__).resolve().parents[2]
 THESIS_X = ROOT / "specs" / "thesis_stage_x.toml"
@@ -173,3 +175,15 @@ def test_the_bundled_specs_travel_with_the_package_and_reproduce_runs_anywhere(t
                          timeout=600, cwd=tmp_path)
     assert out.returncode == 0, out.stderr
     assert '"table_3_1"' in out.stdout
+
+
+def test_friction_at_its_default_is_simulated_with_the_default_drive_and_diagnosed(tmp_path):
+    """An effect at its defaults works with the command's defaults: the default Coulomb friction (3 N) is below
+    the default drive force (0.5 A x 20 N/A = 10 N), so the stage slides, and the diagnosis names it."""
+    out = run("simulate", "--stage", "x", "--effects", "coulomb_friction", "--out", str(tmp_path / "rec.csv"))
+    assert out.returncode == 0, out.stderr
+    diag = run("diagnose", str(tmp_path / "rec.csv"), "--stage", "x", "--json")
+    assert diag.returncode == 0, diag.stderr
+    found = json.loads(diag.stdout)
+    assert found["verdict"] == "explained" and found["added_effects"] == ["coulomb_friction"]
+    assert abs(found["parameters"]["coulomb_friction.force_n"]["value"] - 3.0) < 0.3

@@ -12,6 +12,7 @@ May import: nothing of the tool.
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass
 from typing import Literal
 
@@ -82,5 +83,6 @@ class Story:
 
 
 def unit_text(unit: str) -> str:
-    """The models' ASCII units N*s/m and m/s^2 written as the reports write units, N·s/m and m/s²."""
-    return unit.replace("N*s/m", "N·s/m").replace("m/s^2", "m/s²")
+    """The models' ASCII units N*s/m, m/s^2 and N/A written as the reports write units: N·s/m, m/s² and N·A⁻¹
+    (a force constant's "N/A" reads as "not applicable" in a table)."""
+    return re.sub(r"(?<![\w)])N/A\b", "N·A⁻¹", unit.replace("N*s/m", "N·s/m").replace("m/s^2", "m/s²"))

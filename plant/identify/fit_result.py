@@ -18,7 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from plant.physics.models import Plant
-from plant.story import Section, Story
+from plant.story import Section, Story, unit_text
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -101,9 +101,9 @@ def variable_lines(values: Mapping[str, float], units: Mapping[str, str], stderr
             err = stderr[name]
             rel = f" ({100 * err / abs(value):.2f}%)" if math.isfinite(err) and value != 0 else ""
             note = notes.get(name, "")
-            lines.append(f"{name + ':':<{width + 1}} {value:.6g} +/- {err:.3g}{rel} {units[name]}{note}")
+            lines.append(f"{name + ':':<{width + 1}} {value:.6g} +/- {err:.3g}{rel} {unit_text(units[name])}{note}")
         else:
-            lines.append(f"{name + ':':<{width + 1}} {value:.6g} {units[name]} (fixed)")
+            lines.append(f"{name + ':':<{width + 1}} {value:.6g} {unit_text(units[name])} (fixed)")
     return lines
 
 

@@ -493,7 +493,9 @@ def fit_rational(w_rad_s, response, *, n_poles: int, n_zeros: int, delay: bool =
     return RationalFit(tf=control.tf(num, den), num=num, den=den, delay_s=best.tau, n_poles=n, n_zeros=m,
                        weights=wt, fit_percent=fit_percent, cost=best.cost, mse=best.cost / w.size,
                        sk_iterations=iterations, stable=bool(np.all(np.roots(den).real < 0)),
-                       success=best.converged and not flags, message=best.message, flags=tuple(flags),
+                       success=best.converged and not flags,
+                       message=(f"the optimiser converged: {best.message.rstrip('.')}; {len(flags)} flag(s) below"
+                                if best.converged and flags else best.message), flags=tuple(flags),
                        weighting=weighting, chi2=chi2, dof=dof, chi2_p=chi2_p, start=best.start,
                        n_starts=len(starts), delay=delay, n_data=2 * int(np.count_nonzero(wt > 0)),
                        n_params=n_unknown)

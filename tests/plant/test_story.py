@@ -35,3 +35,4 @@ def test_a_row_of_the_wrong_length_and_an_unknown_section_are_refused_by_name():
 
 def test_units_are_written_as_the_reports_write_them():
     assert unit_text("N*s/m") == "N·s/m" and unit_text("m/s^2") == "m/s²" and unit_text("kg") == "kg"
+    assert unit_text("N/A") == "N·A⁻¹" and unit_text("(m/s)/A") == "(m/s)/A" and unit_text("mN/A") == "mN/A"

@@ -226,7 +226,7 @@ def test_result_is_immutable_and_reports():
     with pytest.raises(dataclasses.FrozenInstanceError):
         r.chi2 = 0.0  # type: ignore[misc]
     text = r.report()
-    for word in ("reduced chi-square", "mass_kg:", "delay.seconds:", "+/-", "force_constant_n_per_a: 20 N/A (fixed)"):
+    for word in ("reduced chi-square", "mass_kg:", "delay.seconds:", "+/-", "force_constant_n_per_a: 20 N·A⁻¹ (fixed)"):
         assert word in text
     assert r.dof == r.n_data - r.n_params == 100 - 3
     assert r.aic == pytest.approx(r.chi2 + 2 * 3)                       # -2 ln L + 2k

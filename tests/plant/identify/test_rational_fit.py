@@ -107,6 +107,9 @@ def test_delay_at_its_upper_bound_is_flagged():
     assert not fit.success and any(f.startswith("delay at its upper bound") for f in fit.flags)
     free = fit_rational(W, g, n_poles=3, n_zeros=2, delay=True, max_delay_s=5e-3)
     assert free.delay_s == pytest.approx(3e-3, rel=1e-6) and free.success and free.flags == ()
+    # a converged optimiser whose result is flagged says both, not "success = False (... satisfied.)" alone
+    assert fit.message.startswith("the optimiser converged: ") and fit.message.endswith("1 flag(s) below")
+    assert f"success            = False ({fit.message})" in fit.report() and "[[Flags]]" in fit.report()
 
 
 def test_delay_at_its_lower_bound_is_flagged():

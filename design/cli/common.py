@@ -14,7 +14,7 @@ import typer
 from rich.console import Console
 
 from plant import __version__
-from plant.errors import GantryError, ParameterError, SpecError
+from plant.errors import GantryError, ParameterError
 from plant.host.files import is_stdout
 
 app = typer.Typer(add_completion=False, no_args_is_help=True, pretty_exceptions_enable=False,
@@ -117,15 +117,6 @@ def read_design(path: Path, problem, *, admittance: bool = False):
         raise ParameterError(f"{path}: its drive filters ({', '.join(kinds)}) are not the spec's "
                              f"controller.filters ({', '.join(f.kind for f in problem.controller.filters)})")
     return with_chosen_filters(problem, design.filters), design.controller, design.admittance
-
-
-def bundled_spec(name: str) -> Path:
-    """A spec shipped with the package (``specs/`` of the checkout, installed as ``design/specs``)."""
-    path = Path(__file__).resolve().parents[1] / "specs" / name
-    if not path.is_file():
-        raise SpecError(f"bundled spec {name} is not installed with the package (looked in {path.parent}); "
-                        "pass --spec FILE")
-    return path
 
 
 #: options shared by the commands that read recordings (``fit``, ``diagnose``; ``report`` the first two)

@@ -7,7 +7,8 @@ from typing import Annotated, Optional
 
 import typer
 
-from design.cli.common import bundled_spec, console
+from design.cli.common import console
+from design.spec.bundled import bundled_spec
 from plant.errors import SpecError
 
 

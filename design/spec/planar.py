@@ -32,9 +32,9 @@ from pathlib import Path
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
 from design.loop.dual import BY_NAME
+from design.spec.bundled import read_spec_text
 from design.spec.dual_drive import ParameterRange
 from plant.errors import GantryError, SpecError
-from plant.host.text_io import read_text
 from plant.physics.effect_base import ChainEffect
 from plant.physics.effects import make_effect
 
@@ -153,7 +153,7 @@ def load_planar_spec(path: str | Path) -> PlanarSpec:
 
     path = Path(path)
     try:
-        data = tomllib.loads(read_text(path, what="spec file"))
+        data = tomllib.loads(read_spec_text(path))
     except tomllib.TOMLDecodeError as exc:
         raise SpecError(f"{path}: not valid TOML: {exc}") from None
     if "planar" not in data:

@@ -59,10 +59,10 @@ from design.problem import (
     VerificationPlan,
     with_filters,
 )
+from design.spec.bundled import read_spec_text
 from design.spec.dual_drive import DualDriveSpec, ParameterRange
 from plant.data.table import CsvTable
 from plant.errors import DataError, GantryError, SpecError
-from plant.host.text_io import read_text
 from plant.physics.drive_filters import KINDS
 from plant.physics.effects import EFFECTS, make_effect
 from plant.physics.models import BASE_BOUNDS, Plant
@@ -633,7 +633,7 @@ def load_spec(path: str | Path, *, plant: Mapping[str, Any] | None = None) -> Sp
     """Read and validate a TOML spec file; ``plant`` updates its ``[plant]`` table first (keys as the file
     writes them: the plant a fit found)."""
     path = Path(path)
-    text = read_text(path, what="spec file")
+    text = read_spec_text(path)
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:

@@ -187,3 +187,14 @@ def test_friction_at_its_default_is_simulated_with_the_default_drive_and_diagnos
     found = json.loads(diag.stdout)
     assert found["verdict"] == "explained" and found["added_effects"] == ["coulomb_friction"]
     assert abs(found["parameters"]["coulomb_friction.force_n"]["value"] - 3.0) < 0.3
+
+
+@pytest.mark.parametrize("command,name", [("synth", "stage_x_synth.toml"), ("planar-synth", "planar.toml")])
+def test_a_bundled_specs_name_outside_the_checkout_is_answered_with_where_it_is(tmp_path, command, name):
+    out = run(command, name, cwd=tmp_path)
+    assert out.returncode == 2 and out.stdout == ""
+    line = out.stderr.strip()
+    assert "\n" not in line and line.startswith(f"gantry: error: {name}: cannot read spec file")
+    where = Path(line.rsplit("bundled with the tool: ", 1)[1])
+    assert where.name == name and where.is_file()
+    assert run(command, "no_such_spec.toml", cwd=tmp_path).stderr.count("bundled") == 0

@@ -11,7 +11,7 @@ a Pade approximant of order ``pade_order`` (python-control's ``pade``, as ``Dela
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
 
@@ -27,6 +27,13 @@ if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
 
+class Margins(NamedTuple):
+    """A loop's stability margins by name (unpacks as (gain margin dB, phase margin deg))."""
+
+    gain_margin_db: float
+    phase_margin_deg: float
+
+
 @dataclass(frozen=True)
 class LoopModels:
     """P, C, L, S, T of one plant (SI units: A, m/s) under the PI ``controller``."""
@@ -40,13 +47,14 @@ class LoopModels:
     S: control.StateSpace
     T: control.StateSpace
 
-    def margins(self) -> tuple[float, float]:
-        """python-control's (gain margin dB, phase margin deg) of L (inf when L never crosses)."""
+    def margins(self) -> Margins:
+        """python-control's margins of L, named: ``gain_margin_db`` (``control.margin`` gives the gain margin as a
+        ratio in the same place: 20 log10 of it here) and ``phase_margin_deg``; inf when L never crosses."""
         import control
 
         gm, pm, *_ = control.stability_margins(self.L)
-        return (20 * np.log10(gm) if np.isfinite(gm) and gm > 0 else np.inf), (float(pm) if np.isfinite(pm)
-                                                                                 else np.inf)
+        return Margins(20 * np.log10(gm) if np.isfinite(gm) and gm > 0 else np.inf,
+                       float(pm) if np.isfinite(pm) else np.inf)
 
     def plot(self, f_hz=None) -> Figure:
         """Bode magnitude of L, S and T and the phase of L (a ``matplotlib.figure.Figure``: no pyplot, so an

@@ -140,12 +140,15 @@ class DualScenarios:
         """Every plant's response (n, 2, 2, n_freq): for the design plants, which the scan revisits."""
         return self.frd_of(0, len(self))
 
+    @functools.cached_property
+    def _channel_forms(self) -> dict[type[Controller], ChannelForm]:
+        return {}
+
     def channel_form(self, structure: type[Controller]) -> ChannelForm:
         """``frd`` in ``structure``'s channel form (``design.loop.dual.ChannelForm``), kept for the scan's calls."""
-        forms = self.__dict__.setdefault("_channel_forms", {})
-        if structure not in forms:
-            forms[structure] = ChannelForm.of(self.frd, structure)
-        return forms[structure]
+        if structure not in self._channel_forms:
+            self._channel_forms[structure] = ChannelForm.of(self.frd, structure)
+        return self._channel_forms[structure]
 
     def describe(self, k: int) -> str:
         """'carriage at 0.08 m, payload 40 kg, damping1_n_s_per_m 330, ...' (the carriage's mass when Stage X's is

@@ -27,10 +27,10 @@ from scipy import special
 from plant.data.frequency_response import MeasuredResponse
 from plant.diagnose.evidence import (
     ACCEPT_DELTA_BIC,
-    EXPLAINED,
     addition_delta_bic,
     delta_bic_text,
     model_label,
+    model_section,
     parameter_section,
     verdict,
 )
@@ -166,10 +166,9 @@ class Diagnosis:
                                    "yes" if a.consistent_with_noise else "no", a.note) for a in self.alternatives),
                             frozenset({0, 3, 4}))))
         modes = final.plant.modes_hz()
-        sections.append(Section("Selected model" if self.verdict == EXPLAINED else "Best model (not explained)",
-                                (f"effects: {', '.join(self.final_effects) or 'none'}",
-                                 *((f"mechanical modes: {', '.join(f'{m:.4g} Hz' for m in modes)}",)
-                                   if modes.size else ()))))
+        sections.append(model_section(self.verdict, (f"effects: {', '.join(self.final_effects) or 'none'}",
+                                                     *((f"mechanical modes: {', '.join(f'{m:.4g} Hz' for m in modes)}",)
+                                                       if modes.size else ()))))
         sections.append(parameter_section(final))
         sections.append(Section("The path to the model", self._path(), kind="numbered"))
         if self.notes:

@@ -36,6 +36,12 @@ def model_label(effects, base=()) -> str:
     return " + ".join(("base", *(e for e in effects if e not in base)))
 
 
+def model_section(verdict_: str, lines) -> Section:
+    """The model a diagnosis reports: "Selected model" when it explains the data, else "Best model (not
+    explained)", with ``lines`` (its effects, its modes)."""
+    return Section("Selected model" if verdict_ == EXPLAINED else "Best model (not explained)", tuple(lines))
+
+
 def delta_bic_text(value: float) -> str:
     """A ΔBIC cell: signed to one decimal, empty where the model was not fitted (NaN)."""
     return "" if math.isnan(value) else f"{value:+.1f}"

@@ -30,10 +30,10 @@ import numpy as np
 from plant.data.recordings import TimeRecording
 from plant.diagnose.evidence import (
     ACCEPT_DELTA_BIC,
-    EXPLAINED,
     addition_delta_bic,
     delta_bic_text,
     model_label,
+    model_section,
     parameter_section,
     verdict,
 )
@@ -171,8 +171,7 @@ class TimeDiagnosis:
                             tuple((model_label(a.effects), f"{a.delta_bic:+.1f}", f"{a.rms_residual_n:.4g}",
                                    "yes" if a.consistent_with_noise else "no") for a in self.alternatives),
                             frozenset({0, 3}))))
-        sections.append(Section("Selected model" if self.verdict == EXPLAINED else "Best model (not explained)",
-                                (f"effects: {', '.join(self.selected) or 'none'}",)))
+        sections.append(model_section(self.verdict, (f"effects: {', '.join(self.selected) or 'none'}",)))
         sections.append(parameter_section(final, ols=True))
         if self.notes:
             sections.append(Section("Notes", self.notes, kind="notes"))

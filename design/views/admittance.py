@@ -26,6 +26,7 @@ from design.views.admittance_figures import (
     tradeoff_figures,
 )
 from design.views.html import Report, table
+from plant.story import Story
 from plant.story import unit_text as units
 
 
@@ -44,21 +45,7 @@ def add_admittance_section(report: Report, problem: LoopProblem, outcome: Design
         return
     a = admittance_problem(problem)
     loc, hw, c, feel = a.locomotion, a.hardware, r.check, r.feel
-    verdict = ("<span class=ok>The mouse can drive this design</span>" if r.status == "optimal" else
-               "<span class=bad>The mouse CANNOT drive this design</span>")
-    legs = worst_by_legs(c, r.between)
-    margins = "; ".join(f"{k} mice: PM {num(v[0])}°, GM {num(v[1])} dB" for k, v in legs.items())
-    rig = "continuous" if not r.timing.sampled else f"sampled at {1 / r.timing.period_s:g} Hz"
-    report.raw(f"<div class='summary'>{verdict}: it feels {feel.peak_force_n:.3g} N peak ({feel.rms_force_n:.3g} N "
-               f"RMS) on the locomotion profile ({loc.travel_m:g} m at {loc.peak_speed_m_per_s:g} m/s, "
-               f"{loc.peak_acceleration_m_per_s2:g} m/s²) and can push {a.mouse.peak_force_n:g} N. "
-               f"m_v = {r.m_v:.4g} kg, b_v = {r.b_v:.4g} N·s/m with {r.controller} "
-               f"(admittance law {rig}). Interaction loop (broken at the force-sensor signal), worst over "
-               f"{len(c.scenarios)} scenarios{' and between them' if r.between is not None else ''}: {margins}. "
-               f"Binding: {units(r.binding.detail)}. Passive up to "
-               f"{passive_text(c)} Hz; stable on a grounded spring up to "
-               f"{num(r.contact.worst_n_per_m, '.4g')} N/m. Rendered admittance within 3 dB / 30° of "
-               f"1/(m_v s + b_v) up to {bandwidth_text(c)} Hz. {_verified(r)}{_between(r)}{_mc(r)}{_latency(r)}</div>")
+    report.headline(admittance_summary(r, a))
     report.raw(table(["what the mouse meets", "value", "requirement / budget"], [
         ["force felt: the neck force while the body runs the profile, worst over the payloads and mice, peak / RMS",
          f"{feel.peak_force_n:.3g} / {feel.rms_force_n:.3g} N", f"{a.mouse.peak_force_n:g} N"],
@@ -133,6 +120,36 @@ def _delays(timing) -> str:
     return f"{d[0]}" if len(d) == 1 else f"{d[0]} to {d[-1]}"
 
 
+def admittance_summary(r, a) -> Story:
+    """The admittance section's summary: whether the mouse can drive the design and what it feels, then the gains,
+    the interaction loop's worst margins and what binds, the passive band, and how it was checked."""
+    loc, c, feel = a.locomotion, r.check, r.feel
+    legs = worst_by_legs(c, r.between)
+    margins = "; ".join(f"{k} mice: PM {num(v[0])}°, GM {num(v[1])} dB" for k, v in legs.items())
+    rig = "continuous" if not r.timing.sampled else f"sampled at {1 / r.timing.period_s:g} Hz"
+    head = [("Verdict", f"the mouse {'can' if r.status == 'optimal' else 'CANNOT'} drive this design: it feels "
+                        f"{feel.peak_force_n:.3g} N peak ({feel.rms_force_n:.3g} N RMS) on the locomotion profile "
+                        f"({loc.travel_m:g} m at {loc.peak_speed_m_per_s:g} m/s, {loc.peak_acceleration_m_per_s2:g} "
+                        f"m/s²) and can push {a.mouse.peak_force_n:g} N."),
+            ("Design", f"m_v = {r.m_v:.4g} kg, b_v = {r.b_v:.4g} N·s/m with {r.controller} (admittance law {rig})."),
+            ("Interaction loop", f"broken at the force-sensor signal, worst over {len(c.scenarios)} scenarios"
+                                 f"{' and between them' if r.between is not None else ''}: {margins}."),
+            ("Binding", f"{units(r.binding.detail)}."),
+            ("Passivity", f"Passive up to {passive_text(c)} Hz; stable on a grounded spring up to "
+                          f"{num(r.contact.worst_n_per_m, '.4g')} N/m. Rendered admittance within 3 dB / 30° of "
+                          f"1/(m_v s + b_v) up to {bandwidth_text(c)} Hz."),
+            ("Verified", _verified(r))]
+    if r.between is not None:
+        head.append(("Between the check's points", _between(r)))
+    if r.monte_carlo is not None:
+        mc = r.monte_carlo
+        head.append(("Monte Carlo", f"{mc.violations} of {mc.samples} independent draws over payload, uncertainty "
+                                    f"and mouse violate (95 % upper bound {100 * mc.rate_upper_bound:.2g} %)."))
+    if r.latency is not None:
+        head.append(("Latency", _latency(r)))
+    return Story(tuple(head))
+
+
 def _verified(r) -> str:
     """What was checked independently, in words."""
     v = r.verification
@@ -148,36 +165,24 @@ def _verified(r) -> str:
 
 def _latency(r) -> str:
     lat = r.latency
-    if lat is None:
-        return ""
     samples = "" if lat.margin_samples is None else f", {lat.margin_samples:.2f} samples of the law"
     more = "" if lat.delay_samples is None else (
         f" With {lat.delay_samples + 1} sample(s) of computation delay it is "
         + (f"stable (PM {num(lat.one_more_phase_margin_deg)}°, GM {num(lat.one_more_gain_margin_db)} dB)."
-           if lat.one_more_stable else "<span class=bad>unstable</span>: measure the rig's latency."))
-    return f" Latency: it tolerates {1e3 * lat.margin_s:.3g} ms more{samples} ({units(lat.worst)}).{more}"
+           if lat.one_more_stable else "unstable: measure the rig's latency."))
+    return f"it tolerates {1e3 * lat.margin_s:.3g} ms more{samples} ({units(lat.worst)}).{more}"
 
 
 def _between(r) -> str:
     held = r.between
-    if held is None:
-        return ""
     s, f = held.search, held.failed
     cured = ("" if f is None else
              f" At the ray's design it found PM {num(f.phase_margin_deg)}°, GM {num(f.gain_margin_db)} dB at "
              f"{units(describe_row(f.scenario))} with mouse ({units(f.mouse.label())}); (m_v, b_v) went up the ray by "
              f"{100 * (held.scale - 1):.2f} %.")
-    return (f" Between the check's points a search over payload, uncertainty and mouse ({s.evaluations} points from "
+    return (f"a search over payload, uncertainty and mouse ({s.evaluations} points from "
             f"{s.starts} starts) finds at least PM {num(s.phase_margin_deg)}°, GM {num(s.gain_margin_db)} dB: "
-            f"{'holds' if s.holds else '<span class=bad>fails</span>'}.{cured}")
-
-
-def _mc(r) -> str:
-    mc = r.monte_carlo
-    if mc is None:
-        return ""
-    return (f" Monte Carlo: {mc.violations} of {mc.samples} independent draws over payload, uncertainty and mouse "
-            f"violate (95 % upper bound {100 * mc.rate_upper_bound:.2g} %).")
+            f"{'holds' if s.holds else 'fails'}.{cured}")
 
 
 def _recorded_rows(c, a) -> list[list[str]]:

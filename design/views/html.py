@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import html
 import io
+import re
 from dataclasses import dataclass, field
 
 import matplotlib.pyplot as plt
@@ -71,6 +72,18 @@ def _numeric(v) -> bool:
         return False
 
 
+#: verdict words a summary marks: failing ones red, passing ones green (the first alternative that matches at a
+#: place wins: "does NOT meet the requirements" before "meet the requirements")
+VERDICT = re.compile(r"(?P<bad>does NOT meet the requirements|FAIL the requirements|CANNOT drive|NOT verified|"
+                     r"verified: no|\bFAILED\b|\bfails\b|\bunstable\b|not explained)|"
+                     r"(?P<ok>meets? the requirements|can drive|verified: yes|\bpassed\b|\bholds\b)")
+
+
+def marked(text: str) -> str:
+    """HTML ``text`` with its verdict words (``VERDICT``) in the report's pass and fail colours."""
+    return VERDICT.sub(lambda m: f"<span class='{m.lastgroup}'>{m.group(0)}</span>", text)
+
+
 class Markup(str):
     """A string that is already HTML (not escaped by ``table``/``Report.text``)."""
 
@@ -101,10 +114,12 @@ class Report:
                           + f"<figcaption>{html.escape(caption)}</figcaption></figure>")
 
     def headline(self, story: Story) -> None:
-        """A story's headline (``plant.story``) in the summary box, one labelled sentence a line."""
+        """A story's headline (``plant.story``) in the summary box, one labelled sentence a line, its verdict
+        words marked (``marked``)."""
         if story.headline:
-            self.parts.append('<p class="summary">' + "<br>".join(
-                f"<b>{html.escape(label)}:</b> {html.escape(sentence)}" for label, sentence in story.headline) + "</p>")
+            self.parts.append("<div class='summary'>" + "<br>".join(
+                f"<b>{html.escape(label)}:</b> {marked(html.escape(sentence))}" for label, sentence in story.headline)
+                + "</div>")
 
     def sections(self, story: Story, level: int = 3) -> None:
         """A story's sections: each titled, its table, then its lines (a numbered list, notes, or a list)."""

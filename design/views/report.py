@@ -25,6 +25,7 @@ from plant import __version__
 from plant.arguments import check_instance
 from plant.bode import bode
 from plant.host.text_io import read_text
+from plant.story import Story
 from plant.story import unit_text as units
 
 
@@ -159,10 +160,9 @@ def _monte_carlo_band(check, key: str):
 
 
 def thesis_verdict(ev: Evaluation) -> str:
-    """The thesis gains' verdict as HTML: a pass or fail mark and the worst margins."""
+    """The thesis gains' verdict: pass or fail and the worst margins."""
     gm = float(np.min(ev.gain_margin_db))
-    mark = "<span class='ok'>meet the requirements</span>" if ev.meets else \
-        "<span class='bad'>FAIL the requirements</span>"
+    mark = "meet the requirements" if ev.meets else "FAIL the requirements"
     return (f"{mark} (worst phase margin {np.min(ev.phase_margin_deg):.1f} deg, gain margin "
             + ("infinite" if not np.isfinite(gm) else f"{gm:.1f} dB") + ")")
 
@@ -213,11 +213,58 @@ def payload_figure(designed: Evaluation, thesis: Evaluation, requirements, check
 
 def _between_line(b) -> str:
     """The synthesis's search between the dense check's points, in one sentence."""
-    return (f"<b>Between the check's points</b> a search over {', '.join(b.coordinates)} ({b.evaluations} points "
-            f"from {b.starts} starts) finds the least relative slack {b.slack:.3g} (the check's {b.grid_slack:.3g}) "
-            f"at {units(describe_row(b.scenario))}: " + ("holds" if b.holds else "<span class='bad'>fails</span>")
-            + f"; the least bandwidth it finds is {b.least_bandwidth_hz:.2f} Hz (the check's {b.grid_bandwidth_hz:.2f} "
-            "Hz).")
+    return (f"a search over {', '.join(b.coordinates)} ({b.evaluations} points from {b.starts} starts) finds the least "
+            f"relative slack {b.slack:.3g} (the check's {b.grid_slack:.3g}) at {units(describe_row(b.scenario))}: "
+            + ("holds" if b.holds else "fails") + f"; the least bandwidth it finds is {b.least_bandwidth_hz:.2f} Hz "
+            f"(the check's {b.grid_bandwidth_hz:.2f} Hz).")
+
+
+def summary_story(content: ReportContent) -> Story:
+    """The report's summary: the answer first (the mouse on the admittance, the gains, the worst case recomputed
+    over the payload range and whether it meets the requirements, what limits it), then how it was checked."""
+    c, loop = content, content.problem.loop
+    ev, thesis, req, d = c.evaluation, c.thesis, loop.requirements, c.design
+    mc = c.monte_carlo_check
+    meets = ev.meets and (mc is None or mc.violations == 0)
+    worst_gm = float(np.min(ev.gain_margin_db))
+    rng = loop.plant.payload_kg
+    over = (f"{ev.payload_kg.size} payloads x {len(ev.row_bandwidth_hz) // ev.payload_kg.size} sets of the "
+            "uncertain parameters" if loop.plant.uncertainty else f"{ev.payload_kg.size} payloads")
+    head: list[tuple[str, str]] = []
+    a = None if d is None else d.admittance
+    if a is not None and a.status in ("optimal", "mouse_cannot_drive"):
+        pm = float(np.nanmin(a.check.phase_margin_deg))
+        budget = d.problem.loop.admittance.mouse.peak_force_n
+        head.append(("Admittance", f"the mouse {'can' if a.status == 'optimal' else 'CANNOT'} drive it: it feels "
+                                   f"{a.feel.peak_force_n:.3g} N of its {budget:g} N on the locomotion profile; "
+                                   f"m_v = {a.m_v:.4g} kg, b_v = {a.b_v:.4g} N·s/m; interaction PM "
+                                   f"{'∞' if not np.isfinite(pm) else f'{pm:.1f}'} deg (see below)."))
+    elif a is not None:
+        head.append(("Admittance", f"{a.status}: {a.message}"))
+    head += [("Gains", f"{c.controller} ({c.gains_source})."),
+             (f"Worst case over {rng.min:g}-{rng.max:g} kg",
+              f"bandwidth {ev.worst_bandwidth_hz:.2f} Hz, phase margin {np.min(ev.phase_margin_deg):.1f} deg, gain "
+              "margin " + ("infinite" if not np.isfinite(worst_gm) else f"{worst_gm:.1f} dB")
+              + f" over {over}, recomputed here: "
+              + ("meets the requirements." if meets else "does NOT meet the requirements.")),
+             ("Limiting", f"{limiting_text(ev, req)}.")]
+    if mc is not None:
+        head.append(("Monte Carlo", f"over payload x plant.uncertainty ({mc.samples} independent draws, seed "
+                                    f"{mc.seed}): {mc.violations} violate the requirements ({100 * mc.rate:.2g} %, "
+                                    f"one-sided 95 % upper bound {100 * mc.rate_upper_bound:.2g} %); worst PM "
+                                    f"{mc.worst_phase_margin_deg:.1f} deg, worst GM {mc.worst_gain_margin_db:.1f} dB."))
+    if d is not None and d.synthesis is not None and d.synthesis.between is not None:
+        head.append(("Between the check's points", _between_line(d.synthesis.between)))
+    head.append(("Thesis gains on the same plant", f"{thesis_verdict(thesis)}; worst-case bandwidth "
+                                                   f"{thesis.worst_bandwidth_hz:.2f} Hz."))
+    for f in (d.synthesis.filters if d is not None and d.synthesis is not None else ()):
+        params = ", ".join(f"{k} {f.values[k]:.4g}" for k in ("frequency_hz", "damping_ratio", "depth")
+                           if k in f.values)
+        head.append((f"Drive filter {f.kind}", f"{params} (designed: {', '.join(f.designed)})." if f.used else
+                     "left out: the design is faster without it."))
+    if d is not None:
+        head.append(("Synthesis", f"status {d.status}, independently verified: {'yes' if d.verified else 'no'}."))
+    return Story(tuple(head))
 
 
 def design_report(content: ReportContent) -> Report:
@@ -225,52 +272,10 @@ def design_report(content: ReportContent) -> Report:
     check_instance("content", content, ReportContent, "design.workflows.report_content(problem) makes one")
     c, problem = content, content.problem
     spec, loop = problem.spec, problem.loop
-    ev, thesis, req = c.evaluation, c.thesis, loop.requirements
+    ev, thesis, req, d = c.evaluation, c.thesis, loop.requirements, c.design
     report = Report(f"Design report: {spec.name}")
-    mc = c.monte_carlo_check
-    meets = ev.meets and (mc is None or mc.violations == 0)
-    status = ("<span class='ok'>meets the requirements</span>" if meets
-              else "<span class='bad'>does NOT meet the requirements</span>")
-    worst_gm = float(np.min(ev.gain_margin_db))
+    report.headline(summary_story(c))
     rng = loop.plant.payload_kg
-    over = (f"{ev.payload_kg.size} payloads x {len(ev.row_bandwidth_hz) // ev.payload_kg.size} sets of the "
-            "uncertain parameters" if loop.plant.uncertainty else f"{ev.payload_kg.size} payloads")
-    lines = [f"<b>Gains</b> ({c.gains_source}): {c.controller}.",
-             f"<b>Worst case over {rng.min:g}-{rng.max:g} kg</b> ({over}, recomputed here): "
-             f"bandwidth {ev.worst_bandwidth_hz:.2f} Hz, phase margin {np.min(ev.phase_margin_deg):.1f} deg, gain "
-             "margin " + ("infinite" if not np.isfinite(worst_gm) else f"{worst_gm:.1f} dB") + f": {status}.",
-             f"<b>Limiting:</b> {limiting_text(ev, req)}.",
-             *([f"<b>Monte Carlo</b> over payload x plant.uncertainty ({mc.samples} independent draws, seed "
-                f"{mc.seed}): "
-                f"{mc.violations} violate the requirements ({100 * mc.rate:.2g} %, one-sided 95 % upper bound "
-                f"{100 * mc.rate_upper_bound:.2g} %); worst PM {mc.worst_phase_margin_deg:.1f} deg, worst GM "
-                f"{mc.worst_gain_margin_db:.1f} dB."] if mc is not None else []),
-             *([_between_line(c.design.synthesis.between)] if c.design is not None and c.design.synthesis is not None
-               and c.design.synthesis.between is not None else []),
-             f"<b>Thesis gains on the same plant:</b> {thesis_verdict(thesis)}; worst-case bandwidth "
-             f"{thesis.worst_bandwidth_hz:.2f} Hz."]
-    d = c.design
-    for f in (d.synthesis.filters if d is not None and d.synthesis is not None else ()):
-        params = ", ".join(f"{k} {f.values[k]:.4g}" for k in ("frequency_hz", "damping_ratio", "depth")
-                           if k in f.values)
-        text = f"{params} (designed: {', '.join(f.designed)})" if f.used else \
-            "left out: the design is faster without it"
-        lines.append(f"<b>Drive filter</b> {f.kind}: {text}")
-    if d is not None:
-        lines.append(f"<b>Synthesis:</b> status {d.status}, independently verified: "
-                     f"{'<span class=ok>yes</span>' if d.verified else '<span class=bad>no</span>'}.")
-        a = d.admittance
-        if a is not None and a.status in ("optimal", "mouse_cannot_drive"):
-            pm = float(np.nanmin(a.check.phase_margin_deg))
-            can = "can" if a.status == "optimal" else "<span class=bad>CANNOT</span>"
-            budget = d.problem.loop.admittance.mouse.peak_force_n
-            lines.insert(0, f"<b>Admittance:</b> the mouse {can} drive it: it feels {a.feel.peak_force_n:.3g} N of its "
-                            f"{budget:g} N on the locomotion profile; "
-                            f"m_v = {a.m_v:.4g} kg, b_v = {a.b_v:.4g} N·s/m; interaction PM "
-                            f"{'∞' if not np.isfinite(pm) else f'{pm:.1f}'} deg (see below).")
-        elif a is not None:
-            lines.insert(0, f"<b>Admittance:</b> <span class=bad>{a.status}</span>: {a.message}")
-    report.raw("<div class='summary'>" + "<br>".join(lines) + "</div>")
 
     report.heading("Plant")
     p = spec.plant

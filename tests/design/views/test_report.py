@@ -74,7 +74,7 @@ def test_admittance_report_has_its_section_beside_the_nominal_design(tmp_path):
     html = out.read_text()
     # the verdict on the mouse comes first in the summary
     summary = html[html.index("<div class='summary'>"):]
-    assert summary.index("<b>Admittance:</b> the mouse") < summary.index("<b>Gains</b>")
+    assert summary.index("<b>Admittance:</b> the mouse") < summary.index("<b>Gains:</b>")
     assert ">Admittance (mouse following)</h2>" in html
     section = html[html.index(">Admittance (mouse following)</h2>"):html.index(">Reproducibility</h2>")]
     assert "python-control checked the rational model (sampled by c2d)" in section and ": passed." in section
@@ -164,3 +164,18 @@ def test_the_diagnosis_figure_draws_models_through_a_resonance_and_measured_phas
     measured = [line for line in phase_axis.get_lines() if line.get_marker() == "o"]
     assert len(measured) == 1 and measured[0].get_xdata().size == data.f_hz.size
     assert fig.axes[0].get_title() == output_title(data.output_names[0]) == "velocity per current, (m/s)/A"
+
+
+def test_the_summary_box_is_the_summary_story_with_its_verdicts_coloured(synth_report):
+    """The summary is laid out from a story (one labelled sentence a line, in the story's order); a passing verdict
+    is green and a failing one red, and no failing word is coloured as passing."""
+    from design.views.html import marked
+
+    summary = synth_report[synth_report.index("<div class='summary'>"):synth_report.index(">Plant</h2>")]
+    labels = re.findall(r"<b>([^<]+):</b>", summary)
+    assert labels[:3] == ["Gains", "Worst case over 5-40 kg", "Limiting"]
+    assert labels[-2:] == ["Thesis gains on the same plant", "Synthesis"]
+    assert "<span class='ok'>meets the requirements</span>" in summary
+    assert marked("does NOT meet the requirements") == "<span class='bad'>does NOT meet the requirements</span>"
+    assert marked("the mouse CANNOT drive this design") == "the mouse <span class='bad'>CANNOT drive</span> this design"
+    assert marked("it holds; it fails") == "it <span class='ok'>holds</span>; it <span class='bad'>fails</span>"

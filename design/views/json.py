@@ -190,11 +190,18 @@ def diagnosis_to_dict(diag: Diagnosis) -> dict:
         "explanation": diag.explanation,
         "final_reduced_chi2": finite_or_none(final.reduced_chi2),
         "expected_reduced_chi2": finite_or_none(final.expected_reduced_chi2),
+        "criterion": diag.criterion,
+        "overdispersion": diag.overdispersion,
+        "implausible": list(diag.implausible),
         "models_evaluated": len(diag.models),
         "alternatives": [{"effects": list(a.effects), "delta_bic": finite_or_none(a.delta_bic),
                           "reduced_chi2": finite_or_none(a.reduced_chi2),
                           "consistent_with_noise": a.consistent_with_noise, "note": a.note}
                          for a in diag.alternatives],
+        "left_out": None if diag.left_out is None else {
+            "effects": list(diag.left_out.effects), "delta_bic": diag.left_out.delta_bic,
+            "reduced_chi2": finite_or_none(diag.left_out.reduced_chi2),
+            "not_identified": [{"effect": u.effect, "reason": u.reason} for u in diag.left_out.why]},
         "main_parameters": {e.name: {"name": f"{e.name}.{e.main_parameter}",
                                      "value": final.values[f"{e.name}.{e.main_parameter}"]}
                             for e in final.plant.effects},
@@ -232,6 +239,7 @@ def time_diagnosis_to_dict(diag: TimeDiagnosis) -> dict:
         "flags": list(final.flags),
         "verdict": diag.verdict,
         "explanation": diag.explanation,
+        "implausible": list(diag.implausible),
         "final_rms_residual_n": final.rms_residual,
         "final_noise_ratio": final.noise_ratio,
         "noise_rms_n": final.noise_rms,

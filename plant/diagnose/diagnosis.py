@@ -32,8 +32,11 @@ from plant.diagnose.evidence import (
     model_label,
     model_section,
     parameter_section,
+    rank_models,
     verdict,
 )
+from plant.diagnose.identifiability import Unidentified, unidentified
+from plant.diagnose.plausibility import implausible, warning
 from plant.diagnose.search import children, compatible, fit_models, path_to, select_model
 from plant.errors import DataError
 from plant.identify.fitting import FitResult, fit_plant
@@ -102,6 +105,8 @@ class Step:
     ranking: tuple[Candidate, ...]
     #: why the next effect was added, or the verdict on the last step
     decision: str
+    #: the model's score under the diagnosis's ranking (BIC, or QBIC: ``plant.diagnose.evidence.rank_models``)
+    score: float = math.nan
 
 
 @dataclass(frozen=True)
@@ -117,6 +122,26 @@ class Alternative:
 
 
 @dataclass(frozen=True)
+class LeftOut:
+    """A model the selection would have reported but for effects the data do not identify
+    (``plant.diagnose.identifiability``)."""
+
+    effects: tuple[str, ...]
+    #: its BIC minus the reported model's
+    delta_bic: float
+    reduced_chi2: float
+    why: tuple[Unidentified, ...]
+
+    #: the ranking's criterion the difference is in
+    criterion: str = "BIC"
+
+    def sentence(self, base: tuple[str, ...]) -> str:
+        return (f"{model_label(self.effects, base)} fits better (Δ{self.criterion} {-self.delta_bic:+.1f}, reduced χ² "
+                f"{self.reduced_chi2:.3g}) but the data do not identify "
+                + "; ".join(u.text() for u in self.why) + ": left out")
+
+
+@dataclass(frozen=True)
 class Diagnosis:
     steps: tuple[Step, ...]
     final: FitResult
@@ -129,6 +154,14 @@ class Diagnosis:
     alternatives: tuple[Alternative, ...]
     #: every model of the search, by effect set
     models: dict[tuple[str, ...], FitResult]
+    #: the model the selection would have reported had it not named effects the data do not identify
+    left_out: LeftOut | None = None
+    #: what ranks the models: "BIC", or "QBIC" when no model is consistent with the noise (module doc of
+    #: ``plant.diagnose.evidence``), with its over-dispersion (1 for BIC)
+    criterion: str = "BIC"
+    overdispersion: float = 1.0
+    #: the reported model's base parameters that are implausible (``plant.diagnose.plausibility``)
+    implausible: tuple[str, ...] = ()
 
     @property
     def final_effects(self) -> tuple[str, ...]:
@@ -148,20 +181,21 @@ class Diagnosis:
         headline = (("Verdict", self.explanation),
                     ("Where the base model fails", first.residuals.description),
                     ("Nonlinearity", self.nonlinearity.description))
-        candidates = Table(("effect", "ΔBIC", "reduced χ²", "note"),
+        delta = f"Δ{self.criterion}"
+        candidates = Table(("effect", delta, "reduced χ²", "note"),
                            tuple((c.effect, "" if c.skipped else delta_bic_text(c.delta_bic),
                                   "" if c.skipped or math.isnan(c.reduced_chi2) else f"{c.reduced_chi2:.3g}",
                                   c.skipped) for c in first.ranking), frozenset({0, 3}))
-        steps = Table(("model", "reduced χ²", "RMS mag (dB)", "RMS phase (deg)", "BIC"),
+        steps = Table(("model", "reduced χ²", "RMS mag (dB)", "RMS phase (deg)", self.criterion),
                       tuple((model_label(s.effects, base), f"{s.fit.reduced_chi2:.3g}",
-                             f"{s.rms_magnitude_error_db:.3f}", f"{s.rms_phase_error_deg:.2f}", f"{s.fit.bic:.1f}")
+                             f"{s.rms_magnitude_error_db:.3f}", f"{s.rms_phase_error_deg:.2f}", f"{s.score:.1f}")
                             for s in self.steps))
         sections = [Section("Candidates tried on the base model", table=candidates),
                     Section("The error, step by step", tuple(f"→ {s.decision}" for s in self.steps), table=steps)]
         if self.alternatives:
             sections.append(Section(
-                f"Models within ΔBIC {ACCEPT_DELTA_BIC:g} of the selected one",
-                table=Table(("model", "ΔBIC", "reduced χ²", "consistent with noise", "relation"),
+                f"Models within {delta} {ACCEPT_DELTA_BIC:g} of the selected one",
+                table=Table(("model", delta, "reduced χ²", "consistent with noise", "relation"),
                             tuple((model_label(a.effects), f"{a.delta_bic:+.1f}", f"{a.reduced_chi2:.3g}",
                                    "yes" if a.consistent_with_noise else "no", a.note) for a in self.alternatives),
                             frozenset({0, 3, 4}))))
@@ -170,6 +204,8 @@ class Diagnosis:
                                                      *((f"mechanical modes: {', '.join(f'{m:.4g} Hz' for m in modes)}",)
                                                        if modes.size else ()))))
         sections.append(parameter_section(final))
+        if self.left_out is not None:
+            sections.append(Section("Not identified", (self.left_out.sentence(base),)))
         sections.append(Section("The path to the model", self._path(), kind="numbered"))
         if self.notes:
             sections.append(Section("Notes", self.notes, kind="notes"))
@@ -183,10 +219,13 @@ class Diagnosis:
                  f"{first.rms_phase_error_deg:.3g}°."]
         for before, step in zip(self.steps, self.steps[1:]):
             added = ", ".join(e for e in step.effects if e not in before.effects)
-            items.append(f"Adding {added}: ΔBIC {before.fit.bic - step.fit.bic:+.1f}, reduced χ² "
+            items.append(f"Adding {added}: Δ{self.criterion} {before.score - step.score:+.1f}, reduced χ² "
                          f"{before.fit.reduced_chi2:.3g} → {step.fit.reduced_chi2:.3g}.")
-        others = (f"; {len(self.alternatives)} other model(s) lie within ΔBIC {ACCEPT_DELTA_BIC:g} of the selected "
-                  "one" if self.alternatives else "")
+        others = (f"; {len(self.alternatives)} other model(s) lie within Δ{self.criterion} {ACCEPT_DELTA_BIC:g} of "
+                  "the selected one" if self.alternatives else "")
+        if self.criterion != "BIC":
+            others += (f"; no model is consistent with the noise, so they are ranked by QBIC (χ² over the best "
+                       f"model's over-dispersion {self.overdispersion:.3g}, plus BIC's penalty)")
         items.append(f"{len(self.models)} models searched{others}. Verdict: {self.explanation.rstrip('.')}.")
         return tuple(items)
 
@@ -234,11 +273,11 @@ def _reference_sums(nu: tuple[float, ...], n_out: int, n_groups: int) -> np.ndar
     return np.stack([draws.sum(axis=1)] + [draws[:, idx].sum(axis=1) for idx in bands])
 
 
-def _step(fit: FitResult, data: MeasuredResponse, ranking, decision) -> Step:
+def _step(fit: FitResult, data: MeasuredResponse, ranking, decision, score: float) -> Step:
     res = residual_summary(data.f_hz, data.response, data.variance, fit.model_response)
     rms_mag = float(np.sqrt(np.mean(res.magnitude_error_db**2)))
     rms_ph = float(np.sqrt(np.mean(res.phase_error_deg**2)))
-    return Step(fit.plant.effect_names, fit, res, rms_mag, rms_ph, tuple(ranking), decision)
+    return Step(fit.plant.effect_names, fit, res, rms_mag, rms_ph, tuple(ranking), decision, score)
 
 
 def detect_nonlinearity(data: MeasuredResponse, *, amplitude_dependent: bool | None = None) -> Nonlinearity:
@@ -433,20 +472,28 @@ def diagnose(plant: Plant, data: MeasuredResponse, *, candidates: tuple[str, ...
     fits, unidentifiable = fit_models(base, base_fit, pool, fit, max_effects=max_effects,
                                       valid=lambda combo: compatible(combo, base), progress=progress)
     adequate = {k: chi2_is_noise(f) for k, f in fits.items()}
-    selected = select_model({k: f.bic for k, f in fits.items()}, adequate,
-                            {k: f.n_params for k, f in fits.items()})
+    n_params = {k: f.n_params for k, f in fits.items()}
+    band = (float(np.min(data.f_hz)), float(np.max(data.f_hz)))
+    gaps = {k: unidentified(f, base, band) for k, f in fits.items()}
+    identified = {k: f for k, f in fits.items() if not gaps[k]}
+    rank = rank_models(fits, adequate)
+    score = rank.score
+    selected = select_model({k: score[k] for k in identified}, {k: adequate[k] for k in identified}, n_params)
+    unchecked = select_model(score, adequate, n_params)
     final = fits[selected]
+    left_out = None if unchecked == selected or not gaps[unchecked] else LeftOut(
+        unchecked, score[unchecked] - score[selected], fits[unchecked].reduced_chi2, gaps[unchecked], rank.criterion)
     explained = adequate[selected]
     # a linear model makes no harmonics: with distortion in the data its fit is a describing function (the gain
     # of the fundamental at this amplitude), not the stage, however well it fits
     unexplained_distortion = nonlinear.distortion and all(EFFECTS[n].linear for n in selected)
     alternatives = tuple(
-        Alternative(k, fits[k].bic - final.bic, fits[k].reduced_chi2, adequate[k],
-                    ("lower BIC, but its extra parameters fall short of very strong evidence; "
-                     if fits[k].bic < final.bic else "") + _relation(k, selected, fits))
-        for k in _ranked({k: f.bic for k, f in fits.items()})
-        if k != selected and fits[k].bic - final.bic < ACCEPT_DELTA_BIC)
-    steps = _path(fits, base, selected, data, skipped, unidentifiable, pool)
+        Alternative(k, score[k] - score[selected], fits[k].reduced_chi2, adequate[k],
+                    (f"lower {rank.criterion}, but its extra parameters fall short of very strong evidence; "
+                     if score[k] < score[selected] else "") + _relation(k, selected, fits))
+        for k in _ranked({k: score[k] for k in identified})
+        if k != selected and score[k] - score[selected] < ACCEPT_DELTA_BIC)
+    steps = _path(fits, score, rank.criterion, base, selected, data, skipped, unidentifiable, pool)
     final_res = steps[-1].residuals
     if explained and unexplained_distortion:
         explained = False
@@ -468,13 +515,18 @@ def diagnose(plant: Plant, data: MeasuredResponse, *, candidates: tuple[str, ...
         if unexplained_distortion:
             explanation += (f"; and the data hold distortion a linear model does not make "
                             f"({nonlinear.description.removeprefix('detected: ')}). {_sources(pool, skipped)}")
+    odd = implausible(final, plant)
+    explanation += warning(odd)
+    if left_out is not None:
+        explanation += f"; {left_out.sentence(base)}"
     last = steps[-1]
     steps[-1] = replace(last, decision=explanation if not last.decision else f"{last.decision}; {explanation}")
     for flag in final.flags:
         if "cannot be told apart" in flag:
             notes.append(flag)
     return Diagnosis(tuple(steps), final, nonlinear, tuple(dict.fromkeys(notes)),
-                     verdict(explained), explanation, alternatives, fits)
+                     verdict(explained), explanation, alternatives, fits, left_out, rank.criterion,
+                     rank.overdispersion, odd)
 
 
 def _ranked(bic: dict[tuple[str, ...], float]) -> list[tuple[str, ...]]:
@@ -510,16 +562,16 @@ def _residual_peak(res: ResidualSummary) -> str:
            f"{res.phase_error_deg[:, k].mean():+.1f} deg), which "
 
 
-def _path(fits, base, selected, data, skipped, unidentifiable, pool) -> list[Step]:
-    """Steps from the base model to ``selected`` (``plant.diagnose.search.path_to``), each with the effects
-    tried as additions to it, ranked."""
-    models = path_to({k: f.bic for k, f in fits.items()}, base, selected)
+def _path(fits, score, criterion, base, selected, data, skipped, unidentifiable, pool) -> list[Step]:
+    """Steps from the base model to ``selected`` (``plant.diagnose.search.path_to`` on ``score``), each with the
+    effects tried as additions to it, ranked."""
+    models = path_to(score, base, selected)
     steps = []
     for current, nxt in zip(models, models[1:] + [None]):
         ranking = []
         for k in children(fits, current):
             (name,) = set(k) - set(current)
-            ranking.append(Candidate(name, addition_delta_bic(fits[current].bic, fits[k].bic), fits[k].reduced_chi2,
+            ranking.append(Candidate(name, addition_delta_bic(score[current], score[k]), fits[k].reduced_chi2,
                                      fits[k]))
         ranking.sort(key=lambda c: -c.delta_bic)
         tried = {c.effect for c in ranking}
@@ -533,10 +585,10 @@ def _path(fits, base, selected, data, skipped, unidentifiable, pool) -> list[Ste
         ranking += [Candidate(n, float("nan"), float("nan"), None, why) for n, why in skipped.items()
                     if current == base]
         if nxt is None:
-            steps.append(_step(fits[current], data, ranking, ""))
+            steps.append(_step(fits[current], data, ranking, "", score[current]))
             break
         (name,) = set(nxt) - set(current)
         steps.append(_step(fits[current], data, ranking,
-                           f"add {name} (dBIC {fits[current].bic - fits[nxt].bic:+.1f}; signature: "
-                           f"{EFFECTS[name].signature})"))
+                           f"add {name} (d{criterion} {score[current] - score[nxt]:+.1f}; signature: "
+                           f"{EFFECTS[name].signature})", score[current]))
     return steps

@@ -6,11 +6,26 @@
   so a positive value is evidence against the alternative.
 * An effect is added, and an alternative ruled out, on ``ACCEPT_DELTA_BIC`` (Kass & Raftery 1995:
   "very strong" evidence); within ``TIE_DELTA_BIC`` two models are equally supported.
+
+A ranking that survives misfit (``rank_models``). BIC's likelihood assumes the noise model: on frequency data each
+residual's variance is estimated from the recording, so its likelihood has the F distribution's heavy tail
+(``plant.identify.fitting.minus_two_log_likelihood``), which grows only as the log of a large residual. That is
+right when a few variances happen to be underestimated; it is wrong when every model of the search is rejected by
+the noise test, because then the residual is model error everywhere, and a log-compressed likelihood ranks a model
+that concentrates a huge error in a few lines above one with a 6x smaller chi^2 spread over many. When no model is
+consistent with the noise the search therefore ranks by the quasi-likelihood BIC, QBIC = chi^2 / (c e) + k ln n: the
+Gaussian chi^2 (each residual divided by its expectation e, the mean of nu / (nu - 2)) scaled by the
+over-dispersion c, the least reduced chi^2 / e of the search's models (the best model's misfit taken as inflated
+noise, as QAIC takes the global model's; Lebreton et al. 1992, Burnham & Anderson 2002 section 2.5), and the same
+k ln n penalty; differences keep BIC's scale, so ``ACCEPT_DELTA_BIC`` reads the same. With c = 1 (a model
+consistent with the noise exists) the ranking is BIC.
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
+from dataclasses import dataclass
 
 from plant.physics.effects import EFFECTS
 from plant.story import Section, Table, unit_text
@@ -19,6 +34,32 @@ EXPLAINED = "explained"
 NOT_EXPLAINED = "not_explained"
 ACCEPT_DELTA_BIC = 10.0
 TIE_DELTA_BIC = 2.0
+
+
+@dataclass(frozen=True)
+class Ranking:
+    """The criterion a search ranks its models by (module doc): ``BIC``, or ``QBIC`` with the over-dispersion
+    ``overdispersion`` when no model is consistent with the noise; ``score`` by model."""
+
+    criterion: str
+    overdispersion: float
+    score: dict
+
+    @property
+    def delta_label(self) -> str:
+        """'ΔBIC' or 'ΔQBIC'."""
+        return f"Δ{self.criterion}"
+
+
+def rank_models(fits: Mapping, adequate: Mapping) -> Ranking:
+    """BIC of each fit (``PlantFit``) when one of them is ``adequate`` (consistent with the noise), else QBIC with the
+    over-dispersion of the best (module doc)."""
+    if any(adequate.values()):
+        return Ranking("BIC", 1.0, {k: f.bic for k, f in fits.items()})
+    fitted = [f for f in fits.values() if f.dof > 0]
+    c = max(1.0, min((f.chi2 / (f.dof * f.expected_reduced_chi2) for f in fitted), default=1.0))
+    return Ranking("QBIC", c, {k: f.chi2 / (c * f.expected_reduced_chi2) + f.n_params * math.log(f.n_data)
+                               for k, f in fits.items()})
 
 
 def verdict(explained: bool) -> str:

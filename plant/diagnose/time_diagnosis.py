@@ -37,6 +37,7 @@ from plant.diagnose.evidence import (
     parameter_section,
     verdict,
 )
+from plant.diagnose.plausibility import implausible, warning
 from plant.diagnose.search import compatible, fit_models, path_to, select_model
 from plant.errors import EffectError, ParameterError
 from plant.identify.compensation import CompensationTable, compensation_table
@@ -115,6 +116,8 @@ class TimeDiagnosis:
     notes: tuple[str, ...]
     #: position (m) at the fits' samples, None when the recording has velocity only
     position_m: np.ndarray | None = None
+    #: the selected model's base parameters that are implausible (``plant.diagnose.plausibility``)
+    implausible: tuple[str, ...] = ()
 
     @property
     def final(self) -> TimeFitResult:
@@ -315,9 +318,10 @@ def diagnose_time(plant: Plant, rec: TimeRecording, *, candidates: tuple[str, ..
     steps = _path(models, bics, selected)
     final = models[selected]
     peak_hz, peak_share = _residual_peak(final)
-    explanation = _explanation(final, selected, peak_hz, peak_share)
+    odd = implausible(final, plant)
+    explanation = _explanation(final, selected, peak_hz, peak_share) + warning(odd)
     return TimeDiagnosis(steps, ranking, models, selected, verdict(final.explained), explanation, _where(base),
-                         _direction(base), n_eff, peak_hz, peak_share, tuple(notes), samples.position_m)
+                         _direction(base), n_eff, peak_hz, peak_share, tuple(notes), samples.position_m, odd)
 
 
 def _explanation(final: TimeFitResult, selected: tuple[str, ...], peak_hz: float, peak_share: float) -> str:

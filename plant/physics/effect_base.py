@@ -70,6 +70,9 @@ class Effect(abc.ABC):
     #: has a response formula of s for casadi (the exact PI synthesis needs one)
     in_synthesis: ClassVar[bool] = True
     search_fixed: ClassVar[tuple[str, ...]] = ()
+    #: frequencies (Hz) the data identify only where they lie in the excited band: a mode's (a lag's corner far
+    #: above the band still sets a measurable phase lag, which its standard error judges)
+    in_band: ClassVar[tuple[str, ...]] = ()
     #: how much physics the effect assumes, for ties between models the data cannot tell apart:
     #: 0 a pure delay, 1 one lag or hold, 2 a filter or a mode
     complexity: ClassVar[int] = 2

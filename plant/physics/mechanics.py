@@ -73,6 +73,7 @@ class ModeEffect(MechanicalEffect):
     }
     limits_bandwidth: ClassVar[bool] = True
     main_parameter: ClassVar[str] = "frequency_hz"
+    in_band: ClassVar = ("frequency_hz",)
     neutral: ClassVar = {"frequency_hz": RIGID_HZ, "antiresonance_hz": 0.7 * RIGID_HZ}
     #: 1: splits the base body; 2: splits the payload of a first mode
     order: ClassVar[int] = 1
@@ -411,6 +412,7 @@ class TiltCoupling(MechanicalEffect):
     limits_bandwidth: ClassVar[bool] = True
     signature: ClassVar[str] = "Y1 and Y2 disagreeing around a mode"
     main_parameter: ClassVar[str] = "frequency_hz"
+    in_band: ClassVar = ("frequency_hz",)
     neutral: ClassVar = {"frequency_hz": RIGID_HZ}
     excludes: ClassVar = ("resonance", "payload_resonance", "second_resonance")
     stages: ClassVar = ("y",)

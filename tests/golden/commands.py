@@ -27,7 +27,10 @@ changed), and the ``synth_*`` files when the PI designs were searched between th
 (``between_grid`` added: the bundled designs' least slack is on the check's corner, the designs the same; the
 solver record's keys that a step leaves null, written since the record became typed, are in the files now);
 ``synth_admittance`` again when python-control's verification read its margins on 500 points, not 1,500 (its least
-phase margin 45.43831 -> 45.43801 deg, the design the same).
+phase margin 45.43831 -> 45.43801 deg, the design the same); ``diagnose_x`` again when reported models named only
+effects the data identify (its 14 alternatives within dBIC 10 each added a lag or mode the data do not determine:
+``alternatives`` empty, ``criterion``, ``overdispersion``, ``left_out`` and ``implausible`` added, the selection the
+same), and ``diagnose_emps`` for ``implausible``.
 """
 
 from __future__ import annotations

@@ -193,6 +193,9 @@ def diagnosis_to_dict(diag: Diagnosis) -> dict:
         "criterion": diag.criterion,
         "overdispersion": diag.overdispersion,
         "implausible": list(diag.implausible),
+        "drift": None if diag.drift is None else {
+            "rate_per_s": diag.drift.rate_per_s, "stderr_per_s": finite_or_none(diag.drift.stderr_per_s),
+            "span_s": diag.drift.span_s, "change": diag.drift.change, "delta_bic": diag.drift.delta_bic},
         "models_evaluated": len(diag.models),
         "alternatives": [{"effects": list(a.effects), "delta_bic": finite_or_none(a.delta_bic),
                           "reduced_chi2": finite_or_none(a.reduced_chi2),

@@ -25,6 +25,7 @@ import numpy as np
 from scipy import special
 
 from plant.data.frequency_response import MeasuredResponse
+from plant.diagnose.drift import Drift, fit_drift
 from plant.diagnose.evidence import (
     ACCEPT_DELTA_BIC,
     addition_delta_bic,
@@ -162,6 +163,9 @@ class Diagnosis:
     overdispersion: float = 1.0
     #: the reported model's base parameters that are implausible (``plant.diagnose.plausibility``)
     implausible: tuple[str, ...] = ()
+    #: the gain's drift over a stepped sine, when named (``plant.diagnose.drift``); ``final`` is then the model
+    #: refitted with it when that explains the data
+    drift: Drift | None = None
 
     @property
     def final_effects(self) -> tuple[str, ...]:
@@ -206,6 +210,9 @@ class Diagnosis:
         sections.append(parameter_section(final))
         if self.left_out is not None:
             sections.append(Section("Not identified", (self.left_out.sentence(base),)))
+        if self.drift is not None:
+            sections.append(Section("Drift over the record", (self.drift.text()[0].upper() + self.drift.text()[1:]
+                                                              + ".",)))
         sections.append(Section("The path to the model", self._path(), kind="numbered"))
         if self.notes:
             sections.append(Section("Notes", self.notes, kind="notes"))
@@ -495,7 +502,15 @@ def diagnose(plant: Plant, data: MeasuredResponse, *, candidates: tuple[str, ...
         if k != selected and score[k] - score[selected] < ACCEPT_DELTA_BIC)
     steps = _path(fits, score, rank.criterion, base, selected, data, skipped, unidentifiable, pool)
     final_res = steps[-1].residuals
-    if explained and unexplained_distortion:
+    drift = None if explained else fit_drift(final, data)
+    drift = drift if drift is not None and drift.significant else None
+    if drift is not None and chi2_is_noise(drift.fit) and not unexplained_distortion:
+        final, explained = drift.fit, True
+        named = ", ".join(selected[len(base):]) or "the refitted base model"
+        explanation = (f"explained by {named} with a gain drifting over the record (reduced chi-square "
+                       f"{final.reduced_chi2:.3g}, expected {final.expected_reduced_chi2:.3g}: the residuals are "
+                       f"consistent with the noise): {drift.text()}")
+    elif explained and unexplained_distortion:
         explained = False
         named = " + ".join(("base",) + selected[len(base):])
         explanation = (f"not explained: {named} fits the fundamental within the noise (reduced chi-square "
@@ -512,12 +527,14 @@ def diagnose(plant: Plant, data: MeasuredResponse, *, candidates: tuple[str, ...
         explanation = (f"not explained: no model of the library is consistent with the noise (best: "
                        f"{' + '.join(('base',) + selected[len(base):])}, reduced chi-square {final.reduced_chi2:.3g}); "
                        f"the residual {peaks}no effect of the library reproduces: {where}")
+        if drift is not None:
+            explanation += f"; and {drift.text()}"
         if unexplained_distortion:
             explanation += (f"; and the data hold distortion a linear model does not make "
                             f"({nonlinear.description.removeprefix('detected: ')}). {_sources(pool, skipped)}")
     odd = implausible(final, plant)
     explanation += warning(odd)
-    if left_out is not None:
+    if left_out is not None and final is fits[selected]:      # (a drift that explains makes the ranking moot)
         explanation += f"; {left_out.sentence(base)}"
     last = steps[-1]
     steps[-1] = replace(last, decision=explanation if not last.decision else f"{last.decision}; {explanation}")
@@ -526,7 +543,7 @@ def diagnose(plant: Plant, data: MeasuredResponse, *, candidates: tuple[str, ...
             notes.append(flag)
     return Diagnosis(tuple(steps), final, nonlinear, tuple(dict.fromkeys(notes)),
                      verdict(explained), explanation, alternatives, fits, left_out, rank.criterion,
-                     rank.overdispersion, odd)
+                     rank.overdispersion, odd, drift)
 
 
 def _ranked(bic: dict[tuple[str, ...], float]) -> list[tuple[str, ...]]:

@@ -532,7 +532,8 @@ def estimate_response(recording: Recording, *, settle_s: float | None = None, me
     are left out, each with a note in ``notes``; ``DataError`` when none is left, or when most
     blocks' currents are not sinusoids (broadband data). The sinusoid checks need the lock-in
     fit; ``method="rms"`` checks only length, sampling and a constant current. ``metadata``
-    records per kept block the settling time, the periods and sub-blocks used, the excluded
+    records per kept block the settling time, the periods and sub-blocks used, its middle's seconds from the
+    recording's start (``block_time_s``: blocks taken as recorded in file order), the excluded
     frequencies, the sample rate, an encoder-differenced velocity's quantum
     (``encoder_velocity_quantum``) and the recording's metadata.
     """
@@ -556,7 +557,8 @@ def estimate_response(recording: Recording, *, settle_s: float | None = None, me
                 "subblocks": [results[j].subblocks for j in kept],
                 "variance_dof": [getattr(results[j], "variance_dof", 2.0 * (results[j].subblocks - 1)) for j in kept],
                 "excluded_f_hz": [recording.blocks[j].f_hz for j, r in enumerate(results) if isinstance(r, _Excluded)],
-                "sample_rate_hz": _sample_rate_hz(recording), "recording": dict(recording.metadata)}
+                "sample_rate_hz": _sample_rate_hz(recording), "recording": dict(recording.metadata),
+                "block_time_s": [float(_block_starts(recording)[j] + recording.blocks[j].time_s[-1] / 2) for j in kept]}
     quantum = encoder_velocity_quantum(recording)
     if quantum is not None:
         metadata["encoder_velocity_quantum_m_per_s"] = quantum
@@ -656,6 +658,13 @@ def _response(recording: Recording, results: list, f_hz: np.ndarray, method: str
                             method=method, metadata=metadata, notes=notes, fundamental_fraction=fraction,
                             current_fundamental_fraction=current_fraction, current_snr_db=current_snr,
                             current_amplitude_variance=amp_var)
+
+
+def _block_starts(recording: Recording) -> np.ndarray:
+    """Seconds from the recording's start to each block's first sample, the blocks taken as recorded one after
+    the other in file order (each block's own clock restarts at 0)."""
+    durations = [b.time_s[-1] + 1.0 / b.sample_rate_hz if b.time_s.size > 1 else 0.0 for b in recording.blocks]
+    return np.concatenate([[0.0], np.cumsum(durations)[:-1]])
 
 
 def _sample_rate_hz(recording: Recording) -> float:

@@ -3,13 +3,16 @@
 Run:  python examples/hidden_effect.py [SEED] [--kind KIND] [--report diagnosis.html]
 
 A seeded draw picks the hidden truth (delay, current-loop lag, resonance, Coulomb friction,
-none, two effects at once, or a four-mass stage outside the library; ``--kind`` chooses) with
+none, two effects at once, a four-mass stage outside the library, or a force constant drifting as
+the coil warms over a 240 s record; ``--kind`` chooses) with
 realistic parameters and a payload of 25-50 kg; the simulated stepped-sine
 recording (thesis section 4.1: 1-75 Hz, 5 s per frequency, 0.5 A) goes through the same path
 as a real one: frequency-response estimation, then the diagnosis, which must name the
 hidden effects and their values without being told, or say "not explained" when no model of
-its library reproduces the data. The four-mass stage is recorded by the independent
-simulator of the tests (tests/reference/independent_sim.py), which shares no code with the tool.
+its library reproduces the data. The four-mass stage and the drifting force constant are recorded
+by the independent simulator of the tests (tests/reference/independent_sim.py), which shares no
+code with the tool; the drift (K_t falling 2-5 % over the record, far slower than the stage) scales
+each sample's velocity by K_t(t) / K_t(0).
 """
 
 import sys
@@ -27,6 +30,7 @@ from plant.estimate.lockin import estimate_response
 from plant.experiment.simulate import simulate_stepped_sine
 
 KINDS = ["delay", "current_loop", "resonance", "coulomb_friction", "none", "delay+resonance", "outside_library"]
+DRIFT = "force_constant_drift"
 argv = sys.argv[1:]
 options = {argv[i]: argv[i + 1] for i in range(len(argv) - 1) if argv[i].startswith("--")}
 args = [a for i, a in enumerate(argv) if not a.startswith("--") and (i == 0 or not argv[i - 1].startswith("--"))]
@@ -35,13 +39,13 @@ rng = np.random.default_rng(seed)
 amplitude_a = 0.5
 mass_kg = rng.uniform(25, 50)
 kind = options.get("--kind") or str(rng.choice(KINDS))
-if kind not in KINDS:
-    sys.exit(f"--kind must be one of {', '.join(KINDS)}")
+if kind not in KINDS + [DRIFT]:
+    sys.exit(f"--kind must be one of {', '.join(KINDS + [DRIFT])}")
 f_hz = np.geomspace(1, 75, 30)
 if kind == "delay+resonance":
     f_r = rng.uniform(40, 70)
     hidden = (Delay(rng.uniform(0.5e-3, 2e-3)), Resonance(f_r, f_r * rng.uniform(0.5, 0.8), rng.uniform(0.02, 0.1)))
-elif kind == "outside_library":
+elif kind in ("outside_library", DRIFT):
     hidden = None
 elif kind == "delay":
     hidden = Delay(rng.uniform(0.3e-3, 3e-3))
@@ -55,16 +59,25 @@ elif kind == "coulomb_friction":
 else:
     hidden = None
 noise = rng.uniform(0.01, 0.05)
-if kind == "outside_library":
+if kind in ("outside_library", DRIFT):
     sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests" / "reference"))
     import independent_sim as sim
 
-    chain = sim.tuned_chain(np.full(4, mass_kg / 4), modes_hz=np.sort(rng.uniform(20, 70, 3)), damping_ratio=0.03)
-    rec = sim.simulate(chain, protocol=sim.Protocol(f_hz=tuple(f_hz), block_s=5.0, sample_rate_hz=2000.0),
-                       noise=noise, seed=seed)
+    if kind == DRIFT:
+        net, change = sim.rigid_stage(mass_kg), -rng.uniform(0.02, 0.05)
+        protocol = sim.Protocol(f_hz=tuple(np.geomspace(1, 75, 24)), block_s=10.0, sample_rate_hz=1000.0)
+        hidden_words = f"force constant {100 * change:+.1f} % over the 240 s record"
+    else:
+        net, change = sim.tuned_chain(np.full(4, mass_kg / 4), modes_hz=np.sort(rng.uniform(20, 70, 3)),
+                                      damping_ratio=0.03), 0.0
+        protocol = sim.Protocol(f_hz=tuple(f_hz), block_s=5.0, sample_rate_hz=2000.0)
+        hidden_words = f"four-mass chain, modes {', '.join(f'{m:.1f}' for m in net.mode_frequencies_hz())} Hz"
+    rec = sim.simulate(net, protocol=protocol, noise=noise, seed=seed)
+    durations = [t[-1] + (t[1] - t[0]) for t in rec.time_s]
+    for start, t, v in zip(np.cumsum([0.0] + durations[:-1]), rec.time_s, rec.velocity_m_per_s):
+        v *= (1.0 + change * (start + t) / sum(durations))[:, None]
     with tempfile.TemporaryDirectory() as tmp:
         measured = estimate_response(read_recording(sim.write_csv(rec, Path(tmp) / "rec.csv")))
-    hidden_words = f"four-mass chain, modes {', '.join(f'{m:.1f}' for m in chain.mode_frequencies_hz())} Hz"
 else:
     truth = stage_x(mass_kg=mass_kg, excitation_current_a=amplitude_a)
     for effect in (hidden if isinstance(hidden, tuple) else (hidden,) if hidden is not None else ()):
@@ -76,7 +89,8 @@ diag = diagnose(stage_x(), measured)
 
 print(f"(hidden from the diagnosis: seed {seed}, {hidden_words}, mass {mass_kg:.1f} kg, noise {100 * noise:.1f} %)\n")
 print_story(Console(), diag.story())
-print(f"\nverdict: {diag.verdict}; named: {', '.join(diag.added) or 'none'}; truth: {kind}")
+print(f"\nverdict: {diag.verdict}; named: {', '.join(diag.added) or 'none'}"
+      + (f", a drift of {100 * diag.drift.change:+.2f} %" if diag.drift is not None else "") + f"; truth: {kind}")
 for effect in (hidden if isinstance(hidden, tuple) else (hidden,) if hidden is not None else ()):
     key = f"{effect.name}.{effect.main_parameter}"
     if key in diag.final.values:

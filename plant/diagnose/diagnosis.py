@@ -532,6 +532,9 @@ def diagnose(plant: Plant, data: MeasuredResponse, *, candidates: tuple[str, ...
         if unexplained_distortion:
             explanation += (f"; and the data hold distortion a linear model does not make "
                             f"({nonlinear.description.removeprefix('detected: ')}). {_sources(pool, skipped)}")
+        elif nonlinear.distortion:
+            explanation += (f"; and the data hold distortion the best model does not reproduce within the noise "
+                            f"({nonlinear.description.removeprefix('detected: ')})")
     odd = implausible(final, plant)
     explanation += warning(odd)
     if left_out is not None and final is fits[selected]:      # (a drift that explains makes the ranking moot)

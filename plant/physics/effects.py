@@ -12,7 +12,9 @@ Where an effect sits decides how it composes (``plant.physics.effect_base``):
   (``plant.physics.motor_forces``, time-domain data with the position only): ``force_ripple``,
   ``force_constant_profile``; the drive's ``current_limit`` (time-domain data, and its describing function
   in a frequency response at the plant's excitation current); a cable carrier's spring, ``cable_force``
-  (``plant.physics.cable_force``, time-domain data with the position only).
+  (``plant.physics.cable_force``, time-domain data with the position only);
+* what makes Stage Y's rails differ besides the tilt (``plant.physics.rails``): ``rail_scale`` (one rail read to
+  another scale), ``motor_imbalance`` (the two motors' force constants apart).
 
 Adding an effect means one class in a module of ``plant.physics`` (a chain factor in ``chain``, a part of the
 network in ``mechanics``, a force in a module of its own) and its entry in ``EFFECTS`` here. Parameter names
@@ -39,11 +41,13 @@ from plant.physics.mechanics import (
     TiltCoupling,
 )
 from plant.physics.motor_forces import CurrentLimit, ForceConstantProfile, ForceRipple
+from plant.physics.rails import MotorImbalance, RailScale
 
 EFFECTS: dict[str, type[Effect]] = {
     cls.name: cls for cls in (Delay, CurrentLoop, Sampling, SensorFilter, EncoderVelocity, Resonance,
                               PayloadResonance, SecondResonance, CoulombFriction, StribeckFriction, Offset,
-                              TiltCoupling, ForceRipple, ForceConstantProfile, CurrentLimit, CableForce)
+                              TiltCoupling, RailScale, MotorImbalance, ForceRipple, ForceConstantProfile, CurrentLimit,
+                              CableForce)
 }
 
 
@@ -69,7 +73,8 @@ __all__ = [
     "EFFECTS", "PADE_ORDER", "CableForce", "ChainEffect", "CoulombFriction", "CurrentLimit", "CurrentLoop", "Delay",
     "Effect",
     "EncoderVelocity", "ForceConstantProfile", "ForceRipple",
-    "MechanicalEffect", "ModeEffect", "Offset", "PayloadResonance", "Resonance", "Sampling", "SecondResonance",
+    "MechanicalEffect", "ModeEffect", "MotorImbalance", "Offset", "PayloadResonance", "RailScale", "Resonance",
+    "Sampling", "SecondResonance",
     "SensorFilter", "StribeckFriction",
     "TiltCoupling", "make_effect",
 ]

@@ -312,7 +312,7 @@ class Plant:
         tilt = self._tilt()
         if tilt is None:
             resp = self._chain_frd(w)[..., None, :]
-            return np.repeat(resp, len(self.output_names), axis=-2)
+            return np.repeat(resp, len(self.output_names), axis=-2) * self.output_scales()
         kt = np.asarray(self.force_constant_n_per_a, float)
         n_fric = self._friction_damping(w)
         stuck = np.isinf(n_fric)
@@ -321,17 +321,31 @@ class Plant:
         h = xie_wang_frd(w, mass_kg=self.mass_kg, inertia_kg_m2=tilt.inertia_kg_m2, damping1_n_s_per_m=b,
                          damping2_n_s_per_m=b, l1_m=l1, l2_m=l2,
                          joint_stiffness_n_m_per_rad=tilt.stiffness_n_m_per_rad)
-        # both motors carry half the total current: f1 = f2 = K_t i / 2
-        v = (h[..., :, 0, :] + h[..., :, 1, :]) * (kt[..., None] if kt.ndim else kt) / 2
+        # the motors' shares of K_t i (half each, unless their force constants differ)
+        s1, s2 = (_over_outputs(x) for x in self.motor_shares())
+        v = (h[..., :, 0, :] * s1 + h[..., :, 1, :] * s2) * (kt[..., None] if kt.ndim else kt)
         s = 1j * w
         series = self._limit_gain() * self.chain_response(s, "drive") * self.chain_response(s, "sensor")
-        v = v * (series[..., None, :] if np.ndim(series) else series)
+        v = v * (series[..., None, :] if np.ndim(series) else series) * self.output_scales()
         # friction that sticks at this excitation holds both rails
         return np.where(stuck[..., None, :], 0.0, v) if np.ndim(stuck) else (0.0 * v if stuck else v)
 
+    def output_scales(self) -> np.ndarray:
+        """Factor on each recorded output, shape (..., n_outputs, 1) (broadcast over frequency): 1, or a rail read
+        to another scale (``rail_scale``)."""
+        scale = self.effect("rail_scale")
+        n = len(self.output_names)
+        return np.ones((n, 1)) if scale is None else scale.output_scales(n)
+
+    def motor_shares(self) -> tuple:
+        """Each rail motor's part of the force K_t i (Y1, Y2): half each, unless their force constants differ
+        (``motor_imbalance``)."""
+        imbalance = self.effect("motor_imbalance")
+        return (0.5, 0.5) if imbalance is None else imbalance.shares()
+
     def frd(self, w_rad_s) -> np.ndarray:
         """Velocity per current (m/s per A), shape (..., n_freq); Stage Y: mean of the rails Y1, Y2."""
-        if self._tilt() is None:  # the outputs coincide: skip the per-output copies
+        if self._tilt() is None and self.effect("rail_scale") is None:  # the outputs coincide: skip the copies
             self._check_frequency_model()
             w = check_grid(w_rad_s)
             return self._chain_frd(w)
@@ -433,3 +447,9 @@ def corner_frequency_hz(plant: Plant) -> np.ndarray:
     """Corner frequency b_e / (2 pi m_e) of the base plant (X: b/M; Y: b L / (M l)), Hz."""
     m_e, b_e = plant._effective_mass_damping()
     return b_e / (2 * math.pi * m_e)
+
+
+def _over_outputs(value) -> np.ndarray:
+    """A parameter value (scalar or (..., 1), broadcast over frequency) as (..., 1, 1): over outputs and frequency."""
+    x = np.asarray(value, float)
+    return (x if x.ndim else x[None])[..., None, :]

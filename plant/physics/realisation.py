@@ -13,7 +13,8 @@ Each rail contact also takes a force F_j besides the motor's (friction, an effec
 the clamp). The drive chain holds every drive factor of the plant but the delay and the drive's sampling, which
 a simulator applies exactly to the command; with a ``pade_order`` they enter by their rational approximants
 (``ChainEffect.state_space``), as a sampled-data check needs them. One sensor chain per distinct recorded
-velocity: Stage Y's two rails read the same velocity unless the beam tilts.
+velocity: Stage Y's two rails read the same velocity unless the beam tilts (or a rail is read to another scale,
+``rail_scale``, or the motors push unequally, ``motor_imbalance``).
 """
 
 from __future__ import annotations
@@ -125,7 +126,8 @@ def realise(plants: Plant, n: int = 1, *, pade_order: int | None = None) -> Real
         if n != 1:
             raise ParameterError("the tilt model is realised for one plant at a time")
         Am, Bm, Cm = _tilt_mechanics(plants, tilt)
-        contacts, share, sensed = Cm, np.full(2, 0.5), Cm
+        contacts, sensed = Cm, Cm
+        share = np.array([float(np.asarray(x, float).reshape(-1)[0]) for x in plants.motor_shares()])
     # the drive factors a simulator applies exactly to the command (``realised_as`` "applied") by their Pade
     # approximants only when asked
     drive = [e for e in plants.effects if pade_order is not None or e.realised_as != "applied"]
@@ -156,6 +158,9 @@ def realise(plants: Plant, n: int = 1, *, pade_order: int | None = None) -> Real
             A[:, h, g] = H.B @ sensed[:, j:j + 1]
         outputs[:, j, h] = H.C[:, 0]
         outputs[:, j, g] = H.D[:, 0] * sensed[:, j]
+    scale = plants.effect("rail_scale")
+    if scale is not None:                                     # rail Y2 read to another scale
+        outputs[:, 1, :] *= column(scale.y2_scale, n)[:, None]
     contact_rows = np.zeros((n, k, m))
     contact_rows[:, :, g] = contacts
     current = np.zeros((n, m + 1))

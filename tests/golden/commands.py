@@ -30,7 +30,8 @@ solver record's keys that a step leaves null, written since the record became ty
 phase margin 45.43831 -> 45.43801 deg, the design the same); ``diagnose_x`` again when reported models named only
 effects the data identify (its 14 alternatives within dBIC 10 each added a lag or mode the data do not determine:
 ``alternatives`` empty, ``criterion``, ``overdispersion``, ``left_out`` and ``implausible`` added, the selection the
-same), and ``diagnose_emps`` for ``implausible``; ``diagnose_x`` for ``drift`` (null).
+same), and ``diagnose_emps`` for ``implausible``; ``diagnose_x`` for ``drift`` (null) and when the library gained
+Stage Y's ``rail_scale`` and ``motor_imbalance`` (their rows among the candidates skipped on Stage X).
 """
 
 from __future__ import annotations

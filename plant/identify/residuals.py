@@ -91,7 +91,29 @@ def residual_summary(f_hz, measured, variance, model, *, n_bands: int = 6) -> Re
             float(np.sum(w_p * np.nan_to_num(ph_deg[:, sel])) / np.sum(w_p)), float(2 / np.sqrt(np.sum(w_p))),
         ))
     failing = tuple(b for b in bands if b.reduced_chi2 > FAILING_REDUCED_CHI2)
-    return ResidualSummary(f, norm, mag_db, ph_deg, tuple(bands), failing, describe(tuple(bands), failing))
+    words, rails = describe(tuple(bands), failing), _rails(mag_db, mag_noise)
+    return ResidualSummary(f, norm, mag_db, ph_deg, tuple(bands), failing,
+                           f"{words.rstrip('.')}; {rails}." if rails else words)
+
+
+#: the rails' disagreement is told when its weighted mean lies this many standard errors from zero
+RAILS_Z = 3.0
+
+
+def _rails(mag_db: np.ndarray, mag_noise: np.ndarray) -> str:
+    """With two outputs (Stage Y's rails): how much more the rails disagree in magnitude than the model has them,
+    as the weighted mean over the band of (Y2's magnitude error - Y1's), when significant ("" otherwise): a mean of
+    the rails hides a constant disagreement (a rail read to another scale)."""
+    if mag_db.shape[0] != 2:
+        return ""
+    d = mag_db[1] - mag_db[0]
+    w = np.where(np.isfinite(d), 1.0 / (mag_noise[0] ** 2 + mag_noise[1] ** 2), 0.0)
+    if not np.any(w > 0):
+        return ""
+    mean, se = float(np.sum(w * np.nan_to_num(d)) / np.sum(w)), float(1.0 / np.sqrt(np.sum(w)))
+    if abs(mean) <= RAILS_Z * se:
+        return ""
+    return f"the rails disagree by {mean:+.2f} ± {se:.2g} dB (Y2 over Y1) beyond the model, on average over the band"
 
 
 def merge_failing(bands: tuple[Band, ...]) -> list[tuple[float, float, float]]:

@@ -9,6 +9,7 @@ K_t (1 - d) / 2), as the simulator's own ``stage_y_beam`` builds it for d = 0.
 
 import dataclasses
 import math
+import re
 
 import independent_sim as sim
 import numpy as np
@@ -47,11 +48,16 @@ def test_an_encoder_reading_one_rail_3_percent_long_is_named_with_its_scale(tmp_
     assert diag.verdict == "explained" and diag.final_effects == ("rail_scale",)
     scale, err = diag.final.values["rail_scale.y2_scale"], diag.final.stderr["rail_scale.y2_scale"]
     assert scale == pytest.approx(1.03, abs=3 * err + 1e-3)
+    # the base model's failure says how far apart the rails are: 20 log10 1.03 = +0.26 dB
+    words = diag.steps[0].residuals.description
+    assert float(re.search(r"the rails disagree by ([+-][\d.]+) ± [\d.e-]+ dB \(Y2 over Y1\)", words).group(1)) == \
+        pytest.approx(20 * math.log10(1.03), abs=0.02)
 
 
 def test_rails_that_agree_need_no_scale(tmp_path):
     diag = diagnose(stage_y(load_position_m=0.4), measured(tmp_path, beam(0.4, 32.0)))
     assert diag.verdict == "explained" and "rail_scale" not in diag.final_effects
+    assert "the rails disagree" not in diag.steps[0].residuals.description
 
 
 def test_two_motors_10_percent_apart_are_named_beside_the_tilt(tmp_path):

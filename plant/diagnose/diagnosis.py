@@ -30,6 +30,7 @@ from plant.diagnose.evidence import (
     ACCEPT_DELTA_BIC,
     addition_delta_bic,
     delta_bic_text,
+    fitted_sentence,
     model_label,
     model_section,
     parameter_section,
@@ -183,6 +184,7 @@ class Diagnosis:
         first, final = self.steps[0], self.final
         base = first.effects
         headline = (("Verdict", self.explanation),
+                    ("Fitted", fitted_sentence(final)),
                     ("Where the base model fails", first.residuals.description),
                     ("Nonlinearity", self.nonlinearity.description))
         delta = f"Δ{self.criterion}"

@@ -83,6 +83,21 @@ def model_section(verdict_: str, lines) -> Section:
     return Section("Selected model" if verdict_ == EXPLAINED else "Best model (not explained)", tuple(lines))
 
 
+def fitted_sentence(fit) -> str:
+    """The headline's fitted values of ``fit`` (a ``PlantFit``): every free base parameter and each effect's main
+    parameter, with ±1σ and units ("mass_kg = 27.15 ± 0.0046 kg, ..., rail_scale.y2_scale = 1.03 ± 0.00023")."""
+    params = fit.plant.parameters()
+    names = [n for n in fit.free if "." not in n] + [f"{e.name}.{e.main_parameter}" for e in fit.plant.effects
+                                                    if f"{e.name}.{e.main_parameter}" in fit.free]
+    parts = []
+    for n in names:
+        unit = unit_text(params[n].unit)
+        err = fit.stderr.get(n, math.nan)
+        parts.append(f"{n} = {fit.values[n]:.4g}" + (f" ± {err:.2g}" if math.isfinite(err) else "")
+                     + (f" {unit}" if unit and unit != "1" else ""))
+    return ", ".join(parts)
+
+
 def delta_bic_text(value: float) -> str:
     """A ΔBIC cell: signed to one decimal, empty where the model was not fitted (NaN)."""
     return "" if math.isnan(value) else f"{value:+.1f}"

@@ -32,6 +32,7 @@ from plant.diagnose.evidence import (
     ACCEPT_DELTA_BIC,
     addition_delta_bic,
     delta_bic_text,
+    fitted_sentence,
     model_label,
     model_section,
     parameter_section,
@@ -148,6 +149,7 @@ class TimeDiagnosis:
         selected (or best) model's parameters."""
         base, final = self.steps[0].fit, self.final
         headline = (("Verdict", self.explanation),
+                    ("Fitted", fitted_sentence(final)),
                     ("The error", f"rms residual {base.rms_residual:.3g} N (base) → {final.rms_residual:.3g} N; "
                                   f"noise alone {final.noise_rms:.3g} N"),
                     ("Where the base model fails", self.where_it_fails),

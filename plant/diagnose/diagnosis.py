@@ -59,6 +59,9 @@ REFERENCE_DRAWS = 20000
 MAX_EFFECTS = 3
 #: force amplitudes (fractions of the excitation force K_t I) a friction fit starts from
 FRICTION_SHARES = (0.05, 0.15, 0.3)
+#: the best-ranked models a drift is tried on when none is consistent with the noise (beside every model of one
+#: effect)
+DRIFT_MODELS = 6
 #: models whose BIC agree this closely are tied (their order would be the last bits of each fit)
 TIED_BIC = 1e-6
 
@@ -493,6 +496,16 @@ def diagnose(plant: Plant, data: MeasuredResponse, *, candidates: tuple[str, ...
     left_out = None if unchecked == selected or not gaps[unchecked] else LeftOut(
         unchecked, score[unchecked] - score[selected], fits[unchecked].reduced_chi2, gaps[unchecked], rank.criterion)
     explained = adequate[selected]
+    drift = None
+    if not explained:
+        ranked = _ranked({k: score[k] for k in identified})
+        tried = list(dict.fromkeys(ranked[:DRIFT_MODELS] + [k for k in ranked if len(k) <= len(base) + 1]))
+        drifted = _drifted(tried, fits, data, lambda fit: not unidentified(fit, base, band))
+        if drifted is not None:
+            drift = drifted[1]
+            if chi2_is_noise(drift.fit):
+                selected = drifted[0]              # the model the drift explains the record with
+                final = fits[selected]
     # a linear model makes no harmonics: with distortion in the data its fit is a describing function (the gain
     # of the fundamental at this amplitude), not the stage, however well it fits
     unexplained_distortion = nonlinear.distortion and all(EFFECTS[n].linear for n in selected)
@@ -504,8 +517,6 @@ def diagnose(plant: Plant, data: MeasuredResponse, *, candidates: tuple[str, ...
         if k != selected and score[k] - score[selected] < ACCEPT_DELTA_BIC)
     steps = _path(fits, score, rank.criterion, base, selected, data, skipped, unidentifiable, pool)
     final_res = steps[-1].residuals
-    drift = None if explained else fit_drift(final, data)
-    drift = drift if drift is not None and drift.significant else None
     if drift is not None and chi2_is_noise(drift.fit) and not unexplained_distortion:
         final, explained = drift.fit, True
         named = ", ".join(selected[len(base):]) or "the refitted base model"
@@ -549,6 +560,24 @@ def diagnose(plant: Plant, data: MeasuredResponse, *, candidates: tuple[str, ...
     return Diagnosis(tuple(steps), final, nonlinear, tuple(dict.fromkeys(notes)),
                      verdict(explained), explanation, alternatives, fits, left_out, rank.criterion,
                      rank.overdispersion, odd, drift)
+
+
+def _drifted(models: list[tuple[str, ...]], fits, data: MeasuredResponse,
+             identified) -> tuple[tuple[str, ...], Drift] | None:
+    """The model and drift (``plant.diagnose.drift``) named on the best of ``models`` (the ``DRIFT_MODELS`` best-ranked
+    identified models and every identified model of one effect, when none is consistent with the noise): among
+    those on which it is significant and whose drift-corrected fit still names only identified effects
+    (``identified(fit)``), the one the search's selection rule picks from their drift-corrected fits
+    (``plant.diagnose.search.select_model``); None where none is. A
+    drift confounds with the frequency in a sweep, so the model a drift-free ranking puts first need not be the
+    one the drift completes (a lag may stand in for a delay until the gain's trend is taken out)."""
+    found = {k: d for k, d in ((k, fit_drift(fits[k], data)) for k in models)
+             if d is not None and d.significant and identified(d.fit)}
+    if not found:
+        return None
+    chosen = select_model({k: d.fit.bic for k, d in found.items()}, {k: chi2_is_noise(d.fit) for k, d in found.items()},
+                          {k: d.fit.n_params for k, d in found.items()})
+    return chosen, found[chosen]
 
 
 def _ranked(bic: dict[tuple[str, ...], float]) -> list[tuple[str, ...]]:

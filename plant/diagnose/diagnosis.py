@@ -499,7 +499,8 @@ def diagnose(plant: Plant, data: MeasuredResponse, *, candidates: tuple[str, ...
     drift = None
     if not explained:
         ranked = _ranked({k: score[k] for k in identified})
-        tried = list(dict.fromkeys(ranked[:DRIFT_MODELS] + [k for k in ranked if len(k) <= len(base) + 1]))
+        tried = [k for k in dict.fromkeys(ranked[:DRIFT_MODELS] + [k for k in ranked if len(k) <= len(base) + 1])
+                 if fits[k].plant.linear]      # a friction model's refit at each rate costs seconds: not tried
         drifted = _drifted(tried, fits, data, lambda fit: not unidentified(fit, base, band))
         if drifted is not None:
             drift = drifted[1]
@@ -565,7 +566,8 @@ def diagnose(plant: Plant, data: MeasuredResponse, *, candidates: tuple[str, ...
 def _drifted(models: list[tuple[str, ...]], fits, data: MeasuredResponse,
              identified) -> tuple[tuple[str, ...], Drift] | None:
     """The model and drift (``plant.diagnose.drift``) named on the best of ``models`` (the ``DRIFT_MODELS`` best-ranked
-    identified models and every identified model of one effect, when none is consistent with the noise): among
+    identified models and every identified model of one effect, when none is consistent with the noise; linear ones:
+    a drift is not tried beside Coulomb friction, whose describing-function refit costs seconds per rate): among
     those on which it is significant and whose drift-corrected fit still names only identified effects
     (``identified(fit)``), the one the search's selection rule picks from their drift-corrected fits
     (``plant.diagnose.search.select_model``); None where none is. A

@@ -36,7 +36,8 @@ preprocessing approximations leave a structure of about 0.1 % of the force that 
 resolves). With the position recorded, two dependences that bins of one variable cannot see are tested the
 same way (``_interactions``): on current x position (a force constant varying along the track) and on a
 periodic function of position (cogging, force ripple; its pitch found from the residual's spectrum over
-position); and the residual's mean against its own Newey-West error (``_constant``), which a slow variation
+position); on current x time (a force constant drifting over the record, ``_drifting``); and the residual's mean
+against its own Newey-West error (``_constant``), which a slow variation
 along the travel inflates, so the mean of a cable's force is not taken for a constant one. A missing Coulomb
 friction leaves a step at v = 0, an offset a shift in every bin, a Stribeck curve a bump at low velocity, a
 position-dependent force (cogging, a cable) a pattern along the travel, a wrong mass a slope in acceleration.
@@ -389,6 +390,24 @@ def _constant(e: np.ndarray) -> Structure:
     return _pattern("constant", e, np.ones((e.size, 1)), 1, lambda c: f"a constant force {c[0]:+.3g} N")
 
 
+def _drifting(e: np.ndarray, force: np.ndarray, t: np.ndarray, X: np.ndarray) -> Structure:
+    """current x time: e on F u, u = (t - mid) / half over the record, against the model's columns and u itself (a
+    force that changes in time alone is not an interaction): a force constant drifting over the record (a coil
+    warming), K(t) = K(mid) (1 + d u), leaves -d u F, whose mean in any bin of time is zero where the current
+    averages out."""
+    lo, hi = float(t.min()), float(t.max())
+    if not hi > lo:
+        return Structure("current x time", 0.0, 1, 1.0, False, "one instant", 0.0, "one instant")
+    mid, half = (lo + hi) / 2, (hi - lo) / 2
+    u = (t - mid) / half
+
+    def words(c):
+        return (f"a force constant drifting over the record, to first order K(t) / K = 1 {-c[0]:+.3g} u with "
+                f"u = (t - {mid:.3g} s) / {half:.3g} s: {100 * -2 * c[0]:+.2g} % from the first sample to the last")
+
+    return _pattern("current x time", e, (force * u)[:, None], 1, words, np.column_stack([X, u]))
+
+
 def _interactions(e: np.ndarray, force: np.ndarray, position: np.ndarray, X: np.ndarray) -> tuple[Structure, ...]:
     """Residual dependences that bins of one variable cannot see (module doc).
 
@@ -503,7 +522,7 @@ def fit_inverse_model(plant: Plant, rec: TimeRecording | InverseModelData, *, fr
     noise = data.residual_noise_std_n(m_per * values["mass_kg"], b_per * values["damping_n_s_per_m"])
     variables = {"velocity": data.velocity_m_per_s[moving], "acceleration": data.acceleration_m_per_s2[moving],
                  "motor force": force}
-    interactions = (_constant(e),)
+    interactions = (_constant(e), _drifting(e, force, data.time_s[moving], X))
     if data.position_m is not None:
         variables["position"] = data.position_m[moving]
         interactions += _interactions(e, force, data.position_m[moving], X)

@@ -216,8 +216,8 @@ class Diagnosis:
         if self.left_out is not None:
             sections.append(Section("Not identified", (self.left_out.sentence(base),)))
         if self.drift is not None:
-            sections.append(Section("Drift over the record", (self.drift.text()[0].upper() + self.drift.text()[1:]
-                                                              + ".",)))
+            words = self.drift.text()
+            sections.append(Section("Drift over the record", (f"{words[0].upper()}{words[1:]}.",)))
         sections.append(Section("The path to the model", self._path(), kind="numbered"))
         if self.notes:
             sections.append(Section("Notes", self.notes, kind="notes"))
@@ -496,7 +496,7 @@ def diagnose(plant: Plant, data: MeasuredResponse, *, candidates: tuple[str, ...
     left_out = None if unchecked == selected or not gaps[unchecked] else LeftOut(
         unchecked, score[unchecked] - score[selected], fits[unchecked].reduced_chi2, gaps[unchecked], rank.criterion)
     explained = adequate[selected]
-    drift = None
+    drift, drift_explains = None, False
     if not explained:
         ranked = _ranked({k: score[k] for k in identified})
         tried = [k for k in dict.fromkeys(ranked[:DRIFT_MODELS] + [k for k in ranked if len(k) <= len(base) + 1])
@@ -504,7 +504,8 @@ def diagnose(plant: Plant, data: MeasuredResponse, *, candidates: tuple[str, ...
         drifted = _drifted(tried, fits, data, lambda fit: not unidentified(fit, base, band))
         if drifted is not None:
             drift = drifted[1]
-            if chi2_is_noise(drift.fit):
+            drift_explains = chi2_is_noise(drift.fit)
+            if drift_explains:
                 selected = drifted[0]              # the model the drift explains the record with
                 final = fits[selected]
     # a linear model makes no harmonics: with distortion in the data its fit is a describing function (the gain
@@ -518,7 +519,8 @@ def diagnose(plant: Plant, data: MeasuredResponse, *, candidates: tuple[str, ...
         if k != selected and score[k] - score[selected] < ACCEPT_DELTA_BIC)
     steps = _path(fits, score, rank.criterion, base, selected, data, skipped, unidentifiable, pool)
     final_res = steps[-1].residuals
-    if drift is not None and chi2_is_noise(drift.fit) and not unexplained_distortion:
+    explained_by_drift = drift_explains and not unexplained_distortion
+    if explained_by_drift:
         final, explained = drift.fit, True
         named = ", ".join(selected[len(base):]) or "the refitted base model"
         explanation = (f"explained by {named} with a gain drifting over the record (reduced chi-square "
@@ -551,7 +553,7 @@ def diagnose(plant: Plant, data: MeasuredResponse, *, candidates: tuple[str, ...
                             f"({nonlinear.description.removeprefix('detected: ')})")
     odd = implausible(final, plant)
     explanation += warning(odd)
-    if left_out is not None and final is fits[selected]:      # (a drift that explains makes the ranking moot)
+    if left_out is not None and not explained_by_drift:       # (a drift that explains makes the ranking moot)
         explanation += f"; {left_out.sentence(base)}"
     last = steps[-1]
     steps[-1] = replace(last, decision=explanation if not last.decision else f"{last.decision}; {explanation}")

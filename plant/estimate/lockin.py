@@ -553,12 +553,13 @@ def estimate_response(recording: Recording, *, settle_s: float | None = None, me
     _refuse_unusable(recording, results)
     kept = [j for j, r in enumerate(results) if not isinstance(r, _Excluded)]
     notes = [n for j, r in enumerate(results) for n in _notes(recording, j, r)]
+    starts = _block_starts(recording)
     metadata = {"settle_s": [results[j].settle_s for j in kept], "periods_used": [results[j].periods for j in kept],
                 "subblocks": [results[j].subblocks for j in kept],
                 "variance_dof": [getattr(results[j], "variance_dof", 2.0 * (results[j].subblocks - 1)) for j in kept],
                 "excluded_f_hz": [recording.blocks[j].f_hz for j, r in enumerate(results) if isinstance(r, _Excluded)],
                 "sample_rate_hz": _sample_rate_hz(recording), "recording": dict(recording.metadata),
-                "block_time_s": [float(_block_starts(recording)[j] + recording.blocks[j].time_s[-1] / 2) for j in kept]}
+                "block_time_s": [float(starts[j] + recording.blocks[j].time_s[-1] / 2) for j in kept]}
     quantum = encoder_velocity_quantum(recording)
     if quantum is not None:
         metadata["encoder_velocity_quantum_m_per_s"] = quantum

@@ -114,8 +114,10 @@ def fit_drift(fit: FitResult, data: MeasuredResponse) -> Drift | None:
     if best is None:         # not a bowl near zero: the bounded search
         best = optimize.minimize_scalar(m2ll, bounds=(-limit, limit), method="bounded",
                                         options={"xatol": 1e-4 / span}).x
-        h = max(abs(best), 1e-3 / span) * 0.05
-        curvature = (m2ll(best + h) - 2 * m2ll(best) + m2ll(best - h)) / h**2
+        curvature = math.nan
+    # the error where it is defined, -2 ln L rising by 1 at ±1σ: the curvature over ±1σ of the estimate
+    h = math.sqrt(2.0 / curvature) if curvature > 0 else max(abs(best), 1e-3 / span) * 0.05
+    curvature = (m2ll(best + h) - 2 * m2ll(best) + m2ll(best - h)) / h**2
     stderr = math.sqrt(2.0 / curvature) if curvature > 0 else math.inf
     drifted = refit(best)
     k, dof = drifted.n_params + 1, drifted.dof - 1

@@ -14,6 +14,7 @@ import re
 import independent_sim as sim
 import numpy as np
 import pytest
+from in_process import gantry
 
 from plant import stage_y
 from plant.data.read_stepped_sine import read_recording
@@ -69,3 +70,15 @@ def test_two_motors_10_percent_apart_are_named_beside_the_tilt(tmp_path):
     d, err = diag.final.values["motor_imbalance.fraction"], diag.final.stderr["motor_imbalance.fraction"]
     assert d == pytest.approx(0.05, abs=3 * err + 0.005)
     assert diag.final.values["tilt_coupling.frequency_hz"] == pytest.approx(32.0, rel=0.03)
+
+
+@pytest.mark.parametrize("argv,words", [
+    (["--stage", "y", "--effects", "rail_scale.y2_scale=-1"], "parameter rail_scale.y2_scale must be positive"),
+    (["--stage", "y", "--effects", "motor_imbalance.fraction=1.5,tilt_coupling"],
+     "motor_imbalance.fraction must lie in (-1, 1)"),
+    (["--stage", "x", "--effects", "rail_scale"], "rail_scale applies to Stage Y only"),
+])
+def test_a_rail_effect_out_of_range_is_refused_in_one_line(tmp_path, argv, words):
+    out = gantry("simulate", *argv, "--out", str(tmp_path / "z.csv"))
+    assert out.returncode == 2 and words in out.stderr and len(out.stderr.strip().splitlines()) == 1
+    assert list(tmp_path.iterdir()) == []

@@ -329,7 +329,7 @@ def diagnose_time(plant: Plant, rec: TimeRecording, *, candidates: tuple[str, ..
 def _explanation(final: TimeFitResult, selected: tuple[str, ...], peak_hz: float, peak_share: float) -> str:
     model = "base" + "".join(f" + {n}" for n in selected)
     size = (f"{final.rms_residual:.3g} N rms ({final.relative_error_percent:.2g} % of the force), "
-            f"{final.noise_ratio:.3g} x the white noise of the raw signals")
+            f"{final.noise_ratio:.3g} x the noise predicted through the filters and differences")
     if final.explained:
         return (f"{model} explains the recording: its residual ({size}) depends on neither velocity, acceleration, "
                 "motor force nor position" + ("" if selected else "; nothing is missing"))

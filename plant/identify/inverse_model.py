@@ -20,17 +20,24 @@ round(0.8 (fs / 2) / decimate_band_hz). The decimation filter removes the force'
 the band, where the rigid-body model says nothing and the controller's noise lives, so the
 regression sees the same band in every column (a "parallel" filter).
 
-Noise. The white measurement noise of the force and of the position is estimated from second
-differences of the raw signals at the full rate (Gasser, Sroka & Jennen-Steinmetz 1986:
-sigma^2 = sum (x_(k+1) - 2 x_k + x_(k-1))^2 / (6 (n - 2)) for a smooth signal plus white noise),
-and its contribution to the regression residual, F_noise - M a_noise - b v_noise after the whole
-chain, is computed by passing seeded white noise of those levels through the same chain
-(``residual_noise_std_n``).
+Noise. The white measurement noise of the force and of the position is estimated from fourth differences of
+the raw signals at the full rate: for a smooth signal plus white noise of variance sigma^2,
+sum (Delta^4 x)^2 / (70 (n - 4)) estimates sigma^2 (70 = C(8, 4), the differences' squared weights; Gasser, Sroka
+& Jennen-Steinmetz 1986 use the second differences, sum / 6, which keep (omega h)^2 of the motion: 1 m/s^2 at
+1 kHz is a 1 um second difference, the size of an encoder's quantum; the fourth keep (omega h)^4). An encoder's
+quantisation error is read as its q / sqrt(12). In a closed loop (a reference recorded) the current is the
+controller's command (EMPS logs the command ``vir``): its reaction to the encoder's noise, and any dither it adds,
+are forces the axis feels, so the force's noise is zero and what is left is the position's noise,
+differentiated and filtered. Its contribution to the regression residual, F_noise - M a_noise - b v_noise after
+the whole chain, is computed by passing seeded white noise of those levels through the same chain
+(``residual_noise_std_n``). Rests shorter than a decimated sample are read from the raw position
+(``raw_rest``): the filters smear them over moving samples.
 """
 
 from __future__ import annotations
 
 import functools
+import math
 from collections import OrderedDict
 from dataclasses import dataclass, field
 
@@ -47,6 +54,8 @@ FILTER_ORDER = 4
 DECIMATE_BAND_HZ = 40.0
 #: samples dropped at each end after filtering and differencing (the script drops 50)
 EDGE_SAMPLES = 50
+#: order of the differences the white noise is estimated from (module doc)
+DIFFERENCE_ORDER = 4
 #: seed of the white noise passed through the chain to predict the residual's noise
 NOISE_SEED = 20190101
 #: a velocity within this many noise standard deviations of zero is indistinguishable from rest
@@ -97,6 +106,8 @@ class InverseModelData:
     full_rate_position_m: np.ndarray | None = None
     #: the recording has the reference of a closed loop (``TimeRecording.reference``)
     closed_loop: bool = False
+    #: decimated samples whose span holds a raw sample at rest (``_raw_rest``), None for none
+    raw_rest: np.ndarray | None = None
     _memo: _ColumnMemo = field(default_factory=lambda: _ColumnMemo(COLUMN_MEMO_BYTES), init=False, repr=False,
                                compare=False)
 
@@ -106,10 +117,20 @@ class InverseModelData:
         within ``REST_GUARD_PERIODS`` periods of the decimation band of one: the filters spread a rest
         period's static friction force, which is no function of the velocity, over its neighbours."""
         rest = np.abs(self.velocity_m_per_s) <= REST_SIGMAS * float(np.std(self.noise_velocity_m_per_s))
-        if not rest.any():
-            return rest
         guard = int(np.ceil(REST_GUARD_PERIODS * self.sample_rate_hz / self.decimate_band_hz))
-        return np.convolve(rest.astype(float), np.ones(2 * guard + 1), mode="same") > 0
+        return _widened(rest, guard)
+
+    @property
+    def at_reversal(self) -> np.ndarray:
+        """The two samples either side of each change of sign of the velocity, and those whose span holds a raw
+        sample at rest (``raw_rest``): the sampled sign(v) cannot say when between them the friction turned, nor
+        for how long the axis stuck."""
+        v = self.velocity_m_per_s
+        out = np.zeros(v.size, bool)
+        flip = np.sign(v[1:]) * np.sign(v[:-1]) < 0
+        out[1:] |= flip
+        out[:-1] |= flip
+        return out if self.raw_rest is None else out | self.raw_rest
 
     def decimate(self, signal: np.ndarray) -> np.ndarray:
         """A full-rate signal (``full_rate_velocity_m_per_s``'s samples; or several, one per row) decimated as the
@@ -142,6 +163,13 @@ class InverseModelData:
         return float(np.std(e))
 
 
+def _widened(mask: np.ndarray, samples: int) -> np.ndarray:
+    """``mask`` with every sample within ``samples`` of a set one set."""
+    if not mask.any() or samples == 0:
+        return mask
+    return np.convolve(mask.astype(float), np.ones(2 * samples + 1), mode="same") > 0
+
+
 class _ColumnMemo:
     """Least recently used entries of arrays by key, within a byte budget."""
 
@@ -162,9 +190,23 @@ class _ColumnMemo:
 
 
 def difference_noise_std(x: np.ndarray) -> float:
-    """White-noise standard deviation of ``x`` from its second differences (module doc)."""
-    d2 = np.diff(np.asarray(x, dtype=float), 2)
-    return float(np.sqrt(np.sum(d2**2) / (6 * max(d2.size, 1))))
+    """White-noise standard deviation of ``x`` from its fourth differences (module doc)."""
+    d4 = np.diff(np.asarray(x, dtype=float), DIFFERENCE_ORDER)
+    return float(np.sqrt(np.sum(d4**2) / (math.comb(2 * DIFFERENCE_ORDER, DIFFERENCE_ORDER) * max(d4.size, 1))))
+
+
+def _raw_rest(output: np.ndarray, sigma: float, kind: str, r: int, n: int) -> np.ndarray:
+    """Decimated samples (``n``, factor ``r``, after the edge cut) whose span of ``r`` raw samples holds one at rest:
+    a raw velocity, or a position's central difference, within ``REST_SIGMAS`` of its white noise (``sigma``) of
+    zero. The filters smear a stick shorter than their span over moving samples; the raw signal does not."""
+    if kind == "position":
+        moved = np.abs(output[2:] - output[:-2]) / 2
+        rest = np.r_[False, moved <= REST_SIGMAS * sigma / np.sqrt(2), False]
+    else:
+        rest = np.abs(output) <= REST_SIGMAS * sigma
+    rest = rest[EDGE_SAMPLES: output.size - EDGE_SAMPLES]
+    rest = _widened(rest, r // 2)[::r][:n]
+    return np.r_[rest, np.zeros(n - rest.size, bool)]
 
 
 def decimation_factor(sample_rate_hz: float, band_hz: float) -> int:
@@ -248,12 +290,14 @@ def inverse_model_data(rec: TimeRecording, force_constant_n_per_a: float,
     if not all(np.all(np.isfinite(x)) for x in (f, v, acc)):
         raise DataError(f"{rec.source}: the filtered signals overflow: a current or {rec.output_kind} value in the "
                         "recording is far out of range")
-    sigma_f = difference_noise_std(force)
+    closed_loop = rec.reference is not None
+    sigma_f = 0.0 if closed_loop else difference_noise_std(force)
     sigma_y = float(np.mean([difference_noise_std(o) for o in rec.output])) / np.sqrt(rec.output.shape[0])
     rng = np.random.default_rng(NOISE_SEED)
     nf, nv, na, *_ = _chain(fs, sigma_y * rng.standard_normal(rec.n_samples),
                         sigma_f * rng.standard_normal(rec.n_samples), rec.output_kind, filter_hz, r)
     t = rec.time_s[EDGE_SAMPLES: rec.n_samples - EDGE_SAMPLES][::r][: f.size]
+    raw_rest = _raw_rest(output, sigma_y, rec.output_kind, r, f.size)
     return InverseModelData(t, f, v, acc, fs / r, r, filter_hz, decimate_band_hz, sigma_f, sigma_y, nf, nv, na,
                             rec.source,
-                            v_full, position, f_full, x_full, rec.reference is not None)
+                            v_full, position, f_full, x_full, closed_loop, raw_rest)

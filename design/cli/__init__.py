@@ -25,6 +25,7 @@ def _register() -> None:
         coupling,
         diagnose,
         excite,
+        export,
         fit,
         mouse_run,
         planar_run,
@@ -39,7 +40,8 @@ def _register() -> None:
 
     commands = ((reproduce, "reproduce"), (simulate, "simulate"), (fit, "fit"), (diagnose, "diagnose"),
                 (coupling, "coupling"), (excite, "excite"), (synth, "synth"), (sweep, "sweep"), (report, "report"),
-                (mouse_run, "mouse-run"), (planar_run, "planar-run"), (planar_synth, "planar-synth"))
+                (mouse_run, "mouse-run"), (planar_run, "planar-run"), (planar_synth, "planar-synth"),
+                (export, "export"))
     if [c.name for c in app.registered_commands] == [name for _, name in commands]:
         return
     app.registered_commands.clear()     # none, or a registration a Ctrl-C cut short

@@ -11,7 +11,7 @@ from design.cli import main
 from design.cli.common import app
 
 COMMANDS = ["reproduce", "simulate", "fit", "diagnose", "coupling", "excite", "synth", "sweep", "report", "mouse-run",
-            "planar-run", "planar-synth"]
+            "planar-run", "planar-synth", "export"]
 
 
 def _main(capsys, monkeypatch, *args) -> tuple[int, str]:

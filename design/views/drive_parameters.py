@@ -9,12 +9,12 @@ wrote (``discrete``: kp, ki per sample of the trapezoidal integral, the filters'
 
 Beckhoff (``beckhoff``), sources (Beckhoff Information System, infosys.beckhoff.com):
 
-* AX5000 IDN description, "S-0-0100 Velocity loop proportional gain": udec, 32 bit, 3 decimals, max
+* AX5000 IDN description, "S-0-0100 velocity loop Kp": udec, 32 bit, 3 decimals, max
   4294967.295 (interface revision 210); unit A/(rad/s) (compatible), or Nm/(rad/s) | N/(m/s) with the feature
   flag P-0-0010 bit 15 set. Exported in N/(m/s), the flag set: S-0-0100 = Kp K_f, K_f the motor's force
   constant (N/A, the spec's ``plant.force_constant_n_per_a``). The compatible A/(rad/s) of a linear motor
   depends on how the drive maps its pole pitch to radians, which the page does not give: not exported.
-* AX5000 IDN description, "S-0-0101 Velocity loop integral action time": udec, 16 bit, 1 decimal, unit ms,
+* AX5000 IDN description, "S-0-0101 velocity loop Tn": udec, 16 bit, 1 decimal, unit ms,
   max 6000.0; 0 switches the integral part off. S-0-0101 = 1000 Kp / Ki.
 * AX8000 object description, "3140:01 Velocity control proportional gain" (REAL32, unit set by "3005:09
   Scaling index velocity proportional gain") and "3140:02 Velocity control integral action time" (REAL32, s,
@@ -164,16 +164,16 @@ def beckhoff(kp: float, ki: float, force_constant_n_per_a: float) -> DriveExport
     tn_ms = 0.0 if tn is None else 1000.0 * tn
     off = "0: the integral part off (the design has Ki = 0)" if tn is None else ""
     rows = (
-        DriveParameter("S-0-0100 Velocity loop proportional gain", kp_n, "N/(m/s)",
+        DriveParameter("S-0-0100 velocity loop Kp", kp_n, "N/(m/s)",
                        _fixed(kp_n, S0100_DECIMALS), f"{AX5000_IDN}, S-0-0100",
                        f"above the parameter's maximum {S0100_MAX}" if kp_n > S0100_MAX else ""),
-        DriveParameter("S-0-0101 Velocity loop integral action time", tn_ms, "ms",
+        DriveParameter("S-0-0101 velocity loop Tn", tn_ms, "ms",
                        _fixed(tn_ms, S0101_DECIMALS), f"{AX5000_IDN}, S-0-0101",
                        off or (f"above the parameter's maximum {S0101_MAX_MS:.1f} ms: the drive cannot hold "
                                "this integral action" if tn_ms > S0101_MAX_MS else "")),
-        DriveParameter("AX8000 3140:01 Velocity control proportional gain", kp_n, "N/(m/s)", _g(kp_n),
+        DriveParameter("AX8000 3140:01 Kp", kp_n, "N/(m/s)", _g(kp_n),
                        f"{AX8000_OBJECT}, 3140:01 and 3005:09"),
-        DriveParameter("AX8000 3140:02 Velocity control integral action time", tn_ms / 1000.0, "s",
+        DriveParameter("AX8000 3140:02 Tn", tn_ms / 1000.0, "s",
                        _g(tn_ms / 1000.0), f"{AX8000_OBJECT}, 3140:02",
                        off or (f"above the object's maximum {AX8000_TN_MAX_S:g} s: the drive cannot hold this "
                                "integral action" if tn_ms / 1000.0 > AX8000_TN_MAX_S else "")),
@@ -204,12 +204,11 @@ def copley(kp: float, ki: float, encoder_resolution_m: float) -> DriveExport:
     ki_drive = ki * r * per_unit
     rows = (
         DriveParameter("encoder resolution", 1.0 / r, "counts/m", _g(1.0 / r), "--encoder-resolution-m"),
-        DriveParameter("Kp in drive units", kp_drive, "0.01 A per 0.1 counts/s", _g(kp_drive),
+        DriveParameter("Kp in drive units", kp_drive, "0.01 A/(0.1 count/s)", _g(kp_drive),
                        f"{COPLEY} (velocities 0.1 counts/s: 0x18, 0x3A, 0x3B; currents 0.01 A)"),
-        DriveParameter("Ki in drive units", ki_drive, "0.01 A per 0.1 counts", _g(ki_drive),
+        DriveParameter("Ki in drive units", ki_drive, "0.01 A/(0.1 count)", _g(ki_drive),
                        f"{COPLEY} (as Kp; the integral of 0.1 counts/s over s)"),
-        DriveParameter("Vp (0x27), Vi (0x28)", None, "", "not exported", f"{COPLEY}; CME 2 User Guide 11.5",
-                       "the manuals give no scaling from Vp, Vi to current per velocity error"),
+        DriveParameter("Vp, Vi", None, "", "-", f"{COPLEY} 0x27, 0x28; CME 2 User Guide 11.5", "not exported"),
     )
     notes = ("Vp and Vi are the drive's integers 0-32,767 under its Velocity Gains Shift; Copley's manuals do not "
              "give their factor to A per count/s, so they are not printed: map Kp, Ki onto them with a measured "

@@ -13,7 +13,7 @@ realisation the frequency-domain design uses, ``plant.physics.realisation``):
   integral of the motor body's velocity v_0; F_r = -F_f + the forces the plant's effects put on the rails
   (``rail_force_n`` at x_0 and F_m: an offset, a force ripple, a force-constant profile, a cable's pull; a cable's
   spring is the mechanics', its state set to the run's start), Coulomb friction
-  regularised F_f = F_c tanh(v_0 / v_s);
+  regularised F_f = F_c tanh(v_0 / v_s), F_c with a cable's drag where the rails are (``rail_friction_n``);
 * the head (m_h) rides the clamp: F_s = F_n - m_h dv/dt (with the mechanics' instantaneous dv/dt, solved);
   for a rigid Stage X that is (M + m_h) dv/dt = F_m + F_n - b v - F_f;
 * the sensor chain H (a sensor filter) from v to the velocity the drive measures, v_m;
@@ -244,10 +244,13 @@ def simulate_mouse_run(settings: RunSettings, time_s, x_d, v_d, a_d) -> RunTrace
         v0, _, x0, motor_n = m.mid @ z + m.mid_u @ (ic, on_rails(v0, x0, motor_n), held)
         return m.Phi @ z + m.Gamma @ (ic, on_rails(v0, x0, motor_n), held)
     pushing = [e for e in s.plant.effects if e.rail_force]
+    along = [e for e in s.plant.effects if e.rail_friction]
 
     def on_rails(v0, x0, motor_n):
-        """F_r: the friction against the rails' velocity and every effect's rail force."""
-        out = -fc * math.tanh(v0 / vs) if fc > 0 else 0.0
+        """F_r: the friction against the rails' velocity (with any drag along the travel, none where it would make
+        the friction negative) and every effect's rail force."""
+        magnitude = fc + sum(e.rail_friction_n(x0) for e in along)
+        out = -magnitude * math.tanh(v0 / vs) if magnitude > 0 else 0.0
         for e in pushing:
             out += e.rail_force_n(x0, v0, motor_n)
         return out

@@ -20,7 +20,8 @@ command on the internal grid; a zero-order hold, exact, with ``sampling``). The 
 position and the current are held over each step at its midpoint, predicted from the state's derivative at
 the step's start (error O(h^2) per unit time). Friction is Moreau's implicit step as in
 ``plant.experiment.simulate``: the force in -(F_c + F_s exp(-(v/v_s)^2)) Sign(v_end), the Stribeck magnitude at
-the velocity the step starts from, so the contact sticks exactly at rest when the drive cannot break it loose.
+the velocity the step starts from (and a cable's drag where the carriage is, ``rail_friction_n``), so the contact
+sticks exactly at rest when the drive cannot break it loose.
 Checked against ``tests/reference/independent_linear_motor.py`` (Runge-Kutta, no shared code).
 """
 
@@ -168,7 +169,9 @@ def simulate_time_domain(plant: Plant, excitation: Excitation, *, sample_rate_hz
     fs = 0.0 if stribeck is None else float(stribeck.excess_n)
     vs = 1.0 if stribeck is None else float(stribeck.velocity_m_per_s)
     g_contact = float(c_contact @ g_f)                 # contact velocity per unit friction force over a step
-    friction = fc > 0 or fs > 0
+    along = [e for e in plant.effects if e.rail_friction]
+    friction = fc > 0 or fs > 0 or bool(along)
+    position = np.eye(A.shape[0])[n_chain]
 
     # the rails' position and velocity and the motor current at a step's midpoint, predicted from its start: rows
     # dotted with z, and the command's terms
@@ -203,6 +206,9 @@ def simulate_time_domain(plant: Plant, excitation: Excitation, *, sample_rate_hz
             if friction:
                 v_free = float(c_contact @ z)
                 magnitude = fc + fs * math.exp(-(v_prev / vs) ** 2)
+                if along:                   # a friction cannot push: none where a drag would make it negative
+                    x_now = float(position @ z)
+                    magnitude = max(magnitude + sum(e.rail_friction_n(x_now) for e in along), 0.0)
                 impulse = -min(max(v_free / g_contact, -magnitude), magnitude)
                 z = z + g_f * impulse
                 v_prev = v_free + g_contact * impulse

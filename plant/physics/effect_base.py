@@ -126,6 +126,8 @@ class Effect(abc.ABC):
 
     #: it adds a force on the rails that the continuous time-domain simulation applies (``rail_force_n``)
     rail_force: ClassVar[bool] = False
+    #: it adds a friction on the rails that varies along the travel (``rail_friction_n``)
+    rail_friction: ClassVar[bool] = False
     #: what of it a time-domain simulation's linear model holds (one of ``REALISED_AS``; every effect declares it)
     realised_as: ClassVar[str]
 
@@ -134,6 +136,12 @@ class Effect(abc.ABC):
         position (m), velocity (m/s) and the motor's force (N), as the time-domain simulations (the continuous
         one and the mouse run) apply it (effects with ``rail_force``; chain factors, modes and friction act
         through the model instead)."""
+        return 0.0
+
+    def rail_friction_n(self, position_m: float) -> float:
+        """The part (N) of the rails' Coulomb friction magnitude the effect adds at the rails' position (m), a
+        friction that varies along the travel (effects with ``rail_friction``: a cable carrier's drag); the time
+        simulations apply it with the Coulomb friction's law (sticking included). 0 for most effects."""
         return 0.0
 
     def rail_stiffness(self):

@@ -6,7 +6,7 @@ Physics
     A rigid carriage of mass m (kg) at position x (m), velocity v (m/s), on guides with viscous damping
     b (N s/m):
 
-        m v' = Kt(x) sat(i) + ripple(x) - k_c (x - x_c) - b v,      x' = v
+        m v' = Kt(x) sat(i) + ripple(x) - k_c (x - x_c) - d (x - x_f) tanh(v / v_d) - b v,      x' = v
 
     * amplifier current limit: sat(i) = clip(i, -limit, limit) (A); the recorded current is the commanded
       one, as a drive logs its current command;
@@ -14,7 +14,9 @@ Physics
       off towards the ends of the track;
     * force ripple (cogging): sum_k a_k sin(2 pi k x / pitch + phi_k) (N);
     * a cable chain pulling towards its rest position x_c with stiffness k_c (N/m): a force that depends on
-      the position but is neither periodic nor proportional to the current (outside the tool's library).
+      the position but is neither periodic nor proportional to the current; and the chain's drag, a friction
+      d (x - x_f) that grows with the length of chain moving, from its fixed end x_f (m), smoothed at rest as
+      d (x - x_f) tanh(v / ``DRAG_VELOCITY_M_PER_S``) (a regularised friction, so the integration stays smooth).
 
 Integration
     Classical fourth-order Runge-Kutta on ``SUBSTEPS`` steps per sample (fewer for slow, smooth currents);
@@ -31,6 +33,9 @@ import independent_sim
 import numpy as np
 
 SUBSTEPS = 16
+#: velocity (m/s) below which the cable's drag is smoothed (module doc): its slope d (x - x_f) / v_d, tens of
+#: thousands of N s/m, leaves a time constant m v_d / (d (x - x_f)) above a millisecond, within Runge-Kutta's reach
+DRAG_VELOCITY_M_PER_S = 2e-4
 
 
 @dataclass(frozen=True)
@@ -48,16 +53,22 @@ class LinearMotorAxis:
     ripple_phase_rad: tuple[float, ...] = ()
     cable_n_per_m: float = 0.0
     cable_rest_m: float = 0.0
+    cable_drag_n_per_m: float = 0.0
+    cable_fixed_m: float = -0.25
 
-    def force_n(self, i_a: np.ndarray, x_m: np.ndarray) -> np.ndarray:
-        """Force (N) of the motor and the cable for commanded current ``i_a`` at position ``x_m``."""
+    def force_n(self, i_a: np.ndarray, x_m: np.ndarray, v_m_per_s=0.0) -> np.ndarray:
+        """Force (N) of the motor and the cable for commanded current ``i_a`` at position ``x_m`` and velocity
+        ``v_m_per_s``."""
         i = i_a if self.current_limit_a is None else np.minimum(np.maximum(i_a, -self.current_limit_a),
                                                                  self.current_limit_a)
         kt = self.kt_n_per_a * (1.0 - self.kt_droop * (2.0 * x_m / self.travel_m) ** 2)
         f = kt * i
         for k, (a, phi) in enumerate(zip(self.ripple_n, self.ripple_phase_rad or (0.0,) * len(self.ripple_n)), 1):
             f = f + a * np.sin(2 * np.pi * k * x_m / self.ripple_pitch_m + phi)
-        return f - self.cable_n_per_m * (x_m - self.cable_rest_m)
+        f = f - self.cable_n_per_m * (x_m - self.cable_rest_m)
+        if self.cable_drag_n_per_m:
+            f = f - self.cable_drag_n_per_m * (x_m - self.cable_fixed_m) * np.tanh(v_m_per_s / DRAG_VELOCITY_M_PER_S)
+        return f
 
     def run(self, current, t_s: np.ndarray, n: int = 1, substeps: int = SUBSTEPS,
             drive=None) -> tuple[np.ndarray, np.ndarray]:
@@ -72,7 +83,7 @@ class LinearMotorAxis:
 
         def rate(t, x, v):
             i = current(t) if drive is None else drive(current(t), x)
-            return v, (self.force_n(i, x) - b * v) / m
+            return v, (self.force_n(i, x, v) - b * v) / m
 
         x, v = (0.0, 0.0) if n == 1 else (np.zeros(n), np.zeros(n))
         xs, vs = np.empty((t_s.size, n)), np.empty((t_s.size, n))

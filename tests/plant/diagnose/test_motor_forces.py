@@ -167,3 +167,25 @@ def test_a_fit_with_a_limit_or_a_ripple_sets_its_shape_from_the_recording_unless
     assert fit.explained
     held = fit_recording(path, stage="x", effects=("current_limit",), values={"current_limit.limit_n": 70.0}).result
     assert held.plant.effect("current_limit").limit_n == pytest.approx(0.85 * 70.0, rel=1e-3)
+
+
+@pytest.mark.parametrize("form, drag, fixed_m", [("slow_sweep", 40.0, -0.25), ("chirp", -60.0, 0.25)])
+def test_a_cable_carriers_drag_along_the_travel_is_found_beside_its_spring(form, drag, fixed_m):
+    """A cable chain of 30 N/m whose drag grows from its fixed end (at either end of the track: d (x - x_f) >= 0 on
+    the travel): a friction that varies along the travel. Found as cable_force with coulomb_friction (the drag's
+    value at mid-travel), its stiffness, drag slope and Coulomb force the simulator's, the mass as without it (a
+    force-constant profile with the mass 26 % low was the earlier answer)."""
+    run = getattr(lm, form)
+    _, _, free = run(lm.LinearMotorAxis(), seed=1)
+    axis = lm.LinearMotorAxis(cable_n_per_m=30.0, cable_rest_m=float(np.mean(free)), cable_drag_n_per_m=drag,
+                              cable_fixed_m=fixed_m)
+    t, current, position = run(axis, seed=1)
+    diag = diagnose_time(stage_x(), TimeRecording(t, current, position[None, :], "position", ("x",), source=form))
+    assert set(diag.selected) == {"cable_force", "coulomb_friction"}
+    assert diag.verdict == EXPLAINED
+    cable = diag.final.plant.effect("cable_force")
+    assert cable.stiffness_n_per_m == pytest.approx(30.0, rel=0.05)
+    assert cable.drag_n_per_m == pytest.approx(drag, rel=0.05)
+    coulomb = diag.final.plant.effect("coulomb_friction").force_n
+    assert coulomb == pytest.approx(drag * (cable.centre_m - fixed_m), rel=0.03)
+    assert diag.final.values["mass_kg"] == pytest.approx(axis.mass_kg, rel=0.01)

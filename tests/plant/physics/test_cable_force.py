@@ -45,3 +45,18 @@ def test_a_cable_is_neither_an_offset_beside_it_nor_on_the_tilting_beam():
     for other in ("offset", "tilt_coupling"):
         with pytest.raises(EffectError, match="cable_force"):
             stage_y().with_effects(make_effect("cable_force"), make_effect(other))
+
+
+def test_the_drag_is_a_friction_that_grows_along_the_travel():
+    """The drag d (x - centre) is a friction magnitude where the carriage is, (x - centre) sign(v) per unit of d in the
+    inverse model, and no rail force: it only opposes the motion (the simulations' friction law applies it)."""
+    from plant.physics.effect_base import ForceSignals
+
+    cable = make_effect("cable_force", stiffness_n_per_m=K, pull_n=1.0, centre_m=0.1, drag_n_per_m=50.0)
+    assert cable.rail_friction_n(0.3) == pytest.approx(50.0 * 0.2)
+    assert cable.rail_force_n(0.3, 1.0, 0.0) == cable.rail_force_n(0.3, -1.0, 0.0) == pytest.approx(-(1.0 - K * 0.1))
+    x, v = np.array([0.0, 0.2, 0.3]), np.array([1.0, -2.0, 0.5])
+    cols = cable.force_regressors(ForceSignals(v, np.zeros(3), x))
+    np.testing.assert_allclose(cols["drag_n_per_m"], (x - 0.1) * np.sign(v))
+    with pytest.raises(Exception, match="drag_n_per_m"):
+        make_effect("cable_force", drag_n_per_m=float("nan"))

@@ -13,6 +13,7 @@ Physics
     * force constant along the magnet track: Kt(x) = Kt0 (1 - droop (2 x / travel)^2) (N/A), falling
       off towards the ends of the track;
     * force ripple (cogging): sum_k a_k sin(2 pi k x / pitch + phi_k) (N);
+    * guides whose damping drifts in time, b (1 + r t) (a lubricant warming up);
     * a cable chain pulling towards its rest position x_c with stiffness k_c (N/m): a force that depends on
       the position but is neither periodic nor proportional to the current; and the chain's drag, a friction
       d (x - x_f) that grows with the length of chain moving, from its fixed end x_f (m), smoothed at rest as
@@ -55,6 +56,8 @@ class LinearMotorAxis:
     cable_rest_m: float = 0.0
     cable_drag_n_per_m: float = 0.0
     cable_fixed_m: float = -0.25
+    #: the guides' damping drifts in time, b (1 + rate t) (a lubricant warming), 1/s
+    damping_rate_per_s: float = 0.0
 
     def force_n(self, i_a: np.ndarray, x_m: np.ndarray, v_m_per_s=0.0) -> np.ndarray:
         """Force (N) of the motor and the cable for commanded current ``i_a`` at position ``x_m`` and velocity
@@ -83,7 +86,7 @@ class LinearMotorAxis:
 
         def rate(t, x, v):
             i = current(t) if drive is None else drive(current(t), x)
-            return v, (self.force_n(i, x, v) - b * v) / m
+            return v, (self.force_n(i, x, v) - b * (1.0 + self.damping_rate_per_s * t) * v) / m
 
         x, v = (0.0, 0.0) if n == 1 else (np.zeros(n), np.zeros(n))
         xs, vs = np.empty((t_s.size, n)), np.empty((t_s.size, n))

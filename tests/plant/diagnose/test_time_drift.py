@@ -1,4 +1,5 @@
 """A force constant drifting over a time-domain recording shows in the residual against current x time, and only
+there; a damping drifting (the independent linear motor's guides, b (1 + r t)) against velocity x time, and only
 there. The closed-loop friction axis of tests/reference/independent_friction_sim.py (it imports nothing of the tool)
 applies gain x command; a logged command divided by 1 + d u (u running from -1 to 1 over the record) is what a
 drive whose force constant is K (1 + d u) logs for the same motion, seen with a constant K."""
@@ -35,3 +36,34 @@ def test_a_force_constant_drifting_4_percent_shows_against_current_x_time():
 def test_a_constant_force_constant_shows_no_drift():
     diag, st = structure(0.0)
     assert not st.significant and diag.verdict == "explained"
+
+
+def test_a_drifting_force_constant_is_not_taken_for_a_drifting_damping():
+    diag, st = structure(0.02)
+    damping = next(s for s in diag.final.structure if s.variable == "velocity x time")
+    assert st.significant and not damping.significant
+
+
+def _sweep_with_damping_rising(change: float):
+    """The independent linear motor's guides' damping rising by ``change`` over a 16 s open-loop sweep."""
+    import independent_linear_motor as lm
+
+    from plant import stage_x
+
+    t, current, position = lm.slow_sweep(lm.LinearMotorAxis(damping_rate_per_s=change / 16.0), seed=2)
+    diag = diagnose_time(stage_x(), TimeRecording(t, current, position[None], "position", ("x",)))
+    return diag, {st.variable: st for st in diag.final.structure}
+
+
+def test_a_damping_rising_10_percent_shows_against_velocity_x_time_with_its_size():
+    diag, st = _sweep_with_damping_rising(0.10)
+    damping = st["velocity x time"]
+    assert damping.significant and not st["current x time"].significant
+    change = float(damping.summary.split(": ")[-1].split(" %")[0])
+    assert abs(change - 10.0) < 1.0, damping.summary       # +9.4 % between the first and last kept samples
+    assert diag.verdict == "not_explained" and "damping drifting" in diag.explanation
+
+
+def test_a_constant_damping_shows_no_drift():
+    diag, st = _sweep_with_damping_rising(0.0)
+    assert not st["velocity x time"].significant and diag.verdict == "explained"

@@ -11,7 +11,7 @@ import numpy as np
 
 from design.loop.controller import PI
 from design.loop.loops import balanced, closed_loop_tf, open_loop_frd
-from design.loop.margins import loop_margins
+from design.loop.margins import closed_loop_bandwidth_hz, loop_margins
 from design.loop.requirement import ScenarioPoint
 from design.problem import LoopProblem
 from plant.grid import log_grid_rad_s
@@ -46,6 +46,21 @@ class LoopCurves:
     gain_margin_db: np.ndarray
     #: the row of the binding scenario (None: none given)
     binding_row: int | None = None
+    #: per row: closed-loop bandwidth (Hz), where |T|^2 first falls below the requirements' level2 (nan: nowhere on
+    #: the grid), and the peaks of |S| and |T| (dimensionless) on the Bode grid
+    bandwidth_hz: np.ndarray | None = None
+    peak_sensitivity: np.ndarray | None = None
+    peak_complementary: np.ndarray | None = None
+
+    @property
+    def sensitivity(self) -> np.ndarray:
+        """S = 1 / (1 + L) per row on ``bode_w_rad_s``."""
+        return 1.0 / (1.0 + self.loop)
+
+    @property
+    def complementary(self) -> np.ndarray:
+        """T = L / (1 + L) per row on ``bode_w_rad_s``."""
+        return self.loop / (1.0 + self.loop)
 
 
 def report_payloads(problem: LoopProblem) -> tuple[float, ...]:
@@ -79,7 +94,12 @@ def loop_curves(problem: LoopProblem, controller: PI, binding: ScenarioPoint | N
                  for p in plants]
     L = open_loop_frd(P, W_BODE, controller)
     m = loop_margins(W_BODE, L)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        T = L / (1 + L)
+        S = 1 / (1 + L)
+    bandwidth = closed_loop_bandwidth_hz(W_BODE, T, dc_gain=np.ones(len(plants)), level2=problem.requirements.level2)
     return LoopCurves(masses, tuple(labels), W_BODE, P, L, W_NYQUIST,
                       np.array([open_loop_frd(p, W_NYQUIST, controller) for p in plants]), STEP_TIME_S, np.array(steps),
                       m.gain_crossover_hz, m.phase_margin_deg, m.phase_crossover_hz, m.gain_margin_db,
-                      len(plants) - 1 if binding is not None else None)
+                      len(plants) - 1 if binding is not None else None, np.asarray(bandwidth, float),
+                      np.max(np.abs(S), axis=-1), np.max(np.abs(T), axis=-1))

@@ -76,16 +76,62 @@ def loop_bode_figure(c: LoopCurves):
         if np.isfinite(fc) and np.isfinite(pm):
             mag.plot([fc], [0.0], "o", color=color, ms=4)
             phase.plot([fc, fc], [-180.0, -180.0 + pm], color=color, lw=2.2, solid_capstyle="butt")
-            if k == c.binding_row or c.binding_row is None and k == int(np.nanargmin(c.phase_margin_deg)):
+            if k in (c.binding_row, _worst(c.phase_margin_deg)):
                 phase.annotate(f"PM {pm:.1f}°", (fc, -180.0 + pm / 2), xytext=(6, 0), textcoords="offset points",
                                fontsize=8, color=color, va="center")
         fp, gm = c.phase_crossover_hz[k], c.gain_margin_db[k]
         if np.isfinite(fp) and np.isfinite(gm) and f[0] <= fp <= f[-1]:
             mag.plot([fp, fp], [0.0, -gm], color=color, lw=2.2, solid_capstyle="butt")
-            if k == c.binding_row or c.binding_row is None and k == int(np.nanargmin(c.gain_margin_db)):
+            if k in (c.binding_row, _worst(c.gain_margin_db)):
                 mag.annotate(f"GM {gm:.1f} dB", (fp, -gm / 2), xytext=(6, 0), textcoords="offset points",
                              fontsize=8, color=color, va="center")
     _legend_below(fig, axes[0, 0], min(len(c.labels), 4))
+    return fig
+
+
+def _worst(values: np.ndarray) -> int | None:
+    """The row of the least finite value (None: none finite)."""
+    v = np.where(np.isfinite(values), values, np.inf)
+    return int(np.argmin(v)) if np.isfinite(v).any() else None
+
+
+def closed_loop_figure(c: LoopCurves, requirements):
+    """|S| and |T| of the closed velocity loop per row: the bandwidth marked where |T| falls to the requirements'
+    level (a dot and its frequency, each row; labelled on the least), the peaks of |S| (1 / the distance of L from
+    -1) and |T| marked, the requirements' M_s limit drawn when one is declared."""
+    fig, axes = plt.subplots(1, 2, sharex=True, figsize=(12, 4.2))
+    fixed_margins(fig, wspace=0.22, bottom_in=1.15)
+    f = c.bode_w_rad_s / (2 * np.pi)
+    level_db = 10 * np.log10(requirements.level2)
+    with np.errstate(divide="ignore"):
+        S_db, T_db = (20 * np.log10(np.abs(x)) for x in (c.sensitivity, c.complementary))
+    styles = _styles(c)
+    for k, label in enumerate(c.labels):
+        s_line, = axes[0].semilogx(f, S_db[k], label=label, **styles[k])
+        t_line, = axes[1].semilogx(f, T_db[k], **{"color": s_line.get_color(), **styles[k]})
+        j = int(np.argmax(S_db[k]))
+        axes[0].plot([f[j]], [S_db[k][j]], "v", color=s_line.get_color(), ms=5)
+        bw = c.bandwidth_hz[k]
+        if np.isfinite(bw):
+            axes[1].plot([bw], [level_db], "o", color=t_line.get_color(), ms=4)
+    least = _worst(c.bandwidth_hz)
+    if least is not None:
+        axes[1].annotate(f"bandwidth {c.bandwidth_hz[least]:.3g} Hz", (c.bandwidth_hz[least], level_db),
+                         xytext=(10, -16), textcoords="offset points", fontsize=8)
+    worst_s = int(np.argmax(c.peak_sensitivity))
+    axes[0].annotate(f"Ms {20 * np.log10(c.peak_sensitivity[worst_s]):.2f} dB", (f[int(np.argmax(S_db[worst_s]))],
+                     float(np.max(S_db[worst_s]))), xytext=(8, 4), textcoords="offset points", fontsize=8)
+    if requirements.peak_sensitivity is not None:
+        axes[0].axhline(20 * np.log10(requirements.peak_sensitivity), color="tab:red", lw=0.8, ls="--",
+                        label=f"Ms limit {requirements.peak_sensitivity:g}")
+    axes[1].axhline(level_db, color="0.4", lw=0.8)
+    for ax, title in zip(axes, ("Sensitivity |S| = |1 / (1 + L)|", "Complementary sensitivity |T| = |L / (1 + L)|")):
+        ax.set_title(title, fontsize=10)
+        ax.set_xlabel("frequency (Hz)")
+        ax.grid(True, which="both", alpha=0.3)
+        ax.set_ylim(-40, 15)
+    axes[0].set_ylabel("magnitude (dB, dimensionless)")
+    _legend_below(fig, axes[0], min(len(c.labels), 4))
     return fig
 
 
@@ -298,6 +344,11 @@ def design_report(content: ReportContent) -> Report:
                   "(nominal parameters)" + (" and, dashed, the binding scenario, where the requirement with the least "
                                             "slack binds" if c.curves.binding_row is not None else "")
                   + "; on the loop, each gain crossover's phase margin and phase crossover's gain margin.")
+    report.figure(closed_loop_figure(c.curves, req),
+                  f"Closed velocity loop: sensitivity |S| (its peak Ms marked ▼) and |T|, the bandwidth marked where "
+                  f"|T| falls to {10 * np.log10(req.level2):.2f} dB (the requirements' definition) at each payload "
+                  "(nominal parameters)" + (" and the binding scenario" if c.curves.binding_row is not None else "")
+                  + ".")
     report.figure(nyquist_figure(c.curves, req), "Nyquist curves; the curve must stay right of the dashed PM cone "
                                                  "where it crosses the unit circle and cross the real axis right "
                                                  "of the GM mark.")

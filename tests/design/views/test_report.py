@@ -35,7 +35,8 @@ def test_report_is_self_contained_with_its_figures(report_html):
     assert not re.search(r"""(src|href)\s*=\s*["']https?://""", html)
     assert "<script" not in html
     # Bode, Nyquist, step, payload sweep, and the diagnosis (comparison, error by step, residuals)
-    assert html.count("<svg") >= 7
+    assert html.count("<svg") >= 8
+    assert "Closed velocity loop: sensitivity |S|" in html and "bandwidth " in html
     for heading in ("Plant", "Loop over the payload range", "Margins and bandwidth against payload",
                     "Measurements against the model", "Reproducibility"):
         assert f">{heading}</h2>" in html
@@ -118,7 +119,7 @@ def test_the_binding_scenario_of_the_summary_is_drawn_with_its_margins(synth_rep
     pm, kg, bw, damping, delay = limiting.groups()
     label = (f"binding: {float(kg):.3g} kg, current_loop.bandwidth_hz {bw}, damping_n_s_per_m {damping}, "
              f"delay.seconds {delay}")
-    bode, nyquist, step = (html.split("<figure>")[k] for k in (1, 2, 3))
+    bode, nyquist, step = (html.split("<figure>")[k] for k in (1, 3, 4))
     assert all(label in fig for fig in (bode, nyquist, step))
     assert f"PM {float(pm):.1f}°" in bode                 # the binding loop's phase margin, marked
     assert "dB re 1 (m/s)/A" in bode and "dB re 1 (dimensionless)" in bode
@@ -129,7 +130,7 @@ def test_one_monte_carlo_and_honest_verdicts_on_every_panel(synth_report):
     summary = html[html.index("<div class='summary'>"):html.index(">Plant</h2>")]
     draws = re.search(r"\((\d+) independent draws, seed (\d+)\)", summary).groups()
     assert draws == ("10000", "20261124")
-    payload = html.split("<figure>")[4]
+    payload = html.split("<figure>")[5]
     assert f"{draws[0]} draws (seed {draws[1]})" in payload and "200 samples" not in html
     # the thesis gains fail this spec's requirements (worst PM 40 deg < 45): said in the summary and the legend
     assert "<span class='bad'>FAIL the requirements</span>" in summary
@@ -181,3 +182,26 @@ def test_the_summary_box_is_the_summary_story_with_its_verdicts_coloured(synth_r
     assert marked("does NOT meet the requirements") == "<span class='bad'>does NOT meet the requirements</span>"
     assert marked("the mouse CANNOT drive this design") == "the mouse <span class='bad'>CANNOT drive</span> this design"
     assert marked("it holds; it fails") == "it <span class='ok'>holds</span>; it <span class='bad'>fails</span>"
+
+
+def test_the_least_margins_and_bandwidth_of_the_rows_drawn_are_labelled():
+    """Beside the binding scenario (here a heavy, slow-loop corner whose phase margin binds), the Bode figure labels
+    the least phase margin and the least gain margin of all rows drawn (the light payload's gain margin), and the
+    closed-loop figure the least bandwidth."""
+    from design.loop.controller import PI
+    from design.loop.curves import loop_curves
+    from design.loop.requirement import ScenarioPoint
+    from design.views.report import closed_loop_figure, loop_bode_figure
+    from design.workflows import load_problem
+
+    thesis = load_problem(SPEC).loop.controller                # the thesis gains on the synthesis spec's plant
+    problem = load_problem(ROOT / "specs" / "stage_x_synth.toml").loop   # (its delay: finite gain margins)
+    binding = ScenarioPoint(40.0, (("current_loop.bandwidth_hz", 700.0), ("damping_n_s_per_m", 330.0),
+                                   ("delay.seconds", 0.0008)))
+    c = loop_curves(problem, PI(float(thesis.kp.value), float(thesis.ki.value)), binding)
+    assert np.isfinite(c.gain_margin_db).all() and np.argmin(c.gain_margin_db) != c.binding_row
+    texts = [t.get_text() for ax in loop_bode_figure(c).axes for t in ax.texts]
+    assert f"PM {np.nanmin(c.phase_margin_deg):.1f}°" in texts
+    assert f"GM {np.nanmin(c.gain_margin_db):.1f} dB" in texts
+    texts = [t.get_text() for ax in closed_loop_figure(c, problem.requirements).axes for t in ax.texts]
+    assert f"bandwidth {np.nanmin(c.bandwidth_hz):.3g} Hz" in texts

@@ -22,6 +22,7 @@ if TYPE_CHECKING:
     from design.admittance.synthesis import AdmittanceResult
     from design.loop.control_models import LoopModels
     from design.loop.curves import LoopCurves
+    from design.loop.fitted import FittedCheck
     from design.problem import LoopProblem
     from design.spec.schema import Spec
     from design.synth.dual_curves import StructureCurves
@@ -190,6 +191,8 @@ class ComparedRecording:
     path: Path
     measured: MeasuredResponse
     diagnosis: Diagnosis
+    #: the fitted parameters against the spec and the gains on the fitted plant
+    check: FittedCheck
 
 
 @dataclass(frozen=True)

@@ -276,9 +276,12 @@ def report_content(problem: DesignProblem, *, outcome: DesignOutcome | None = No
         adm_curves = admittance_curves(loop, outcome.admittance)
     recordings = []
     for path, response in zip(data, measured):
+        from design.loop.fitted import check_fitted
         from plant.diagnose.diagnosis import diagnose
 
-        recordings.append(ComparedRecording(Path(path), response, diagnose(loop.plant.plant(), response)))
+        diagnosis = diagnose(loop.plant.plant(), response)
+        recordings.append(ComparedRecording(Path(path), response, diagnosis,
+                                            check_fitted(loop, controller, diagnosis.final)))
     check, comparison, adm_comparison = None, (), None
     if loop.plant.uncertainty and samples != 0:
         say("Monte Carlo check, and the design for the nominal parameters beside it")

@@ -265,6 +265,24 @@ def _between_line(b) -> str:
             f"(the check's {b.grid_bandwidth_hz:.2f} Hz).")
 
 
+def _measured_line(check, req) -> str:
+    """The gains on a fitted plant, and what of the fit lies outside the spec or is not identified."""
+    gm = "infinite" if not np.isfinite(check.gain_margin_db) else f"{check.gain_margin_db:.1f} dB"
+    lo, hi = check.payload_kg
+    text = (f"on the stage fitted from the recording (at its {check.fitted_mass_kg:.3g} kg and carrying {lo:g}-{hi:g} "
+            f"kg): least phase margin {check.phase_margin_deg:.1f} deg, gain margin {gm}, bandwidth "
+            f"{check.bandwidth_hz:.3g} Hz: " + ("meets the requirements" if check.meets else
+                                               "does NOT meet the requirements"))
+    if check.outside:
+        text += ("; outside the spec's ranges, so the verification above does not cover this stage: "
+                 + ", ".join(f"{p.name} {p.value:.4g} ± {p.stderr:.2g} (spec {p.low:g} – {p.high:g})"
+                             for p in check.outside))
+    if check.unidentified:
+        text += ("; not identified by the data (held at the spec's nominal values): "
+                 + ", ".join(p.name for p in check.unidentified))
+    return text + "."
+
+
 def summary_story(content: ReportContent) -> Story:
     """The report's summary: the answer first (the mouse on the admittance, the gains, the worst case recomputed
     over the payload range and whether it meets the requirements, what limits it), then how it was checked."""
@@ -299,6 +317,8 @@ def summary_story(content: ReportContent) -> Story:
                                     f"{mc.seed}): {mc.violations} violate the requirements ({100 * mc.rate:.2g} %, "
                                     f"one-sided 95 % upper bound {100 * mc.rate_upper_bound:.2g} %); worst PM "
                                     f"{mc.worst_phase_margin_deg:.1f} deg, worst GM {mc.worst_gain_margin_db:.1f} dB."))
+    for r in c.recordings:
+        head.append((f"Measured ({r.path.name})", _measured_line(r.check, req)))
     if d is not None and d.synthesis is not None and d.synthesis.between is not None:
         head.append(("Between the check's points", _between_line(d.synthesis.between)))
     head.append(("Thesis gains on the same plant", f"{thesis_verdict(thesis)}; worst-case bandwidth "
@@ -335,9 +355,11 @@ def design_report(content: ReportContent) -> Report:
     rows += [[f"uncertainty {k}", f"{u.min:g} – {u.max:g}"] for k, u in p.uncertainty.items()]
     report.raw(table(["parameter", "value"], rows))
     for r in c.recordings:
-        fitted = r.diagnosis.final
-        report.text(f"Fitted from {r.path.name}: " + ", ".join(
-            f"{n} = {fitted.values[n]:.4g} ± {fitted.stderr[n]:.2g}" for n in fitted.free))
+        report.text(f"Fitted from {r.path.name}, against the spec's ranges (outside: beyond the range by more than "
+                    "two standard errors; not identified: an error that is not finite or exceeds the value):")
+        report.raw(table(["parameter", "fitted", "±", "spec range", "status"], [
+            [p.name, f"{p.value:.4g}", "—" if not np.isfinite(p.stderr) else f"{p.stderr:.2g}",
+             "none declared" if p.low is None else f"{p.low:g} – {p.high:g}", p.status] for p in r.check.parameters]))
 
     report.heading("Loop over the payload range")
     report.figure(loop_bode_figure(c.curves), "Bode plots of plant and loop at light, nominal and heavy payload "

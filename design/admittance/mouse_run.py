@@ -249,7 +249,9 @@ def simulate_mouse_run(settings: RunSettings, time_s, x_d, v_d, a_d) -> RunTrace
     def on_rails(v0, x0, motor_n):
         """F_r: the friction against the rails' velocity (with any drag along the travel, none where it would make
         the friction negative) and every effect's rail force."""
-        magnitude = fc + sum(e.rail_friction_n(x0) for e in along)
+        magnitude = fc
+        for e in along:
+            magnitude += e.rail_friction_n(x0)
         out = -magnitude * math.tanh(v0 / vs) if magnitude > 0 else 0.0
         for e in pushing:
             out += e.rail_force_n(x0, v0, motor_n)

@@ -128,7 +128,7 @@ def closed_loop_figure(c: LoopCurves, requirements):
     for ax, title in zip(axes, ("Sensitivity |S| = |1 / (1 + L)|", "Complementary sensitivity |T| = |L / (1 + L)|")):
         ax.set_title(title, fontsize=10)
         ax.set_xlabel("frequency (Hz)")
-        ax.grid(True, which="both", alpha=0.3)
+        ax.grid(True, alpha=0.3)
         ax.set_ylim(-40, 15)
     axes[0].set_ylabel("magnitude (dB, dimensionless)")
     _legend_below(fig, axes[0], min(len(c.labels), 4))

@@ -44,9 +44,12 @@ from plant.physics.state_space import hold_step
 #: Runge-Kutta simulation in tests/plant/experiment/test_simulate_time.py)
 INTERNAL_RATE_HZ = 10000.0
 _CHUNK = 4096
-#: effects the continuous run cannot model (the Xie-Wang tilt has one friction contact per rail)
+#: effects the continuous run cannot model (the Xie-Wang tilt has one friction contact per rail; a drift is defined
+#: over a recording's own span, which a run does not declare)
 _NOT_MODELLED = {"tilt_coupling": "two friction contacts (one per rail); simulate Stage Y without it or use "
-                                  "the stepped-sine blocks"}
+                                  "the stepped-sine blocks",
+                 "force_constant_drift": "a force constant drifting over a recording's span; scale the recorded "
+                                         "current by K(t) / K to simulate one"}
 
 
 @dataclass(frozen=True)

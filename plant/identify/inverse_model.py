@@ -108,6 +108,8 @@ class InverseModelData:
     closed_loop: bool = False
     #: decimated samples whose span holds a raw sample at rest (``_raw_rest``), None for none
     raw_rest: np.ndarray | None = None
+    #: the times (s) of the full-rate signals, edges cut
+    full_rate_time_s: np.ndarray | None = None
     _memo: _ColumnMemo = field(default_factory=lambda: _ColumnMemo(COLUMN_MEMO_BYTES), init=False, repr=False,
                                compare=False)
 
@@ -140,7 +142,8 @@ class InverseModelData:
     @property
     def force_signals(self) -> ForceSignals:
         """The full-rate signals the effects' force models are formed from."""
-        return ForceSignals(self.full_rate_velocity_m_per_s, self.full_rate_force_n, self.full_rate_position_m)
+        return ForceSignals(self.full_rate_velocity_m_per_s, self.full_rate_force_n, self.full_rate_position_m,
+                            self.full_rate_time_s)
 
     def effect_columns(self, effect: Effect) -> dict[str, np.ndarray]:
         """``effect``'s force regressors (force per unit of each of its parameters, by field name) at the
@@ -300,4 +303,5 @@ def inverse_model_data(rec: TimeRecording, force_constant_n_per_a: float,
     raw_rest = _raw_rest(output, sigma_y, rec.output_kind, r, f.size)
     return InverseModelData(t, f, v, acc, fs / r, r, filter_hz, decimate_band_hz, sigma_f, sigma_y, nf, nv, na,
                             rec.source,
-                            v_full, position, f_full, x_full, closed_loop, raw_rest)
+                            v_full, position, f_full, x_full, closed_loop, raw_rest,
+                            rec.time_s[EDGE_SAMPLES: rec.n_samples - EDGE_SAMPLES])

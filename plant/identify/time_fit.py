@@ -225,7 +225,7 @@ def fit_samples(data: InverseModelData) -> FitSamples:
     """The samples every fit uses (decimated, moving), for ``Effect.configured``."""
     moving = ~data.at_rest
     return FitSamples(data.velocity_m_per_s[moving], data.acceleration_m_per_s2[moving], data.force_n[moving],
-                      None if data.position_m is None else data.position_m[moving])
+                      None if data.position_m is None else data.position_m[moving], data.time_s[moving])
 
 
 def configure_from_recording(plant: Plant, data: InverseModelData, given: Sequence[str] = ()) -> Plant:

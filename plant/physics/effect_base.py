@@ -173,6 +173,8 @@ class FitSamples:
     acceleration_m_per_s2: np.ndarray
     force_n: np.ndarray
     position_m: np.ndarray | None = None
+    #: the samples' times (s), None when not known
+    time_s: np.ndarray | None = None
 
 
 @dataclasses.dataclass(frozen=True)
@@ -184,6 +186,8 @@ class ForceSignals:
     force_n: np.ndarray
     #: None when the recording has velocity only
     position_m: np.ndarray | None = None
+    #: the samples' times (s), None when not known
+    time_s: np.ndarray | None = None
 
 
 #: ``Effect.realised_as``: "state_space", held exactly by the plant's realisation (``plant.physics.realisation``:

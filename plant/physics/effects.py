@@ -12,7 +12,8 @@ Where an effect sits decides how it composes (``plant.physics.effect_base``):
   (``plant.physics.motor_forces``, time-domain data with the position only): ``force_ripple``,
   ``force_constant_profile``; the drive's ``current_limit`` (time-domain data, and its describing function
   in a frequency response at the plant's excitation current); a cable carrier's spring, ``cable_force``
-  (``plant.physics.cable_force``, time-domain data with the position only);
+  (``plant.physics.cable_force``, time-domain data with the position only); a force constant drifting over a
+  time recording, ``force_constant_drift`` (``plant.physics.motor_forces``);
 * what makes Stage Y's rails differ besides the tilt (``plant.physics.rails``): ``rail_scale`` (one rail read to
   another scale), ``motor_imbalance`` (the two motors' force constants apart).
 
@@ -40,14 +41,14 @@ from plant.physics.mechanics import (
     StribeckFriction,
     TiltCoupling,
 )
-from plant.physics.motor_forces import CurrentLimit, ForceConstantProfile, ForceRipple
+from plant.physics.motor_forces import CurrentLimit, ForceConstantDrift, ForceConstantProfile, ForceRipple
 from plant.physics.rails import MotorImbalance, RailScale
 
 EFFECTS: dict[str, type[Effect]] = {
     cls.name: cls for cls in (Delay, CurrentLoop, Sampling, SensorFilter, EncoderVelocity, Resonance,
                               PayloadResonance, SecondResonance, CoulombFriction, StribeckFriction, Offset,
                               TiltCoupling, RailScale, MotorImbalance, ForceRipple, ForceConstantProfile, CurrentLimit,
-                              CableForce)
+                              CableForce, ForceConstantDrift)
 }
 
 
@@ -72,7 +73,7 @@ def make_effect(name: str, **params: float) -> Effect:
 __all__ = [
     "EFFECTS", "PADE_ORDER", "CableForce", "ChainEffect", "CoulombFriction", "CurrentLimit", "CurrentLoop", "Delay",
     "Effect",
-    "EncoderVelocity", "ForceConstantProfile", "ForceRipple",
+    "EncoderVelocity", "ForceConstantDrift", "ForceConstantProfile", "ForceRipple",
     "MechanicalEffect", "ModeEffect", "MotorImbalance", "Offset", "PayloadResonance", "RailScale", "Resonance",
     "Sampling", "SecondResonance",
     "SensorFilter", "StribeckFriction",

@@ -1,10 +1,12 @@
 """A force constant drifting over a time-domain recording shows in the residual against current x time, and only
-there; a damping drifting (the independent linear motor's guides, b (1 + r t)) against velocity x time, and only
-there. The closed-loop friction axis of tests/reference/independent_friction_sim.py (it imports nothing of the tool)
-applies gain x command; a logged command divided by 1 + d u (u running from -1 to 1 over the record) is what a
-drive whose force constant is K (1 + d u) logs for the same motion, seen with a constant K."""
+there, and is fitted (``force_constant_drift``); a damping drifting (the independent linear motor's guides,
+b (1 + r t)) against velocity x time, and only there. The closed-loop friction axis of
+tests/reference/independent_friction_sim.py (it imports nothing of the tool) applies gain x command; a logged command
+divided by 1 + d u (u running from -1 to 1 over the record) is what a drive whose force constant is K (1 + d u) logs
+for the same motion, seen with a constant K."""
 
 import numpy as np
+import pytest
 from independent_friction_sim import Axis, simulate
 
 from plant.data.recordings import TimeRecording
@@ -25,19 +27,25 @@ def structure(drift: float):
     return diag, next(st for st in diag.final.structure if st.variable == "current x time")
 
 
-def test_a_force_constant_drifting_4_percent_shows_against_current_x_time_not_velocity_x_time():
+def test_a_force_constant_drifting_4_percent_is_fitted_and_named():
+    """Shown against current x time (not velocity x time) by the model without it, then fitted:
+    ``force_constant_drift`` with its change, the recording explained."""
     diag, st = structure(0.02)                         # K(t) / K from 0.98 to 1.02 over the record
-    assert st.significant and "drifting" in st.summary
-    change = float(st.summary.split(": ")[-1].split(" %")[0])
-    assert abs(change - 4.0) < 0.6, st.summary         # +4 % from the first sample to the last
-    assert diag.verdict == "not_explained" and "current x time" in diag.explanation
-    # and not taken for a drifting damping
-    assert not next(s for s in diag.final.structure if s.variable == "velocity x time").significant
+    parent = diag.models[tuple(n for n in diag.selected if n != "force_constant_drift")]
+    shown = {s.variable: s for s in parent.structure}
+    assert shown["current x time"].significant and "drifting" in shown["current x time"].summary
+    assert not shown["velocity x time"].significant
+    change = float(shown["current x time"].summary.split(": ")[-1].split(" %")[0])
+    assert abs(change - 4.0) < 0.6, shown["current x time"].summary      # +4 % from the first sample to the last
+    assert set(diag.selected) == {"coulomb_friction", "offset", "force_constant_drift"}
+    assert diag.verdict == "explained"
+    assert diag.final.plant.effect("force_constant_drift").change == pytest.approx(0.02, abs=0.002)
 
 
 def test_a_constant_force_constant_shows_no_drift():
     diag, st = structure(0.0)
     assert not st.significant and diag.verdict == "explained"
+    assert "force_constant_drift" not in diag.selected
 
 
 def _sweep_with_damping_rising(change: float):

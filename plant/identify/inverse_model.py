@@ -104,8 +104,6 @@ class InverseModelData:
     #: the motor force and the filtered position at the full rate, edges cut (position None as above)
     full_rate_force_n: np.ndarray | None = None
     full_rate_position_m: np.ndarray | None = None
-    #: the recording has the reference of a closed loop (``TimeRecording.reference``)
-    closed_loop: bool = False
     #: decimated samples whose span holds a raw sample at rest (``_raw_rest``), None for none
     raw_rest: np.ndarray | None = None
     #: the times (s) of the full-rate signals, edges cut
@@ -293,8 +291,8 @@ def inverse_model_data(rec: TimeRecording, force_constant_n_per_a: float,
     if not all(np.all(np.isfinite(x)) for x in (f, v, acc)):
         raise DataError(f"{rec.source}: the filtered signals overflow: a current or {rec.output_kind} value in the "
                         "recording is far out of range")
-    closed_loop = rec.reference is not None
-    sigma_f = 0.0 if closed_loop else difference_noise_std(force)
+    # a closed loop (its reference recorded) logs the command: exact (module doc)
+    sigma_f = 0.0 if rec.reference is not None else difference_noise_std(force)
     sigma_y = float(np.mean([difference_noise_std(o) for o in rec.output])) / np.sqrt(rec.output.shape[0])
     rng = np.random.default_rng(NOISE_SEED)
     nf, nv, na, *_ = _chain(fs, sigma_y * rng.standard_normal(rec.n_samples),
@@ -303,5 +301,5 @@ def inverse_model_data(rec: TimeRecording, force_constant_n_per_a: float,
     raw_rest = _raw_rest(output, sigma_y, rec.output_kind, r, f.size)
     return InverseModelData(t, f, v, acc, fs / r, r, filter_hz, decimate_band_hz, sigma_f, sigma_y, nf, nv, na,
                             rec.source,
-                            v_full, position, f_full, x_full, closed_loop, raw_rest,
+                            v_full, position, f_full, x_full, raw_rest,
                             rec.time_s[EDGE_SAMPLES: rec.n_samples - EDGE_SAMPLES])

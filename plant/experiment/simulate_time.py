@@ -49,7 +49,8 @@ _CHUNK = 4096
 _NOT_MODELLED = {"tilt_coupling": "two friction contacts (one per rail); simulate Stage Y without it or use "
                                   "the stepped-sine blocks",
                  "force_constant_drift": "a force constant drifting over a recording's span; scale the recorded "
-                                         "current by K(t) / K to simulate one"}
+                                         "current by K(t) / K to simulate one",
+                 "damping_drift": "a damping drifting over a recording's span"}
 
 
 @dataclass(frozen=True)

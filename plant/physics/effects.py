@@ -12,8 +12,8 @@ Where an effect sits decides how it composes (``plant.physics.effect_base``):
   (``plant.physics.motor_forces``, time-domain data with the position only): ``force_ripple``,
   ``force_constant_profile``; the drive's ``current_limit`` (time-domain data, and its describing function
   in a frequency response at the plant's excitation current); a cable carrier's spring, ``cable_force``
-  (``plant.physics.cable_force``, time-domain data with the position only); a force constant drifting over a
-  time recording, ``force_constant_drift`` (``plant.physics.motor_forces``);
+  (``plant.physics.cable_force``, time-domain data with the position only); a force constant or a damping
+  drifting over a time recording, ``force_constant_drift`` and ``damping_drift`` (``plant.physics.drifts``);
 * what makes Stage Y's rails differ besides the tilt (``plant.physics.rails``): ``rail_scale`` (one rail read to
   another scale), ``motor_imbalance`` (the two motors' force constants apart).
 
@@ -30,6 +30,7 @@ from plant.arguments import check_optional_text
 from plant.errors import EffectError, ParameterError
 from plant.physics.cable_force import CableForce
 from plant.physics.chain import CurrentLoop, Delay, EncoderVelocity, Sampling, SensorFilter
+from plant.physics.drifts import DampingDrift, ForceConstantDrift
 from plant.physics.effect_base import PADE_ORDER, ChainEffect, Effect, MechanicalEffect
 from plant.physics.mechanics import (
     CoulombFriction,
@@ -41,14 +42,14 @@ from plant.physics.mechanics import (
     StribeckFriction,
     TiltCoupling,
 )
-from plant.physics.motor_forces import CurrentLimit, ForceConstantDrift, ForceConstantProfile, ForceRipple
+from plant.physics.motor_forces import CurrentLimit, ForceConstantProfile, ForceRipple
 from plant.physics.rails import MotorImbalance, RailScale
 
 EFFECTS: dict[str, type[Effect]] = {
     cls.name: cls for cls in (Delay, CurrentLoop, Sampling, SensorFilter, EncoderVelocity, Resonance,
                               PayloadResonance, SecondResonance, CoulombFriction, StribeckFriction, Offset,
                               TiltCoupling, RailScale, MotorImbalance, ForceRipple, ForceConstantProfile, CurrentLimit,
-                              CableForce, ForceConstantDrift)
+                              CableForce, ForceConstantDrift, DampingDrift)
 }
 
 
@@ -71,7 +72,8 @@ def make_effect(name: str, **params: float) -> Effect:
 
 
 __all__ = [
-    "EFFECTS", "PADE_ORDER", "CableForce", "ChainEffect", "CoulombFriction", "CurrentLimit", "CurrentLoop", "Delay",
+    "EFFECTS", "PADE_ORDER", "CableForce", "ChainEffect", "CoulombFriction", "CurrentLimit", "CurrentLoop",
+    "DampingDrift", "Delay",
     "Effect",
     "EncoderVelocity", "ForceConstantDrift", "ForceConstantProfile", "ForceRipple",
     "MechanicalEffect", "ModeEffect", "MotorImbalance", "Offset", "PayloadResonance", "RailScale", "Resonance",

@@ -15,10 +15,6 @@ held by the fit.
 * ``ForceConstantProfile``: K(x) = K (1 + c1 u + c2 u^2), u = (x - centre) / half_span (c1 ``slope``,
   c2 ``curvature``): the motor force K(x) u_drive; with K u_drive on the left of the inverse model, its
   columns are minus the motor force times u and u^2 (exact, not a linearisation).
-* ``ForceConstantDrift``: K(t) = K (1 + d u), u = (t - mid) / half over the recording (d ``change``): a force
-  constant that drifts while the coil warms, K(mid) at mid-record; its column is minus the motor force times u,
-  as the profile's. A frequency response, a steady state, holds K(mid) (a stepped sine's drift over its blocks is
-  ``plant.diagnose.drift``'s); no simulation runs it.
 * ``CurrentLimit``: the drive clips its current command at a limit (its peak current; a drive logs the
   command, not what the amplifier delivered), so the motor force is F - c (F - clip(F, -F_L, F_L)) with
   F = K_f u the commanded force, F_L ``limit_n`` and c ``fraction_lost`` (1: a hard clip). In the time domain
@@ -188,48 +184,6 @@ class ForceConstantProfile(MechanicalEffect):
             return self
         lo, hi = float(np.min(samples.position_m)), float(np.max(samples.position_m))
         return replace(self, centre_m=(lo + hi) / 2, half_span_m=max((hi - lo) / 2, 1e-4)) if hi > lo else self
-
-
-@dataclass(frozen=True)
-class ForceConstantDrift(MechanicalEffect):
-    """A force constant drifting over the recording (module doc): K(t) = K (1 + change u), u = (t - mid_s) /
-    half_s."""
-
-    mid_s: float = 0.0
-    half_s: float = 1.0
-    change: float = 0.0
-    name: ClassVar[str] = "force_constant_drift"
-    realised_as: ClassVar[str] = "force"
-    bounds: ClassVar = {"mid_s": (-1e9, 1e9, "s"), "half_s": (1e-6, 1e9, "s"), "change": (-0.5, 0.5, "1")}
-    signature: ClassVar[str] = "a residual proportional to the current times the time (a coil warming)"
-    main_parameter: ClassVar[str] = "change"
-    neutral: ClassVar = {"change": 0.0}
-    search_fixed: ClassVar = ("mid_s", "half_s")
-    residual_signature: ClassVar = "current x time"
-    searched: ClassVar[bool] = False
-    not_searched: ClassVar[str] = ("a frequency response is a steady state; a stepped sine's drift over its blocks is "
-                                   "fitted by the diagnosis's drift model, a time recording's by this effect")
-    in_synthesis: ClassVar[bool] = False
-    time_domain: ClassVar[bool] = True
-    simulated: ClassVar[bool] = False
-
-    def __post_init__(self) -> None:
-        check_positive("force_constant_drift.half_s", self.half_s)
-        for field in ("mid_s", "change"):
-            check_finite(f"force_constant_drift.{field}", getattr(self, field))
-
-    def force_regressors(self, signals: ForceSignals) -> dict[str, np.ndarray]:
-        if signals.time_s is None:
-            raise EffectError("force_constant_drift depends on the time: the signals carry none")
-        u = (np.asarray(signals.time_s, float) - self.mid_s) / self.half_s
-        # K u_drive (1 + d u) = m a + b v + ...: with K u_drive on the left, exactly
-        return {"change": -signals.force_n * u}
-
-    def configured(self, samples: FitSamples, residual_n) -> ForceConstantDrift:
-        if samples.time_s is None:
-            return self
-        lo, hi = float(np.min(samples.time_s)), float(np.max(samples.time_s))
-        return replace(self, mid_s=(lo + hi) / 2, half_s=(hi - lo) / 2) if hi > lo else self
 
 
 @dataclass(frozen=True)

@@ -34,8 +34,8 @@ same), and ``diagnose_emps`` for ``implausible``; ``diagnose_x`` for ``drift`` (
 Stage Y's ``rail_scale`` and ``motor_imbalance`` (their rows among the candidates skipped on Stage X); ``fit_emps``
 and ``diagnose_emps`` when the time-domain noise was read from fourth differences (EMPS's position noise 1.7e-7 ->
 its true, smaller level: the noise ratio 14.9 -> 31.2, the fitted values and verdicts the same); both again when the
-library gained ``force_constant_drift`` (a row skipped on the stepped sine; on EMPS its models among the candidates,
-the selection and verdict the same).
+library gained ``force_constant_drift`` and ``damping_drift`` (rows skipped on the stepped sine; on EMPS their
+models among the candidates, the selection and verdict the same).
 """
 
 from __future__ import annotations

@@ -22,9 +22,9 @@ from design.admittance.model import AdmittanceCheck, admittance_problem
 from design.admittance.mouse import MouseModel
 from design.admittance.rig import RigTiming, force_filter_polys
 from design.loop.controller import PI
-from design.loop.loops import balanced
 from design.problem import LoopProblem
 from plant.physics.chain import ChainEffect
+from plant.physics.effect_base import balanced
 from plant.physics.models import Plant
 
 #: python-control margins may fall short of the requirement by this much (deg, dB): grid rounding

@@ -3,7 +3,7 @@ velocity out), the PI controller C = Kp + Ki/s, the loop L = P C, the sensitivit
 complementary sensitivity T = L/(1 + L) (thesis Eq. 3.17-3.20), each a balanced state-space model.
 
 The plant is built as a series of state-space blocks, the mechanics and then each effect of the drive and
-sensor chain, every block balanced by a diagonal similarity (``design.loop.loops.balanced``): multiplying the
+sensor chain, every block balanced by a diagonal similarity (``plant.physics.effect_base.balanced``): multiplying the
 transfer functions instead gives a Pade delay's product polynomials with coefficients near 1e28. A delay is
 a Pade approximant of order ``pade_order`` (python-control's ``pade``, as ``Delay.to_tf`` builds it).
 """
@@ -16,10 +16,9 @@ from typing import TYPE_CHECKING, NamedTuple
 import numpy as np
 
 from design.loop.controller import PI
-from design.loop.loops import balanced
 from plant.arguments import check_instance
 from plant.bode import bode
-from plant.physics.effect_base import PADE_ORDER, ChainEffect
+from plant.physics.effect_base import PADE_ORDER, ChainEffect, balanced
 from plant.physics.models import Plant
 
 if TYPE_CHECKING:

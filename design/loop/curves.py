@@ -10,11 +10,12 @@ from dataclasses import dataclass
 import numpy as np
 
 from design.loop.controller import PI
-from design.loop.loops import balanced, closed_loop_tf, open_loop_frd
+from design.loop.loops import closed_loop_tf, open_loop_frd
 from design.loop.margins import closed_loop_bandwidth_hz, loop_margins
 from design.loop.requirement import ScenarioPoint
 from design.problem import LoopProblem
 from plant.grid import log_grid_rad_s
+from plant.physics.effect_base import balanced
 
 #: Bode frequencies: 100 per decade resolve a mode of damping ratio 0.02 (half-power width 4 %)
 W_BODE = log_grid_rad_s(0.1, 2000.0, 430)

@@ -33,8 +33,8 @@ from typing import ClassVar
 import numpy as np
 
 from design.loop.controller import PI
-from design.loop.loops import balanced
 from design.loop.margins import closed_loop_bandwidth_hz, crossover_margins, delay_margin_s
+from plant.physics.effect_base import balanced
 
 #: T_out: rail velocities -> (mean, half difference); T_in: (total, differential current) -> motor currents
 T_OUT = np.array([[0.5, 0.5], [-0.5, 0.5]])

@@ -41,23 +41,6 @@ def closed_loop_frd(loop) -> np.ndarray:
     return L / (1 + L)
 
 
-def balanced(sys) -> control.StateSpace:
-    """A state-space realisation of ``sys`` (transfer function or state space) under the diagonal similarity
-    that balances its state matrix (``scipy.linalg.matrix_balance``): the companion form of a high-order
-    loop (Pade delay, resonances, filters) can have entries up to 1e24 and a condition number of 1e67, which
-    a matrix exponential (``c2d``, a step response) cannot take."""
-    import control
-    from scipy.linalg import matrix_balance
-
-    s = sys if isinstance(sys, control.StateSpace) else control.ss(sys)
-    if s.nstates == 0:
-        return s
-    A, B, C, D = (np.asarray(x, float) for x in (s.A, s.B, s.C, s.D))
-    _, (scale, _) = matrix_balance(A, permute=False, separate=True)
-    return control.ss(A / scale[:, None] * scale[None, :], B / scale[:, None], C * scale[None, :], D, s.dt,
-                      inputs=s.input_labels, outputs=s.output_labels)
-
-
 def open_loop_tf(plant: Plant, controller: PI) -> control.TransferFunction:
     """Rational loop P(s) C(s) (Pade for delays)."""
     return plant.to_control() * controller.tf()

@@ -247,7 +247,8 @@ class MechanicalEffect(Effect):
 def replace_unchecked(obj, changes: dict):
     """Copy of a frozen dataclass with fields replaced, without running its validation."""
     new = object.__new__(type(obj))
-    new.__dict__.update(obj.__dict__)
+    # the fields only: anything else in the instance's dict is a cache of the old values
+    new.__dict__.update({f.name: obj.__dict__[f.name] for f in dataclasses.fields(obj)})
     new.__dict__.update(changes)
     return new
 
@@ -261,6 +262,23 @@ def series_tf(*tfs):
     for tf in tfs:
         num, den = np.convolve(num, tf.num[0][0]), np.convolve(den, tf.den[0][0])
     return control.tf(num, den)
+
+
+def balanced(sys) -> control.StateSpace:
+    """A state-space realisation of ``sys`` (transfer function or state space) under the diagonal similarity
+    that balances its state matrix (``scipy.linalg.matrix_balance``, powers of 2, so exact): the companion form
+    of a high-order loop (Pade delay, resonances, filters) can have entries up to 1e24 and a condition number of
+    1e67, which a matrix exponential (``c2d``, a step response) cannot take."""
+    import control
+    from scipy.linalg import matrix_balance
+
+    s = sys if isinstance(sys, control.StateSpace) else control.ss(sys)
+    if s.nstates == 0:
+        return s
+    A, B, C, D = (np.asarray(x, float) for x in (s.A, s.B, s.C, s.D))
+    _, (scale, _) = matrix_balance(A, permute=False, separate=True)
+    return control.ss(A / scale[:, None] * scale[None, :], B / scale[:, None], C * scale[None, :], D, s.dt,
+                      inputs=s.input_labels, outputs=s.output_labels, name=s.name)
 
 
 def scalar(effect: Effect, field: str) -> float:

@@ -2,15 +2,16 @@
 velocity out), the PI controller C = Kp + Ki/s, the loop L = P C, the sensitivity S = 1/(1 + L) and the
 complementary sensitivity T = L/(1 + L) (thesis Eq. 3.17-3.20), each a balanced state-space model.
 
-The plant is built as a series of state-space blocks, the mechanics and then each effect of the drive and
-sensor chain, every block balanced by a diagonal similarity (``plant.physics.effect_base.balanced``): multiplying the
+The plant is ``Plant.to_state_space``: a series of state-space blocks, the drive chain's effects, the mechanics
+and the sensor chain's effects, every block balanced by a diagonal similarity
+(``plant.physics.effect_base.balanced``): multiplying the
 transfer functions instead gives a Pade delay's product polynomials with coefficients near 1e28. A delay is
 a Pade approximant of order ``pade_order`` (python-control's ``pade``, as ``Delay.to_tf`` builds it).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
@@ -18,7 +19,7 @@ import numpy as np
 from design.loop.controller import PI
 from plant.arguments import check_instance
 from plant.bode import bode
-from plant.physics.effect_base import PADE_ORDER, ChainEffect, balanced
+from plant.physics.effect_base import PADE_ORDER, balanced
 from plant.physics.models import Plant
 
 if TYPE_CHECKING:
@@ -77,15 +78,9 @@ def _response(sys, s: np.ndarray) -> np.ndarray:
 
 
 def plant_ss(plant: Plant, *, pade_order: int = PADE_ORDER) -> control.StateSpace:
-    """The plant (one payload, linear effects) as balanced state-space blocks in series (module docstring)."""
-    import control
-
-    mech = replace(plant, effects=tuple(e for e in plant.effects if not isinstance(e, ChainEffect)))
-    out = balanced(mech.to_control())
-    for e in plant.effects:
-        if isinstance(e, ChainEffect):
-            out = balanced(control.ss(e.to_tf(pade_order=pade_order))) * out
-    return balanced(out)
+    """The plant (one payload, linear effects) as balanced state-space blocks in series (module docstring):
+    ``Plant.to_state_space``."""
+    return plant.to_state_space(pade_order=pade_order)
 
 
 def loop_models(plant: Plant, controller: PI, *, pade_order: int = PADE_ORDER) -> LoopModels:

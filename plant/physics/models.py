@@ -30,7 +30,7 @@ from plant.errors import ArgumentError, EffectError, ParameterError
 from plant.grid import check_grid
 from plant.physics.algebra import NUMPY
 from plant.physics.coulomb_response import rigid_body_first_harmonic
-from plant.physics.effect_base import PADE_ORDER, ChainEffect, Effect, replace_unchecked, series_tf
+from plant.physics.effect_base import PADE_ORDER, ChainEffect, Effect, balanced, replace_unchecked, series_tf
 from plant.physics.effects import make_effect
 from plant.physics.gantry_models import xie_wang_frd
 from plant.physics.mechanics import (
@@ -353,17 +353,13 @@ class Plant:
 
     # --- python-control interoperability ---------------------------------------
     def to_control(self, *, pade_order: int = PADE_ORDER) -> control.TransferFunction:
-        """Rational model (Pade for delays). A nonlinear effect has none and raises ``EffectError``."""
+        """Rational model as a transfer function (Pade for delays). A nonlinear effect has none and raises
+        ``EffectError``. Its polynomial coefficients span many decades (to 1e29 with a delay and a current loop):
+        to compute with it, take ``to_state_space()``."""
         import control
 
         check_count("pade_order", pade_order, minimum=1)
-        for name in BASE_PARAMETERS:
-            if np.size(getattr(self, name)) != 1:
-                raise ParameterError(f"{name} is a batch; to_control needs one plant (index the batch first)")
-        for e in self.effects:
-            if not e.linear:
-                raise EffectError(f"{e.name} is nonlinear and has no transfer function; "
-                                  "use frd() (describing function) or the time-domain simulator")
+        self._check_rational("to_control")
         kt = float(np.asarray(self.force_constant_n_per_a).reshape(()))
         tilt = self._tilt()
         if tilt is None:
@@ -386,6 +382,61 @@ class Plant:
             mean = control.ss([], [], [], [[0.5, 0.5]]) * ss * control.ss([], [], [], [[kt / 2], [kt / 2]])
             sys = control.minreal(control.ss2tf(mean), verbose=False)
         return series_tf(sys, *(e.to_tf(pade_order=pade_order) for e in self.effects if isinstance(e, ChainEffect)))
+
+    def to_state_space(self, *, pade_order: int = PADE_ORDER) -> control.StateSpace:
+        """A well-scaled rational model: the drive chain's effects, the mechanics (the chain of bodies, or the
+        tilting beam) and the sensor chain's effects as state-space blocks in series, each block and the whole
+        balanced by a diagonal similarity (``balanced``); delays as Pade approximants of ``pade_order``. Input
+        ``current`` (A), output ``velocity`` (m/s; Stage Y: the mean of the rails, as ``frd``, with the rails'
+        scales and motor shares). The product of transfer functions (``to_control``) has polynomial coefficients
+        over 30 decades; this realisation's state matrix has entries within a few decades. python-control takes
+        it as it is (``ct.bode_plot``, ``ct.margin``, ``ct.feedback``). A nonlinear effect, a batch of parameters or
+        an effect with no frequency-response model raises ``EffectError``/``ParameterError``."""
+        import control
+
+        check_count("pade_order", pade_order, minimum=1)
+        self._check_rational("to_state_space")
+        self._check_frequency_model()
+        kt = float(np.asarray(self.force_constant_n_per_a).reshape(()))
+        scales = np.asarray(self.output_scales(), float).reshape(-1)
+        tilt = self._tilt()
+        if tilt is None:
+            A, B, C = chain_state_space(self.mechanics())
+            # every recorded output reads the same rail: the mean of their scales (``frd``)
+            mech = control.ss(A, B * kt, C * float(np.mean(scales)), 0.0)
+        else:
+            from plant.physics.gantry_models import xie_wang_ss
+
+            l1, l2 = (float(v) for v in self._loads_l1_l2(tilt))
+            beam = xie_wang_ss(mass_kg=float(np.asarray(self.mass_kg).reshape(())),
+                               inertia_kg_m2=float(np.asarray(tilt.inertia_kg_m2).reshape(())),
+                               damping1_n_s_per_m=float(np.asarray(self.damping_n_s_per_m).reshape(())),
+                               damping2_n_s_per_m=float(np.asarray(self.damping_n_s_per_m).reshape(())),
+                               l1_m=l1, l2_m=l2,
+                               joint_stiffness_n_m_per_rad=float(np.asarray(tilt.stiffness_n_m_per_rad).reshape(())))
+            # the beam's position y_c (state 0) moves nothing and no velocity reads it: left out, the rest is minimal
+            beam = control.ss(beam.A[1:, 1:], beam.B[1:], beam.C[:, 1:], beam.D)
+            shares = np.array([[float(np.asarray(x).reshape(()))] for x in self.motor_shares()])
+            mech = (control.ss([], [], [], [scales / len(scales)]) * beam *
+                    control.ss([], [], [], shares * kt))
+        out = balanced(mech)
+        for place in ("drive", "sensor"):
+            for e in self.effects:
+                if isinstance(e, ChainEffect) and e.place == place:
+                    block = balanced(control.ss(e.to_tf(pade_order=pade_order)))
+                    out = out * block if place == "drive" else block * out
+        out = balanced(out)
+        return control.ss(out.A, out.B, out.C, out.D, name=f"stage_{self.stage}", inputs="current",
+                          outputs="velocity")
+
+    def _check_rational(self, what: str) -> None:
+        for name in BASE_PARAMETERS:
+            if np.size(getattr(self, name)) != 1:
+                raise ParameterError(f"{name} is a batch; {what} needs one plant (index the batch first)")
+        for e in self.effects:
+            if not e.linear:
+                raise EffectError(f"{e.name} is nonlinear and has no transfer function; "
+                                  "use frd() (describing function) or the time-domain simulator")
 
     def to_frd_data(self, w_rad_s) -> control.FrequencyResponseData:
         """python-control ``FrequencyResponseData`` of ``frd`` on the grid."""

@@ -36,8 +36,8 @@ preprocessing approximations leave a structure of about 0.1 % of the force that 
 resolves). With the position recorded, two dependences that bins of one variable cannot see are tested the
 same way (``_interactions``): on current x position (a force constant varying along the track) and on a
 periodic function of position (cogging, force ripple; its pitch found from the residual's spectrum over
-position); on current x time (a force constant drifting over the record, ``_drifting``) and velocity x time (a
-damping drifting, ``_damping_drifting``); and the residual's mean
+position); on current x time and velocity x time (a force constant or a damping drifting over the record,
+``_drifts``); and the residual's mean
 against its own Newey-West error (``_constant``), which a slow variation
 along the travel inflates, so the mean of a cable's force is not taken for a constant one. A missing Coulomb
 friction leaves a step at v = 0, an offset a shift in every bin, a Stribeck curve a bump at low velocity, a
@@ -397,39 +397,36 @@ def _constant(e: np.ndarray) -> Structure:
     return _pattern("constant", e, np.ones((e.size, 1)), 1, lambda c: f"a constant force {c[0]:+.3g} N")
 
 
-def _drifting(e: np.ndarray, force: np.ndarray, t: np.ndarray, X: np.ndarray) -> Structure:
-    """current x time: e on F u, u = (t - mid) / half over the record, against the model's columns and u itself (a
-    force that changes in time alone is not an interaction): a force constant drifting over the record (a coil
-    warming), K(t) = K(mid) (1 + d u), leaves -d u F, whose mean in any bin of time is zero where the current
-    averages out."""
+def _drifts(e: np.ndarray, force: np.ndarray, velocity: np.ndarray, t: np.ndarray, X: np.ndarray,
+            damping: float) -> tuple[Structure, Structure]:
+    """current x time and velocity x time: e on F u and on v u, u = (t - mid) / half over the record, each against
+    the model's columns, u itself (a force that changes in time alone is not an interaction) and the other's pattern
+    (where the force follows the velocity, F ~ b v, the two drifts leave nearly the same residual). A force constant
+    drifting over the record (a coil warming), K(t) = K(mid) (1 + d u), leaves -d u F; a damping drifting (a
+    lubricant warming), b(t) = b(mid) (1 + d u), leaves d u b v; each mean in any bin of time is zero where the
+    current or the velocity averages out."""
     lo, hi = float(t.min()), float(t.max())
+    still = Structure("current x time", 0.0, 1, 1.0, False, "one instant", 0.0, "one instant")
     if not hi > lo:
-        return Structure("current x time", 0.0, 1, 1.0, False, "one instant", 0.0, "one instant")
+        return still, dataclasses.replace(still, variable="velocity x time")
     mid, half = (lo + hi) / 2, (hi - lo) / 2
     u = (t - mid) / half
+    span = f"u = (t - {mid:.3g} s) / {half:.3g} s"
 
-    def words(c):
+    def force_constant(c):
         return (f"a force constant drifting over the record, to first order K(t) / K = 1 {-c[0]:+.3g} u with "
-                f"u = (t - {mid:.3g} s) / {half:.3g} s: {100 * -2 * c[0]:+.2g} % from the first sample to the last")
+                f"{span}: {100 * -2 * c[0]:+.2g} % from the first sample to the last")
 
-    return _pattern("current x time", e, (force * u)[:, None], 1, words, np.column_stack([X, u]))
-
-
-def _damping_drifting(e: np.ndarray, velocity: np.ndarray, t: np.ndarray, X: np.ndarray, damping: float) -> Structure:
-    """velocity x time: e on v u (u as in ``_drifting``) against the model's columns and u: a damping drifting over
-    the record (a lubricant warming), b(t) = b(mid) (1 + d u), leaves -d u b v."""
-    lo, hi = float(t.min()), float(t.max())
-    if not (hi > lo and damping > 0):
-        return Structure("velocity x time", 0.0, 1, 1.0, False, "one instant", 0.0, "one instant")
-    mid, half = (lo + hi) / 2, (hi - lo) / 2
-    u = (t - mid) / half
-
-    def words(c):
+    def damping_words(c):
         d = c[0] / damping
         return (f"a damping drifting over the record, to first order b(t) / b = 1 {d:+.3g} u with "
-                f"u = (t - {mid:.3g} s) / {half:.3g} s: {100 * 2 * d:+.2g} % from the first sample to the last")
+                f"{span}: {100 * 2 * d:+.2g} % from the first sample to the last")
 
-    return _pattern("velocity x time", e, (velocity * u)[:, None], 1, words, np.column_stack([X, u]))
+    fu, vu = force * u, velocity * u
+    current = _pattern("current x time", e, fu[:, None], 1, force_constant, np.column_stack([X, vu, u]))
+    if not damping > 0:
+        return current, dataclasses.replace(still, variable="velocity x time")
+    return current, _pattern("velocity x time", e, vu[:, None], 1, damping_words, np.column_stack([X, fu, u]))
 
 
 def _interactions(e: np.ndarray, force: np.ndarray, position: np.ndarray, X: np.ndarray) -> tuple[Structure, ...]:
@@ -552,13 +549,8 @@ def fit_inverse_model(plant: Plant, rec: TimeRecording | InverseModelData, *, fr
     variables = {"velocity": data.velocity_m_per_s[moving], "acceleration": data.acceleration_m_per_s2[moving],
                  "motor force": force}
     j = ~data.at_reversal[moving]
-    t_j, v_j = data.time_s[moving][j], data.velocity_m_per_s[moving][j]
-    # each drift tested with the other's pattern among the model's columns: where the force follows the velocity
-    # (slow motion, F ~ b v) a drifting force constant and a drifting damping leave nearly the same residual
-    u = (t_j - (t_j.min() + t_j.max()) / 2) / max((t_j.max() - t_j.min()) / 2, 1e-300)
-    interactions = (_constant(e[j]), _drifting(e[j], force[j], t_j, np.column_stack([X[j], v_j * u])),
-                    _damping_drifting(e[j], v_j, t_j, np.column_stack([X[j], force[j] * u]),
-                                      b_per * values["damping_n_s_per_m"]))
+    interactions = (_constant(e[j]), *_drifts(e[j], force[j], data.velocity_m_per_s[moving][j],
+                                               data.time_s[moving][j], X[j], b_per * values["damping_n_s_per_m"]))
     if data.position_m is not None:
         variables["position"] = data.position_m[moving]
         interactions += _interactions(e[j], force[j], data.position_m[moving][j], X[j])

@@ -23,92 +23,71 @@ from plant.errors import EffectError
 from plant.physics.effect_base import FitSamples, ForceSignals, MechanicalEffect
 from plant.physics.parameters import check_finite, check_positive
 
-#: why a frequency response does not search a drift
-NOT_SEARCHED = ("a frequency response is a steady state; a stepped sine's drift over its blocks is fitted by the "
-                "diagnosis's drift model, a time recording's by this effect")
-SPAN_BOUNDS = {"mid_s": (-1e9, 1e9, "s"), "half_s": (1e-6, 1e9, "s")}
 
+@dataclass(frozen=True)
+class _Drift(MechanicalEffect):
+    """What the drifts share: the record's span (mid_s, half_s: u = (t - mid_s) / half_s, set from the samples' times
+    by ``configured``), their standing in the search and the checks of their fields."""
 
-def _u(effect, signals: ForceSignals) -> np.ndarray:
-    """(t - mid_s) / half_s at the signals' times."""
-    if signals.time_s is None:
-        raise EffectError(f"{effect.name} depends on the time: the signals carry none")
-    return (np.asarray(signals.time_s, float) - effect.mid_s) / effect.half_s
+    mid_s: float = 0.0
+    half_s: float = 1.0
+    realised_as: ClassVar[str] = "force"
+    search_fixed: ClassVar = ("mid_s", "half_s")
+    searched: ClassVar[bool] = False
+    not_searched: ClassVar[str] = ("a frequency response is a steady state; a stepped sine's drift over its blocks is "
+                                   "fitted by the diagnosis's drift model, a time recording's by this effect")
+    in_synthesis: ClassVar[bool] = False
+    time_domain: ClassVar[bool] = True
+    simulated: ClassVar[bool] = False
 
+    def __post_init__(self) -> None:
+        check_positive(f"{self.name}.half_s", self.half_s)
+        for name in ("mid_s", self.main_parameter):
+            check_finite(f"{self.name}.{name}", getattr(self, name))
 
-def _spanned(effect, samples: FitSamples):
-    """``effect`` with mid_s and half_s over the samples' times."""
-    if samples.time_s is None:
-        return effect
-    lo, hi = float(np.min(samples.time_s)), float(np.max(samples.time_s))
-    return replace(effect, mid_s=(lo + hi) / 2, half_s=(hi - lo) / 2) if hi > lo else effect
+    def u(self, signals: ForceSignals) -> np.ndarray:
+        """(t - mid_s) / half_s at the signals' times."""
+        if signals.time_s is None:
+            raise EffectError(f"{self.name} depends on the time: the signals carry none")
+        return (np.asarray(signals.time_s, float) - self.mid_s) / self.half_s
 
-
-def _check(effect, field: str) -> None:
-    check_positive(f"{effect.name}.half_s", effect.half_s)
-    for name in ("mid_s", field):
-        check_finite(f"{effect.name}.{name}", getattr(effect, name))
+    def configured(self, samples: FitSamples, residual_n):
+        if samples.time_s is None:
+            return self
+        lo, hi = float(np.min(samples.time_s)), float(np.max(samples.time_s))
+        return replace(self, mid_s=(lo + hi) / 2, half_s=(hi - lo) / 2) if hi > lo else self
 
 
 @dataclass(frozen=True)
-class ForceConstantDrift(MechanicalEffect):
+class ForceConstantDrift(_Drift):
     """A force constant drifting over the recording (module doc): K(t) = K (1 + change u), u = (t - mid_s) /
     half_s."""
 
-    mid_s: float = 0.0
-    half_s: float = 1.0
     change: float = 0.0
     name: ClassVar[str] = "force_constant_drift"
-    realised_as: ClassVar[str] = "force"
-    bounds: ClassVar = {**SPAN_BOUNDS, "change": (-0.5, 0.5, "1")}
+    bounds: ClassVar = {"mid_s": (-1e9, 1e9, "s"), "half_s": (1e-6, 1e9, "s"), "change": (-0.5, 0.5, "1")}
     signature: ClassVar[str] = "a residual proportional to the current times the time (a coil warming)"
     main_parameter: ClassVar[str] = "change"
     neutral: ClassVar = {"change": 0.0}
-    search_fixed: ClassVar = ("mid_s", "half_s")
     residual_signature: ClassVar = "current x time"
-    searched: ClassVar[bool] = False
-    not_searched: ClassVar[str] = NOT_SEARCHED
-    in_synthesis: ClassVar[bool] = False
-    time_domain: ClassVar[bool] = True
-    simulated: ClassVar[bool] = False
-
-    def __post_init__(self) -> None:
-        _check(self, "change")
 
     def force_regressors(self, signals: ForceSignals) -> dict[str, np.ndarray]:
         # K u_drive (1 + d u) = m a + b v + ...: with K u_drive on the left, exactly
-        return {"change": -signals.force_n * _u(self, signals)}
-
-    def configured(self, samples: FitSamples, residual_n) -> ForceConstantDrift:
-        return _spanned(self, samples)
+        return {"change": -signals.force_n * self.u(signals)}
 
 
 @dataclass(frozen=True)
-class DampingDrift(MechanicalEffect):
+class DampingDrift(_Drift):
     """A damping drifting over the recording (module doc): b(t) = b + change_n_s_per_m u, u = (t - mid_s) / half_s."""
 
-    mid_s: float = 0.0
-    half_s: float = 1.0
     change_n_s_per_m: float = 0.0
     name: ClassVar[str] = "damping_drift"
-    realised_as: ClassVar[str] = "force"
-    bounds: ClassVar = {**SPAN_BOUNDS, "change_n_s_per_m": (-1e5, 1e5, "N*s/m")}
+    bounds: ClassVar = {"mid_s": (-1e9, 1e9, "s"), "half_s": (1e-6, 1e9, "s"),
+                        "change_n_s_per_m": (-1e5, 1e5, "N*s/m")}
     signature: ClassVar[str] = "a residual proportional to the velocity times the time (a lubricant warming)"
     main_parameter: ClassVar[str] = "change_n_s_per_m"
     neutral: ClassVar = {"change_n_s_per_m": 0.0}
-    search_fixed: ClassVar = ("mid_s", "half_s")
     residual_signature: ClassVar = "velocity x time"
-    searched: ClassVar[bool] = False
-    not_searched: ClassVar[str] = NOT_SEARCHED
-    in_synthesis: ClassVar[bool] = False
-    time_domain: ClassVar[bool] = True
-    simulated: ClassVar[bool] = False
-
-    def __post_init__(self) -> None:
-        _check(self, "change_n_s_per_m")
 
     def force_regressors(self, signals: ForceSignals) -> dict[str, np.ndarray]:
-        return {"change_n_s_per_m": np.asarray(signals.velocity_m_per_s, float) * _u(self, signals)}
-
-    def configured(self, samples: FitSamples, residual_n) -> DampingDrift:
-        return _spanned(self, samples)
+        return {"change_n_s_per_m": np.asarray(signals.velocity_m_per_s, float) * self.u(signals)}

@@ -369,15 +369,7 @@ class Plant:
             num, den = (np.asarray(p[0][0], float) for p in (tf.num, tf.den))
             sys = control.tf(num / den[-1], den / den[-1])
         else:
-            from plant.physics.gantry_models import xie_wang_ss
-
-            l1, l2 = (float(v) for v in self._loads_l1_l2(tilt))
-            ss = xie_wang_ss(mass_kg=float(np.asarray(self.mass_kg).reshape(())),
-                             inertia_kg_m2=float(np.asarray(tilt.inertia_kg_m2).reshape(())),
-                             damping1_n_s_per_m=float(np.asarray(self.damping_n_s_per_m).reshape(())),
-                             damping2_n_s_per_m=float(np.asarray(self.damping_n_s_per_m).reshape(())),
-                             l1_m=l1, l2_m=l2,
-                             joint_stiffness_n_m_per_rad=float(np.asarray(tilt.stiffness_n_m_per_rad).reshape(())))
+            ss = self._beam_ss(tilt)
             # mean rail velocity for f1 = f2 = K_t i / 2
             mean = control.ss([], [], [], [[0.5, 0.5]]) * ss * control.ss([], [], [], [[kt / 2], [kt / 2]])
             sys = control.minreal(control.ss2tf(mean), verbose=False)
@@ -405,15 +397,7 @@ class Plant:
             # every recorded output reads the same rail: the mean of their scales (``frd``)
             mech = control.ss(A, B * kt, C * float(np.mean(scales)), 0.0)
         else:
-            from plant.physics.gantry_models import xie_wang_ss
-
-            l1, l2 = (float(v) for v in self._loads_l1_l2(tilt))
-            beam = xie_wang_ss(mass_kg=float(np.asarray(self.mass_kg).reshape(())),
-                               inertia_kg_m2=float(np.asarray(tilt.inertia_kg_m2).reshape(())),
-                               damping1_n_s_per_m=float(np.asarray(self.damping_n_s_per_m).reshape(())),
-                               damping2_n_s_per_m=float(np.asarray(self.damping_n_s_per_m).reshape(())),
-                               l1_m=l1, l2_m=l2,
-                               joint_stiffness_n_m_per_rad=float(np.asarray(tilt.stiffness_n_m_per_rad).reshape(())))
+            beam = self._beam_ss(tilt)
             # the beam's position y_c (state 0) moves nothing and no velocity reads it: left out, the rest is minimal
             beam = control.ss(beam.A[1:, 1:], beam.B[1:], beam.C[:, 1:], beam.D)
             shares = np.array([[float(np.asarray(x).reshape(()))] for x in self.motor_shares()])
@@ -428,6 +412,17 @@ class Plant:
         out = balanced(out)
         return control.ss(out.A, out.B, out.C, out.D, name=f"stage_{self.stage}", inputs="current",
                           outputs="velocity")
+
+    def _beam_ss(self, tilt) -> control.StateSpace:
+        """The tilting beam (Xie & Wang) of one plant: forces on the rails in, the rails' velocities out."""
+        from plant.physics.gantry_models import xie_wang_ss
+
+        l1, l2 = (float(v) for v in self._loads_l1_l2(tilt))
+        damping = float(np.asarray(self.damping_n_s_per_m).reshape(()))
+        return xie_wang_ss(mass_kg=float(np.asarray(self.mass_kg).reshape(())),
+                           inertia_kg_m2=float(np.asarray(tilt.inertia_kg_m2).reshape(())),
+                           damping1_n_s_per_m=damping, damping2_n_s_per_m=damping, l1_m=l1, l2_m=l2,
+                           joint_stiffness_n_m_per_rad=float(np.asarray(tilt.stiffness_n_m_per_rad).reshape(())))
 
     def _check_rational(self, what: str) -> None:
         for name in BASE_PARAMETERS:

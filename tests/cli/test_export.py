@@ -24,20 +24,22 @@ def _golden(name: str) -> dict:
     return json.loads((GOLDEN / name).read_text(encoding="utf-8"))["json"]
 
 
-@pytest.fixture(scope="module")
-def pi_design(tmp_path_factory) -> tuple[Path, dict]:
-    d = _golden("synth_x.json")
-    path = tmp_path_factory.mktemp("export") / "x.json"
+def _written(tmp_path_factory, golden: str, name: str) -> tuple[Path, dict]:
+    """The golden file's design JSON written to a file of its own, and the design."""
+    d = _golden(golden)
+    path = tmp_path_factory.mktemp("export") / name
     path.write_text(json.dumps(d), encoding="utf-8")
     return path, d
+
+
+@pytest.fixture(scope="module")
+def pi_design(tmp_path_factory) -> tuple[Path, dict]:
+    return _written(tmp_path_factory, "synth_x.json", "x.json")
 
 
 @pytest.fixture(scope="module")
 def admittance_design(tmp_path_factory) -> tuple[Path, dict]:
-    d = _golden("synth_admittance.json")
-    path = tmp_path_factory.mktemp("export") / "xa.json"
-    path.write_text(json.dumps(d), encoding="utf-8")
-    return path, d
+    return _written(tmp_path_factory, "synth_admittance.json", "xa.json")
 
 
 def _exported(*args) -> dict:

@@ -17,11 +17,18 @@ Forms (drawn per recording):
   PD at 1 kHz) with Coulomb friction and an offset; truths: these alone, with a ripple of 2-6 N at 15-30 mm,
   or with a Stribeck rise of 5-15 N at 15-50 mm/s.
 
+Drifts (``--drifts``, drawn after the others from their own generator, so the first ``--n`` recordings stay as
+they were): the linear motor's force constant falling 3-8 % over the record (a coil warming) or its guides'
+damping rising 6-15 % (a lubricant warming), under any open-loop form; the closed-loop axis's drive gain
+drifting by 3-6 % either way, beside its Coulomb friction and offset.
+
 A hit: for a truth in the library, exactly its effects, "explained", and the parameters: the ripple's pitch
 within 1 % and its first-harmonic amplitude within 10 % (5 % of the drive force absolute); the profile's
 slope and curvature within 15 % (0.02 absolute, or 3 Newey-West standard errors where the recording's noise
 allows no better); the current limit within 5 % and its fraction lost within 0.1 of 1; the Stribeck excess
-within 15 % and velocity within 20 %; the cable's stiffness within 5 % and its rest position within 2 mm.
+within 15 % and velocity within 20 %; the cable's stiffness within 5 % and its rest position within 2 mm; a
+drift's rate (its change per second relative to the force constant, or in N s/m per second) within 10 % (or 3
+Newey-West standard errors where the recording's noise allows no better).
 False "found": an effect claimed that is not there.
 """
 
@@ -80,6 +87,28 @@ def _draw(rng: np.random.Generator):
         ({"force_constant_profile"} if kind in ("profile", "both") else set()) | \
         ({"current_limit"} if "limit" in kind else set()) | ({"cable_force"} if kind == "cable" else set())
     return form, kind, lm.LinearMotorAxis(**kw), expected
+
+
+#: the drifts' truths: open-loop force constant or damping, closed-loop drive gain
+DRIFTS = ("kt_drift", "damping_drift")
+
+
+def _draw_drift(rng: np.random.Generator):
+    """(form, truth label, axis, expected effects) of a drifting recording (module doc)."""
+    if rng.uniform() < 0.25:
+        span_s = 20.0                                       # ``friction_sim.simulate``'s default duration
+        change = rng.uniform(0.03, 0.06) * rng.choice((-1.0, 1.0))
+        axis = friction_sim.Axis(coulomb_n=rng.uniform(5, 30), offset_n=rng.uniform(-5, 5),
+                                 gain_rate_per_s=change / span_s)
+        return "closed", "friction+kt_drift", axis, {"coulomb_friction", "offset", "force_constant_drift"}
+    form = tuple(FORMS)[int(rng.integers(len(FORMS)))]
+    kind = DRIFTS[int(rng.integers(len(DRIFTS)))]
+    span_s = {"sweep": 16.0, "chirp": 24.0, "stepped": 24.0}[form]
+    if kind == "kt_drift":
+        axis = lm.LinearMotorAxis(kt_rate_per_s=-rng.uniform(0.03, 0.08) / span_s)
+        return form, kind, axis, {"force_constant_drift"}
+    axis = lm.LinearMotorAxis(damping_rate_per_s=rng.uniform(0.06, 0.15) / span_s)
+    return form, kind, axis, {"damping_drift"}
 
 
 def _record(form: str, axis, rng: np.random.Generator, seed: int) -> tuple[TimeRecording, Plant, Preprocessing, object]:
@@ -143,21 +172,46 @@ def _parameters_ok(form: str, axis, diag) -> tuple[bool, str]:
         e_rest = cable.rest_m - axis.cable_rest_m
         ok &= abs(e_k) < 0.05 and abs(e_rest) < 2e-3
         words.append(f"cable stiffness {100 * e_k:+.2f} %, rest {1e3 * e_rest:+.2f} mm")
-    return ok, "; ".join(words)
+    words_drift, ok_drift = _drift_ok(form, axis, diag)
+    return ok and ok_drift, "; ".join(words + words_drift)
+
+
+def _drift_ok(form: str, axis, diag) -> tuple[list[str], bool]:
+    """A fitted drift's rate against the truth's: the force constant's relative change per second at mid-record
+    (the closed loop's drive gain, or the linear motor's force constant), the damping's change in N s/m per s."""
+    words, ok = [], True
+    kt_drift = diag.final.plant.effect("force_constant_drift")
+    rate = getattr(axis, "gain_rate_per_s" if form == "closed" else "kt_rate_per_s", 0.0)
+    if kt_drift is not None and rate:
+        truth = rate / (1 + rate * kt_drift.mid_s)           # relative to K at mid-record, as the fit has it
+        e = kt_drift.change / kt_drift.half_s / truth - 1
+        se = diag.final.stderr["force_constant_drift.change"] / kt_drift.half_s / abs(truth)
+        ok &= abs(e) < max(0.1, 3 * se)
+        words.append(f"force-constant drift {100 * e:+.1f} % (se {100 * se:.1f} %)")
+    damping = diag.final.plant.effect("damping_drift")
+    if damping is not None and form != "closed" and axis.damping_rate_per_s:
+        truth = axis.damping_n_s_per_m * axis.damping_rate_per_s
+        e = damping.change_n_s_per_m / damping.half_s / truth - 1
+        se = diag.final.stderr["damping_drift.change_n_s_per_m"] / damping.half_s / truth
+        ok &= abs(e) < max(0.1, 3 * se)
+        words.append(f"damping drift {100 * e:+.1f} % (se {100 * se:.1f} %)")
+    return words, ok
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--n", type=int, default=72)
     parser.add_argument("--seed", type=int, default=23)
+    parser.add_argument("--drifts", type=int, default=24, help="drifting recordings after the others (module doc)")
     args = parser.parse_args()
     rng = np.random.default_rng(args.seed)
+    drift_rng = np.random.default_rng([args.seed, 1])
     hits = false_found = 0
     seconds, sim_seconds = [], []
     by_truth: dict[str, list[int]] = {}
     print(f"{'#':>3} {'form':7} {'truth':17} {'found':56} {'verdict':14} {'ok':>3} {'s':>5}  parameters")
-    for i in range(args.n):
-        form, truth, axis, expected = _draw(rng)
+    for i in range(args.n + args.drifts):
+        form, truth, axis, expected = _draw(rng) if i < args.n else _draw_drift(drift_rng)
         t0 = time.perf_counter()
         rec, plant, prep, axis = _record(form, axis, rng, seed=i)
         sim_seconds.append(time.perf_counter() - t0)
@@ -174,7 +228,7 @@ def main() -> None:
         by_truth[f"{form} {truth}"][1] += 1
         print(f"{i:3d} {form:7} {truth:17} {', '.join(sorted(found)) or '-':56} {diag.verdict:14} "
               f"{'yes' if hit else 'NO':>3} {seconds[-1]:5.1f}  {words}", flush=True)
-    n = args.n
+    n = args.n + args.drifts
     print(f"\nhits {hits}/{n} ({100 * hits / n:.0f} %); false \"found\" "
           f"{false_found}; diagnosis {np.mean(seconds):.1f} s mean, {np.max(seconds):.1f} s max per recording "
           f"(simulation {np.mean(sim_seconds):.1f} s)")

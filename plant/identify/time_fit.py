@@ -397,6 +397,11 @@ def _constant(e: np.ndarray) -> Structure:
     return _pattern("constant", e, np.ones((e.size, 1)), 1, lambda c: f"a constant force {c[0]:+.3g} N")
 
 
+#: what a drift's pattern says when it stands out alone but not beside the other drift's
+CONFOUNDED = (" (beside the other drift's pattern it does not stand out: the force follows the velocity, and the "
+              "fits of both drifts tell them apart)")
+
+
 def _drifts(e: np.ndarray, force: np.ndarray, velocity: np.ndarray, t: np.ndarray, X: np.ndarray,
             damping: float) -> tuple[Structure, Structure]:
     """current x time and velocity x time: e on F u and on v u, u = (t - mid) / half over the record, each against
@@ -404,7 +409,9 @@ def _drifts(e: np.ndarray, force: np.ndarray, velocity: np.ndarray, t: np.ndarra
     (where the force follows the velocity, F ~ b v, the two drifts leave nearly the same residual). A force constant
     drifting over the record (a coil warming), K(t) = K(mid) (1 + d u), leaves -d u F; a damping drifting (a
     lubricant warming), b(t) = b(mid) (1 + d u), leaves d u b v; each mean in any bin of time is zero where the
-    current or the velocity averages out."""
+    current or the velocity averages out. Where neither stands out beside the other but the two together carry the
+    residual (a joint test), each that stands out alone, against the model's columns and u, is shown (``CONFOUNDED``):
+    both drifts are then fitted and the fits tell them apart."""
     lo, hi = float(t.min()), float(t.max())
     still = Structure("current x time", 0.0, 1, 1.0, False, "one instant", 0.0, "one instant")
     if not hi > lo:
@@ -426,7 +433,18 @@ def _drifts(e: np.ndarray, force: np.ndarray, velocity: np.ndarray, t: np.ndarra
     current = _pattern("current x time", e, fu[:, None], 1, force_constant, np.column_stack([X, vu, u]))
     if not damping > 0:
         return current, dataclasses.replace(still, variable="velocity x time")
-    return current, _pattern("velocity x time", e, vu[:, None], 1, damping_words, np.column_stack([X, fu, u]))
+    damp = _pattern("velocity x time", e, vu[:, None], 1, damping_words, np.column_stack([X, fu, u]))
+    if current.significant or damp.significant:
+        return current, damp
+    # where the force follows the velocity the two patterns are nearly one, and neither stands out beside the other
+    # even when together they carry the residual: then each that stands out alone is shown, and the fits decide
+    joint = _pattern("drift", e, np.column_stack([fu, vu]), 1, lambda c: "", np.column_stack([X, u]))
+    if not joint.significant:
+        return current, damp
+    alone = (_pattern("current x time", e, fu[:, None], 1, force_constant, np.column_stack([X, u])),
+             _pattern("velocity x time", e, vu[:, None], 1, damping_words, np.column_stack([X, u])))
+    return tuple(dataclasses.replace(a, summary=a.summary + CONFOUNDED, worst_bin=a.worst_bin + CONFOUNDED)
+                 if a.significant else s for s, a in zip((current, damp), alone))
 
 
 def _interactions(e: np.ndarray, force: np.ndarray, position: np.ndarray, X: np.ndarray) -> tuple[Structure, ...]:

@@ -8,7 +8,8 @@ It is integrated at ``INTERNAL_HZ`` by semi-implicit Euler with a Karnopp stick 
 velocity would cross zero in a step, or is inside the band, and the driving force is below the
 static friction F_c + F_s, the axis sticks (v = 0). A PD position controller with a velocity feedforward runs at the
 logging rate on the encoder reading (quantised position) and the backward-difference
-velocity; its command (V) becomes force through a gain (N/V) with additive drive noise.
+velocity; its command (V) becomes force through a gain (N/V), which may drift in time (a coil warming), with additive
+drive noise.
 Logged: time, command, encoder position and the reference, as the EMPS benchmark logs them.
 """
 
@@ -36,6 +37,8 @@ class Axis:
     stribeck_n: float = 0.0
     stribeck_velocity_m_per_s: float = 0.01
     gain_n_per_v: float = 35.0
+    #: the drive's gain drifts in time, gain (1 + rate t) (a coil warming), 1/s
+    gain_rate_per_s: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -77,7 +80,8 @@ def simulate(axis: Axis, *, duration_s: float = 20.0, seed: int = 0, encoder_m: 
         u += drive_noise_v * rng.standard_normal()
         u_log[k] = u
         q_log[k] = q
-        force = axis.gain_n_per_v * u
+        force = axis.gain_n_per_v * u if not axis.gain_rate_per_s else \
+            axis.gain_n_per_v * (1.0 + axis.gain_rate_per_s * t[k]) * u
         for _ in range(sub):
             drive = force - axis.offset_n - axis.ripple_n * math.sin(2 * math.pi * x / axis.ripple_period_m)
             static = axis.coulomb_n + axis.stribeck_n

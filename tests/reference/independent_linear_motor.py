@@ -13,7 +13,8 @@ Physics
     * force constant along the magnet track: Kt(x) = Kt0 (1 - droop (2 x / travel)^2) (N/A), falling
       off towards the ends of the track;
     * force ripple (cogging): sum_k a_k sin(2 pi k x / pitch + phi_k) (N);
-    * guides whose damping drifts in time, b (1 + r t) (a lubricant warming up);
+    * guides whose damping drifts in time, b (1 + r t) (a lubricant warming up), and a force constant that
+      drifts in time, Kt(x) (1 + r_K t) (a coil warming up: its magnets' remanence falls);
     * a cable chain pulling towards its rest position x_c with stiffness k_c (N/m): a force that depends on
       the position but is neither periodic nor proportional to the current; and the chain's drag, a friction
       d (x - x_f) that grows with the length of chain moving, from its fixed end x_f (m), smoothed at rest as
@@ -58,13 +59,17 @@ class LinearMotorAxis:
     cable_fixed_m: float = -0.25
     #: the guides' damping drifts in time, b (1 + rate t) (a lubricant warming), 1/s
     damping_rate_per_s: float = 0.0
+    #: the force constant drifts in time, Kt (1 + rate t) (a coil warming), 1/s
+    kt_rate_per_s: float = 0.0
 
-    def force_n(self, i_a: np.ndarray, x_m: np.ndarray, v_m_per_s=0.0) -> np.ndarray:
-        """Force (N) of the motor and the cable for commanded current ``i_a`` at position ``x_m`` and velocity
-        ``v_m_per_s``."""
+    def force_n(self, i_a: np.ndarray, x_m: np.ndarray, v_m_per_s=0.0, t_s=0.0) -> np.ndarray:
+        """Force (N) of the motor and the cable for commanded current ``i_a`` at position ``x_m``, velocity
+        ``v_m_per_s`` and time ``t_s``."""
         i = i_a if self.current_limit_a is None else np.minimum(np.maximum(i_a, -self.current_limit_a),
                                                                  self.current_limit_a)
         kt = self.kt_n_per_a * (1.0 - self.kt_droop * (2.0 * x_m / self.travel_m) ** 2)
+        if self.kt_rate_per_s:
+            kt = kt * (1.0 + self.kt_rate_per_s * t_s)
         f = kt * i
         for k, (a, phi) in enumerate(zip(self.ripple_n, self.ripple_phase_rad or (0.0,) * len(self.ripple_n)), 1):
             f = f + a * np.sin(2 * np.pi * k * x_m / self.ripple_pitch_m + phi)
@@ -86,7 +91,7 @@ class LinearMotorAxis:
 
         def rate(t, x, v):
             i = current(t) if drive is None else drive(current(t), x)
-            return v, (self.force_n(i, x, v) - b * (1.0 + self.damping_rate_per_s * t) * v) / m
+            return v, (self.force_n(i, x, v, t) - b * (1.0 + self.damping_rate_per_s * t) * v) / m
 
         x, v = (0.0, 0.0) if n == 1 else (np.zeros(n), np.zeros(n))
         xs, vs = np.empty((t_s.size, n)), np.empty((t_s.size, n))

@@ -23,3 +23,28 @@ def test_current_limit_clips_the_force_and_ripple_follows_position():
     assert np.isclose(axis.force_n(np.array([0.0]), np.array([0.01]))[0], 2.0)
     droop = lm.LinearMotorAxis(kt_droop=0.2, travel_m=0.5)
     assert np.isclose(droop.force_n(np.array([1.0]), np.array([0.25]))[0], 0.8 * droop.kt_n_per_a)
+
+
+def test_drifting_force_constant_and_damping_match_the_exact_ramp_responses():
+    """A constant current i0 on a force constant K (1 + r t): m v' + b v = K i0 (1 + r t), v(0) = 0, has
+    v = (K i0 / b) (1 + r t - r m / b - (1 - r m / b) e^{-b t / m}); the damping drifting as b (1 + q t) against
+    Heun's method on the same equation at a step 40x finer than the samples."""
+    m, b, kt, i0, r = 35.0, 440.0, 20.0, 2.0, -0.01
+    t = np.arange(2000) / 500.0
+    _, v = lm.LinearMotorAxis(mass_kg=m, damping_n_s_per_m=b, kt_n_per_a=kt, kt_rate_per_s=r).run(
+        lambda s: i0, t)
+    exact = kt * i0 / b * (1 + r * t - r * m / b - (1 - r * m / b) * np.exp(-b * t / m))
+    assert np.max(np.abs(v[:, 0] - exact)) < 1e-7 * np.max(np.abs(exact))
+    q = 0.02
+    t = t[:1000]
+    _, v = lm.LinearMotorAxis(mass_kg=m, damping_n_s_per_m=b, kt_n_per_a=kt, damping_rate_per_s=q).run(
+        lambda s: i0, t)
+    h, vv, fine = 5e-5, 0.0, np.empty(t.size)
+    for k in range(t.size):                 # Heun's method at a step 40x finer than a sample
+        fine[k] = vv
+        for j in range(40):
+            s = t[k] + j * h
+            f1 = (kt * i0 - b * (1 + q * s) * vv) / m
+            f2 = (kt * i0 - b * (1 + q * (s + h)) * (vv + h * f1)) / m
+            vv += h / 2 * (f1 + f2)
+    assert np.max(np.abs(v[:, 0] - fine)) < 1e-6 * np.max(np.abs(fine))

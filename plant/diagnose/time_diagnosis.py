@@ -202,21 +202,24 @@ def _plant(base: Plant, effects: tuple[Effect, ...]) -> Plant:
     return dataclasses.replace(base, effects=effects, excitation_current_a=base.excitation_current_a or 1.0)
 
 
+def _hidden_signature(combo: tuple[str, ...], models: dict[tuple[str, ...], TimeFitResult]) -> str | None:
+    """Why ``combo`` is not admitted (``_signatures_shown``), or None: the first of its effects with a residual
+    signature whose parent in ``models`` (``combo`` without it) is missing or does not show that signature."""
+    for name in combo:
+        signature = EFFECTS[name].residual_signature
+        parent = models.get(tuple(n for n in combo if n != name))
+        if signature is not None and not (parent is not None and any(
+                st.significant for st in parent.structure if st.variable == signature)):
+            return f"{name}: its pattern ({signature}) is not shown by the model without it"
+    return None
+
+
 def _signatures_shown(models: dict[tuple[str, ...], TimeFitResult]) -> dict[tuple[str, ...], TimeFitResult]:
     """The models each of whose effects with a residual signature (``Effect.residual_signature``: a structure
     test of ``plant.identify.time_fit``) is added to a model that shows it: a position-dependent force or a
     Stribeck rise is added only where the residual shows its pattern (p below the test level and a quarter of
     the residual or more), not for a BIC gain alone, which a long record gives any small correlation."""
-    def shown(combo: tuple[str, ...]) -> bool:
-        for name in combo:
-            signature = EFFECTS[name].residual_signature
-            parent = models.get(tuple(n for n in combo if n != name))
-            if signature is not None and not (parent is not None and any(
-                    st.significant for st in parent.structure if st.variable == signature)):
-                return False
-        return True
-
-    return {c: f for c, f in models.items() if shown(c)}
+    return {c: f for c, f in models.items() if _hidden_signature(c, models) is None}
 
 
 def _beyond_nested(models: dict[tuple[str, ...], TimeFitResult]) -> dict[tuple[str, ...], TimeFitResult]:
@@ -299,9 +302,15 @@ def diagnose_time(plant: Plant, rec: TimeRecording, *, candidates: tuple[str, ..
     names = tuple(n for n in names if n in usable)
     samples = fit_samples(data)
 
-    def fit(combo: tuple[str, ...], parents: list[TimeFitResult]) -> TimeFitResult:
+    def fit(combo: tuple[str, ...], parents: list[TimeFitResult]) -> TimeFitResult | str:
         """The model of ``combo``: the effects of its best parent as that parent has them, the new one
-        configured on that parent's residual (a ripple's pitch is seen once the friction is modelled)."""
+        configured on that parent's residual (a ripple's pitch is seen once the friction is modelled). A model of
+        two or more effects is not fitted where one of them would not be admitted (``_signatures_shown``); each
+        effect alone is, for the ranking of the candidates on the base model."""
+        if len(combo) > 1:
+            hidden = _hidden_signature(combo, {tuple(e.name for e in p.plant.effects): p for p in parents})
+            if hidden is not None:
+                return hidden
         best = min(parents, key=lambda r: r.rss)
         effects = tuple(best.plant.effect(n) or make_effect(n, **{k: 0.0 for k in EFFECTS[n].neutral}).configured(
             samples, best.residual) for n in combo)

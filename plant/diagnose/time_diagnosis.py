@@ -301,13 +301,14 @@ def diagnose_time(plant: Plant, rec: TimeRecording, *, candidates: tuple[str, ..
                      "and the recording has velocity only")
     names = tuple(n for n in names if n in usable)
     samples = fit_samples(data)
+    max_effects = min(len(names), MAX_TIME_EFFECTS)
 
     def fit(combo: tuple[str, ...], parents: list[TimeFitResult]) -> TimeFitResult | str:
         """The model of ``combo``: the effects of its best parent as that parent has them, the new one
         configured on that parent's residual (a ripple's pitch is seen once the friction is modelled). A model of
-        two or more effects is not fitted where one of them would not be admitted (``_signatures_shown``); each
-        effect alone is, for the ranking of the candidates on the base model."""
-        if len(combo) > 1:
+        the largest size, which is no other's parent, is not fitted where it would not be admitted
+        (``_signatures_shown``: its parents are all fitted, so the rule reads as it would after the fit)."""
+        if 1 < len(combo) == max_effects:
             hidden = _hidden_signature(combo, {tuple(e.name for e in p.plant.effects): p for p in parents})
             if hidden is not None:
                 return hidden
@@ -317,7 +318,7 @@ def diagnose_time(plant: Plant, rec: TimeRecording, *, candidates: tuple[str, ..
         return fit_inverse_model(_plant(plant, effects), data)
 
     models, _ = fit_models((), fit_inverse_model(_plant(plant, ()), data), names, fit,
-                           max_effects=min(len(names), MAX_TIME_EFFECTS), valid=compatible, progress=progress)
+                           max_effects=max_effects, valid=compatible, progress=progress)
     n_eff = min(models.values(), key=lambda f: f.rss).n_effective
     bics = {c: bic(f, n_eff) for c, f in models.items()}
     admissible = _beyond_nested(_signatures_shown(models))

@@ -373,20 +373,45 @@ def _structure(e: np.ndarray, variables: dict[str, np.ndarray], unit: str, floor
     return tuple(out)
 
 
-def _pattern(name: str, e: np.ndarray, B: np.ndarray, tests: int, words, X: np.ndarray | None = None) -> Structure:
+@dataclass(frozen=True)
+class ColumnNoise:
+    """The noise the measurement puts into the first columns of a regression (``_noise_gram``): its covariance per
+    sample and those columns' fitted coefficients."""
+
+    covariance: np.ndarray
+    beta: np.ndarray
+
+
+def _pattern(name: str, e: np.ndarray, B: np.ndarray, tests: int, words, X: np.ndarray | None = None,
+             noise: ColumnNoise | None = None) -> Structure:
     """Wald test (Newey-West covariance) of the residual's regression on the pattern columns ``B``, its p-value
     times ``tests`` (Bonferroni over the patterns searched); ``words(coefficients)`` describes the fit. With the
     model's own columns ``X``, ``B`` is first made orthogonal to them (the omitted-variable test of a pattern
     that the fitted mass and damping partly absorbed) and the covariance is taken on the residual left by the
     pattern (a Wald test: a residual that is mostly the pattern no longer inflates its own error). Without
     ``X`` the covariance is the residual's own (a score test), which a smooth residual inflates: a periodic
-    pattern is then claimed only where it stands out of any slow variation along the travel."""
+    pattern is then claimed only where it stands out of any slow variation along the travel. With the ``noise``
+    of ``X``'s first columns, the projection's share of that noise (B - X g carries -N g, the residual -N beta) is
+    taken out of B^T e and B^T B as the fit's least squares takes it out of X^T X (``_bias_compensated``): a pattern
+    that the acceleration's noise correlates with through the projection (a chirp's F u on the noisy acceleration)
+    is not claimed for that."""
     if X is not None:
-        kept = B - X @ np.linalg.lstsq(X, B, rcond=None)[0]
+        g = np.linalg.lstsq(X, B, rcond=None)[0]
+        kept = B - X @ g
         if np.min(np.linalg.norm(kept, axis=0) / np.maximum(np.linalg.norm(B, axis=0), 1e-300)) < IN_MODEL_NORM:
             return Structure(name, 0.0, B.shape[1], 1.0, False, "in the model", 0.0, "in the model")
         B = kept
-    coef, *_ = np.linalg.lstsq(B, e, rcond=None)
+    coef = None
+    if X is not None and noise is not None and np.any(noise.covariance):
+        k = noise.covariance.shape[0]
+        gk = g[:k]
+        try:
+            coef = np.linalg.solve(B.T @ B - e.size * gk.T @ noise.covariance @ gk,
+                                   B.T @ e - e.size * gk.T @ noise.covariance @ noise.beta)
+        except np.linalg.LinAlgError:
+            coef = None
+    if coef is None:
+        coef, *_ = np.linalg.lstsq(B, e, rcond=None)
     cov, _ = _newey_west(B, e if X is None else e - B @ coef)
     chi2 = float(coef @ np.linalg.pinv(cov) @ coef)
     p = min(1.0, tests * float(scipy.special.chdtrc(coef.size, chi2)))
@@ -408,7 +433,7 @@ CONFOUNDED = (" (beside the other drift's pattern it does not stand out: the for
 
 
 def _drifts(e: np.ndarray, force: np.ndarray, velocity: np.ndarray, t: np.ndarray, X: np.ndarray,
-            damping: float) -> tuple[Structure, Structure]:
+            damping: float, noise: ColumnNoise | None = None) -> tuple[Structure, Structure]:
     """current x time and velocity x time: e on F u and on v u, u = (t - mid) / half over the record, each against
     the model's columns, u itself (a force that changes in time alone is not an interaction) and the other's pattern
     (where the force follows the velocity, F ~ b v, the two drifts leave nearly the same residual). A force constant
@@ -435,24 +460,25 @@ def _drifts(e: np.ndarray, force: np.ndarray, velocity: np.ndarray, t: np.ndarra
                 f"{span}: {100 * 2 * d:+.2g} % from the first sample to the last")
 
     fu, vu = force * u, velocity * u
-    current = _pattern("current x time", e, fu[:, None], 1, force_constant, np.column_stack([X, vu, u]))
+    current = _pattern("current x time", e, fu[:, None], 1, force_constant, np.column_stack([X, vu, u]), noise)
     if not damping > 0:
         return current, dataclasses.replace(still, variable="velocity x time")
-    damp = _pattern("velocity x time", e, vu[:, None], 1, damping_words, np.column_stack([X, fu, u]))
+    damp = _pattern("velocity x time", e, vu[:, None], 1, damping_words, np.column_stack([X, fu, u]), noise)
     if current.significant or damp.significant:
         return current, damp
     # where the force follows the velocity the two patterns are nearly one, and neither stands out beside the other
     # even when together they carry the residual: then each that stands out alone is shown, and the fits decide
-    joint = _pattern("drift", e, np.column_stack([fu, vu]), 1, lambda c: "", np.column_stack([X, u]))
+    joint = _pattern("drift", e, np.column_stack([fu, vu]), 1, lambda c: "", np.column_stack([X, u]), noise)
     if not joint.significant:
         return current, damp
-    alone = (_pattern("current x time", e, fu[:, None], 1, force_constant, np.column_stack([X, u])),
-             _pattern("velocity x time", e, vu[:, None], 1, damping_words, np.column_stack([X, u])))
+    alone = (_pattern("current x time", e, fu[:, None], 1, force_constant, np.column_stack([X, u]), noise),
+             _pattern("velocity x time", e, vu[:, None], 1, damping_words, np.column_stack([X, u]), noise))
     return tuple(dataclasses.replace(a, summary=a.summary + CONFOUNDED, worst_bin=a.worst_bin + CONFOUNDED)
                  if a.significant else s for s, a in zip((current, damp), alone))
 
 
-def _interactions(e: np.ndarray, force: np.ndarray, position: np.ndarray, X: np.ndarray) -> tuple[Structure, ...]:
+def _interactions(e: np.ndarray, force: np.ndarray, position: np.ndarray, X: np.ndarray,
+                  noise: ColumnNoise | None = None) -> tuple[Structure, ...]:
     """Residual dependences that bins of one variable cannot see (module doc).
 
     * current x position: e on F x and F x^2 (x scaled to -1 .. 1 over the travel covered): a force constant
@@ -478,7 +504,7 @@ def _interactions(e: np.ndarray, force: np.ndarray, position: np.ndarray, X: np.
     # an interaction is tested beside its main effect: a force that depends on the position alone (a cable)
     # correlates with current x position wherever the current follows the position
     main = np.column_stack([X, x, x**2])
-    out = [_pattern("current x position", e, np.column_stack([force * x, force * x**2]), 1, kt_words, main)]
+    out = [_pattern("current x position", e, np.column_stack([force * x, force * x**2]), 1, kt_words, main, noise)]
     pitch, searched = periodic_pitch(position, e)
     if searched:
         phase = 2 * np.pi * (position - lo) / pitch
@@ -554,8 +580,9 @@ def fit_inverse_model(plant: Plant, rec: TimeRecording | InverseModelData, *, fr
     if not (np.all(np.isfinite(X)) and np.all(np.isfinite(y))):
         raise DataError(f"{where}: the model's signals (filtered velocity, acceleration, force) overflow: a value "
                         "in the recording is far out of range")
+    gram = _noise_gram(plant, data, free, int(moving.sum()))
     try:
-        A, target = _bias_compensated(X, y, _noise_gram(plant, data, free, int(moving.sum())))
+        A, target = _bias_compensated(X, y, gram)
         sol = scipy.optimize.lsq_linear(A, target, bounds=(lo, hi), method="bvls")
     except np.linalg.LinAlgError:
         raise DataError(f"{where}: the least-squares problem of the model cannot be solved on this recording (its "
@@ -573,11 +600,13 @@ def fit_inverse_model(plant: Plant, rec: TimeRecording | InverseModelData, *, fr
     variables = {"velocity": data.velocity_m_per_s[moving], "acceleration": data.acceleration_m_per_s2[moving],
                  "motor force": force}
     j = ~data.at_reversal[moving]
+    column_noise = ColumnNoise(gram / max(int(moving.sum()), 1), beta)
     interactions = (_constant(e[j]), *_drifts(e[j], force[j], data.velocity_m_per_s[moving][j],
-                                               data.time_s[moving][j], X[j], b_per * values["damping_n_s_per_m"]))
+                                               data.time_s[moving][j], X[j], b_per * values["damping_n_s_per_m"],
+                                               column_noise))
     if data.position_m is not None:
         variables["position"] = data.position_m[moving]
-        interactions += _interactions(e[j], force[j], data.position_m[moving][j], X[j])
+        interactions += _interactions(e[j], force[j], data.position_m[moving][j], X[j], column_noise)
     return _summarise(plant, "inverse-model", values, free, X, e, force, model, "force_n", data.time_s[moving],
                       data.velocity_m_per_s[moving], noise, flags, 1, time.perf_counter() - t0,
                       _peak_input(plant, data), variables, int(data.at_rest.sum()), interactions, judged=j)

@@ -36,12 +36,13 @@ and ``diagnose_emps`` when the time-domain noise was read from fourth difference
 its true, smaller level: the noise ratio 14.9 -> 31.2, the fitted values and verdicts the same); both again when the
 library gained ``force_constant_drift`` and ``damping_drift`` (rows skipped on the stepped sine; on EMPS their
 models among the candidates, the selection and verdict the same); ``diagnose_emps`` when a time-domain diagnosis
-stopped fitting models of two or more effects that its admission rule would drop (an effect whose pattern the model
-without it does not show): 16 models fitted, not 94, the effective sample size read from the best of those (676 ->
-513; the BICs scaled, dBIC of coulomb_friction +1245 -> +944; the selection, values and verdict the same; one
-alternative within dBIC 10 instead of 13, which the rule did not admit); ``fit_emps`` and ``diagnose_emps`` when the
-inverse model's least squares took the acceleration's noise out of X^T X (bias-compensated: EMPS's position noise is
-small, its values move in the sixth digit).
+stopped fitting models of three effects (the largest, no other's parent) that its admission rule would drop (an
+effect whose pattern the model without it does not show): 39 models fitted, not 94, the effective sample size read
+from the best of those (676 -> 513; the BICs scaled, dBIC of coulomb_friction +1245 -> +944; the selection, values
+and verdict the same; one alternative within dBIC 10 instead of 13, which the rule did not admit); ``fit_emps``
+and ``diagnose_emps`` when the inverse model's least squares took the acceleration's noise out of X^T X and the
+residual's pattern tests likewise (bias-compensated: EMPS's position noise is small, its values move in the sixth
+digit).
 """
 
 from __future__ import annotations

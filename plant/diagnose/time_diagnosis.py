@@ -6,7 +6,8 @@ Candidates are the effects with a force model (``Effect.force_regressors``: ``co
 ``force_constant_profile``), the fields that shape their signals (a Stribeck velocity, a limit, a pitch, a
 span) set from the recording and the residual of the model each is added to (``Effect.configured``). Every
 combination of up to ``MAX_TIME_EFFECTS`` is fitted by the inverse model (``plant.identify.time_fit``; linear
-least squares, so each fit is global and a model containing another never fits worse) in the model search of
+least squares, so each fit is global and a model containing another never fits worse), except those of the largest
+size, which are no other's parent, that the admission rule (``_signatures_shown``) would drop, in the model search of
 ``plant.diagnose.search``, which selects among them as for a frequency response: by BIC, with the
 residual's own variance and one effective sample size for all (that of the model leaving the least
 residual, the closest to the noise whose correlation the size describes; ``plant.identify.time_fit``

@@ -318,8 +318,11 @@ def diagnose_time(plant: Plant, rec: TimeRecording, *, candidates: tuple[str, ..
             samples, best.residual) for n in combo)
         return fit_inverse_model(_plant(plant, effects), data)
 
-    models, _ = fit_models((), fit_inverse_model(_plant(plant, ()), data), names, fit,
-                           max_effects=max_effects, valid=compatible, progress=progress)
+    models, pruned = fit_models((), fit_inverse_model(_plant(plant, ()), data), names, fit,
+                                max_effects=max_effects, valid=compatible, progress=progress)
+    if pruned:
+        notes.append(f"{len(pruned)} models of {max_effects} effects not fitted: each adds an effect whose residual "
+                     "pattern the model without it does not show, so the rule that admits a model would drop it")
     n_eff = min(models.values(), key=lambda f: f.rss).n_effective
     bics = {c: bic(f, n_eff) for c, f in models.items()}
     admissible = _beyond_nested(_signatures_shown(models))

@@ -39,7 +39,8 @@ models among the candidates, the selection and verdict the same); ``diagnose_emp
 stopped fitting models of three effects (the largest, no other's parent) that its admission rule would drop (an
 effect whose pattern the model without it does not show): 39 models fitted, not 94, the effective sample size read
 from the best of those (676 -> 513; the BICs scaled, dBIC of coulomb_friction +1245 -> +944; the selection, values
-and verdict the same; one alternative within dBIC 10 instead of 13, which the rule did not admit); ``fit_emps``
+and verdict the same; one alternative within dBIC 10 instead of 13, which the rule did not admit; a note says how
+many were not fitted); ``fit_emps``
 and ``diagnose_emps`` when the inverse model's least squares took the acceleration's noise out of X^T X and the
 residual's pattern tests likewise (bias-compensated: EMPS's position noise is small, its values move in the sixth
 digit).

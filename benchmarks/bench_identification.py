@@ -1,8 +1,9 @@
 """Identification round four on recordings of the independent simulator (tests/reference/independent_sim.py, which
 imports nothing of the tool): a force constant drifting over the record, Stage Y rails read to different scales or
 driven by motors whose force constants differ, those with a delay or a mode beside them, controls with nothing
-missing, and a truth outside the library; stepped sines only (the multisine, chirp and closed-loop forms of the
-issue are not simulated here).
+missing, and a truth outside the library; stepped sines only (a drift in a time recording, under a sweep of three
+sines, a chirp, a stepped sine in one run or a closed loop, is ``bench_motor_forces.py --drifts``; Stage Y's rails
+in those forms are not simulated).
 
 Run:  python benchmarks/bench_identification.py [--n 64] [--seed 45] [--jobs 2]
 

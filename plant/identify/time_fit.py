@@ -291,8 +291,10 @@ def _plant_with(plant: Plant, values: dict[str, float], excitation_a: float) -> 
     return dataclasses.replace(out, excitation_current_a=excitation_a) if not out.linear else out
 
 
-def _newey_west(X: np.ndarray, e: np.ndarray) -> tuple[np.ndarray, int]:
-    """HAC covariance (X^T X)^-1 S (X^T X)^-1 with Bartlett weights; the lag as the module doc says."""
+def _newey_west(X: np.ndarray, e: np.ndarray, gram: np.ndarray | None = None) -> tuple[np.ndarray, int]:
+    """HAC covariance (X^T X)^-1 S (X^T X)^-1 with Bartlett weights; the lag as the module doc says. With the
+    columns' noise ``gram`` (the bias-compensated fit, ``_bias_compensated``) the bread is (X^T X - gram)^-1 and the
+    scores x_t e_t are centred (their sum is gram beta there, not 0)."""
     n = e.size
     ec = e - e.mean()
     acf = np.correlate(ec[: min(n, 4096)], ec[: min(n, 4096)], "full")[min(n, 4096) - 1:]
@@ -302,10 +304,12 @@ def _newey_west(X: np.ndarray, e: np.ndarray) -> tuple[np.ndarray, int]:
     # S = sum over |k| <= lag of (1 - |k| / (lag + 1)) sum_t xe_t xe_(t+k)^T: each column convolved once with the
     # Bartlett window (every lag in one pass), symmetrised against round-off
     xe = X * e[:, None]
+    if gram is not None:
+        xe = xe - xe.mean(axis=0)
     bartlett = 1 - np.abs(np.arange(-lag, lag + 1)) / (lag + 1)
     S = xe.T @ np.column_stack([np.convolve(c, bartlett, "same") for c in xe.T])
     S = (S + S.T) / 2
-    inv = np.linalg.pinv(X.T @ X)
+    inv = np.linalg.pinv(X.T @ X - (0.0 if gram is None else gram))
     return inv @ S @ inv, lag
 
 
@@ -520,15 +524,15 @@ def _interactions(e: np.ndarray, force: np.ndarray, position: np.ndarray, X: np.
 
 def _summarise(plant, method, values, free, X, e, measured, model, quantity, t, v, noise_rms, flags, n_starts,
                elapsed, excitation_a, variables=None, n_at_rest=0, interactions=(),
-               judged=None) -> TimeFitResult:
+               judged=None, gram=None) -> TimeFitResult:
     n, k = X.shape
     floor = CHAIN_PRECISION * float(np.sqrt(np.mean(measured**2))) if quantity == "force_n" else 0.0
     noise_rms = math.hypot(noise_rms, floor)
     rss = float(e @ e)
     s2 = rss / max(n - k, 1)
-    inv = np.linalg.pinv(X.T @ X)
+    inv = np.linalg.pinv(X.T @ X - (0.0 if gram is None else gram))
     cov_ols = inv * s2
-    cov, _ = _newey_west(X, e)
+    cov, _ = _newey_west(X, e, gram)
     se = np.sqrt(np.maximum(np.diag(cov), 0.0))
     d = np.where(se > 0, se, np.inf)
     corr = cov / np.outer(d, d)
@@ -610,7 +614,8 @@ def fit_inverse_model(plant: Plant, rec: TimeRecording | InverseModelData, *, fr
         interactions += _interactions(e[j], force[j], data.position_m[moving][j], X[j], column_noise)
     return _summarise(plant, "inverse-model", values, free, X, e, force, model, "force_n", data.time_s[moving],
                       data.velocity_m_per_s[moving], noise, flags, 1, time.perf_counter() - t0,
-                      _peak_input(plant, data), variables, int(data.at_rest.sum()), interactions, judged=j)
+                      _peak_input(plant, data), variables, int(data.at_rest.sum()), interactions, judged=j,
+                      gram=None if A is X else gram)
 
 
 def _noise_gram(plant: Plant, data: InverseModelData, free: Sequence[str], n: int) -> np.ndarray:

@@ -406,14 +406,13 @@ def _pattern(name: str, e: np.ndarray, B: np.ndarray, tests: int, words, X: np.n
             return Structure(name, 0.0, B.shape[1], 1.0, False, "in the model", 0.0, "in the model")
         B = kept
     coef = None
-    if X is not None and noise is not None and np.any(noise.covariance):
-        k = noise.covariance.shape[0]
-        gk = g[:k]
+    if X is not None and noise is not None:
+        gk = g[:noise.covariance.shape[0]]
         try:
             coef = np.linalg.solve(B.T @ B - e.size * gk.T @ noise.covariance @ gk,
                                    B.T @ e - e.size * gk.T @ noise.covariance @ noise.beta)
         except np.linalg.LinAlgError:
-            coef = None
+            pass
     if coef is None:
         coef, *_ = np.linalg.lstsq(B, e, rcond=None)
     cov, _ = _newey_west(B, e if X is None else e - B @ coef)
@@ -584,9 +583,8 @@ def fit_inverse_model(plant: Plant, rec: TimeRecording | InverseModelData, *, fr
     if not (np.all(np.isfinite(X)) and np.all(np.isfinite(y))):
         raise DataError(f"{where}: the model's signals (filtered velocity, acceleration, force) overflow: a value "
                         "in the recording is far out of range")
-    gram = _noise_gram(plant, data, free, int(moving.sum()))
     try:
-        A, target = _bias_compensated(X, y, gram)
+        A, target, gram = _bias_compensated(X, y, _noise_gram(plant, data, free, int(moving.sum())))
         sol = scipy.optimize.lsq_linear(A, target, bounds=(lo, hi), method="bvls")
     except np.linalg.LinAlgError:
         raise DataError(f"{where}: the least-squares problem of the model cannot be solved on this recording (its "
@@ -605,7 +603,7 @@ def fit_inverse_model(plant: Plant, rec: TimeRecording | InverseModelData, *, fr
                  "motor force": force}
     j = ~data.at_reversal[moving]
     # the pattern tests take the noise out as the fit did (not where the fit fell back to plain least squares)
-    column_noise = None if A is X else ColumnNoise(gram / max(int(moving.sum()), 1), beta)
+    column_noise = None if gram is None else ColumnNoise(gram / max(int(moving.sum()), 1), beta)
     interactions = (_constant(e[j]), *_drifts(e[j], force[j], data.velocity_m_per_s[moving][j],
                                                data.time_s[moving][j], X[j], b_per * values["damping_n_s_per_m"],
                                                column_noise))
@@ -615,7 +613,7 @@ def fit_inverse_model(plant: Plant, rec: TimeRecording | InverseModelData, *, fr
     return _summarise(plant, "inverse-model", values, free, X, e, force, model, "force_n", data.time_s[moving],
                       data.velocity_m_per_s[moving], noise, flags, 1, time.perf_counter() - t0,
                       _peak_input(plant, data), variables, int(data.at_rest.sum()), interactions, judged=j,
-                      gram=None if A is X else gram)
+                      gram=gram)
 
 
 def _noise_gram(plant: Plant, data: InverseModelData, free: Sequence[str], n: int) -> np.ndarray:
@@ -635,19 +633,21 @@ def _noise_gram(plant: Plant, data: InverseModelData, free: Sequence[str], n: in
     return out
 
 
-def _bias_compensated(X: np.ndarray, y: np.ndarray, gram: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(A, target) whose least squares ||A beta - target||^2 = beta^T (X^T X - G) beta - 2 beta^T X^T y + const is
+def _bias_compensated(X: np.ndarray, y: np.ndarray,
+                      gram: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
+    """(A, target, G) whose least squares ||A beta - target||^2 = beta^T (X^T X - G) beta - 2 beta^T X^T y + const is
     the bias-compensated least squares (Stoica & Soderstrom 1982): noise in the columns (the acceleration read from a
     noisy position) adds its Gram matrix G to X^T X and pulls the mass towards zero by var(a) / (var(a) + var(noise))
     (-10 % on a slow sweep with a 10 um position noise); subtracting it removes that. Where X^T X - G is not positive
-    definite (the noise as large as the signal) the plain least squares (X, y)."""
+    definite (the noise as large as the signal) the plain least squares (X, y, None): G is the Gram matrix the fit
+    took out, None where it took none."""
     if not np.any(gram):
-        return X, y
+        return X, y, None
     try:
         L = np.linalg.cholesky(X.T @ X - gram)
     except np.linalg.LinAlgError:
-        return X, y
-    return L.T, scipy.linalg.solve_triangular(L, X.T @ y, lower=True)
+        return X, y, None
+    return L.T, scipy.linalg.solve_triangular(L, X.T @ y, lower=True), gram
 
 
 def _profiled(plant: Plant, data: InverseModelData, free: Sequence[str]) -> Plant:

@@ -281,9 +281,10 @@ def _residual_peak(fit: TimeFitResult) -> tuple[float, float]:
 
 
 def diagnose_time(plant: Plant, rec: TimeRecording, *, candidates: tuple[str, ...] | None = None,
-                  prep: Preprocessing = Preprocessing(), progress=None) -> TimeDiagnosis:
+                  prep: Preprocessing = Preprocessing(), progress=None, prune: bool = True) -> TimeDiagnosis:
     """Fit the base model and every combination of the candidate force effects; select and explain.
-    ``progress(done, total)`` hears the models fitted (``search.fit_models``)."""
+    ``progress(done, total)`` hears the models fitted (``search.fit_models``); ``prune=False`` fits the
+    three-effect models the admission rule drops too (the full search, for checking the pruning)."""
     if plant.effects:
         raise EffectError("the diagnosis starts from the base model; give a plant without effects")
     data: InverseModelData = inverse_model_data(rec, float(plant.force_constant_n_per_a), prep)
@@ -309,7 +310,7 @@ def diagnose_time(plant: Plant, rec: TimeRecording, *, candidates: tuple[str, ..
         configured on that parent's residual (a ripple's pitch is seen once the friction is modelled). A model of
         the largest size, which is no other's parent, is not fitted where it would not be admitted
         (``_signatures_shown``: its parents are all fitted, so the rule reads as it would after the fit)."""
-        if 1 < len(combo) == max_effects:
+        if prune and 1 < len(combo) == max_effects:
             hidden = _hidden_signature(combo, {tuple(e.name for e in p.plant.effects): p for p in parents})
             if hidden is not None:
                 return hidden

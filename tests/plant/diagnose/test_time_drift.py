@@ -111,3 +111,33 @@ def test_drifts_confounded_in_the_base_are_both_tried_and_the_fits_tell_them_apa
         drift = diag.final.plant.effect("damping_drift")
         assert drift.change_n_s_per_m / drift.half_s == pytest.approx(
             axis.damping_rate_per_s * axis.damping_n_s_per_m, rel=0.02)
+
+
+@pytest.mark.parametrize("case", ["closed_drift", "sweep_cable", "chirp_damping"])
+def test_pruned_search_selects_as_the_full_search(case):
+    """The three-effect models the admission rule drops are not fitted (``diagnose_time(prune=True)``): on a
+    closed-loop drift with friction and offset, a cable under a sweep and a damping drift under a chirp (the
+    independent simulators), the admitted models, the selection, the verdict and the fitted values are those of the
+    search that fits every model."""
+    import independent_linear_motor as lm
+
+    from plant import stage_x
+
+    if case == "closed_drift":
+        log = simulate(Axis(offset_n=-3.0, gain_rate_per_s=0.04 / 20), seed=3)
+        rec = TimeRecording(log.time_s, log.command_v, log.position_m[None], "position", ("position_m",),
+                            reference=log.reference_m)
+        args = (Plant("x", force_constant_n_per_a=AXIS.gain_n_per_v), rec)
+        kw = {"prep": Preprocessing(input_hold=True)}
+    else:
+        form, axis = (("slow_sweep", lm.LinearMotorAxis(cable_n_per_m=120.0)) if case == "sweep_cable" else
+                      ("chirp", lm.LinearMotorAxis(damping_rate_per_s=0.10 / 24)))
+        t, current, position = getattr(lm, form)(axis, seed=4, position_noise_m=2e-6)
+        args, kw = (stage_x(), TimeRecording(t, current, position[None], "position", ("x",))), {}
+    from plant.diagnose.time_diagnosis import _beyond_nested, _signatures_shown
+
+    pruned, full = diagnose_time(*args, **kw), diagnose_time(*args, **kw, prune=False)
+    assert len(pruned.models) < len(full.models)
+    assert set(_beyond_nested(_signatures_shown(pruned.models))) == set(_beyond_nested(_signatures_shown(full.models)))
+    assert pruned.selected == full.selected and pruned.verdict == full.verdict
+    assert pruned.final.values == pytest.approx(full.final.values, rel=1e-12)

@@ -255,6 +255,7 @@ def time_diagnosis_to_dict(diag: TimeDiagnosis) -> dict:
         "main_parameters": {e.name: {"name": f"{e.name}.{e.main_parameter}",
                                      "value": final.values[f"{e.name}.{e.main_parameter}"]}
                             for e in final.plant.effects},
+        "rails": None if diag.rails is None else diag.rails.to_dict(),
     }
 
 

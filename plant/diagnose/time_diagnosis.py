@@ -41,10 +41,11 @@ from plant.diagnose.evidence import (
 )
 from plant.diagnose.plausibility import implausible, warning
 from plant.diagnose.search import compatible, fit_models, path_to, select_model
+from plant.diagnose.two_rails import RailReading, read_rails
 from plant.errors import EffectError, ParameterError
 from plant.identify.compensation import CompensationTable, compensation_table
 from plant.identify.inverse_model import InverseModelData, Preprocessing, inverse_model_data
-from plant.identify.time_fit import TimeFitResult, bic, fit_inverse_model, fit_samples
+from plant.identify.time_fit import TimeFitResult, bic, effective_factors, fit_inverse_model, fit_samples
 from plant.physics.effect_base import Effect
 from plant.physics.effects import EFFECTS, make_effect
 from plant.physics.models import Plant
@@ -120,6 +121,8 @@ class TimeDiagnosis:
     position_m: np.ndarray | None = None
     #: the selected model's base parameters that are implausible (``plant.diagnose.plausibility``)
     implausible: tuple[str, ...] = ()
+    #: both rails read jointly (Stage Y with two outputs, ``plant.diagnose.two_rails``), None for one output
+    rails: RailReading | None = None
 
     @property
     def final(self) -> TimeFitResult:
@@ -149,8 +152,12 @@ class TimeDiagnosis:
         step by step (by regime of motion) with each decision, the models the data cannot rule out, and the
         selected (or best) model's parameters."""
         base, final = self.steps[0].fit, self.final
+        fitted = fitted_sentence(final)
+        if self.rails is not None and self.rails.scale_claimed:
+            fitted += (f", rail_scale.y2_scale = {self.rails.y2_scale:.5g} ± {self.rails.y2_scale_stderr:.2g} "
+                       "(from both rails)")
         headline = (("Verdict", self.explanation),
-                    ("Fitted", fitted_sentence(final)),
+                    ("Fitted", fitted),
                     ("The error", f"rms residual {base.rms_residual:.3g} N (base) → {final.rms_residual:.3g} N; "
                                   f"noise alone {final.noise_rms:.3g} N"),
                     ("Where the base model fails", self.where_it_fails),
@@ -177,6 +184,8 @@ class TimeDiagnosis:
                             tuple((model_label(a.effects), f"{a.delta_bic:+.1f}", f"{a.rms_residual_n:.4g}",
                                    "yes" if a.consistent_with_noise else "no") for a in self.alternatives),
                             frozenset({0, 3}))))
+        if self.rails is not None:
+            sections.append(self.rails.section())
         sections.append(model_section(self.verdict, (f"effects: {', '.join(self.selected) or 'none'}",)))
         sections.append(parameter_section(final, ols=True))
         if self.notes:
@@ -288,6 +297,9 @@ def diagnose_time(plant: Plant, rec: TimeRecording, *, candidates: tuple[str, ..
     if plant.effects:
         raise EffectError("the diagnosis starts from the base model; give a plant without effects")
     data: InverseModelData = inverse_model_data(rec, float(plant.force_constant_n_per_a), prep)
+    rails = _rails(plant, rec, data, prep)
+    if rails is not None and rails.scale_claimed:
+        data = inverse_model_data(rails.corrected(rec), float(plant.force_constant_n_per_a), prep)
     usable = time_candidates(position=data.position_m is not None)
     names = usable if candidates is None else tuple(candidates)
     notes = []
@@ -336,18 +348,46 @@ def diagnose_time(plant: Plant, rec: TimeRecording, *, candidates: tuple[str, ..
     final = models[selected]
     peak_hz, peak_share = _residual_peak(final)
     odd = implausible(final, plant)
-    explanation = _explanation(final, selected, peak_hz, peak_share) + warning(odd)
-    return TimeDiagnosis(steps, ranking, models, selected, verdict(final.explained), explanation, _where(base),
-                         _direction(base), n_eff, peak_hz, peak_share, tuple(notes), samples.position_m, odd)
+    explanation = _explanation(final, selected, peak_hz, peak_share, rails) + warning(odd)
+    explained = final.explained and (rails is None or rails.explained)
+    return TimeDiagnosis(steps, ranking, models, selected, verdict(explained), explanation, _where(base),
+                         _direction(base), n_eff, peak_hz, peak_share, tuple(notes), samples.position_m, odd, rails)
 
 
-def _explanation(final: TimeFitResult, selected: tuple[str, ...], peak_hz: float, peak_share: float) -> str:
+def _rails(plant: Plant, rec: TimeRecording, data: InverseModelData, prep: Preprocessing) -> RailReading | None:
+    """Both rails read jointly (``plant.diagnose.two_rails``), the motor force's pattern b / m from the base model
+    fitted on the rails' mean (a scale on one rail moves both alike, not their ratio); None for one output."""
+    if rec.output.shape[0] != 2:
+        return None
+    base = fit_inverse_model(_plant(plant, ()), data)
+    m_per, b_per = effective_factors(base.plant)
+    return read_rails(rec, damping_per_mass_per_s=b_per * base.values["damping_n_s_per_m"]
+                      / (m_per * base.values["mass_kg"]), prep=prep)
+
+
+def _explanation(final: TimeFitResult, selected: tuple[str, ...], peak_hz: float, peak_share: float,
+                 rails: RailReading | None) -> str:
+    """The verdict's sentence; with both rails read, what their difference shows follows it (and a difference
+    beyond the encoders' noise makes an explained mean "not explained")."""
+    text = _force_explanation(final, selected, peak_hz, peak_share, rails)
+    if rails is None:
+        return text
+    if final.explained and not rails.explained:
+        text = "not explained: " + text
+    return f"{text}. Both rails: {rails.clause()}"
+
+
+def _force_explanation(final: TimeFitResult, selected: tuple[str, ...], peak_hz: float, peak_share: float,
+                       rails: RailReading | None) -> str:
     model = "base" + "".join(f" + {n}" for n in selected)
     size = (f"{final.rms_residual:.3g} N rms ({final.relative_error_percent:.2g} % of the force), "
             f"{final.noise_ratio:.3g} x the noise predicted through the filters and differences")
     if final.explained:
-        return (f"{model} explains the recording: its residual ({size}) depends on neither velocity, acceleration, "
-                "motor force nor position" + ("" if selected else "; nothing is missing"))
+        quiet = not selected and (rails is None or rails.agree)
+        what = "recording" if rails is None else "force on the rails' mean"
+        return (f"{model} explains the {what}: its residual ({size}) depends on neither velocity, acceleration, "
+                "motor force nor position"
+                + ("; nothing is missing" if quiet else ""))
     structured = [st for st in final.structure if st.significant]
     worst = max(final.regimes, key=lambda r: r.noise_ratio)
     if structured:

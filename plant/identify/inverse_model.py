@@ -233,6 +233,20 @@ def _chain(rec_fs: float, output: np.ndarray, force: np.ndarray, kind: str, filt
                                                                          y[cut] if kind == "position" else None]
 
 
+def derivatives_chain(rec_fs: float, output: np.ndarray, filter_hz: float, r: int, order: int) -> np.ndarray:
+    """An output (a rail, the rails' mean or their difference) low-passed as ``_chain`` does, its derivatives
+    0..``order`` by central differences at the full rate (accurate to (w h)^2 / 6 of each: 0.1 % at 12 Hz and 1 kHz),
+    edges cut and decimated, as rows."""
+    import scipy.signal
+
+    b, a = scipy.signal.butter(FILTER_ORDER, filter_hz / (rec_fs / 2))
+    rows = [scipy.signal.filtfilt(b, a, output)]
+    for _ in range(order):
+        rows.append(np.gradient(rows[-1], 1.0 / rec_fs))
+    cut = slice(EDGE_SAMPLES, output.size - EDGE_SAMPLES)
+    return _decimate(np.stack(rows)[:, cut], r)
+
+
 @functools.lru_cache(maxsize=8)
 def _decimation_filter(r: int) -> tuple[np.ndarray, np.ndarray, int]:
     """The anti-aliasing filter of ``scipy.signal.decimate(ftype="iir")`` for factor ``r`` (Chebyshev type I, order

@@ -267,7 +267,7 @@ def _check_free(plant: Plant, free: Sequence[str]) -> tuple[str, ...]:
     return tuple(free)
 
 
-def _effective_factors(plant: Plant) -> tuple[float, float]:
+def effective_factors(plant: Plant) -> tuple[float, float]:
     """Effective mass per kg of ``mass_kg`` and damping per N*s/m of ``damping_n_s_per_m`` (1 on Stage X)."""
     m_e, b_e = (float(np.mean(x)) for x in plant._effective_mass_damping())
     return m_e / float(plant.mass_kg), b_e / float(plant.damping_n_s_per_m)
@@ -275,7 +275,7 @@ def _effective_factors(plant: Plant) -> tuple[float, float]:
 
 def _regressors(plant: Plant, data: InverseModelData) -> dict[str, np.ndarray]:
     """Force per unit of each parameter (module doc's model), at the decimated samples."""
-    m_per, b_per = _effective_factors(plant)
+    m_per, b_per = effective_factors(plant)
     cols = {"mass_kg": m_per * data.acceleration_m_per_s2, "damping_n_s_per_m": b_per * data.velocity_m_per_s}
     for e in plant.effects:
         if e.needs_position and data.position_m is None:
@@ -291,7 +291,7 @@ def _plant_with(plant: Plant, values: dict[str, float], excitation_a: float) -> 
     return dataclasses.replace(out, excitation_current_a=excitation_a) if not out.linear else out
 
 
-def _newey_west(X: np.ndarray, e: np.ndarray, gram: np.ndarray | None = None) -> tuple[np.ndarray, int]:
+def newey_west(X: np.ndarray, e: np.ndarray, gram: np.ndarray | None = None) -> tuple[np.ndarray, int]:
     """HAC covariance (X^T X)^-1 S (X^T X)^-1 with Bartlett weights; the lag as the module doc says. With the
     columns' noise ``gram`` (the bias-compensated fit, ``_bias_compensated``) the bread is (X^T X - gram)^-1 and the
     scores x_t e_t are centred (their sum is gram beta there, not 0)."""
@@ -362,7 +362,7 @@ def _structure(e: np.ndarray, variables: dict[str, np.ndarray], unit: str, floor
         counts = B.sum(axis=0)
         B, edges_used = B[:, counts > 0], [(edges[j], edges[j + 1]) for j in range(k) if counts[j] > 0]
         means = (B.T @ e) / B.sum(axis=0)
-        cov, _ = _newey_west(B, e)
+        cov, _ = newey_west(B, e)
         se = np.sqrt(np.maximum(np.diag(cov), 1e-300))
         chi2 = float(means @ np.linalg.pinv(cov) @ means)
         dof = int(means.size)
@@ -415,7 +415,7 @@ def _pattern(name: str, e: np.ndarray, B: np.ndarray, tests: int, words, X: np.n
             pass
     if coef is None:
         coef, *_ = np.linalg.lstsq(B, e, rcond=None)
-    cov, _ = _newey_west(B, e if X is None else e - B @ coef)
+    cov, _ = newey_west(B, e if X is None else e - B @ coef)
     chi2 = float(coef @ np.linalg.pinv(cov) @ coef)
     p = min(1.0, tests * float(scipy.special.chdtrc(coef.size, chi2)))
     share = float(np.linalg.norm(B @ coef) / max(float(np.linalg.norm(e)), 1e-300))
@@ -531,7 +531,7 @@ def _summarise(plant, method, values, free, X, e, measured, model, quantity, t, 
     s2 = rss / max(n - k, 1)
     inv = np.linalg.pinv(X.T @ X - (0.0 if gram is None else gram))
     cov_ols = inv * s2
-    cov, _ = _newey_west(X, e, gram)
+    cov, _ = newey_west(X, e, gram)
     se = np.sqrt(np.maximum(np.diag(cov), 0.0))
     d = np.where(se > 0, se, np.inf)
     corr = cov / np.outer(d, d)
@@ -597,7 +597,7 @@ def fit_inverse_model(plant: Plant, rec: TimeRecording | InverseModelData, *, fr
              if np.isclose(b, lo[i]) or np.isclose(b, hi[i])]
     model = X @ beta + (force - y)
     e = force - model
-    m_per, b_per = _effective_factors(plant)
+    m_per, b_per = effective_factors(plant)
     noise = data.residual_noise_std_n(m_per * values["mass_kg"], b_per * values["damping_n_s_per_m"])
     variables = {"velocity": data.velocity_m_per_s[moving], "acceleration": data.acceleration_m_per_s2[moving],
                  "motor force": force}
@@ -622,7 +622,7 @@ def _noise_gram(plant: Plant, data: InverseModelData, free: Sequence[str], n: in
     chain's own noise (``InverseModelData.noise_acceleration_m_per_s2``, ``noise_velocity_m_per_s``); the effects'
     columns carry none that matters (a product with u, x or sign(v), or the force's noise, which is small beside
     its signal)."""
-    m_per, b_per = _effective_factors(plant)
+    m_per, b_per = effective_factors(plant)
     na, nv = data.noise_acceleration_m_per_s2, data.noise_velocity_m_per_s
     noise = {"mass_kg": m_per * na, "damping_n_s_per_m": b_per * nv}
     out = np.zeros((len(free), len(free)))
@@ -755,7 +755,7 @@ def fit_output_error(plant: Plant, rec: TimeRecording, *, start: TimeFitResult |
         raise EffectError("the output-error fit simulates mass, damping, coulomb_friction and offset; "
                           f"free parameters were {', '.join(free)}")
     oe = _oe_data(rec, data, float(plant.force_constant_n_per_a))
-    m_per, b_per = _effective_factors(plant)
+    m_per, b_per = effective_factors(plant)
     params = plant.parameters()
     scale = np.array([max(abs(start.values[p]), 1.0) for p in free])
     lo = np.array([params[p].lower for p in free]) / scale

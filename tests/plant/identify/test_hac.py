@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from plant.identify.time_fit import _newey_west
+from plant.identify.time_fit import newey_west
 
 
 def _by_definition(X: np.ndarray, e: np.ndarray, lag: int) -> np.ndarray:
@@ -25,7 +25,7 @@ def test_covariance_is_the_bartlett_weighted_lag_sum(seed):
     n, p, smooth = int(rng.integers(3, 2500)), int(rng.integers(1, 10)), int(rng.integers(1, 40))
     e = np.convolve(rng.normal(size=n + smooth), np.ones(smooth), "valid")[:n]     # correlated residual
     X = np.column_stack([rng.normal(size=n), (rng.random((n, p - 1)) < 0.3).astype(float)])
-    cov, lag = _newey_west(X, e)
+    cov, lag = newey_west(X, e)
     assert 0 <= lag <= n // 10
     ref = _by_definition(X, e, lag)
     assert np.max(np.abs(cov - ref)) <= 1e-12 * np.max(np.abs(ref))

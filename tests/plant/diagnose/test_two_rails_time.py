@@ -1,0 +1,103 @@
+"""Stage Y's two rails read jointly in a time recording (``plant.diagnose.two_rails``): what the rails' mean hides
+(a rail read to another scale, motors of unequal force constants, a load off the beam's centre) the joint reading
+names, with its size, and the force fits then read the rails at one scale.
+
+Recordings from ``tests/reference/independent_two_rails.py`` (Lagrange's equations of the beam on its rails, the
+command held between samples and sampled exactly; nothing from the tool): the thesis's Stage Y as the tool has it,
+35 kg on the beam's centre, each rail 440 N*s/m and each motor half of K_t = 20 N/A, the joints' yaw spring
+2e5 N*m/rad (a yaw mode near 76 Hz).
+"""
+
+import dataclasses
+
+import independent_dual_drive as dd
+import independent_two_rails as tr
+import numpy as np
+import pytest
+
+from plant import stage_y
+from plant.data.recordings import TimeRecording
+from plant.diagnose.time_diagnosis import diagnose_time
+from plant.identify.inverse_model import Preprocessing, inverse_model_data
+from plant.identify.time_fit import fit_inverse_model
+
+#: the simulator holds the command between samples
+PREP = Preprocessing(input_hold=True)
+RIG = dd.Rig(beam_mass_kg=0.0, beam_inertia_kg_m2=0.5, carriage_mass_kg=35.0, k1=10.0, k2=10.0)
+
+
+def recording(rig=RIG, *, velocity: bool = False, seed: int = 0, **kw) -> TimeRecording:
+    noise = {"velocity_noise_m_per_s": 1e-4} if velocity else {}
+    t, i, y1, y2 = tr.chirp(rig, seed=seed, **noise, **kw)
+    kind = "velocity" if velocity else "position"
+    return TimeRecording(t, i, np.vstack([y1, y2]), kind, (f"{kind}_y1", f"{kind}_y2"))
+
+
+def diagnosed(rec: TimeRecording):
+    """The diagnosis without force candidates: the rails' reading does not depend on them, and the base model is
+    the truth's."""
+    return diagnose_time(stage_y(), rec, candidates=(), prep=PREP)
+
+
+@pytest.mark.parametrize("velocity", [False, True], ids=["positions", "velocities"])
+def test_a_rail_read_3_percent_long_is_named_and_the_fits_read_it_at_scale(velocity):
+    rec = recording(y2_scale=1.03, velocity=velocity)
+    diag = diagnosed(rec)
+    rails = diag.rails
+    assert rails.scale_claimed and not rails.yaw_claimed and rails.explained
+    assert abs(rails.y2_scale - 1.03) < 5 * rails.y2_scale_stderr + 1e-5
+    assert "encoder Y2 reads +3.00" in diag.explanation and "rail_scale.y2_scale" in diag.story().headline[1][1]
+    # the fits read Y2 at Y1's scale: the stage comes out as it is; on the rails' mean it is 1.5 % light
+    assert abs(diag.final.values["mass_kg"] / 35.0 - 1) < 2e-3
+    assert abs(diag.final.values["damping_n_s_per_m"] / 440.0 - 1) < 2e-3
+    mean = fit_inverse_model(stage_y(), inverse_model_data(rec, 20.0, PREP))
+    assert mean.values["mass_kg"] < 35.0 * 0.99
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_rails_that_agree_claim_nothing(seed):
+    diag = diagnosed(recording(seed=seed))
+    assert diag.rails.agree, diag.rails.clause()
+    assert "nothing is missing" in diag.explanation and "the rails agree" in diag.explanation
+    assert diag.verdict == "explained"
+
+
+@pytest.mark.parametrize("velocity", [False, True], ids=["positions", "velocities"])
+def test_motors_of_unequal_force_constants_turn_the_beam_with_the_motor_force(velocity):
+    diag = diagnosed(recording(dataclasses.replace(RIG, k1=9.0, k2=11.0), velocity=velocity))
+    rails = diag.rails
+    assert rails.yaw_claimed and not rails.scale_claimed and rails.explained
+    assert len(rails.yaw_patterns) == 1 and "motor_imbalance" in rails.yaw_patterns[0]
+    # the torque (k2 - k1) i / 2 against the yaw spring K_a / L^2: d = (k2 - k1) / 2 i L^2 / K_a, and K i = m a + b v
+    # (K = 20 N/A, m = 35 kg, b = 880 N*s/m): d = alpha a + beta v with beta = 1 / 20 * 880 * L^2 / K_a = 141 um per
+    # m/s, to within the yaw's lag (c_y / k_y = 0.7 ms)
+    beta = 1.0 / 20.0 * 880.0 * RIG.rail_separation_m**2 / RIG.yaw_stiffness
+    assert abs(rails.terms["velocity"].value / beta - 1) < 0.05
+    assert "motor_imbalance" in diag.explanation and "nothing is missing" not in diag.explanation
+
+
+@pytest.mark.parametrize("velocity", [False, True], ids=["positions", "velocities"])
+def test_a_load_off_centre_turns_the_beam_by_its_inertia(velocity):
+    diag = diagnosed(recording(dataclasses.replace(RIG, carriage_position_m=0.6), velocity=velocity))
+    rails = diag.rails
+    assert rails.yaw_claimed and not rails.scale_claimed
+    assert len(rails.yaw_patterns) == 1 and "offset_m" in rails.yaw_patterns[0]
+
+
+def test_a_scale_and_unequal_motors_together_are_both_named():
+    rails = diagnosed(recording(dataclasses.replace(RIG, k1=9.0, k2=11.0), y2_scale=0.98)).rails
+    assert rails.scale_claimed and abs(rails.y2_scale - 0.98) < 1e-4
+    assert rails.yaw_claimed and "motor_imbalance" in rails.yaw_patterns[0]
+
+
+def test_a_yaw_mode_within_the_band_is_not_explained():
+    # a yaw spring 70x softer: the mode near 9 Hz, inside the chirp's band, with unequal motors to excite it
+    diag = diagnosed(recording(dataclasses.replace(RIG, k1=9.0, k2=11.0, yaw_stiffness=3e3)))
+    assert not diag.rails.explained and diag.verdict == "not_explained"
+    assert "the rails disagree beyond these terms" in diag.explanation and "tilt_coupling" in diag.explanation
+
+
+def test_one_output_has_no_rails_reading():
+    rec = recording(y2_scale=1.03)
+    one = TimeRecording(rec.time_s, rec.current_a, rec.output[:1], "position", ("position_y1",))
+    assert diagnose_time(stage_y(), one, candidates=(), prep=PREP).rails is None

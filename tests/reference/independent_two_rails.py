@@ -1,0 +1,61 @@
+"""Time recordings of Stage Y's beam on its two rails, each rail with its own motor, damper and encoder; nothing from
+``plant`` or ``design``.
+
+The beam and carriage move by Lagrange's equations in rail coordinates (``independent_dual_drive.Rig``: the
+yaw spring of the joints, each rail's damper b1, b2 and force constant k1, k2, the carriage anywhere along the
+beam). One current command drives both motors, as the thesis's Stage Y is wired. The command is held between
+samples, so the recording is the exact zero-order-hold sampling of the linear system (the matrix exponential
+of the augmented matrix [[A, B], [0, 0]], van Loan 1978). Encoder Y2 reads ``y2_scale`` times its rail's true
+position (a scale error); both encoders carry white noise, the command too.
+"""
+
+from __future__ import annotations
+
+import independent_dual_drive
+import numpy as np
+import scipy.linalg
+
+
+def record(rig: independent_dual_drive.Rig, current, duration_s: float, *, sample_rate_hz: float = 1000.0,
+           y2_scale: float = 1.0, current_noise_a: float = 0.005, position_noise_m: float = 1e-6, seed: int = 0,
+           velocity_noise_m_per_s: float | None = None):
+    """(t s, command A with noise, Y1, Y2) of ``current(t)`` (A) applied to both motors from rest at y1 = y2 = 0
+    (module doc): the rails' positions (m), or with ``velocity_noise_m_per_s`` their velocities (m/s) with that
+    noise."""
+    A, B, _ = independent_dual_drive._mechanics_matrices(rig)
+    b = B @ np.ones(2)
+    dt = 1.0 / sample_rate_hz
+    n = A.shape[0]
+    aug = np.zeros((n + 1, n + 1))
+    aug[:n, :n], aug[:n, n] = A, b
+    step = scipy.linalg.expm(aug * dt)
+    Phi, Gamma = step[:n, :n], step[:n, n]
+    t = np.arange(int(round(duration_s * sample_rate_hz))) * dt
+    u = current(t)
+    x = np.zeros(n)
+    states = np.empty((t.size, n))
+    for k in range(t.size):
+        states[k] = x
+        x = Phi @ x + Gamma * u[k]
+    rng = np.random.default_rng(seed)
+    first, noise = (0, position_noise_m) if velocity_noise_m_per_s is None else (2, velocity_noise_m_per_s)
+    return (t, u + rng.normal(0.0, current_noise_a, t.size),
+            states[:, first] + rng.normal(0.0, noise, t.size),
+            y2_scale * states[:, first + 1] + rng.normal(0.0, noise, t.size))
+
+
+def chirp(rig: independent_dual_drive.Rig, *, amplitude_a: float = 3.0, f0_hz: float = 0.3, f1_hz: float = 12.0,
+          duration_s: float = 20.0, **kw):
+    """``record`` of a logarithmic chirp A sin(2 pi f0 T (r^(t/T) - 1) / ln r), r = f1 / f0, T the duration."""
+    r = f1_hz / f0_hz
+    return record(rig, lambda s: amplitude_a * np.sin(2 * np.pi * f0_hz * duration_s * (r ** (s / duration_s) - 1)
+                                                      / np.log(r)), duration_s, **kw)
+
+
+def write_csv(path, t, current, y1, y2, kind: str = "position"):
+    """The recording as the tool reads a Stage Y time recording: time, current, both rails' positions (or
+    velocities, ``kind``)."""
+    unit = "m" if kind == "position" else "m_per_s"
+    np.savetxt(path, np.column_stack([t, current, y1, y2]), delimiter=",", fmt="%.10g",
+               header=f"time_s,current_a,{kind}_y1_{unit},{kind}_y2_{unit}", comments="")
+    return path

@@ -201,9 +201,11 @@ class TimeDiagnosis:
         return self.selected
 
 
-def time_candidates(position: bool = True) -> tuple[str, ...]:
-    """Effects of the library with a force model (those that need the position only when it was recorded)."""
-    return tuple(n for n, cls in EFFECTS.items() if cls.time_domain and (position or not cls.needs_position))
+def time_candidates(position: bool = True, rails: bool = False) -> tuple[str, ...]:
+    """Effects of the library with a force model (those that need the position only when it was recorded, those
+    that follow the rails' difference only where both rails show the beam turning)."""
+    return tuple(n for n, cls in EFFECTS.items() if cls.time_domain and (position or not cls.needs_position)
+                 and (rails or not cls.needs_rails))
 
 
 def _plant(base: Plant, effects: tuple[Effect, ...]) -> Plant:
@@ -300,7 +302,7 @@ def diagnose_time(plant: Plant, rec: TimeRecording, *, candidates: tuple[str, ..
     rails = _rails(plant, rec, data, prep)
     if rails is not None and rails.scale_claimed:
         data = inverse_model_data(rails.corrected(rec), float(plant.force_constant_n_per_a), prep)
-    usable = time_candidates(position=data.position_m is not None)
+    usable = time_candidates(position=data.position_m is not None, rails=rails is not None and rails.couples_the_mean)
     names = usable if candidates is None else tuple(candidates)
     notes = []
     for n in names:
@@ -310,9 +312,13 @@ def diagnose_time(plant: Plant, rec: TimeRecording, *, candidates: tuple[str, ..
     if [n for n in skipped if not EFFECTS[n].time_domain]:
         notes.append(f"not tried on time-domain data (no force model; estimate a frequency response for them): "
                      f"{', '.join(n for n in skipped if not EFFECTS[n].time_domain)}")
-    if [n for n in skipped if EFFECTS[n].time_domain]:
-        notes.append(f"not tried: {', '.join(n for n in skipped if EFFECTS[n].time_domain)} depend on the position, "
-                     "and the recording has velocity only")
+    along = [n for n in skipped if EFFECTS[n].time_domain and EFFECTS[n].needs_position]
+    if along:
+        notes.append(f"not tried: {', '.join(along)} depend on the position, and the recording has velocity only")
+    if [n for n in skipped if EFFECTS[n].needs_rails] and candidates is not None:
+        notes.append("not tried: yaw_coupling follows the rails' difference, and the rails show no turn of the beam "
+                     "but unequal motors'" if rails is not None else
+                     "not tried: yaw_coupling needs both rails recorded")
     names = tuple(n for n in names if n in usable)
     samples = fit_samples(data)
     max_effects = min(len(names), MAX_TIME_EFFECTS)

@@ -106,6 +106,13 @@ class RailReading:
         return self.terms["acceleration"].claimed or self.terms["velocity"].claimed
 
     @property
+    def couples_the_mean(self) -> bool:
+        """The yaw may reach the force on the rails' mean (``yaw_coupling``): the beam turns, and not by unequal
+        motors alone, whose torque leaves the mean's force balance as it is (module doc)."""
+        motors_only = len(self.yaw_patterns) == 1 and "motor_imbalance" in self.yaw_patterns[0]
+        return self.yaw_claimed and not motors_only
+
+    @property
     def agree(self) -> bool:
         """Nothing claimed and the difference is the encoders' noise."""
         return not (self.scale_claimed or self.yaw_claimed) and self.explained

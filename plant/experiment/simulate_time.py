@@ -50,7 +50,9 @@ _NOT_MODELLED = {"tilt_coupling": "two friction contacts (one per rail); simulat
                                   "the stepped-sine blocks",
                  "force_constant_drift": "a force constant drifting over a recording's span; scale the recorded "
                                          "current by K(t) / K to simulate one",
-                 "damping_drift": "a damping drifting over a recording's span"}
+                 "damping_drift": "a damping drifting over a recording's span",
+                 "yaw_coupling": "the beam's yaw in a recording's force balance, fitted from both rails; the yaw "
+                                 "itself is tilt_coupling's"}
 
 
 @dataclass(frozen=True)

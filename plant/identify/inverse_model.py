@@ -108,6 +108,9 @@ class InverseModelData:
     raw_rest: np.ndarray | None = None
     #: the times (s) of the full-rate signals, edges cut
     full_rate_time_s: np.ndarray | None = None
+    #: both rails recorded: the rails' difference y2 - y1 filtered and differentiated at the full rate, edges cut,
+    #: its velocity (m/s) and acceleration (m/s^2) (None for one output)
+    full_rate_rail_difference: tuple[np.ndarray, np.ndarray] | None = None
     _memo: _ColumnMemo = field(default_factory=lambda: _ColumnMemo(COLUMN_MEMO_BYTES), init=False, repr=False,
                                compare=False)
 
@@ -140,8 +143,9 @@ class InverseModelData:
     @property
     def force_signals(self) -> ForceSignals:
         """The full-rate signals the effects' force models are formed from."""
+        rails = self.full_rate_rail_difference or (None, None)
         return ForceSignals(self.full_rate_velocity_m_per_s, self.full_rate_force_n, self.full_rate_position_m,
-                            self.full_rate_time_s)
+                            self.full_rate_time_s, *rails)
 
     def effect_columns(self, effect: Effect) -> dict[str, np.ndarray]:
         """``effect``'s force regressors (force per unit of each of its parameters, by field name) at the
@@ -157,11 +161,15 @@ class InverseModelData:
             self._memo.put(effect, cols)
         return cols
 
-    def residual_noise_std_n(self, mass_kg: float, damping_n_s_per_m: float) -> float:
-        """Standard deviation (N) of the regression residual that the measurement noise alone gives."""
+    def residual_noise_std_n(self, mass_kg: float, damping_n_s_per_m: float, yaw: tuple[float, float] = (0.0, 0.0)
+                             ) -> float:
+        """Standard deviation (N) of the regression residual that the measurement noise alone gives; ``yaw``: the
+        coefficients (kg, N*s/m) of the rails' difference's acceleration and velocity (``yaw_coupling``), whose
+        noise is twice the mean's through the same chain and independent of it (equal encoders)."""
         e = self.noise_force_n - mass_kg * self.noise_acceleration_m_per_s2 - damping_n_s_per_m * \
             self.noise_velocity_m_per_s
-        return float(np.std(e))
+        d = 2 * (yaw[0] * self.noise_acceleration_m_per_s2 + yaw[1] * self.noise_velocity_m_per_s)
+        return float(np.sqrt(np.var(e) + np.var(d)))
 
 
 def _widened(mask: np.ndarray, samples: int) -> np.ndarray:
@@ -233,18 +241,31 @@ def _chain(rec_fs: float, output: np.ndarray, force: np.ndarray, kind: str, filt
                                                                          y[cut] if kind == "position" else None]
 
 
-def derivatives_chain(rec_fs: float, output: np.ndarray, filter_hz: float, r: int, order: int) -> np.ndarray:
-    """An output (a rail, the rails' mean or their difference) low-passed as ``_chain`` does, its derivatives
+def full_rate_derivatives(rec_fs: float, output: np.ndarray, filter_hz: float, order: int) -> np.ndarray:
+    """An output (a rail, the rails' mean or their difference) low-passed as ``_chain`` does and its derivatives
     0..``order`` by central differences at the full rate (accurate to (w h)^2 / 6 of each: 0.1 % at 12 Hz and 1 kHz),
-    edges cut and decimated, as rows."""
+    edges cut, as rows."""
     import scipy.signal
 
     b, a = scipy.signal.butter(FILTER_ORDER, filter_hz / (rec_fs / 2))
     rows = [scipy.signal.filtfilt(b, a, output)]
     for _ in range(order):
         rows.append(np.gradient(rows[-1], 1.0 / rec_fs))
-    cut = slice(EDGE_SAMPLES, output.size - EDGE_SAMPLES)
-    return _decimate(np.stack(rows)[:, cut], r)
+    return np.stack(rows)[:, EDGE_SAMPLES: output.size - EDGE_SAMPLES]
+
+
+def derivatives_chain(rec_fs: float, output: np.ndarray, filter_hz: float, r: int, order: int) -> np.ndarray:
+    """``full_rate_derivatives`` decimated as the regressors are."""
+    return _decimate(full_rate_derivatives(rec_fs, output, filter_hz, order), r)
+
+
+def _rail_difference(rec: TimeRecording, filter_hz: float) -> tuple[np.ndarray, np.ndarray] | None:
+    """Both rails recorded: the velocity and acceleration of y2 - y1 at the full rate (``full_rate_derivatives``)."""
+    if rec.output.shape[0] != 2:
+        return None
+    rows = full_rate_derivatives(rec.sample_rate_hz, rec.output[1] - rec.output[0], filter_hz,
+                                 2 if rec.output_kind == "position" else 1)
+    return rows[-2], rows[-1]
 
 
 @functools.lru_cache(maxsize=8)
@@ -316,4 +337,4 @@ def inverse_model_data(rec: TimeRecording, force_constant_n_per_a: float,
     return InverseModelData(t, f, v, acc, fs / r, r, filter_hz, decimate_band_hz, sigma_f, sigma_y, nf, nv, na,
                             rec.source,
                             v_full, position, f_full, x_full, raw_rest,
-                            rec.time_s[EDGE_SAMPLES: rec.n_samples - EDGE_SAMPLES])
+                            rec.time_s[EDGE_SAMPLES: rec.n_samples - EDGE_SAMPLES], _rail_difference(rec, filter_hz))

@@ -598,7 +598,9 @@ def fit_inverse_model(plant: Plant, rec: TimeRecording | InverseModelData, *, fr
     model = X @ beta + (force - y)
     e = force - model
     m_per, b_per = effective_factors(plant)
-    noise = data.residual_noise_std_n(m_per * values["mass_kg"], b_per * values["damping_n_s_per_m"])
+    noise = data.residual_noise_std_n(m_per * values["mass_kg"], b_per * values["damping_n_s_per_m"],
+                                      (values.get("yaw_coupling.inertia_kg", 0.0),
+                                       values.get("yaw_coupling.damping_n_s_per_m", 0.0)))
     variables = {"velocity": data.velocity_m_per_s[moving], "acceleration": data.acceleration_m_per_s2[moving],
                  "motor force": force}
     j = ~data.at_reversal[moving]
@@ -619,17 +621,21 @@ def fit_inverse_model(plant: Plant, rec: TimeRecording | InverseModelData, *, fr
 def _noise_gram(plant: Plant, data: InverseModelData, free: Sequence[str], n: int) -> np.ndarray:
     """E[N^T N] of the noise N that the measurement puts into the columns of ``free`` over ``n`` samples: the mass's
     column (the acceleration differentiated twice from the noisy position) and the damping's (once), from the
-    chain's own noise (``InverseModelData.noise_acceleration_m_per_s2``, ``noise_velocity_m_per_s``); the effects'
-    columns carry none that matters (a product with u, x or sign(v), or the force's noise, which is small beside
-    its signal)."""
+    chain's own noise (``InverseModelData.noise_acceleration_m_per_s2``, ``noise_velocity_m_per_s``), and
+    ``yaw_coupling``'s (the rails' difference differentiated: twice that noise, independent of the mean's); the
+    other effects' columns carry none that matters (a product with u, x or sign(v), or the force's noise, which is
+    small beside its signal)."""
     m_per, b_per = effective_factors(plant)
     na, nv = data.noise_acceleration_m_per_s2, data.noise_velocity_m_per_s
-    noise = {"mass_kg": m_per * na, "damping_n_s_per_m": b_per * nv}
+    # (column noise, source): the rails' difference carries twice the mean's noise, independent of it
+    noise = {"mass_kg": (m_per * na, "mean"), "damping_n_s_per_m": (b_per * nv, "mean"),
+             "yaw_coupling.inertia_kg": (2 * na, "difference"),
+             "yaw_coupling.damping_n_s_per_m": (2 * nv, "difference")}
     out = np.zeros((len(free), len(free)))
     for i, p in enumerate(free):
         for j, q in enumerate(free):
-            if p in noise and q in noise:
-                out[i, j] = n * float(np.mean(noise[p] * noise[q]))
+            if p in noise and q in noise and noise[p][1] == noise[q][1]:
+                out[i, j] = n * float(np.mean(noise[p][0] * noise[q][0]))
     return out
 
 

@@ -112,6 +112,8 @@ class Effect(abc.ABC):
     time_domain: ClassVar[bool] = False
     #: it needs the recorded position (a force that depends on where the carriage is)
     needs_position: ClassVar[bool] = False
+    #: it needs both of Stage Y's rails recorded (a force that follows the rails' difference)
+    needs_rails: ClassVar[bool] = False
     #: fields a time-domain fit sets by profile least squares, each within a fraction of its configured value
     #: (a ripple's pitch within 5 %)
     profiled: ClassVar[dict[str, float]] = {}
@@ -188,6 +190,10 @@ class ForceSignals:
     position_m: np.ndarray | None = None
     #: the samples' times (s), None when not known
     time_s: np.ndarray | None = None
+    #: Stage Y with both rails recorded: the rails' difference y2 - y1 differentiated, its velocity (m/s) and
+    #: acceleration (m/s^2); None for one output
+    rail_difference_velocity_m_per_s: np.ndarray | None = None
+    rail_difference_acceleration_m_per_s2: np.ndarray | None = None
 
 
 #: ``Effect.realised_as``: "state_space", held exactly by the plant's realisation (``plant.physics.realisation``:

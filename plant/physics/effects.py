@@ -15,7 +15,8 @@ Where an effect sits decides how it composes (``plant.physics.effect_base``):
   (``plant.physics.cable_force``, time-domain data with the position only); a force constant or a damping
   drifting over a time recording, ``force_constant_drift`` and ``damping_drift`` (``plant.physics.drifts``);
 * what makes Stage Y's rails differ besides the tilt (``plant.physics.rails``): ``rail_scale`` (one rail read to
-  another scale), ``motor_imbalance`` (the two motors' force constants apart).
+  another scale), ``motor_imbalance`` (the two motors' force constants apart), ``yaw_coupling`` (the beam's yaw in
+  a time recording's force balance).
 
 Adding an effect means one class in a module of ``plant.physics`` (a chain factor in ``chain``, a part of the
 network in ``mechanics``, a force in a module of its own) and its entry in ``EFFECTS`` here. Parameter names
@@ -43,13 +44,13 @@ from plant.physics.mechanics import (
     TiltCoupling,
 )
 from plant.physics.motor_forces import CurrentLimit, ForceConstantProfile, ForceRipple
-from plant.physics.rails import MotorImbalance, RailScale
+from plant.physics.rails import MotorImbalance, RailScale, YawCoupling
 
 EFFECTS: dict[str, type[Effect]] = {
     cls.name: cls for cls in (Delay, CurrentLoop, Sampling, SensorFilter, EncoderVelocity, Resonance,
                               PayloadResonance, SecondResonance, CoulombFriction, StribeckFriction, Offset,
                               TiltCoupling, RailScale, MotorImbalance, ForceRipple, ForceConstantProfile, CurrentLimit,
-                              CableForce, ForceConstantDrift, DampingDrift)
+                              CableForce, ForceConstantDrift, DampingDrift, YawCoupling)
 }
 
 

@@ -8,6 +8,9 @@ no motion, only what is recorded, so it multiplies the Y2 output of the response
 ``motor_imbalance``: the motors' force constants K_t (1 + d) and K_t (1 - d) around their mean (``fraction``, d): the
 beam then takes a torque d K_t i (l1 + l2) / 2 besides the push, which moves the rails apart only through the
 tilt mode (a rigid beam keeps them together and shows only the mean), so it requires ``tilt_coupling``.
+
+``yaw_coupling``: in a time recording of both rails, the beam's yaw in the force on the rails' mean (a load off
+the beam's centre, rails whose dampings differ), from the measured difference of the rails.
 """
 
 from __future__ import annotations
@@ -17,8 +20,9 @@ from typing import ClassVar
 
 import numpy as np
 
-from plant.errors import ParameterError
-from plant.physics.effect_base import Effect
+from plant.errors import EffectError, ParameterError
+from plant.physics.effect_base import Effect, ForceSignals
+from plant.physics.parameters import check_finite
 
 
 @dataclass(frozen=True)
@@ -89,3 +93,48 @@ class MotorImbalance(Effect):
 
     def guesses(self, w_rad_s, ratio) -> list[dict[str, float]]:
         return [{"fraction": d} for d in (-0.1, -0.03, 0.03, 0.1)]
+
+
+@dataclass(frozen=True)
+class YawCoupling(Effect):
+    """The beam's yaw in the force on the rails' mean, in a time recording of both rails (module doc).
+
+    With the load off the beam's centre the mean's force balance carries the load's inertia times the yaw's
+    acceleration, and rails whose dampings differ the yaw's velocity (Lagrange's equations of the beam on its
+    rails, ``plant.diagnose.two_rails``): K_t i = m c'' + b c' + inertia_kg d'' + damping_n_s_per_m d', with d the
+    measured difference y2 - y1. inertia_kg is m e, the load's mass times its offset towards Y2 over the rails'
+    separation (``tilt_coupling.offset_m`` = inertia_kg L / m); damping_n_s_per_m is (b2 - b1) / 2. A frequency
+    response holds the tilt through ``tilt_coupling``; this is its part in the time-domain force balance, a
+    candidate only where the rails' difference shows the beam turning."""
+
+    inertia_kg: float = 0.0
+    damping_n_s_per_m: float = 0.0
+    name: ClassVar[str] = "yaw_coupling"
+    place: ClassVar[str] = "mechanics"
+    realised_as: ClassVar[str] = "force"
+    bounds: ClassVar = {"inertia_kg": (-1e4, 1e4, "kg"), "damping_n_s_per_m": (-1e5, 1e5, "N*s/m")}
+    main_parameter: ClassVar[str] = "inertia_kg"
+    neutral: ClassVar = {"inertia_kg": 0.0, "damping_n_s_per_m": 0.0}
+    signature: ClassVar[str] = ("a residual that follows the rails' difference (the beam turning under an off-centre "
+                                "load)")
+    stages: ClassVar = ("y",)
+    min_outputs: ClassVar[int] = 2
+    searched: ClassVar[bool] = False
+    not_searched: ClassVar[str] = ("a frequency response holds the beam's tilt as tilt_coupling; this is its part in a "
+                                   "time recording's force balance")
+    in_synthesis: ClassVar[bool] = False
+    time_domain: ClassVar[bool] = True
+    needs_rails: ClassVar[bool] = True
+    simulated: ClassVar[bool] = False
+    frequency_response: ClassVar[bool] = False
+    complexity: ClassVar[int] = 1
+
+    def __post_init__(self) -> None:
+        for field in self.bounds:
+            check_finite(f"{self.name}.{field}", getattr(self, field))
+
+    def force_regressors(self, signals: ForceSignals) -> dict[str, np.ndarray]:
+        if signals.rail_difference_acceleration_m_per_s2 is None:
+            raise EffectError(f"{self.name} follows the rails' difference: the recording has one output")
+        return {"inertia_kg": np.asarray(signals.rail_difference_acceleration_m_per_s2, float),
+                "damping_n_s_per_m": np.asarray(signals.rail_difference_velocity_m_per_s, float)}

@@ -43,7 +43,9 @@ and verdict the same; one alternative within dBIC 10 instead of 13, which the ru
 many were not fitted); ``fit_emps``
 and ``diagnose_emps`` when the inverse model's least squares took the acceleration's noise out of X^T X and the
 residual's pattern tests likewise (bias-compensated: EMPS's position noise is small, its values move in the sixth
-digit).
+digit); ``diagnose_x`` and ``diagnose_emps`` when the library gained ``yaw_coupling`` and the time diagnosis read
+Stage Y's two rails jointly (its row among the frequency-domain candidates not searched; ``rails`` null on EMPS's
+one output, whose standard errors move in the ninth digit as the predicted noise is summed as variances).
 """
 
 from __future__ import annotations

@@ -59,3 +59,21 @@ def write_csv(path, t, current, y1, y2, kind: str = "position"):
     np.savetxt(path, np.column_stack([t, current, y1, y2]), delimiter=",", fmt="%.10g",
                header=f"time_s,current_a,{kind}_y1_{unit},{kind}_y2_{unit}", comments="")
     return path
+
+
+def sweep(rig: independent_dual_drive.Rig, *, duration_s: float = 16.0, **kw):
+    """``record`` of a multisine: 3 A at 0.25 Hz with 0.8 A at 3.1 Hz and 0.5 A at 7.3 Hz on top."""
+    return record(rig, lambda s: 3.0 * np.sin(2 * np.pi * 0.25 * s) + 0.8 * np.sin(2 * np.pi * 3.1 * s)
+                  + 0.5 * np.sin(2 * np.pi * 7.3 * s + 1.0), duration_s, **kw)
+
+
+def stepped(rig: independent_dual_drive.Rig, f_hz=(0.25, 0.5, 1.0, 2.0, 4.0, 8.0), *, amplitude_a: float = 3.0,
+            block_s: float = 4.0, **kw):
+    """``record`` of a stepped sine in one run: A sin(2 pi f_k t) during block k, the motion carried over."""
+    f = np.asarray(f_hz, float)
+
+    def current(s):
+        k = np.minimum((np.asarray(s) // block_s).astype(int), f.size - 1)
+        return amplitude_a * np.sin(2 * np.pi * f[k] * s)
+
+    return record(rig, current, block_s * f.size, **kw)

@@ -101,3 +101,22 @@ def test_one_output_has_no_rails_reading():
     rec = recording(y2_scale=1.03)
     one = TimeRecording(rec.time_s, rec.current_a, rec.output[:1], "position", ("position_y1",))
     assert diagnose_time(stage_y(), one, candidates=(), prep=PREP).rails is None
+
+
+def test_the_load_off_centre_enters_the_mean_s_force_as_yaw_coupling():
+    # the carriage 0.2 m towards Y2: the mean's force balance carries m e d'' with m e = 35 kg x 0.2 / 0.8 m
+    rig = dataclasses.replace(RIG, carriage_position_m=0.6)
+    rec = recording(rig, velocity=True)
+    diag = diagnose_time(stage_y(), rec, candidates=("yaw_coupling", "force_constant_drift"), prep=PREP)
+    assert diag.selected == ("yaw_coupling",) and diag.verdict == "explained"
+    assert abs(diag.final.values["yaw_coupling.inertia_kg"] / (35.0 * 0.2 / 0.8) - 1) < 0.15
+    assert abs(diag.final.values["mass_kg"] / 35.0 - 1) < 5e-3
+    # without it the rigid mean leaves the yaw's inertia in its residual, beyond the noise
+    assert diag.models[()].noise_ratio > 1.5
+
+
+def test_unequal_motors_leave_the_mean_s_force_alone():
+    rec = recording(dataclasses.replace(RIG, k1=9.0, k2=11.0))
+    diag = diagnose_time(stage_y(), rec, candidates=("yaw_coupling",), prep=PREP)
+    assert diag.selected == () and ("yaw_coupling",) not in diag.models
+    assert any("yaw_coupling follows the rails' difference" in n for n in diag.notes)

@@ -26,7 +26,7 @@ SETTINGS = {
 NEEDS = {"second_resonance": ("resonance",), "stribeck_friction": ("coulomb_friction",),
          "motor_imbalance": ("tilt_coupling",)}
 #: Stage Y's effects (both rails recorded, each compared with its own response)
-STAGE_Y = ("tilt_coupling", "rail_scale", "motor_imbalance")
+STAGE_Y = ("tilt_coupling", "rail_scale", "motor_imbalance", "yaw_coupling")
 #: linear, time-invariant effects: their simulated response is their frequency response
 LTI = ("delay", "current_loop", "sampling", "sensor_filter", "encoder_velocity", "resonance", "payload_resonance",
        "second_resonance", "tilt_coupling", "cable_force", "rail_scale", "motor_imbalance")

@@ -14,7 +14,7 @@ from plant.physics.realisation import realise
 W = np.geomspace(2 * np.pi * 0.1, 2 * np.pi * 2000.0, 60)
 #: effects whose frequency response the realisation does not change (forces in the time domain only) or that no
 #: rational model realises exactly (the encoder's differencing: ``ChainEffect.state_space`` approximates it)
-NOT_RATIONAL = {"encoder_velocity", "coulomb_friction", "stribeck_friction", "current_limit"}
+NOT_RATIONAL = {"encoder_velocity", "coulomb_friction", "stribeck_friction", "current_limit", "yaw_coupling"}
 
 
 def response(sys_A, sys_B, rows, w):

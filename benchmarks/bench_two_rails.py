@@ -12,6 +12,7 @@ yaw spring 1e5 to 4e5 N*m/rad), a form, positions (1-5 um of noise) or velocitie
   rail_scale      encoder Y2 reads 1-5 % long or short
   motor_imbalance the motors' force constants 5-15 % either side of their mean
   offset_load     the load 0.1-0.25 m off the beam's centre
+  damping_apart   the rails' dampings 10-30 % either side of their mean
   scale_imbalance a scale and unequal motors together
 
 Scoring per recording (the full diagnosis, every force candidate, as ``gantry diagnose`` runs it)
@@ -47,7 +48,7 @@ from plant.data.recordings import TimeRecording  # noqa: E402
 from plant.diagnose.time_diagnosis import diagnose_time  # noqa: E402
 from plant.identify.inverse_model import Preprocessing  # noqa: E402
 
-CLASSES = ("none", "rail_scale", "motor_imbalance", "offset_load", "scale_imbalance")
+CLASSES = ("none", "rail_scale", "motor_imbalance", "offset_load", "scale_imbalance", "damping_apart")
 FORMS = {"sweep": tr.sweep, "chirp": tr.chirp, "stepped": tr.stepped}
 RIG = dd.Rig(beam_mass_kg=0.0, beam_inertia_kg_m2=0.5, carriage_mass_kg=35.0, k1=10.0, k2=10.0)
 
@@ -63,6 +64,9 @@ def draw(rng, k: int):
     if kind in ("motor_imbalance", "scale_imbalance"):
         d = float(rng.choice([-1, 1]) * rng.uniform(0.05, 0.15))
         rig = dataclasses.replace(rig, k1=10.0 * (1 - d), k2=10.0 * (1 + d))
+    if kind == "damping_apart":
+        d = float(rng.choice([-1, 1]) * rng.uniform(0.1, 0.3))
+        rig = dataclasses.replace(rig, b1=440.0 * (1 - d), b2=440.0 * (1 + d))
     if kind == "offset_load":
         rig = dataclasses.replace(rig, carriage_position_m=0.4 + float(rng.choice([-1, 1]) * rng.uniform(0.1, 0.25)))
     noise = ({"velocity_noise_m_per_s": float(rng.uniform(5e-5, 2e-4))} if velocity else
@@ -77,7 +81,7 @@ def score(kind: str, scale: float, inertia: float, diag) -> tuple[bool, bool]:
     rails, values = diag.rails, diag.final.values
     has_scale = kind in ("rail_scale", "scale_imbalance")
     cause = {"motor_imbalance": "motor_imbalance", "scale_imbalance": "motor_imbalance",
-             "offset_load": "offset_m"}.get(kind)
+             "offset_load": "offset_m", "damping_apart": "dampings differ"}.get(kind)
     scale_ok = (rails.scale_claimed == has_scale and
                 (not has_scale or abs(rails.y2_scale - scale) <= max(3 * rails.y2_scale_stderr, 5e-4)))
     named = [p for p in rails.yaw_patterns]
@@ -85,9 +89,10 @@ def score(kind: str, scale: float, inertia: float, diag) -> tuple[bool, bool]:
     stage_ok = abs(values["mass_kg"] / 35.0 - 1) < 0.01 and abs(values["damping_n_s_per_m"] / 440.0 - 1) < 0.02
     false = ((rails.scale_claimed and not has_scale) or (rails.yaw_claimed and cause is None)
              or (cause is not None and bool(named) and not any(cause in p for p in named)))
-    allowed = {"yaw_coupling"} if kind == "offset_load" else set()
+    allowed = {"yaw_coupling"} if kind in ("offset_load", "damping_apart") else set()
     wrong_force = bool(set(diag.selected) - allowed)
-    coupling_ok = "yaw_coupling" not in diag.selected or abs(values["yaw_coupling.inertia_kg"] / inertia - 1) < 0.15
+    coupling_ok = ("yaw_coupling" not in diag.selected or kind != "offset_load"
+                   or abs(values["yaw_coupling.inertia_kg"] / inertia - 1) < 0.15)
     return scale_ok and yaw_ok and stage_ok and coupling_ok and not wrong_force, false or wrong_force
 
 

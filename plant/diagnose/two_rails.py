@@ -16,8 +16,8 @@ beam turning. Both show in the difference as functions of the common motion c = 
   proportion to the motor force, K i = m a + b v, so q / p = r = b / m (the fitted stage's); an off-centre load
   (``tilt_coupling.offset_m``) turns it by its inertia, q = 0. A cause is named when the yaw motion the free fit
   finds follows its pattern, with the yaw's lag tau anywhere from 0 to that of a mode at the band's edge, to within
-  ``STRUCTURE_SHARE`` of its rms (``_yaw_patterns``). Rails whose dampings differ (p = 0) leave a pattern that the
-  yaw's own lag imitates, so the rails alone do not name them.
+  ``STRUCTURE_SHARE`` of its rms (``_yaw_patterns``); rails whose dampings differ turn it by their damping,
+  p = 0, d = q (v - tau a + psi a') / k_y (``yaw_coupling.damping_n_s_per_m``).
 
 The regression is of the difference on (c, a, v, a', a'', 1) (the 1: the encoders' zeros), each through the inverse
 model's filter and decimation (``plant.identify.inverse_model.derivatives_chain``: the derivatives by central
@@ -155,7 +155,8 @@ class RailReading:
 
     def _patterns_text(self) -> str:
         if not self.yaw_patterns:
-            return "the pattern of no single cause (unequal motors, an off-centre load and unequal dampings together)"
+            return ("the pattern of no single cause (unequal motors, an off-centre load or unequal dampings, "
+                    "together)")
         return " or ".join(self.yaw_patterns)
 
     @staticmethod
@@ -224,13 +225,20 @@ def read_rails(rec: TimeRecording, *, damping_per_mass_per_s: float,
 def _rms(x: np.ndarray) -> float:
     return float(np.sqrt(np.mean((x - x.mean()) ** 2)))
 
+#: the causes of a yaw the rails' reading tells apart: the torque's direction (p_a, p_v) in T = p (p_a a + p_v v)
+#: (``None``: the motor force's, (1, b / m)) and the words that name it
+CAUSES = ((None, "the motor force's pattern (motors of unequal force constants: motor_imbalance)"),
+          ((1.0, 0.0), "the acceleration's alone (a load off the beam's centre: tilt_coupling.offset_m)"),
+          ((0.0, 1.0), "the velocity's alone (rails whose dampings differ: yaw_coupling.damping_n_s_per_m)"))
+
+
 def _yaw_patterns(terms: dict[str, RailTerm], X: np.ndarray, theta: np.ndarray, r: float,
                   lag_max_s: float) -> tuple[str, ...]:
-    """The causes whose pattern (module doc) the free fit's yaw motion X theta (X: the columns a, v, a', a'') follows
-    to within ``STRUCTURE_SHARE`` of its rms: a torque T = p (a + rho v) (rho = r, the motor force's; 0, the
-    acceleration's alone) through the yaw below its mode, d = p ((a + rho v) - tau (a' + rho a)) + p psi (a'' +
-    rho a') with the yaw's lag tau = c_y / k_y = 2 zeta / w_y within [0, ``lag_max_s``] (a mode above the band:
-    zeta <= 1, w_y >= the band's edge)."""
+    """The causes (``CAUSES``) whose pattern (module doc) the free fit's yaw motion X theta (X: the columns a, v, a',
+    a'') follows to within ``STRUCTURE_SHARE`` of its rms: a torque T = p (p_a a + p_v v) through the yaw below its
+    mode, d = p (T - tau T' + psi T'') with T' = p_a a' + p_v a, T'' = p_a a'' + p_v a' and the yaw's lag
+    tau = c_y / k_y = 2 zeta / w_y within [0, ``lag_max_s``] (a mode above the band: zeta <= 1, w_y >= the band's
+    edge; the lag is positive, so a damping's pattern, v - tau a, is not the motor force's, v + a / r)."""
     if not (terms["acceleration"].claimed or terms["velocity"].claimed):
         return ()
     import scipy.optimize
@@ -238,10 +246,11 @@ def _yaw_patterns(terms: dict[str, RailTerm], X: np.ndarray, theta: np.ndarray, 
     a, v, jerk, snap = X.T
     free = X @ theta
     out = []
-    for rho, words in ((r, "the motor force's pattern (motors of unequal force constants: motor_imbalance)"),
-                       (0.0, "the acceleration's alone (a load off the beam's centre: tilt_coupling.offset_m)")):
+    for direction, words in CAUSES:
+        pa, pv = (1.0, r) if direction is None else direction
+
         def left(tau: float) -> float:
-            U = np.column_stack([(a + rho * v) - tau * (jerk + rho * a), snap + rho * jerk])
+            U = np.column_stack([(pa * a + pv * v) - tau * (pa * jerk + pv * a), pa * snap + pv * jerk])
             return _rms(free - U @ np.linalg.lstsq(U, free, rcond=None)[0])
 
         best = scipy.optimize.minimize_scalar(left, bounds=(0.0, lag_max_s), method="bounded",

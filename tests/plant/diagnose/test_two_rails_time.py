@@ -120,3 +120,15 @@ def test_unequal_motors_leave_the_mean_s_force_alone():
     diag = diagnose_time(stage_y(), rec, candidates=("yaw_coupling",), prep=PREP)
     assert diag.selected == () and ("yaw_coupling",) not in diag.models
     assert any("yaw_coupling follows the rails' difference" in n for n in diag.notes)
+
+
+@pytest.mark.parametrize("velocity", [False, True], ids=["positions", "velocities"])
+def test_rails_whose_dampings_differ_turn_the_beam_with_the_velocity(velocity):
+    # b1 = 300, b2 = 580 N*s/m: the torque (b2 - b1) / 2 v against the yaw spring K_a / L^2, lagged by the rails'
+    # dampers, (b1 + b2) / 4 / (K_a / L^2) = 0.7 ms: d = -140 v L^2 / K_a (1 - tau s): beta = -448 um per m/s
+    diag = diagnosed(recording(dataclasses.replace(RIG, b1=300.0, b2=580.0), velocity=velocity))
+    rails = diag.rails
+    assert rails.yaw_claimed and not rails.scale_claimed
+    assert len(rails.yaw_patterns) == 1 and "dampings differ" in rails.yaw_patterns[0]
+    beta = -(580.0 - 300.0) / 2 * RIG.rail_separation_m**2 / RIG.yaw_stiffness
+    assert abs(rails.terms["velocity"].value / beta - 1) < 0.05

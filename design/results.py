@@ -36,6 +36,7 @@ if TYPE_CHECKING:
     from plant.data.frequency_response import MeasuredResponse
     from plant.diagnose.diagnosis import Diagnosis
     from plant.diagnose.time_diagnosis import TimeDiagnosis
+    from plant.diagnose.two_rails import RailReading
     from plant.identify.fitting import FitResult
     from plant.identify.rational_fit import RationalFit
     from plant.identify.time_fit import TimeFitResult
@@ -84,6 +85,9 @@ class FitOutcome:
     rational: RationalFit | None = None
     #: the frequency response a frequency-domain fit was made on, with the estimator's data checks (``notes``)
     measured: MeasuredResponse | None = None
+    #: a time recording of both of Stage Y's rails: their joint reading (``plant.diagnose.two_rails``; the fit read
+    #: Y2 at Y1's scale where a scale is claimed)
+    rails: RailReading | None = None
 
 
 @dataclass(frozen=True)

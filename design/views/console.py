@@ -47,6 +47,8 @@ def print_fit(console: Console, outcome: FitOutcome) -> None:
     story = outcome.result.story()
     if outcome.measured is not None and outcome.measured.notes:
         story = replace(story, sections=(*story.sections, Section("Data", tuple(outcome.measured.notes))))
+    if outcome.rails is not None:
+        story = replace(story, sections=(outcome.rails.section(), *story.sections))
     print_story(console, story)
     if outcome.rational is not None:
         console.print()

@@ -101,7 +101,8 @@ def fit_outcome_to_dict(outcome: FitOutcome) -> dict:
     """``gantry fit --json``: a frequency-domain fit (with its rational fit) or a time-domain one."""
 
     if isinstance(outcome.result, TimeFitResult):
-        return time_fit_to_dict(outcome.result)
+        return {**time_fit_to_dict(outcome.result),
+                "rails": None if outcome.rails is None else outcome.rails.to_dict()}
     out = fit_to_dict(outcome.result, outcome.rational)
     if outcome.measured is not None:
         out["notes"] = list(outcome.measured.notes)

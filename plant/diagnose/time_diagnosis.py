@@ -41,11 +41,11 @@ from plant.diagnose.evidence import (
 )
 from plant.diagnose.plausibility import implausible, warning
 from plant.diagnose.search import compatible, fit_models, path_to, select_model
-from plant.diagnose.two_rails import RailReading, read_rails
+from plant.diagnose.two_rails import RailReading, rails_reading
 from plant.errors import EffectError, ParameterError
 from plant.identify.compensation import CompensationTable, compensation_table
 from plant.identify.inverse_model import InverseModelData, Preprocessing, inverse_model_data
-from plant.identify.time_fit import TimeFitResult, bic, effective_factors, fit_inverse_model, fit_samples
+from plant.identify.time_fit import TimeFitResult, bic, fit_inverse_model, fit_samples
 from plant.physics.effect_base import Effect
 from plant.physics.effects import EFFECTS, make_effect
 from plant.physics.models import Plant
@@ -299,7 +299,7 @@ def diagnose_time(plant: Plant, rec: TimeRecording, *, candidates: tuple[str, ..
     if plant.effects:
         raise EffectError("the diagnosis starts from the base model; give a plant without effects")
     data: InverseModelData = inverse_model_data(rec, float(plant.force_constant_n_per_a), prep)
-    rails = _rails(plant, rec, data, prep)
+    rails = rails_reading(_plant(plant, ()), rec, data, prep)
     if rails is not None and rails.scale_claimed:
         data = inverse_model_data(rails.corrected(rec), float(plant.force_constant_n_per_a), prep)
     usable = time_candidates(position=data.position_m is not None, rails=rails is not None and rails.couples_the_mean)
@@ -358,17 +358,6 @@ def diagnose_time(plant: Plant, rec: TimeRecording, *, candidates: tuple[str, ..
     explained = final.explained and (rails is None or rails.explained)
     return TimeDiagnosis(steps, ranking, models, selected, verdict(explained), explanation, _where(base),
                          _direction(base), n_eff, peak_hz, peak_share, tuple(notes), samples.position_m, odd, rails)
-
-
-def _rails(plant: Plant, rec: TimeRecording, data: InverseModelData, prep: Preprocessing) -> RailReading | None:
-    """Both rails read jointly (``plant.diagnose.two_rails``), the motor force's pattern b / m from the base model
-    fitted on the rails' mean (a scale on one rail moves both alike, not their ratio); None for one output."""
-    if rec.output.shape[0] != 2:
-        return None
-    base = fit_inverse_model(_plant(plant, ()), data)
-    m_per, b_per = effective_factors(base.plant)
-    return read_rails(rec, damping_per_mass_per_s=b_per * base.values["damping_n_s_per_m"]
-                      / (m_per * base.values["mass_kg"]), prep=prep)
 
 
 def _explanation(final: TimeFitResult, selected: tuple[str, ...], peak_hz: float, peak_share: float,

@@ -38,6 +38,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from plant.data.recordings import TimeRecording
+from plant.errors import EffectError
 from plant.identify.inverse_model import (
     NOISE_SEED,
     Preprocessing,
@@ -45,7 +46,7 @@ from plant.identify.inverse_model import (
     derivatives_chain,
     difference_noise_std,
 )
-from plant.identify.time_fit import NOISE_RATIO_LIMIT, STRUCTURE_SHARE, newey_west
+from plant.identify.time_fit import NOISE_RATIO_LIMIT, STRUCTURE_SHARE, effective_factors, fit_inverse_model, newey_west
 from plant.story import Section, Table
 
 #: standard errors from zero at which a term of the difference is claimed
@@ -185,6 +186,20 @@ class RailReading:
                 "noise_rms": self.noise_rms, "noise_ratio": self.noise_ratio, "clause": self.clause(),
                 "terms": {t.name: {"value": t.value, "stderr": t.stderr, "share": t.share, "claimed": t.claimed}
                           for t in self.terms.values()}}
+
+def rails_reading(plant, rec: TimeRecording, data, prep: Preprocessing) -> RailReading | None:
+    """``read_rails`` of ``rec`` for the base ``plant`` (no effects), the motor force's pattern b / m from the base
+    model fitted on the rails' mean (``data``: a scale on one rail moves both alike, not their ratio); None for one
+    output."""
+    if rec.output.shape[0] != 2:
+        return None
+    if plant.effects:
+        raise EffectError("the rails' reading starts from the base model; give a plant without effects")
+    base = fit_inverse_model(plant, data)
+    m_per, b_per = effective_factors(base.plant)
+    return read_rails(rec, damping_per_mass_per_s=b_per * base.values["damping_n_s_per_m"]
+                      / (m_per * base.values["mass_kg"]), prep=prep)
+
 
 def read_rails(rec: TimeRecording, *, damping_per_mass_per_s: float,
                prep: Preprocessing = Preprocessing()) -> RailReading | None:

@@ -45,7 +45,9 @@ and ``diagnose_emps`` when the inverse model's least squares took the accelerati
 residual's pattern tests likewise (bias-compensated: EMPS's position noise is small, its values move in the sixth
 digit); ``diagnose_x`` and ``diagnose_emps`` when the library gained ``yaw_coupling`` and the time diagnosis read
 Stage Y's two rails jointly (its row among the frequency-domain candidates not searched; ``rails`` null on EMPS's
-one output, whose standard errors move in the ninth digit as the predicted noise is summed as variances).
+one output), and ``fit_emps`` when the time fit read both rails too (``rails`` null on one output); EMPS's standard
+errors in both files moved in the ninth digit on rewriting, which f1ceaa9's code gives alike today (arithmetic, not
+a change).
 """
 
 from __future__ import annotations

@@ -15,6 +15,7 @@ import independent_two_rails as tr
 import numpy as np
 import pytest
 
+from design.workflows import fit_recording
 from plant import stage_y
 from plant.data.recordings import TimeRecording
 from plant.diagnose.time_diagnosis import diagnose_time
@@ -132,3 +133,10 @@ def test_rails_whose_dampings_differ_turn_the_beam_with_the_velocity(velocity):
     assert len(rails.yaw_patterns) == 1 and "dampings differ" in rails.yaw_patterns[0]
     beta = -(580.0 - 300.0) / 2 * RIG.rail_separation_m**2 / RIG.yaw_stiffness
     assert abs(rails.terms["velocity"].value / beta - 1) < 0.05
+
+
+def test_a_fit_of_both_rails_reads_them_at_one_scale(tmp_path):
+    path = tr.write_csv(tmp_path / "rails.csv", *tr.chirp(RIG, y2_scale=1.03))
+    outcome = fit_recording(path, stage="y", prep=PREP)
+    assert outcome.rails.scale_claimed and abs(outcome.rails.y2_scale - 1.03) < 1e-4
+    assert abs(outcome.result.values["mass_kg"] / 35.0 - 1) < 2e-3

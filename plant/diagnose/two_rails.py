@@ -51,9 +51,9 @@ from plant.story import Section, Table
 
 #: standard errors from zero at which a term of the difference is claimed
 CLAIM_Z = 5.0
-#: the columns of the regression, in order
 #: the terms that can be claimed (the others are the yaw's lag and inertia, and the encoders' zeros)
 CLAIMABLE = ("scale", "acceleration", "velocity")
+
 
 @dataclass(frozen=True)
 class RailTerm:
@@ -69,6 +69,7 @@ class RailTerm:
     @property
     def z(self) -> float:
         return abs(self.value) / self.stderr if self.stderr > 0 else math.inf
+
 
 @dataclass(frozen=True)
 class RailReading:
@@ -187,6 +188,7 @@ class RailReading:
                 "terms": {t.name: {"value": t.value, "stderr": t.stderr, "share": t.share, "claimed": t.claimed}
                           for t in self.terms.values()}}
 
+
 def rails_reading(plant, rec: TimeRecording, data, prep: Preprocessing) -> RailReading | None:
     """``read_rails`` of ``rec`` for the base ``plant`` (no effects), the motor force's pattern b / m from the base
     model fitted on the rails' mean (``data``: a scale on one rail moves both alike, not their ratio); None for one
@@ -237,8 +239,10 @@ def read_rails(rec: TimeRecording, *, damping_per_mass_per_s: float,
                              1.0 / (math.pi * prep.decimate_band_hz))
     return RailReading(terms, _rms(y), _rms(e), _rms(e_noise), rec.output_kind, patterns)
 
+
 def _rms(x: np.ndarray) -> float:
     return float(np.sqrt(np.mean((x - x.mean()) ** 2)))
+
 
 #: the causes of a yaw the rails' reading tells apart: the torque's direction (p_a, p_v) in T = p (p_a a + p_v v)
 #: (``None``: the motor force's, (1, b / m)) and the words that name it

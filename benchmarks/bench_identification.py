@@ -3,7 +3,7 @@ imports nothing of the tool): a force constant drifting over the record, Stage Y
 driven by motors whose force constants differ, those with a delay or a mode beside them, controls with nothing
 missing, and a truth outside the library; stepped sines only (a drift in a time recording, under a sweep of three
 sines, a chirp, a stepped sine in one run or a closed loop, is ``bench_motor_forces.py --drifts``; Stage Y's rails
-in those forms are not simulated).
+in the open-loop time forms are ``bench_two_rails.py``).
 
 Run:  python benchmarks/bench_identification.py [--n 64] [--seed 45] [--jobs 2]
 

@@ -257,7 +257,8 @@ def _yaw_patterns(terms: dict[str, RailTerm], X: np.ndarray, theta: np.ndarray, 
     a'') follows to within ``STRUCTURE_SHARE`` of its rms: a torque T = p (p_a a + p_v v) through the yaw below its
     mode, d = p (T - tau T' + psi T'') with T' = p_a a' + p_v a, T'' = p_a a'' + p_v a' and the yaw's lag
     tau = c_y / k_y = 2 zeta / w_y within [0, ``lag_max_s``] (a mode above the band: zeta <= 1, w_y >= the band's
-    edge; the lag is positive, so a damping's pattern, v - tau a, is not the motor force's, v + a / r)."""
+    edge), and whose alpha the lag allows (``_lag_allows``: the lag is positive, so a damping's pattern, v - tau a,
+    is not the motor force's, v + a / r)."""
     if not (terms["acceleration"].claimed or terms["velocity"].claimed):
         return ()
     import scipy.optimize
@@ -274,6 +275,19 @@ def _yaw_patterns(terms: dict[str, RailTerm], X: np.ndarray, theta: np.ndarray, 
 
         best = scipy.optimize.minimize_scalar(left, bounds=(0.0, lag_max_s), method="bounded",
                                               options={"xatol": 1e-3 * lag_max_s})
-        if min(best.fun, left(0.0), left(lag_max_s)) <= STRUCTURE_SHARE * _rms(free):
+        if min(best.fun, left(0.0), left(lag_max_s)) <= STRUCTURE_SHARE * _rms(free) and _lag_allows(
+                terms, pa, pv, lag_max_s):
             out.append(words)
     return tuple(out)
+
+
+def _lag_allows(terms: dict[str, RailTerm], pa: float, pv: float, lag_max_s: float) -> bool:
+    """Whether alpha lies where the cause puts it: alpha / beta = p_a / p_v - tau with the lag tau in [0,
+    ``lag_max_s``] (the motor force's 1 / r - tau, a damping's -tau: opposite signs), within ``CLAIM_Z`` standard
+    errors or ``STRUCTURE_SHARE`` of its size (the expansion's own error); no bound for p_v = 0 (beta = 0 then)."""
+    if pv == 0:
+        return True
+    a, b = terms["acceleration"], terms["velocity"]
+    lo, hi = sorted((b.value * (pa / pv - lag_max_s), b.value * pa / pv))
+    tol = max(CLAIM_Z * a.stderr, STRUCTURE_SHARE * max(abs(lo), abs(hi)))
+    return lo - tol <= a.value <= hi + tol

@@ -140,3 +140,15 @@ def test_a_fit_of_both_rails_reads_them_at_one_scale(tmp_path):
     outcome = fit_recording(path, stage="y", prep=PREP)
     assert outcome.rails.scale_claimed and abs(outcome.rails.y2_scale - 1.03) < 1e-4
     assert abs(outcome.result.values["mass_kg"] / 35.0 - 1) < 2e-3
+
+
+@pytest.mark.parametrize("rig,cause", [(dataclasses.replace(RIG, k1=9.0, k2=11.0), "motor_imbalance"),
+                                       (dataclasses.replace(RIG, b1=330.0, b2=550.0), "dampings differ")],
+                         ids=["unequal_motors", "unequal_dampings"])
+def test_under_a_slow_sweep_the_yaw_s_lag_tells_motors_from_dampings(rig, cause):
+    # a 0.25 Hz sweep: the acceleration's part of the yaw is small beside the velocity's, so both patterns follow
+    # the yaw motion within a quarter; alpha's sign tells them apart (the motor force's alpha / beta is 1 / r - tau,
+    # a damping's -tau, with the lag tau >= 0)
+    t, i, y1, y2 = tr.sweep(rig)
+    diag = diagnosed(TimeRecording(t, i, np.vstack([y1, y2]), "position", ("position_y1", "position_y2")))
+    assert len(diag.rails.yaw_patterns) == 1 and cause in diag.rails.yaw_patterns[0]

@@ -101,8 +101,7 @@ def fit_outcome_to_dict(outcome: FitOutcome) -> dict:
     """``gantry fit --json``: a frequency-domain fit (with its rational fit) or a time-domain one."""
 
     if isinstance(outcome.result, TimeFitResult):
-        return {**time_fit_to_dict(outcome.result),
-                "rails": None if outcome.rails is None else outcome.rails.to_dict()}
+        return {**time_fit_to_dict(outcome.result), "rails": rails_to_dict(outcome.rails)}
     out = fit_to_dict(outcome.result, outcome.rational)
     if outcome.measured is not None:
         out["notes"] = list(outcome.measured.notes)
@@ -256,8 +255,22 @@ def time_diagnosis_to_dict(diag: TimeDiagnosis) -> dict:
         "main_parameters": {e.name: {"name": f"{e.name}.{e.main_parameter}",
                                      "value": final.values[f"{e.name}.{e.main_parameter}"]}
                             for e in final.plant.effects},
-        "rails": None if diag.rails is None else diag.rails.to_dict(),
+        "rails": rails_to_dict(diag.rails),
     }
+
+
+def rails_to_dict(rails) -> dict | None:
+    """A time recording's two rails read jointly (``plant.diagnose.two_rails.RailReading``, docs/formats.md), None
+    for one output."""
+    if rails is None:
+        return None
+    return {"kind": rails.kind, "y2_scale": rails.y2_scale, "y2_scale_stderr": rails.y2_scale_stderr,
+            "scale_claimed": rails.scale_claimed, "yaw_claimed": rails.yaw_claimed,
+            "yaw_patterns": list(rails.yaw_patterns), "explained": rails.explained, "agree": rails.agree,
+            "difference_rms": rails.difference_rms, "residual_rms": rails.residual_rms, "noise_rms": rails.noise_rms,
+            "noise_ratio": rails.noise_ratio, "clause": rails.clause(),
+            "terms": {t.name: {"value": t.value, "stderr": t.stderr, "share": t.share, "claimed": t.claimed}
+                      for t in rails.terms.values()}}
 
 
 def _regimes(fit) -> list[dict]:

@@ -178,16 +178,6 @@ class RailReading:
                              f"{self._size(self.residual_rms, unit_of)}, encoders' noise "
                              f"{self._size(self.noise_rms, unit_of)})")
 
-    def to_dict(self) -> dict:
-        """The reading as ``gantry diagnose --json`` has it (docs/formats.md)."""
-        return {"kind": self.kind, "y2_scale": self.y2_scale, "y2_scale_stderr": self.y2_scale_stderr,
-                "scale_claimed": self.scale_claimed, "yaw_claimed": self.yaw_claimed,
-                "yaw_patterns": list(self.yaw_patterns), "explained": self.explained, "agree": self.agree,
-                "difference_rms": self.difference_rms, "residual_rms": self.residual_rms,
-                "noise_rms": self.noise_rms, "noise_ratio": self.noise_ratio, "clause": self.clause(),
-                "terms": {t.name: {"value": t.value, "stderr": t.stderr, "share": t.share, "claimed": t.claimed}
-                          for t in self.terms.values()}}
-
 
 def rails_reading(plant, rec: TimeRecording, data, prep: Preprocessing) -> RailReading | None:
     """``read_rails`` of ``rec`` for the base ``plant`` (no effects), the motor force's pattern b / m from the base

@@ -568,7 +568,7 @@ def fit_recording(path: str | Path, *, stage: str, effects: tuple[str, ...] = ()
     a tfest-like rational fit of the frequency response. ``progress(stage)`` hears each stage begin."""
     from plant.data.read import parse_column_map, read_measurement
     from plant.data.recordings import TimeRecording
-    from plant.diagnose.two_rails import rails_reading
+    from plant.diagnose.two_rails import at_one_scale
     from plant.identify.fitting import fit_plant
     from plant.identify.inverse_model import Preprocessing, inverse_model_data
     from plant.identify.time_fit import configure_from_recording, fit_inverse_model, fit_output_error
@@ -595,10 +595,7 @@ def fit_recording(path: str | Path, *, stage: str, effects: tuple[str, ...] = ()
         plant = Plant(stage, effects=fx, excitation_current_a=1.0, **geometry).with_values(values or {})
         progress("filtering and differencing")
         data = inverse_model_data(recording, float(plant.force_constant_n_per_a), prep)
-        rails = rails_reading(dataclasses.replace(plant, effects=()), recording, data, prep)
-        if rails is not None and rails.scale_claimed:
-            recording = rails.corrected(recording)
-            data = inverse_model_data(recording, float(plant.force_constant_n_per_a), prep)
+        rails, recording, data = at_one_scale(dataclasses.replace(plant, effects=()), recording, data, prep)
         progress("fitting the inverse model")
         plant = configure_from_recording(plant, data, tuple(values or {}))
         result = fit_inverse_model(plant, data, free=free)

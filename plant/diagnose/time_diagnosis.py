@@ -41,7 +41,7 @@ from plant.diagnose.evidence import (
 )
 from plant.diagnose.plausibility import implausible, warning
 from plant.diagnose.search import compatible, fit_models, path_to, select_model
-from plant.diagnose.two_rails import RailReading, rails_reading
+from plant.diagnose.two_rails import RailReading, at_one_scale
 from plant.errors import EffectError, ParameterError
 from plant.identify.compensation import CompensationTable, compensation_table
 from plant.identify.inverse_model import InverseModelData, Preprocessing, inverse_model_data
@@ -299,9 +299,7 @@ def diagnose_time(plant: Plant, rec: TimeRecording, *, candidates: tuple[str, ..
     if plant.effects:
         raise EffectError("the diagnosis starts from the base model; give a plant without effects")
     data: InverseModelData = inverse_model_data(rec, float(plant.force_constant_n_per_a), prep)
-    rails = rails_reading(_plant(plant, ()), rec, data, prep)
-    if rails is not None and rails.scale_claimed:
-        data = inverse_model_data(rails.corrected(rec), float(plant.force_constant_n_per_a), prep)
+    rails, _, data = at_one_scale(_plant(plant, ()), rec, data, prep)
     usable = time_candidates(position=data.position_m is not None, rails=rails is not None and rails.couples_the_mean)
     names = usable if candidates is None else tuple(candidates)
     notes = []

@@ -45,6 +45,7 @@ from plant.identify.inverse_model import (
     decimation_factor,
     derivatives_chain,
     difference_noise_std,
+    inverse_model_data,
 )
 from plant.identify.time_fit import NOISE_RATIO_LIMIT, STRUCTURE_SHARE, effective_factors, fit_inverse_model, newey_west
 from plant.story import Section, Table
@@ -57,18 +58,22 @@ CLAIMABLE = ("scale", "acceleration", "velocity")
 
 @dataclass(frozen=True)
 class RailTerm:
-    """One column of the difference's regression: its coefficient, Newey-West standard error, its share of what
-    the difference would leave without it, and whether it is claimed (module doc)."""
+    """One column of the difference's regression: its coefficient, Newey-West standard error and its share of what
+    the difference would leave without it (module doc)."""
 
     name: str
     value: float
     stderr: float
     share: float
-    claimed: bool
 
     @property
     def z(self) -> float:
-        return abs(self.value) / self.stderr if self.stderr > 0 else math.inf
+        return abs(self.value) / self.stderr if self.stderr > 0 else 0.0
+
+    @property
+    def claimed(self) -> bool:
+        """A term of ``CLAIMABLE``, ``CLAIM_Z`` standard errors from zero, carrying ``STRUCTURE_SHARE`` or more."""
+        return self.name in CLAIMABLE and self.z > CLAIM_Z and self.share >= STRUCTURE_SHARE
 
 
 @dataclass(frozen=True)
@@ -120,6 +125,11 @@ class RailReading:
         return not (self.scale_claimed or self.yaw_claimed) and self.explained
 
     @property
+    def unit(self) -> str:
+        """The unit of the difference regressed: m (positions) or m/s (velocities)."""
+        return "m" if self.kind == "position" else "m/s"
+
+    @property
     def noise_ratio(self) -> float:
         return self.residual_rms / self.noise_rms if self.noise_rms > 0 else math.inf
 
@@ -136,7 +146,7 @@ class RailReading:
 
     def clause(self) -> str:
         """The rails' part of a verdict: each claimed term with its size, and what is left beyond the noise."""
-        unit = "m" if self.kind == "position" else "m/s"
+        unit = self.unit
         parts = []
         if self.scale_claimed:
             parts.append(f"encoder Y2 reads {100 * (self.y2_scale - 1):+.2f} ± {100 * self.y2_scale_stderr:.2g} % "
@@ -167,10 +177,10 @@ class RailReading:
 
     def section(self) -> Section:
         unit = {"scale": "1", "acceleration": "m per m/s²", "velocity": "m per m/s", "jerk": "m per m/s³",
-                "snap": "m per m/s⁴", "zero": "m" if self.kind == "position" else "m/s"}
+                "snap": "m per m/s⁴", "zero": self.unit}
         rows = tuple((t.name, f"{t.value:.4g}", f"{t.stderr:.2g}", f"{t.share:.2f}", unit[t.name],
                       "yes" if t.claimed else "no") for t in self.terms.values())
-        unit_of = "m" if self.kind == "position" else "m/s"
+        unit_of = self.unit
         return Section("Both rails", (self.clause(),),
                        table=Table(("term", "value", "stderr", "share", "unit", "claimed"), rows),
                        aside=f"(the rails' difference on the common {self.kind}: rms "
@@ -191,6 +201,16 @@ def rails_reading(plant, rec: TimeRecording, data, prep: Preprocessing) -> RailR
     m_per, b_per = effective_factors(base.plant)
     return read_rails(rec, damping_per_mass_per_s=b_per * base.values["damping_n_s_per_m"]
                       / (m_per * base.values["mass_kg"]), prep=prep)
+
+
+def at_one_scale(plant, rec: TimeRecording, data, prep: Preprocessing):
+    """(the rails' reading or None, the recording and its inverse-model data) with Y2 read at Y1's scale where the
+    reading claims a scale (``rails_reading``, ``RailReading.corrected``); ``data`` as ``rec`` gave it otherwise."""
+    rails = rails_reading(plant, rec, data, prep)
+    if rails is None or not rails.scale_claimed:
+        return rails, rec, data
+    rec = rails.corrected(rec)
+    return rails, rec, inverse_model_data(rec, float(plant.force_constant_n_per_a), prep)
 
 
 def read_rails(rec: TimeRecording, *, damping_per_mass_per_s: float,
@@ -220,10 +240,7 @@ def read_rails(rec: TimeRecording, *, damping_per_mass_per_s: float,
     terms = {}
     for j, name in enumerate(columns):
         part = X[:, j] * coef[j]
-        share = _rms(part) / max(_rms(e + part), 1e-300)
-        z = abs(coef[j]) / se[j] if se[j] > 0 else 0.0
-        terms[name] = RailTerm(name, float(coef[j]), float(se[j]), share,
-                               name in CLAIMABLE and z > CLAIM_Z and share >= STRUCTURE_SHARE)
+        terms[name] = RailTerm(name, float(coef[j]), float(se[j]), _rms(part) / max(_rms(e + part), 1e-300))
     yaw = [1, 2, 3, 4]                           # acceleration, velocity, jerk, snap: alpha, beta, gamma, delta
     patterns = _yaw_patterns(terms, X[:, yaw], coef[yaw], damping_per_mass_per_s,
                              1.0 / (math.pi * prep.decimate_band_hz))

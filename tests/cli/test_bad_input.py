@@ -479,3 +479,14 @@ def test_an_unknown_loop_structure_is_one_line_naming_the_known_ones(tmp_path, m
     code, err, _ = in_process(monkeypatch, capsys, "synth", spec)
     assert code == 2 and err.count("\n") == 1 and "dual_drive.structures" in err and "'crossed'" in err, err
     assert all(name in err for name in BY_NAME), err
+
+
+def test_yaw_coupling_without_both_rails_is_refused_by_name(tmp_path):
+    t = np.arange(0.0, 4.0, 0.001)
+    rec = tmp_path / "one_rail.csv"
+    np.savetxt(rec, np.column_stack([t, np.sin(2 * np.pi * t), 1e-5 * np.cumsum(np.sin(2 * np.pi * t))]),
+               delimiter=",", header="time_s,current_a,position_m", comments="")
+    one_output = gantry("fit", rec, "--stage", "y", "--effects", "yaw_coupling")
+    assert one_line(one_output) and "yaw_coupling follows the rails' difference" in one_output.stderr
+    stage_x = gantry("fit", rec, "--stage", "x", "--effects", "yaw_coupling")
+    assert one_line(stage_x) and "yaw_coupling applies to Stage Y only" in stage_x.stderr

@@ -29,9 +29,20 @@ from design.admittance.mouse import stack
 from design.admittance.rig import RigTiming, force_filter_frd
 from design.problem import Locomotion, LoopProblem
 
-#: time step (s) and rest before and after the profile (s) of the force computation
-DT_S = 1e-3
+#: the largest time step (s) of the force computation (its FFT grid reaches 1 / (2 MAX_STEP_S), five times the
+#: neck's fastest mode of the bundled mice, 50 Hz; tests show the forces converged against a 0.25 ms step) and the
+#: rest before and after the profile (s)
+MAX_STEP_S = 2e-3
 REST_S = 0.6
+
+
+def step_for(timing: RigTiming, max_step_s: float = MAX_STEP_S) -> float:
+    """The force computation's time step for a law sampled as ``timing`` says: the largest step up to
+    ``max_step_s`` that divides the law's period (its output's steps fall on the grid), ``max_step_s`` for a
+    continuous law."""
+    if not timing.sampled:
+        return max_step_s
+    return timing.period_s / math.ceil(timing.period_s / max_step_s * (1 - 1e-9))
 #: scenarios per block of the motor-force computation (memory: a few complex arrays of necks x block x FFT grid)
 MOTOR_BLOCK = 32
 
@@ -49,7 +60,7 @@ class Profile:
         return self.velocity_m_per_s > 0
 
 
-def trapezoid(loc: Locomotion, *, dt_s: float = DT_S, rest_s: float = REST_S) -> Profile:
+def trapezoid(loc: Locomotion, *, dt_s: float = MAX_STEP_S, rest_s: float = REST_S) -> Profile:
     """Accelerate at a_pk to v_pk, run, decelerate, over the travel (a triangle when the travel is too short
     to reach v_pk), with ``rest_s`` of rest before and after (bsbrl/exoskeleton
     ``MAIN_generate_trapezoidal_profile.m``, after Dombre & Khalil)."""
@@ -72,13 +83,16 @@ class FeltForce:
     """The peak force the mouse feels on the locomotion profile for any (m_v, b_v), worst over ``scenarios``
     x the distinct necks and heads of ``corners``, and the motors' forces there (module docstring): the parts
     that do not depend on (m_v, b_v) are computed once on the profile's FFT grid, so a search can call it many
-    times. With ``paired``, ``corners`` is a batch of mice ((n_s, 1) fields), mouse k at scenario k."""
+    times. With ``paired``, ``corners`` is a batch of mice ((n_s, 1) fields), mouse k at scenario k. The time step
+    is ``step_for(timing, max_step_s)``."""
 
-    def __init__(self, problem: LoopProblem, scenarios, corners, *, loops, timing: RigTiming, paired: bool = False):
-        self.profile = trapezoid(problem.admittance.locomotion)
+    def __init__(self, problem: LoopProblem, scenarios, corners, *, loops, timing: RigTiming, paired: bool = False,
+                 max_step_s: float = MAX_STEP_S):
+        self.step_s = step_for(timing, max_step_s)
+        self.profile = trapezoid(problem.admittance.locomotion, dt_s=self.step_s)
         self.n = self.profile.time_s.size
-        self.damping = 8.0 / (self.n * DT_S)
-        f = np.fft.rfftfreq(self.n, DT_S)
+        self.damping = 8.0 / (self.n * self.step_s)
+        f = np.fft.rfftfreq(self.n, self.step_s)
         s = self.damping + 2j * np.pi * f
         loop = loops.at(s, scenarios)
         self.scenarios, self.timing = scenarios, timing
@@ -169,12 +183,13 @@ class FeltForce:
         staircase's fundamental (what ``motor_forces`` carries) it swings by dv / 2, so the estimate is
         sup |R / G| above the Nyquist frequency times half the largest step of the law's output on the profile (the
         law run on the sensed force sampled at its rate), at the scenarios ``rows``. Against a time simulation of
-        the sampled loop it is 0-4 % above the true peak (tests); 0 for a continuous law or a rate that is not a
-        whole number of the profile's steps. ``sensed``: the block's ``_sensed`` spectrum when already computed."""
+        the sampled loop it is 0-4 % above the true peak (tests); 0 for a continuous law (the law's period is a
+        whole number of the profile's steps, ``step_for``). ``sensed``: the block's ``_sensed`` spectrum when
+        already computed."""
         t = self.timing
-        n_a = None if not t.sampled else round(t.period_s / DT_S)
-        if n_a is None or n_a < 1 or abs(n_a * DT_S - t.period_s) > 1e-9 * t.period_s:
+        if not t.sampled:
             return np.zeros(len(self.scenarios))[rows]
+        n_a = round(t.period_s / self.step_s)
         from scipy.signal import lfilter
 
         if sensed is None:

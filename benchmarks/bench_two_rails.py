@@ -1,7 +1,8 @@
 """Stage Y's two rails read jointly in time recordings (``plant.diagnose.two_rails``), on recordings of the
 independent two-rail simulator (tests/reference/independent_two_rails.py: Lagrange's equations of the beam on its
 rails, sampled exactly; it imports nothing of the tool), under a sweep of three sines, a chirp and a stepped sine
-in one run, with the rails' positions or velocities recorded. Open loop only: the simulator has no velocity loop.
+of current in one run, or a PI velocity loop on the encoders' mean following a chirp of velocity (the command
+logged as computed, the reference recorded), with the rails' positions or velocities recorded.
 
 Run:  python benchmarks/bench_two_rails.py [--n 40] [--seed 45]
 
@@ -49,7 +50,15 @@ from plant.diagnose.time_diagnosis import diagnose_time  # noqa: E402
 from plant.identify.inverse_model import Preprocessing  # noqa: E402
 
 CLASSES = ("none", "rail_scale", "motor_imbalance", "offset_load", "scale_imbalance", "damping_apart")
-FORMS = {"sweep": tr.sweep, "chirp": tr.chirp, "stepped": tr.stepped}
+def closed(rig, *, seed: int, **noise):
+    """The rig under ``independent_two_rails.closed_loop`` following a chirp of velocity, 0.05 m/s from 0.3 to 12 Hz
+    over 20 s."""
+    ratio, span = 12.0 / 0.3, 20.0
+    return tr.closed_loop(rig, lambda s: 0.05 * np.sin(2 * np.pi * 0.3 * span * (ratio ** (s / span) - 1)
+                                                       / np.log(ratio)), span, seed=seed, **noise)
+
+
+FORMS = {"sweep": tr.sweep, "chirp": tr.chirp, "stepped": tr.stepped, "closed": closed}
 RIG = dd.Rig(beam_mass_kg=0.0, beam_inertia_kg_m2=0.5, carriage_mass_kg=35.0, k1=10.0, k2=10.0)
 
 
@@ -71,10 +80,11 @@ def draw(rng, k: int):
         rig = dataclasses.replace(rig, carriage_position_m=0.4 + float(rng.choice([-1, 1]) * rng.uniform(0.1, 0.25)))
     noise = ({"velocity_noise_m_per_s": float(rng.uniform(5e-5, 2e-4))} if velocity else
              {"position_noise_m": float(rng.uniform(1e-6, 5e-6))})
-    t, i, y1, y2 = FORMS[form](rig, y2_scale=scale, seed=int(rng.integers(1 << 30)), **noise)
+    t, i, y1, y2, *reference = FORMS[form](rig, y2_scale=scale, seed=int(rng.integers(1 << 30)), **noise)
     out = "velocity" if velocity else "position"
     inertia = rig.carriage_mass_kg * (rig.carriage_position_m / rig.rail_separation_m - 0.5)
-    return kind, form, out, scale, inertia, TimeRecording(t, i, np.vstack([y1, y2]), out, (f"{out}_y1", f"{out}_y2"))
+    return kind, form, out, scale, inertia, TimeRecording(t, i, np.vstack([y1, y2]), out, (f"{out}_y1", f"{out}_y2"),
+                                                          reference=reference[0] if reference else None)
 
 
 def score(kind: str, scale: float, inertia: float, diag) -> tuple[bool, bool]:

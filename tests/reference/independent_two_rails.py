@@ -6,7 +6,9 @@ yaw spring of the joints, each rail's damper b1, b2 and force constant k1, k2, t
 beam). One current command drives both motors, as the thesis's Stage Y is wired. The command is held between
 samples, so the recording is the exact zero-order-hold sampling of the linear system (the matrix exponential
 of the augmented matrix [[A, B], [0, 0]], van Loan 1978). Encoder Y2 reads ``y2_scale`` times its rail's true
-position (a scale error); both encoders carry white noise, the command too.
+position (a scale error); both encoders carry white noise, the command too. In open loop the command is a given
+current; in closed loop (``closed_loop``) a PI velocity loop computes it each sample from the encoders' mean
+velocity (positions differenced over one sample), and the command is logged as computed.
 """
 
 from __future__ import annotations
@@ -16,20 +18,25 @@ import numpy as np
 import scipy.linalg
 
 
+def _held(rig: independent_dual_drive.Rig, dt: float) -> tuple[np.ndarray, np.ndarray]:
+    """(Phi, Gamma) of the rig's mechanics under one command to both motors held for ``dt`` (van Loan)."""
+    A, B, _ = independent_dual_drive._mechanics_matrices(rig)
+    n = A.shape[0]
+    aug = np.zeros((n + 1, n + 1))
+    aug[:n, :n], aug[:n, n] = A, B @ np.ones(2)
+    step = scipy.linalg.expm(aug * dt)
+    return step[:n, :n], step[:n, n]
+
+
 def record(rig: independent_dual_drive.Rig, current, duration_s: float, *, sample_rate_hz: float = 1000.0,
            y2_scale: float = 1.0, current_noise_a: float = 0.005, position_noise_m: float = 1e-6, seed: int = 0,
            velocity_noise_m_per_s: float | None = None):
     """(t s, command A with noise, Y1, Y2) of ``current(t)`` (A) applied to both motors from rest at y1 = y2 = 0
     (module doc): the rails' positions (m), or with ``velocity_noise_m_per_s`` their velocities (m/s) with that
     noise."""
-    A, B, _ = independent_dual_drive._mechanics_matrices(rig)
-    b = B @ np.ones(2)
     dt = 1.0 / sample_rate_hz
-    n = A.shape[0]
-    aug = np.zeros((n + 1, n + 1))
-    aug[:n, :n], aug[:n, n] = A, b
-    step = scipy.linalg.expm(aug * dt)
-    Phi, Gamma = step[:n, :n], step[:n, n]
+    Phi, Gamma = _held(rig, dt)
+    n = Phi.shape[0]
     t = np.arange(int(round(duration_s * sample_rate_hz))) * dt
     u = current(t)
     x = np.zeros(n)
@@ -42,6 +49,36 @@ def record(rig: independent_dual_drive.Rig, current, duration_s: float, *, sampl
     return (t, u + rng.normal(0.0, current_noise_a, t.size),
             states[:, first] + rng.normal(0.0, noise, t.size),
             y2_scale * states[:, first + 1] + rng.normal(0.0, noise, t.size))
+
+
+def closed_loop(rig: independent_dual_drive.Rig, reference, duration_s: float, *, kp: float = 150.0,
+                ki: float = 3000.0, sample_rate_hz: float = 1000.0, y2_scale: float = 1.0,
+                position_noise_m: float = 1e-6, velocity_noise_m_per_s: float | None = None, seed: int = 0):
+    """(t s, command A, Y1, Y2, reference m/s) of a PI velocity loop on the encoders' mean velocity following
+    ``reference(t)`` (m/s) from rest: each sample the loop reads both encoders (positions, or with
+    ``velocity_noise_m_per_s`` velocities), takes their mean velocity (a position differenced over one sample),
+    and commands i = kp e + ki sum(e) dt, e = reference - mean velocity (A per m/s, A per m), held to the next
+    sample and logged as computed."""
+    dt = 1.0 / sample_rate_hz
+    Phi, Gamma = _held(rig, dt)
+    t = np.arange(int(round(duration_s * sample_rate_hz))) * dt
+    r = reference(t)
+    rng = np.random.default_rng(seed)
+    velocity = velocity_noise_m_per_s is not None
+    first, noise = (2, velocity_noise_m_per_s) if velocity else (0, position_noise_m)
+    x = np.zeros(Phi.shape[0])
+    u, y1, y2 = (np.empty(t.size) for _ in range(3))
+    integral, last = 0.0, np.zeros(2)
+    for k in range(t.size):
+        y = np.array([x[first], y2_scale * x[first + 1]]) + rng.normal(0.0, noise, 2)
+        y1[k], y2[k] = y
+        v = y if velocity else (y - last) / dt if k else np.zeros(2)
+        last = y
+        e = r[k] - float(np.mean(v))
+        integral += e * dt
+        u[k] = kp * e + ki * integral
+        x = Phi @ x + Gamma * u[k]
+    return t, u, y1, y2, r
 
 
 def chirp(rig: independent_dual_drive.Rig, *, amplitude_a: float = 3.0, f0_hz: float = 0.3, f1_hz: float = 12.0,

@@ -47,7 +47,10 @@ digit); ``diagnose_x`` and ``diagnose_emps`` when the library gained ``yaw_coupl
 Stage Y's two rails jointly (its row among the frequency-domain candidates not searched; ``rails`` null on EMPS's
 one output), and ``fit_emps`` when the time fit read both rails too (``rails`` null on one output); EMPS's standard
 errors in both files moved in the ninth digit on rewriting, which f1ceaa9's code gives alike today (arithmetic, not
-a change).
+a change); ``synth_admittance`` when the forces on the locomotion profile took a 2 ms grid that divides the law's
+period and the reach its own 0.25 ms grid (the motor's force on the profile within 0.03 %, the force felt's RMS
+1.0340 -> 1.0342 N, the velocity shortfall 8.45 -> 8.42 %, the reach 17.42 -> 17.79 m/s^2, which the 1 ms grid had
+2 % low; the design the same).
 """
 
 from __future__ import annotations

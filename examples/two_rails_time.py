@@ -62,5 +62,10 @@ print_story(Console(), diag.story())
 print(f"\nverdict: {diag.verdict}; truth: {kind}")
 if diag.rails.scale_claimed:
     print(f"rail_scale.y2_scale: {diag.rails.y2_scale:.5f} +/- {diag.rails.y2_scale_stderr:.2g} (true {y2_scale:.5f})")
+if kind == "motor_imbalance":
+    per, se = diag.rails.imbalance_per_stiffness
+    true = (rig.k1 - rig.k2) / (rig.k1 + rig.k2)
+    print(f"motor_imbalance.fraction: {per * rig.yaw_stiffness:+.4f} +/- {se * rig.yaw_stiffness:.2g} at the rig's yaw "
+          f"stiffness {rig.yaw_stiffness:.0e} N*m/rad (true {true:+.4f})")
 print(f"mass_kg: {diag.final.values['mass_kg']:.2f} (true 35.00), damping_n_s_per_m: "
       f"{diag.final.values['damping_n_s_per_m']:.1f} (true 440.0)")

@@ -269,6 +269,8 @@ def rails_to_dict(rails) -> dict | None:
             "yaw_patterns": list(rails.yaw_patterns), "explained": rails.explained, "agree": rails.agree,
             "difference_rms": rails.difference_rms, "residual_rms": rails.residual_rms, "noise_rms": rails.noise_rms,
             "noise_ratio": rails.noise_ratio, "clause": rails.clause(),
+            "imbalance_per_stiffness": dict(zip(("value", "stderr"),
+                                                (finite_or_none(x) for x in rails.imbalance_per_stiffness))),
             "terms": {t.name: {"value": t.value, "stderr": t.stderr, "share": t.share, "claimed": t.claimed}
                       for t in rails.terms.values()}}
 

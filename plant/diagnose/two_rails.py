@@ -48,10 +48,14 @@ from plant.identify.inverse_model import (
     inverse_model_data,
 )
 from plant.identify.time_fit import NOISE_RATIO_LIMIT, STRUCTURE_SHARE, effective_factors, fit_inverse_model, newey_west
+from plant.physics.mechanics import TiltCoupling
 from plant.story import Section, Table
 
 #: standard errors from zero at which a term of the difference is claimed
 CLAIM_Z = 5.0
+#: a yaw stiffness (N*m/rad) at which the motors' imbalance per stiffness is shown as a fraction: the default of
+#: ``tilt_coupling.stiffness_n_m_per_rad``
+REFERENCE_YAW_STIFFNESS = TiltCoupling.stiffness_n_m_per_rad
 #: the terms that can be claimed (the others are the yaw's lag and inertia, and the encoders' zeros)
 CLAIMABLE = ("scale", "acceleration", "velocity")
 
@@ -92,6 +96,10 @@ class RailReading:
     #: the yaw patterns (``motor_imbalance``, ``tilt_coupling.offset_m``, damping) the claimed yaw terms are
     #: consistent with, each with its reason
     yaw_patterns: tuple[str, ...]
+    #: the stage's motor force per velocity b (N*s/m, K i = m a + b v: both rails' damping) and the rails'
+    #: separation L (m), which turn the velocity term into the motors' imbalance per yaw stiffness
+    force_per_velocity_n_s_per_m: float = math.nan
+    rail_separation_m: float = math.nan
 
     @property
     def y2_scale(self) -> float:
@@ -111,6 +119,17 @@ class RailReading:
     @property
     def yaw_claimed(self) -> bool:
         return self.terms["acceleration"].claimed or self.terms["velocity"].claimed
+
+    @property
+    def imbalance_per_stiffness(self) -> tuple[float, float]:
+        """(value, standard error) of motor_imbalance.fraction / K_a (rad / (N*m)), K_a the joints' yaw stiffness:
+        the motors K (1 + f) / 2 on Y1 and K (1 - f) / 2 on Y2 turn the beam by (F2 - F1) L / 2 = -f K i L / 2, and the
+        rails part by that over K_a times L, so beta = -f b L^2 / (2 K_a). Below the yaw mode the record gives f / K_a
+        only; the fraction needs K_a (``tilt_coupling.stiffness_n_m_per_rad``, from a stepped sine through the
+        mode)."""
+        b = self.terms["velocity"]
+        per = -2.0 / (self.force_per_velocity_n_s_per_m * self.rail_separation_m**2)
+        return per * b.value, abs(per) * b.stderr
 
     @property
     def couples_the_mean(self) -> bool:
@@ -169,7 +188,16 @@ class RailReading:
         if not self.yaw_patterns:
             return ("the pattern of no single cause (unequal motors, an off-centre load or unequal dampings, "
                     "together)")
-        return " or ".join(self.yaw_patterns)
+        return " or ".join(self._with_size(p) for p in self.yaw_patterns)
+
+    def _with_size(self, pattern: str) -> str:
+        """A cause's words, with unequal motors' size per yaw stiffness (``imbalance_per_stiffness``)."""
+        per, se = self.imbalance_per_stiffness
+        if "motor_imbalance" not in pattern or not math.isfinite(per):
+            return pattern
+        return (f"{pattern[:-1]}.fraction = {per:.3g} ± {se:.2g} rad/(N·m) × K_a, the joints' yaw stiffness, which "
+                f"a record below the yaw mode cannot give: {per * REFERENCE_YAW_STIFFNESS:+.3g} at "
+                f"{REFERENCE_YAW_STIFFNESS:.0e} N·m/rad)")
 
     @staticmethod
     def _size(x: float, unit: str) -> str:
@@ -199,8 +227,9 @@ def rails_reading(plant, rec: TimeRecording, data, prep: Preprocessing) -> RailR
         raise EffectError("the rails' reading starts from the base model; give a plant without effects")
     base = fit_inverse_model(plant, data)
     m_per, b_per = effective_factors(base.plant)
-    return read_rails(rec, damping_per_mass_per_s=b_per * base.values["damping_n_s_per_m"]
-                      / (m_per * base.values["mass_kg"]), prep=prep)
+    b = b_per * base.values["damping_n_s_per_m"]
+    return read_rails(rec, damping_per_mass_per_s=b / (m_per * base.values["mass_kg"]), prep=prep,
+                      force_per_velocity_n_s_per_m=b, rail_separation_m=float(plant.motor_length_m))
 
 
 def at_one_scale(plant, rec: TimeRecording, data, prep: Preprocessing):
@@ -213,11 +242,13 @@ def at_one_scale(plant, rec: TimeRecording, data, prep: Preprocessing):
     return rails, rec, inverse_model_data(rec, float(plant.force_constant_n_per_a), prep)
 
 
-def read_rails(rec: TimeRecording, *, damping_per_mass_per_s: float,
-               prep: Preprocessing = Preprocessing()) -> RailReading | None:
+def read_rails(rec: TimeRecording, *, damping_per_mass_per_s: float, prep: Preprocessing = Preprocessing(),
+               force_per_velocity_n_s_per_m: float = math.nan, rail_separation_m: float = math.nan
+               ) -> RailReading | None:
     """The joint reading of a recording's two rails (module doc); None for one output. ``damping_per_mass_per_s``:
     the stage's effective damping over its effective mass (the fit on the mean), r = b / m of the motor force's
-    pattern."""
+    pattern; ``force_per_velocity_n_s_per_m`` that b and ``rail_separation_m`` the rails' separation L (the
+    motors' imbalance per yaw stiffness, ``RailReading.imbalance_per_stiffness``)."""
     if rec.output.shape[0] != 2:
         return None
     fs = rec.sample_rate_hz
@@ -244,7 +275,8 @@ def read_rails(rec: TimeRecording, *, damping_per_mass_per_s: float,
     yaw = [1, 2, 3, 4]                           # acceleration, velocity, jerk, snap: alpha, beta, gamma, delta
     patterns = _yaw_patterns(terms, X[:, yaw], coef[yaw], damping_per_mass_per_s,
                              1.0 / (math.pi * prep.decimate_band_hz))
-    return RailReading(terms, _rms(y), _rms(e), _rms(e_noise), rec.output_kind, patterns)
+    return RailReading(terms, _rms(y), _rms(e), _rms(e_noise), rec.output_kind, patterns,
+                       force_per_velocity_n_s_per_m, rail_separation_m)
 
 
 def _rms(x: np.ndarray) -> float:

@@ -222,3 +222,16 @@ def test_in_a_closed_velocity_loop_the_rails_are_read_as_in_open_loop(case, velo
         assert abs(diag.final.values["yaw_coupling.inertia_kg"] / (35.0 * 0.2 / 0.8) - 1) < 0.15
     assert abs(diag.final.values["mass_kg"] / 35.0 - 1) < 5e-3
     assert abs(diag.final.values["damping_n_s_per_m"] / 440.0 - 1) < 5e-3
+
+
+@pytest.mark.parametrize("k1,k2,stiffness", [(9.0, 11.0, 2e5), (10.4, 9.6, 1e5), (9.5, 10.5, 4e5)])
+def test_unequal_motors_are_sized_per_yaw_stiffness(k1, k2, stiffness):
+    # below the yaw mode the rails part by -f K i L^2 / (2 K_a) with f = (k1 - k2) / (k1 + k2) (the shares of
+    # motor_imbalance): the reading gives f / K_a, and the clause the fraction at tilt_coupling's default K_a
+    rig = dataclasses.replace(RIG, k1=k1, k2=k2, yaw_stiffness=stiffness)
+    rails = diagnosed(recording(rig)).rails
+    per, se = rails.imbalance_per_stiffness
+    truth = (k1 - k2) / (k1 + k2) / stiffness
+    assert abs(per / truth - 1) < 0.01 and se < 0.01 * abs(truth)
+    assert f"motor_imbalance.fraction = {per:.3g}" in rails.clause()
+    assert f"{per * 2e5:+.3g} at 2e+05 N·m/rad" in rails.clause()

@@ -271,6 +271,8 @@ def rails_to_dict(rails) -> dict | None:
             "noise_ratio": rails.noise_ratio, "clause": rails.clause(),
             "imbalance_per_stiffness": dict(zip(("value", "stderr"),
                                                 (finite_or_none(x) for x in rails.imbalance_per_stiffness))),
+            "damping_difference_per_stiffness": dict(zip(("value", "stderr"), (
+                finite_or_none(x) for x in rails.damping_difference_per_stiffness))),
             "terms": {t.name: {"value": t.value, "stderr": t.stderr, "share": t.share, "claimed": t.claimed}
                       for t in rails.terms.values()}}
 

@@ -132,6 +132,14 @@ class RailReading:
         return per * b.value, abs(per) * b.stderr
 
     @property
+    def damping_difference_per_stiffness(self) -> tuple[float, float]:
+        """(value, standard error) of (b2 - b1) / K_a (N*s/m per N*m/rad): rails whose dampings differ turn the beam
+        by (b2 - b1) v L / 2 against K_a, so beta = -(b2 - b1) L^2 / (2 K_a) below the yaw mode."""
+        b = self.terms["velocity"]
+        per = -2.0 / self.rail_separation_m**2
+        return per * b.value, abs(per) * b.stderr
+
+    @property
     def couples_the_mean(self) -> bool:
         """The yaw may reach the force on the rails' mean (``yaw_coupling``): the beam turns, and not by unequal
         motors alone, whose torque leaves the mean's force balance as it is (module doc)."""
@@ -191,12 +199,18 @@ class RailReading:
         return " or ".join(self._with_size(p) for p in self.yaw_patterns)
 
     def _with_size(self, pattern: str) -> str:
-        """A cause's words, with unequal motors' size per yaw stiffness (``imbalance_per_stiffness``)."""
-        per, se = self.imbalance_per_stiffness
-        if "motor_imbalance" not in pattern or not math.isfinite(per):
+        """A cause's words, with the size per yaw stiffness K_a of unequal motors (``imbalance_per_stiffness``) or
+        dampings (``damping_difference_per_stiffness``), and its value at ``REFERENCE_YAW_STIFFNESS``."""
+        if "motor_imbalance" in pattern:
+            (per, se), what, unit = self.imbalance_per_stiffness, "fraction", "rad/(N·m)"
+        elif "dampings differ" in pattern:
+            (per, se), what, unit = self.damping_difference_per_stiffness, "b2 - b1", "N·s/m per N·m/rad"
+        else:
             return pattern
-        return (f"{pattern[:-1]}.fraction = {per:.3g} ± {se:.2g} rad/(N·m) × K_a, the joints' yaw stiffness, which "
-                f"a record below the yaw mode cannot give: {per * REFERENCE_YAW_STIFFNESS:+.3g} at "
+        if not math.isfinite(per):
+            return pattern
+        return (f"{pattern[:-1]}; {what} = {per:.3g} ± {se:.2g} {unit} × K_a, the joints' yaw stiffness, which a "
+                f"record below the yaw mode cannot give: {per * REFERENCE_YAW_STIFFNESS:+.3g} at "
                 f"{REFERENCE_YAW_STIFFNESS:.0e} N·m/rad)")
 
     @staticmethod

@@ -134,6 +134,10 @@ def test_rails_whose_dampings_differ_turn_the_beam_with_the_velocity(velocity):
     assert len(rails.yaw_patterns) == 1 and "dampings differ" in rails.yaw_patterns[0]
     beta = -(580.0 - 300.0) / 2 * RIG.rail_separation_m**2 / RIG.yaw_stiffness
     assert abs(rails.terms["velocity"].value / beta - 1) < 0.05
+    # and sized per yaw stiffness: (b2 - b1) / K_a = -2 beta / L^2
+    per, _ = rails.damping_difference_per_stiffness
+    assert abs(per / (280.0 / RIG.yaw_stiffness) - 1) < 0.05
+    assert f"b2 - b1 = {per:.3g}" in rails.clause() and f"{per * 2e5:+.3g} at 2e+05" in rails.clause()
 
 
 def test_a_fit_of_both_rails_reads_them_at_one_scale(tmp_path):
@@ -233,5 +237,5 @@ def test_unequal_motors_are_sized_per_yaw_stiffness(k1, k2, stiffness):
     per, se = rails.imbalance_per_stiffness
     truth = (k1 - k2) / (k1 + k2) / stiffness
     assert abs(per / truth - 1) < 0.01 and se < 0.01 * abs(truth)
-    assert f"motor_imbalance.fraction = {per:.3g}" in rails.clause()
+    assert f"motor_imbalance; fraction = {per:.3g}" in rails.clause()
     assert f"{per * 2e5:+.3g} at 2e+05 N·m/rad" in rails.clause()

@@ -45,7 +45,7 @@ from plant.diagnose.two_rails import RailReading, at_one_scale
 from plant.errors import EffectError, ParameterError
 from plant.identify.compensation import CompensationTable, compensation_table
 from plant.identify.inverse_model import InverseModelData, Preprocessing, inverse_model_data
-from plant.identify.time_fit import TimeFitResult, bic, fit_inverse_model, fit_samples
+from plant.identify.time_fit import STRUCTURE_SHARE, TimeFitResult, bic, fit_inverse_model, fit_samples
 from plant.physics.effect_base import Effect
 from plant.physics.effects import EFFECTS, make_effect
 from plant.physics.models import Plant
@@ -227,11 +227,24 @@ def _hidden_signature(combo: tuple[str, ...], models: dict[tuple[str, ...], Time
 
 
 def _signatures_shown(models: dict[tuple[str, ...], TimeFitResult]) -> dict[tuple[str, ...], TimeFitResult]:
-    """The models each of whose effects with a residual signature (``Effect.residual_signature``: a structure
-    test of ``plant.identify.time_fit``) is added to a model that shows it: a position-dependent force or a
-    Stribeck rise is added only where the residual shows its pattern (p below the test level and a quarter of
-    the residual or more), not for a BIC gain alone, which a long record gives any small correlation."""
-    return {c: f for c, f in models.items() if _hidden_signature(c, models) is None}
+    """The models each of whose effects earns its place, not by a BIC gain alone, which a long record gives any
+    small correlation: an effect with a residual signature (``Effect.residual_signature``: a structure test of
+    ``plant.identify.time_fit``) is added to a model that shows it (p below the test level and a quarter of the
+    residual or more); one without a signature is added to a model the noise does not explain, or takes a quarter
+    (``STRUCTURE_SHARE``) of that model's residual away (``_small_beside_noise``)."""
+    return {c: f for c, f in models.items() if _hidden_signature(c, models) is None
+            and not _small_beside_noise(c, models)}
+
+
+def _small_beside_noise(combo: tuple[str, ...], models: dict[tuple[str, ...], TimeFitResult]) -> bool:
+    """Whether an effect of ``combo`` without a residual signature is added to an explained model (its residual the
+    noise's) and takes less than ``STRUCTURE_SHARE`` of that residual away, sqrt(1 - RSS / RSS_parent)."""
+    for name in combo:
+        parent = models.get(tuple(n for n in combo if n != name))
+        if EFFECTS[name].residual_signature is None and parent is not None and parent.explained and \
+                math.sqrt(max(0.0, 1.0 - models[combo].rss / parent.rss)) < STRUCTURE_SHARE:
+            return True
+    return False
 
 
 def _beyond_nested(models: dict[tuple[str, ...], TimeFitResult]) -> dict[tuple[str, ...], TimeFitResult]:

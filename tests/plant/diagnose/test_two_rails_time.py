@@ -202,9 +202,11 @@ CLOSED = {"nothing": (RIG, 1.0, None), "rail_scale": (RIG, 1.03, None),
           "unequal_dampings": (dataclasses.replace(RIG, b1=352.0, b2=528.0), 1.0, "dampings differ")}
 
 
-@pytest.mark.parametrize("velocity", [False, True], ids=["positions", "velocities"])
+@pytest.mark.parametrize("velocity", [pytest.param(False, id="positions"),
+                                      pytest.param(True, id="velocities", marks=pytest.mark.slow)])
 @pytest.mark.parametrize("case", list(CLOSED))
 def test_in_a_closed_velocity_loop_the_rails_are_read_as_in_open_loop(case, velocity):
+    # velocity records in closed loop: slow (the open-loop tests above read them in the default run)
     # the loop feeds the encoders' noise back into the command, and the command is logged as computed: the full
     # diagnosis (every force candidate) names what the rails show and nothing else, and reads the stage
     rig, scale, cause = CLOSED[case]

@@ -34,6 +34,8 @@ from design.problem import Locomotion, LoopProblem
 #: rest before and after the profile (s)
 MAX_STEP_S = 2e-3
 REST_S = 0.6
+#: scenarios per block of the motor-force computation (memory: a few complex arrays of necks x block x FFT grid)
+MOTOR_BLOCK = 32
 
 
 def step_for(timing: RigTiming, max_step_s: float = MAX_STEP_S) -> float:
@@ -43,8 +45,6 @@ def step_for(timing: RigTiming, max_step_s: float = MAX_STEP_S) -> float:
     if not timing.sampled:
         return max_step_s
     return timing.period_s / math.ceil(timing.period_s / max_step_s * (1 - 1e-9))
-#: scenarios per block of the motor-force computation (memory: a few complex arrays of necks x block x FFT grid)
-MOTOR_BLOCK = 32
 
 
 @dataclass(frozen=True)

@@ -124,12 +124,12 @@ class RailReading:
     def imbalance_per_stiffness(self) -> tuple[float, float]:
         """(value, standard error) of motor_imbalance.fraction / K_a (rad / (N*m)), K_a the joints' yaw stiffness:
         the motors K (1 + f) / 2 on Y1 and K (1 - f) / 2 on Y2 turn the beam by (F2 - F1) L / 2 = -f K i L / 2, and the
-        rails part by that over K_a times L, so beta = -f b L^2 / (2 K_a). Below the yaw mode the record gives f / K_a
-        only; the fraction needs K_a (``tilt_coupling.stiffness_n_m_per_rad``, from a stepped sine through the
-        mode)."""
-        b = self.terms["velocity"]
-        per = -2.0 / (self.force_per_velocity_n_s_per_m * self.rail_separation_m**2)
-        return per * b.value, abs(per) * b.stderr
+        rails part by that over K_a times L, so beta = -f b L^2 / (2 K_a): ``damping_difference_per_stiffness`` over
+        b. Below the yaw mode the record gives f / K_a only; the fraction needs K_a
+        (``tilt_coupling.stiffness_n_m_per_rad``, from a stepped sine through the mode)."""
+        value, stderr = self.damping_difference_per_stiffness
+        b = self.force_per_velocity_n_s_per_m
+        return value / b, stderr / b
 
     @property
     def damping_difference_per_stiffness(self) -> tuple[float, float]:

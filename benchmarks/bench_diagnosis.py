@@ -31,6 +31,7 @@ from concurrent.futures import ThreadPoolExecutor
 from dataclasses import asdict, dataclass
 from pathlib import Path
 
+import as_commands  # noqa: F401  (BLAS on one thread, as the commands run it)
 import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -19,6 +19,7 @@ The noise-free transient case is not here: see tests/plant/estimate/test_lockin.
 import argparse
 import time
 
+import as_commands  # noqa: F401  (BLAS on one thread, as the commands run it)
 import numpy as np
 
 from plant.data.recordings import Block, Recording

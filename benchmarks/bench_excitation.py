@@ -25,6 +25,7 @@ repeats is about 1 / sqrt(L R).
 import argparse
 import time
 
+import as_commands  # noqa: F401  (BLAS on one thread, as the commands run it)
 import numpy as np
 from scipy.signal import lfilter
 

@@ -27,6 +27,7 @@ import time
 import tomllib
 from pathlib import Path
 
+import as_commands  # noqa: F401  (BLAS on one thread, as the commands run it)
 import numpy as np
 
 from design.loop.controller import PI

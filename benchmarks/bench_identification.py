@@ -35,6 +35,7 @@ from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
 
+import as_commands  # noqa: F401  (BLAS on one thread, as the commands run it)
 import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -40,6 +40,7 @@ import time
 from dataclasses import replace
 from pathlib import Path
 
+import as_commands  # noqa: F401  (BLAS on one thread, as the commands run it)
 import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -19,6 +19,7 @@ largest differences of the numbers (they include the Pade approximation of the d
 import math
 import time
 
+import as_commands  # noqa: F401  (BLAS on one thread, as the commands run it)
 import control
 import numpy as np
 

@@ -18,6 +18,7 @@ import tempfile
 import time
 from pathlib import Path
 
+import as_commands  # noqa: F401  (BLAS on one thread, as the commands run it)
 import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]

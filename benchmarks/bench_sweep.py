@@ -14,6 +14,7 @@ from __future__ import annotations
 import sys
 import time
 
+import as_commands  # noqa: F401  (BLAS on one thread, as the commands run it)
 import numpy as np
 
 from design.loop.analysis import analyse_loop

@@ -24,6 +24,7 @@ import sys
 import time
 from pathlib import Path
 
+import as_commands  # noqa: F401  (BLAS on one thread, as the commands run it)
 import numpy as np
 
 from design.loop.controller import PI

@@ -16,6 +16,7 @@ import sys
 import time
 from pathlib import Path
 
+import as_commands  # noqa: F401  (BLAS on one thread, as the commands run it)
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))

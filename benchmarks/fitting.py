@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import time
 
+import as_commands  # noqa: F401  (BLAS on one thread, as the commands run it)
 import numpy as np
 
 from plant import CoulombFriction, CurrentLoop, Delay, Resonance, stage_x, stage_y

@@ -485,9 +485,10 @@ def _off_lower_bounds(problem: _Problem, sol):
     """``sol``, or a polish from it with every log coordinate within ln 2 of its lower bound moved to the
     bound + ln 10, whichever costs less. In a flat direction of near +-1 correlations (e.g. a lightly damped
     resonance traded against others) the polish can stop with a damping pinned at its bound, in a worse
-    basin than one it reaches from off the bound. The move is a start like the others: a short run first,
-    polished on only when it already costs less than ``sol`` (a model the data reject crawled 1,000
-    evaluations along its valley for nothing; the basins ``diagnose_x`` leaves are found alike)."""
+    basin than one it reaches from off the bound. The move is a start like the others: a polish that has not
+    converged after ``REPOLISH_FIRST`` (n + 1) evaluations goes on only when it already costs less than ``sol``
+    (a model the data reject crawled 1,000 evaluations along its valley for nothing; the basins ``diagnose_x``
+    leaves are found alike)."""
     coords = problem.coords
     near = np.array([kind == "log" and np.isfinite(lo) and x - lo < _NEAR_BOUND
                      for kind, lo, x in zip(coords.kinds, coords.lower, sol.x)], dtype=bool)
@@ -495,10 +496,7 @@ def _off_lower_bounds(problem: _Problem, sol):
         return sol
     x0 = sol.x.copy()
     x0[near] = np.minimum(coords.lower[near] + _REPOLISH_STEP, coords.upper[near])
-    trial = _least_squares(problem, x0, short=True)
-    if trial.cost >= sol.cost:
-        return sol
-    again = _least_squares(problem, trial.x, short=False)
+    again = _least_squares(problem, x0, short=False, first=REPOLISH_FIRST, overtake=sol.cost)
     return again if again.cost < sol.cost else sol
 
 
@@ -506,9 +504,12 @@ def _off_lower_bounds(problem: _Problem, sol):
 #: first only while a stretch lowers the cost by more than ``CRAWL`` of it
 POLISH_FIRST, POLISH_STRETCH, POLISH_MAX = 40, 10, 100
 CRAWL = 1e-4
+#: the first stretch of a re-polish off a bound (``_off_lower_bounds``)
+REPOLISH_FIRST = 15
 
 
-def _least_squares(problem: _Problem, x0: np.ndarray, *, short: bool):
+def _least_squares(problem: _Problem, x0: np.ndarray, *, short: bool, first: int = POLISH_FIRST,
+                   overtake: float | None = None):
     """scipy's trust-region reflective least squares in the problem's coordinates; ``short``: a
     few iterations to rank starts.
 
@@ -516,7 +517,8 @@ def _least_squares(problem: _Problem, x0: np.ndarray, *, short: bool):
     while each lowers the cost by more than ``CRAWL`` of it: a model the data reject (two resonances standing in
     for Stage Y's yaw mode, reduced chi^2 1e5) otherwise crawled along a flat valley to the limit, 0.02 % lower
     after 1,000 evaluations, a change no ranking can see (BIC when an adequate model exists; QBIC's unit is the
-    misfit itself)."""
+    misfit itself). ``first``: the first stretch; ``overtake``: a cost the polish must be below after it to go
+    on."""
     n = x0.size
     tol = 1e-6 if short else 1e-9
 
@@ -527,8 +529,10 @@ def _least_squares(problem: _Problem, x0: np.ndarray, *, short: bool):
 
     if short:
         return run(x0, 15)
-    sol = run(x0, POLISH_FIRST)
-    used = POLISH_FIRST
+    sol = run(x0, first)
+    used = first
+    if overtake is not None and sol.cost >= overtake:
+        return sol
     while sol.status == 0 and used < POLISH_MAX:
         step = min(POLISH_STRETCH, POLISH_MAX - used)
         again = run(sol.x, step)

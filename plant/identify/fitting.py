@@ -479,6 +479,12 @@ def _fit(plant: Plant, data: MeasuredResponse, *, free, start, starts, multistar
 #: polished again
 _NEAR_BOUND = math.log(2)
 _REPOLISH_STEP = math.log(10)
+#: a polish's evaluations per free parameter + 1: at first, then per further stretch, and in all; it goes on past the
+#: first only while a stretch lowers the cost by more than ``CRAWL`` of it
+POLISH_FIRST, POLISH_STRETCH, POLISH_MAX = 40, 10, 100
+CRAWL = 1e-4
+#: the first stretch of a re-polish off a bound (``_off_lower_bounds``)
+REPOLISH_FIRST = 15
 
 
 def _off_lower_bounds(problem: _Problem, sol):
@@ -498,14 +504,6 @@ def _off_lower_bounds(problem: _Problem, sol):
     x0[near] = np.minimum(coords.lower[near] + _REPOLISH_STEP, coords.upper[near])
     again = _least_squares(problem, x0, short=False, first=REPOLISH_FIRST, overtake=sol.cost)
     return again if again.cost < sol.cost else sol
-
-
-#: a polish's evaluations per free parameter + 1: at first, then per further stretch, and in all; it goes on past the
-#: first only while a stretch lowers the cost by more than ``CRAWL`` of it
-POLISH_FIRST, POLISH_STRETCH, POLISH_MAX = 40, 10, 100
-CRAWL = 1e-4
-#: the first stretch of a re-polish off a bound (``_off_lower_bounds``)
-REPOLISH_FIRST = 15
 
 
 def _least_squares(problem: _Problem, x0: np.ndarray, *, short: bool, first: int = POLISH_FIRST,

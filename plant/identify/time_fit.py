@@ -25,8 +25,14 @@ the uncertainty; ``stderr`` is the Newey-West (1987) heteroscedasticity and auto
 consistent estimate with Bartlett weights, its lag the first at which the residual's
 autocorrelation falls below 2 / sqrt(n). Model selection uses the Gaussian likelihood with
 the residual's own variance and the effective sample size n_eff = n (1 - rho_1) / (1 + rho_1)
-of an AR(1) residual (Bayley & Hammersley 1946): ``bic(fit, n_eff)`` = n_eff ln(RSS / n) + k ln n_eff,
-with one n_eff for all the models compared.
+of an AR(1) residual (Bayley & Hammersley 1946): ``bic(fit, n_eff, floor)`` = n_eff ln((RSS - b^T G b + floor) /
+n) + k ln n_eff, with one n_eff and one floor for all the models compared. A bias-compensated fit minimises the
+corrected loss RSS - b^T G b (G the columns' noise Gram matrix; the corrected least squares of measurement-error
+models, which Liang & Li (JASA 2009) also select with), not the RSS: its raw residual carries b^T G b of the
+columns' own noise, and a model that adds a noisy column (``yaw_coupling``'s, the rails' difference differentiated
+twice, as noisy as its signal on a stepped sine of positions) would be charged for taking that noise out. So each
+model is scored on its corrected loss, plus the base model's b^T G b as the floor shared by all (the time
+diagnosis): the base model's criterion is then its raw RSS, and the likelihood's scale stays the residual's.
 
 Samples at rest (``InverseModelData.at_rest``) are left out of every fit: there the friction
 force is static, anywhere between -F_c and F_c, and no function of the velocity.
@@ -173,6 +179,9 @@ class TimeFitResult(PlantFit):
     n_at_rest: int
     condition_number: float
     elapsed_s: float
+    #: beta^T G beta: the part of ``rss`` that the columns' own noise (``_noise_gram``) puts into the residual of the
+    #: bias-compensated fit (0 where the fit took none out)
+    column_noise_rss: float = 0.0
 
     @property
     def rms_residual(self) -> float:
@@ -523,7 +532,7 @@ def _interactions(e: np.ndarray, force: np.ndarray, position: np.ndarray, X: np.
 
 def _summarise(plant, method, values, free, X, e, measured, model, quantity, t, v, noise_rms, flags, n_starts,
                elapsed, excitation_a, variables=None, n_at_rest=0, interactions=(),
-               judged=None, gram=None) -> TimeFitResult:
+               judged=None, gram=None, column_noise_rss=0.0) -> TimeFitResult:
     n, k = X.shape
     floor = CHAIN_PRECISION * float(np.sqrt(np.mean(measured**2))) if quantity == "force_n" else 0.0
     noise_rms = math.hypot(noise_rms, floor)
@@ -556,7 +565,7 @@ def _summarise(plant, method, values, free, X, e, measured, model, quantity, t, 
         noise_rms=noise_rms, noise_ratio=ratio, explained=explained, regimes=regimes,
         structure=structure, n_at_rest=int(n_at_rest),
         condition_number=cond, flags=tuple(flags),
-        n_starts=n_starts, elapsed_s=elapsed)
+        n_starts=n_starts, elapsed_s=elapsed, column_noise_rss=column_noise_rss)
 
 
 def fit_inverse_model(plant: Plant, rec: TimeRecording | InverseModelData, *, free: Sequence[str] | None = None,
@@ -615,7 +624,7 @@ def fit_inverse_model(plant: Plant, rec: TimeRecording | InverseModelData, *, fr
     return _summarise(plant, "inverse-model", values, free, X, e, force, model, "force_n", data.time_s[moving],
                       data.velocity_m_per_s[moving], noise, flags, 1, time.perf_counter() - t0,
                       _peak_input(plant, data), variables, int(data.at_rest.sum()), interactions, judged=j,
-                      gram=gram)
+                      gram=gram, column_noise_rss=0.0 if gram is None else float(beta @ gram @ beta))
 
 
 def _noise_gram(plant: Plant, data: InverseModelData, free: Sequence[str], n: int) -> np.ndarray:
@@ -693,9 +702,16 @@ def _peak_input(plant: Plant, data: InverseModelData) -> float:
     return float(np.max(np.abs(data.force_n)) / float(plant.force_constant_n_per_a)) or 1.0
 
 
-def bic(fit: TimeFitResult, n_effective: float) -> float:
-    """Bayesian information criterion with the residual's own variance and a shared effective size."""
-    return n_effective * math.log(max(fit.rss / fit.n_data, 1e-300)) + fit.n_params * math.log(n_effective)
+def bic(fit: TimeFitResult, n_effective: float, floor: float = 0.0) -> float:
+    """Bayesian information criterion on the fit's corrected loss (rss - column_noise_rss) plus ``floor``, with a
+    shared effective size (module doc)."""
+    k = fit.n_params
+    return n_effective * math.log(max(scored_rss(fit, floor) / fit.n_data, 1e-300)) + k * math.log(n_effective)
+
+
+def scored_rss(fit: TimeFitResult, floor: float = 0.0) -> float:
+    """The residual sum of squares models are compared on (module doc): the corrected loss plus ``floor``."""
+    return fit.rss - fit.column_noise_rss + floor
 
 
 # --- output error -------------------------------------------------------------------------

@@ -95,6 +95,9 @@ REVERSAL_S = 0.05
 #: largest residual rms / predicted noise rms of a model that explains the data (module doc): correct models of
 #: the independent open-loop linear motor leave 0.6 to 1.0, of the closed-loop friction axis 0.3 to 1.1
 NOISE_RATIO_LIMIT = 1.5
+#: the bias compensation needs X^T X - G positive definite by this many of its Gram's sampling spreads
+#: (``_bias_compensated``)
+COMPENSATION_SIGMAS = 3.0
 #: relative precision of the inverse model's chain: its residual on a noise-free recording of the truth, as a
 #: fraction of the force's rms (the independent closed-loop axis leaves 0.05 %: its controller's 1 ms steps against
 #: the filters' transition bands)
@@ -179,8 +182,8 @@ class TimeFitResult(PlantFit):
     n_at_rest: int
     condition_number: float
     elapsed_s: float
-    #: beta^T G beta: the part of ``rss`` that the columns' own noise (``_noise_gram``) puts into the residual of the
-    #: bias-compensated fit (0 where the fit took none out)
+    #: beta^T G beta: the part of ``rss`` that the columns' own noise (``_noise_gram``, whether the fit took it out or
+    #: not) puts into the residual
     column_noise_rss: float = 0.0
 
     @property
@@ -593,7 +596,8 @@ def fit_inverse_model(plant: Plant, rec: TimeRecording | InverseModelData, *, fr
         raise DataError(f"{where}: the model's signals (filtered velocity, acceleration, force) overflow: a value "
                         "in the recording is far out of range")
     try:
-        A, target, gram = _bias_compensated(X, y, _noise_gram(plant, data, free, int(moving.sum())))
+        expected_gram = _noise_gram(plant, data, free, int(moving.sum()))
+        A, target, gram = _bias_compensated(X, y, expected_gram)
         sol = scipy.optimize.lsq_linear(A, target, bounds=(lo, hi), method="bvls")
     except np.linalg.LinAlgError:
         raise DataError(f"{where}: the least-squares problem of the model cannot be solved on this recording (its "
@@ -624,27 +628,27 @@ def fit_inverse_model(plant: Plant, rec: TimeRecording | InverseModelData, *, fr
     return _summarise(plant, "inverse-model", values, free, X, e, force, model, "force_n", data.time_s[moving],
                       data.velocity_m_per_s[moving], noise, flags, 1, time.perf_counter() - t0,
                       _peak_input(plant, data), variables, int(data.at_rest.sum()), interactions, judged=j,
-                      gram=gram, column_noise_rss=0.0 if gram is None else float(beta @ gram @ beta))
+                      gram=gram, column_noise_rss=float(beta @ expected_gram @ beta))
 
 
 def _noise_gram(plant: Plant, data: InverseModelData, free: Sequence[str], n: int) -> np.ndarray:
     """E[N^T N] of the noise N that the measurement puts into the columns of ``free`` over ``n`` samples: the mass's
     column (the acceleration differentiated twice from the noisy position) and the damping's (once), from the
-    chain's own noise (``InverseModelData.noise_acceleration_m_per_s2``, ``noise_velocity_m_per_s``), and
+    chain's own noise moments (``InverseModelData.noise_moments``, exact expectations), and
     ``yaw_coupling``'s (the rails' difference differentiated: twice that noise, independent of the mean's); the
     other effects' columns carry none that matters (a product with u, x or sign(v), or the force's noise, which is
     small beside its signal)."""
     m_per, b_per = effective_factors(plant)
-    na, nv = data.noise_acceleration_m_per_s2, data.noise_velocity_m_per_s
-    # (column noise, source): the rails' difference carries twice the mean's noise, independent of it
-    noise = {"mass_kg": (m_per * na, "mean"), "damping_n_s_per_m": (b_per * nv, "mean"),
-             "yaw_coupling.inertia_kg": (2 * na, "difference"),
-             "yaw_coupling.damping_n_s_per_m": (2 * nv, "difference")}
+    moments = data.noise_moments                 # (velocity, acceleration)
+    # (factor, signal, source): the rails' difference carries twice the mean's noise, independent of it
+    noise = {"mass_kg": (m_per, 1, "mean"), "damping_n_s_per_m": (b_per, 0, "mean"),
+             "yaw_coupling.inertia_kg": (2.0, 1, "difference"),
+             "yaw_coupling.damping_n_s_per_m": (2.0, 0, "difference")}
     out = np.zeros((len(free), len(free)))
     for i, p in enumerate(free):
         for j, q in enumerate(free):
-            if p in noise and q in noise and noise[p][1] == noise[q][1]:
-                out[i, j] = n * float(np.mean(noise[p][0] * noise[q][0]))
+            if p in noise and q in noise and noise[p][2] == noise[q][2]:
+                out[i, j] = n * float(noise[p][0] * noise[q][0] * moments[noise[p][1], noise[q][1]])
     return out
 
 
@@ -653,10 +657,17 @@ def _bias_compensated(X: np.ndarray, y: np.ndarray,
     """(A, target, G) whose least squares ||A beta - target||^2 = beta^T (X^T X - G) beta - 2 beta^T X^T y + const is
     the bias-compensated least squares (Stoica & Soderstrom 1982): noise in the columns (the acceleration read from a
     noisy position) adds its Gram matrix G to X^T X and pulls the mass towards zero by var(a) / (var(a) + var(noise))
-    (-10 % on a slow sweep with a 10 um position noise); subtracting it removes that. Where X^T X - G is not positive
-    definite (the noise as large as the signal) the plain least squares (X, y, None): G is the Gram matrix the fit
-    took out, None where it took none."""
+    (-10 % on a slow sweep with a 10 um position noise); subtracting it removes that. G is an expectation; the
+    recording's own noise Gram departs from it by about sqrt(2 / n) of it (a chi^2 of n samples), so where X^T X - G
+    is not positive definite by ``COMPENSATION_SIGMAS`` times that (scale-free: both normalised by the columns'
+    norms; a column as noisy as its signal in a closed loop, whose compensation would otherwise blow up) the plain
+    least squares (X, y, None): G is the Gram matrix the fit took out, None where it took none."""
     if not np.any(gram):
+        return X, y, None
+    norm = 1.0 / np.sqrt(np.maximum(np.einsum("ij,ij->j", X, X), 1e-300))
+    signal = (X.T @ X - gram) * np.outer(norm, norm)
+    spread = COMPENSATION_SIGMAS * math.sqrt(2.0 / X.shape[0]) * np.linalg.eigvalsh(gram * np.outer(norm, norm))[-1]
+    if np.linalg.eigvalsh(signal)[0] <= spread:
         return X, y, None
     try:
         L = np.linalg.cholesky(X.T @ X - gram)

@@ -12,8 +12,8 @@ import pytest
 
 from plant import stage_x
 from plant.data.recordings import TimeRecording
-from plant.identify import time_fit
-from plant.identify.inverse_model import inverse_model_data
+from plant.identify import inverse_model, time_fit
+from plant.identify.inverse_model import Preprocessing, inverse_model_data
 from plant.physics.effects import make_effect
 
 
@@ -83,3 +83,38 @@ def test_a_damping_drift_under_a_chirp_with_position_noise_is_named_as_itself():
     drift = diag.final.plant.effect("damping_drift")
     assert drift.change_n_s_per_m / drift.half_s == pytest.approx(
         axis.damping_rate_per_s * axis.damping_n_s_per_m, rel=0.05)
+
+
+@pytest.mark.parametrize("kind", ["position", "velocity"])
+@pytest.mark.parametrize(("filter_hz", "band_hz"), [(100.0, 40.0), (5.0, 5.0), (100.0, 100.0)],
+                         ids=["script", "slow_filter", "no_decimation"])
+def test_the_noise_moments_are_the_chains_expectation(kind, filter_hz, band_hz):
+    """``InverseModelData.noise_moments`` (the chain's impulse response summed over every lag, cut at
+    ``IMPULSE_SPAN`` filter periods) against the mean over 300 seeded realisations of white noise through the same
+    chain (within 3 of their standard errors), where the response is longest (a 5 Hz corner at 1 kHz) and with no
+    decimation; and against the impulse response cut twice as far."""
+    rng = np.random.default_rng(7)
+    n, fs, sigma = 4000, 1000.0, 1e-6
+    t = np.arange(n) / fs
+    prep = Preprocessing(filter_hz=filter_hz, decimate_band_hz=band_hz)
+    data = inverse_model_data(TimeRecording(t, np.sin(t), (np.sin(t) * 1e-3 + sigma * rng.standard_normal(n))[None],
+                                            kind, ("x",)), 20.0, prep)
+    exact = data.noise_moments
+    draws = []
+    for _ in range(300):
+        _, nv, na, *_ = inverse_model._chain(fs, data.output_noise * rng.standard_normal(n), np.zeros(n), kind,
+                                             filter_hz, data.decimation)
+        # away from the edges, where the chain is stationary
+        V = np.stack([nv, na])[:, nv.size // 8: -nv.size // 8]
+        draws.append((V @ V.T / V.shape[1]).ravel())
+    draws = np.array(draws)
+    mean, se = draws.mean(axis=0), draws.std(axis=0) / np.sqrt(len(draws))
+    for k in (0, 3):              # E[v^2], E[a^2]; the cross moment is zero by the filters' symmetry
+        assert abs(exact.ravel()[k] - mean[k]) < 3 * se[k]
+    assert abs(exact[0, 1]) < 1e-9 * np.sqrt(exact[0, 0] * exact[1, 1])
+    longer = dataclasses.replace(data)
+    inverse_model.IMPULSE_SPAN, span = 2 * inverse_model.IMPULSE_SPAN, inverse_model.IMPULSE_SPAN
+    try:
+        np.testing.assert_allclose(longer.noise_moments, exact, rtol=1e-9, atol=1e-12 * exact.max())
+    finally:
+        inverse_model.IMPULSE_SPAN = span

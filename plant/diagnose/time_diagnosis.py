@@ -45,7 +45,7 @@ from plant.diagnose.two_rails import RailReading, at_one_scale
 from plant.errors import EffectError, ParameterError
 from plant.identify.compensation import CompensationTable, compensation_table
 from plant.identify.inverse_model import InverseModelData, Preprocessing, inverse_model_data
-from plant.identify.time_fit import STRUCTURE_SHARE, TimeFitResult, bic, fit_inverse_model, fit_samples, scored_rss
+from plant.identify.time_fit import STRUCTURE_SHARE, TimeFitResult, bic, fit_inverse_model, fit_samples
 from plant.physics.effect_base import Effect
 from plant.physics.effects import EFFECTS, make_effect
 from plant.physics.models import Plant
@@ -129,9 +129,8 @@ class TimeDiagnosis:
         return self.models[self.selected]
 
     def bic(self, combo: tuple[str, ...]) -> float:
-        """The BIC of the model of ``combo`` with the effective sample size and the column-noise floor (the base
-        model's) shared by all (``time_fit.bic``)."""
-        return bic(self.models[combo], self.n_effective, self.models[()].column_noise_rss)
+        """The BIC of the model of ``combo`` with the effective sample size shared by all (``time_fit.bic``)."""
+        return bic(self.models[combo], self.n_effective)
 
     @property
     def alternatives(self) -> tuple[TimeAlternative, ...]:
@@ -240,12 +239,11 @@ def _signatures_shown(models: dict[tuple[str, ...], TimeFitResult]) -> dict[tupl
 def _small_beside_noise(combo: tuple[str, ...], models: dict[tuple[str, ...], TimeFitResult]) -> bool:
     """Whether an effect of ``combo`` without a residual signature is added to an explained model (its residual the
     noise's) and takes less than ``STRUCTURE_SHARE`` of that residual away, sqrt(1 - RSS / RSS_parent) on the RSS
-    the models are compared on (``time_fit.scored_rss``)."""
-    floor = models[()].column_noise_rss
+    the models are compared on (``TimeFitResult.ls_rss``)."""
     for name in combo:
         parent = models.get(tuple(n for n in combo if n != name))
         if EFFECTS[name].residual_signature is None and parent is not None and parent.explained and math.sqrt(
-                max(0.0, 1.0 - scored_rss(models[combo], floor) / scored_rss(parent, floor))) < STRUCTURE_SHARE:
+                max(0.0, 1.0 - models[combo].ls_rss / parent.ls_rss)) < STRUCTURE_SHARE:
             return True
     return False
 
@@ -346,7 +344,7 @@ def diagnose_time(plant: Plant, rec: TimeRecording, *, candidates: tuple[str, ..
             hidden = _hidden_signature(combo, {tuple(e.name for e in p.plant.effects): p for p in parents})
             if hidden is not None:
                 return hidden
-        best = min(parents, key=lambda r: r.rss)
+        best = min(parents, key=lambda r: r.ls_rss)
         effects = tuple(best.plant.effect(n) or make_effect(n, **{k: 0.0 for k in EFFECTS[n].neutral}).configured(
             samples, best.residual) for n in combo)
         return fit_inverse_model(_plant(plant, effects), data)
@@ -356,8 +354,8 @@ def diagnose_time(plant: Plant, rec: TimeRecording, *, candidates: tuple[str, ..
     if pruned:
         notes.append(f"{len(pruned)} models of {max_effects} effects not fitted: each adds an effect whose residual "
                      "pattern the model without it does not show, so the rule that admits a model would drop it")
-    n_eff = min(models.values(), key=lambda f: f.rss).n_effective
-    bics = {c: bic(f, n_eff, models[()].column_noise_rss) for c, f in models.items()}
+    n_eff = min(models.values(), key=lambda f: f.ls_rss).n_effective
+    bics = {c: bic(f, n_eff) for c, f in models.items()}
     admissible = _beyond_nested(_signatures_shown(models))
     selected = select_model({c: bics[c] for c in admissible}, {c: f.explained for c, f in admissible.items()},
                             {c: f.n_params for c, f in admissible.items()})

@@ -58,7 +58,7 @@ EDGE_SAMPLES = 50
 #: order of the differences the white noise is estimated from (module doc)
 DIFFERENCE_ORDER = 4
 #: the chain's impulse response is taken this many periods of its filter (or of the decimation) either side
-IMPULSE_SPAN = 200
+IMPULSE_SPAN = 50
 #: seed of the white noise passed through the chain to predict the residual's noise
 NOISE_SEED = 20190101
 #: a velocity within this many noise standard deviations of zero is indistinguishable from rest
@@ -166,10 +166,32 @@ class InverseModelData:
 
     @functools.cached_property
     def noise_moments(self) -> np.ndarray:
-        """E[n n^T] per sample (2 x 2) of the noise the chain leaves in (velocity, acceleration): white noise of
-        ``output_noise`` through it, summed over every lag of its impulse response (exact away from the edges; the
-        seeded realisation's own mean squares scatter by about 5 % on a few thousand decimated samples). The
-        response is cut ``IMPULSE_SPAN`` filter periods either side (tests: converged)."""
+        """E[n n^T] per sample (2 x 2) of the noise the chain leaves in (velocity, acceleration), from
+        ``_noise_response``."""
+        rows = self._noise_response
+        return self.output_noise ** 2 * (rows @ rows.T)
+
+    @functools.cached_property
+    def noise_lag_factor(self) -> float:
+        """F = sum over the decimated samples' lags k of rho_k^2, the chain noise's autocorrelation (the larger of the
+        velocity's and the acceleration's): a mean of n squares of it scatters as a chi^2 of n / F samples."""
+        import scipy.signal
+
+        rows, r = self._noise_response, self.decimation
+        factors = []
+        for h in rows:
+            c = scipy.signal.fftconvolve(h, h[::-1])            # the autocovariance, lag 0 in the middle
+            lags = c[(c.size // 2) % r::r]
+            factors.append(float(np.sum(lags**2) / c[c.size // 2] ** 2))
+        return max(factors)
+
+    @functools.cached_property
+    def _noise_response(self) -> np.ndarray:
+        """The chain's impulse response at the full rate, (velocity, acceleration) rows: a unit of white output noise
+        through filter, differences and the decimation's anti-alias filter. Its squares summed over every lag are the
+        noise's variance at any decimated sample (exact away from the edges; the seeded realisation's own mean squares
+        scatter by about 5 % on a few thousand decimated samples). Cut ``IMPULSE_SPAN`` filter periods either side
+        (tests: converged)."""
         fs = self.sample_rate_hz * self.decimation
         span = EDGE_SAMPLES + IMPULSE_SPAN * max(int(math.ceil(fs / self.filter_hz)), self.decimation)
         impulse = np.zeros(2 * span + 1)
@@ -177,7 +199,7 @@ class InverseModelData:
         rows = full_rate_derivatives(fs, impulse, self.filter_hz, 2 if self.position_m is not None else 1)[-2:]
         if self.decimation > 1:
             rows = _anti_aliased(rows, self.decimation)
-        return self.output_noise ** 2 * (rows @ rows.T)
+        return rows
 
     def residual_noise_std_n(self, mass_kg: float, damping_n_s_per_m: float, yaw: tuple[float, float] = (0.0, 0.0)
                              ) -> float:

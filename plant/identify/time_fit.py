@@ -25,14 +25,13 @@ the uncertainty; ``stderr`` is the Newey-West (1987) heteroscedasticity and auto
 consistent estimate with Bartlett weights, its lag the first at which the residual's
 autocorrelation falls below 2 / sqrt(n). Model selection uses the Gaussian likelihood with
 the residual's own variance and the effective sample size n_eff = n (1 - rho_1) / (1 + rho_1)
-of an AR(1) residual (Bayley & Hammersley 1946): ``bic(fit, n_eff, floor)`` = n_eff ln((RSS - b^T G b + floor) /
-n) + k ln n_eff, with one n_eff and one floor for all the models compared. A bias-compensated fit minimises the
-corrected loss RSS - b^T G b (G the columns' noise Gram matrix; the corrected least squares of measurement-error
-models, which Liang & Li (JASA 2009) also select with), not the RSS: its raw residual carries b^T G b of the
-columns' own noise, and a model that adds a noisy column (``yaw_coupling``'s, the rails' difference differentiated
-twice, as noisy as its signal on a stepped sine of positions) would be charged for taking that noise out. So each
-model is scored on its corrected loss, plus the base model's b^T G b as the floor shared by all (the time
-diagnosis): the base model's criterion is then its raw RSS, and the likelihood's scale stays the residual's.
+of an AR(1) residual (Bayley & Hammersley 1946): ``bic(fit, n_eff)`` = n_eff ln(RSS_LS / n) + k ln n_eff, with
+one n_eff for all the models compared. RSS_LS is plain (bounded) least squares' residual on the model's columns as
+recorded: the Gaussian likelihood of the force given those columns, which plain least squares maximises and for
+which BIC's penalty is made. The parameters reported are the bias-compensated ones; their fit's own residual lies
+above RSS_LS by construction (it does not minimise the RSS), and ranking on it charged a model for taking its
+noisy column's bias out: ``yaw_coupling``'s column (the rails' difference differentiated twice) is as noisy as its
+signal on a stepped sine of positions, and an off-centre load there was named a force-constant drift.
 
 Samples at rest (``InverseModelData.at_rest``) are left out of every fit: there the friction
 force is static, anywhere between -F_c and F_c, and no function of the velocity.
@@ -182,9 +181,9 @@ class TimeFitResult(PlantFit):
     n_at_rest: int
     condition_number: float
     elapsed_s: float
-    #: beta^T G beta: the part of ``rss`` that the columns' own noise (``_noise_gram``, whether the fit took it out or
-    #: not) puts into the residual
-    column_noise_rss: float = 0.0
+    #: the residual sum of squares of plain (bounded) least squares on the same columns, which models are compared
+    #: on (``bic``; ``rss`` where the fit took no noise out)
+    ls_rss: float = math.nan
 
     @property
     def rms_residual(self) -> float:
@@ -535,7 +534,7 @@ def _interactions(e: np.ndarray, force: np.ndarray, position: np.ndarray, X: np.
 
 def _summarise(plant, method, values, free, X, e, measured, model, quantity, t, v, noise_rms, flags, n_starts,
                elapsed, excitation_a, variables=None, n_at_rest=0, interactions=(),
-               judged=None, gram=None, column_noise_rss=0.0) -> TimeFitResult:
+               judged=None, gram=None, ls_rss=None) -> TimeFitResult:
     n, k = X.shape
     floor = CHAIN_PRECISION * float(np.sqrt(np.mean(measured**2))) if quantity == "force_n" else 0.0
     noise_rms = math.hypot(noise_rms, floor)
@@ -568,7 +567,7 @@ def _summarise(plant, method, values, free, X, e, measured, model, quantity, t, 
         noise_rms=noise_rms, noise_ratio=ratio, explained=explained, regimes=regimes,
         structure=structure, n_at_rest=int(n_at_rest),
         condition_number=cond, flags=tuple(flags),
-        n_starts=n_starts, elapsed_s=elapsed, column_noise_rss=column_noise_rss)
+        n_starts=n_starts, elapsed_s=elapsed, ls_rss=rss if ls_rss is None else ls_rss)
 
 
 def fit_inverse_model(plant: Plant, rec: TimeRecording | InverseModelData, *, free: Sequence[str] | None = None,
@@ -596,9 +595,12 @@ def fit_inverse_model(plant: Plant, rec: TimeRecording | InverseModelData, *, fr
         raise DataError(f"{where}: the model's signals (filtered velocity, acceleration, force) overflow: a value "
                         "in the recording is far out of range")
     try:
-        expected_gram = _noise_gram(plant, data, free, int(moving.sum()))
-        A, target, gram = _bias_compensated(X, y, expected_gram)
+        A, target, gram = _bias_compensated(X, y, _noise_gram(plant, data, free, int(moving.sum())),
+                                            data.noise_lag_factor)
         sol = scipy.optimize.lsq_linear(A, target, bounds=(lo, hi), method="bvls")
+        # the likelihood the models are ranked by (module doc): plain least squares' residual
+        ls_rss = None if gram is None else \
+            float(np.sum((y - X @ scipy.optimize.lsq_linear(X, y, bounds=(lo, hi), method="bvls").x) ** 2))
     except np.linalg.LinAlgError:
         raise DataError(f"{where}: the least-squares problem of the model cannot be solved on this recording (its "
                         "values span too many orders of magnitude)") from None
@@ -628,7 +630,7 @@ def fit_inverse_model(plant: Plant, rec: TimeRecording | InverseModelData, *, fr
     return _summarise(plant, "inverse-model", values, free, X, e, force, model, "force_n", data.time_s[moving],
                       data.velocity_m_per_s[moving], noise, flags, 1, time.perf_counter() - t0,
                       _peak_input(plant, data), variables, int(data.at_rest.sum()), interactions, judged=j,
-                      gram=gram, column_noise_rss=float(beta @ expected_gram @ beta))
+                      gram=gram, ls_rss=ls_rss)
 
 
 def _noise_gram(plant: Plant, data: InverseModelData, free: Sequence[str], n: int) -> np.ndarray:
@@ -652,22 +654,30 @@ def _noise_gram(plant: Plant, data: InverseModelData, free: Sequence[str], n: in
     return out
 
 
-def _bias_compensated(X: np.ndarray, y: np.ndarray,
-                      gram: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
+def _bias_compensated(X: np.ndarray, y: np.ndarray, gram: np.ndarray,
+                      lag_factor: float = 1.0) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
     """(A, target, G) whose least squares ||A beta - target||^2 = beta^T (X^T X - G) beta - 2 beta^T X^T y + const is
     the bias-compensated least squares (Stoica & Soderstrom 1982): noise in the columns (the acceleration read from a
     noisy position) adds its Gram matrix G to X^T X and pulls the mass towards zero by var(a) / (var(a) + var(noise))
-    (-10 % on a slow sweep with a 10 um position noise); subtracting it removes that. G is an expectation; the
-    recording's own noise Gram departs from it by about sqrt(2 / n) of it (a chi^2 of n samples), so where X^T X - G
-    is not positive definite by ``COMPENSATION_SIGMAS`` times that (scale-free: both normalised by the columns'
-    norms; a column as noisy as its signal in a closed loop, whose compensation would otherwise blow up) the plain
-    least squares (X, y, None): G is the Gram matrix the fit took out, None where it took none."""
-    if not np.any(gram):
+    (-10 % on a slow sweep with a 10 um position noise); subtracting it removes that.
+
+    G is an expectation: the recording's own noise Gram departs from it by about sqrt(2 F / n) of it (a chi^2 of
+    n / F effective samples, F = ``lag_factor``, the noise's sum of squared autocorrelations at the samples' lags).
+    The noisy columns' signal, once the noise-free columns are projected out, must stand above their noise by
+    ``COMPENSATION_SIGMAS`` times that in every direction (the least generalised eigenvalue of (S - G, G), S their
+    Schur complement: a signal-to-noise ratio, free of the columns' scales and of collinearity among the noise-free
+    ones); where it does not (a column as noisy as its signal in a closed loop, whose compensation would blow up),
+    the plain least squares (X, y, None): G is the Gram matrix the fit took out, None where it took none."""
+    noisy = np.flatnonzero(np.diag(gram) > 0)
+    if not noisy.size:
         return X, y, None
-    norm = 1.0 / np.sqrt(np.maximum(np.einsum("ij,ij->j", X, X), 1e-300))
-    signal = (X.T @ X - gram) * np.outer(norm, norm)
-    spread = COMPENSATION_SIGMAS * math.sqrt(2.0 / X.shape[0]) * np.linalg.eigvalsh(gram * np.outer(norm, norm))[-1]
-    if np.linalg.eigvalsh(signal)[0] <= spread:
+    clean = np.setdiff1d(np.arange(X.shape[1]), noisy)
+    signal = X[:, noisy]
+    if clean.size:
+        signal = signal - X[:, clean] @ np.linalg.lstsq(X[:, clean], signal, rcond=None)[0]
+    noise = gram[np.ix_(noisy, noisy)]
+    snr = scipy.linalg.eigh(signal.T @ signal - noise, noise, eigvals_only=True)[0]
+    if not snr > COMPENSATION_SIGMAS * math.sqrt(2.0 * lag_factor / X.shape[0]):
         return X, y, None
     try:
         L = np.linalg.cholesky(X.T @ X - gram)
@@ -713,16 +723,10 @@ def _peak_input(plant: Plant, data: InverseModelData) -> float:
     return float(np.max(np.abs(data.force_n)) / float(plant.force_constant_n_per_a)) or 1.0
 
 
-def bic(fit: TimeFitResult, n_effective: float, floor: float = 0.0) -> float:
-    """Bayesian information criterion on the fit's corrected loss (rss - column_noise_rss) plus ``floor``, with a
-    shared effective size (module doc)."""
-    k = fit.n_params
-    return n_effective * math.log(max(scored_rss(fit, floor) / fit.n_data, 1e-300)) + k * math.log(n_effective)
-
-
-def scored_rss(fit: TimeFitResult, floor: float = 0.0) -> float:
-    """The residual sum of squares models are compared on (module doc): the corrected loss plus ``floor``."""
-    return fit.rss - fit.column_noise_rss + floor
+def bic(fit: TimeFitResult, n_effective: float) -> float:
+    """Bayesian information criterion on plain least squares' residual (``TimeFitResult.ls_rss``, module doc) with
+    a shared effective size."""
+    return n_effective * math.log(max(fit.ls_rss / fit.n_data, 1e-300)) + fit.n_params * math.log(n_effective)
 
 
 # --- output error -------------------------------------------------------------------------

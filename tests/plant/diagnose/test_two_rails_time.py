@@ -121,8 +121,9 @@ def test_the_load_off_centre_enters_the_mean_s_force_as_yaw_coupling():
 def test_a_load_off_centre_on_a_stepped_sine_of_positions_is_not_taken_for_a_drift():
     # a stepped sine's frequency rises with time, so the yaw's inertia (a force growing as w^2) reads as a force
     # constant drifting; the yaw's column (the rails' difference differentiated twice) is here as noisy as its
-    # signal, and its bias compensation raised the raw residual above the base model's: judged on that residual the
-    # diagnosis named force_constant_drift (-0.34 %, dBIC +42) and dropped yaw_coupling (dBIC -65). The load: 35 kg
+    # signal, and its bias compensation raised the fit's residual above the base model's: ranked on that residual
+    # the diagnosis named force_constant_drift (-0.34 %, dBIC +42) and dropped yaw_coupling (dBIC -65); ranked on
+    # plain least squares' residual (the likelihood BIC is made for), yaw_coupling gains +70. The load: 35 kg
     # 0.24 m towards Y1 (m e = -10.6 kg), 2 um of encoder noise (benchmarks/bench_two_rails.py's old draw 33, seed 7)
     rig = dataclasses.replace(RIG, carriage_position_m=0.15735927066272257, yaw_stiffness=255854.4459633577)
     t, i, y1, y2 = tr.stepped(rig, seed=844482528, position_noise_m=2.003996986659033e-06)
@@ -130,9 +131,10 @@ def test_a_load_off_centre_on_a_stepped_sine_of_positions_is_not_taken_for_a_dri
     diag = diagnose_time(stage_y(), rec, prep=PREP)
     assert diag.selected == ("yaw_coupling",)
     assert diag.rails.yaw_claimed and "a load off the beam's centre" in diag.rails.clause()
-    # the estimate falls short of m e: its column's noise Gram is an expectation, the recording's own noise
-    # departs from it by a few per cent, and with a column this noisy that moves the estimate by a third
-    assert -10.6 < diag.final.values["yaw_coupling.inertia_kg"] < -5.0
+    # the estimate falls short of m e here (-7.5): its column's noise Gram is an expectation, the recording's own
+    # noise departs from it by a few per cent, and with a column this noisy that moves the estimate by a third (a
+    # 2.4 standard-error draw; the next test shows the error over 40 draws)
+    assert -13.0 < diag.final.values["yaw_coupling.inertia_kg"] < -5.0
 
 
 def test_unequal_motors_leave_the_mean_s_force_alone():

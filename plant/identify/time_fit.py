@@ -94,8 +94,8 @@ REVERSAL_S = 0.05
 #: largest residual rms / predicted noise rms of a model that explains the data (module doc): correct models of
 #: the independent open-loop linear motor leave 0.6 to 1.0, of the closed-loop friction axis 0.3 to 1.1
 NOISE_RATIO_LIMIT = 1.5
-#: the bias compensation needs X^T X - G positive definite by this many of its Gram's sampling spreads
-#: (``_bias_compensated``)
+#: the bias compensation needs the noisy columns' signal-to-noise ratio above this many of their Gram's sampling
+#: spreads (``_bias_compensated``)
 COMPENSATION_SIGMAS = 3.0
 #: relative precision of the inverse model's chain: its residual on a noise-free recording of the truth, as a
 #: fraction of the force's rms (the independent closed-loop axis leaves 0.05 %: its controller's 1 ms steps against

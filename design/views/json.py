@@ -223,13 +223,16 @@ def time_diagnosis_to_dict(diag: TimeDiagnosis) -> dict:
     final = diag.final
     best_bic = min(s.bic for s in diag.steps)
     alternatives = [{"effects": list(a.effects), "delta_bic": a.delta_bic, "rms_residual_n": a.rms_residual_n,
+                     "ls_rms_residual_n": a.ls_rms_residual_n,
                      "consistent_with_noise": a.consistent_with_noise} for a in diag.alternatives]
     return {
         "domain": "time",
-        "steps": [{"effects": list(s.effects), "rms_residual_n": s.fit.rms_residual, "noise_ratio": s.fit.noise_ratio,
+        "steps": [{"effects": list(s.effects), "rms_residual_n": s.fit.rms_residual,
+                   "ls_rms_residual_n": s.fit.ls_rms_residual, "noise_ratio": s.fit.noise_ratio,
                    "relative_error_percent": s.fit.relative_error_percent, "bic": s.bic, "decision": s.decision,
                    "regimes": _regimes(s.fit)} for s in diag.steps],
-        "ranking": [{"effect": c.effect, "delta_bic": c.delta_bic, "rms_residual_n": c.rms_residual_n}
+        "ranking": [{"effect": c.effect, "delta_bic": c.delta_bic, "rms_residual_n": c.rms_residual_n,
+                     "ls_rms_residual_n": c.ls_rms_residual_n}
                     for c in diag.ranking],
         "final_effects": list(diag.final_effects),
         "added_effects": list(diag.added),

@@ -67,6 +67,8 @@ class TimeCandidate:
     effect: str
     delta_bic: float
     rms_residual_n: float
+    #: plain least squares' rms residual, which ``delta_bic`` compares (``TimeFitResult.ls_rms_residual``)
+    ls_rms_residual_n: float
 
 
 @dataclass(frozen=True)
@@ -97,6 +99,8 @@ class TimeAlternative:
     delta_bic: float
     rms_residual_n: float
     consistent_with_noise: bool
+    #: plain least squares' rms residual, which ``delta_bic`` compares
+    ls_rms_residual_n: float
 
 
 @dataclass(frozen=True)
@@ -136,7 +140,7 @@ class TimeDiagnosis:
     def alternatives(self) -> tuple[TimeAlternative, ...]:
         """The other models within ``ACCEPT_DELTA_BIC`` of the selected one (the data cannot rule them out)."""
         chosen = self.bic(self.selected)
-        return tuple(TimeAlternative(c, self.bic(c) - chosen, f.rms_residual, f.explained)
+        return tuple(TimeAlternative(c, self.bic(c) - chosen, f.rms_residual, f.explained, f.ls_rms_residual)
                      for c, f in self.models.items() if c != self.selected and self.bic(c) - chosen < ACCEPT_DELTA_BIC)
 
     def compensation(self) -> CompensationTable:
@@ -163,27 +167,39 @@ class TimeDiagnosis:
                     ("Where the base model fails", self.where_it_fails),
                     ("By direction of motion", self.direction.description))
         regimes = [r.name for r in base.regimes]
+        # where a fit took its columns' noise out, its residual lies above least squares' by construction, and the
+        # BIC compares least squares': that one is shown beside it
+        both = any(f.compensated for f in self.models.values())
+        ls_head = ("least squares (N)",) if both else ()
+
+        def ls(rms: float) -> tuple[str, ...]:
+            return (f"{rms:.4g}",) if both else ()
+
         steps = []
         for s in self.steps:
             by = {r.name: f"{r.rms_residual:.3g}" for r in s.fit.regimes}
-            steps.append((model_label(s.effects), f"{s.fit.rms_residual:.4g}", f"{s.fit.noise_ratio:.3g}",
-                          *(by.get(n, "") for n in regimes), f"{s.bic:.1f}"))
+            steps.append((model_label(s.effects), f"{s.fit.rms_residual:.4g}", *ls(s.fit.ls_rms_residual),
+                          f"{s.fit.noise_ratio:.3g}", *(by.get(n, "") for n in regimes), f"{s.bic:.1f}"))
+        aside = ("(the fits take the columns' noise out; BIC compares plain least squares' residual on the recorded "
+                 "columns)") if both else ""
         sections = [
             Section("Candidates tried on the base model",
-                    table=Table(("effect", "ΔBIC", "rms residual (N)"),
-                                tuple((c.effect, delta_bic_text(c.delta_bic), f"{c.rms_residual_n:.4g}")
-                                      for c in self.ranking))),
+                    table=Table(("effect", "ΔBIC", "rms residual (N)", *ls_head),
+                                tuple((c.effect, delta_bic_text(c.delta_bic), f"{c.rms_residual_n:.4g}",
+                                       *ls(c.ls_rms_residual_n)) for c in self.ranking)),
+                    aside=aside),
             Section("The error, step by step", tuple(f"→ {s.decision}" for s in self.steps),
-                    table=Table(("model", "rms residual (N)", "× noise", *(f"{n} (N)" for n in regimes), "BIC"),
-                                tuple(steps)),
+                    table=Table(("model", "rms residual (N)", *ls_head, "× noise", *(f"{n} (N)" for n in regimes),
+                                 "BIC"), tuple(steps)),
                     aside="(rms residual overall and by regime of motion)")]
         if self.alternatives:
             sections.append(Section(
                 f"Models within ΔBIC {ACCEPT_DELTA_BIC:g} of the selected one",
-                table=Table(("model", "ΔBIC", "rms residual (N)", "consistent with noise"),
+                table=Table(("model", "ΔBIC", "rms residual (N)", *ls_head, "consistent with noise"),
                             tuple((model_label(a.effects), f"{a.delta_bic:+.1f}", f"{a.rms_residual_n:.4g}",
-                                   "yes" if a.consistent_with_noise else "no") for a in self.alternatives),
-                            frozenset({0, 3}))))
+                                   *ls(a.ls_rms_residual_n), "yes" if a.consistent_with_noise else "no")
+                                  for a in self.alternatives),
+                            frozenset({0, 3 + len(ls_head)}))))
         if self.rails is not None:
             sections.append(self.rails.section())
         sections.append(model_section(self.verdict, (f"effects: {', '.join(self.selected) or 'none'}",)))
@@ -360,7 +376,8 @@ def diagnose_time(plant: Plant, rec: TimeRecording, *, candidates: tuple[str, ..
     selected = select_model({c: bics[c] for c in admissible}, {c: f.explained for c, f in admissible.items()},
                             {c: f.n_params for c, f in admissible.items()})
     base = models[()]
-    ranking = tuple(sorted((TimeCandidate(n, addition_delta_bic(bics[()], bics[(n,)]), models[(n,)].rms_residual)
+    ranking = tuple(sorted((TimeCandidate(n, addition_delta_bic(bics[()], bics[(n,)]), models[(n,)].rms_residual,
+                                          models[(n,)].ls_rms_residual)
                             for n in names if (n,) in models), key=lambda c: -c.delta_bic))
     steps = _path(models, bics, selected)
     final = models[selected]

@@ -190,6 +190,17 @@ class TimeFitResult(PlantFit):
         return float(np.sqrt(self.rss / self.n_data))
 
     @property
+    def ls_rms_residual(self) -> float:
+        """Plain least squares' rms residual (``ls_rss``): the one the models' BIC compares."""
+        return float(np.sqrt(self.ls_rss / self.n_data))
+
+    @property
+    def compensated(self) -> bool:
+        """Whether the fit took the columns' noise out (its residual then lies above least squares' by
+        construction)."""
+        return self.ls_rss != self.rss
+
+    @property
     def _unit(self) -> str:
         return "N" if self.quantity == "force_n" else "m/s"
 

@@ -50,7 +50,9 @@ errors in both files moved in the ninth digit on rewriting, which f1ceaa9's code
 a change); ``synth_admittance`` when the forces on the locomotion profile took a 2 ms grid that divides the law's
 period and the reach its own 0.25 ms grid (the motor's force on the profile within 0.03 %, the force felt's RMS
 1.0340 -> 1.0342 N, the velocity shortfall 8.45 -> 8.42 %, the reach 17.42 -> 17.79 m/s^2, which the 1 ms grid had
-2 % low; the design the same).
+2 % low; the design the same); ``diagnose_emps`` when the time diagnosis gave plain least squares' residual beside
+each model's (``ls_rms_residual_n`` added in ``steps``, ``ranking`` and ``alternatives``; the keys were added to the
+file, whose other numbers stay as written).
 """
 
 from __future__ import annotations

@@ -135,6 +135,14 @@ def test_a_load_off_centre_on_a_stepped_sine_of_positions_is_not_taken_for_a_dri
     # noise departs from it by a few per cent, and with a column this noisy that moves the estimate by a third (a
     # 2.4 standard-error draw; the next test shows the error over 40 draws)
     assert -13.0 < diag.final.values["yaw_coupling.inertia_kg"] < -5.0
+    # the compensated fit's residual lies above the base's (its noise taken out); the tables show beside it the
+    # least-squares residual that the dBIC compares, which lies below
+    base, yaw = diag.models[()], diag.models[("yaw_coupling",)]
+    assert yaw.compensated and yaw.rms_residual > base.rms_residual and yaw.ls_rms_residual < base.ls_rms_residual
+    table = diag.story().section("Candidates tried on the base model").table
+    assert table.columns == ("effect", "ΔBIC", "rms residual (N)", "least squares (N)")
+    row = next(r for r in table.rows if r[0] == "yaw_coupling")
+    assert row[2:] == (f"{yaw.rms_residual:.4g}", f"{yaw.ls_rms_residual:.4g}")
 
 
 def test_unequal_motors_leave_the_mean_s_force_alone():

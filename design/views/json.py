@@ -231,6 +231,8 @@ def time_diagnosis_to_dict(diag: TimeDiagnosis) -> dict:
                    "ls_rms_residual_n": s.fit.ls_rms_residual, "noise_ratio": s.fit.noise_ratio,
                    "relative_error_percent": s.fit.relative_error_percent, "bic": s.bic, "decision": s.decision,
                    "regimes": _regimes(s.fit)} for s in diag.steps],
+        "not_admitted": [{"effects": list(m.effects), "delta_bic": m.delta_bic,
+                          "ls_rms_residual_n": m.ls_rms_residual_n, "reason": m.reason} for m in diag.left_out],
         "ranking": [{"effect": c.effect, "delta_bic": c.delta_bic, "rms_residual_n": c.rms_residual_n,
                      "ls_rms_residual_n": c.ls_rms_residual_n}
                     for c in diag.ranking],

@@ -104,6 +104,18 @@ class TimeAlternative:
 
 
 @dataclass(frozen=True)
+class TimeLeftOut:
+    """A model whose BIC lies within ``ACCEPT_DELTA_BIC`` of the selected one's, or below it, that the rule admitting
+    a model drops (``not_admitted``): its effects, its BIC above the selected one's, plain least squares' rms
+    residual (N, what the BIC compares) and why it is dropped."""
+
+    effects: tuple[str, ...]
+    delta_bic: float
+    ls_rms_residual_n: float
+    reason: str
+
+
+@dataclass(frozen=True)
 class TimeDiagnosis:
     """Result of ``diagnose_time``."""
 
@@ -127,6 +139,8 @@ class TimeDiagnosis:
     implausible: tuple[str, ...] = ()
     #: both rails read jointly (Stage Y with two outputs, ``plant.diagnose.two_rails``), None for one output
     rails: RailReading | None = None
+    #: the models within ``ACCEPT_DELTA_BIC`` of the selected one, or below it, that the admission rule drops
+    left_out: tuple[TimeLeftOut, ...] = ()
 
     @property
     def final(self) -> TimeFitResult:
@@ -138,10 +152,13 @@ class TimeDiagnosis:
 
     @property
     def alternatives(self) -> tuple[TimeAlternative, ...]:
-        """The other models within ``ACCEPT_DELTA_BIC`` of the selected one (the data cannot rule them out)."""
+        """The other models the rule admits within ``ACCEPT_DELTA_BIC`` of the selected one (the data cannot rule
+        them out; ``left_out`` has those it drops)."""
         chosen = self.bic(self.selected)
+        dropped = {m.effects for m in self.left_out}
         return tuple(TimeAlternative(c, self.bic(c) - chosen, f.rms_residual, f.explained, f.ls_rms_residual)
-                     for c, f in self.models.items() if c != self.selected and self.bic(c) - chosen < ACCEPT_DELTA_BIC)
+                     for c, f in self.models.items()
+                     if c != self.selected and c not in dropped and self.bic(c) - chosen < ACCEPT_DELTA_BIC)
 
     def compensation(self) -> CompensationTable:
         """The drive's compensation table of the selected model's position-dependent forces
@@ -200,6 +217,14 @@ class TimeDiagnosis:
                                    *ls(a.ls_rms_residual_n), "yes" if a.consistent_with_noise else "no")
                                   for a in self.alternatives),
                             frozenset({0, 3 + len(ls_head)}))))
+        if self.left_out:
+            sections.append(Section(
+                "Models the admission rule drops",
+                table=Table(("model", "ΔBIC", "least squares (N)", "why"),
+                            tuple((model_label(m.effects), f"{m.delta_bic:+.1f}", f"{m.ls_rms_residual_n:.4g}",
+                                   m.reason) for m in self.left_out), frozenset({0, 3})),
+                aside=f"(within ΔBIC {ACCEPT_DELTA_BIC:g} of the selected one, or below it: an effect enters where "
+                      "the model without it shows its pattern, not on a BIC gain alone)"))
         if self.rails is not None:
             sections.append(self.rails.section())
         sections.append(model_section(self.verdict, (f"effects: {', '.join(self.selected) or 'none'}",)))
@@ -249,35 +274,47 @@ def _signatures_shown(models: dict[tuple[str, ...], TimeFitResult]) -> dict[tupl
     residual or more); one without a signature is added to a model the noise does not explain, or takes a quarter
     (``STRUCTURE_SHARE``) of that model's residual away (``_small_beside_noise``)."""
     return {c: f for c, f in models.items() if _hidden_signature(c, models) is None
-            and not _small_beside_noise(c, models)}
+            and _small_beside_noise(c, models) is None}
 
 
-def _small_beside_noise(combo: tuple[str, ...], models: dict[tuple[str, ...], TimeFitResult]) -> bool:
-    """Whether an effect of ``combo`` without a residual signature is added to an explained model (its residual the
-    noise's) and takes less than ``STRUCTURE_SHARE`` of that residual away, sqrt(1 - RSS / RSS_parent) on the RSS
-    the models are compared on (``TimeFitResult.ls_rss``)."""
+def _small_beside_noise(combo: tuple[str, ...], models: dict[tuple[str, ...], TimeFitResult]) -> str | None:
+    """Why ``combo`` is not admitted, or None: an effect of it without a residual signature added to an explained
+    model (its residual the noise's) that takes less than ``STRUCTURE_SHARE`` of that residual away,
+    sqrt(1 - RSS / RSS_parent) on the RSS the models are compared on (``TimeFitResult.ls_rss``)."""
     for name in combo:
         parent = models.get(tuple(n for n in combo if n != name))
-        if EFFECTS[name].residual_signature is None and parent is not None and parent.explained and math.sqrt(
-                max(0.0, 1.0 - models[combo].ls_rss / parent.ls_rss)) < STRUCTURE_SHARE:
-            return True
-    return False
+        if EFFECTS[name].residual_signature is None and parent is not None and parent.explained:
+            share = math.sqrt(max(0.0, 1.0 - models[combo].ls_rss / parent.ls_rss))
+            if share < STRUCTURE_SHARE:
+                return (f"{name}: it takes {100 * share:.0f} % of the residual of the model without it, which the "
+                        f"noise explains, away (less than {100 * STRUCTURE_SHARE:.0f} %)")
+    return None
+
+
+def _nested_within(combo: tuple[str, ...], fit: TimeFitResult) -> str | None:
+    """Why ``combo`` is not admitted, or None: one of its effects is, within ``NESTED_Z`` robust standard errors,
+    an effect it contains (``Effect.contains``: a cable with no stiffness is an offset); there the model with the
+    contained effect speaks for the data, whatever BIC gives the extra parameter."""
+    for name in combo:
+        for inner, field in EFFECTS[name].contains.items():
+            key = f"{name}.{field}"
+            se = fit.stderr.get(key, math.inf)
+            neutral = EFFECTS[name].neutral[field]
+            if not abs(fit.values[key] - neutral) > NESTED_Z * se:
+                return (f"{key} = {fit.values[key]:.3g} lies within {NESTED_Z:g} robust standard errors of "
+                        f"{neutral:g}, where {name} is {inner}")
+    return None
 
 
 def _beyond_nested(models: dict[tuple[str, ...], TimeFitResult]) -> dict[tuple[str, ...], TimeFitResult]:
-    """The models none of whose effects is, within ``NESTED_Z`` robust standard errors, an effect it contains
-    (``Effect.contains``: a cable with no stiffness is an offset): there the model with the contained effect
-    speaks for the data, whatever BIC gives the extra parameter."""
-    def beyond(combo: tuple[str, ...], fit: TimeFitResult) -> bool:
-        for name in combo:
-            for field in EFFECTS[name].contains.values():
-                key = f"{name}.{field}"
-                se = fit.stderr.get(key, math.inf)
-                if not abs(fit.values[key] - EFFECTS[name].neutral[field]) > NESTED_Z * se:
-                    return False
-        return True
+    """The models none of whose effects is an effect it contains (``_nested_within``)."""
+    return {c: f for c, f in models.items() if _nested_within(c, f) is None}
 
-    return {c: f for c, f in models.items() if beyond(c, f)}
+
+def not_admitted(combo: tuple[str, ...], models: dict[tuple[str, ...], TimeFitResult]) -> str | None:
+    """Why the rule that admits a model (``_signatures_shown``, ``_beyond_nested``) drops ``combo``, or None."""
+    return (_hidden_signature(combo, models) or _small_beside_noise(combo, models)
+            or _nested_within(combo, models[combo]))
 
 
 def _direction(fit: TimeFitResult) -> DirectionalResidual:
@@ -372,7 +409,8 @@ def diagnose_time(plant: Plant, rec: TimeRecording, *, candidates: tuple[str, ..
                      "pattern the model without it does not show, so the rule that admits a model would drop it")
     n_eff = min(models.values(), key=lambda f: f.ls_rss).n_effective
     bics = {c: bic(f, n_eff) for c, f in models.items()}
-    admissible = _beyond_nested(_signatures_shown(models))
+    reasons = {c: not_admitted(c, models) for c in models}
+    admissible = {c: f for c, f in models.items() if reasons[c] is None}
     selected = select_model({c: bics[c] for c in admissible}, {c: f.explained for c, f in admissible.items()},
                             {c: f.n_params for c, f in admissible.items()})
     base = models[()]
@@ -385,8 +423,12 @@ def diagnose_time(plant: Plant, rec: TimeRecording, *, candidates: tuple[str, ..
     odd = implausible(final, plant)
     explanation = _explanation(final, selected, peak_hz, peak_share, rails) + warning(odd)
     explained = final.explained and (rails is None or rails.explained)
+    left_out = tuple(sorted((TimeLeftOut(c, bics[c] - bics[selected], models[c].ls_rms_residual, why)
+                             for c, why in reasons.items() if why is not None
+                             and bics[c] - bics[selected] < ACCEPT_DELTA_BIC), key=lambda m: m.delta_bic))
     return TimeDiagnosis(steps, ranking, models, selected, verdict(explained), explanation, _where(base),
-                         _direction(base), n_eff, peak_hz, peak_share, tuple(notes), samples.position_m, odd, rails)
+                         _direction(base), n_eff, peak_hz, peak_share, tuple(notes), samples.position_m, odd, rails,
+                         left_out)
 
 
 def _explanation(final: TimeFitResult, selected: tuple[str, ...], peak_hz: float, peak_share: float,
@@ -435,7 +477,9 @@ def _path(models, bics, selected) -> tuple[TimeStep, ...]:
     for current, nxt in zip(path, path[1:]):
         (added,) = set(nxt) - set(current)
         fit, before = models[nxt], models[current]
+        compared = ("least-squares rms residual", before.ls_rms_residual, fit.ls_rms_residual) \
+            if fit.compensated or before.compensated else ("rms residual", before.rms_residual, fit.rms_residual)
         steps.append(TimeStep(nxt, fit, bics[nxt],
-                              f"add {added}: dBIC {addition_delta_bic(bics[current], bics[nxt]):+.1f}, rms residual "
-                              f"{before.rms_residual:.3g} -> {fit.rms_residual:.3g} N"))
+                              f"add {added}: dBIC {addition_delta_bic(bics[current], bics[nxt]):+.1f}, {compared[0]} "
+                              f"{compared[1]:.3g} -> {compared[2]:.3g} N"))
     return tuple(steps)

@@ -52,7 +52,10 @@ period and the reach its own 0.25 ms grid (the motor's force on the profile with
 1.0340 -> 1.0342 N, the velocity shortfall 8.45 -> 8.42 %, the reach 17.42 -> 17.79 m/s^2, which the 1 ms grid had
 2 % low; the design the same); ``diagnose_emps`` when the time diagnosis gave plain least squares' residual beside
 each model's (``ls_rms_residual_n`` added in ``steps``, ``ranking`` and ``alternatives``; the keys were added to the
-file, whose other numbers stay as written).
+file, whose other numbers stay as written), and when the models that the admission rule drops left the
+alternatives for ``not_admitted`` with the reason (EMPS's coulomb_friction + cable_force, dBIC -30.5 below the
+selected model, its cable's stiffness within 3 robust standard errors of 0: not an alternative; the steps'
+``decision`` names the least-squares residual it compares).
 """
 
 from __future__ import annotations

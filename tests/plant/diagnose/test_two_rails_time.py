@@ -143,6 +143,13 @@ def test_a_load_off_centre_on_a_stepped_sine_of_positions_is_not_taken_for_a_dri
     assert table.columns == ("effect", "ΔBIC", "rms residual (N)", "least squares (N)")
     row = next(r for r in table.rows if r[0] == "yaw_coupling")
     assert row[2:] == (f"{yaw.rms_residual:.4g}", f"{yaw.ls_rms_residual:.4g}")
+    # two drifts together fit the stepped sine's rising force better by BIC than the truth (dBIC -260), but neither
+    # drift's pattern shows in the model without it: they are listed as dropped, with why, not as alternatives
+    drifts = ("force_constant_drift", "damping_drift")
+    dropped = {m.effects: m for m in diag.left_out}
+    assert dropped[drifts].delta_bic < -100 and "is not shown by the model without it" in dropped[drifts].reason
+    assert all(a.delta_bic >= -10 and a.effects not in dropped for a in diag.alternatives)
+    assert diag.story().section("Models the admission rule drops").table.rows[0][0] == "base + " + " + ".join(drifts)
 
 
 def test_unequal_motors_leave_the_mean_s_force_alone():

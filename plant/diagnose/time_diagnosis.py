@@ -55,6 +55,8 @@ from plant.story import Section, Story, Table
 DIRECTION_FRACTION = 0.05
 #: most effects in one model of the search
 MAX_TIME_EFFECTS = 3
+#: the dropped models with a lower BIC than the selected one that the story shows (the JSON has them all)
+LEFT_OUT_SHOWN = 5
 #: an effect that contains another (``Effect.contains``) is claimed only when the parameter that tells them apart
 #: lies this many robust (Newey-West) standard errors from the value at which it is the other
 NESTED_Z = 3.0
@@ -217,14 +219,17 @@ class TimeDiagnosis:
                                    *ls(a.ls_rms_residual_n), "yes" if a.consistent_with_noise else "no")
                                   for a in self.alternatives),
                             frozenset({0, 3 + len(ls_head)}))))
-        if self.left_out:
+        below = [m for m in self.left_out if m.delta_bic < 0]
+        if below:
+            shown = below[:LEFT_OUT_SHOWN]
+            more = (f"and {len(below) - len(shown)} more with a lower BIC (the JSON's not_admitted lists them, and "
+                    f"those within ΔBIC {ACCEPT_DELTA_BIC:g} above)",) if len(below) > len(shown) else ()
             sections.append(Section(
-                "Models the admission rule drops",
+                "Models with a lower BIC that the admission rule drops", more,
                 table=Table(("model", "ΔBIC", "least squares (N)", "why"),
                             tuple((model_label(m.effects), f"{m.delta_bic:+.1f}", f"{m.ls_rms_residual_n:.4g}",
-                                   m.reason) for m in self.left_out), frozenset({0, 3})),
-                aside=f"(within ΔBIC {ACCEPT_DELTA_BIC:g} of the selected one, or below it: an effect enters where "
-                      "the model without it shows its pattern, not on a BIC gain alone)"))
+                                   m.reason) for m in shown), frozenset({0, 3})),
+                aside="(an effect enters where the model without it shows its pattern, not on a BIC gain alone)"))
         if self.rails is not None:
             sections.append(self.rails.section())
         sections.append(model_section(self.verdict, (f"effects: {', '.join(self.selected) or 'none'}",)))

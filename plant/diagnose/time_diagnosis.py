@@ -181,8 +181,10 @@ class TimeDiagnosis:
                        "(from both rails)")
         headline = (("Verdict", self.explanation),
                     ("Fitted", fitted),
-                    ("The error", f"rms residual {base.rms_residual:.3g} N (base) → {final.rms_residual:.3g} N; "
-                                  f"noise alone {final.noise_rms:.3g} N"),
+                    ("The error", f"rms residual {base.rms_residual:.3g} N (base) → {final.rms_residual:.3g} N"
+                                  + (f" (least squares, which the BIC compares: {base.ls_rms_residual:.3g} → "
+                                     f"{final.ls_rms_residual:.3g} N)" if base.compensated or final.compensated
+                                     else "") + f"; noise alone {final.noise_rms:.3g} N"),
                     ("Where the base model fails", self.where_it_fails),
                     ("By direction of motion", self.direction.description))
         regimes = [r.name for r in base.regimes]

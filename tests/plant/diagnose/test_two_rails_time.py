@@ -139,6 +139,9 @@ def test_a_load_off_centre_on_a_stepped_sine_of_positions_is_not_taken_for_a_dri
     # least-squares residual that the dBIC compares, which lies below
     base, yaw = diag.models[()], diag.models[("yaw_coupling",)]
     assert yaw.compensated and yaw.rms_residual > base.rms_residual and yaw.ls_rms_residual < base.ls_rms_residual
+    assert dict(diag.story().headline)["The error"].startswith(
+        f"rms residual {base.rms_residual:.3g} N (base) → {yaw.rms_residual:.3g} N (least squares, which the BIC "
+        f"compares: {base.ls_rms_residual:.3g} → {yaw.ls_rms_residual:.3g} N)")
     table = diag.story().section("Candidates tried on the base model").table
     assert table.columns == ("effect", "ΔBIC", "rms residual (N)", "least squares (N)")
     row = next(r for r in table.rows if r[0] == "yaw_coupling")

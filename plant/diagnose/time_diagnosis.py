@@ -7,7 +7,7 @@ Candidates are the effects with a force model (``Effect.force_regressors``: ``co
 span) set from the recording and the residual of the model each is added to (``Effect.configured``). Every
 combination of up to ``MAX_TIME_EFFECTS`` is fitted by the inverse model (``plant.identify.time_fit``; linear
 least squares, so each fit is global and a model containing another never fits worse), except those of the largest
-size, which are no other's parent, that the admission rule (``_signatures_shown``) would drop, in the model search of
+size, which are no other's parent, that the admission rule (``not_admitted``) would drop, in the model search of
 ``plant.diagnose.search``, which selects among them as for a frequency response: by BIC, with the
 residual's own variance and one effective sample size for all (that of the model leaving the least
 residual, the closest to the noise whose correlation the size describes; ``plant.identify.time_fit``
@@ -263,7 +263,7 @@ def _plant(base: Plant, effects: tuple[Effect, ...]) -> Plant:
 
 
 def _hidden_signature(combo: tuple[str, ...], models: dict[tuple[str, ...], TimeFitResult]) -> str | None:
-    """Why ``combo`` is not admitted (``_signatures_shown``), or None: the first of its effects with a residual
+    """Why ``combo`` is not admitted (``not_admitted``), or None: the first of its effects with a residual
     signature whose parent in ``models`` (``combo`` without it) is missing or does not show that signature."""
     for name in combo:
         signature = EFFECTS[name].residual_signature
@@ -272,16 +272,6 @@ def _hidden_signature(combo: tuple[str, ...], models: dict[tuple[str, ...], Time
                 st.significant for st in parent.structure if st.variable == signature)):
             return f"{name}: its pattern ({signature}) is not shown by the model without it"
     return None
-
-
-def _signatures_shown(models: dict[tuple[str, ...], TimeFitResult]) -> dict[tuple[str, ...], TimeFitResult]:
-    """The models each of whose effects earns its place, not by a BIC gain alone, which a long record gives any
-    small correlation: an effect with a residual signature (``Effect.residual_signature``: a structure test of
-    ``plant.identify.time_fit``) is added to a model that shows it (p below the test level and a quarter of the
-    residual or more); one without a signature is added to a model the noise does not explain, or takes a quarter
-    (``STRUCTURE_SHARE``) of that model's residual away (``_small_beside_noise``)."""
-    return {c: f for c, f in models.items() if _hidden_signature(c, models) is None
-            and _small_beside_noise(c, models) is None}
 
 
 def _small_beside_noise(combo: tuple[str, ...], models: dict[tuple[str, ...], TimeFitResult]) -> str | None:
@@ -313,13 +303,14 @@ def _nested_within(combo: tuple[str, ...], fit: TimeFitResult) -> str | None:
     return None
 
 
-def _beyond_nested(models: dict[tuple[str, ...], TimeFitResult]) -> dict[tuple[str, ...], TimeFitResult]:
-    """The models none of whose effects is an effect it contains (``_nested_within``)."""
-    return {c: f for c, f in models.items() if _nested_within(c, f) is None}
-
-
 def not_admitted(combo: tuple[str, ...], models: dict[tuple[str, ...], TimeFitResult]) -> str | None:
-    """Why the rule that admits a model (``_signatures_shown``, ``_beyond_nested``) drops ``combo``, or None."""
+    """Why the rule that admits a model drops ``combo``, or None where each of its effects earns its place, not by a
+    BIC gain alone, which a long record gives any small correlation: an effect with a residual signature
+    (``Effect.residual_signature``: a structure test of ``plant.identify.time_fit``) is added to a model that shows it
+    (p below the test level and a quarter of the residual or more, ``_hidden_signature``); one without a signature is
+    added to a model the noise does not explain, or takes a quarter (``STRUCTURE_SHARE``) of that model's residual
+    away (``_small_beside_noise``); and no effect is, within ``NESTED_Z`` robust standard errors, an effect it
+    contains (``_nested_within``)."""
     return (_hidden_signature(combo, models) or _small_beside_noise(combo, models)
             or _nested_within(combo, models[combo]))
 
@@ -399,7 +390,7 @@ def diagnose_time(plant: Plant, rec: TimeRecording, *, candidates: tuple[str, ..
         """The model of ``combo``: the effects of its best parent as that parent has them, the new one
         configured on that parent's residual (a ripple's pitch is seen once the friction is modelled). A model of
         the largest size, which is no other's parent, is not fitted where it would not be admitted
-        (``_signatures_shown``: its parents are all fitted, so the rule reads as it would after the fit)."""
+        (``not_admitted``: its parents are all fitted, so the rule reads as it would after the fit)."""
         if prune and 1 < len(combo) == max_effects:
             hidden = _hidden_signature(combo, {tuple(e.name for e in p.plant.effects): p for p in parents})
             if hidden is not None:

@@ -175,7 +175,7 @@ class InverseModelData:
     def noise_lag_factor(self) -> float:
         """F = sum over the decimated samples' lags k of rho_k^2, the chain noise's autocorrelation (the larger of the
         velocity's and the acceleration's): a mean of n squares of it scatters as a chi^2 of n / F samples."""
-        import scipy.signal
+        import scipy.signal  # here, not at the top: the command line imports Preprocessing for any recording
 
         rows, r = self._noise_response, self.decimation
         factors = []
